@@ -1,0 +1,5 @@
+"""Allow ``python -m asictl``."""
+
+from asictl.cli import main
+
+main()

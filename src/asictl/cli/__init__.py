@@ -1,0 +1,76 @@
+"""The ``asictl`` command line: a thin click group over the library.
+
+Subcommands are imported only when run, so ``asictl --help`` and shell completion stay
+fast however heavy a command's dependencies are. Each command's one-line help is kept
+here for the same reason.
+"""
+
+from __future__ import annotations
+
+import importlib
+import os
+import sys
+
+import click
+
+from asictl import __version__
+from asictl.errors import ExitCode, UserError
+
+#: name -> ("module:attribute", one-line help shown by ``asictl --help``)
+COMMANDS: dict[str, tuple[str, str]] = {
+    "check": ("asictl.cli.check:check", "Check IL source files for errors (for CI and editors)."),
+    "asm": ("asictl.cli.asm:asm", "Assemble 8051 source into Intel HEX."),
+    "disasm": ("asictl.cli.asm:disasm", "Disassemble an Intel HEX image into 8051 source."),
+    "emu": ("asictl.cli.emu:emu", "Run an Intel HEX image on the 8051 emulator."),
+}
+
+
+class LazyGroup(click.Group):
+    """A group whose commands load on first use, and which turns failures into exit codes."""
+
+    def list_commands(self, ctx: click.Context) -> list[str]:
+        return sorted(COMMANDS)
+
+    def get_command(self, ctx: click.Context, cmd_name: str) -> click.Command | None:
+        entry = COMMANDS.get(cmd_name)
+        if entry is None:
+            return None
+        module_name, _, attr = entry[0].partition(":")
+        return getattr(importlib.import_module(module_name), attr)
+
+    def format_commands(self, ctx: click.Context, formatter: click.HelpFormatter) -> None:
+        rows = [(name, COMMANDS[name][1]) for name in self.list_commands(ctx)]
+        with formatter.section("Commands"):
+            formatter.write_dl(rows)
+
+    def invoke(self, ctx: click.Context):
+        try:
+            return super().invoke(ctx)
+        except UserError as exc:
+            click.echo(f"asictl: error: {exc}", err=True)
+            ctx.exit(int(exc.exit_code))
+        except (click.exceptions.Exit, click.ClickException, click.Abort):
+            raise
+        except KeyboardInterrupt:
+            click.echo("asictl: interrupted", err=True)
+            ctx.exit(130)
+        except Exception as exc:
+            if os.environ.get("ASICTL_DEBUG"):
+                raise
+            click.echo(
+                f"asictl: internal error (this is a bug in asictl {__version__}): "
+                f"{type(exc).__name__}: {exc}\n"
+                "Set ASICTL_DEBUG=1 to see the traceback, and please report it.",
+                err=True,
+            )
+            ctx.exit(int(ExitCode.BUG))
+
+
+@click.group(cls=LazyGroup, context_settings={"help_option_names": ["-h", "--help"]})
+@click.version_option(__version__, prog_name="asictl")
+def main() -> None:
+    """Compile, check, download, upload and simulate AS-i Control II programs."""
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

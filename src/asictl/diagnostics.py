@@ -1,0 +1,141 @@
+"""Compiler-style diagnostics shared by every stage that reads source text.
+
+IL checks, the assembler and scenario files all report problems as ``Diagnostic``
+values with a source span, so one renderer gives the same ``file:line:col: error:``
+format, source line and caret everywhere, and the same JSON and GitHub annotations.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass, field
+from enum import StrEnum
+
+
+@dataclass(frozen=True, slots=True, order=True)
+class Span:
+    """A place in a source file: 1-based line and column, and how many columns it covers."""
+
+    file: str
+    line: int
+    column: int
+    length: int = 1
+
+    def __str__(self) -> str:
+        return f"{self.file}:{self.line}:{self.column}"
+
+
+class Severity(StrEnum):
+    ERROR = "error"
+    WARNING = "warning"
+    NOTE = "note"
+
+
+@dataclass(frozen=True, slots=True)
+class Diagnostic:
+    severity: Severity
+    code: str
+    message: str
+    span: Span | None = None
+
+    @property
+    def is_error(self) -> bool:
+        return self.severity is Severity.ERROR
+
+    def sort_key(self) -> tuple:
+        s = self.span
+        return (s.file, s.line, s.column) if s else ("", 0, 0)
+
+
+@dataclass
+class Reporter:
+    """Collects diagnostics so a stage can report all of a file's problems, not only the first."""
+
+    diagnostics: list[Diagnostic] = field(default_factory=list)
+
+    def error(self, code: str, message: str, span: Span | None = None) -> None:
+        self.diagnostics.append(Diagnostic(Severity.ERROR, code, message, span))
+
+    def warning(self, code: str, message: str, span: Span | None = None) -> None:
+        self.diagnostics.append(Diagnostic(Severity.WARNING, code, message, span))
+
+    @property
+    def has_errors(self) -> bool:
+        return any(d.is_error for d in self.diagnostics)
+
+    def extend(self, diagnostics: Iterable[Diagnostic]) -> None:
+        self.diagnostics.extend(diagnostics)
+
+
+class DiagnosticError(Exception):
+    """Raised by a stage that cannot go on; carries everything it found."""
+
+    def __init__(self, diagnostics: Iterable[Diagnostic]) -> None:
+        self.diagnostics = sorted(diagnostics, key=Diagnostic.sort_key)
+        first = next((d for d in self.diagnostics if d.is_error), None)
+        super().__init__(format_line(first) if first else "failed")
+
+
+def format_line(d: Diagnostic) -> str:
+    where = f"{d.span}: " if d.span else ""
+    return f"{where}{d.severity.value}: {d.message} [{d.code}]"
+
+
+def render_text(diagnostics: Iterable[Diagnostic], sources: Mapping[str, str]) -> str:
+    """Render as a modern compiler does: location line, then source line and caret.
+
+    ``sources`` maps file names to their decoded text; a file not in it gets no excerpt.
+    """
+    out: list[str] = []
+    for d in diagnostics:
+        out.append(format_line(d))
+        text = sources.get(d.span.file) if d.span else None
+        if text is None or d.span is None:
+            continue
+        lines = text.split("\n")
+        if not 0 < d.span.line <= len(lines):
+            continue
+        src = lines[d.span.line - 1].expandtabs(1).rstrip()
+        out.append(f"  {src}")
+        out.append("  " + " " * (d.span.column - 1) + "^" + "~" * max(0, d.span.length - 1))
+    return "\n".join(out) + ("\n" if out else "")
+
+
+def render_json(diagnostics: Iterable[Diagnostic]) -> str:
+    items = [
+        {
+            "file": d.span.file if d.span else None,
+            "line": d.span.line if d.span else None,
+            "column": d.span.column if d.span else None,
+            "severity": d.severity.value,
+            "code": d.code,
+            "message": d.message,
+        }
+        for d in diagnostics
+    ]
+    return json.dumps(items, indent=2) + "\n"
+
+
+def _escape_github(value: str, *, property_value: bool = False) -> str:
+    value = value.replace("%", "%25").replace("\r", "%0D").replace("\n", "%0A")
+    if property_value:
+        value = value.replace(":", "%3A").replace(",", "%2C")
+    return value
+
+
+def render_github(diagnostics: Iterable[Diagnostic]) -> str:
+    """GitHub Actions workflow commands, so problems show up as annotations on the diff."""
+    out = []
+    for d in diagnostics:
+        kind = "error" if d.is_error else "warning" if d.severity is Severity.WARNING else "notice"
+        props = []
+        if d.span:
+            props = [
+                f"file={_escape_github(d.span.file, property_value=True)}",
+                f"line={d.span.line}",
+                f"col={d.span.column}",
+            ]
+        props.append(f"title={_escape_github(d.code, property_value=True)}")
+        out.append(f"::{kind} {','.join(props)}::{_escape_github(d.message)}")
+    return "\n".join(out) + ("\n" if out else "")

@@ -1,0 +1,1 @@
+"""The 8051 machine layer: one instruction-set table, assembler, disassembler, emulator."""

@@ -1,0 +1,37 @@
+"""Shared test fixtures.
+
+External oracles (as31, ucsim's s51) are skipped loudly when absent on a developer's
+machine, but must be present in CI: there a missing oracle fails the run, so a green CI
+always means the differential tests really ran.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+
+import pytest
+
+
+def require_tool(name: str, package: str) -> str:
+    """Return the path of an oracle program, or skip (locally) / fail (in CI) without it."""
+    path = shutil.which(name)
+    if path:
+        return path
+    message = (
+        f"ORACLE MISSING: '{name}' not found; install the Debian package '{package}' "
+        f"(apt-get install -y {package}) to run this differential test"
+    )
+    if os.environ.get("CI"):
+        pytest.fail(message)
+    pytest.skip(message)
+
+
+@pytest.fixture(scope="session")
+def as31_path() -> str:
+    return require_tool("as31", "as31")
+
+
+@pytest.fixture(scope="session")
+def s51_path() -> str:
+    return require_tool("s51", "sdcc-ucsim")
