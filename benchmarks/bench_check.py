@@ -1,0 +1,83 @@
+"""Time ``asictl check`` on a generated 10,000-line program, and ``asictl --help``.
+
+Both are timed as whole processes (Python start-up included), as a user or CI sees them:
+the median of several runs after one warm-up run. Usage:
+
+    python3 benchmarks/bench_check.py [--lines 10000] [--runs 7]
+"""
+
+from __future__ import annotations
+
+import argparse
+import shutil
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+
+def generate(lines: int) -> str:
+    """A realistic program: bit-logic networks, byte operations, timers, counters, jumps."""
+    out = ["[OPTIONS]", "auto_start: yes", "[SETUP]"]
+    out += [f"{a}: iioo, 1, Eh" for a in range(1, 32)]
+    out += ["[DECL]", "T100 TIMER", "C100 COUNTER", "Buffer BYTE 16", "[PROGRAM]"]
+    n = 0
+    while len(out) < lines:
+        a, b, f = n % 31 + 1, (n * 7) % 31 + 1, n % 96
+        out += [
+            f"    A   I {a}.0        ; network {n}",
+            f"    AN  I {b}.1",
+            f"    O   F {f}.{n % 8}",
+            f"    =   Q {a}.2",
+            "***",
+            f"    L   FY {f}",
+            f"    L   KB {n % 256}",
+            "    +   F",
+            f"    T   Buffer {n % 16}",
+            "    L   KT 500",
+            f"    A   I {b}.0",
+            "    S   T 100",
+            f"    JC  = l{n}",
+            "    CU  C 100",
+            "***",
+            f"l{n}: A T 100",
+            f"    =   Q {b}.3",
+            "***",
+        ]
+        n += 1
+    out.append("    BE")
+    return "\n".join(out) + "\n"
+
+
+def timed(command: list[str], runs: int) -> float:
+    subprocess.run(command, check=False, capture_output=True)  # warm the file cache
+    samples = []
+    for _ in range(runs):
+        start = time.perf_counter()
+        result = subprocess.run(command, check=False, capture_output=True)
+        samples.append(time.perf_counter() - start)
+        if result.returncode not in (0, 1):
+            sys.exit(f"{' '.join(command)} failed:\n{result.stderr.decode()}")
+    return statistics.median(samples)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--lines", type=int, default=10_000)
+    parser.add_argument("--runs", type=int, default=7)
+    args = parser.parse_args()
+    asictl = shutil.which("asictl") or sys.exit("asictl is not installed (pip install -e .)")
+    with tempfile.TemporaryDirectory() as tmp:
+        program = Path(tmp) / "big.asi"
+        program.write_text(generate(args.lines))
+        lines = program.read_text().count("\n")
+        check = timed([asictl, "check", "-q", str(program)], args.runs)
+        help_ = timed([asictl, "--help"], args.runs)
+    print(f"asictl check, {lines} lines: {check:.3f} s (median of {args.runs}; target < 1.0 s)")
+    print(f"asictl --help:            {help_:.3f} s (median of {args.runs}; target < 0.25 s)")
+
+
+if __name__ == "__main__":
+    main()

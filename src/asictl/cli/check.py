@@ -1,0 +1,100 @@
+"""``asictl check``: read files exactly as the compiler would and report every problem."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import click
+
+from asictl.checks import Dialect, check_source
+from asictl.diagnostics import Diagnostic, Severity, render_github, render_json, render_text
+from asictl.errors import ExitCode, UserError
+from asictl.source import read_source
+
+
+def _expand(paths: tuple[str, ...]) -> list[str]:
+    """Files as given; a directory stands for every ``*.asi`` below it."""
+    files: list[str] = []
+    for path in paths:
+        if path != "-" and Path(path).is_dir():
+            found = sorted(str(p) for p in Path(path).rglob("*") if p.suffix.lower() == ".asi")
+            if not found:
+                raise UserError(f"{path}: no .asi files in this directory")
+            files.extend(found)
+        else:
+            files.append(path)
+    return files
+
+
+def _summary(files: int, diagnostics: list[Diagnostic], unreadable: int) -> str:
+    errors = sum(d.severity is Severity.ERROR for d in diagnostics)
+    warnings = sum(d.severity is Severity.WARNING for d in diagnostics)
+
+    def n(count: int, word: str) -> str:
+        return f"{count} {word}{'' if count == 1 else 's'}"
+
+    parts = [n(errors, "error"), n(warnings, "warning")]
+    if unreadable:
+        parts.append(f"{unreadable} unreadable")
+    return f"checked {n(files, 'file')}: {', '.join(parts)}"
+
+
+@click.command()
+@click.argument("files", nargs=-1, required=True, metavar="FILE...")
+@click.option(
+    "--format", "fmt", type=click.Choice(["text", "json", "github"]), default="text",
+    show_default=True,
+    help="text: compiler-style messages on stderr; json: a list of diagnostics on stdout; "
+    "github: GitHub Actions annotations on stdout.",
+)
+@click.option("--werror", is_flag=True, help="Treat warnings as errors (exit 1).")
+@click.option(
+    "--dialect", type=click.Choice([d.value for d in Dialect]), default=Dialect.CONTROL2.value,
+    show_default=True, help="control1 reports every AS-i Control II-only feature as an error.",
+)
+@click.option(
+    "--lib", "lib", multiple=True, type=click.Path(file_okay=False),
+    help="Also look for function-block files here (repeatable; also $ASICTL_LIB).",
+)
+@click.option("-q", "--quiet", is_flag=True, help="No summary line.")
+def check(
+    files: tuple[str, ...], fmt: str, werror: bool, dialect: str, lib: tuple[str, ...],
+    quiet: bool,
+) -> None:
+    """Check IL source files (FILE... or - for stdin; a directory means its *.asi files).
+
+    Reads each main program and the function-block files it calls, and reports every
+    syntax and semantic problem as file:line:col: error|warning: message [code].
+
+    Exit status: 0 no errors, 1 errors found (or warnings, with --werror), 2 bad usage or
+    an unreadable file.
+    """
+    ctx = click.get_current_context()
+    diagnostics: list[Diagnostic] = []
+    sources: dict[str, str] = {}
+    unreadable = 0
+    paths = _expand(files)
+    for path in paths:
+        try:
+            source = read_source(path)
+        except UserError as exc:
+            click.echo(f"asictl: error: {exc}", err=True)
+            unreadable += 1
+            continue
+        result = check_source(source, dialect=Dialect(dialect), lib=lib)
+        diagnostics.extend(result.diagnostics)
+        sources.update({name: s.text for name, s in result.program.sources.items()})
+
+    if fmt == "json":
+        click.echo(render_json(diagnostics), nl=False)
+    elif fmt == "github":
+        click.echo(render_github(diagnostics), nl=False)
+    else:
+        click.echo(render_text(diagnostics, sources), nl=False, err=True)
+    if not quiet:
+        click.echo(_summary(len(paths), diagnostics, unreadable), err=True)
+
+    failed = any(d.is_error or (werror and d.severity is Severity.WARNING) for d in diagnostics)
+    if unreadable:
+        ctx.exit(int(ExitCode.USAGE))
+    ctx.exit(int(ExitCode.FAILED if failed else ExitCode.OK))
