@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
+from manual_examples import EXAMPLES
 
 from asictl.checks import Dialect, check_source
 from asictl.source import from_string
@@ -258,3 +259,21 @@ def test_control1_dialect_reports_control2_features():
 def test_control2_dialect_accepts_the_same_program_features():
     src = "[PROGRAM]\n    L KB 3\n    T FY 1\n    BEU\n"
     assert diags(src) == []
+
+
+@pytest.mark.parametrize("name", sorted(EXAMPLES))
+def test_manual_examples_check_clean(name: str, tmp_path: Path):
+    # the declaration example names a block file; give it one so the check is complete
+    (tmp_path / "MEAN.FB").write_text("[PROGRAM]\n    L Reading 0\n    T FY 0\n")
+    path = tmp_path / f"{name}.asi"
+    path.write_text(EXAMPLES[name] + "[PROGRAM]\n    JU FB MEAN_VALUE\n"
+                    if name == "declaration" else EXAMPLES[name])
+    from asictl.source import read_source
+
+    assert check_source(read_source(path)).diagnostics == []
+
+
+def test_variable_named_like_an_operand_is_refused():
+    src = "[DECL]\nI4x BYTE 1\nFY2 BYTE 1\nOk BYTE 1\n"
+    assert diags(src) == [("E219", 2, 1), ("E219", 3, 1)]
+    assert "reads as 'I 4'" in messages(src)[0]

@@ -8,6 +8,7 @@ manual and ``docs/language.md``; each diagnostic code is listed there.
 
 from __future__ import annotations
 
+import re
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 from enum import StrEnum
@@ -33,6 +34,12 @@ CONST_RANGES = {
     ast.ConstKind.KB: 255,
     ast.ConstKind.KW: 65535,
 }
+
+
+#: A name that starts like an operand mark followed by digits reads as that operand.
+_OPERAND_LOOKALIKE = re.compile(
+    r"(I2B|IB|QB|FY|FW|KT|KC|KP|KB|KW|PSEG|I|Q|F|T|C)(\d+)", re.IGNORECASE
+)
 
 
 class Dialect(StrEnum):
@@ -109,6 +116,14 @@ def _declarations(program: Program, report: Reporter) -> _Scope:
                     report.error("E215", f"'{decl.name}' declared twice{where}", decl.span)
                 seen.setdefault(name, decl.span)
                 if isinstance(decl, ast.VarDecl):
+                    shadow = _OPERAND_LOOKALIKE.match(decl.name)
+                    if shadow:
+                        report.error(
+                            "E219",
+                            f"variable '{decl.name}' cannot be used as an operand: "
+                            f"'{decl.name} 0' reads as '{shadow[1].upper()} {shadow[2]}'",
+                            decl.span,
+                        )
                     if not 1 <= decl.size <= 255:
                         report.error(
                             "E201",

@@ -11,6 +11,7 @@ import re
 from pathlib import Path
 
 import pytest
+from manual_examples import EXAMPLES
 
 from asictl.ast import (
     Arith,
@@ -68,20 +69,15 @@ def read(text: str) -> tuple:
 
 
 def test_options_example() -> None:  # 3.1
-    assert read(
-        "[Options]\n"
-        "ignore_config_errors: yes\n"
-        "auto_start:           no\n"
-    ) == (OptionsSection((Option("ignore_config_errors", True), Option("auto_start", False))),)
+    assert read(EXAMPLES["options"]) == (
+        OptionsSection((Option("ignore_config_errors", True), Option("auto_start", False))),
+    )
 
 
 def test_setup_example() -> None:  # 3.2
-    assert read(
-        "[Setup]\n"
-        "; slave: IO,   ID, Power-up Parameter\n"
-        "  16:    iiio, 1,  Eh\n"
-        "  3:     Bh,   0\n"
-    ) == (SetupSection((SlaveSetup(16, 1, 1, 14), SlaveSetup(3, 0xB, 0, None))),)
+    assert read(EXAMPLES["setup"]) == (
+        SetupSection((SlaveSetup(16, 1, 1, 14), SlaveSetup(3, 0xB, 0, None))),
+    )
 
 
 DECL_AST = (
@@ -92,13 +88,7 @@ DECL_AST = (
 
 
 def test_declaration_example() -> None:  # 3.3, one declaration per line
-    assert read(
-        "[DECL]\n"
-        "Reading     BYTE 5\n"
-        "T134        TIMER\n"
-        "C27         COUNTER\n"
-        "MEAN_VALUE  FB MEAN.FB\n"
-    ) == DECL_AST
+    assert read(EXAMPLES["declaration"]) == DECL_AST
 
 
 def test_declaration_example_on_one_line() -> None:
@@ -120,14 +110,7 @@ def test_declaration_example_as_extracted() -> None:
 
 
 def test_or_and_not_network() -> None:  # 3.4.1
-    assert read(
-        "[Program]\n"
-        "    O   I 4.0\n"
-        "    O   I 5.0\n"
-        "    AN  F 42.7\n"
-        "    =   Q 17.3\n"
-        "    ***\n"
-    ) == (ProgramSection((
+    assert read(EXAMPLES["or_and_not"]) == (ProgramSection((
         Logic(LogicOp.O, ImageBit(BitArea.I, 4, 0)),
         Logic(LogicOp.O, ImageBit(BitArea.I, 5, 0)),
         Logic(LogicOp.AN, ImageBit(BitArea.F, 42, 7)),
@@ -137,14 +120,7 @@ def test_or_and_not_network() -> None:  # 3.4.1
 
 
 def test_subtraction() -> None:  # 3.4.2
-    assert read(
-        "[Program]\n"
-        "    L   FY 1\n"
-        "    L   FY 2\n"
-        "    -   F\n"
-        "    T   FY 3\n"
-        "    ***\n"
-    ) == (ProgramSection((
+    assert read(EXAMPLES["subtraction"]) == (ProgramSection((
         Load(ImageByte(ByteArea.FY, 1)),
         Load(ImageByte(ByteArea.FY, 2)),
         Arith(ArithOp.SUB),
@@ -168,18 +144,7 @@ BLINK = (
 
 
 def test_blink_1hz() -> None:  # 3.4.2
-    text = (
-        "[Program]\n"
-        "        A   T 0      ;timer 0 still running\n"
-        "        JC  = end    ;skip following lines\n"
-        "        N\n"
-        "        L   KT 500   ;timer 0 no longer running:\n"
-        "        S   T 0      ;restart timer 0 with 500 ms\n"
-        "        ***\n"
-        "        AN  Q 31.0   ;invert output Q 31.0\n"
-        "        =   Q 31.0\n"
-        "end:    BE\n"
-    )
+    text = EXAMPLES["blink"]
     assert read(text) == (ProgramSection(BLINK),)
     statements = read(text)[0].statements
     assert statements[1].span == Span("example.asi", 3, 9, 9)  # "JC  = end"
@@ -199,20 +164,7 @@ def test_blink_demo() -> None:
 
 
 def test_param_edges() -> None:  # 3.4.6
-    assert read(
-        "[Program]\n"
-        "    A   I  12.0     ;rising edge\n"
-        "    AN  I2 12.0\n"
-        "    L   KP 13.3     ;parameter value \"3\"\n"
-        "    PARAM\n"
-        "    ***\n"
-        "\n"
-        "    A   I2 12.0     ;falling edge\n"
-        "    AN  I  12.0\n"
-        "    L   KP 13.12    ;parameter value \"12\"\n"
-        "    PARAM\n"
-        "    ***\n"
-    ) == (ProgramSection((
+    assert read(EXAMPLES["param_edges"]) == (ProgramSection((
         Logic(LogicOp.A, ImageBit(BitArea.I, 12, 0)),
         Logic(LogicOp.AN, ImageBit(BitArea.I2, 12, 0)),
         Load(ParamConst(13, 3)),
@@ -246,16 +198,7 @@ def test_gating_example(target: str) -> None:  # 3.5
 
 
 def test_set_power_up_parameter() -> None:  # 3.8.2
-    assert read(
-        "[Program]\n"
-        "    L   KB 17        ;load slave address\n"
-        "    T   PSeg 0       ;write parameter passing segment\n"
-        "\n"
-        "    L   KB 0Ah       ;load power-up parameter\n"
-        "    T   PSeg 1       ;write parameter passing segment\n"
-        "\n"
-        "    JU  FB SetPP     ;call firmware function block SetPP\n"
-    ) == (ProgramSection((
+    assert read(EXAMPLES["set_pp"]) == (ProgramSection((
         Load(Constant(ConstKind.KB, 17)),
         Transfer(ImageByte(ByteArea.PSEG, 0)),
         Load(Constant(ConstKind.KB, 10)),
