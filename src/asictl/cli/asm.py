@@ -1,0 +1,84 @@
+"""``asictl asm`` and ``asictl disasm``: the 8051 assembler and disassembler on files."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import click
+from intelhex import IntelHex, IntelHexError
+
+from asictl.diagnostics import DiagnosticError, render_text
+from asictl.errors import ExitCode, UserError
+from asictl.files import write_atomic
+from asictl.mcs51.assembler import assemble, load_relative
+from asictl.mcs51.disassembler import disassemble
+from asictl.source import SourceText, read_source
+
+_OUTPUT = click.Path(dir_okay=False, writable=True)
+
+
+@click.command()
+@click.argument("source", metavar="FILE.a51")
+@click.option("-o", "--output", type=_OUTPUT, help="Intel HEX file to write [default: FILE.hex].")
+@click.option("--listing", type=_OUTPUT, help="Also write a listing (address, code, source).")
+@click.option("--symbols", type=_OUTPUT, help="Also write the symbol table.")
+def asm(source: str, output: str | None, listing: str | None, symbols: str | None) -> None:
+    """Assemble 8051 source FILE.a51 (Intel ASM51 or as31 syntax) into Intel HEX.
+
+    The HEX file goes next to the source unless -o names another; use -o when reading
+    standard input (-). Problems are reported as file:line:col: error: message [code]
+    with the source line and a caret. If there is any error, no file is written.
+    Output files are replaced in one step, never left half-written.
+
+    Exit status: 0 assembled, 1 assembly errors, 2 bad usage or an unreadable file.
+    """
+    if source == "-" and output is None:
+        raise click.UsageError("reading standard input needs -o FILE.hex")
+    main_source = read_source(source)
+    texts = {main_source.name: main_source.text}
+
+    def include(name: str, including: SourceText) -> SourceText:
+        loaded = load_relative(name, including)
+        texts[loaded.name] = loaded.text
+        return loaded
+
+    try:
+        result = assemble(main_source, include=include)
+    except DiagnosticError as exc:
+        click.echo(render_text(exc.diagnostics, texts), nl=False, err=True)
+        click.get_current_context().exit(int(ExitCode.FAILED))
+    click.echo(render_text(result.diagnostics, texts), nl=False, err=True)
+    write_atomic(output or Path(source).with_suffix(".hex"), result.to_hex())
+    if listing:
+        write_atomic(listing, result.listing_text())
+    if symbols:
+        write_atomic(symbols, result.symbol_table_text())
+
+
+@click.command()
+@click.argument("image", metavar="FILE.hex")
+@click.option("-o", "--output", type=_OUTPUT, help="Write the source here [default: stdout].")
+def disasm(image: str, output: str | None) -> None:
+    """Disassemble an Intel HEX image (- for stdin) into 8051 source.
+
+    The source reassembles with 'asictl asm' to exactly the same bytes: gaps become
+    ORG, the undefined opcode A5h and instructions cut off at the end of a memory range
+    become DB, and jump targets get labels. Every byte is decoded as code; tables in
+    the image show up as (harmless, exact) instructions.
+
+    Exit status: 0 done, 2 bad usage or an unreadable or malformed HEX file.
+    """
+    try:
+        hex_image = IntelHex(sys.stdin if image == "-" else image)
+    except OSError as exc:
+        raise UserError(f"{image}: cannot read: {exc.strerror or exc}") from None
+    except IntelHexError as exc:
+        raise UserError(f"{image}: not a valid Intel HEX file: {exc}") from None
+    if hex_image.maxaddr() is not None and hex_image.maxaddr() > 0xFFFF:
+        raise UserError(f"{image}: has bytes above FFFFh, outside the 8051 code space")
+    text = disassemble(hex_image)
+    if output:
+        write_atomic(output, text)
+    else:
+        click.echo(text, nl=False)
