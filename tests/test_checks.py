@@ -274,6 +274,6 @@ def test_manual_examples_check_clean(name: str, tmp_path: Path):
 
 
 def test_variable_named_like_an_operand_is_refused():
-    src = "[DECL]\nI4x BYTE 1\nFY2 BYTE 1\nOk BYTE 1\n"
-    assert diags(src) == [("E219", 2, 1), ("E219", 3, 1)]
+    src = "[DECL]\nI4x BYTE 1\nFY2 BYTE 1\nOk BYTE 1\nDPTR BYTE 1\nMovx BYTE 1\n"
+    assert diags(src) == [("E219", 2, 1), ("E219", 3, 1), ("E219", 5, 1), ("E219", 6, 1)]
     assert "reads as 'I 4'" in messages(src)[0]

@@ -5,9 +5,9 @@ from __future__ import annotations
 from click.testing import CliRunner
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from manual_examples import EXAMPLES
 
 from asictl.cli import main
-from manual_examples import EXAMPLES
 
 WORDS = [
     "[PROGRAM]", "[SETUP]", "[DECL]", "[GATING]", "[OPTIONS]", "[ASM]", "[RAW]", "[END]",

@@ -18,15 +18,13 @@ from asictl import ast
 from asictl.ast import key
 from asictl.diagnostics import Diagnostic, Reporter, Span
 from asictl.firmware import FIRMWARE_BLOCKS
+from asictl.language import BUILTIN_TC, MAX_KT_MS, MAX_TC
 from asictl.loader import Program, calls, load_program
+from asictl.mcs51.asm_parser import RESERVED as ASSEMBLER_RESERVED
 from asictl.source import SourceText
 
 KNOWN_OPTIONS = ("ignore_config_errors", "auto_start", "map_counters")
 
-#: Timers and counters 0..14 exist without declaration (Control I compatible).
-BUILTIN_TC = 15
-MAX_TC = 1023
-MAX_KT_MS = 40950
 
 CONST_RANGES = {
     ast.ConstKind.KT: MAX_KT_MS,
@@ -116,6 +114,13 @@ def _declarations(program: Program, report: Reporter) -> _Scope:
                     report.error("E215", f"'{decl.name}' declared twice{where}", decl.span)
                 seen.setdefault(name, decl.span)
                 if isinstance(decl, ast.VarDecl):
+                    if decl.name.upper() in ASSEMBLER_RESERVED:
+                        report.error(
+                            "E219",
+                            f"variable '{decl.name}' is named like an 8051 register or "
+                            "assembler word; the program's assembly could not refer to it",
+                            decl.span,
+                        )
                     shadow = _OPERAND_LOOKALIKE.match(decl.name)
                     if shadow:
                         report.error(

@@ -8,6 +8,7 @@ them, for the checks, the code generator and the emulated master.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Protocol
 
 
 @dataclass(frozen=True)
@@ -116,3 +117,13 @@ _BLOCKS = (
 
 #: casefolded name -> block
 FIRMWARE_BLOCKS: dict[str, FirmwareBlock] = {b.name.casefold(): b for b in _BLOCKS}
+
+
+class FirmwareServices(Protocol):
+    """What a running program's firmware calls do: each works on the 16 PSeg bytes.
+
+    The emulated master implements this against its AS-i bus; tests give a small
+    deterministic model, the same one to the compiled code and the reference interpreter.
+    """
+
+    def call(self, name: str, pseg: bytearray) -> None: ...
