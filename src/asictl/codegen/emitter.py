@@ -88,9 +88,19 @@ class Emitter:
     # ----------------------------------------------------------------- plumbing
 
     def emit(self, text: str) -> None:
+        """Append an instruction, with the peephole rules that need only the previous line:
+        a ``CLR C`` overwritten by ``MOV C,bit`` goes, and so does a second ``RET``."""
+        last = self.lines[-1].text.strip() if self.lines else ""
+        if last == "CLR C" and text.startswith("MOV C,"):
+            self.lines.pop()
+        elif last == "RET" and text == "RET":
+            return
         self.lines.append(Line(f"        {text}", self.span))
 
     def label(self, name: str) -> None:
+        """Place a label; a ``LJMP`` to it from the line just before is dropped."""
+        if self.lines and self.lines[-1].text.strip() == f"LJMP {name}":
+            self.lines.pop()
         self.lines.append(Line(f"{name}:", self.span))
         self.forget()
 
