@@ -25,7 +25,7 @@ from asictl.interpreter import Interpreter
 from asictl.loader import Program
 from asictl.runtime import CycleTimeout, LoadedProgram, ProgramRunner
 
-EXAMPLES = int(os.environ.get("ASICTL_DIFF_EXAMPLES", "400"))
+EXAMPLES = int(os.environ.get("ASICTL_DIFF_EXAMPLES", "2000"))
 
 
 class ModelFirmware:
