@@ -14,16 +14,21 @@ from pathlib import Path
 from asictl.errors import UserError
 
 
-def write_atomic(path: str | Path, text: str) -> None:
-    """Replace ``path`` with ``text`` in one step; failures are a ``UserError``."""
+def write_atomic(path: str | Path, data: str | bytes) -> None:
+    """Replace ``path`` with ``data`` (text is written as UTF-8 with LF line ends) in one
+    step; failures are a ``UserError``."""
     target = Path(path)
     try:
         fd, temp = tempfile.mkstemp(dir=target.parent, prefix=f".{target.name}.", suffix=".tmp")
     except OSError as exc:
         raise UserError(f"{target}: cannot write: {exc.strerror or exc}") from None
     try:
-        with os.fdopen(fd, "w", encoding="utf-8", newline="\n") as out:
-            out.write(text)
+        if isinstance(data, bytes):
+            with os.fdopen(fd, "wb") as out:
+                out.write(data)
+        else:
+            with os.fdopen(fd, "w", encoding="utf-8", newline="\n") as out:
+                out.write(data)
         os.chmod(temp, _mode_for(target))
         os.replace(temp, target)
     except OSError as exc:
