@@ -1,0 +1,1 @@
+"""Simulation: scenarios run on the emulated master in virtual time, with traces."""

@@ -1,0 +1,147 @@
+"""Signal traces of a simulation, and their three forms: VCD, CSV and a PNG timing diagram.
+
+A trace keeps only changes (time, value) per signal, so an hour of master time with a few
+edges costs a few entries. All three writers are deterministic: the same run gives the
+same bytes.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from asictl.errors import UserError
+from asictl.files import write_atomic
+
+
+@dataclass
+class Signal:
+    name: str
+    width: int  # 1 for a bit, 8 for a byte
+    changes: list[tuple[float, int]] = field(default_factory=list)
+
+    def record(self, t_ms: float, value: int) -> None:
+        if not self.changes or self.changes[-1][1] != value:
+            if self.changes and self.changes[-1][0] == t_ms:
+                self.changes[-1] = (t_ms, value)
+            else:
+                self.changes.append((t_ms, value))
+
+    def value_at(self, t_ms: float) -> int:
+        value = 0
+        for t, v in self.changes:
+            if t > t_ms:
+                break
+            value = v
+        return value
+
+
+@dataclass
+class Trace:
+    signals: list[Signal]
+    end_ms: float = 0.0
+
+    def times(self) -> list[float]:
+        return sorted({t for s in self.signals for t, _ in s.changes} | {0.0})
+
+
+def _vcd_id(index: int) -> str:
+    chars = [chr(c) for c in range(33, 127)]
+    out = ""
+    index += 1
+    while index:
+        index, rest = divmod(index - 1, len(chars))
+        out = chars[rest] + out
+    return out
+
+
+def _vcd_name(name: str) -> str:
+    return name.replace(" ", "_").replace(".", "_")
+
+
+def to_vcd(trace: Trace, *, comment: str = "asictl sim") -> str:
+    """Value change dump (IEEE 1364), 1 us resolution, viewable in GTKWave."""
+    out = [f"$comment {comment} $end", "$timescale 1us $end", "$scope module plc $end"]
+    ids = {}
+    for i, signal in enumerate(trace.signals):
+        ids[signal.name] = _vcd_id(i)
+        out.append(f"$var wire {signal.width} {ids[signal.name]} {_vcd_name(signal.name)} $end")
+    out += ["$upscope $end", "$enddefinitions $end"]
+    events: dict[int, list[str]] = {}
+    for signal in trace.signals:
+        changes = signal.changes if signal.changes and signal.changes[0][0] == 0 else [
+            (0.0, 0), *signal.changes
+        ]
+        for t, value in changes:
+            text = (f"{value}{ids[signal.name]}" if signal.width == 1
+                    else f"b{value:b} {ids[signal.name]}")
+            events.setdefault(round(t * 1000), []).append(text)
+    for t in sorted(events):
+        out.append(f"#{t}")
+        out.extend(events[t])
+    out.append(f"#{round(trace.end_ms * 1000)}")
+    return "\n".join(out) + "\n"
+
+
+def to_csv(trace: Trace) -> str:
+    """One row per time at which any signal changes: time_ms, then every signal's value."""
+    buffer = io.StringIO()
+    writer = csv.writer(buffer, lineterminator="\n")
+    writer.writerow(["time_ms", *(s.name for s in trace.signals)])
+    for t in trace.times():
+        writer.writerow([f"{t:g}", *(s.value_at(t) for s in trace.signals)])
+    return buffer.getvalue()
+
+
+def write_plot(trace: Trace, path: Path, *, title: str) -> None:
+    """A timing diagram: one lane per signal, bits as logic levels, bytes as values."""
+    try:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        raise UserError(
+            "--plot needs matplotlib: pip install 'asictl[plot]' (or pip install matplotlib)"
+        ) from None
+    signals = trace.signals
+    end = trace.end_ms or max((t for s in signals for t, _ in s.changes), default=1.0) or 1.0
+    height = max(2.0, 0.45 * len(signals) + 1.0)
+    fig, axes = plt.subplots(len(signals) or 1, 1, sharex=True, figsize=(11, height),
+                             squeeze=False)
+    unit, scale = ("s", 1000.0) if end > 5000 else ("ms", 1.0)
+    for ax, signal in zip(axes[:, 0], signals, strict=False):
+        xs, ys = [0.0], [signal.value_at(0)]
+        for t, v in signal.changes:
+            xs.append(t / scale)
+            ys.append(v)
+        xs.append(end / scale)
+        ys.append(ys[-1])
+        ax.step(xs, ys, where="post", linewidth=1.4,
+                color="tab:blue" if signal.width == 1 else "tab:green")
+        if signal.width == 1:
+            ax.fill_between(xs, ys, step="post", alpha=0.25)
+            ax.set_ylim(-0.2, 1.3)
+            ax.set_yticks([])
+        else:
+            top = max(ys) or 1
+            ax.set_ylim(-0.1 * top, 1.25 * top)
+            ax.set_yticks([0, top])
+            ax.tick_params(axis="y", labelsize=7)
+            for (x0, y), x1 in zip(zip(xs, ys, strict=False), xs[1:], strict=False):
+                if x1 > x0 and (x1 - x0) > (end / scale) / 40:
+                    ax.text((x0 + x1) / 2, y, str(y), ha="center", va="bottom", fontsize=7)
+        ax.set_ylabel(signal.name, rotation=0, ha="right", va="center", fontsize=9)
+        ax.grid(axis="x", alpha=0.3)
+        for side in ("top", "right"):
+            ax.spines[side].set_visible(False)
+    axes[-1, 0].set_xlabel(f"master time ({unit})")
+    axes[-1, 0].set_xlim(0, end / scale)
+    fig.suptitle(title, fontsize=11)
+    fig.tight_layout()
+    buffer = io.BytesIO()
+    fig.savefig(buffer, format="png", dpi=110, metadata={"Software": None})
+    plt.close(fig)
+    write_atomic(path, buffer.getvalue())

@@ -1,0 +1,108 @@
+"""Scenario files: the schema, and every mistake reported at its line."""
+
+from __future__ import annotations
+
+import pytest
+
+from asictl import ast
+from asictl.diagnostics import DiagnosticError
+from asictl.parser import parse_text
+from asictl.sim.scenario import SlaveSpec, parse_duration, read_scenario
+from asictl.source import from_string
+
+GOOD = """\
+program = "blink.asi"          # relative to this file
+[master]
+cycle_ms = 5
+slaves = { 16 = "iiio,1", 3 = "Bh,0" }
+[[step]]
+at_ms = 0
+set = { "I 4.0" = 1, "IB 4" = 0x21, "FY 10" = 7 }
+[[step]]
+at_ms = 250
+expect = { "Q 17.3" = 1, "QB 16" = 0x08, "FY 3" = 145, "F 127.7" = 1, "PSeg 0" = 0 }
+[[step]]
+at_ms = 300
+remove_slaves = [16]
+add_slaves = { 5 = "oooo,0,Eh" }
+power_fail = false
+"""
+
+
+def errors(text: str, program: ast.Module | None = None) -> list[tuple[int, int, str]]:
+    with pytest.raises(DiagnosticError) as info:
+        read_scenario(from_string("s.toml", text), program)
+    return [(d.span.line, d.span.column, d.message) for d in info.value.diagnostics]
+
+
+def test_the_documented_example_reads():
+    scenario = read_scenario(from_string("dir/s.toml", GOOD))
+    assert str(scenario.program) == "dir/blink.asi"
+    assert scenario.cycle_ms == 5
+    assert scenario.slaves == [SlaveSpec(16, 1, 1, 0xF), SlaveSpec(3, 0xB, 0, 0xF)]
+    first, second, third = scenario.steps
+    assert [(str(op), value, line) for op, value, line in first.set] == [
+        ("I 4.0", 1, 7), ("IB 4", 0x21, 7), ("FY 10", 7, 7)
+    ]
+    assert [str(op) for op, _, _ in second.expect] == ["Q 17.3", "QB 16", "FY 3", "F 127.7",
+                                                        "PSeg 0"]
+    assert (third.remove_slaves, third.add_slaves, third.power_fail) == (
+        [16], [SlaveSpec(5, 8, 0, 0xE)], False
+    )
+    assert scenario.end_ms == 300 and [s.line for s in scenario.steps] == [5, 8, 11]
+
+
+def test_steps_in_any_order_are_run_by_time():
+    text = "[[step]]\nat_ms = 20\n[[step]]\nat_ms = 10\n"
+    assert [s.at_ms for s in read_scenario(from_string("s.toml", text)).ordered()] == [10, 20]
+
+
+def test_durations():
+    assert parse_duration("250ms") == 250
+    assert parse_duration("10s") == 10_000
+    assert parse_duration("1h") == 3_600_000
+    assert parse_duration("2") == 2000
+    with pytest.raises(ValueError):
+        parse_duration("soon")
+
+
+def test_unknown_operand_and_out_of_range_values_point_at_the_key():
+    text = '[[step]]\nat_ms = 1\nexpect = { "Q 17.3" = 1, "X 1" = 1, "QB 16" = 256 }\n'
+    found = errors(text)
+    assert [(line, col) for line, col, _ in found] == [(3, 26), (3, 37)]
+    assert "is not an operand" in found[0][2]
+    assert "value 256 out of range 0..255" in found[1][2]
+
+
+def test_only_inputs_and_flags_can_be_set():
+    found = errors('[[step]]\nat_ms = 0\nset = { "Q 1.0" = 1 }\n')
+    assert found == [(3, 9, "'Q 1.0' cannot be set: a scenario sets inputs (I, IB) and flags "
+                             "(F, FY)")]
+
+
+def test_odd_byte_address_and_unknown_variable():
+    program, _ = parse_text("[DECL]\nReading BYTE 2\n", "p.asi")
+    text = '[[step]]\nat_ms = 0\nexpect = { "IB 5" = 1, "Reading 2" = 0, "Other 0" = 1 }\n'
+    messages = [m for _, _, m in errors(text, program)]
+    assert messages == [
+        "'IB 5': an even slave address 0..30",
+        "'Reading 2': 'Reading' has 2 bytes",
+        "'Other 0': 'Other' is not a variable declared by the program",
+    ]
+
+
+def test_missing_time_unknown_keys_and_bad_slaves():
+    text = (
+        "[master]\ncycle_ms = 0\nslaves = { 40 = \"iiii,0\", 3 = \"zz\" }\n"
+        "[[step]]\nset = {}\n[[step]]\nat_ms = 5\nwhen = 3\n"
+    )
+    found = errors(text)
+    assert (2, 1, "cycle_ms is a number of milliseconds above 0") in found
+    assert any(line == 3 and "slave 40" in m for line, _, m in found)
+    assert any(line == 3 and "slave 3" in m for line, _, m in found)
+    assert (4, 1, "each step needs at_ms = <milliseconds, 0 or more>") in found
+    assert any(line == 8 and "unknown key 'when'" in m for line, _, m in found)
+
+
+def test_invalid_toml_gives_its_line():
+    assert errors("[[step]]\nat_ms = = 3\n")[0][:1] == (2,)
