@@ -70,7 +70,7 @@ def test_unknown_operand_and_out_of_range_values_point_at_the_key():
     text = '[[step]]\nat_ms = 1\nexpect = { "Q 17.3" = 1, "X 1" = 1, "QB 16" = 256 }\n'
     found = errors(text)
     assert [(line, col) for line, col, _ in found] == [(3, 26), (3, 37)]
-    assert "is not an operand" in found[0][2]
+    assert "'X' is not a variable declared by the program" in found[0][2]
     assert "value 256 out of range 0..255" in found[1][2]
 
 
