@@ -1,0 +1,563 @@
+"""The program image: what the master keeps in its 16 KB EEPROM (docs/image-format.md).
+
+One byte string carries everything a master needs to run a program and everything a
+tool needs to recognise it later: the flags and slave configuration a download sets, the
+code, the program map the firmware copies process data by, the firmware entry points the
+code was linked against, and (when there is room) the exact source files, so an upload
+gives the engineer back what was compiled. Download and upload move these bytes
+unchanged; an uploaded file without source keeps them as Intel HEX records in a [RAW]
+section, so downloading that file restores the identical image.
+
+Every image asictl accepts has exactly one encoding: ``from_bytes`` refuses anything
+``to_bytes`` would not write, so decoding and encoding again never changes a byte.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import io
+import re
+import struct
+import zlib
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass, field, replace
+from pathlib import PurePath
+
+from intelhex import IntelHex, IntelHexError
+
+from asictl import __version__, ast
+from asictl.ast import key
+from asictl.codegen import layout
+from asictl.codegen.allocate import CellKind, Location, ProgramMap, Space, Variable
+from asictl.codegen.emitter import firmware_symbol
+from asictl.compiler import Compiled, Options
+from asictl.errors import ExitCode, UserError
+from asictl.firmware import FIRMWARE_BLOCKS
+from asictl.runtime import LoadedProgram
+
+MAGIC = b"ASI2"
+FORMAT_VERSION = 1
+#: The master's EEPROM, which holds the image and nothing else.
+EEPROM_SIZE = 16384
+SLAVES = 32
+
+# Header layout (all little-endian); docs/image-format.md has the table.
+_HEADER = struct.Struct("<4sBBHIB16s4s32s16sHHHH")
+HEADER_SIZE = _HEADER.size
+_CRC_OFFSET = 8
+
+# Image flags (header byte 5).
+SOURCE_INCLUDED = 0x01
+SOURCE_LEFT_OUT = 0x02  # left out because it did not fit, not because it was not wanted
+
+# The AS-i Control flags byte (PC2 DPRAM 304h); an image sets only these three.
+IGNORE_CONFIG_ERRORS = 0x04
+WAIT_FOR_SET_BUTTON = 0x08  # the inverse of [OPTIONS] auto_start
+MAP_COUNTERS = 0x10
+_IMAGE_CONTROL_FLAGS = IGNORE_CONFIG_ERRORS | WAIT_FOR_SET_BUTTON | MAP_COUNTERS
+
+#: The manual's default parameter (3.2); also what unprojected slaves get.
+DEFAULT_PARAMETER = 0xF
+#: PCD byte of a slave that is not projected: I/O code F, ID code F.
+UNPROJECTED_PCD = 0xFF
+
+_CELL_KINDS = tuple(CellKind)
+_SPACE_BIT = 0x80
+#: Sources larger than this are refused on decoding rather than inflated (zip bombs).
+_MAX_SOURCE_SIZE = 16 * 1024 * 1024
+
+
+class ImageError(UserError):
+    """An image that cannot be built (too big) or read (corrupt, foreign, truncated)."""
+
+
+# --------------------------------------------------------------------------- pieces
+
+
+@dataclass(frozen=True)
+class Configuration:
+    """The projected configuration a download writes: LPS, PCD and PP in PC2 layout."""
+
+    #: list of projected slaves: slave n is bit n % 8 of byte n // 8
+    lps: bytes = bytes(4)
+    #: permanent configuration data: byte n = ID code << 4 | I/O code of slave n
+    pcd: bytes = bytes([UNPROJECTED_PCD]) * SLAVES
+    #: permanent parameters: slave 2k in the low nibble of byte k, 2k+1 in the high nibble
+    pp: bytes = bytes([DEFAULT_PARAMETER * 0x11]) * (SLAVES // 2)
+
+    @classmethod
+    def of(cls, slaves: Iterable[ast.SlaveSetup]) -> Configuration:
+        lps, pcd, pp = bytearray(4), bytearray(cls().pcd), bytearray(cls().pp)
+        for slave in slaves:
+            n = slave.address
+            lps[n // 8] |= 1 << n % 8
+            pcd[n] = slave.id_code << 4 | slave.io_code
+            parameter = DEFAULT_PARAMETER if slave.parameter is None else slave.parameter
+            shift = 4 * (n % 2)
+            pp[n // 2] = pp[n // 2] & ~(0xF << shift) | parameter << shift
+        return cls(bytes(lps), bytes(pcd), bytes(pp))
+
+    @classmethod
+    def of_module(cls, module: ast.Module) -> Configuration:
+        """All [SETUP] sections of a main program together."""
+        return cls.of(s for section in module.sections_of(ast.SetupSection) for s in section.slaves)
+
+    def projected(self) -> list[int]:
+        return [n for n in range(SLAVES) if self.lps[n // 8] >> n % 8 & 1]
+
+    def parameter(self, n: int) -> int:
+        return self.pp[n // 2] >> 4 * (n % 2) & 0xF
+
+    def slaves(self) -> list[ast.SlaveSetup]:
+        """The projected slaves as [SETUP] lines, in address order."""
+        return [
+            ast.SlaveSetup(n, self.pcd[n] & 0xF, self.pcd[n] >> 4, self.parameter(n))
+            for n in self.projected()
+        ]
+
+
+def control_flags(options: Options) -> int:
+    """The AS-i Control flags byte for [OPTIONS]; start_flag is the download's decision."""
+    return (
+        (IGNORE_CONFIG_ERRORS if options.ignore_config_errors else 0)
+        | (0 if options.auto_start else WAIT_FOR_SET_BUTTON)
+        | (MAP_COUNTERS if options.map_counters else 0)
+    )
+
+
+def options_of(flags: int) -> Options:
+    return Options(
+        auto_start=not flags & WAIT_FOR_SET_BUTTON,
+        ignore_config_errors=bool(flags & IGNORE_CONFIG_ERRORS),
+        map_counters=bool(flags & MAP_COUNTERS),
+    )
+
+
+def _source_name(name: str) -> str:
+    """Files are stored by base name: the image must not depend on where it was compiled."""
+    return PurePath(name).name or name
+
+
+def source_files(sources: Mapping[str, bytes]) -> list[tuple[str, bytes]]:
+    """The (name, raw bytes) pairs an image stores, main first; names must be unique."""
+    files: list[tuple[str, bytes]] = []
+    seen: set[str] = set()
+    for name, raw in sources.items():
+        stored = _source_name(name)
+        if stored in seen:
+            raise ImageError(f"two source files are both named '{stored}'; rename one")
+        seen.add(stored)
+        files.append((stored, raw))
+    return files
+
+
+def _pack_files(files: list[tuple[str, bytes]]) -> bytes:
+    out = bytearray([len(files)])
+    for name, raw in files:
+        out += _name_bytes(name)
+        out += struct.pack("<I", len(raw))
+        out += raw
+    return bytes(out)
+
+
+def pack_sources(files: list[tuple[str, bytes]]) -> bytes:
+    """The compressed source container."""
+    return zlib.compress(_pack_files(files), 9)
+
+
+def program_identity(files: list[tuple[str, bytes]], version: str = __version__) -> bytes:
+    """16 bytes that change whenever a source byte, a file name or the compiler changes."""
+    return hashlib.sha256(_name_bytes(version) + _pack_files(files)).digest()[:16]
+
+
+def _name_bytes(name: str) -> bytes:
+    encoded = name.encode("utf-8")
+    if len(encoded) > 255:
+        raise ImageError(f"name too long for the image (at most 255 bytes): {name[:40]}...")
+    return bytes([len(encoded)]) + encoded
+
+
+# --------------------------------------------------------------------------- the image
+
+
+@dataclass(frozen=True)
+class ProgramImage:
+    """A decoded image; ``to_bytes`` gives the EEPROM contents."""
+
+    #: the AS-i Control flags byte as [OPTIONS] sets it
+    flags: int
+    configuration: Configuration
+    identity: bytes
+    code: bytes
+    pmap: ProgramMap
+    #: firmware block (key name) -> entry address, for the blocks the code calls
+    entry_points: Mapping[str, int] = field(default_factory=dict)
+    #: the compressed source container; empty when the image carries no source
+    source: bytes = b""
+    #: why there is no source, when there is none: it did not fit
+    source_left_out: bool = False
+    code_base: int = layout.CODE_BASE
+
+    @property
+    def options(self) -> Options:
+        return options_of(self.flags)
+
+    @property
+    def identity_hex(self) -> str:
+        return self.identity.hex()
+
+    def to_bytes(self) -> bytes:
+        program_map = _encode_map(self.pmap, self.entry_points)
+        image_flags = (SOURCE_INCLUDED if self.source else 0) | (
+            SOURCE_LEFT_OUT if self.source_left_out else 0
+        )
+        length = HEADER_SIZE + len(self.code) + len(program_map) + len(self.source)
+        if length > 0xFFFF:
+            raise ImageError(
+                f"image needs {length} bytes, the EEPROM holds {EEPROM_SIZE}", ExitCode.FAILED
+            )
+        header = _HEADER.pack(
+            MAGIC, FORMAT_VERSION, image_flags, length, 0, self.flags, self.identity,
+            self.configuration.lps, self.configuration.pcd, self.configuration.pp,
+            self.code_base, len(self.code), len(program_map), len(self.source),
+        )
+        data = bytearray(header + self.code + program_map + self.source)
+        struct.pack_into("<I", data, _CRC_OFFSET, zlib.crc32(data))
+        return bytes(data)
+
+    @classmethod
+    def from_bytes(cls, data: bytes) -> ProgramImage:
+        """Decode and validate an image; anything else is an ``ImageError`` saying what."""
+        data = bytes(data)
+        if data[:4] != MAGIC[: len(data)]:
+            raise ImageError(
+                f"not an AS-i Control II program image (it starts with {data[:4].hex(' ')}; "
+                f"an image starts with {MAGIC.hex(' ')}, '{MAGIC.decode()}')"
+            )
+        if len(data) > EEPROM_SIZE:
+            raise ImageError(f"image is {len(data)} bytes; the EEPROM holds {EEPROM_SIZE}")
+        if len(data) < HEADER_SIZE:
+            raise ImageError(
+                f"image cut short: {len(data)} bytes, less than its {HEADER_SIZE}-byte header"
+            )
+        (
+            _, version, image_flags, length, crc, flags, identity, lps, pcd, pp,
+            code_base, code_size, map_size, source_size,
+        ) = _HEADER.unpack_from(data)
+        if version != FORMAT_VERSION:
+            raise ImageError(
+                f"image format version {version}; this asictl reads version {FORMAT_VERSION}"
+            )
+        if length != len(data):
+            raise ImageError(
+                f"image length {len(data)} bytes, but its header says {length}"
+                + (" (cut short)" if len(data) < length else " (extra bytes at the end)")
+            )
+        zeroed = bytearray(data)
+        zeroed[_CRC_OFFSET : _CRC_OFFSET + 4] = bytes(4)
+        actual = zlib.crc32(zeroed)
+        if actual != crc:
+            raise ImageError(
+                f"image corrupted: CRC-32 is {actual:08X}, the header says {crc:08X}"
+            )
+        if HEADER_SIZE + code_size + map_size + source_size != length:
+            raise ImageError(
+                f"image sections ({code_size} + {map_size} + {source_size} bytes after the "
+                f"header) do not add up to its length {length}"
+            )
+        if flags & ~_IMAGE_CONTROL_FLAGS & 0xFF:
+            raise ImageError(f"image sets AS-i Control flags an image cannot set: {flags:02X}h")
+        if image_flags not in (
+            (SOURCE_INCLUDED,) if source_size else (0, SOURCE_LEFT_OUT)
+        ):
+            raise ImageError(f"image flags {image_flags:02X}h do not match its contents")
+        if not layout.CODE_BASE <= code_base <= code_base + code_size <= layout.CODE_LIMIT:
+            raise ImageError(
+                f"image code at {code_base:04X}h, {code_size} bytes, lies outside the "
+                f"program's code memory {layout.CODE_BASE:04X}h-{layout.CODE_LIMIT - 1:04X}h"
+            )
+        if lps[0] & 1:
+            raise ImageError("image projects slave 0, which is reserved for new slaves")
+        code_end = HEADER_SIZE + code_size
+        pmap, entry_points = _decode_map(
+            data[code_end : code_end + map_size], bool(flags & MAP_COUNTERS)
+        )
+        image = cls(
+            flags=flags,
+            configuration=Configuration(lps, pcd, pp),
+            identity=identity,
+            code=data[HEADER_SIZE:code_end],
+            pmap=pmap,
+            entry_points=entry_points,
+            source=data[code_end + map_size :],
+            source_left_out=bool(image_flags & SOURCE_LEFT_OUT),
+            code_base=code_base,
+        )
+        if image.to_bytes() != data:
+            raise ImageError("image is not in the form asictl writes (entries out of order?)")
+        return image
+
+    def to_hex(self) -> str:
+        """Intel HEX text of the EEPROM contents from address 0, 16 bytes a record."""
+        hex_image = IntelHex()
+        hex_image.frombytes(self.to_bytes(), offset=0)
+        out = io.StringIO()
+        hex_image.write_hex_file(out, byte_count=16)
+        return out.getvalue()
+
+    @classmethod
+    def from_hex(cls, text: str) -> ProgramImage:
+        return cls.from_bytes(_hex_bytes(text))
+
+    def loaded_program(self) -> LoadedProgram:
+        return LoadedProgram(self.code, self.pmap, dict(self.entry_points), self.code_base)
+
+    def sources(self) -> dict[str, bytes]:
+        """File name -> raw bytes as compiled, main file first; empty without source."""
+        if not self.source:
+            return {}
+        inflater = zlib.decompressobj()
+        try:
+            plain = inflater.decompress(self.source, _MAX_SOURCE_SIZE)
+        except zlib.error as exc:
+            raise ImageError(f"image source text is damaged: {exc}") from None
+        if inflater.unconsumed_tail or not inflater.eof or inflater.unused_data:
+            raise ImageError("image source text is damaged or implausibly large")
+        reader = _Reader(plain, "source container")
+        files = {}
+        for _ in range(reader.u8()):
+            name = reader.name()
+            files[name] = reader.take(reader.u32())
+        reader.end()
+        return files
+
+
+def build_image(compiled: Compiled, *, with_source: bool = True) -> ProgramImage:
+    """The image of a compiled program, with its source if wanted and if it fits.
+
+    Raises ``ImageError`` when even the code and map exceed the EEPROM.
+    """
+    files = source_files({name: s.raw for name, s in compiled.program.sources.items()})
+    image = ProgramImage(
+        flags=control_flags(compiled.options),
+        configuration=Configuration.of_module(compiled.program.main),
+        identity=program_identity(files),
+        code=compiled.code,
+        pmap=compiled.pmap,
+        entry_points=used_entry_points(compiled),
+    )
+    size = len(image.to_bytes())
+    if size > EEPROM_SIZE:
+        raise ImageError(
+            f"image needs {size} bytes, the EEPROM holds {EEPROM_SIZE} "
+            f"(code {len(image.code)}, program map {size - HEADER_SIZE - len(image.code)}, "
+            f"header {HEADER_SIZE})",
+            ExitCode.FAILED,
+        )
+    if not with_source:
+        return image
+    source = pack_sources(files)
+    if size + len(source) > EEPROM_SIZE:
+        return replace(image, source_left_out=True)
+    return replace(image, source=source)
+
+
+def used_entry_points(compiled: Compiled) -> dict[str, int]:
+    """The firmware blocks the code refers to, by symbol, in generated or [ASSEMBLY] code.
+
+    A master whose firmware has these blocks at these addresses can run the program.
+    """
+    code = "\n".join(line.text.partition(";")[0] for line in compiled.lines)
+    symbols = "|".join(re.escape(firmware_symbol(name)) for name in compiled.entry_points)
+    used = {key(m) for m in re.findall(rf"(?<![\w?])(?:{symbols})(?![\w?])", code, re.I)}
+    return {
+        name: address
+        for name, address in sorted(compiled.entry_points.items())
+        if key(firmware_symbol(name)) in used
+    }
+
+
+# --------------------------------------------------------------------------- program map
+
+
+def _encode_map(pmap: ProgramMap, entry_points: Mapping[str, int]) -> bytes:
+    out = bytearray(struct.pack("<HH", pmap.pseg, pmap.data_end))
+    cells = sorted(pmap.cells.items(), key=lambda item: (_CELL_KINDS.index(item[0][0]), item[0][1]))
+    out += struct.pack("<H", len(cells))
+    for (kind, index), location in cells:
+        space = _SPACE_BIT if location.space is Space.XDATA else 0
+        out += struct.pack("<BBH", _CELL_KINDS.index(kind) | space, index, location.address)
+    for table in (pmap.timers, pmap.counters):
+        out += struct.pack("<H", len(table))
+        for number, address in sorted(table.items()):
+            out += struct.pack("<HH", number, address)
+    variables = sorted(pmap.variables.values(), key=lambda v: v.address)
+    out += struct.pack("<H", len(variables))
+    for variable in variables:
+        out += struct.pack("<HB", variable.address, variable.size) + _name_bytes(variable.name)
+    out += bytes([len(entry_points)])
+    for name, address in sorted(entry_points.items()):
+        out += struct.pack("<H", address) + _name_bytes(name)
+    return bytes(out)
+
+
+def _decode_map(data: bytes, map_counters: bool) -> tuple[ProgramMap, dict[str, int]]:
+    reader = _Reader(data, "program map")
+    pmap = ProgramMap(pseg=reader.u16(), data_end=reader.u16(), map_counters=map_counters)
+    for _ in range(reader.u16()):
+        code, index, address = reader.unpack("<BBH")
+        if code & ~_SPACE_BIT >= len(_CELL_KINDS):
+            raise ImageError(f"image program map: unknown cell kind {code & ~_SPACE_BIT}")
+        space = Space.XDATA if code & _SPACE_BIT else Space.IRAM
+        pmap.cells[_CELL_KINDS[code & ~_SPACE_BIT], index] = Location(space, address)
+    for table in (pmap.timers, pmap.counters):
+        for _ in range(reader.u16()):
+            number, address = reader.unpack("<HH")
+            table[number] = address
+    for _ in range(reader.u16()):
+        address, size = reader.unpack("<HB")
+        name = reader.name()
+        pmap.variables[key(name)] = Variable(name, address, size)
+    entry_points = {}
+    for _ in range(reader.u8()):
+        (address,) = reader.unpack("<H")
+        name = reader.name()
+        if name not in FIRMWARE_BLOCKS:
+            raise ImageError(f"image calls firmware block '{name}', which this asictl lacks")
+        entry_points[name] = address
+    reader.end()
+    return pmap, entry_points
+
+
+class _Reader:
+    """Reads a length-prefixed structure; running off its end is an ``ImageError``."""
+
+    def __init__(self, data: bytes, what: str) -> None:
+        self.data, self.what, self.offset = data, what, 0
+
+    def take(self, n: int) -> bytes:
+        if self.offset + n > len(self.data):
+            raise ImageError(
+                f"image {self.what} cut short: needs {self.offset + n} bytes, has {len(self.data)}"
+            )
+        chunk = self.data[self.offset : self.offset + n]
+        self.offset += n
+        return chunk
+
+    def unpack(self, fmt: str) -> tuple:
+        return struct.unpack(fmt, self.take(struct.calcsize(fmt)))
+
+    def u8(self) -> int:
+        return self.take(1)[0]
+
+    def u16(self) -> int:
+        return self.unpack("<H")[0]
+
+    def u32(self) -> int:
+        return self.unpack("<I")[0]
+
+    def name(self) -> str:
+        raw = self.take(self.u8())
+        try:
+            return raw.decode("utf-8")
+        except UnicodeDecodeError:
+            raise ImageError(f"image {self.what}: a name is not UTF-8 text") from None
+
+    def end(self) -> None:
+        if self.offset != len(self.data):
+            raise ImageError(
+                f"image {self.what}: {len(self.data) - self.offset} unexpected bytes at the end"
+            )
+
+
+# --------------------------------------------------------------------------- HEX and [RAW]
+
+
+def _hex_bytes(text: str) -> bytes:
+    """The bytes of Intel HEX text that must cover addresses 0..n-1 without gaps."""
+    try:
+        hex_image = IntelHex(io.StringIO(text))
+    except (IntelHexError, ValueError) as exc:
+        raise ImageError(f"not valid Intel HEX: {exc}") from None
+    addresses = hex_image.addresses()
+    if not addresses:
+        raise ImageError("the Intel HEX holds no data")
+    if addresses[0] != 0 or addresses[-1] != len(addresses) - 1:
+        raise ImageError(
+            "the Intel HEX does not hold one block from address 0 "
+            f"(it covers {len(addresses)} bytes between {addresses[0]:04X}h and "
+            f"{addresses[-1]:04X}h)"
+        )
+    if len(addresses) > EEPROM_SIZE:
+        raise ImageError(f"the Intel HEX holds {len(addresses)} bytes; the EEPROM {EEPROM_SIZE}")
+    return hex_image.tobinstr()
+
+
+def image_from_raw(records: Iterable[str]) -> ProgramImage:
+    """The image an upload wrote as [RAW] records; ``to_bytes`` gives it back unchanged."""
+    return ProgramImage.from_hex("\n".join(records) + "\n")
+
+
+def image_from_uploaded(module: ast.Module) -> ProgramImage:
+    """The image of an uploaded file, whose [OPTIONS] and [SETUP] must describe its [RAW].
+
+    The [RAW] records are what gets downloaded; a file whose other sections were edited
+    would silently download something other than it says, so a mismatch is an error.
+    """
+    records = [r for section in module.sections_of(ast.RawSection) for r in section.records]
+    try:
+        image = image_from_raw(records)
+    except ImageError as exc:
+        raise ImageError(f"[RAW] section: {exc}", ExitCode.FAILED) from None
+    problems = []
+    if module.sections_of(ast.OptionsSection):
+        wanted = Options.of(module)
+        problems += [
+            f"[OPTIONS] {name}: {'yes' if getattr(wanted, name) else 'no'}, "
+            f"the image has {'yes' if getattr(image.options, name) else 'no'}"
+            for name in ("ignore_config_errors", "auto_start", "map_counters")
+            if getattr(wanted, name) != getattr(image.options, name)
+        ]
+    if module.sections_of(ast.SetupSection):
+        wanted_slaves = {s.address: s for s in Configuration.of_module(module).slaves()}
+        image_slaves = {s.address: s for s in image.configuration.slaves()}
+        for n in sorted(wanted_slaves.keys() | image_slaves.keys()):
+            if wanted_slaves.get(n) != image_slaves.get(n):
+                problems.append(
+                    f"[SETUP] slave {n}: {_setup_text(wanted_slaves.get(n))}, "
+                    f"the image has {_setup_text(image_slaves.get(n))}"
+                )
+    if problems:
+        raise ImageError(
+            "the [OPTIONS] and [SETUP] sections do not match the [RAW] image they describe: "
+            + "; ".join(problems),
+            ExitCode.FAILED,
+        )
+    return image
+
+
+def _setup_text(slave: ast.SlaveSetup | None) -> str:
+    return "not set up" if slave is None else slave.to_source().partition(": ")[2]
+
+
+def uploaded_source(image: ProgramImage) -> str:
+    """IL source text for an image without source: its settings, and itself as [RAW]."""
+    options = image.options
+    module = ast.Module(
+        file="",
+        sections=(
+            ast.OptionsSection(tuple(
+                ast.Option(name, getattr(options, name))
+                for name in ("ignore_config_errors", "auto_start", "map_counters")
+            )),
+            ast.SetupSection(tuple(image.configuration.slaves())),
+            ast.RawSection(tuple(image.to_hex().splitlines())),
+        ),
+    )
+    why = "it did not fit in the EEPROM" if image.source_left_out else "it was left out"
+    return (
+        f"; Uploaded program {image.identity_hex}: the image carries no source text ({why}).\n"
+        "; [OPTIONS] and [SETUP] describe the image; [RAW] is the image itself, and\n"
+        "; downloading this file writes it back unchanged.\n"
+        "\n" + module.to_source()
+    )
