@@ -59,6 +59,8 @@ class Compiled:
     #: the generated assembly, line by line, with the IL span each line implements
     lines: tuple[Line, ...]
     entry_points: Mapping[str, int]
+    #: assembler warnings, reported at the IL lines whose code they concern
+    diagnostics: tuple[Diagnostic, ...] = ()
 
     @property
     def code(self) -> bytes:
@@ -109,7 +111,10 @@ def compile_program(
         break
     else:  # pragma: no cover - each round makes at least one more jump long
         raise AssertionError("jump relaxation did not settle")
-    compiled = Compiled(program, options, pmap, assembly, tuple(emitter.lines), entry_points)
+    compiled = Compiled(
+        program, options, pmap, assembly, tuple(emitter.lines), entry_points,
+        tuple(_map_back(list(assembly.diagnostics), emitter.lines)),
+    )
     end = layout.CODE_BASE + len(compiled.code)
     if end > layout.CODE_LIMIT:
         raise DiagnosticError([_error(

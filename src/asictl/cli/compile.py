@@ -170,7 +170,7 @@ def compile_(
             click.echo(render_text(exc.diagnostics, texts), nl=False, err=True)
             ctx.exit(int(ExitCode.FAILED))
         texts[GENERATED] = compiled.assembly_text
-        click.echo(render_text(compiled.assembly.diagnostics, texts), nl=False, err=True)
+        click.echo(render_text(compiled.diagnostics, texts), nl=False, err=True)
         log(f"allocated {cells_summary(compiled.pmap)}; {data_summary(compiled.pmap)}")
         log.step(f"assembled {len(compiled.lines)} lines of 8051 assembly")
         image = build_image(compiled, with_source=not no_source)
