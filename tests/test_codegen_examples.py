@@ -8,6 +8,7 @@ from manual_examples import EXAMPLES
 
 from asictl.checks import check_source
 from asictl.compiler import compile_program
+from asictl.diagnostics import DiagnosticError
 from asictl.runtime import LoadedProgram, ProgramRunner
 from asictl.source import from_string
 
@@ -111,3 +112,14 @@ def test_set_power_up_parameter():
     runner = runner_for(EXAMPLES["set_pp"], firmware)
     runner.cycle()
     assert firmware.calls == [("SetPP", bytes([17, 0x0A]))]
+
+
+def test_assembler_findings_are_reported_at_the_il_line():
+    result = check_source(from_string("w.asi", "[PROGRAM]\n    A I 1.0\n    ASM mov a,TR0\n"))
+    compiled = compile_program(result.program)
+    [warning] = compiled.diagnostics
+    assert (warning.code, warning.span.file, warning.span.line) == ("W501", "w.asi", 3)
+    bad = check_source(from_string("e.asi", "[PROGRAM]\n    A I 1.0\n    ASM mov q,#1\n"))
+    with pytest.raises(DiagnosticError) as info:
+        compile_program(bad.program)
+    assert [(d.span.file, d.span.line) for d in info.value.diagnostics] == [("e.asi", 3)]
