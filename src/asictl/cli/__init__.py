@@ -18,10 +18,23 @@ from asictl.errors import ExitCode, UserError
 
 #: name -> ("module:attribute", one-line help shown by ``asictl --help``)
 COMMANDS: dict[str, tuple[str, str]] = {
+    "compile": (
+        "asictl.cli.compile:compile_", "Compile an IL program into an image for the master."
+    ),
     "check": ("asictl.cli.check:check", "Check IL source files for errors (for CI and editors)."),
     "asm": ("asictl.cli.asm:asm", "Assemble 8051 source into Intel HEX."),
     "disasm": ("asictl.cli.asm:disasm", "Disassemble an Intel HEX image into 8051 source."),
     "emu": ("asictl.cli.emu:emu", "Run an Intel HEX image on the 8051 emulator."),
+    "download": (
+        "asictl.cli.master:download_command", "Store a program in the master and load it."
+    ),
+    "upload": ("asictl.cli.master:upload_command", "Read the program back from the master."),
+    "start": ("asictl.cli.master:start_command", "Start the master's control program."),
+    "stop": ("asictl.cli.master:stop_command", "Stop the master's control program."),
+    "reset": (
+        "asictl.cli.master:reset_command", "Reload the master's program from its EEPROM."
+    ),
+    "status": ("asictl.cli.master:status_command", "Show the master's state (like ASI_MON)."),
 }
 
 

@@ -1,0 +1,222 @@
+"""``asictl download|upload|start|stop|reset|status``: the PC2 host commands (docs/host.md).
+
+The manual's ACF loader (8.2.6) with its switches as options: ``download`` is /d+,
+``--start/--stop/--keep`` are /s+ /s- /s0, ``upload`` is /u+ and ``--overwrite`` /o+;
+``status`` shows what ASI_MON's screen shows. A board is named by its I/O base
+(``--port``, ACF's /i); by default it is an emulated board kept in the state directory.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from pathlib import Path
+
+import click
+
+from asictl.diagnostics import render_text
+from asictl.errors import ExitCode
+from asictl.master.program_files import prepare_image, uploaded_files, write_files
+from asictl.master.state import IO_BACKENDS, connect, parse_port, port_name
+from asictl.master.status import control_summary, read_status, render
+from asictl.master.transfer import (
+    Pc2Transport,
+    StartMode,
+    download,
+    download_steps,
+    linked_for,
+    reset,
+    set_start,
+    upload,
+)
+
+
+def _board_options(command: Callable) -> Callable:
+    options = [
+        click.option(
+            "--port", default="300h", show_default=True,
+            help="The board's I/O base: 300h, 304h, 308h, 30Ch, 320h, 324h, 328h or 32Ch "
+            "(also written 0x300 or 300).",
+        ),
+        click.option(
+            "--io", type=click.Choice(IO_BACKENDS), default="emulated", show_default=True,
+            help="emulated: an emulated board kept in the state directory; devport: a real "
+            "board through /dev/port (needs root).",
+        ),
+        click.option(
+            "--state-dir", type=click.Path(file_okay=False),
+            help="Where emulated boards are kept [default: $ASICTL_STATE_DIR, else "
+            "$XDG_STATE_HOME/asictl or ~/.local/state/asictl].",
+        ),
+    ]
+    for option in reversed(options):
+        command = option(command)
+    return command
+
+
+def _name(port: str) -> str:
+    return port_name(parse_port(port))
+
+
+@contextmanager
+def _progress(label: str, blocks: int) -> Iterator[Callable[[int], None]]:
+    """A progress bar on stderr (only its label when stderr is not a terminal)."""
+    with click.progressbar(
+        length=blocks, label=label, file=click.get_text_stream("stderr"), show_eta=False,
+    ) as bar:
+        yield bar.update
+
+
+@click.command("download")
+@click.argument("file", metavar="FILE.asi|FILE.hex", type=click.Path(dir_okay=False))
+@_board_options
+@click.option("--start", "start", flag_value="start", help="Start the program (ACF /s+).")
+@click.option("--stop", "start", flag_value="stop", help="Stop the program (ACF /s-).")
+@click.option(
+    "--keep", "start", flag_value="keep", default=True,
+    help="Leave the start flag as it is (ACF /s0) [default].",
+)
+@click.option(
+    "--lib", "lib", multiple=True, type=click.Path(file_okay=False),
+    help="Also look for function-block files here (repeatable; also $ASICTL_LIB).",
+)
+def download_command(
+    file: str, port: str, io: str, state_dir: str | None, start: str, lib: tuple[str, ...]
+) -> None:
+    """Store a program in the master's EEPROM and load it (ACF /d+).
+
+    FILE is IL source (compiled against the entry points the master reports) or an image
+    (.hex from 'asictl compile', or an uploaded file's [RAW] section). A program with
+    errors is refused with the diagnostics 'asictl check' shows. The [SETUP] slaves go to
+    LPS, PCD, PP and PI; the image is written block by block, the header block last, read
+    back and compared; then the reset bit loads it, with the [OPTIONS] flags and the start
+    flag as chosen. An interrupted download leaves no program a reset could start.
+
+    Exit status: 0 downloaded, 1 errors in the program or the master refused or failed,
+    2 bad usage, an unreadable file or a corrupt board state.
+    """
+    ctx = click.get_current_context()
+    with connect(port, io, state_dir) as driver:
+        transport = Pc2Transport(driver)
+        entry_points = transport.entry_points()
+        prepared = prepare_image(file, entry_points=entry_points, lib=lib)
+        click.echo(render_text(prepared.diagnostics, prepared.texts), nl=False, err=True)
+        image = prepared.image
+        if image is None:
+            ctx.exit(int(ExitCode.FAILED))
+        linked_for(image, entry_points)
+        if prepared.compiled and image.source_left_out:
+            click.echo(
+                "asictl: warning: the source text does not fit in the EEPROM and is left "
+                "out; an upload will give [RAW] records instead of the program text",
+                err=True,
+            )
+        size = len(image.to_bytes())
+        steps = download_steps(size, transport.block_size)
+        with _progress(f"download {size} bytes", steps) as bar:
+            download(transport, image, start=StartMode(start), progress=bar)
+        state = control_summary(driver)
+    click.echo(f"{_name(port)}: downloaded {file} ({size} bytes, identity "
+               f"{image.identity_hex}); {state}", err=True)
+
+
+@click.command("upload")
+@_board_options
+@click.option(
+    "-o", "--output", required=True, type=click.Path(dir_okay=False), metavar="FILE.asi",
+    help="The source file to write; function-block files go beside it.",
+)
+@click.option(
+    "--overwrite", is_flag=True, help="Replace files that exist with other content (ACF /o+).",
+)
+def upload_command(
+    port: str, io: str, state_dir: str | None, output: str, overwrite: bool
+) -> None:
+    """Read the program back from the master into a source file (ACF /u+).
+
+    The image is read from the EEPROM and checked (CRC). If it carries its source, the
+    exact files it was compiled from are written: the main file as FILE.asi, the
+    function-block files beside it. Otherwise FILE.asi gets [OPTIONS], [SETUP] and the
+    image itself as [RAW] records. Either way, downloading FILE.asi stores the identical
+    image again (the file names are part of a program's identity: keep the main file's
+    name). Files that exist with other content are left alone (and nothing is written)
+    unless --overwrite is given.
+
+    Exit status: 0 uploaded, 1 no valid program in the master, a file not overwritten or
+    a failed command, 2 bad usage or a corrupt board state.
+    """
+    with connect(port, io, state_dir) as driver:
+        image = upload(Pc2Transport(driver))
+    written = write_files(uploaded_files(image, output), overwrite=overwrite)
+    source = "its source" if image.source else "[RAW] records (the image carries no source)"
+    click.echo(
+        f"{_name(port)}: uploaded {image.identity_hex} as {source}; "
+        + (f"wrote {', '.join(map(str, written))}" if written else "files already up to date"),
+        err=True,
+    )
+    main_name = next(iter(image.sources()), None)
+    if main_name is not None and main_name != Path(output).name:
+        click.echo(
+            f"asictl: note: the program's main file was '{main_name}'; compiled as "
+            f"'{Path(output).name}' it gets another identity",
+            err=True,
+        )
+
+
+def _control_command(name: str, help_text: str, action: Callable[[Pc2Transport], int]):
+    @click.command(name, help=help_text)
+    @_board_options
+    def command(port: str, io: str, state_dir: str | None) -> None:
+        with connect(port, io, state_dir) as driver:
+            action(Pc2Transport(driver))
+            state = control_summary(driver)
+        click.echo(f"{_name(port)}: {state}", err=True)
+
+    return command
+
+
+_EXIT_STATUS = (
+    "\n\nExit status: 0 done, 1 the master refused or did not answer, 2 bad usage or a "
+    "corrupt board state."
+)
+
+start_command = _control_command(
+    "start",
+    "Set the start flag: the control program runs as soon as the master permits "
+    "(normal operation, and no configuration error unless ignore_config_errors)." + _EXIT_STATUS,
+    lambda transport: set_start(transport, start=True),
+)
+stop_command = _control_command(
+    "stop",
+    "Clear the start flag: the control program stops and the master works as a plain "
+    "AS-i master (ACF /s-)." + _EXIT_STATUS,
+    lambda transport: set_start(transport, start=False),
+)
+reset_command = _control_command(
+    "reset",
+    "Set the reset bit: the master reloads the program from its EEPROM and clears the "
+    "program's flags; the start flag stays as it is." + _EXIT_STATUS,
+    reset,
+)
+
+
+@click.command("status")
+@_board_options
+@click.option("--json", "as_json", is_flag=True, help="One JSON object on stdout.")
+def status_command(port: str, io: str, state_dir: str | None, as_json: bool) -> None:
+    """Show the master's state, as the ASI_MON screen does.
+
+    Phase and mode, execution control flags, the slave lists LPS/LDS/LAS, configuration
+    errors (projected slaves missing, unprojected ones present, wrong I/O or ID code),
+    the control program (running or why not), its AS-i Control flags, the program image
+    in the EEPROM (identity, size, whether it is valid) and the program cycle times.
+
+    Exit status: 0 shown, 1 the master did not answer, 2 bad usage or a corrupt board state.
+    """
+    with connect(port, io, state_dir) as driver:
+        status = read_status(driver, _name(port))
+    if as_json:
+        click.echo(json.dumps(status.to_json(), indent=2))
+    else:
+        click.echo(render(status), nl=False)

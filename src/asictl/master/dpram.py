@@ -1,0 +1,253 @@
+"""The PC2 board's dual-port RAM map, command codes and flag bits (manual 7.2, 7.3, 10.2).
+
+Both sides of the three-register port import this module: the emulated board lays its
+state out by these addresses, the host driver reads and writes them. The addresses follow
+the reconstructed map in the reading guide (the manual's extracted table is shifted by one
+row; the sample drivers' constants fix it). Bytes 305h/306h are this board's own status
+bytes in the manual's reserved range 305h-30Fh (see docs/master.md).
+"""
+
+from __future__ import annotations
+
+from enum import IntEnum, IntFlag
+
+# --- the three I/O registers (manual 7.2) -------------------------------------------
+
+#: Offsets from the I/O base address (300h, 304h, ... 32Ch).
+PORT_DATA = 0
+PORT_INDEX = 1
+PORT_PAGE = 2
+#: PAGE register: bits 0-1 select the 256-byte page, bit 4 holds the board in reset.
+PAGE_MASK = 0x03
+PAGE_RESET_BIT = 0x10
+#: The I/O base addresses the jumpers J1-J3 select.
+IO_BASES = (0x300, 0x304, 0x308, 0x30C, 0x320, 0x324, 0x328, 0x32C)
+
+DPRAM_SIZE = 0x400
+PAGE_SIZE = 0x100
+
+# --- page 0: identification ---------------------------------------------------------
+
+MASTER_NAME = 0x0B0
+MASTER_NAME_SIZE = 48
+INSTALLED_SOFTWARE = 0x0E0
+INSTALLED_SOFTWARE_SIZE = 16
+VERSION_ID = 0x0F0
+VERSION_ID_SIZE = 8
+
+# --- page 1: AS-i master data -------------------------------------------------------
+
+WATCHDOG_ENABLE = 0x100
+WATCHDOG_COUNTER = 0x101
+IDI = 0x102
+EC_FLAGS = 0x112
+ODI = 0x113  # stored inverted
+HI_FLAGS = 0x123
+LAS = 0x124
+LDS = 0x128
+LPS = 0x12C
+CDI = 0x130
+PCD = 0x150
+PI = 0x170
+PP = 0x180
+LOS = 0x1D0
+COMMAND = 0x1F0
+DATA = 0x1F1
+ADDRESS = 0x1F2
+ADDRESS_EXT = 0x1F3
+CONFIG_OK_DELAY = 0x1FD
+INTERRUPT_ENABLE = 0x1FE
+INTERRUPT_EVENT = 0x1FF
+
+#: Sizes: data images carry two slaves a byte (slave 2n in the low nibble), slave lists
+#: one bit a slave (slave 0 = byte 0 bit 0), configuration images one byte a slave.
+IMAGE_SIZE = 16
+LIST_SIZE = 4
+CONFIG_SIZE = 32
+
+# --- pages 2-3: AS-i Control ----------------------------------------------------------
+
+COMM_MEMORY = 0x200
+COMM_MEMORY_SIZE = 256
+#: The control program's flag bytes F0..F127 are 200h-27Fh.
+FLAGS = 0x200
+FLAGS_SIZE = 128
+#: Program cycle times, 16-bit little-endian, in CYCLE_TIME_UNIT_US microseconds.
+CYCLE_TIME_PREVIOUS = 0x300
+CYCLE_TIME_MAXIMUM = 0x302
+CYCLE_TIME_UNIT_US = 10
+CONTROL_FLAGS = 0x304
+#: This board's additions in the reserved range 305h-30Fh (see docs/master.md).
+PROGRAM_STATUS = 0x305
+STOP_REASON = 0x306
+CONTROL_STATE = 0x307
+PROGRAM_BUFFER = 0x310
+PROGRAM_BUFFER_SIZE = 240
+
+# --- commands (manual 7.3) ------------------------------------------------------------
+
+
+class Command(IntEnum):
+    """Codes the host writes to the command byte 1F0h."""
+
+    SET_PERMANENT_PARAMETER = 3
+    WRITE_PARAMETER = 5
+    STORE_ACTUAL_PARAMETER = 7
+    SET_PERMANENT_CONFIGURATION = 8
+    STORE_ACTUAL_CONFIGURATION = 10
+    SET_LPS = 12
+    SET_OPERATION_MODE = 17
+    CHANGE_SLAVE_ADDRESS = 20
+    EXECUTE_COMMAND = 22
+    WRITE_CONTROL_FLAGS = 50
+    GET_STATUS = 51
+    DOWNLOAD = 52
+    UPLOAD = 53
+    WRITE_COMM_MEMORY = 54
+    READ_COMM_MEMORY = 56
+    READ_CLEAR_LCS = 70
+    READ_CLEAR_ERROR_COUNTERS = 71
+    SET_LOS = 72
+    UPDATE_DPRAM = 128
+    READ_TELEGRAM_COUNTERS = 129
+
+
+#: The command byte after execution.
+ACK = 0x00
+NAK = 0xFF
+
+#: The host's poll gives up after this long (the sample C driver).
+COMMAND_TIMEOUT_MS = 200
+
+#: Download/Upload address the EEPROM; 53 from ENTRY_TABLE_ADDRESS on reads the firmware's
+#: function-block entry points instead (16 x 2 bytes little-endian, manual 3.8.2 order).
+EEPROM_SIZE = 16 * 1024
+ENTRY_TABLE_ADDRESS = 0xFF00
+ENTRY_TABLE_SIZE = 32
+
+
+class Status(IntEnum):
+    """The status byte (manual 10.2.7): command 20 leaves it in ``data``."""
+
+    ERROR = 0x00
+    OK = 0x01
+    NO_SLAVE = 0x02
+    SLAVE_ZERO_PRESENT = 0x03
+    ADDRESS_OCCUPIED = 0x04
+    CANNOT_PROGRAM_ZERO = 0x05
+    CANNOT_SET_ADDRESS = 0x06
+    CANNOT_STORE_ADDRESS = 0x07
+
+
+# --- flag bytes (manual 10.2) -----------------------------------------------------------
+
+
+class EcFlag(IntFlag):
+    """Execution control flags, 112h (written by the master)."""
+
+    CONFIG_OK = 0x01
+    LDS_0 = 0x02
+    AUTO_ADDRESS_ASSIGN = 0x04
+    AUTO_ADDRESS_AVAILABLE = 0x08
+    CONFIGURATION_ACTIVE = 0x10
+    NORMAL_OPERATION_ACTIVE = 0x20
+    APF = 0x40
+    OFFLINE_READY = 0x80
+
+
+class HiFlag(IntFlag):
+    """Host interface flags, 123h (read by the master each cycle).
+
+    Bits 0 and 2 are transmitted inverted: the byte 00h means data exchange active,
+    not offline, automatic addressing enabled.
+    """
+
+    DATA_EXCHANGE_OFF = 0x01
+    OFFLINE = 0x02
+    AUTO_ADDRESS_OFF = 0x04
+
+
+class ControlFlag(IntFlag):
+    """AS-i Control flags, 304h.
+
+    ``WAIT_FOR_SET_BUTTON`` is the manual's "auto_start" bit with its inverted meaning:
+    set, a stopped program waits for the set button ([OPTIONS] ``auto_start: no``).
+    """
+
+    START = 0x01
+    RESET = 0x02
+    IGNORE_CONFIG_ERRORS = 0x04
+    WAIT_FOR_SET_BUTTON = 0x08
+    MAP_COUNTERS = 0x10
+    CONTROL_ACTIVE = 0x20
+
+
+#: The control flags the host may set with command 50 and that survive power-off.
+CONTROL_FLAGS_NONVOLATILE = (
+    ControlFlag.START
+    | ControlFlag.IGNORE_CONFIG_ERRORS
+    | ControlFlag.WAIT_FOR_SET_BUTTON
+    | ControlFlag.MAP_COUNTERS
+)
+
+
+class InterruptSource(IntFlag):
+    """Bits of interrupt enable 1FEh and interrupt event 1FFh."""
+
+    CONFIG_OK_CHANGE = 0x01
+    IDI_CHANGE = 0x02
+    ASI_CYCLE = 0x04
+
+
+class ProgramStatus(IntEnum):
+    """305h: what the last reset (command 50 with the reset bit) found in the EEPROM."""
+
+    LOADED = 0x00
+    NOT_LOADED = 0x01  # no reset since power-up
+    BAD_IMAGE = 0x02  # magic, version, length or CRC wrong
+
+
+class StopReason(IntEnum):
+    """306h: why the control program is not running (00h while it runs)."""
+
+    NONE = 0x00
+    NOT_STARTED = 0x01  # start flag clear
+    NO_PROGRAM = 0x02  # see PROGRAM_STATUS
+    NOT_NORMAL_OPERATION = 0x03  # master offline, in detection/activation, APF
+    CONFIG_ERROR = 0x04
+    CYCLE_TIMEOUT = 0x05
+
+
+class ControlState(IntEnum):
+    """307h: what the control program does next."""
+
+    IDLE = 0x00  # no program or start flag clear: nothing happens by itself
+    RUNNING = 0x01
+    WAITING = 0x02  # starts by itself once the master permits (normal operation, config_ok)
+    HALTED = 0x03  # stopped; waits for the set button or a new start by the host
+
+
+# --- data representation (manual 10.2.1, 10.2.2) ----------------------------------------
+
+
+def nibbles(image: bytes | bytearray) -> bytes:
+    """A two-slaves-a-byte image (IDI, ODI, PI, PP) as one value per slave, slave 0 first."""
+    return bytes(image[a >> 1] >> (a & 1) * 4 & 0xF for a in range(2 * len(image)))
+
+
+def pack_nibbles(values: bytes | bytearray) -> bytes:
+    """One value per slave packed two a byte: slave 2n low nibble, 2n+1 high nibble."""
+    return bytes(
+        values[2 * k] & 0xF | (values[2 * k + 1] & 0xF) << 4 for k in range(len(values) // 2)
+    )
+
+
+def slave_list(data: bytes | bytearray) -> set[int]:
+    """The addresses in a 4-byte slave list (slave 0 = byte 0 bit 0)."""
+    mask = int.from_bytes(data, "little")
+    return {a for a in range(8 * len(data)) if mask >> a & 1}
+
+
+def list_bytes(addresses: set[int] | list[int]) -> bytes:
+    """A 4-byte slave list of the given addresses."""
+    return sum(1 << a for a in set(addresses)).to_bytes(LIST_SIZE, "little")
