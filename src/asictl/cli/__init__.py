@@ -35,6 +35,8 @@ COMMANDS: dict[str, tuple[str, str]] = {
         "asictl.cli.master:reset_command", "Reload the master's program from its EEPROM."
     ),
     "status": ("asictl.cli.master:status_command", "Show the master's state (like ASI_MON)."),
+    "sim": ("asictl.cli.sim:sim", "Run a program on an emulated master against a scenario."),
+    "test": ("asictl.cli.sim:test", "Run every *.scenario.toml and report N passed, M failed."),
 }
 
 

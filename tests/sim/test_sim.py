@@ -1,0 +1,132 @@
+"""``asictl sim`` and ``asictl test`` end to end: the manual's examples as scenarios,
+failure reports, program stops, determinism, JUnit output, bad input."""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+from pathlib import Path
+from xml.etree import ElementTree
+
+import pytest
+from click.testing import CliRunner
+
+from asictl.cli import main
+from asictl.master import dpram as d
+from asictl.sim.engine import Simulation, load_program_for
+from asictl.sim.scenario import load_scenario
+
+SCENARIOS = Path(__file__).resolve().parents[1] / "scenarios"
+
+
+def run(*args: str):
+    return CliRunner().invoke(main, list(args))
+
+
+@pytest.mark.parametrize("name", sorted(p.name for p in SCENARIOS.glob("*.scenario.toml")))
+def test_manual_example_scenarios_pass(name: str):
+    result = run("sim", "--scenario", str(SCENARIOS / name))
+    assert result.exit_code == 0, result.output
+    assert ", 0 failed" in result.output
+
+
+def test_set_pp_example_changes_the_masters_permanent_parameter():
+    program, image, _ = load_program_for(SCENARIOS / "set_pp.asi")
+    scenario = load_scenario(SCENARIOS / "set_pp.scenario.toml", program.main)
+    sim = Simulation(program, image, scenario)
+    sim.run()
+    assert sim.board.dpram[d.PP + 8] >> 4 == 0x0A  # slave 17: high nibble of byte 8
+
+
+def write(tmp_path: Path, name: str, text: str) -> str:
+    path = tmp_path / name
+    path.write_text(text)
+    return str(path)
+
+
+def test_a_failed_expectation_is_reported_with_line_and_exit_1(tmp_path: Path):
+    program = str(SCENARIOS / "blink.asi")
+    scenario = write(tmp_path, "s.toml", (
+        f'program = "{program}"\n[master]\ncycle_ms = 5\n'
+        '[[step]]\nat_ms = 250\nexpect = { "Q 31.0" = 0 }\n'
+    ))
+    result = run("sim", "--scenario", scenario)
+    assert result.exit_code == 1
+    assert f"{scenario}:6: at 250 ms: Q 31.0 expected 0, got 1" in result.output
+    assert "1 expectation, 1 failed" in result.output
+
+
+def test_program_stops_are_reported_with_their_time(tmp_path: Path):
+    program = write(tmp_path, "loop.asi", (
+        "[SETUP]\n1: iiii, 0\n[PROGRAM]\n    A I 1.0\n    JC = stuck\n    BE\n"
+        "stuck: JU = stuck\n"
+    ))
+    scenario = write(tmp_path, "s.toml", (
+        '[master]\ncycle_ms = 5\n[[step]]\nat_ms = 50\nset = { "I 1.0" = 1 }\n'
+        '[[step]]\nat_ms = 100\nexpect = { "QB 0" = 0 }\n'
+    ))
+    result = run("sim", program, "--scenario", scenario, "--json")
+    assert result.exit_code == 0, result.output
+    report = json.loads(result.output)
+    [stop] = report["stops"]
+    assert 50 <= stop["at_ms"] <= 60 and "cycle" in stop["reason"]
+
+
+def test_same_scenario_twice_gives_identical_vcd_and_csv(tmp_path: Path):
+    outputs = []
+    for i in range(2):
+        vcd, csv = tmp_path / f"{i}.vcd", tmp_path / f"{i}.csv"
+        result = run("sim", "--scenario", str(SCENARIOS / "or_and_not.scenario.toml"),
+                     "--vcd", str(vcd), "--csv", str(csv))
+        assert result.exit_code == 0, result.output
+        outputs.append((vcd.read_bytes(), csv.read_bytes()))
+    assert outputs[0] == outputs[1]
+    assert b"Q_17_3" in outputs[0][0] and b"I 4.0" in outputs[0][1]
+
+
+def test_setting_a_slave_that_is_not_on_the_bus_is_bad_input(tmp_path: Path):
+    scenario = write(tmp_path, "s.toml", (
+        f'program = "{SCENARIOS / "blink.asi"}"\n[[step]]\nat_ms = 5\nset = {{ "I 9.0" = 1 }}\n'
+    ))
+    result = run("sim", "--scenario", scenario)
+    assert result.exit_code == 2
+    assert f"{scenario}:4:1: error: at 5 ms: 'I 9.0' sets slave 9, which is not on the bus" \
+        in result.stderr
+
+
+def test_unknown_operand_is_bad_input_with_its_line(tmp_path: Path):
+    scenario = write(tmp_path, "s.toml", (
+        f'program = "{SCENARIOS / "blink.asi"}"\n[[step]]\nat_ms = 5\nexpect = {{ "Z 1.0" = 1 }}\n'
+    ))
+    result = run("sim", "--scenario", scenario)
+    assert result.exit_code == 2
+    assert f"{scenario}:4:12: error:" in result.stderr
+
+
+def test_test_command_summary_and_junit(tmp_path: Path):
+    (tmp_path / "blink.asi").write_text((SCENARIOS / "blink.asi").read_text())
+    (tmp_path / "blink.scenario.toml").write_text(
+        '[master]\ncycle_ms = 5\n[[step]]\nat_ms = 250\nexpect = { "Q 31.0" = 1 }\n'
+    )
+    (tmp_path / "bad.scenario.toml").write_text(
+        f'program = "{tmp_path / "blink.asi"}"\n[master]\ncycle_ms = 5\n'
+        '[[step]]\nat_ms = 750\nexpect = { "Q 31.0" = 1 }\n'
+    )
+    junit = tmp_path / "out.xml"
+    result = run("test", str(tmp_path), "--junit", str(junit))
+    assert result.exit_code == 1
+    assert result.output.splitlines()[-1] == "1 passed, 1 failed"
+    assert "FAIL " in result.output and "PASS " in result.output
+    suite = ElementTree.parse(junit).getroot()
+    assert (suite.get("tests"), suite.get("failures")) == ("2", "1")
+
+
+def test_plot(tmp_path: Path):
+    png = tmp_path / "b.png"
+    result = run("sim", "--scenario", str(SCENARIOS / "blink.scenario.toml"), "--plot", str(png))
+    if importlib.util.find_spec("matplotlib") is None:
+        assert result.exit_code == 2
+        assert "pip install 'asictl[plot]'" in result.stderr
+    else:
+        assert result.exit_code == 0, result.output
+        assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
