@@ -48,6 +48,7 @@ def _program_for(scenario_path: Path) -> Path:
 
 @dataclass
 class _Run:
+    program: Path
     scenario: Scenario
     result: SimResult
     seconds: float
@@ -90,7 +91,7 @@ def _run(
     except DiagnosticError as exc:
         _show(exc, {**texts, **_texts(scenario_path)})
         raise _Invalid from None
-    return _Run(scenario, result, time.perf_counter() - start)
+    return _Run(Path(program_path), scenario, result, time.perf_counter() - start)
 
 
 def _report_lines(run: _Run) -> list[str]:
@@ -171,8 +172,7 @@ def sim(
         if csv_path:
             write_atomic(csv_path, to_csv(trace))
         if plot:
-            name = Path(program or run.scenario.program or "program").name
-            write_plot(trace, plot, title=f"{name}: {run.scenario.file}")
+            write_plot(trace, plot, title=f"{run.program.name}: {run.scenario.file}")
     if as_json:
         click.echo(json.dumps(_as_json(run), indent=2))
     else:

@@ -290,6 +290,8 @@ def _trace_signals(program: Program) -> list[tuple[Signal, Callable[[Simulation]
             items: list[tuple[object, bool]] = []
             if isinstance(section, ast.ProgramSection):
                 for s in section.statements:
+                    if isinstance(s, ast.Param):  # PARAM answers in flag byte 127
+                        flags.add("FY 127")
                     operand = getattr(s, "operand", None)
                     writes = isinstance(s, ast.Store | ast.Transfer)
                     items.append((operand, writes))

@@ -132,7 +132,7 @@ def write_plot(trace: Trace, path: Path, *, title: str) -> None:
             ax.tick_params(axis="y", labelsize=7)
             for (x0, y), x1 in zip(zip(xs, ys, strict=False), xs[1:], strict=False):
                 if x1 > x0 and (x1 - x0) > (end / scale) / 40:
-                    ax.text((x0 + x1) / 2, y, str(y), ha="center", va="bottom", fontsize=7)
+                    ax.text((x0 + x1) / 2, y, f"{y:02X}h", ha="center", va="bottom", fontsize=7)
         ax.set_ylabel(signal.name, rotation=0, ha="right", va="center", fontsize=9)
         ax.grid(axis="x", alpha=0.3)
         for side in ("top", "right"):
