@@ -1,0 +1,121 @@
+"""Simulation speed: one hour of master time against awlsim running the same logic.
+
+The program has 50 bit-logic networks, a 500 ms blinker on a timer, and a flag that
+toggles every cycle, so no program cycle leaves the machine unchanged (the master skips
+cycles that would change nothing; this benchmark makes every cycle count). With a fixed
+5 ms cycle an hour is 720,000 program cycles. awlsim (pip package ``awlsim``) runs the
+equivalent STL program with ``AwlSim.runCycle()`` for a fixed number of cycles. Usage:
+
+    python3 benchmarks/bench_sim.py [--hours 1] [--awlsim-cycles 50000]
+"""
+
+from __future__ import annotations
+
+import argparse
+import random
+import tempfile
+import time
+from pathlib import Path
+
+from asictl.sim.engine import Simulation, load_program_for
+from asictl.sim.scenario import Scenario
+
+NETWORKS = 50
+
+
+def networks(seed: int = 7) -> list[tuple[str, tuple[int, int], tuple[int, int], tuple[int, int],
+                                     tuple[int, int]]]:
+    rng = random.Random(seed)
+    return [
+        (rng.choice("AO"), (rng.randrange(1, 16), rng.randrange(4)),
+         (rng.randrange(1, 16), rng.randrange(4)), (rng.randrange(16), rng.randrange(8)),
+         (rng.randrange(16, 31), rng.randrange(4)))
+        for _ in range(NETWORKS)
+    ]
+
+
+def il_program() -> str:
+    lines = ["[SETUP]", *(f"{a}: iiii, 0" for a in range(1, 16)),
+             *(f"{a}: oooo, 0" for a in range(16, 31)), "[PROGRAM]"]
+    for op, i1, i2, flag, q in networks():
+        lines += [f"    A I {i1[0]}.{i1[1]}", f"    AN I {i2[0]}.{i2[1]}",
+                  f"    {op} F {flag[0]}.{flag[1]}", f"    = Q {q[0]}.{q[1]}", "***"]
+    lines += ["    AN F 20.0", "    = F 20.0", "***",  # toggles every cycle
+              "    A T 0", "    JC = end", "    N", "    L KT 500", "    S T 0", "***",
+              "    AN Q 31.0", "    = Q 31.0", "end: BE"]
+    return "\n".join(lines) + "\n"
+
+
+def stl_program() -> str:
+    lines = ["ORGANIZATION_BLOCK OB 1", "BEGIN"]
+    for op, i1, i2, flag, q in networks():
+        lines += [f"\tU E {i1[0]}.{i1[1]}", f"\tUN E {i2[0]}.{i2[1]}",
+                  f"\t{'U' if op == 'A' else 'O'} M {flag[0]}.{flag[1]}",
+                  f"\t= A {q[0]}.{q[1]}"]
+    lines += ["\tUN M 20.0", "\t= M 20.0",
+              "\tUN T 0", "\tL S5T#500MS", "\tSV T 0",
+              "\tU T 0", "\tFP M 21.0", "\tSPBN m001",
+              "\tUN A 31.0", "\t= A 31.0", "m001:\tNOP 0", "END_ORGANIZATION_BLOCK"]
+    return "\n".join(lines) + "\n"
+
+
+def run_asictl(hours: float) -> tuple[float, int, int]:
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "bench.asi"
+        path.write_text(il_program())
+        program, image, _ = load_program_for(path)
+    duration = hours * 3_600_000
+    scenario = Scenario("<bench>", None, 5.0, None, [])
+    sim = Simulation(program, image, scenario, duration_ms=duration)
+    sim.start()
+    runner = sim.board.program
+    executed = 0
+    original = runner.cycle
+
+    def counting(*args, **kwargs):
+        nonlocal executed
+        executed += 1
+        return original(*args, **kwargs)
+
+    runner.cycle = counting
+    start = time.perf_counter()
+    sim.board.advance(duration)
+    return time.perf_counter() - start, round(duration / 5), executed
+
+
+def run_awlsim(cycles: int) -> float:
+    # awlsim's own imports work only when its core comes before its parser
+    from awlsim.core.main import AwlSim  # isort: skip
+    from awlsim.awlcompiler.tokenizer import AwlParser  # isort: skip
+
+    parser = AwlParser()
+    parser.parseData(stl_program().encode())
+    sim = AwlSim()
+    sim.load(parser.getParseTree())
+    sim.startup()
+    start = time.perf_counter()
+    for _ in range(cycles):
+        sim.runCycle()
+    return cycles / (time.perf_counter() - start)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--hours", type=float, default=1.0)
+    parser.add_argument("--awlsim-cycles", type=int, default=50_000)
+    args = parser.parse_args()
+    wall, cycles, executed = run_asictl(args.hours)
+    ours = cycles / wall
+    print(f"asictl: {args.hours:g} h of master time, {cycles} program cycles "
+          f"({executed} executed) in {wall:.1f} s: {ours:,.0f} cycles/s")
+    try:
+        theirs = run_awlsim(args.awlsim_cycles)
+    except ImportError:
+        print("awlsim is not installed (pip install awlsim): no comparison")
+        return
+    print(f"awlsim: {theirs:,.0f} cycles/s ({args.awlsim_cycles} cycles of the same logic)")
+    print(f"ratio:  {ours / theirs:.2f}x (target >= 3x)")
+
+
+if __name__ == "__main__":
+    main()
