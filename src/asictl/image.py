@@ -46,6 +46,14 @@ _HEADER = struct.Struct("<4sBBHIB16s4s32s16sHHHH")
 HEADER_SIZE = _HEADER.size
 _CRC_OFFSET = 8
 
+
+def image_length(header: bytes) -> int:
+    """The total length an image's header announces, or 0 where no image starts: how much
+    of the EEPROM an upload reads and a reset loads."""
+    if len(header) < HEADER_SIZE or header[: len(MAGIC)] != MAGIC:
+        return 0
+    return _HEADER.unpack_from(header)[3]
+
 # Image flags (header byte 5).
 SOURCE_INCLUDED = 0x01
 SOURCE_LEFT_OUT = 0x02  # left out because it did not fit, not because it was not wanted

@@ -12,7 +12,7 @@ would only loop again. docs/master.md has the table of states and reasons.
 from __future__ import annotations
 
 from asictl.firmware import FirmwareServices
-from asictl.image import MAGIC, ImageError, ProgramImage
+from asictl.image import ImageError, ProgramImage, image_length
 from asictl.master.dpram import (
     CONTROL_FLAGS_NONVOLATILE,
     FLAGS,
@@ -25,9 +25,6 @@ from asictl.master.dpram import (
 from asictl.mcs51.bus import Bus
 from asictl.runtime import ProgramRunner
 
-#: The image header's total-length field (docs/image-format.md): how much of the EEPROM
-#: the image occupies.
-_IMAGE_LENGTH = slice(6, 8)
 #: 12 clocks a machine cycle at 11.0592 MHz (docs/runtime.md).
 MACHINE_CYCLE_US = 12 / 11.0592
 
@@ -98,11 +95,11 @@ class AsiControl:
         self.halted = False
         self.runner, self.image, self.load_error = None, None, ""
         self.previous_us = self.maximum_us = 0.0
-        if eeprom[: len(MAGIC)] != MAGIC:
+        length = image_length(eeprom)
+        if not length:
             self.program_status = ProgramStatus.NOT_LOADED
             self.load_error = "the EEPROM holds no program image"
         else:
-            length = int.from_bytes(eeprom[_IMAGE_LENGTH], "little")
             try:
                 self.image = ProgramImage.from_bytes(eeprom[:length])
             except ImageError as exc:

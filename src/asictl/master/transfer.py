@@ -20,7 +20,15 @@ from typing import Protocol
 
 from asictl.errors import ExitCode, UserError
 from asictl.firmware import FIRMWARE_BLOCKS
-from asictl.image import EEPROM_SIZE, HEADER_SIZE, MAGIC, Configuration, ImageError, ProgramImage
+from asictl.image import (
+    EEPROM_SIZE,
+    HEADER_SIZE,
+    MAGIC,
+    Configuration,
+    ImageError,
+    ProgramImage,
+    image_length,
+)
 from asictl.master.dpram import (
     CONTROL_FLAGS,
     ENTRY_TABLE_ADDRESS,
@@ -37,9 +45,6 @@ from asictl.master.dpram import (
 from asictl.master.driver import Pc2Driver
 from asictl.master.jobs import JobError, JobStatus
 
-#: Where the image header keeps the image's total length (docs/image-format.md).
-_LENGTH_FIELD = struct.Struct("<H")
-_LENGTH_OFFSET = 6
 #: What the first write of a download puts over the magic.
 _NO_MAGIC = bytes(len(MAGIC))
 #: Flags the host may write with command 50; the others read back but are the master's.
@@ -221,13 +226,6 @@ def _start_flag(transport: Transport, start: StartMode) -> int:
 
 
 # --------------------------------------------------------------------------- upload
-
-
-def image_length(header: bytes) -> int:
-    """The total length an image header announces, or 0 if there is no image."""
-    if len(header) < HEADER_SIZE or header[: len(MAGIC)] != MAGIC:
-        return 0
-    return _LENGTH_FIELD.unpack_from(header, _LENGTH_OFFSET)[0]
 
 
 def upload(transport: Transport) -> ProgramImage:
