@@ -35,3 +35,8 @@ def as31_path() -> str:
 @pytest.fixture(scope="session")
 def s51_path() -> str:
     return require_tool("s51", "sdcc-ucsim")
+
+
+@pytest.fixture(scope="session")
+def mbpoll_path() -> str:
+    return require_tool("mbpoll", "mbpoll")

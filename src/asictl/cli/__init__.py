@@ -36,6 +36,9 @@ COMMANDS: dict[str, tuple[str, str]] = {
     ),
     "status": ("asictl.cli.master:status_command", "Show the master's state (like ASI_MON)."),
     "sim": ("asictl.cli.sim:sim", "Run a program on an emulated master against a scenario."),
+    "gateway": (
+        "asictl.cli.gateway:gateway", "Serve the emulated AS-i/Modbus gateway (Modbus TCP/RTU)."
+    ),
     "test": ("asictl.cli.sim:test", "Run every *.scenario.toml and report N passed, M failed."),
 }
 

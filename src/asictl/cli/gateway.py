@@ -1,0 +1,89 @@
+"""``asictl gateway serve``: the emulated AS-i/Modbus gateway in front of a PC2 board.
+
+The gateway serves the same persistent emulated board that ``download``/``upload``/``status
+--port`` use, holding its lock while it runs, so a program downloaded over Modbus is the one
+a PC2-port upload reads back afterwards (docs/modbus.md).
+"""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import time
+
+import click
+
+from asictl.errors import UserError
+from asictl.files import write_atomic
+from asictl.master.state import emulated_board, parse_port, state_directory, state_file
+
+#: The board's non-volatile state is written this often while serving (and at the end).
+SAVE_INTERVAL_S = 10.0
+
+
+def _tcp_address(text: str) -> tuple[str, int]:
+    host, sep, port = text.rpartition(":")
+    if not sep or not port.isdigit() or not 0 <= int(port) <= 65535:
+        raise UserError(f"--tcp '{text}': expected HOST:PORT, e.g. 127.0.0.1:5020")
+    return host or "127.0.0.1", int(port)
+
+
+@click.group()
+def gateway() -> None:
+    """The emulated AS-i/Modbus gateway VAG-MOD-KF-R4."""
+
+
+@gateway.command("serve")
+@click.option(
+    "--tcp", "tcp", metavar="HOST:PORT",
+    help="Serve Modbus/TCP here [default: 127.0.0.1:5020 unless --rtu is given].",
+)
+@click.option("--rtu", metavar="DEVICE", help="Serve Modbus RTU on this serial device.")
+@click.option("--baud", type=int, default=9600, show_default=True)
+@click.option("--parity", type=click.Choice(["N", "E", "O"]), default="N", show_default=True)
+@click.option("--stopbits", type=click.Choice(["1", "2"]), default="1", show_default=True)
+@click.option("--unit", type=click.IntRange(1, 247), default=1, show_default=True,
+              help="The gateway's Modbus slave address (0 is broadcast).")
+@click.option("--port", default="300h", show_default=True,
+              help="The emulated PC2 board (by I/O base) the gateway serves.")
+@click.option("--state-dir", type=click.Path(file_okay=False),
+              help="Where emulated boards are kept (as for download/upload).")
+def serve(
+    tcp: str | None, rtu: str | None, baud: int, parity: str, stopbits: str, unit: int,
+    port: str, state_dir: str | None,
+) -> None:
+    """Serve the board over Modbus until Ctrl-C; its state is saved periodically and at exit."""
+    from asictl.gateway.server import GatewayServer, SerialSettings
+    from asictl.gateway.slave import GatewaySlave
+
+    base = parse_port(port)
+    directory = state_directory(state_dir)
+    address = _tcp_address(tcp) if tcp else (None if rtu else ("127.0.0.1", 5020))
+    line = SerialSettings(rtu, baud, parity, int(stopbits)) if rtu else None
+    with emulated_board(base, directory) as board:
+        slave = GatewaySlave(board, unit)
+        path = state_file(directory, base)
+        saved = [time.monotonic()]
+
+        def save_now_and_then() -> None:
+            if time.monotonic() - saved[0] >= SAVE_INTERVAL_S:
+                saved[0] = time.monotonic()
+                write_atomic(path, json.dumps(board.nonvolatile(), indent=1, sort_keys=True) + "\n")
+
+        server = GatewayServer(slave, on_tick=save_now_and_then)
+
+        def started() -> None:
+            where = [f"tcp {server.tcp_address[0]}:{server.tcp_address[1]}"] if address else []
+            where += [f"rtu {rtu} {baud} {parity}{stopbits}"] if rtu else []
+            click.echo(
+                f"asictl: gateway unit {unit} for board {port} serving "
+                + ", ".join(where) + " (Ctrl-C stops)",
+                err=True,
+            )
+
+        try:
+            asyncio.run(server.serve(address, line, started=started))
+        except OSError as exc:
+            raise UserError(f"cannot serve: {exc.strerror or exc}") from None
+        except KeyboardInterrupt:
+            click.echo("asictl: gateway stopped", err=True)

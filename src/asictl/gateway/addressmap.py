@@ -1,0 +1,579 @@
+"""The VAG-MOD-KF-R4's Modbus address map (gateway manual chapter 7) over a PC2 master model.
+
+The gateway is a Modbus slave in front of the same AS-i master with AS-i Control that the
+PC2 card carries, so this map owns no AS-i state: it reads the master's DPRAM and writes it,
+and runs the master's host commands, through the board's own register interface
+(``Pc2Driver`` over ``EmulatedPort``). What the Modbus side changes is then exactly what a
+download, upload or status over the PC2 port sees, and vice versa.
+
+Only the gateway's own settings live here: the key lock, the Modbus watchdog time, the
+addresses latched for Change_Slave_Address / Execute_Command, and the return value of the
+last execution-control function (function 7). Layouts and inversions: docs/modbus.md.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from enum import IntEnum
+
+from asictl.master import dpram as d
+from asictl.master.asi import SLAVES
+from asictl.master.board import Pc2Board
+from asictl.master.dpram import Command, ControlFlag, Status
+from asictl.master.driver import EmulatedPort, Pc2Driver
+from asictl.master.execution import Phase
+from asictl.master.jobs import JobError
+
+#: The manual's limit on registers per telegram (functions 3, 4, 16).
+MAX_REGISTERS = 15
+#: Bits per telegram (functions 1, 2, 15): the same 30 data bytes as 15 registers.
+MAX_BITS = 16 * MAX_REGISTERS
+
+#: Function 7's byte: MSB = the last execution-control function failed.
+EXCEPTION_STATUS_ERROR = 0x80
+
+
+class ExceptionCode(IntEnum):
+    """Modbus exception codes the gateway answers with."""
+
+    ILLEGAL_FUNCTION = 1
+    ILLEGAL_DATA_ADDRESS = 2
+    ILLEGAL_DATA_VALUE = 3
+    SLAVE_DEVICE_FAILURE = 4
+
+
+class ModbusError(Exception):
+    """A request the gateway answers with an exception response."""
+
+    def __init__(self, code: ExceptionCode, message: str) -> None:
+        super().__init__(message)
+        self.code = code
+
+
+class ExecutionRegister(IntEnum):
+    """Holding registers 1000..1009 (the manual's 41001..41010)."""
+
+    SET_OPERATION_MODE = 1000
+    CHANGE_ADDRESS_OLD = 1001
+    CHANGE_ADDRESS_NEW = 1002
+    STORE_ACTUAL_PARAMETERS = 1003
+    STORE_ACTUAL_CONFIGURATION = 1004
+    EXECUTE_COMMAND_ADDRESS = 1005
+    EXECUTE_COMMAND_INFORMATION = 1006
+    KEY_LOCK = 1007
+    WATCHDOG = 1008
+    START_STOP = 1009
+
+
+@dataclass
+class GatewaySettings:
+    """The gateway's own volatile state (all of it is lost at power-off, as on the device)."""
+
+    key_lock: bool = False
+    #: Modbus watchdog time in 10 ms units, 0 = off
+    watchdog: int = 0
+    #: longest pause between two telegrams to this slave while the watchdog is on, 10 ms units
+    longest_pause: int = 0
+    change_address_old: int = 0
+    execute_command_address: int = 0
+    last_new_address: int = 0
+    last_information: int = 0
+    exception_status: int = 0
+
+
+def _bit(value: int, bit: int) -> bool:
+    return bool(value >> bit & 1)
+
+
+class AddressMap:
+    """Coils, discrete inputs, holding and input registers of chapter 7 over one board."""
+
+    def __init__(self, board: Pc2Board) -> None:
+        self.board = board
+        self.driver = Pc2Driver(EmulatedPort(board))
+        self.settings = GatewaySettings()
+        self._holding_readers, self._holding_writers = self._holding_table()
+
+    # ------------------------------------------------------------------ DPRAM access
+
+    def _ram(self, address: int, size: int = 1) -> bytes:
+        return self.board.dpram[address : address + size]
+
+    def _byte(self, address: int) -> int:
+        return self.board.dpram[address]
+
+    def _nibble(self, image: int, slave: int) -> int:
+        return self._byte(image + slave // 2) >> (slave & 1) * 4 & 0xF
+
+    def _list(self, address: int) -> int:
+        return int.from_bytes(self._ram(address, d.LIST_SIZE), "little")
+
+    def command(
+        self, code: Command, data: int = 0, address: int = 0, ext: int = 0
+    ) -> tuple[bool, int]:
+        """Run a host command to its end: (acknowledged, the byte it left in ``data``)."""
+        try:
+            return True, self.driver.command(code, data, address, ext)
+        except JobError:
+            return False, self.driver.read_byte(d.DATA)
+
+    def _record(self, ok: bool, answer: int = 0) -> None:
+        """Function 7's byte for the execution-control function just performed."""
+        self.settings.exception_status = (0 if ok else EXCEPTION_STATUS_ERROR) | answer & 0xF
+
+    # ------------------------------------------------------------------ output data, PI, PP
+
+    def _odi(self) -> bytearray:
+        """The output image as values (the DPRAM holds it inverted)."""
+        return bytearray(255 - b for b in self._ram(d.ODI, d.IMAGE_SIZE))
+
+    def _write_odi(self, image: bytearray) -> None:
+        self.driver.write(d.ODI, bytes(255 - b for b in image))
+
+    def _output_nibble(self, slave: int) -> int:
+        return self._odi()[slave // 2] >> (slave & 1) * 4 & 0xF
+
+    def _set_output_nibbles(self, values: dict[int, int]) -> None:
+        image = self._odi()
+        for slave, value in values.items():
+            shift = (slave & 1) * 4
+            image[slave // 2] = image[slave // 2] & ~(0xF << shift) | (value & 0xF) << shift
+        self._write_odi(image)
+
+    def _write_parameter(self, slave: int, value: int) -> None:
+        """Write_Parameter (command 5): function 7 gets the slave's answer in bits 0-3."""
+        ok, answer = self.command(Command.WRITE_PARAMETER, value, slave)
+        self._record(ok, answer if ok else 0)
+
+    def _set_permanent_parameters(self, values: dict[int, int]) -> None:
+        pp = bytearray(d.nibbles(self._ram(d.PP, d.IMAGE_SIZE)))
+        for slave, value in values.items():
+            pp[slave] = value
+        self.driver.write(d.PP, d.pack_nibbles(pp))
+        self._record(self.command(Command.SET_PERMANENT_PARAMETER)[0])
+
+    def _set_lps(self, lps: int) -> None:
+        self.driver.write(d.LPS, lps.to_bytes(d.LIST_SIZE, "little"))
+        self._record(self.command(Command.SET_LPS)[0])
+
+    def _set_pcd(self, values: dict[int, int]) -> None:
+        """Modbus PCD: ID code in bits 0-3, I/O code in 4-7; the DPRAM byte is the other way."""
+        pcd = bytearray(self._ram(d.PCD, d.CONFIG_SIZE))
+        for slave, value in values.items():
+            pcd[slave] = (value & 0xF) << 4 | value >> 4
+        self.driver.write(d.PCD, bytes(pcd))
+        self._record(self.command(Command.SET_PERMANENT_CONFIGURATION)[0])
+
+    def _set_hi_flags(self, bits: int) -> None:
+        """hi-flags as Modbus shows them: bits 0 and 2 inverted, exactly the DPRAM byte 123h."""
+        self.driver.write_byte(d.HI_FLAGS, bits & 0x07)
+
+    # ------------------------------------------------------------------ coils
+
+    def _coil(self, address: int) -> tuple[Callable[[], bool], Callable[[bool], None]] | None:
+        """Reader and writer of one coil, or None where the map has none."""
+        if 0 <= address < 4 * SLAVES:
+            slave, bit = divmod(address, 4)
+            return (
+                lambda: _bit(self._output_nibble(slave), bit),
+                lambda on: self._set_output_nibbles(
+                    {slave: self._output_nibble(slave) & ~(1 << bit) | on << bit}
+                ),
+            )
+        if 128 <= address <= 130:
+            bit = address - 128
+            return (
+                lambda: _bit(self._byte(d.HI_FLAGS), bit),
+                lambda on: self._set_hi_flags(self._byte(d.HI_FLAGS) & ~(1 << bit) | on << bit),
+            )
+        if 200 <= address < 200 + SLAVES:
+            slave = address - 200
+            return (
+                lambda: _bit(self._list(d.LPS), slave),
+                lambda on: self._set_lps(self._list(d.LPS) & ~(1 << slave) | on << slave),
+            )
+        if 300 <= address < 300 + 4 * SLAVES:
+            slave, bit = divmod(address - 300, 4)
+            return (
+                lambda: _bit(self._nibble(d.PI, slave), bit),
+                lambda on: self._write_parameter(
+                    slave, self._nibble(d.PI, slave) & ~(1 << bit) | on << bit
+                ),
+            )
+        if 500 <= address < 500 + 4 * SLAVES:
+            slave, bit = divmod(address - 500, 4)
+            return (
+                lambda: _bit(self._nibble(d.PP, slave), bit),
+                lambda on: self._set_permanent_parameters(
+                    {slave: self._nibble(d.PP, slave) & ~(1 << bit) | on << bit}
+                ),
+            )
+        return None
+
+    def _coils(self, address: int, count: int) -> list[tuple[Callable, Callable]]:
+        _check_count(count, MAX_BITS)
+        found = [self._coil(a) for a in range(address, address + count)]
+        if None in found:
+            raise ModbusError(
+                ExceptionCode.ILLEGAL_DATA_ADDRESS,
+                f"no coil at {found.index(None) + address}",
+            )
+        return found  # type: ignore[return-value]
+
+    def read_coils(self, address: int, count: int) -> list[bool]:
+        return [read() for read, _ in self._coils(address, count)]
+
+    def write_coils(self, address: int, values: list[bool]) -> None:
+        for (_, write), value in zip(self._coils(address, len(values)), values, strict=True):
+            write(bool(value))
+
+    # ------------------------------------------------------------------ discrete inputs
+
+    def _input_bit(self, address: int) -> bool | None:
+        if 0 <= address < 4 * SLAVES:
+            slave, bit = divmod(address, 4)
+            return _bit(self._nibble(d.IDI, slave), bit)
+        if 128 <= address <= 135:
+            return _bit(self._byte(d.EC_FLAGS), address - 128)
+        if 300 <= address < 300 + SLAVES:
+            return _bit(self._list(d.LAS), address - 300)
+        if 400 <= address < 400 + SLAVES:
+            return _bit(self._list(d.LDS), address - 400)
+        return None
+
+    def read_discrete_inputs(self, address: int, count: int) -> list[bool]:
+        _check_count(count, MAX_BITS)
+        values = [self._input_bit(a) for a in range(address, address + count)]
+        if None in values:
+            raise ModbusError(
+                ExceptionCode.ILLEGAL_DATA_ADDRESS,
+                f"no discrete input at {values.index(None) + address}",
+            )
+        return values  # type: ignore[return-value]
+
+    # ------------------------------------------------------------------ register layouts
+
+    def _data_register(self, nibble: Callable[[int], int], k: int) -> int:
+        """Four slaves a register: slave 4k in bits 12-15 ... slave 4k+3 in bits 0-3."""
+        return sum(nibble(4 * k + j) << 4 * (3 - j) for j in range(4))
+
+    def _list_word(self, address: int, half: int) -> int:
+        return self._list(address) >> 16 * half & 0xFFFF
+
+    def _pcd_register(self, image: int, slave: int) -> int:
+        """DPRAM byte (I/O low, ID high) as Modbus shows it (ID low, I/O next)."""
+        value = self._byte(image + slave)
+        return (value & 0xF) << 4 | value >> 4
+
+    def _flags_word(self) -> int:
+        return self._byte(d.EC_FLAGS) | (self._byte(d.HI_FLAGS) & 0x07) << 8
+
+    def _memory_byte(self, n: int) -> int:
+        return self._byte(d.FLAGS + n)
+
+    def _input_registers(self) -> dict[int, Callable[[], int]]:
+        table: dict[int, Callable[[], int]] = {}
+        for k in range(8):
+            table[k] = lambda k=k: self._data_register(lambda s: self._nibble(d.IDI, s), k)
+        table[8] = lambda: self._byte(d.EC_FLAGS)
+        for half in range(2):
+            table[9 + half] = lambda h=half: self._list_word(d.LAS, h)
+            table[11 + half] = lambda h=half: self._list_word(d.LDS, h)
+        for slave in range(SLAVES):
+            table[100 + slave] = lambda s=slave: self._pcd_register(d.CDI, s)
+        return table
+
+    def _holding_table(
+        self,
+    ) -> tuple[dict[int, Callable[[], int]], dict[int, Callable[[dict[int, int]], None]]]:
+        """Readers per holding register and writers per group (a group is one command)."""
+        read: dict[int, Callable[[], int]] = {}
+        write: dict[int, Callable[[dict[int, int]], None]] = {}
+
+        def output_register(k: int) -> int:
+            value = self._data_register(self._output_nibble, k)
+            return value & 0x0FFF if k == 0 else value  # slave 0's bits are reserved
+
+        def write_outputs(values: dict[int, int]) -> None:
+            nibbles = {}
+            for k, value in values.items():
+                for j in range(4):
+                    if 4 * k + j:
+                        nibbles[4 * k + j] = value >> 4 * (3 - j) & 0xF
+            self._set_output_nibbles(nibbles)
+
+        for k in range(8):
+            read[k] = lambda k=k: output_register(k)
+            write[k] = write_outputs
+        read[8] = lambda: self._byte(d.HI_FLAGS) & 0x07
+        write[8] = lambda values: self._set_hi_flags(values[8])
+        for slave in range(SLAVES):
+            read[100 + slave] = lambda s=slave: self._nibble(d.PI, s)
+            write[100 + slave] = self._write_parameters
+            read[200 + slave] = lambda s=slave: self._nibble(d.PP, s)
+            write[200 + slave] = lambda v: self._set_permanent_parameters(
+                {a - 200: x for a, x in v.items()}
+            )
+            read[300 + slave] = lambda s=slave: self._pcd_register(d.PCD, s)
+            write[300 + slave] = lambda v: self._set_pcd({a - 300: x for a, x in v.items()})
+        for half in range(2):
+            read[140 + half] = lambda h=half: self._list_word(d.LPS, h)
+            write[140 + half] = self._write_lps_words
+        read[399] = read[799] = self._flags_word
+        write[399] = write[799] = lambda v: self._set_hi_flags(next(iter(v.values())) >> 8)
+        for n in range(d.FLAGS_SIZE):
+            read[400 + n] = lambda n=n: self._memory_byte(n)
+            write[400 + n] = self._write_memory_bytes
+        for k in range(d.FLAGS_SIZE // 2):
+            read[800 + k] = lambda k=k: self._memory_byte(2 * k) << 8 | self._memory_byte(2 * k + 1)
+            write[800 + k] = self._write_memory_words
+        ignore: Callable[[dict[int, int]], None] = lambda values: None  # noqa: E731
+        inputs = self._input_registers()
+        for offset in range(13):  # input data, ec-flags, LAS, LDS: readable, writes ignored
+            read[600 + offset] = inputs[offset]
+            write[600 + offset] = ignore
+        for slave in range(SLAVES):
+            read[700 + slave] = inputs[100 + slave]
+            write[700 + slave] = ignore
+        for register in ExecutionRegister:
+            read[register] = lambda r=register: self._read_execution(r)
+            write[register] = self._write_execution
+        return read, write
+
+    # ------------------------------------------------------------------ holding writers
+
+    def _write_parameters(self, values: dict[int, int]) -> None:
+        for address, value in values.items():
+            self._write_parameter(address - 100, value)
+
+    def _write_lps_words(self, values: dict[int, int]) -> None:
+        lps = self._list(d.LPS)
+        for address, value in values.items():
+            shift = 16 * (address - 140)
+            lps = lps & ~(0xFFFF << shift) | value << shift
+        self._set_lps(lps)
+
+    def _write_memory_bytes(self, values: dict[int, int]) -> None:
+        for address, value in values.items():
+            self.driver.write_byte(d.FLAGS + address - 400, value)
+
+    def _write_memory_words(self, values: dict[int, int]) -> None:
+        for address, value in values.items():
+            self.driver.write(d.FLAGS + 2 * (address - 800), value.to_bytes(2, "big"))
+
+    # ------------------------------------------------------------------ execution control
+
+    def _read_execution(self, register: ExecutionRegister) -> int:
+        s = self.settings
+        if register is ExecutionRegister.SET_OPERATION_MODE:
+            return int(self.board.mode == "configuration")
+        if register is ExecutionRegister.START_STOP:
+            self.command(Command.GET_STATUS)
+            return self._byte(d.CONTROL_FLAGS) & ~ControlFlag.RESET & 0x3F
+        if register is ExecutionRegister.WATCHDOG:
+            return s.longest_pause if s.watchdog else 0
+        return {
+            ExecutionRegister.CHANGE_ADDRESS_OLD: s.change_address_old,
+            ExecutionRegister.CHANGE_ADDRESS_NEW: s.last_new_address,
+            ExecutionRegister.STORE_ACTUAL_PARAMETERS: 0,
+            ExecutionRegister.STORE_ACTUAL_CONFIGURATION: 0,
+            ExecutionRegister.EXECUTE_COMMAND_ADDRESS: s.execute_command_address,
+            ExecutionRegister.EXECUTE_COMMAND_INFORMATION: s.last_information,
+            ExecutionRegister.KEY_LOCK: int(s.key_lock),
+        }[register]
+
+    def _write_execution(self, values: dict[int, int]) -> None:
+        for address, value in values.items():
+            self._execute(ExecutionRegister(address), value)
+
+    def _execute(self, register: ExecutionRegister, value: int) -> None:
+        s = self.settings
+        if register is ExecutionRegister.SET_OPERATION_MODE:
+            self._record(self.command(Command.SET_OPERATION_MODE, int(value != 0))[0])
+        elif register is ExecutionRegister.CHANGE_ADDRESS_OLD:
+            s.change_address_old = value
+        elif register is ExecutionRegister.CHANGE_ADDRESS_NEW:
+            s.last_new_address = value
+            ok, status = self.command(Command.CHANGE_SLAVE_ADDRESS, value, s.change_address_old)
+            self._record(ok, 0 if ok else status or Status.ERROR)
+        elif register is ExecutionRegister.STORE_ACTUAL_PARAMETERS:
+            if value:
+                self._record(self.command(Command.STORE_ACTUAL_PARAMETER)[0])
+        elif register is ExecutionRegister.STORE_ACTUAL_CONFIGURATION:
+            if value:
+                self._record(self.command(Command.STORE_ACTUAL_CONFIGURATION)[0])
+        elif register is ExecutionRegister.EXECUTE_COMMAND_ADDRESS:
+            s.execute_command_address = value
+        elif register is ExecutionRegister.EXECUTE_COMMAND_INFORMATION:
+            s.last_information = value
+            ok, answer = self.command(Command.EXECUTE_COMMAND, value, s.execute_command_address)
+            self._record(ok, answer if ok else 0)
+        elif register is ExecutionRegister.KEY_LOCK:
+            s.key_lock = value != 0
+        elif register is ExecutionRegister.WATCHDOG:
+            s.watchdog, s.longest_pause = value, 0
+            self.feed_watchdog()
+        else:
+            self.driver.write_byte(d.CONTROL_FLAGS, value & 0x1F)
+            self._record(self.command(Command.WRITE_CONTROL_FLAGS)[0])
+
+    def feed_watchdog(self, pause_ms: float = 0.0) -> None:
+        """A telegram for this slave arrived: the master's own watchdog (100h/101h) restarts.
+
+        The master then does what the gateway manual asks of a time-out: it clears the
+        enable byte, sets the hi-flag offline and stays offline until that flag is cleared.
+        """
+        s = self.settings
+        if s.watchdog:
+            s.longest_pause = max(s.longest_pause, min(255, round(pause_ms / 10)))
+            self.driver.write(d.WATCHDOG_ENABLE, bytes([1, s.watchdog]))
+        elif self._byte(d.WATCHDOG_ENABLE):
+            self.driver.write(d.WATCHDOG_ENABLE, bytes([0, 0]))
+
+    def restart_master(self) -> None:
+        """Diagnostics "restart communications": watchdog off, the master through offline."""
+        self.settings.watchdog = 0
+        self.feed_watchdog()
+        hi = self._byte(d.HI_FLAGS)
+        self._set_hi_flags(hi | d.HiFlag.OFFLINE)
+        self.board.advance(10)
+        self._set_hi_flags(hi & ~d.HiFlag.OFFLINE)
+
+    # ------------------------------------------------------------------ registers
+
+    def _check_registers(
+        self, table: dict[int, Callable], address: int, count: int, what: str
+    ) -> range:
+        _check_count(count, MAX_REGISTERS)
+        span = range(address, address + count)
+        for a in span:
+            if a not in table:
+                raise ModbusError(ExceptionCode.ILLEGAL_DATA_ADDRESS, f"no {what} at {a}")
+        return span
+
+    def read_holding_registers(self, address: int, count: int) -> list[int]:
+        span = self._check_registers(self._holding_readers, address, count, "holding register")
+        return [self._holding_readers[a]() for a in span]
+
+    def read_input_registers(self, address: int, count: int) -> list[int]:
+        inputs = self._input_registers()
+        span = self._check_registers(inputs, address, count, "input register")
+        return [inputs[a]() for a in span]
+
+    def write_registers(self, address: int, values: list[int]) -> None:
+        """Function 6/16: every register is checked before any is written."""
+        span = self._check_registers(
+            self._holding_writers, address, len(values), "holding register"
+        )
+        for a, value in zip(span, values, strict=True):
+            if value > _register_limit(a):
+                raise ModbusError(
+                    ExceptionCode.ILLEGAL_DATA_VALUE, f"{value} is out of range for register {a}"
+                )
+        groups: dict[Callable, dict[int, int]] = {}
+        for a, value in zip(span, values, strict=True):
+            groups.setdefault(self._holding_writers[a], {})[a] = value
+        for writer, group in groups.items():
+            writer(group)
+
+    def exception_status(self) -> int:
+        return self.settings.exception_status
+
+    def diagnostic_register(self) -> int:
+        """Function 8 code 2: ec-flags in bits 0-7, hi-flags (as in register 399) in 8-10."""
+        return self._flags_word()
+
+    def installed_software(self) -> str:
+        """The gateway's 16 letters "CBFE....DOA...WT" from the master's string at 0E0h."""
+        master = self._ram(d.INSTALLED_SOFTWARE, d.INSTALLED_SOFTWARE_SIZE).decode("ascii")
+        return (
+            master[0] + "BFE...." + master[8:11] + "..."
+            + ("W" if self.settings.watchdog else "w")
+            + ("t" if self.settings.key_lock else "T")
+        )
+
+
+def _check_count(count: int, limit: int) -> None:
+    if not 1 <= count <= limit:
+        raise ModbusError(
+            ExceptionCode.ILLEGAL_DATA_VALUE, f"{count} items in one telegram (1..{limit})"
+        )
+
+
+def _register_limit(address: int) -> int:
+    """The largest value a holding register takes (larger values: exception 3)."""
+    if 100 <= address < 132 or 200 <= address < 232:
+        return 0xF
+    if address == 8:
+        return 0x7
+    if 300 <= address < 332 or 400 <= address < 528:
+        return 0xFF
+    if address in (399, 799):
+        return 0x7FF
+    if address in (ExecutionRegister.CHANGE_ADDRESS_OLD, ExecutionRegister.CHANGE_ADDRESS_NEW,
+                   ExecutionRegister.EXECUTE_COMMAND_ADDRESS):
+        return SLAVES - 1
+    if address == ExecutionRegister.EXECUTE_COMMAND_INFORMATION:
+        return 0x1F
+    if address in (ExecutionRegister.WATCHDOG, ExecutionRegister.START_STOP):
+        return 0xFF
+    return 0xFFFF
+
+
+# ---------------------------------------------------------------------- chapter 8
+
+
+DISPLAY_TEXT = {
+    40: "the AS-i master is in the offline phase",
+    41: "the AS-i master is in the detection phase",
+    42: "the AS-i master is in the activation phase",
+}
+
+
+def display_code(board: Pc2Board) -> int | None:
+    """The gateway's two-digit display for the master's state now (None: blank).
+
+    Configuration mode shows the detected slaves in turn, two a second; protected mode
+    shows the first wrongly configured address, else nothing (manual chapter 8).
+    """
+    phase = board.phase
+    if board.in_reset or phase is Phase.OFFLINE:
+        return 40
+    if phase is Phase.DETECTION:
+        return 41
+    if phase is Phase.ACTIVATION:
+        return 42
+    ram = board.dpram
+    lds = int.from_bytes(ram[d.LDS : d.LDS + d.LIST_SIZE], "little")
+    if board.mode == "configuration":
+        detected = [a for a in range(SLAVES) if lds >> a & 1]
+        return detected[int(board.now_ms // 500) % len(detected)] if detected else None
+    lps = int.from_bytes(ram[d.LPS : d.LPS + d.LIST_SIZE], "little")
+    for a in range(1, SLAVES):
+        if lps >> a & 1 != lds >> a & 1 or (
+            lps >> a & 1 and ram[d.PCD + a] != ram[d.CDI + a]
+        ):
+            return a
+    return None
+
+
+def display_text(code: int | None) -> str:
+    """What a display code means, in words."""
+    if code is None:
+        return "blank"
+    if code < SLAVES:
+        return f"slave {code}"
+    return DISPLAY_TEXT.get(code, f"status {code}")
+
+
+__all__ = [
+    "MAX_BITS",
+    "MAX_REGISTERS",
+    "AddressMap",
+    "ExceptionCode",
+    "ExecutionRegister",
+    "ModbusError",
+    "display_code",
+    "display_text",
+]
