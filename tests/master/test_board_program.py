@@ -307,3 +307,17 @@ off:    L   KB 1
     board.advance(3)
     assert host.byte(d.HI_FLAGS) & d.HiFlag.DATA_EXCHANGE_OFF
     assert host.letters()[8] == "d"
+
+
+def test_outputs_reach_the_slaves_again_after_a_short_power_failure(slaves, board, host: Host):
+    """A power failure and return between two AS-i cycles resets the slaves' outputs; the
+    master must send the program's outputs again (found by the state machine)."""
+    _sensor, actuator = slaves
+    run(host, FOLLOW)
+    assert actuator.outputs == 0b0010  # Q 3.1 = not I 1.1
+    board.bus.power_fail()
+    board.bus.power_restore()
+    board.advance(100)
+    assert board.control_state is ControlState.RUNNING
+    assert actuator.outputs == 0b0010
+

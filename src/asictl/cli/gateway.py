@@ -53,8 +53,13 @@ def serve(
     port: str, state_dir: str | None,
 ) -> None:
     """Serve the board over Modbus until Ctrl-C; its state is saved periodically and at exit."""
-    from asictl.gateway.server import GatewayServer, SerialSettings
-    from asictl.gateway.slave import GatewaySlave
+    try:
+        from asictl.gateway.server import GatewayServer, SerialSettings
+        from asictl.gateway.slave import GatewaySlave
+    except ImportError as exc:
+        raise UserError(
+            f"the gateway needs pymodbus and pyserial ({exc}): pip install 'asictl[modbus]'"
+        ) from None
 
     base = parse_port(port)
     directory = state_directory(state_dir)

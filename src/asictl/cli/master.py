@@ -4,31 +4,45 @@ The manual's ACF loader (8.2.6) with its switches as options: ``download`` is /d
 ``--start/--stop/--keep`` are /s+ /s- /s0, ``upload`` is /u+ and ``--overwrite`` /o+;
 ``status`` shows what ASI_MON's screen shows. A board is named by its I/O base
 (``--port``, ACF's /i); by default it is an emulated board kept in the state directory.
+``--modbus`` reaches the master through an AS-i/Modbus gateway instead: the same
+procedures over ``ModbusTransport``.
 """
 
 from __future__ import annotations
 
 import json
+import sys
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import click
+from click.core import ParameterSource
 
 from asictl.diagnostics import render_text
-from asictl.errors import ExitCode
+from asictl.errors import ExitCode, UserError
 from asictl.master.program_files import prepare_image, uploaded_files, write_files
 from asictl.master.state import IO_BACKENDS, connect, parse_port, port_name
-from asictl.master.status import control_summary, read_status, render
+from asictl.master.status import MasterStatus, control_summary, read_status, render
 from asictl.master.transfer import (
     Pc2Transport,
     StartMode,
+    Transport,
     download,
     download_steps,
     linked_for,
     reset,
     set_start,
     upload,
+)
+from asictl.transport.target import (
+    BAUD_RATES,
+    DEFAULT_RETRIES,
+    DEFAULT_TIMEOUT_S,
+    PARITIES,
+    parse_target,
 )
 
 
@@ -49,6 +63,37 @@ def _board_options(command: Callable) -> Callable:
             help="Where emulated boards are kept [default: $ASICTL_STATE_DIR, else "
             "$XDG_STATE_HOME/asictl or ~/.local/state/asictl].",
         ),
+        click.option(
+            "--modbus", metavar="URL|DEVICE",
+            help="Go through an AS-i/Modbus gateway instead of a PC2 board: tcp://HOST[:PORT] "
+            "(Modbus TCP), rtu+tcp://HOST[:PORT] (RTU through a device server) or a serial "
+            "device such as /dev/ttyUSB0 (RTU). Excludes --port, --io and --state-dir.",
+        ),
+        click.option(
+            "--unit", type=click.IntRange(1, 247), default=1, show_default=True,
+            help="The gateway's Modbus slave address (with --modbus).",
+        ),
+        click.option(
+            "--baud", type=click.Choice([str(b) for b in BAUD_RATES]), default="9600",
+            show_default=True, help="Serial --modbus: bits per second.",
+        ),
+        click.option(
+            "--parity", type=click.Choice(list(PARITIES)), default="none", show_default=True,
+            help="Serial --modbus: parity bit.",
+        ),
+        click.option(
+            "--stopbits", type=click.Choice(["1", "2"]), default="1", show_default=True,
+            help="Serial --modbus: stop bits.",
+        ),
+        click.option(
+            "--timeout", type=click.FloatRange(0.01, 60), default=DEFAULT_TIMEOUT_S,
+            show_default=True, help="--modbus: seconds to wait for each answer.",
+        ),
+        click.option(
+            "--retries", type=click.IntRange(0, 20), default=DEFAULT_RETRIES,
+            show_default=True,
+            help="--modbus: how often a request is repeated after a time-out or CRC error.",
+        ),
     ]
     for option in reversed(options):
         command = option(command)
@@ -59,11 +104,59 @@ def _name(port: str) -> str:
     return port_name(parse_port(port))
 
 
+@dataclass(frozen=True)
+class _Master:
+    """A master as the commands see it, whichever way it is reached."""
+
+    transport: Transport
+    name: str
+    summary: Callable[[], str]
+    status: Callable[[], MasterStatus]
+
+
+_PC2_ONLY = ("port", "io", "state_dir")
+
+
+@contextmanager
+def _connect(
+    port: str, io: str, state_dir: str | None, modbus: str | None, unit: int, baud: str,
+    parity: str, stopbits: str, timeout: float, retries: int,
+) -> Iterator[_Master]:
+    """The PC2 board named by --port, or the gateway named by --modbus."""
+    if modbus is None:
+        with connect(port, io, state_dir) as driver:
+            name = _name(port)
+            yield _Master(
+                Pc2Transport(driver), name, lambda: control_summary(driver),
+                lambda: read_status(driver, name),
+            )
+        return
+    ctx = click.get_current_context()
+    clash = [
+        f"--{option.replace('_', '-')}" for option in _PC2_ONLY
+        if ctx.get_parameter_source(option) is not ParameterSource.DEFAULT
+    ]
+    if clash:
+        raise UserError(f"--modbus and {', '.join(clash)} exclude each other")
+    target = parse_target(modbus, baud=int(baud), parity=parity, stopbits=int(stopbits))
+    try:
+        from asictl.transport import modbus as gateway
+    except ImportError as exc:
+        raise UserError(
+            f"--modbus needs pymodbus and pyserial ({exc}): pip install 'asictl[modbus]'"
+        ) from None
+    with gateway.open_modbus(target, unit, timeout=timeout, retries=retries) as transport:
+        yield _Master(
+            transport, f"{target} unit {unit}", lambda: gateway.control_summary(transport),
+            lambda: gateway.read_status(transport),
+        )
+
+
 @contextmanager
 def _progress(label: str, blocks: int) -> Iterator[Callable[[int], None]]:
     """A progress bar on stderr (only its label when stderr is not a terminal)."""
     with click.progressbar(
-        length=blocks, label=label, file=click.get_text_stream("stderr"), show_eta=False,
+        length=blocks, label=label, file=sys.stderr, show_eta=False,
     ) as bar:
         yield bar.update
 
@@ -81,9 +174,7 @@ def _progress(label: str, blocks: int) -> Iterator[Callable[[int], None]]:
     "--lib", "lib", multiple=True, type=click.Path(file_okay=False),
     help="Also look for function-block files here (repeatable; also $ASICTL_LIB).",
 )
-def download_command(
-    file: str, port: str, io: str, state_dir: str | None, start: str, lib: tuple[str, ...]
-) -> None:
+def download_command(file: str, start: str, lib: tuple[str, ...], **board: Any) -> None:
     """Store a program in the master's EEPROM and load it (ACF /d+).
 
     FILE is IL source (compiled against the entry points the master reports) or an image
@@ -97,8 +188,8 @@ def download_command(
     2 bad usage, an unreadable file or a corrupt board state.
     """
     ctx = click.get_current_context()
-    with connect(port, io, state_dir) as driver:
-        transport = Pc2Transport(driver)
+    with _connect(**board) as master:
+        transport = master.transport
         entry_points = transport.entry_points()
         prepared = prepare_image(file, entry_points=entry_points, lib=lib)
         click.echo(render_text(prepared.diagnostics, prepared.texts), nl=False, err=True)
@@ -116,8 +207,8 @@ def download_command(
         steps = download_steps(size, transport.block_size)
         with _progress(f"download {size} bytes", steps) as bar:
             download(transport, image, start=StartMode(start), progress=bar)
-        state = control_summary(driver)
-    click.echo(f"{_name(port)}: downloaded {file} ({size} bytes, identity "
+        state = master.summary()
+    click.echo(f"{master.name}: downloaded {file} ({size} bytes, identity "
                f"{image.identity_hex}); {state}", err=True)
 
 
@@ -130,9 +221,7 @@ def download_command(
 @click.option(
     "--overwrite", is_flag=True, help="Replace files that exist with other content (ACF /o+).",
 )
-def upload_command(
-    port: str, io: str, state_dir: str | None, output: str, overwrite: bool
-) -> None:
+def upload_command(output: str, overwrite: bool, **board: Any) -> None:
     """Read the program back from the master into a source file (ACF /u+).
 
     The image is read from the EEPROM and checked (CRC). If it carries its source, the
@@ -146,12 +235,12 @@ def upload_command(
     Exit status: 0 uploaded, 1 no valid program in the master, a file not overwritten or
     a failed command, 2 bad usage or a corrupt board state.
     """
-    with connect(port, io, state_dir) as driver:
-        image = upload(Pc2Transport(driver))
+    with _connect(**board) as master:
+        image = upload(master.transport)
     written = write_files(uploaded_files(image, output), overwrite=overwrite)
     source = "its source" if image.source else "[RAW] records (the image carries no source)"
     click.echo(
-        f"{_name(port)}: uploaded {image.identity_hex} as {source}; "
+        f"{master.name}: uploaded {image.identity_hex} as {source}; "
         + (f"wrote {', '.join(map(str, written))}" if written else "files already up to date"),
         err=True,
     )
@@ -164,14 +253,14 @@ def upload_command(
         )
 
 
-def _control_command(name: str, help_text: str, action: Callable[[Pc2Transport], int]):
+def _control_command(name: str, help_text: str, action: Callable[[Transport], int]):
     @click.command(name, help=help_text)
     @_board_options
-    def command(port: str, io: str, state_dir: str | None) -> None:
-        with connect(port, io, state_dir) as driver:
-            action(Pc2Transport(driver))
-            state = control_summary(driver)
-        click.echo(f"{_name(port)}: {state}", err=True)
+    def command(**board: Any) -> None:
+        with _connect(**board) as master:
+            action(master.transport)
+            state = master.summary()
+        click.echo(f"{master.name}: {state}", err=True)
 
     return command
 
@@ -204,18 +293,19 @@ reset_command = _control_command(
 @click.command("status")
 @_board_options
 @click.option("--json", "as_json", is_flag=True, help="One JSON object on stdout.")
-def status_command(port: str, io: str, state_dir: str | None, as_json: bool) -> None:
+def status_command(as_json: bool, **board: Any) -> None:
     """Show the master's state, as the ASI_MON screen does.
 
     Phase and mode, execution control flags, the slave lists LPS/LDS/LAS, configuration
     errors (projected slaves missing, unprojected ones present, wrong I/O or ID code),
     the control program (running or why not), its AS-i Control flags, the program image
-    in the EEPROM (identity, size, whether it is valid) and the program cycle times.
+    in the EEPROM (identity, size, whether it is valid) and the program cycle times
+    (a gateway shows no cycle times, stop reason or program status).
 
     Exit status: 0 shown, 1 the master did not answer, 2 bad usage or a corrupt board state.
     """
-    with connect(port, io, state_dir) as driver:
-        status = read_status(driver, _name(port))
+    with _connect(**board) as master:
+        status = master.status()
     if as_json:
         click.echo(json.dumps(status.to_json(), indent=2))
     else:

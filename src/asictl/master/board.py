@@ -304,6 +304,7 @@ class Pc2Board(CommandsMixin):
                 ram[d.WATCHDOG_ENABLE] = 0
                 ram[d.HI_FLAGS] |= HiFlag.OFFLINE
                 self._read_host_flags()
+                self._write_status()  # the W/w and O/o letters change with it
         if self._control.running and self._timers_running():
             self._control.runner.tick()
             self._stirred = True

@@ -157,6 +157,10 @@ class ExecutionControl:
         if self.settled:
             return
         self._dirty = False
+        if self.bus.topology != self._topology:
+            # slaves came, went or lost power: what they hold is no longer what was sent
+            self._sent = None
+            self._input_version = -1
         self._topology = self.bus.topology
         if not self.bus.powered:
             self.apf = True

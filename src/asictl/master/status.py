@@ -44,7 +44,7 @@ from asictl.master.dpram import (
 )
 from asictl.master.driver import Pc2Driver
 from asictl.master.jobs import JobError, JobStatus
-from asictl.master.transfer import Pc2Transport, upload
+from asictl.master.transfer import Pc2Transport, Transport, upload
 
 
 @dataclass(frozen=True)
@@ -131,7 +131,7 @@ def _cycle_ms(raw: bytes) -> float:
     return int.from_bytes(raw, "little") * CYCLE_TIME_UNIT_US / 1000
 
 
-def program_info(transport: Pc2Transport) -> ProgramInfo:
+def program_info(transport: Transport) -> ProgramInfo:
     head = transport.read_eeprom(0, HEADER_SIZE)
     if head[: len(MAGIC)] != MAGIC:
         return ProgramInfo(present=False, valid=False, problem="no program image")
@@ -147,6 +147,37 @@ def program_info(transport: Pc2Transport) -> ProgramInfo:
     )
 
 
+def state_fields(ec: int, flags: int) -> dict:
+    """The fields ``MasterStatus`` derives from the ec-flags and the AS-i Control flags."""
+    return {
+        "ec_flags": ec,
+        "phase": _phase(ec),
+        "mode": "configuration" if ec & EcFlag.CONFIGURATION_ACTIVE else "protected",
+        "config_ok": bool(ec & EcFlag.CONFIG_OK),
+        "power_fail": bool(ec & EcFlag.APF),
+        "control_flags": flags,
+        "start_flag": bool(flags & ControlFlag.START),
+        "ignore_config_errors": bool(flags & ControlFlag.IGNORE_CONFIG_ERRORS),
+        "wait_for_set_button": bool(flags & ControlFlag.WAIT_FOR_SET_BUTTON),
+        "map_counters": bool(flags & ControlFlag.MAP_COUNTERS),
+        "control_active": bool(flags & ControlFlag.CONTROL_ACTIVE),
+    }
+
+
+def slave_fields(
+    lps: list[int], lds: list[int], las: list[int], pcd: bytes, cdi: bytes
+) -> dict:
+    """The slave lists and the configuration errors by their cause (PCD/CDI in PC2 layout)."""
+    return {
+        "lps": lps, "lds": lds, "las": las,
+        "missing": [n for n in lps if n not in lds],
+        "unexpected": [n for n in lds if n not in lps and n != 0],
+        "wrong_profile": [
+            WrongSlave(n, pcd[n], cdi[n]) for n in lps if n in lds and pcd[n] != cdi[n]
+        ],
+    }
+
+
 def read_status(driver: Pc2Driver, port: str) -> MasterStatus:
     """Refresh (51), then read the DPRAM and the EEPROM image header."""
     driver.command(Command.GET_STATUS)
@@ -160,23 +191,8 @@ def read_status(driver: Pc2Driver, port: str) -> MasterStatus:
         master_name=_text(driver.read(MASTER_NAME, MASTER_NAME_SIZE)),
         version_id=_text(driver.read(VERSION_ID, VERSION_ID_SIZE)),
         installed_software=_text(driver.read(INSTALLED_SOFTWARE, INSTALLED_SOFTWARE_SIZE)),
-        ec_flags=ec,
-        phase=_phase(ec),
-        mode="configuration" if ec & EcFlag.CONFIGURATION_ACTIVE else "protected",
-        config_ok=bool(ec & EcFlag.CONFIG_OK),
-        power_fail=bool(ec & EcFlag.APF),
-        lps=lps, lds=lds, las=las,
-        missing=[n for n in lps if n not in lds],
-        unexpected=[n for n in lds if n not in lps and n != 0],
-        wrong_profile=[
-            WrongSlave(n, pcd[n], cdi[n]) for n in lps if n in lds and pcd[n] != cdi[n]
-        ],
-        control_flags=flags,
-        start_flag=bool(flags & ControlFlag.START),
-        ignore_config_errors=bool(flags & ControlFlag.IGNORE_CONFIG_ERRORS),
-        wait_for_set_button=bool(flags & ControlFlag.WAIT_FOR_SET_BUTTON),
-        map_counters=bool(flags & ControlFlag.MAP_COUNTERS),
-        control_active=bool(flags & ControlFlag.CONTROL_ACTIVE),
+        **state_fields(ec, flags),
+        **slave_fields(lps, lds, las, pcd, cdi),
         control_state=_name(ControlState, state),
         stop_reason=None if reason == StopReason.NONE else _name(StopReason, reason),
         program_status=_name(ProgramStatus, driver.read_byte(PROGRAM_STATUS)),

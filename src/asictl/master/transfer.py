@@ -230,8 +230,8 @@ def _start_flag(transport: Transport, start: StartMode) -> int:
 
 def upload(transport: Transport) -> ProgramImage:
     """Read the image from the EEPROM and check it (magic, length, CRC, structure)."""
-    step = transport.block_size
-    head = transport.read_eeprom(0, min(step, EEPROM_SIZE))
+    # at least the whole header, however small the transport's blocks (16 on a gateway)
+    head = transport.read_eeprom(0, max(HEADER_SIZE, transport.block_size))
     length = image_length(head)
     if not HEADER_SIZE <= length <= EEPROM_SIZE:
         raise JobError(
