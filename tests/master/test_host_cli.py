@@ -38,20 +38,21 @@ def test_download_then_status(run):
     assert result.stdout == ""
     last = result.stderr.splitlines()[-1]
     assert last.startswith(f"300h: downloaded {BLINK} (")
-    assert last.endswith("control program waiting (not normal operation)")
+    assert last.endswith("control program running")  # the [SETUP] slaves are cabled
 
     status = run("status", "--json")
     assert status.exit_code == 0
     fields = json.loads(status.stdout)
     assert fields["port"] == "300h"
-    assert fields["start_flag"] is True and fields["control_active"] is False
-    assert fields["lps"] == [31] and fields["missing"] == [31] and fields["las"] == []
-    assert fields["mode"] == "protected" and fields["config_ok"] is False
+    assert fields["start_flag"] is True and fields["control_active"] is True
+    assert fields["lps"] == [31] and fields["missing"] == [] and fields["las"] == [31]
+    assert fields["mode"] == "protected" and fields["config_ok"] is True
+    assert fields["display"] == "blank"
     program = fields["program"]
     assert program["valid"] is True and program["source_included"] is True
     assert len(program["identity"]) == 32
-    assert fields["control_state"] == "waiting"
-    assert fields["installed_software"].startswith("c")
+    assert fields["control_state"] == "running"
+    assert fields["installed_software"].startswith("C")
     assert {"ec_flags", "cycle_time_ms", "max_cycle_time_ms", "wrong_profile", "phase"} <= set(
         fields
     )
@@ -59,7 +60,7 @@ def test_download_then_status(run):
     text = run("status")
     assert text.exit_code == 0
     assert "LPS  ...............................X" in text.stdout
-    assert "slave 31 missing" in text.stdout
+    assert "config   no errors" in text.stdout and "display  blank" in text.stdout
     assert program["identity"] in text.stdout
 
 
@@ -72,6 +73,7 @@ def test_status_of_a_running_program_with_a_wrong_slave(run):
         board.advance(100)
     fields = json.loads(run("status", "--json").stdout)
     assert fields["unexpected"] == [7] and fields["missing"] == []
+    assert fields["display"] == "07: slave 7"  # the gateway's display: the first wrong slave
     assert fields["config_ok"] is False and fields["stop_reason"] == "config error"
     with emulated_board(0x300, run.state_dir) as board:
         board.bus.remove(7)

@@ -23,6 +23,10 @@ from click.core import ParameterSource
 
 from asictl.diagnostics import render_text
 from asictl.errors import ExitCode, UserError
+from asictl.image import ProgramImage
+from asictl.master.asi import Slave
+from asictl.master.board import Pc2Board
+from asictl.master.driver import EmulatedPort
 from asictl.master.program_files import prepare_image, uploaded_files, write_files
 from asictl.master.state import IO_BACKENDS, connect, parse_port, port_name
 from asictl.master.status import MasterStatus, control_summary, read_status, render
@@ -161,6 +165,21 @@ def _progress(label: str, blocks: int) -> Iterator[Callable[[int], None]]:
         yield bar.update
 
 
+def _emulated_board(transport: object) -> Pc2Board | None:
+    port = getattr(getattr(transport, "driver", None), "port", None)
+    return port.board if isinstance(port, EmulatedPort) else None
+
+
+def _cable_setup_slaves(transport: object, image: ProgramImage) -> None:
+    """An emulated board with nothing on its AS-i cable gets the slaves of the program's
+    [SETUP], as a plant built for the program would have them (they stay in its state)."""
+    board = _emulated_board(transport)
+    if board is not None and not len(board.bus):
+        for slave in image.configuration.slaves():
+            board.bus.attach(Slave(slave.address, slave.io_code, slave.id_code))
+        board.advance(100)  # the master finds them
+
+
 @click.command("download")
 @click.argument("file", metavar="FILE.asi|FILE.hex", type=click.Path(dir_okay=False))
 @_board_options
@@ -203,10 +222,14 @@ def download_command(file: str, start: str, lib: tuple[str, ...], **board: Any) 
                 "out; an upload will give [RAW] records instead of the program text",
                 err=True,
             )
+        _cable_setup_slaves(transport, image)
         size = len(image.to_bytes())
         steps = download_steps(size, transport.block_size)
         with _progress(f"download {size} bytes", steps) as bar:
             download(transport, image, start=StartMode(start), progress=bar)
+        board = _emulated_board(transport)
+        if board is not None:
+            board.advance(100)  # config_ok's delay after the configuration was written
         state = master.summary()
     click.echo(f"{master.name}: downloaded {file} ({size} bytes, identity "
                f"{image.identity_hex}); {state}", err=True)

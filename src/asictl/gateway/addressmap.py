@@ -17,12 +17,12 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from enum import IntEnum
 
+from asictl.master import display as master_display
 from asictl.master import dpram as d
 from asictl.master.asi import SLAVES
 from asictl.master.board import Pc2Board
 from asictl.master.dpram import Command, ControlFlag, Status
 from asictl.master.driver import EmulatedPort, Pc2Driver
-from asictl.master.execution import Phase
 from asictl.master.jobs import JobError
 
 #: The manual's limit on registers per telegram (functions 3, 4, 16).
@@ -524,47 +524,22 @@ def _register_limit(address: int) -> int:
 # ---------------------------------------------------------------------- chapter 8
 
 
-DISPLAY_TEXT = {
-    40: "the AS-i master is in the offline phase",
-    41: "the AS-i master is in the detection phase",
-    42: "the AS-i master is in the activation phase",
-}
-
-
 def display_code(board: Pc2Board) -> int | None:
-    """The gateway's two-digit display for the master's state now (None: blank).
-
-    Configuration mode shows the detected slaves in turn, two a second; protected mode
-    shows the first wrongly configured address, else nothing (manual chapter 8).
-    """
-    phase = board.phase
-    if board.in_reset or phase is Phase.OFFLINE:
-        return 40
-    if phase is Phase.DETECTION:
-        return 41
-    if phase is Phase.ACTIVATION:
-        return 42
+    """The gateway's display for the master's state now (see ``master.display``)."""
+    phase = "offline" if board.in_reset else board.phase.name.lower()
     ram = board.dpram
-    lds = int.from_bytes(ram[d.LDS : d.LDS + d.LIST_SIZE], "little")
-    if board.mode == "configuration":
-        detected = [a for a in range(SLAVES) if lds >> a & 1]
-        return detected[int(board.now_ms // 500) % len(detected)] if detected else None
-    lps = int.from_bytes(ram[d.LPS : d.LPS + d.LIST_SIZE], "little")
-    for a in range(1, SLAVES):
-        if lps >> a & 1 != lds >> a & 1 or (
-            lps >> a & 1 and ram[d.PCD + a] != ram[d.CDI + a]
-        ):
-            return a
-    return None
+    return master_display.display_code(
+        phase,
+        board.mode == "configuration",
+        int.from_bytes(ram[d.LPS : d.LPS + d.LIST_SIZE], "little"),
+        int.from_bytes(ram[d.LDS : d.LDS + d.LIST_SIZE], "little"),
+        ram[d.PCD : d.PCD + d.CONFIG_SIZE],
+        ram[d.CDI : d.CDI + d.CONFIG_SIZE],
+        turn=int(board.now_ms // 500),
+    )
 
 
-def display_text(code: int | None) -> str:
-    """What a display code means, in words."""
-    if code is None:
-        return "blank"
-    if code < SLAVES:
-        return f"slave {code}"
-    return DISPLAY_TEXT.get(code, f"status {code}")
+display_text = master_display.display_text
 
 
 __all__ = [

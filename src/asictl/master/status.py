@@ -13,6 +13,7 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass
 
 from asictl.image import HEADER_SIZE, MAGIC, SLAVES
+from asictl.master.display import display_code, display_text
 from asictl.master.dpram import (
     CDI,
     CONFIG_SIZE,
@@ -85,6 +86,8 @@ class MasterStatus:
     missing: list[int]
     unexpected: list[int]
     wrong_profile: list[WrongSlave]
+    #: what the gateway's 7-segment display would show (gateway manual, chapter 8)
+    display: str
     control_flags: int
     start_flag: bool
     ignore_config_errors: bool
@@ -165,10 +168,19 @@ def state_fields(ec: int, flags: int) -> dict:
 
 
 def slave_fields(
-    lps: list[int], lds: list[int], las: list[int], pcd: bytes, cdi: bytes
+    lps: list[int], lds: list[int], las: list[int], pcd: bytes, cdi: bytes, *, ec: int
 ) -> dict:
-    """The slave lists and the configuration errors by their cause (PCD/CDI in PC2 layout)."""
+    """The slave lists, the configuration errors by their cause (PCD/CDI in PC2 layout)
+    and the display code they make."""
+    phase = {"normal operation": "normal", "offline": "offline"}.get(_phase(ec), "detection")
+    code = display_code(
+        phase, bool(ec & EcFlag.CONFIGURATION_ACTIVE), sum(1 << n for n in lps),
+        sum(1 << n for n in lds), pcd, cdi,
+    )
     return {
+        "display": ("blank" if code is None else f"{code:02d}: ") + (
+            "" if code is None else display_text(code)
+        ),
         "lps": lps, "lds": lds, "las": las,
         "missing": [n for n in lps if n not in lds],
         "unexpected": [n for n in lds if n not in lps and n != 0],
@@ -192,7 +204,7 @@ def read_status(driver: Pc2Driver, port: str) -> MasterStatus:
         version_id=_text(driver.read(VERSION_ID, VERSION_ID_SIZE)),
         installed_software=_text(driver.read(INSTALLED_SOFTWARE, INSTALLED_SOFTWARE_SIZE)),
         **state_fields(ec, flags),
-        **slave_fields(lps, lds, las, pcd, cdi),
+        **slave_fields(lps, lds, las, pcd, cdi, ec=ec),
         control_state=_name(ControlState, state),
         stop_reason=None if reason == StopReason.NONE else _name(StopReason, reason),
         program_status=_name(ProgramStatus, driver.read_byte(PROGRAM_STATUS)),
@@ -256,6 +268,7 @@ def render(status: MasterStatus) -> str:
         "    " + _slave_row("LDS", s.lds),
         "    " + _slave_row("LAS", s.las),
         "config   " + ("; ".join(problems) if problems else "no errors"),
+        f"display  {s.display}",
         f"control  {control}",
         f"flags    {s.control_flags:02X}h " + (" ".join(set_flags) or "(none)"),
         f"program  {program} ({s.program_status})",

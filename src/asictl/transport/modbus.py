@@ -333,7 +333,7 @@ def read_status(transport: ModbusTransport) -> MasterStatus:
         version_id=transport.master_info(INFO_VERSION_ID),
         installed_software=transport.master_info(INFO_SOFTWARE),
         **state_fields(ec, flags),
-        **slave_fields(lps, lds, las, bytes(pcd), bytes(cdi)),
+        **slave_fields(lps, lds, las, bytes(pcd), bytes(cdi), ec=ec),
         control_state=state.name.lower(),
         stop_reason=None,
         program_status="not shown by the gateway",
