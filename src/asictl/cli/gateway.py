@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import asyncio
 import json
+import signal
 import time
 
 import click
@@ -86,9 +87,17 @@ def serve(
                 err=True,
             )
 
+        async def until_stopped() -> None:
+            # Ctrl-C and a service manager's SIGTERM end the serving loop itself, so the
+            # endpoints close and the state is saved. (Set here, not inherited: a process
+            # started in the background by a shell inherits SIGINT as ignored.)
+            loop = asyncio.get_running_loop()
+            for number in (signal.SIGINT, signal.SIGTERM):
+                loop.add_signal_handler(number, server.stop)
+            await server.serve(address, line, started=started)
+
         try:
-            asyncio.run(server.serve(address, line, started=started))
+            asyncio.run(until_stopped())
         except OSError as exc:
             raise UserError(f"cannot serve: {exc.strerror or exc}") from None
-        except KeyboardInterrupt:
-            click.echo("asictl: gateway stopped", err=True)
+        click.echo("asictl: gateway stopped", err=True)
