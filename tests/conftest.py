@@ -11,6 +11,7 @@ import os
 import shutil
 
 import pytest
+from click.testing import CliRunner
 
 
 def require_tool(name: str, package: str) -> str:
@@ -40,3 +41,9 @@ def s51_path() -> str:
 @pytest.fixture(scope="session")
 def mbpoll_path() -> str:
     return require_tool("mbpoll", "mbpoll")
+
+
+@pytest.fixture
+def runner() -> CliRunner:
+    """Runs ``asictl`` commands in process, with stdout and stderr kept apart."""
+    return CliRunner()

@@ -5,17 +5,11 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-import pytest
 from click.testing import CliRunner
 
 from asictl.cli import main
 
 BAD = "[PROGRAM]\n    A I 1.0\n    = Q 32.0\n    L KT 505\n"
-
-
-@pytest.fixture
-def runner() -> CliRunner:
-    return CliRunner()
 
 
 def write(tmp_path: Path, name: str, text: str) -> str:

@@ -20,11 +20,6 @@ DEMO = Path(__file__).resolve().parent.parent / "demos" / "blink.asi"
 
 
 @pytest.fixture
-def runner() -> CliRunner:
-    return CliRunner()
-
-
-@pytest.fixture
 def blink(tmp_path: Path) -> Path:
     path = tmp_path / "blink.asi"
     shutil.copy(DEMO, path)

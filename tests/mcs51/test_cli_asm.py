@@ -6,16 +6,10 @@ import os
 from pathlib import Path
 
 import pytest
-from click.testing import CliRunner
 
 from asictl.cli import main
 
 PROGRAM = "start:\tmov a,#1\n\tsjmp start\n"
-
-
-@pytest.fixture
-def runner() -> CliRunner:
-    return CliRunner()
 
 
 def write(tmp_path: Path, name: str, text: str) -> Path:

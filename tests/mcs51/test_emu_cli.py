@@ -6,7 +6,6 @@ import json
 from pathlib import Path
 
 import pytest
-from click.testing import CliRunner
 from intelhex import IntelHex
 
 from asictl.cli import main
@@ -14,11 +13,6 @@ from asictl.cli import main
 # 0000: MOV R7,#3; L: INC A; DJNZ R7,L; MOV 30h,A; SJMP $
 LOOP = bytes.fromhex("7f03 04 dffd f530 80fe")
 END = 0x0007
-
-
-@pytest.fixture
-def runner() -> CliRunner:
-    return CliRunner()
 
 
 def image(tmp_path: Path, program: bytes, at: int = 0) -> str:
