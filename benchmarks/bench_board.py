@@ -12,12 +12,12 @@ from __future__ import annotations
 import argparse
 import time
 
-from asictl.checks import check_source
-from asictl.compiler import compile_program
+from asictl.board.asi import AsiBus, Slave
+from asictl.board.board import Pc2Board
+from asictl.codegen8051.compiler import compile_program
+from asictl.il.checks import check_source
 from asictl.image import build_image
-from asictl.master.asi import AsiBus, Slave
-from asictl.master.board import Pc2Board
-from asictl.master.dpram import ControlFlag, ControlState
+from asictl.platform.pc2 import ControlFlag, ControlState
 from asictl.source import from_string
 
 FOLLOW = "[PROGRAM]\n        A I 1.0\n        = Q 2.0\n"

@@ -14,10 +14,10 @@ import argparse
 import random
 from pathlib import Path
 
-from asictl import ast
-from asictl.checks import check_source
-from asictl.compiler import compile_program
-from asictl.runtime import LoadedProgram, ProgramRunner
+from asictl.codegen8051.compiler import compile_program
+from asictl.il import ast
+from asictl.il.checks import check_source
+from asictl.runtime.runner import LoadedProgram, ProgramRunner
 from asictl.source import from_string, read_source
 
 ROOT = Path(__file__).resolve().parent.parent

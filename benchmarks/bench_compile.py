@@ -19,9 +19,9 @@ from pathlib import Path
 
 from bench_check import generate, timed
 
-from asictl.checks import check_source
-from asictl.compiler import compile_program
+from asictl.codegen8051.compiler import compile_program
 from asictl.diagnostics import DiagnosticError
+from asictl.il.checks import check_source
 from asictl.image import EEPROM_SIZE, ImageError, ProgramImage, build_image
 from asictl.source import from_string
 

@@ -26,10 +26,10 @@ from pathlib import Path
 
 from bench_compile import largest_fitting
 
+from asictl.board.board import Pc2Board
+from asictl.host.driver import EmulatedPort, Pc2Driver
+from asictl.host.transfer import Pc2Transport, StartMode, download
 from asictl.image import EEPROM_SIZE, ProgramImage
-from asictl.master.board import Pc2Board
-from asictl.master.driver import EmulatedPort, Pc2Driver
-from asictl.master.transfer import Pc2Transport, StartMode, download
 
 
 def time_in_process(image: ProgramImage, runs: int) -> float:

@@ -19,13 +19,13 @@ import time
 
 from bench_compile import largest_fitting
 
+from asictl.board.board import Pc2Board
 from asictl.gateway.server import background_gateway
 from asictl.gateway.slave import GatewaySlave
+from asictl.host.modbus import open_modbus
+from asictl.host.target import parse_target
+from asictl.host.transfer import StartMode, download
 from asictl.image import EEPROM_SIZE, ProgramImage
-from asictl.master.board import Pc2Board
-from asictl.master.transfer import StartMode, download
-from asictl.transport.modbus import open_modbus
-from asictl.transport.target import parse_target
 
 
 def time_download(image: ProgramImage, runs: int) -> float:

@@ -1,4 +1,4 @@
-"""Time ``asictl.parser.parse`` alone on the generated program of bench_check.py.
+"""Time ``asictl.il.parser.parse`` alone on the generated program of bench_check.py.
 
 In-process, so without Python start-up and imports: the best of several runs of CPU time
 (``time.process_time``, steadier than wall time on a shared machine) and of wall time,
@@ -14,7 +14,7 @@ import time
 
 from bench_check import generate
 
-from asictl.parser import parse_text
+from asictl.il.parser import parse_text
 
 
 def main() -> None:

@@ -1,4 +1,4 @@
-"""Hypothesis strategies for valid IL programs, as typed ASTs (``asictl.ast``).
+"""Hypothesis strategies for valid IL programs, as typed ASTs (``asictl.il.ast``).
 
 The programs are valid beyond syntax too, so that tests of later stages can reuse them:
 operands are in range, variables, timers and counters above 14 are declared before use,
@@ -19,8 +19,8 @@ from dataclasses import dataclass
 
 from hypothesis import strategies as st
 
-from asictl import ast
-from asictl.parser import RESERVED
+from asictl.il import ast
+from asictl.il.parser import RESERVED
 
 FIRMWARE_BLOCKS = (
     "SetPP", "GetPP", "SendPrm", "GetPI", "GetPCD", "GetCDI", "GetLPS", "GetLAS", "GetLDS",

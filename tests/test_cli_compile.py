@@ -10,9 +10,9 @@ from pathlib import Path
 import pytest
 from click.testing import CliRunner
 
-from asictl.checks import check_source
 from asictl.cli import main
-from asictl.compiler import Compiled, compile_program
+from asictl.codegen8051.compiler import Compiled, compile_program
+from asictl.il.checks import check_source
 from asictl.image import ProgramImage, build_image, uploaded_source
 from asictl.source import read_source
 

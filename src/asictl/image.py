@@ -25,15 +25,16 @@ from pathlib import PurePath
 
 from intelhex import IntelHex, IntelHexError
 
-from asictl import __version__, ast
-from asictl.ast import key
-from asictl.codegen import layout
-from asictl.codegen.allocate import CellKind, Location, ProgramMap, Space, Variable
-from asictl.codegen.emitter import firmware_symbol
-from asictl.compiler import Compiled, Options
+from asictl import __version__
+from asictl.codegen8051.allocate import CellKind, Location, ProgramMap, Space, Variable
+from asictl.codegen8051.compiler import Compiled, Options
+from asictl.codegen8051.emitter import firmware_symbol
 from asictl.errors import ExitCode, UserError
-from asictl.firmware import FIRMWARE_BLOCKS
-from asictl.runtime import LoadedProgram
+from asictl.il import ast
+from asictl.il.ast import key
+from asictl.runtime import layout
+from asictl.runtime.firmware import FIRMWARE_BLOCKS
+from asictl.runtime.runner import LoadedProgram
 
 MAGIC = b"ASI2"
 FORMAT_VERSION = 1

@@ -12,12 +12,12 @@ from __future__ import annotations
 from collections.abc import Iterator, Sequence
 
 from asictl import __version__
-from asictl.codegen import layout
-from asictl.codegen.allocate import CellKind, Location, ProgramMap, Space
-from asictl.compiler import GENERATED, Compiled
-from asictl.firmware import FIRMWARE_BLOCKS
+from asictl.codegen8051.allocate import CellKind, Location, ProgramMap, Space
+from asictl.codegen8051.compiler import GENERATED, Compiled
 from asictl.image import EEPROM_SIZE, HEADER_SIZE, ProgramImage
 from asictl.mcs51.assembly import ListingEntry
+from asictl.runtime import layout
+from asictl.runtime.firmware import FIRMWARE_BLOCKS
 from asictl.source import SourceText
 
 #: The first words of every listing: how an existing file is recognised as one.

@@ -5,9 +5,9 @@ from __future__ import annotations
 import pytest
 from modbus_helpers import FakeClock
 
+from asictl.board.asi import AsiBus, Slave
+from asictl.board.board import Pc2Board
 from asictl.gateway.slave import GatewaySlave
-from asictl.master.asi import AsiBus, Slave
-from asictl.master.board import Pc2Board
 
 
 @pytest.fixture

@@ -12,11 +12,11 @@ from modbus_helpers import (
     write_holding,
 )
 
+from asictl.board.board import Pc2Board
+from asictl.board.execution import Phase
 from asictl.gateway.addressmap import EXCEPTION_STATUS_ERROR, display_code, display_text
 from asictl.gateway.slave import GatewaySlave
-from asictl.master import dpram as d
-from asictl.master.board import Pc2Board
-from asictl.master.execution import Phase
+from asictl.platform import pc2 as d
 
 
 def test_input_data_four_slaves_a_register_slave_4k_in_the_top_nibble(gw, board):

@@ -6,8 +6,8 @@ import struct
 
 from modbus_helpers import exception, read_holding, request
 
-from asictl.master import dpram as d
-from asictl.master.execution import Phase
+from asictl.board.execution import Phase
+from asictl.platform import pc2 as d
 
 
 def counter(gw, code: int) -> int:

@@ -16,12 +16,12 @@ from collections.abc import Iterator
 import pytest
 from pymodbus.client import ModbusSerialClient, ModbusTcpClient
 
+from asictl.board.execution import Phase
 from asictl.gateway import pdus
 from asictl.gateway.server import SerialSettings, background_gateway, crc16
 from asictl.gateway.slave import GatewaySlave
-from asictl.master import dpram as d
-from asictl.master.driver import EmulatedPort, Pc2Driver
-from asictl.master.execution import Phase
+from asictl.host.driver import EmulatedPort, Pc2Driver
+from asictl.platform import pc2 as d
 
 
 @pytest.fixture

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import pytest
 
-from asictl import ast
 from asictl.diagnostics import DiagnosticError
-from asictl.parser import parse_text
+from asictl.il import ast
+from asictl.il.parser import parse_text
 from asictl.sim.scenario import SlaveSpec, parse_duration, read_scenario
 from asictl.source import from_string
 

@@ -12,7 +12,7 @@ import pytest
 from click.testing import CliRunner
 
 from asictl.cli import main
-from asictl.master import dpram as d
+from asictl.platform import pc2 as d
 from asictl.sim.engine import Simulation, load_program_for
 from asictl.sim.scenario import load_scenario
 

@@ -6,9 +6,9 @@ from pathlib import Path
 
 import click
 
-from asictl.checks import Dialect, check_source
 from asictl.diagnostics import Diagnostic, Severity, render_github, render_json, render_text
 from asictl.errors import ExitCode, UserError
+from asictl.il.checks import Dialect, check_source
 from asictl.source import read_source
 
 

@@ -13,12 +13,13 @@ from pathlib import Path
 
 import click
 
-from asictl import ast
-from asictl.checks import check_source
-from asictl.compiler import GENERATED, Compiled, compile_program
+from asictl.codegen8051.compiler import GENERATED, Compiled, compile_program
 from asictl.diagnostics import DiagnosticError, Severity, render_text
 from asictl.errors import ExitCode, UserError
 from asictl.files import write_atomic
+from asictl.il import ast
+from asictl.il.checks import check_source
+from asictl.il.loader import Program
 from asictl.image import (
     MAGIC,
     build_image,
@@ -35,7 +36,6 @@ from asictl.listing import (
     listing_text,
     raw_listing_text,
 )
-from asictl.loader import Program
 from asictl.source import read_source
 
 _OUTPUT = click.Path(dir_okay=False)

@@ -16,7 +16,7 @@ import click
 
 from asictl.errors import UserError
 from asictl.files import write_atomic
-from asictl.master.state import emulated_board, parse_port, state_directory, state_file
+from asictl.host.boards import emulated_board, parse_port, state_directory, state_file
 
 #: The board's non-volatile state is written this often while serving (and at the end).
 SAVE_INTERVAL_S = 10.0

@@ -21,16 +21,22 @@ from typing import Any
 import click
 from click.core import ParameterSource
 
+from asictl.board.asi import Slave
+from asictl.board.board import Pc2Board
 from asictl.diagnostics import render_text
 from asictl.errors import ExitCode, UserError
-from asictl.image import ProgramImage
-from asictl.master.asi import Slave
-from asictl.master.board import Pc2Board
-from asictl.master.driver import EmulatedPort
-from asictl.master.program_files import prepare_image, uploaded_files, write_files
-from asictl.master.state import IO_BACKENDS, connect, parse_port, port_name
-from asictl.master.status import MasterStatus, control_summary, read_status, render
-from asictl.master.transfer import (
+from asictl.host.boards import IO_BACKENDS, connect, parse_port, port_name
+from asictl.host.driver import EmulatedPort
+from asictl.host.program_files import prepare_image, uploaded_files, write_files
+from asictl.host.status import MasterStatus, control_summary, read_status, render
+from asictl.host.target import (
+    BAUD_RATES,
+    DEFAULT_RETRIES,
+    DEFAULT_TIMEOUT_S,
+    PARITIES,
+    parse_target,
+)
+from asictl.host.transfer import (
     Pc2Transport,
     StartMode,
     Transport,
@@ -41,13 +47,7 @@ from asictl.master.transfer import (
     set_start,
     upload,
 )
-from asictl.transport.target import (
-    BAUD_RATES,
-    DEFAULT_RETRIES,
-    DEFAULT_TIMEOUT_S,
-    PARITIES,
-    parse_target,
-)
+from asictl.image import ProgramImage
 
 
 def _board_options(command: Callable) -> Callable:
@@ -144,7 +144,7 @@ def _connect(
         raise UserError(f"--modbus and {', '.join(clash)} exclude each other")
     target = parse_target(modbus, baud=int(baud), parity=parity, stopbits=int(stopbits))
     try:
-        from asictl.transport import modbus as gateway
+        from asictl.host import modbus as gateway
     except ImportError as exc:
         raise UserError(
             f"--modbus needs pymodbus and pyserial ({exc}): pip install 'asictl[modbus]'"

@@ -20,11 +20,11 @@ from dataclasses import dataclass, fields
 
 from pymodbus.pdu import ModbusPDU
 
+from asictl.board.board import Pc2Board
 from asictl.gateway import pdus
 from asictl.gateway.addressmap import MAX_BITS, AddressMap, ExceptionCode, ModbusError
-from asictl.master import dpram as d
-from asictl.master.board import Pc2Board
-from asictl.master.dpram import Command
+from asictl.platform import pc2 as d
+from asictl.platform.pc2 import Command
 
 #: The gateway's own name (function 65, P = 1); version and ID come from the master.
 GATEWAY_NAME = "VAG-MOD-KF-R4 AS-i/Modbus Gateway"

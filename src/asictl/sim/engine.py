@@ -14,16 +14,16 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from asictl import ast
-from asictl.codegen.allocate import CellKind
+from asictl.board.asi import AsiBus, Slave
+from asictl.board.board import Pc2Board
+from asictl.codegen8051.allocate import CellKind
 from asictl.diagnostics import Diagnostic, DiagnosticError, Severity, Span
+from asictl.host.driver import EmulatedPort, Pc2Driver
+from asictl.host.transfer import Pc2Transport, StartMode, download
+from asictl.il import ast
+from asictl.il.loader import Program
 from asictl.image import ProgramImage, build_image
-from asictl.loader import Program
-from asictl.master import dpram as d
-from asictl.master.asi import AsiBus, Slave
-from asictl.master.board import Pc2Board
-from asictl.master.driver import EmulatedPort, Pc2Driver
-from asictl.master.transfer import Pc2Transport, StartMode, download
+from asictl.platform import pc2 as d
 from asictl.sim.operands import Operand
 from asictl.sim.scenario import Scenario, SlaveSpec, Step
 from asictl.sim.trace import Signal, Trace
@@ -331,8 +331,8 @@ def _flag_order(name: str) -> tuple[bool, list[int]]:
 
 def load_program_for(path: Path, lib=()) -> tuple[Program, ProgramImage, dict[str, str]]:
     """Check and compile a program for simulation; errors raise ``DiagnosticError``."""
-    from asictl.checks import check_source
-    from asictl.compiler import compile_program
+    from asictl.codegen8051.compiler import compile_program
+    from asictl.il.checks import check_source
     from asictl.source import read_source
 
     result = check_source(read_source(path), lib=lib)

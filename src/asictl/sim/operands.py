@@ -5,9 +5,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from asictl import ast
-from asictl.ast import key
-from asictl.parser import parse_text
+from asictl.il import ast
+from asictl.il.ast import key
+from asictl.il.parser import parse_text
 
 BitNode = ast.ImageBit | ast.TimerRef | ast.CounterRef | ast.VarBit
 ByteNode = ast.ImageByte | ast.VarByte

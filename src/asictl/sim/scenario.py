@@ -12,9 +12,9 @@ import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from asictl import ast
 from asictl.diagnostics import Diagnostic, DiagnosticError, Reporter, Severity, Span
-from asictl.parser import parse_text
+from asictl.il import ast
+from asictl.il.parser import parse_text
 from asictl.sim.operands import Operand, parse_operand
 from asictl.source import SourceText, read_source
 

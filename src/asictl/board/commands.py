@@ -1,0 +1,213 @@
+"""The host commands of the PC2 (manual 7.3): the code in 1F0h, parameters around it.
+
+The board runs a pending command at its next firmware pass (the start of an AS-i cycle)
+and answers in the command byte with 00h (done) or FFh (refused); results go to ``data``
+(1F1h) or the program buffer (310h). This is the board's own code, split off for size.
+"""
+
+from __future__ import annotations
+
+from asictl.platform import pc2 as d
+from asictl.platform.pc2 import Command, ControlFlag, Status, nibbles
+from asictl.runtime.layout import default_entry_points
+
+#: Command 53 from FF00h: the firmware's function-block entry points, 2 bytes each, LE.
+ENTRY_TABLE = b"".join(a.to_bytes(2, "little") for a in default_entry_points().values())
+
+
+class CommandsMixin:
+    """Command execution for ``Pc2Board`` (which supplies the attributes used here)."""
+
+    def _run_command(self, code: int) -> bool:
+        handler = _HANDLERS.get(code)
+        return bool(handler and handler(self))
+
+    # --- parameters and results -------------------------------------------------
+
+    def _param_data(self) -> int:
+        return self._ram[d.DATA]
+
+    def _param_address(self) -> int:
+        return self._ram[d.ADDRESS]
+
+    def _block(self, limit: int) -> range | None:
+        """Command 52/53/54/56's block: ``data`` bytes from ``address``; None if invalid."""
+        size = self._ram[d.DATA]
+        start = self._ram[d.ADDRESS] | self._ram[d.ADDRESS_EXT] << 8
+        if not 1 <= size <= d.PROGRAM_BUFFER_SIZE or start + size > limit:
+            return None
+        return range(start, start + size)
+
+    def _buffer(self, size: int) -> slice:
+        return slice(d.PROGRAM_BUFFER, d.PROGRAM_BUFFER + size)
+
+    def _image(self, address: int, size: int) -> bytes:
+        return bytes(self._ram[address : address + size])
+
+    # --- AS-i master ------------------------------------------------------------
+
+    def _set_permanent_parameter(self) -> bool:
+        self._ec.set_permanent_parameters(nibbles(self._image(d.PP, d.IMAGE_SIZE)))
+        self._write_settings()
+        return True
+
+    def _write_parameter(self) -> bool:
+        address = self._param_address()
+        if address >= 32:
+            return False
+        answer = self._ec.write_parameter(address, self._param_data())
+        self._write_settings()
+        if answer is None:
+            return False
+        self._ram[d.DATA] = answer
+        return True
+
+    def _store_actual_parameter(self) -> bool:
+        self._ec.store_actual_parameters()
+        self._write_settings()
+        return True
+
+    def _set_permanent_configuration(self) -> bool:
+        done = self._ec.set_permanent_configuration(self._image(d.PCD, d.CONFIG_SIZE))
+        self._write_settings()
+        return done
+
+    def _store_actual_configuration(self) -> bool:
+        done = self._ec.store_actual_configuration()
+        self._write_settings()
+        return done
+
+    def _set_lps(self) -> bool:
+        lps = int.from_bytes(self._image(d.LPS, d.LIST_SIZE), "little")
+        done = self._ec.set_lps(lps)
+        self._write_settings()
+        return done
+
+    def _set_operation_mode(self) -> bool:
+        return self._ec.set_operation_mode(self._param_data() != 0)
+
+    def _change_slave_address(self) -> bool:
+        status = self._ec.change_slave_address(self._param_address(), self._param_data())
+        self._ram[d.DATA] = status
+        return status is Status.OK
+
+    def _execute_command(self) -> bool:
+        address = self._param_address()
+        answer = self._ec.execute_command(address, self._param_data()) if address < 32 else None
+        if answer is None:
+            return False
+        self._ram[d.DATA] = answer
+        return True
+
+    # --- AS-i Control -------------------------------------------------------------
+
+    def _write_control_flags_command(self) -> bool:
+        value = self._ram[d.CONTROL_FLAGS]
+        self._control.write_flags(value)
+        loaded = True
+        if value & ControlFlag.RESET:
+            loaded = self._load_program()
+            self._safe_outputs()
+        self._write_control_flags()
+        self._write_status()
+        return loaded
+
+    def _get_status(self) -> bool:
+        self._write_control_flags()
+        self._write_cycle_times()
+        return True
+
+    def _download(self) -> bool:
+        block = self._block(d.EEPROM_SIZE)
+        if block is None:
+            return False
+        self._eeprom[block.start : block.stop] = self._ram[self._buffer(len(block))]
+        return True
+
+    def _upload(self) -> bool:
+        start = self._ram[d.ADDRESS] | self._ram[d.ADDRESS_EXT] << 8
+        if start >= d.ENTRY_TABLE_ADDRESS:
+            block = self._block(d.ENTRY_TABLE_ADDRESS + d.ENTRY_TABLE_SIZE)
+            source, offset = ENTRY_TABLE, d.ENTRY_TABLE_ADDRESS
+        else:
+            block = self._block(d.EEPROM_SIZE)
+            source, offset = bytes(self._eeprom), 0
+        if block is None:
+            return False
+        self._put(d.PROGRAM_BUFFER, source[block.start - offset : block.stop - offset])
+        return True
+
+    def _comm_block(self) -> range | None:
+        """54/56: ``data`` bytes at ``address`` of the communication memory (no extension)."""
+        size, start = self._param_data(), self._param_address()
+        if not 1 <= size <= d.PROGRAM_BUFFER_SIZE or start + size > d.COMM_MEMORY_SIZE:
+            return None
+        return range(d.COMM_MEMORY + start, d.COMM_MEMORY + start + size)
+
+    def _write_comm_memory(self) -> bool:
+        block = self._comm_block()
+        if block is None:
+            return False
+        self._put(block.start, self._image(d.PROGRAM_BUFFER, len(block)))
+        return True
+
+    def _read_comm_memory(self) -> bool:
+        block = self._comm_block()
+        if block is None:
+            return False
+        self._put(d.PROGRAM_BUFFER, self._image(block.start, len(block)))
+        return True
+
+    # --- diagnostics --------------------------------------------------------------
+
+    def _read_clear_lcs(self) -> bool:
+        self._put(d.PROGRAM_BUFFER, self._ec.read_clear_lcs().to_bytes(4, "little"))
+        return True
+
+    def _read_clear_error_counters(self) -> bool:
+        self._put(d.PROGRAM_BUFFER, self._ec.read_clear_error_counters())
+        return True
+
+    def _set_los(self) -> bool:
+        self._ec.set_los(int.from_bytes(self._image(d.LOS, d.LIST_SIZE), "little"))
+        self._write_settings()
+        return True
+
+    def _update_dpram(self) -> bool:
+        """128: everything the master owns written again (not the watchdog, not the ODI)."""
+        self._write_identity()
+        self._put(d.CONFIG_OK_DELAY, bytes([self._ec.config_ok_delay]))
+        self._write_lists()
+        self._write_settings()
+        self._write_control_flags()
+        self._write_cycle_times()
+        return True
+
+    def _read_telegram_counters(self) -> bool:
+        counts = self._ec.read_clear_telegram_counters()
+        self._put(d.PROGRAM_BUFFER, b"".join(min(n, 0xFFFF).to_bytes(2, "little") for n in counts))
+        return True
+
+
+_HANDLERS = {
+    Command.SET_PERMANENT_PARAMETER: CommandsMixin._set_permanent_parameter,
+    Command.WRITE_PARAMETER: CommandsMixin._write_parameter,
+    Command.STORE_ACTUAL_PARAMETER: CommandsMixin._store_actual_parameter,
+    Command.SET_PERMANENT_CONFIGURATION: CommandsMixin._set_permanent_configuration,
+    Command.STORE_ACTUAL_CONFIGURATION: CommandsMixin._store_actual_configuration,
+    Command.SET_LPS: CommandsMixin._set_lps,
+    Command.SET_OPERATION_MODE: CommandsMixin._set_operation_mode,
+    Command.CHANGE_SLAVE_ADDRESS: CommandsMixin._change_slave_address,
+    Command.EXECUTE_COMMAND: CommandsMixin._execute_command,
+    Command.WRITE_CONTROL_FLAGS: CommandsMixin._write_control_flags_command,
+    Command.GET_STATUS: CommandsMixin._get_status,
+    Command.DOWNLOAD: CommandsMixin._download,
+    Command.UPLOAD: CommandsMixin._upload,
+    Command.WRITE_COMM_MEMORY: CommandsMixin._write_comm_memory,
+    Command.READ_COMM_MEMORY: CommandsMixin._read_comm_memory,
+    Command.READ_CLEAR_LCS: CommandsMixin._read_clear_lcs,
+    Command.READ_CLEAR_ERROR_COUNTERS: CommandsMixin._read_clear_error_counters,
+    Command.SET_LOS: CommandsMixin._set_los,
+    Command.UPDATE_DPRAM: CommandsMixin._update_dpram,
+    Command.READ_TELEGRAM_COUNTERS: CommandsMixin._read_telegram_counters,
+}

@@ -1,0 +1,218 @@
+"""Where a program's data lives: the compiler's memory allocation.
+
+Bit logic is what control programs spend their time on, and the 8051 does it fastest on
+the 128 bits of internal RAM 20h-2Fh (``ANL C,bit``: 2 bytes, 2 machine cycles). So the
+process-image bytes a program uses (input, old input, output, flag bytes, timer-status
+groups) are "cells" that the compiler places per program: the most used bit operands in
+the bit-addressable bytes, the rest in directly addressable RAM, and only what does not
+fit in external RAM. The firmware learns the placement from the program map in the image
+and copies inputs in and outputs and flags out around each cycle.
+"""
+
+from __future__ import annotations
+
+from collections import Counter
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+from enum import StrEnum
+
+from asictl.il import ast
+from asictl.il.ast import key
+from asictl.il.language import COUNTER_FLAG_BASE, MAPPED_COUNTERS
+from asictl.il.loader import Program
+from asictl.runtime import layout
+
+
+class Space(StrEnum):
+    IRAM = "iram"
+    XDATA = "xdata"
+
+
+@dataclass(frozen=True, slots=True, order=True)
+class Location:
+    space: Space
+    address: int
+
+    @property
+    def bit_addressable(self) -> bool:
+        return self.space is Space.IRAM and 0x20 <= self.address < 0x30
+
+    def bit_address(self, bit: int) -> int:
+        return (self.address - 0x20) * 8 + bit
+
+
+class CellKind(StrEnum):
+    """Byte-sized pieces of the process images a program can address bit by bit."""
+
+    I = "I"  # noqa: E741 - the manual's name: input image byte k = slaves 2k, 2k+1
+    I2 = "I2"
+    Q = "Q"
+    F = "F"  # flag byte n
+    TS = "TS"  # status bits of timers 8g..8g+7
+
+
+Cell = tuple[CellKind, int]
+
+_IMAGE_CELLS = {
+    ast.BitArea.I: CellKind.I, ast.BitArea.I2: CellKind.I2, ast.BitArea.Q: CellKind.Q
+}
+_BYTE_CELLS = {
+    ast.ByteArea.IB: CellKind.I, ast.ByteArea.I2B: CellKind.I2, ast.ByteArea.QB: CellKind.Q
+}
+
+
+def bit_cell(operand: ast.ImageBit) -> tuple[Cell, int]:
+    """The cell and bit (0-7) of an I/I2/Q/F bit operand: slave 2k+1 is the high nibble."""
+    if operand.area is ast.BitArea.F:
+        return (CellKind.F, operand.address), operand.bit
+    cell = (_IMAGE_CELLS[operand.area], operand.address >> 1)
+    return cell, (operand.address & 1) * 4 + operand.bit
+
+
+def byte_cell(operand: ast.ImageByte) -> Cell:
+    if operand.area is ast.ByteArea.FY:
+        return CellKind.F, operand.number
+    return _BYTE_CELLS[operand.area], operand.number >> 1
+
+
+def timer_status(number: int) -> tuple[Cell, int]:
+    return (CellKind.TS, number >> 3), number & 7
+
+
+@dataclass
+class Variable:
+    name: str
+    address: int
+    size: int
+
+
+@dataclass
+class ProgramMap:
+    """Where everything is; the firmware and the simulator read it from the image."""
+
+    cells: dict[Cell, Location] = field(default_factory=dict)
+    #: timer number -> XDATA address of its remaining time (2 bytes, low first)
+    timers: dict[int, int] = field(default_factory=dict)
+    #: counter number -> XDATA address of its count (2 bytes, low first)
+    counters: dict[int, int] = field(default_factory=dict)
+    #: key(name) -> the variable's XDATA bytes
+    variables: dict[str, Variable] = field(default_factory=dict)
+    pseg: int = layout.DATA_BASE
+    data_end: int = layout.DATA_BASE
+    map_counters: bool = False
+
+    def flag(self, n: int) -> Location:
+        """Flag byte n: its cell if allocated, else its home in the communication memory."""
+        return self.cells.get((CellKind.F, n), Location(Space.XDATA, layout.FLAGS_BASE + n))
+
+
+@dataclass
+class _Usage:
+    bit_uses: Counter = field(default_factory=Counter)
+    byte_uses: Counter = field(default_factory=Counter)
+    timers: set[int] = field(default_factory=set)
+    counters: set[int] = field(default_factory=set)
+
+    def bit(self, cell: Cell) -> None:
+        self.bit_uses[cell] += 1
+
+    def byte(self, cell: Cell) -> None:
+        self.byte_uses[cell] += 1
+
+
+def _bit_operands(module: ast.Module) -> Iterator[ast.BitOperand]:
+    for section in module.sections:
+        if isinstance(section, ast.GatingSection):
+            for line in section.lines:
+                yield line.target
+                yield from (term.operand for term in line.terms)
+        elif isinstance(section, ast.ProgramSection):
+            for statement in section.statements:
+                if isinstance(statement, ast.Logic | ast.Store):
+                    yield statement.operand
+
+
+def _usage(program: Program) -> _Usage:
+    usage = _Usage()
+    for module in program.modules():
+        for operand in _bit_operands(module):
+            match operand:
+                case ast.ImageBit():
+                    usage.bit(bit_cell(operand)[0])
+                case ast.TimerRef(number=n):
+                    usage.bit(timer_status(n)[0])
+                    usage.timers.add(n)
+                case ast.CounterRef(number=n):
+                    usage.counters.add(n)
+        for section in module.sections_of(ast.ProgramSection):
+            for statement in section.statements:
+                operand = getattr(statement, "operand", None) or getattr(statement, "counter", None)
+                match operand:
+                    case ast.ImageByte(area=ast.ByteArea.PSEG):
+                        pass
+                    case ast.ImageByte():
+                        usage.byte(byte_cell(operand))
+                    case ast.FlagWord(number=n):
+                        usage.byte((CellKind.F, n))
+                        usage.byte((CellKind.F, n + 1))
+                    case ast.TimerRef(number=n):
+                        usage.timers.add(n)
+                        usage.byte(timer_status(n)[0])
+                    case ast.CounterRef(number=n):
+                        usage.counters.add(n)
+                if isinstance(statement, ast.Param):
+                    usage.byte((CellKind.F, 127))
+    return usage
+
+
+def allocate(program: Program, *, map_counters: bool) -> ProgramMap:
+    """Place every cell, timer, counter and variable the program uses."""
+    usage = _usage(program)
+    result = ProgramMap(map_counters=map_counters)
+    pinned = (
+        {(CellKind.F, COUNTER_FLAG_BASE + i) for i in range(2 * MAPPED_COUNTERS)}
+        if map_counters
+        else set()
+    )
+    used = [c for c in {*usage.bit_uses, *usage.byte_uses} if c not in pinned]
+
+    def weight(cell: Cell) -> tuple:
+        return (-usage.bit_uses[cell], -usage.byte_uses[cell], cell)
+
+    bit_pool = list(layout.BIT_POOL)
+    direct_pool = list(layout.DIRECT_POOL)
+    for cell in sorted((c for c in used if usage.bit_uses[c]), key=weight):
+        if not bit_pool:
+            break
+        result.cells[cell] = Location(Space.IRAM, bit_pool.pop(0))
+    for cell in sorted((c for c in used if c not in result.cells), key=weight):
+        if not direct_pool:
+            break
+        result.cells[cell] = Location(Space.IRAM, direct_pool.pop(0))
+
+    cursor = layout.DATA_BASE
+
+    def take(size: int) -> int:
+        nonlocal cursor
+        address, cursor = cursor, cursor + size
+        return address
+
+    result.pseg = take(16)
+    for n in sorted(usage.timers):
+        result.timers[n] = take(2)
+    for n in sorted(usage.counters):
+        if map_counters and n < MAPPED_COUNTERS:
+            result.counters[n] = layout.FLAGS_BASE + COUNTER_FLAG_BASE + 2 * n
+        else:
+            result.counters[n] = take(2)
+    for module in program.modules():
+        for section in module.sections_of(ast.DeclSection):
+            for decl in section.declarations:
+                name = key(decl.name) if isinstance(decl, ast.VarDecl) else None
+                if name is not None and name not in result.variables:
+                    result.variables[name] = Variable(decl.name, take(decl.size), decl.size)
+    # cells that did not fit: flags stay at home in the communication memory
+    for cell in sorted(c for c in used if c not in result.cells and c[0] is not CellKind.F):
+        result.cells[cell] = Location(Space.XDATA, take(1))
+    result.data_end = cursor
+    return result

@@ -1,0 +1,146 @@
+"""The compile pipeline: checked program -> allocation -> assembly -> machine code.
+
+Conditional jumps are first written in their short form (``JC rel``, 2 bytes); when the
+assembler finds one out of reach, that jump alone is rewritten as ``JNC skip / LJMP``
+and the program assembled again, so code stays compact without guessing distances.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+from asictl.codegen8051.allocate import ProgramMap, allocate
+from asictl.codegen8051.emitter import Emitter, Line
+from asictl.codegen8051.generate import generate, symbols
+from asictl.diagnostics import Diagnostic, DiagnosticError, Severity
+from asictl.il import ast
+from asictl.il.ast import key
+from asictl.il.loader import Program
+from asictl.mcs51.asm_errors import Code
+from asictl.mcs51.assembler import assemble
+from asictl.mcs51.assembly import Assembly
+from asictl.runtime import layout
+from asictl.source import SourceText, from_string
+
+#: The name generated assembly goes by in listings and internal diagnostics.
+GENERATED = "<generated>"
+_MAX_RELAXATIONS = 16
+
+
+@dataclass(frozen=True)
+class Options:
+    """The [OPTIONS] flags, with the manual's defaults (3.1)."""
+
+    auto_start: bool = True
+    ignore_config_errors: bool = False
+    map_counters: bool = False
+
+    @classmethod
+    def of(cls, module: ast.Module) -> Options:
+        values = {
+            key(o.name): o.value for s in module.sections_of(ast.OptionsSection) for o in s.options
+        }
+        return cls(
+            auto_start=values.get("auto_start", True),
+            ignore_config_errors=values.get("ignore_config_errors", False),
+            map_counters=values.get("map_counters", False),
+        )
+
+
+@dataclass(frozen=True)
+class Compiled:
+    """A program translated to 8051 code, with everything needed to run and list it."""
+
+    program: Program
+    options: Options
+    pmap: ProgramMap
+    assembly: Assembly
+    #: the generated assembly, line by line, with the IL span each line implements
+    lines: tuple[Line, ...]
+    entry_points: Mapping[str, int]
+    #: assembler warnings, reported at the IL lines whose code they concern
+    diagnostics: tuple[Diagnostic, ...] = ()
+
+    @property
+    def code(self) -> bytes:
+        """The code bytes from CODE_BASE up to the last one."""
+        end = max((start + len(data) for start, data in self.assembly.segments), default=0)
+        image = bytearray(max(0, end - layout.CODE_BASE))
+        for start, data in self.assembly.segments:
+            image[start - layout.CODE_BASE : start - layout.CODE_BASE + len(data)] = data
+        return bytes(image)
+
+    @property
+    def assembly_text(self) -> str:
+        return "".join(f"{line.text}\n" for line in self.lines)
+
+
+def compile_program(
+    program: Program, *, entry_points: Mapping[str, int] | None = None
+) -> Compiled:
+    """Translate a program that has passed the checks. Raises ``DiagnosticError``."""
+    entry_points = dict(entry_points or layout.default_entry_points())
+    options = Options.of(program.main)
+    pmap = allocate(program, map_counters=options.map_counters)
+    if pmap.data_end > layout.DATA_LIMIT:
+        raise DiagnosticError([_error(
+            f"the program's data needs {pmap.data_end - layout.DATA_BASE} bytes of RAM, "
+            f"{layout.DATA_LIMIT - layout.DATA_BASE} are available"
+        )])
+    predefined = symbols(program, pmap, entry_points)
+    long_jumps: frozenset[int] = frozenset()
+    for _ in range(_MAX_RELAXATIONS):
+        emitter = generate(program, pmap, entry_points, long_jumps)
+        source = _source(emitter)
+        try:
+            assembly = assemble(source, predefined=predefined)
+        except DiagnosticError as exc:
+            far = {
+                emitter.jump_lines[d.span.line - 1]
+                for d in exc.diagnostics
+                if d.code == Code.JUMP_TOO_FAR
+                and d.span is not None
+                and d.span.file == GENERATED
+                and d.span.line - 1 in emitter.jump_lines
+            }
+            if far - long_jumps:
+                long_jumps |= far
+                continue
+            raise DiagnosticError(_map_back(exc.diagnostics, emitter.lines)) from None
+        break
+    else:  # pragma: no cover - each round makes at least one more jump long
+        raise AssertionError("jump relaxation did not settle")
+    compiled = Compiled(
+        program, options, pmap, assembly, tuple(emitter.lines), entry_points,
+        tuple(_map_back(list(assembly.diagnostics), emitter.lines)),
+    )
+    end = layout.CODE_BASE + len(compiled.code)
+    if end > layout.CODE_LIMIT:
+        raise DiagnosticError([_error(
+            f"the program's code is {len(compiled.code)} bytes; at most "
+            f"{layout.CODE_LIMIT - layout.CODE_BASE} fit"
+        )])
+    return compiled
+
+
+def _source(emitter: Emitter) -> SourceText:
+    return from_string(GENERATED, "".join(f"{line.text}\n" for line in emitter.lines))
+
+
+def _error(message: str) -> Diagnostic:
+    return Diagnostic(Severity.ERROR, "E301", message, None)
+
+
+def _map_back(diagnostics: list[Diagnostic], lines: tuple[Line, ...] | list[Line]):
+    """Assembler findings on generated lines, reported at the IL line that produced them."""
+    mapped = []
+    for d in diagnostics:
+        span = d.span
+        if span is not None and span.file == GENERATED and 0 < span.line <= len(lines):
+            line = lines[span.line - 1]
+            message = f"{d.message} (in the assembly line '{line.text.strip()}')"
+            mapped.append(Diagnostic(d.severity, d.code, message, line.span))
+        else:
+            mapped.append(d)
+    return mapped

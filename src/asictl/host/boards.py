@@ -1,0 +1,130 @@
+"""Which board a command talks to, and where an emulated board keeps its EEPROM.
+
+``--port 300h`` names a board by its I/O base, as the manual's tools do. With the
+emulated board (the default) every port is a board of its own whose non-volatile state
+(EEPROM, flags, configuration) lives in a JSON file in the user's state directory, so a
+download in one command is there for the upload in the next, as on a real master.
+
+Each command holds an exclusive ``flock`` on the board's lock file from loading the state
+to saving it, so two commands never interleave on one board; the state is replaced in one
+rename, never half-written. A state file that cannot be read is reported and left alone:
+replacing it silently would lose the program it may still hold.
+"""
+
+from __future__ import annotations
+
+import fcntl
+import json
+import os
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+
+from asictl.board.board import Pc2Board
+from asictl.errors import UserError
+from asictl.files import write_atomic
+from asictl.host.driver import DevPort, EmulatedPort, Pc2Driver
+from asictl.platform.pc2 import IO_BASES
+
+STATE_DIR_ENV = "ASICTL_STATE_DIR"
+#: Master time an emulated board runs after power-up before the host's first access: its
+#: start-up (detection, activation, the config_ok delay) is over, as on a board that was
+#: switched on before the command, and a status shows a settled master.
+POWER_UP_MS = 100.0
+IO_BACKENDS = ("emulated", "devport")
+
+
+def parse_port(text: str) -> int:
+    """An I/O base as the manual writes it: ``300h``; also ``0x300`` and ``300`` (hex)."""
+    digits = text.strip().lower()
+    if digits.startswith("0x"):
+        digits = digits[2:]
+    elif digits.endswith("h"):
+        digits = digits[:-1]
+    try:
+        base = int(digits, 16)
+    except ValueError:
+        base = -1
+    if base not in IO_BASES:
+        raise UserError(
+            f"port '{text}': a PC2 board sits at "
+            + ", ".join(port_name(b) for b in IO_BASES)
+        )
+    return base
+
+
+def port_name(base: int) -> str:
+    return f"{base:X}h"
+
+
+def state_directory(override: str | Path | None = None) -> Path:
+    """``--state-dir``, else ``$ASICTL_STATE_DIR``, else the XDG state directory."""
+    if override:
+        return Path(override)
+    if os.environ.get(STATE_DIR_ENV):
+        return Path(os.environ[STATE_DIR_ENV])
+    xdg = os.environ.get("XDG_STATE_HOME")
+    return (Path(xdg) if xdg else Path.home() / ".local" / "state") / "asictl"
+
+
+def state_file(directory: Path, base: int) -> Path:
+    return directory / f"pc2-{port_name(base).lower()}.json"
+
+
+def _load(path: Path) -> Pc2Board:
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        return Pc2Board()
+    except (OSError, UnicodeDecodeError) as exc:
+        raise UserError(f"{path}: cannot read the emulated board's state: {exc}") from None
+    try:
+        return Pc2Board.from_nonvolatile(json.loads(text))
+    except ValueError as exc:  # JSONDecodeError is one too
+        raise UserError(
+            f"{path}: the emulated board's state is corrupt ({exc}); it is left as it is. "
+            "Move it away to start again with a new, empty board."
+        ) from None
+
+
+@contextmanager
+def emulated_board(base: int, directory: Path) -> Iterator[Pc2Board]:
+    """The board at ``base``, powered up from its saved state (or new) under the lock,
+    and saved when done.
+
+    The state is saved however the block ends, an interruption included: what the
+    commands did to the board until then is what a real board would keep.
+    """
+    path = state_file(directory, base)
+    try:
+        directory.mkdir(parents=True, exist_ok=True)
+        lock = open(path.with_suffix(".lock"), "a")  # noqa: SIM115 - held for the whole block
+    except OSError as exc:
+        raise UserError(
+            f"{directory}: cannot use as state directory: {exc.strerror or exc}"
+        ) from None
+    with lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        board = _load(path)
+        board.advance(POWER_UP_MS)
+        try:
+            yield board
+        finally:
+            write_atomic(path, json.dumps(board.nonvolatile(), indent=1, sort_keys=True) + "\n")
+
+
+@contextmanager
+def connect(
+    port: str, io: str = "emulated", state_dir: str | Path | None = None
+) -> Iterator[Pc2Driver]:
+    """A driver for the board at ``port``: emulated (with its saved state) or real."""
+    base = parse_port(port)
+    if io == "devport":
+        device = DevPort(base)
+        try:
+            yield Pc2Driver(device)
+        finally:
+            device.close()
+        return
+    with emulated_board(base, state_directory(state_dir)) as board:
+        yield Pc2Driver(EmulatedPort(board))

@@ -1,0 +1,343 @@
+"""``Transport`` through an AS-i/Modbus gateway (VAG-MOD-KF-R4), docs/host.md "Modbus transport".
+
+The gateway has no download command: its user-defined functions move 16 program bytes at a
+time (66 writes, 67 reads, manual 6.3.13/6.3.14), the configuration is a set of holding
+registers, and the AS-i Control flags are register 1009 (manual 7.3). Function 66 always
+writes a whole block, so a shorter write (the magic-destroying first write of a download, a
+last partial block) reads the block first and writes it back changed.
+
+Like the PC2's command 53, function 67 from FF00h reads the firmware's entry-point table
+instead of the EEPROM; the emulated gateway answers it so, which lets ``asictl download``
+compile a source file against the master it talks to whatever the way there.
+
+Time-outs and CRC errors (a frame with a bad checksum is dropped, so it too ends in a
+time-out) are retried a bounded number of times by pymodbus itself; every request here is
+idempotent, so repeating one is safe. Whatever still fails becomes a ``JobError`` with an
+ASI_CTRL STATUS word, as a PC2 command failure does.
+"""
+
+from __future__ import annotations
+
+import logging
+import struct
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
+
+from pymodbus import FramerType
+from pymodbus.client import ModbusSerialClient, ModbusTcpClient
+from pymodbus.constants import ExcCodes
+from pymodbus.exceptions import ConnectionException, ModbusException
+from pymodbus.pdu import ModbusPDU
+from pymodbus.pdu.other_message import ReadExceptionStatusRequest
+from pymodbus.pdu.register_message import (
+    ReadHoldingRegistersRequest,
+    WriteMultipleRegistersRequest,
+    WriteSingleRegisterRequest,
+)
+
+from asictl.errors import UserError
+from asictl.gateway.pdus import (
+    BLOCK_SIZE,
+    CLIENT_PDUS,
+    INFO_NAME,
+    INFO_SOFTWARE,
+    INFO_VERSION,
+    INFO_VERSION_ID,
+    DownloadRequest,
+    MasterInfoRequest,
+    UploadRequest,
+)
+from asictl.host.jobs import JobError, JobStatus
+from asictl.host.status import MasterStatus, program_info, slave_fields, state_fields
+from asictl.host.target import (
+    DEFAULT_RETRIES,
+    DEFAULT_TIMEOUT_S,
+    PARITIES,
+    ModbusTarget,
+)
+from asictl.image import SLAVES, Configuration
+from asictl.platform.pc2 import (
+    ENTRY_TABLE_ADDRESS,
+    ENTRY_TABLE_SIZE,
+    ControlFlag,
+    ControlState,
+)
+from asictl.runtime.firmware import FIRMWARE_BLOCKS
+
+# pymodbus logs every time-out it retries; without a handler Python would print them.
+logging.getLogger("pymodbus").addHandler(logging.NullHandler())
+
+# --- the gateway's registers (manual 7.3; "41001" = register 1000) ---------------------
+PI_REGISTERS = 100  # 100..131: actual parameters, one register per slave
+LPS_REGISTERS = 140  # 140..141: slave n = bit n % 16 of register 140 + n // 16
+PP_REGISTERS = 200  # 200..231: projected parameters
+PCD_REGISTERS = 300  # 300..331: bits 0-3 ID code, bits 4-7 I/O code
+EC_FLAGS_REGISTER = 608
+LAS_REGISTERS = 609
+LDS_REGISTERS = 611
+CDI_REGISTERS = 700  # 700..731: as PCD
+SET_OPERATION_MODE = 1000  # 0 protected mode, anything else configuration mode
+CONTROL_FLAGS_REGISTER = 1009
+#: Registers one telegram may carry (manual 6.3.3, 6.3.8).
+MAX_REGISTERS = 15
+#: Function 7: bit 7 of the result of the last execution-control function = error.
+EXCEPTION_STATUS_ERROR = 0x80
+
+#: Flags a write of 1009 may carry; control_active only reads back.
+_WRITABLE_FLAGS = 0xFF & ~ControlFlag.CONTROL_ACTIVE
+
+_EXCEPTION_NAMES = {code: code.name.lower().replace("_", " ") for code in ExcCodes}
+
+
+def _words(registers: Sequence[int]) -> list[int]:
+    return [value & 0xFFFF for value in registers]
+
+
+def lps_registers(lps: bytes) -> list[int]:
+    """PC2 slave list (4 bytes, slave n = bit n % 8 of byte n // 8) as registers 140, 141."""
+    return [lps[0] | lps[1] << 8, lps[2] | lps[3] << 8]
+
+
+def slave_list(registers: Sequence[int]) -> list[int]:
+    """Registers like 140/141 (LPS), 609/610 (LAS), 611/612 (LDS) as slave numbers."""
+    return [n for n in range(SLAVES) if registers[n // 16] >> n % 16 & 1]
+
+
+def pcd_register(pc2_byte: int) -> int:
+    """PC2 PCD byte (ID code high, I/O code low) as the gateway's register (the other way)."""
+    return (pc2_byte & 0xF) << 4 | pc2_byte >> 4
+
+
+def pc2_profile(register: int) -> int:
+    """The gateway's PCD/CDI register as the PC2's byte, the layout ``MasterStatus`` uses."""
+    return (register & 0xF) << 4 | register >> 4 & 0xF
+
+
+class ModbusTransport:
+    """``Transport`` over a pymodbus client talking to one gateway (``unit``)."""
+
+    block_size = BLOCK_SIZE
+
+    def __init__(
+        self, client: ModbusTcpClient | ModbusSerialClient, unit: int, name: str, retries: int
+    ) -> None:
+        self.client = client
+        self.unit = unit
+        self.name = name
+        self.retries = retries
+        for response in CLIENT_PDUS:
+            client.register(response)
+
+    # --- one request, its failures as JobErrors ------------------------------------------
+
+    def _call(self, what: str, request: ModbusPDU) -> ModbusPDU:
+        request.dev_id = self.unit
+        try:
+            response = self.client.execute(False, request)
+        except ConnectionException as exc:
+            raise JobError(
+                JobStatus.INTERFACE_ERROR, f"{what}: cannot reach the gateway at {self.name}"
+                f" ({exc})",
+            ) from None
+        except ModbusException:
+            raise JobError(
+                JobStatus.INTERFACE_ERROR,
+                f"{what}: no valid answer from unit {self.unit} at {self.name} after "
+                f"{self.retries + 1} tries (time-out or CRC error)",
+            ) from None
+        if response.isError():
+            code = response.exception_code
+            status = (
+                JobStatus.UNKNOWN_COMMAND if code == ExcCodes.ILLEGAL_FUNCTION
+                else JobStatus.REFUSED
+            )
+            raise JobError(
+                status, f"{what}: the gateway answered with exception {code} "
+                f"({_EXCEPTION_NAMES.get(code, 'unknown')})",
+            )
+        return response
+
+    def read_registers(self, address: int, count: int) -> list[int]:
+        """Holding registers (function 3), at most 15 per telegram as the gateway allows."""
+        values: list[int] = []
+        for start in range(address, address + count, MAX_REGISTERS):
+            n = min(MAX_REGISTERS, address + count - start)
+            request = ReadHoldingRegistersRequest(address=start, count=n)
+            values += self._call(f"reading registers {start}..{start + n - 1}", request).registers
+        return values
+
+    def write_registers(self, address: int, values: Sequence[int]) -> None:
+        """Function 16 in telegrams of at most 15 registers; function 6 for a single one,
+        which the execution-control registers expect (each write triggers its function)."""
+        words = _words(values)
+        if len(words) == 1:
+            request: ModbusPDU = WriteSingleRegisterRequest(address=address, registers=words)
+            self._call(f"writing register {address}", request)
+            return
+        for offset in range(0, len(words), MAX_REGISTERS):
+            chunk = words[offset : offset + MAX_REGISTERS]
+            start = address + offset
+            self._call(
+                f"writing registers {start}..{start + len(chunk) - 1}",
+                WriteMultipleRegistersRequest(address=start, registers=chunk),
+            )
+
+    def execution_control(self, register: int, value: int, what: str) -> None:
+        """Write an execution-control register, then Read Exception Status (function 7):
+        Modbus has no result for a write, the gateway keeps it there (manual 6.3.10)."""
+        self.write_registers(register, [value])
+        result = self._call(f"{what}: reading its result", ReadExceptionStatusRequest()).status
+        if result & EXCEPTION_STATUS_ERROR:
+            raise JobError(JobStatus.REFUSED, f"{what}: refused by the master")
+
+    def master_info(self, part: int) -> str:
+        """Function 65: name, version, installed software or version ID."""
+        return self._call("reading the master's name", MasterInfoRequest(part)).text
+
+    # --- Transport -----------------------------------------------------------------------
+
+    def entry_points(self) -> dict[str, int]:
+        """The firmware's function-block table: function 67 from FF00h, as command 53."""
+        table = self.read_eeprom(ENTRY_TABLE_ADDRESS, ENTRY_TABLE_SIZE)
+        addresses = struct.unpack(f"<{len(FIRMWARE_BLOCKS)}H", table)
+        return dict(zip(FIRMWARE_BLOCKS, addresses, strict=True))
+
+    def write_configuration(self, configuration: Configuration) -> None:
+        """The PC2 sequence in registers: configuration mode, LPS, PCD, PP, protected mode,
+        then PI so the slaves get their parameters without waiting for a restart."""
+        pp = [configuration.parameter(n) for n in range(SLAVES)]
+        self.execution_control(SET_OPERATION_MODE, 1, "configuration mode")
+        self.write_registers(LPS_REGISTERS, lps_registers(configuration.lps))
+        self.write_registers(PCD_REGISTERS, [pcd_register(b) for b in configuration.pcd])
+        self.write_registers(PP_REGISTERS, pp)
+        try:
+            self.execution_control(SET_OPERATION_MODE, 0, "protected mode")
+        except JobError as exc:
+            if exc.status is not JobStatus.REFUSED:
+                raise
+            raise exc.during("protected mode refused while a slave has address 0") from None
+        self.write_registers(PI_REGISTERS, pp)
+
+    def write_eeprom(self, address: int, data: bytes) -> None:
+        end = address + len(data)
+        for block in range(address - address % BLOCK_SIZE, end, BLOCK_SIZE):
+            lo, hi = max(address, block), min(end, block + BLOCK_SIZE)
+            chunk = data[lo - address : hi - address]
+            if hi - lo < BLOCK_SIZE:
+                old = bytearray(self._read_block(block))
+                old[lo - block : hi - block] = chunk
+                chunk = bytes(old)
+            self._call(f"writing {block:04X}h (function 66)", DownloadRequest(block, chunk))
+
+    def read_eeprom(self, address: int, size: int) -> bytes:
+        first = address - address % BLOCK_SIZE
+        raw = b"".join(
+            self._read_block(block) for block in range(first, address + size, BLOCK_SIZE)
+        )
+        return raw[address - first : address - first + size]
+
+    def _read_block(self, address: int) -> bytes:
+        response = self._call(
+            f"reading {address:04X}h (function 67)", UploadRequest(address=address)
+        )
+        if response.address != address:
+            raise JobError(
+                JobStatus.INTERFACE_ERROR,
+                f"reading {address:04X}h (function 67): the gateway answered for "
+                f"{response.address:04X}h",
+            )
+        return response.data
+
+    def control_flags(self) -> int:
+        return self.read_registers(CONTROL_FLAGS_REGISTER, 1)[0] & 0xFF
+
+    def write_control_flags(self, flags: int) -> int:
+        """Register 1009, checked with function 7 like the execution-control registers: the
+        gateway keeps the master's answer (a refused reset: no valid program) there too."""
+        self.execution_control(
+            CONTROL_FLAGS_REGISTER, flags & _WRITABLE_FLAGS, "writing the AS-i Control flags"
+        )
+        return self.control_flags()
+
+
+# --- opening one --------------------------------------------------------------------------
+
+
+def _client(target: ModbusTarget, timeout: float, retries: int):
+    if target.host is not None:
+        framer = FramerType.RTU if target.rtu else FramerType.SOCKET
+        return ModbusTcpClient(
+            target.host, port=target.port, framer=framer, timeout=timeout, retries=retries,
+            reconnect_delay=0,
+        )
+    return ModbusSerialClient(
+        target.device or "", framer=FramerType.RTU, baudrate=target.baud, bytesize=8,
+        parity=PARITIES[target.parity], stopbits=target.stopbits, timeout=timeout,
+        retries=retries, reconnect_delay=0,
+    )
+
+
+@contextmanager
+def open_modbus(
+    target: ModbusTarget, unit: int = 1, *, timeout: float = DEFAULT_TIMEOUT_S,
+    retries: int = DEFAULT_RETRIES,
+) -> Iterator[ModbusTransport]:
+    """A connected transport; a gateway that cannot be reached is a plain ``JobError``."""
+    if not 1 <= unit <= 247:
+        raise UserError(f"--unit {unit}: a Modbus slave address is 1..247")
+    if retries < 0 or timeout <= 0:
+        raise UserError("--retries must be 0 or more and --timeout more than 0")
+    client = _client(target, timeout, retries)
+    try:
+        if not client.connect():
+            raise JobError(
+                JobStatus.INTERFACE_ERROR, f"cannot open the Modbus connection to {target}"
+            )
+        yield ModbusTransport(client, unit, str(target), retries)
+    finally:
+        client.close()
+
+
+# --- status -----------------------------------------------------------------------------
+
+
+def control_summary(transport: ModbusTransport) -> str:
+    """What the gateway can tell of the control program: 1009's control_active bit."""
+    flags = transport.control_flags()
+    if flags & ControlFlag.CONTROL_ACTIVE:
+        return "control program running"
+    return "control program not running" + ("" if flags & ControlFlag.START else " (stopped)")
+
+
+def read_status(transport: ModbusTransport) -> MasterStatus:
+    """The status screen's fields from the gateway's registers and function 65.
+
+    The gateway shows no control state, stop reason, program status or cycle times: the
+    state is derived from control_active and the rest is reported as not available.
+    """
+    ec = transport.read_registers(EC_FLAGS_REGISTER, 1)[0] & 0xFF
+    lps = slave_list(transport.read_registers(LPS_REGISTERS, 2))
+    las = slave_list(transport.read_registers(LAS_REGISTERS, 2))
+    lds = slave_list(transport.read_registers(LDS_REGISTERS, 2))
+    pcd = [pc2_profile(r) for r in transport.read_registers(PCD_REGISTERS, SLAVES)]
+    cdi = [pc2_profile(r) for r in transport.read_registers(CDI_REGISTERS, SLAVES)]
+    flags = transport.control_flags()
+    name = " ".join(
+        text for text in (transport.master_info(INFO_NAME), transport.master_info(INFO_VERSION))
+        if text
+    )
+    state = ControlState.RUNNING if flags & ControlFlag.CONTROL_ACTIVE else ControlState.IDLE
+    return MasterStatus(
+        port=f"Modbus {transport.name} unit {transport.unit}",
+        master_name=name,
+        version_id=transport.master_info(INFO_VERSION_ID),
+        installed_software=transport.master_info(INFO_SOFTWARE),
+        **state_fields(ec, flags),
+        **slave_fields(lps, lds, las, bytes(pcd), bytes(cdi), ec=ec),
+        control_state=state.name.lower(),
+        stop_reason=None,
+        program_status="not shown by the gateway",
+        cycle_time_ms=0.0,
+        max_cycle_time_ms=0.0,
+        program=program_info(transport),
+    )

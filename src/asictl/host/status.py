@@ -1,0 +1,277 @@
+"""``asictl status``: the master at a glance, in the spirit of the ASI_MON screen.
+
+Everything comes from the DPRAM after Get Status (51) has refreshed the control flags
+and cycle times, plus the image header in the EEPROM (Upload, 53) for the program's
+identity. Configuration errors are shown by their cause: a projected slave that is not
+detected is missing, a detected one that is not projected is unexpected (slave 0, a new
+slave, is neither), and a detected slave whose configuration (CDI) differs from the
+projected one (PCD) is wrong.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+
+from asictl.host.driver import Pc2Driver
+from asictl.host.jobs import JobError, JobStatus
+from asictl.host.transfer import Pc2Transport, Transport, upload
+from asictl.image import HEADER_SIZE, MAGIC, SLAVES
+from asictl.platform.display import display_code, display_text
+from asictl.platform.pc2 import (
+    CDI,
+    CONFIG_SIZE,
+    CONTROL_FLAGS,
+    CONTROL_STATE,
+    CYCLE_TIME_MAXIMUM,
+    CYCLE_TIME_PREVIOUS,
+    CYCLE_TIME_UNIT_US,
+    EC_FLAGS,
+    INSTALLED_SOFTWARE,
+    INSTALLED_SOFTWARE_SIZE,
+    LAS,
+    LDS,
+    LIST_SIZE,
+    LPS,
+    MASTER_NAME,
+    MASTER_NAME_SIZE,
+    PCD,
+    PROGRAM_STATUS,
+    STOP_REASON,
+    VERSION_ID,
+    VERSION_ID_SIZE,
+    Command,
+    ControlFlag,
+    ControlState,
+    EcFlag,
+    ProgramStatus,
+    StopReason,
+)
+
+
+@dataclass(frozen=True)
+class ProgramInfo:
+    """The image in the EEPROM: what a reset would load."""
+
+    present: bool
+    valid: bool
+    identity: str | None = None
+    size: int = 0
+    code_size: int = 0
+    source_included: bool = False
+    problem: str | None = None
+
+
+@dataclass(frozen=True)
+class WrongSlave:
+    slave: int
+    #: the slave's PCD/CDI byte (ID code << 4 | I/O code)
+    projected: int
+    detected: int
+
+
+@dataclass(frozen=True)
+class MasterStatus:
+    port: str
+    master_name: str
+    version_id: str
+    installed_software: str
+    ec_flags: int
+    phase: str
+    mode: str
+    config_ok: bool
+    power_fail: bool
+    lps: list[int]
+    lds: list[int]
+    las: list[int]
+    missing: list[int]
+    unexpected: list[int]
+    wrong_profile: list[WrongSlave]
+    #: what the gateway's 7-segment display would show (gateway manual, chapter 8)
+    display: str
+    control_flags: int
+    start_flag: bool
+    ignore_config_errors: bool
+    wait_for_set_button: bool
+    map_counters: bool
+    control_active: bool
+    control_state: str
+    stop_reason: str | None
+    program_status: str
+    cycle_time_ms: float
+    max_cycle_time_ms: float
+    program: ProgramInfo
+
+    def to_json(self) -> dict:
+        return asdict(self)
+
+
+def _slaves(bits: bytes) -> list[int]:
+    return [n for n in range(SLAVES) if bits[n // 8] >> n % 8 & 1]
+
+
+def _text(raw: bytes) -> str:
+    """A DPRAM string: NUL-padded parts (the master's name, then its version) joined."""
+    parts = (part.decode("latin-1").strip() for part in raw.split(b"\0"))
+    return " ".join(part for part in parts if part)
+
+
+def _name(enum: type, value: int) -> str:
+    try:
+        return enum(value).name.lower().replace("_", " ")
+    except ValueError:
+        return f"unknown ({value:02X}h)"
+
+
+def _phase(ec: int) -> str:
+    if ec & EcFlag.OFFLINE_READY:
+        return "offline"
+    if ec & EcFlag.NORMAL_OPERATION_ACTIVE:
+        return "normal operation"
+    return "start-up"
+
+
+def _cycle_ms(raw: bytes) -> float:
+    return int.from_bytes(raw, "little") * CYCLE_TIME_UNIT_US / 1000
+
+
+def program_info(transport: Transport) -> ProgramInfo:
+    head = transport.read_eeprom(0, HEADER_SIZE)
+    if head[: len(MAGIC)] != MAGIC:
+        return ProgramInfo(present=False, valid=False, problem="no program image")
+    try:
+        image = upload(transport)
+    except JobError as exc:
+        if exc.status is not JobStatus.EEPROM_ERROR:
+            raise
+        return ProgramInfo(present=True, valid=False, problem=str(exc))
+    return ProgramInfo(
+        present=True, valid=True, identity=image.identity_hex, size=len(image.to_bytes()),
+        code_size=len(image.code), source_included=bool(image.source),
+    )
+
+
+def state_fields(ec: int, flags: int) -> dict:
+    """The fields ``MasterStatus`` derives from the ec-flags and the AS-i Control flags."""
+    return {
+        "ec_flags": ec,
+        "phase": _phase(ec),
+        "mode": "configuration" if ec & EcFlag.CONFIGURATION_ACTIVE else "protected",
+        "config_ok": bool(ec & EcFlag.CONFIG_OK),
+        "power_fail": bool(ec & EcFlag.APF),
+        "control_flags": flags,
+        "start_flag": bool(flags & ControlFlag.START),
+        "ignore_config_errors": bool(flags & ControlFlag.IGNORE_CONFIG_ERRORS),
+        "wait_for_set_button": bool(flags & ControlFlag.WAIT_FOR_SET_BUTTON),
+        "map_counters": bool(flags & ControlFlag.MAP_COUNTERS),
+        "control_active": bool(flags & ControlFlag.CONTROL_ACTIVE),
+    }
+
+
+def slave_fields(
+    lps: list[int], lds: list[int], las: list[int], pcd: bytes, cdi: bytes, *, ec: int
+) -> dict:
+    """The slave lists, the configuration errors by their cause (PCD/CDI in PC2 layout)
+    and the display code they make."""
+    phase = {"normal operation": "normal", "offline": "offline"}.get(_phase(ec), "detection")
+    code = display_code(
+        phase, bool(ec & EcFlag.CONFIGURATION_ACTIVE), sum(1 << n for n in lps),
+        sum(1 << n for n in lds), pcd, cdi,
+    )
+    return {
+        "display": ("blank" if code is None else f"{code:02d}: ") + (
+            "" if code is None else display_text(code)
+        ),
+        "lps": lps, "lds": lds, "las": las,
+        "missing": [n for n in lps if n not in lds],
+        "unexpected": [n for n in lds if n not in lps and n != 0],
+        "wrong_profile": [
+            WrongSlave(n, pcd[n], cdi[n]) for n in lps if n in lds and pcd[n] != cdi[n]
+        ],
+    }
+
+
+def read_status(driver: Pc2Driver, port: str) -> MasterStatus:
+    """Refresh (51), then read the DPRAM and the EEPROM image header."""
+    driver.command(Command.GET_STATUS)
+    ec = driver.read_byte(EC_FLAGS)
+    lps, lds, las = (_slaves(driver.read(a, LIST_SIZE)) for a in (LPS, LDS, LAS))
+    pcd, cdi = driver.read(PCD, CONFIG_SIZE), driver.read(CDI, CONFIG_SIZE)
+    flags = driver.read_byte(CONTROL_FLAGS)
+    state, reason = driver.read_byte(CONTROL_STATE), driver.read_byte(STOP_REASON)
+    return MasterStatus(
+        port=port,
+        master_name=_text(driver.read(MASTER_NAME, MASTER_NAME_SIZE)),
+        version_id=_text(driver.read(VERSION_ID, VERSION_ID_SIZE)),
+        installed_software=_text(driver.read(INSTALLED_SOFTWARE, INSTALLED_SOFTWARE_SIZE)),
+        **state_fields(ec, flags),
+        **slave_fields(lps, lds, las, pcd, cdi, ec=ec),
+        control_state=_name(ControlState, state),
+        stop_reason=None if reason == StopReason.NONE else _name(StopReason, reason),
+        program_status=_name(ProgramStatus, driver.read_byte(PROGRAM_STATUS)),
+        cycle_time_ms=_cycle_ms(driver.read(CYCLE_TIME_PREVIOUS, 2)),
+        max_cycle_time_ms=_cycle_ms(driver.read(CYCLE_TIME_MAXIMUM, 2)),
+        program=program_info(Pc2Transport(driver)),
+    )
+
+
+def control_summary(driver: Pc2Driver) -> str:
+    """One line on the control program after a command: what it does, and why not."""
+    state = _name(ControlState, driver.read_byte(CONTROL_STATE))
+    reason = driver.read_byte(STOP_REASON)
+    if reason == StopReason.NONE:
+        return f"control program {state}"
+    return f"control program {state} ({_name(StopReason, reason)})"
+
+
+def _slave_row(label: str, slaves: list[int]) -> str:
+    return f"{label:<5}" + "".join("X" if n in slaves else "." for n in range(SLAVES))
+
+
+def _profile(byte: int) -> str:
+    return f"IO {byte & 0xF:X}h ID {byte >> 4:X}h"
+
+
+def render(status: MasterStatus) -> str:
+    """A text screen: flags on top, the slave lists below, the control program last."""
+    s = status
+    problems = [f"slave {n} missing" for n in s.missing]
+    problems += [f"slave {n} not projected" for n in s.unexpected]
+    problems += [
+        f"slave {w.slave} is {_profile(w.detected)}, projected {_profile(w.projected)}"
+        for w in s.wrong_profile
+    ]
+    if 0 in s.lds:
+        problems.append("a new slave with address 0 is present")
+    set_flags = [
+        name for name in ("start_flag", "ignore_config_errors", "wait_for_set_button",
+                          "map_counters", "control_active") if getattr(s, name)
+    ]
+    control = s.control_state + (f" ({s.stop_reason})" if s.stop_reason else "")
+    p = s.program
+    if p.valid:
+        program = (
+            f"{p.identity}, {p.size} bytes ({p.code_size} of code), source "
+            + ("included" if p.source_included else "not included")
+        )
+    else:
+        program = p.problem or "none"
+    lines = [
+        f"master   {s.master_name}  {s.version_id}  at {s.port}",
+        f"software {s.installed_software}",
+        f"phase    {s.phase}, {s.mode} mode, "
+        + ("config ok" if s.config_ok else "configuration error")
+        + (", AS-i power fail" if s.power_fail else ""),
+        f"ec-flags {s.ec_flags:02X}h",
+        "slaves   " + "".join(str(n // 10) for n in range(SLAVES)),
+        "         " + "".join(str(n % 10) for n in range(SLAVES)),
+        "    " + _slave_row("LPS", s.lps),
+        "    " + _slave_row("LDS", s.lds),
+        "    " + _slave_row("LAS", s.las),
+        "config   " + ("; ".join(problems) if problems else "no errors"),
+        f"display  {s.display}",
+        f"control  {control}",
+        f"flags    {s.control_flags:02X}h " + (" ".join(set_flags) or "(none)"),
+        f"program  {program} ({s.program_status})",
+        f"cycle    {s.cycle_time_ms:.1f} ms (max {s.max_cycle_time_ms:.1f} ms)",
+    ]
+    return "\n".join(lines) + "\n"

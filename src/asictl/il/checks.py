@@ -1,0 +1,577 @@
+"""Semantic checks: everything the master's compiler would refuse, and common mistakes.
+
+The parser has already reported syntax; these checks see a whole ``Program`` (main file
+plus the function blocks it calls) and report every problem at once, each at the exact
+span of the offending operand or instruction. Ranges and rules follow the programming
+manual and ``docs/language.md``; each diagnostic code is listed there.
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Iterable, Iterator
+from dataclasses import dataclass
+from enum import StrEnum
+from pathlib import Path
+
+from asictl.diagnostics import Diagnostic, Reporter, Span
+from asictl.il import ast
+from asictl.il.ast import key
+from asictl.il.language import BUILTIN_TC, MAX_KT_MS, MAX_TC
+from asictl.il.loader import Program, calls, load_program
+from asictl.mcs51.asm_parser import RESERVED as ASSEMBLER_RESERVED
+from asictl.runtime.firmware import FIRMWARE_BLOCKS
+from asictl.source import SourceText
+
+KNOWN_OPTIONS = ("ignore_config_errors", "auto_start", "map_counters")
+
+
+CONST_RANGES = {
+    ast.ConstKind.KT: MAX_KT_MS,
+    ast.ConstKind.KC: 4095,
+    ast.ConstKind.KB: 255,
+    ast.ConstKind.KW: 65535,
+}
+
+
+#: A name that starts like an operand mark followed by digits reads as that operand.
+_OPERAND_LOOKALIKE = re.compile(
+    r"(I2B|IB|QB|FY|FW|KT|KC|KP|KB|KW|PSEG|I|Q|F|T|C)(\d+)", re.IGNORECASE
+)
+
+
+class Dialect(StrEnum):
+    CONTROL2 = "control2"
+    CONTROL1 = "control1"
+
+
+@dataclass
+class _Scope:
+    """What a module's operands may refer to: declared timers, counters and variables."""
+
+    timers: set[int]
+    counters: set[int]
+    variables: dict[str, ast.VarDecl]
+
+
+def check_program(program: Program, dialect: Dialect = Dialect.CONTROL2) -> list[Diagnostic]:
+    """All semantic diagnostics of a loaded program, in source order."""
+    report = Reporter()
+    scope = _declarations(program, report)
+    _check_main_only_sections(program, report)
+    for module in program.modules():
+        _check_options(module, report)
+        _check_setup(module, report)
+        _check_code(module, scope, report)
+        _check_labels_and_jumps(module, report)
+        _check_calls(module, program, report)
+        _check_register_flow(module, report)
+        if dialect is Dialect.CONTROL1:
+            _check_control1(module, scope, report)
+    _check_duplicate_slaves(program, report)
+    _check_recursion(program, report)
+    return sorted(report.diagnostics, key=Diagnostic.sort_key)
+
+
+# ----------------------------------------------------------------------- declarations
+
+
+def _declarations(program: Program, report: Reporter) -> _Scope:
+    scope = _Scope(timers=set(), counters=set(), variables={})
+    seen: dict[str, Span | None] = {}
+    for module in program.modules():
+        for section in module.sections_of(ast.DeclSection):
+            for decl in section.declarations:
+                if isinstance(decl, ast.TimerDecl | ast.CounterDecl):
+                    kind = "timer" if isinstance(decl, ast.TimerDecl) else "counter"
+                    target = scope.timers if kind == "timer" else scope.counters
+                    if decl.number > MAX_TC:
+                        report.error(
+                            "E201",
+                            f"{kind} number {decl.number} out of range 0..{MAX_TC}",
+                            decl.span,
+                        )
+                    elif decl.number < BUILTIN_TC:
+                        report.warning(
+                            "W204",
+                            f"{kind} {decl.number} always exists; only numbers above 14 "
+                            "need a declaration",
+                            decl.span,
+                        )
+                    if decl.number in target:
+                        report.error("E215", f"{kind} {decl.number} declared twice", decl.span)
+                    target.add(decl.number)
+                    continue
+                name = key(decl.name)
+                if isinstance(decl, ast.VarDecl | ast.FBDecl) and name in FIRMWARE_BLOCKS:
+                    report.error(
+                        "E215",
+                        f"'{decl.name}' is the name of a firmware function block",
+                        decl.span,
+                    )
+                elif name in seen:
+                    where = f" (first declared at {seen[name]})" if seen[name] else ""
+                    report.error("E215", f"'{decl.name}' declared twice{where}", decl.span)
+                seen.setdefault(name, decl.span)
+                if isinstance(decl, ast.VarDecl):
+                    if decl.name.upper() in ASSEMBLER_RESERVED:
+                        report.error(
+                            "E219",
+                            f"variable '{decl.name}' is named like an 8051 register or "
+                            "assembler word; the program's assembly could not refer to it",
+                            decl.span,
+                        )
+                    shadow = _OPERAND_LOOKALIKE.match(decl.name)
+                    if shadow:
+                        report.error(
+                            "E219",
+                            f"variable '{decl.name}' cannot be used as an operand: "
+                            f"'{decl.name} 0' reads as '{shadow[1].upper()} {shadow[2]}'",
+                            decl.span,
+                        )
+                    if not 1 <= decl.size <= 255:
+                        report.error(
+                            "E201",
+                            f"variable size {decl.size} out of range 1..255 bytes",
+                            decl.span,
+                        )
+                    scope.variables.setdefault(name, decl)
+    return scope
+
+
+def _check_main_only_sections(program: Program, report: Reporter) -> None:
+    for block in program.blocks.values():
+        for section in block.sections:
+            if isinstance(section, ast.OptionsSection | ast.SetupSection | ast.RawSection):
+                report.error(
+                    "E217",
+                    f"[{section.kind.value}] belongs in the main program file, "
+                    "not in a function block's file",
+                    section.span,
+                )
+    main = program.main
+    if main.sections_of(ast.RawSection) and main.sections_of(
+        ast.ProgramSection | ast.GatingSection | ast.AssemblySection
+    ):
+        raw = main.sections_of(ast.RawSection)[0]
+        report.error(
+            "E217",
+            "[RAW] holds a whole uploaded image and cannot be combined with program sections",
+            raw.span,
+        )
+
+
+# ---------------------------------------------------------------------- options/setup
+
+
+def _check_options(module: ast.Module, report: Reporter) -> None:
+    seen: set[str] = set()
+    for section in module.sections_of(ast.OptionsSection):
+        for option in section.options:
+            name = key(option.name)
+            if name not in KNOWN_OPTIONS:
+                report.error(
+                    "E212",
+                    f"unknown option '{option.name}' (known: {', '.join(KNOWN_OPTIONS)})",
+                    option.span,
+                )
+            elif name in seen:
+                report.warning("W203", f"option '{option.name}' given again", option.span)
+            seen.add(name)
+
+
+def _check_setup(module: ast.Module, report: Reporter) -> None:
+    for section in module.sections_of(ast.SetupSection):
+        for slave in section.slaves:
+            if not 1 <= slave.address <= 31:
+                report.error(
+                    "E211",
+                    f"slave address {slave.address} out of range 1..31 "
+                    "(address 0 is reserved for new slaves)",
+                    slave.span,
+                )
+            for what, value in (
+                ("I/O code", slave.io_code),
+                ("ID code", slave.id_code),
+                ("parameter", slave.parameter),
+            ):
+                if value is not None and not 0 <= value <= 0xF:
+                    report.error(
+                        "E211", f"{what} {value} out of range 0..F (one hex digit)", slave.span
+                    )
+
+
+def _check_duplicate_slaves(program: Program, report: Reporter) -> None:
+    first: dict[int, ast.SlaveSetup] = {}
+    for section in program.main.sections_of(ast.SetupSection):
+        for slave in section.slaves:
+            if slave.address in first:
+                report.error(
+                    "E210",
+                    f"slave {slave.address} is already set up at {first[slave.address].span}",
+                    slave.span,
+                )
+            else:
+                first[slave.address] = slave
+
+
+# --------------------------------------------------------------------------- operands
+
+
+def _statements(module: ast.Module) -> Iterator[ast.Statement]:
+    for section in module.sections_of(ast.ProgramSection):
+        yield from section.statements
+
+
+def _operands_of(module: ast.Module) -> Iterator[tuple[object, str]]:
+    """Every operand with its role: 'bit', 'assign', 'set' (S/R), 'load', 'transfer', 'counter'."""
+    for statement in _statements(module):
+        match statement:
+            case ast.Logic(operand=op):
+                yield op, "bit"
+            case ast.Store(op=ast.StoreOp.ASSIGN, operand=op):
+                yield op, "assign"
+            case ast.Store(operand=op):
+                yield op, "set"
+            case ast.Load(operand=op):
+                yield op, "load"
+            case ast.Transfer(operand=op):
+                yield op, "transfer"
+            case ast.Count(counter=op):
+                yield op, "counter"
+    for section in module.sections_of(ast.GatingSection):
+        for line in section.lines:
+            yield line.target, "assign"
+            for term in line.terms:
+                yield term.operand, "bit"
+
+
+def _check_code(module: ast.Module, scope: _Scope, report: Reporter) -> None:
+    for operand, role in _operands_of(module):
+        _check_operand(operand, role, scope, report)
+        if role == "assign" and isinstance(operand, ast.TimerRef | ast.CounterRef):
+            report.error(
+                "E218",
+                f"the status bit of {operand} is read-only: S {operand} loads it, "
+                f"R {operand} clears it",
+                operand.span,
+            )
+    for statement in _statements(module):
+        if isinstance(statement, ast.Load) and isinstance(statement.operand, ast.Constant):
+            const = statement.operand
+            if const.kind is ast.ConstKind.KT and const.value % 10 and const.value <= MAX_KT_MS:
+                rounded = (const.value + 9) // 10 * 10
+                report.warning(
+                    "W202",
+                    f"timers count in 10 ms steps: KT {const.value} is rounded up to {rounded} ms",
+                    const.span,
+                )
+
+
+def _range(report: Reporter, span: Span | None, what: str, value: int, hi: int, lo: int = 0):
+    if not lo <= value <= hi:
+        report.error("E201", f"{what} {value} out of range {lo}..{hi}", span)
+
+
+def _check_operand(operand: object, role: str, scope: _Scope, report: Reporter) -> None:
+    match operand:
+        case ast.ImageBit(area=area, address=address, bit=bit, span=span):
+            if area is ast.BitArea.F:
+                _range(report, span, "flag byte", address, 127)
+                _range(report, span, "flag bit", bit, 7)
+            else:
+                _range(report, span, "slave address", address, 31)
+                _range(report, span, "data bit", bit, 3)
+        case ast.TimerRef(number=n, span=span) | ast.CounterRef(number=n, span=span):
+            is_timer = isinstance(operand, ast.TimerRef)
+            kind = "timer" if is_timer else "counter"
+            declared = scope.timers if is_timer else scope.counters
+            if not 0 <= n <= MAX_TC:
+                _range(report, span, f"{kind} number", n, MAX_TC)
+            elif n >= BUILTIN_TC and n not in declared:
+                report.error(
+                    "E203",
+                    f"{kind} {n} is not declared (only 0..14 exist without "
+                    f"'{'T' if is_timer else 'C'}{n} {kind.upper()}' in [DECL])",
+                    span,
+                )
+        case ast.VarBit(name=name, offset=offset, bit=bit, span=span):
+            decl = _variable(name, span, scope, report)
+            if decl:
+                _range(report, span, f"byte of '{decl.name}'", offset, decl.size - 1)
+            _range(report, span, "bit", bit, 7)
+        case ast.VarByte(name=name, offset=offset, span=span):
+            decl = _variable(name, span, scope, report)
+            if decl:
+                _range(report, span, f"byte of '{decl.name}'", offset, decl.size - 1)
+        case ast.ImageByte(area=area, number=n, span=span):
+            if area is ast.ByteArea.FY:
+                _range(report, span, "flag byte", n, 127)
+            elif area is ast.ByteArea.PSEG:
+                _range(report, span, "PSeg byte", n, 15)
+            else:
+                _range(report, span, f"{area.value} slave address", n, 30)
+                if n % 2:
+                    report.error(
+                        "E202",
+                        f"{area.value} takes an even slave address (the byte holds slaves "
+                        f"{n - 1} and {n} as {area.value} {n - 1})",
+                        span,
+                    )
+        case ast.FlagWord(number=n, span=span):
+            _range(report, span, "flag word", n, 126)
+        case ast.Constant(kind=kind, value=value, span=span):
+            _range(report, span, kind.value, value, CONST_RANGES[kind])
+        case ast.ParamConst(address=address, data=data, span=span):
+            _range(report, span, "KP slave address", address, 31)
+            _range(report, span, "KP parameter", data, 15)
+
+
+def _variable(name: str, span: Span | None, scope: _Scope, report: Reporter):
+    decl = scope.variables.get(key(name))
+    if decl is None:
+        report.error("E214", f"'{name}' is not a declared variable", span)
+    return decl
+
+
+# ------------------------------------------------------------------ labels and calls
+
+
+def _check_labels_and_jumps(module: ast.Module, report: Reporter) -> None:
+    labels: dict[str, ast.Label] = {}
+    for statement in _statements(module):
+        if isinstance(statement, ast.Label):
+            name = key(statement.name)
+            if name in labels:
+                report.error(
+                    "E205",
+                    f"label '{statement.name}' already defined at {labels[name].span}",
+                    statement.span,
+                )
+            else:
+                labels[name] = statement
+    for statement in _statements(module):
+        if isinstance(statement, ast.Jump) and key(statement.label) not in labels:
+            report.error(
+                "E206",
+                f"jump to undefined label '{statement.label}' "
+                "(labels are local to the main program or one function block)",
+                statement.span,
+            )
+
+
+def _check_calls(module: ast.Module, program: Program, report: Reporter) -> None:
+    for call in calls(module):
+        name = key(call.name)
+        if name not in FIRMWARE_BLOCKS and name not in program.fb_decls:
+            report.error(
+                "E207",
+                f"function block '{call.name}' is not declared "
+                f"(declare it in [DECL] as '{call.name} FB <file>')",
+                call.span,
+            )
+
+
+def _check_recursion(program: Program, report: Reporter) -> None:
+    """Function blocks may not call themselves, directly or through others."""
+    graph = {
+        name: [c for c in calls(module) if key(c.name) in program.blocks]
+        for name, module in program.blocks.items()
+    }
+    reported: set[str] = set()
+    state: dict[str, int] = {}  # 1 on the stack, 2 done
+
+    def visit(name: str, path: list[str]) -> None:
+        state[name] = 1
+        for call in graph.get(name, []):
+            callee = key(call.name)
+            if state.get(callee) == 1:
+                cycle = [*path[path.index(callee) :], callee] if callee in path else [callee]
+                if callee not in reported:
+                    reported.add(callee)
+                    names = " -> ".join(program.fb_decls[n].name for n in cycle)
+                    report.error("E209", f"recursive function block call: {names}", call.span)
+            elif state.get(callee) is None:
+                visit(callee, [*path, callee])
+        state[name] = 2
+
+    for call in calls(program.main):
+        name = key(call.name)
+        if name in program.blocks and state.get(name) is None:
+            visit(name, [name])
+
+
+# ------------------------------------------------------------ the single-bit register
+
+
+def _reads_register(statement: ast.Statement) -> bool:
+    match statement:
+        case ast.Jump(conditional=c) | ast.CallFB(conditional=c):
+            return c
+        case ast.BlockEnd(kind=kind):
+            return kind is ast.EndKind.BEC
+        case ast.Store() | ast.Not() | ast.Param() | ast.Count():
+            return True
+    return False
+
+
+def _segments(module: ast.Module) -> list[list[ast.Statement]]:
+    """The program sections' statements; each section starts a new segment (3.4)."""
+    return [list(s.statements) for s in module.sections_of(ast.ProgramSection)]
+
+
+def _check_register_flow(module: ast.Module, report: Reporter) -> None:
+    """Two register rules of il-semantics.md.
+
+    A lint: A/AN/O/ON after '=', S or R in the same segment combines with the old result
+    instead of starting a new one (STEP5 habit). An error: an instruction that reads the
+    register where, on every path that reaches it, the register is undefined. Found by a
+    forward data-flow analysis ("may the register be defined here?") over jumps.
+    """
+    sections = _segments(module)
+    flat: list[ast.Statement] = [s for section in sections for s in section]
+    starts: set[int] = set()
+    index = 0
+    for section in sections:
+        starts.add(index)
+        index += len(section)
+
+    # lexical facts: which A/AN/O/ON are first checks, and the lint
+    first_check: set[int] = set()
+    first = True
+    stored = False
+    for i, statement in enumerate(flat):
+        if i in starts or isinstance(statement, ast.SegmentEnd):
+            first, stored = True, False
+        if isinstance(statement, ast.Logic):
+            if first:
+                first_check.add(i)
+            elif stored:
+                report.warning(
+                    "W201",
+                    f"'{statement.op.value}' after '=', S or R continues the old logic string; "
+                    "end the segment with *** to start a new one",
+                    statement.span,
+                )
+            first, stored = False, False
+        elif isinstance(statement, ast.Compare):
+            first, stored = False, False  # a comparison loads the register
+        elif isinstance(statement, ast.Store):
+            stored = True
+
+    labels = {key(s.name): i for i, s in enumerate(flat) if isinstance(s, ast.Label)}
+    # may_defined[i]: may the register be defined before statement i? (None: unreachable)
+    may_defined: list[bool | None] = [None] * len(flat)
+    work = [(0, False)] if flat else []
+    while work:
+        i, defined = work.pop()
+        if i >= len(flat):
+            continue
+        known = may_defined[i]
+        if known is not None and (known or not defined):
+            continue
+        may_defined[i] = defined
+        statement = flat[i]
+        if isinstance(statement, ast.Logic | ast.Compare | ast.Asm | ast.CallFB):
+            defined = True
+        elif isinstance(statement, ast.SegmentEnd):
+            defined = False
+        match statement:
+            case ast.Jump(conditional=conditional, label=label):
+                if key(label) in labels:
+                    work.append((labels[key(label)], defined))
+                falls_through = conditional
+            case ast.BlockEnd(kind=kind):
+                falls_through = kind is ast.EndKind.BEC
+            case _:
+                falls_through = True
+        if falls_through:
+            # falling into the next section starts a new segment
+            work.append((i + 1, defined and i + 1 not in starts))
+
+    for i, statement in enumerate(flat):
+        reads = _reads_register(statement) or (
+            isinstance(statement, ast.Logic) and i not in first_check
+        )
+        if reads and may_defined[i] is False:
+            report.error(
+                "E213",
+                f"'{_op_text(statement)}' reads the single-bit register, which is always "
+                "undefined here (start of program, block or segment): begin with A, AN, O or ON",
+                statement.span,
+            )
+
+
+def _op_text(statement: ast.Statement) -> str:
+    return statement.to_source().split(" ")[0]
+
+
+# ------------------------------------------------------------------------ dialects
+
+
+def _check_control1(module: ast.Module, scope: _Scope, report: Reporter) -> None:
+    """Report what AS-i Control I cannot run (features marked "AS-i Control II only")."""
+
+    def only2(what: str, span: Span | None) -> None:
+        report.error("E216", f"{what} is AS-i Control II only", span)
+
+    for section in module.sections:
+        if isinstance(section, ast.DeclSection):
+            only2("a [DECL] section", section.span)
+        elif isinstance(section, ast.AssemblySection):
+            only2("an [ASSEMBLY] section", section.span)
+        elif isinstance(section, ast.RawSection):
+            only2("a [RAW] section", section.span)
+    for statement in _statements(module):
+        match statement:
+            case ast.CallFB(span=span):
+                only2("calling a function block", span)
+            case ast.Asm(span=span):
+                only2("the ASM operator", span)
+            case ast.BlockEnd(kind=ast.EndKind.BEU, span=span):
+                only2("BEU", span)
+            case ast.Arith(span=span) | ast.Compare(span=span):
+                only2(f"byte operation '{statement.to_source()}'", span)
+            case ast.Load(operand=op, span=span) | ast.Transfer(operand=op, span=span):
+                if not _control1_operand(op, statement):
+                    only2(f"byte/word operation '{statement.to_source()}'", span)
+    for operand, _role in _operands_of(module):
+        match operand:
+            case ast.VarBit(span=span) | ast.VarByte(span=span):
+                only2("a declared variable", span)
+            case ast.TimerRef(number=n, span=span) | ast.CounterRef(number=n, span=span):
+                if n >= BUILTIN_TC:
+                    kind = "timer" if isinstance(operand, ast.TimerRef) else "counter"
+                    only2(f"{kind} {n} (Control I has 0..14)", span)
+
+
+def _control1_operand(operand: object, statement: ast.Statement) -> bool:
+    """Control I loads KT, KC and KP constants and moves timer and counter words (3.4.3)."""
+    if isinstance(operand, ast.TimerRef | ast.CounterRef | ast.ParamConst):
+        return True
+    return (
+        isinstance(statement, ast.Load)
+        and isinstance(operand, ast.Constant)
+        and operand.kind in (ast.ConstKind.KT, ast.ConstKind.KC)
+    )
+
+
+@dataclass
+class CheckResult:
+    """A loaded program and every diagnostic about it, load and semantic, in source order."""
+
+    program: Program
+    diagnostics: list[Diagnostic]
+
+    @property
+    def has_errors(self) -> bool:
+        return any(d.is_error for d in self.diagnostics)
+
+
+def check_source(
+    source: SourceText, *, dialect: Dialect = Dialect.CONTROL2, lib: Iterable[str | Path] = ()
+) -> CheckResult:
+    """Read a main file and the blocks it calls, and check the whole program."""
+    program, load_diagnostics = load_program(source, lib=lib)
+    diagnostics = [*load_diagnostics, *check_program(program, dialect)]
+    return CheckResult(program, sorted(diagnostics, key=Diagnostic.sort_key))

@@ -1,0 +1,390 @@
+"""The reference interpreter: IL semantics executed directly on the AST.
+
+This is the semantic oracle. It is written from the language reference
+(``docs/language.md``) alone and shares no code with the code generator, so that
+running a program both ways and comparing every output, flag, timer and counter after
+every cycle tests the compiler against an independent reading of the rules.
+It is not built for speed; the emulated master runs the compiled 8051 code.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+from asictl.il import ast
+from asictl.il.ast import key
+from asictl.il.language import COUNTER_FLAG_BASE, MAPPED_COUNTERS, PARAM_FLAG
+from asictl.il.language import TC_MAX_VALUE as TC_MAX
+from asictl.il.loader import Program
+from asictl.runtime.firmware import FirmwareServices
+
+
+class CycleTimeout(Exception):
+    """The program ran longer than its cycle budget (an endless loop)."""
+
+
+@dataclass
+class PlcState:
+    """Everything a program can see. Data images hold two slaves per byte, 2n in the low
+    nibble, exactly as the master's data images and the IB/QB byte operands do."""
+
+    inputs: bytearray = field(default_factory=lambda: bytearray(16))
+    old_inputs: bytearray = field(default_factory=lambda: bytearray(16))
+    outputs: bytearray = field(default_factory=lambda: bytearray(16))
+    flags: bytearray = field(default_factory=lambda: bytearray(128))
+    pseg: bytearray = field(default_factory=lambda: bytearray(16))
+    timers: dict[int, int] = field(default_factory=dict)
+    counters: dict[int, int] = field(default_factory=dict)
+    variables: dict[str, bytearray] = field(default_factory=dict)
+    accu1: int = 0
+    accu2: int = 0
+    #: the single-bit register (RLO)
+    rlo: bool = False
+    #: the constant register loaded by L KT (in 10 ms ticks), L KC and L KP (address*16+data)
+    constant: int = 0
+
+
+def _image_bit(image: bytearray, address: int, bit: int) -> bool:
+    return bool(image[address >> 1] >> ((address & 1) * 4 + bit) & 1)
+
+
+def _set_image_bit(image: bytearray, address: int, bit: int, value: bool) -> None:
+    mask = 1 << ((address & 1) * 4 + bit)
+    image[address >> 1] = image[address >> 1] | mask if value else image[address >> 1] & ~mask
+
+
+@dataclass
+class _Scope:
+    """One executable body: the main program or a function block."""
+
+    statements: list[ast.Statement | ast.GatingLine]
+    labels: dict[str, int]
+    first_check: set[int]
+
+
+def _scope(module: ast.Module) -> _Scope:
+    """Flatten PROGRAM and GATING sections in source order; find labels and first checks.
+
+    A first check is an A/AN/O/ON that loads the register: the first one of the block,
+    of each section and after each ***. The rule is lexical: jumps do not change it.
+    """
+    statements: list[ast.Statement | ast.GatingLine] = []
+    first_check: set[int] = set()
+    for section in module.sections:
+        if isinstance(section, ast.GatingSection):
+            statements.extend(section.lines)
+        elif isinstance(section, ast.ProgramSection):
+            first = True
+            for statement in section.statements:
+                if isinstance(statement, ast.SegmentEnd):
+                    first = True
+                elif isinstance(statement, ast.Logic):
+                    if first:
+                        first_check.add(len(statements))
+                    first = False
+                elif isinstance(statement, ast.Compare):
+                    first = False
+                statements.append(statement)
+    labels = {key(s.name): i for i, s in enumerate(statements) if isinstance(s, ast.Label)}
+    return _Scope(statements, labels, first_check)
+
+
+class Interpreter:
+    """Runs a checked program cycle by cycle, as the master would."""
+
+    def __init__(
+        self,
+        program: Program,
+        *,
+        firmware: FirmwareServices | None = None,
+        map_counters: bool | None = None,
+        budget: int = 100_000,
+    ) -> None:
+        self.program = program
+        self.firmware = firmware
+        self.budget = budget
+        if map_counters is None:
+            map_counters = any(
+                key(o.name) == "map_counters" and o.value
+                for s in program.main.sections_of(ast.OptionsSection)
+                for o in s.options
+            )
+        self.map_counters = map_counters
+        self.main = _scope(program.main)
+        self.blocks = {name: _scope(module) for name, module in program.blocks.items()}
+        self.sizes = {
+            key(d.name): d.size
+            for m in program.modules()
+            for s in m.sections_of(ast.DeclSection)
+            for d in s.declarations
+            if isinstance(d, ast.VarDecl)
+        }
+        self.state = PlcState()
+        self.reset()
+
+    def reset(self) -> None:
+        """What reset_bit does: clear flags, timers, counters, variables and the images."""
+        self.state = PlcState(variables={name: bytearray(n) for name, n in self.sizes.items()})
+
+    # ------------------------------------------------------------------ the cycle
+
+    def cycle(self, inputs: bytes | None = None) -> None:
+        """One program cycle: new inputs (the old ones become I2), run, outputs stay in Q.
+
+        The register starts every cycle at 0; accumulators and the constant register keep
+        their values, like every other memory of the program.
+        """
+        state = self.state
+        state.old_inputs[:] = state.inputs
+        if inputs is not None:
+            state.inputs[:] = inputs
+        state.rlo = False
+        self._steps = 0
+        self._run(self.main)
+
+    def tick(self, ticks: int = 1) -> None:
+        """Advance master time by ``ticks`` x 10 ms: every running timer counts down."""
+        timers = self.state.timers
+        for number, remaining in timers.items():
+            timers[number] = max(0, remaining - ticks)
+
+    # ------------------------------------------------------------------ execution
+
+    def _run(self, scope: _Scope) -> None:
+        state = self.state
+        statements = scope.statements
+        pc = 0
+        while pc < len(statements):
+            self._steps += 1
+            if self._steps > self.budget:
+                raise CycleTimeout(f"more than {self.budget} instructions in one cycle")
+            statement = statements[pc]
+            pc += 1
+            match statement:
+                case ast.Logic(op=op, operand=operand):
+                    value = self._read_bit(operand)
+                    if op in (ast.LogicOp.AN, ast.LogicOp.ON):
+                        value = not value
+                    if pc - 1 in scope.first_check:
+                        state.rlo = value
+                    elif op in (ast.LogicOp.A, ast.LogicOp.AN):
+                        state.rlo = state.rlo and value
+                    else:
+                        state.rlo = state.rlo or value
+                case ast.Store(op=op, operand=operand):
+                    self._store(op, operand)
+                case ast.Not():
+                    state.rlo = not state.rlo
+                case ast.Load(operand=operand):
+                    self._load(operand)
+                case ast.Transfer(operand=operand):
+                    self._transfer(operand)
+                case ast.Arith(op=op):
+                    a2, a1 = state.accu2 & 0xFF, state.accu1 & 0xFF
+                    state.accu1 = (a2 + a1 if op is ast.ArithOp.ADD else a2 - a1) & 0xFF
+                case ast.Compare(op=op):
+                    state.rlo = _COMPARE[op](state.accu2 & 0xFF, state.accu1 & 0xFF)
+                case ast.Count(op=op, counter=counter):
+                    self._count(op, counter.number)
+                case ast.SegmentEnd() | ast.Label():
+                    pass
+                case ast.BlockEnd(kind=kind):
+                    if kind is not ast.EndKind.BEC or state.rlo:
+                        return
+                case ast.Jump(conditional=conditional, label=label):
+                    if not conditional or state.rlo:
+                        pc = scope.labels[key(label)]
+                case ast.CallFB(conditional=conditional, name=name):
+                    if not conditional or state.rlo:
+                        self._call(name)
+                case ast.Param():
+                    if state.rlo:
+                        self._param()
+                case ast.GatingLine():
+                    self._gate(statement)
+                case ast.Asm():
+                    raise NotImplementedError("the reference interpreter cannot run ASM lines")
+
+    def _call(self, name: str) -> None:
+        block = self.blocks.get(key(name))
+        if block is not None:
+            self._run(block)
+        elif self.firmware is not None:
+            self.firmware.call(name, self.state.pseg)
+
+    def _param(self) -> None:
+        """PARAM is SendPrm with the KP register: slave address and parameter via PSeg."""
+        state = self.state
+        state.pseg[0] = state.constant >> 4 & 0x1F
+        state.pseg[1] = state.constant & 0x0F
+        if self.firmware is not None:
+            self.firmware.call("SendPrm", state.pseg)
+        ok = state.pseg[0] == 0
+        answer = state.pseg[1] & 0x0F if ok else 0
+        state.flags[PARAM_FLAG] = (state.flags[PARAM_FLAG] & 0x70) | answer | (0x80 if ok else 0)
+
+    def _gate(self, line: ast.GatingLine) -> None:
+        result = False
+        for term in line.terms:
+            value = self._read_bit(term.operand) != term.negated
+            if term.op is ast.GatingOp.AND:
+                result = result and value
+            elif term.op is ast.GatingOp.OR:
+                result = result or value
+            else:
+                result = value
+        self.state.rlo = result
+        self._store(ast.StoreOp.ASSIGN, line.target)
+
+    # ------------------------------------------------------------------ operands
+
+    def _read_bit(self, operand: ast.BitOperand) -> bool:
+        state = self.state
+        match operand:
+            case ast.ImageBit(area=area, address=address, bit=bit):
+                if area is ast.BitArea.F:
+                    return bool(state.flags[address] >> bit & 1)
+                return _image_bit(self._image(area), address, bit)
+            case ast.TimerRef(number=n):
+                return state.timers.get(n, 0) != 0
+            case ast.CounterRef(number=n):
+                return self._counter(n) != 0
+            case ast.VarBit(name=name, offset=offset, bit=bit):
+                return bool(state.variables[key(name)][offset] >> bit & 1)
+        raise AssertionError(operand)
+
+    def _image(self, area: ast.BitArea) -> bytearray:
+        state = self.state
+        return {
+            ast.BitArea.I: state.inputs,
+            ast.BitArea.I2: state.old_inputs,
+            ast.BitArea.Q: state.outputs,
+        }[area]
+
+    def _store(self, op: ast.StoreOp, operand: ast.BitOperand) -> None:
+        state = self.state
+        if isinstance(operand, ast.TimerRef):
+            if state.rlo:
+                state.timers[operand.number] = (
+                    min(state.constant, TC_MAX) if op is ast.StoreOp.SET else 0
+                )
+            return
+        if isinstance(operand, ast.CounterRef):
+            if state.rlo:
+                value = min(state.constant, TC_MAX) if op is ast.StoreOp.SET else 0
+                self._set_counter(operand.number, value)
+            return
+        if op is ast.StoreOp.ASSIGN:
+            value = state.rlo
+        elif not state.rlo:
+            return
+        else:
+            value = op is ast.StoreOp.SET
+        match operand:
+            case ast.ImageBit(area=ast.BitArea.F, address=address, bit=bit):
+                _set_bit(state.flags, address, bit, value)
+            case ast.ImageBit(area=area, address=address, bit=bit):
+                _set_image_bit(self._image(area), address, bit, value)
+            case ast.VarBit(name=name, offset=offset, bit=bit):
+                _set_bit(state.variables[key(name)], offset, bit, value)
+
+    def _load(self, operand: ast.LoadOperand) -> None:
+        state = self.state
+        match operand:
+            case ast.Constant(kind=ast.ConstKind.KT, value=ms):
+                state.constant = (ms + 9) // 10
+                return
+            case ast.Constant(kind=ast.ConstKind.KC, value=n):
+                state.constant = n
+                return
+            case ast.ParamConst(address=address, data=data):
+                state.constant = address << 4 | data
+                return
+        state.accu2 = state.accu1
+        state.accu1 = self._read_word(operand)
+
+    def _read_word(self, operand: ast.LoadOperand) -> int:
+        state = self.state
+        match operand:
+            case ast.Constant(value=value):
+                return value
+            case ast.FlagWord(number=n):
+                return state.flags[n] << 8 | state.flags[n + 1]
+            case ast.TimerRef(number=n):
+                return state.timers.get(n, 0)
+            case ast.CounterRef(number=n):
+                return self._counter(n)
+        buffer, index = self._byte_location(operand)
+        return buffer[index]
+
+    def _transfer(self, operand: ast.TransferOperand) -> None:
+        state = self.state
+        value = state.accu1
+        match operand:
+            case ast.FlagWord(number=n):
+                state.flags[n] = value >> 8 & 0xFF
+                state.flags[n + 1] = value & 0xFF
+            case ast.TimerRef(number=n):
+                state.timers[n] = min(value, TC_MAX)
+            case ast.CounterRef(number=n):
+                self._set_counter(n, min(value, TC_MAX))
+            case _:
+                buffer, index = self._byte_location(operand)
+                buffer[index] = value & 0xFF
+
+    def _byte_location(self, operand: ast.ByteOperand) -> tuple[bytearray, int]:
+        state = self.state
+        match operand:
+            case ast.ImageByte(area=area, number=n):
+                return {
+                    ast.ByteArea.IB: (state.inputs, n >> 1),
+                    ast.ByteArea.I2B: (state.old_inputs, n >> 1),
+                    ast.ByteArea.QB: (state.outputs, n >> 1),
+                    ast.ByteArea.FY: (state.flags, n),
+                    ast.ByteArea.PSEG: (state.pseg, n),
+                }[area]
+            case ast.VarByte(name=name, offset=offset):
+                return state.variables[key(name)], offset
+        raise AssertionError(operand)
+
+    # ------------------------------------------------------------------ counters
+
+    def _counter(self, n: int) -> int:
+        if self.map_counters and n < MAPPED_COUNTERS:
+            flags = self.state.flags
+            return (flags[COUNTER_FLAG_BASE + 2 * n + 1] & 0x0F) << 8 | flags[
+                COUNTER_FLAG_BASE + 2 * n
+            ]
+        return self.state.counters.get(n, 0)
+
+    def _set_counter(self, n: int, value: int) -> None:
+        if self.map_counters and n < MAPPED_COUNTERS:
+            self.state.flags[COUNTER_FLAG_BASE + 2 * n] = value & 0xFF
+            self.state.flags[COUNTER_FLAG_BASE + 2 * n + 1] = value >> 8
+        else:
+            self.state.counters[n] = value
+
+    def _count(self, op: ast.CountOp, n: int) -> None:
+        rlo = self.state.rlo
+        if op is ast.CountOp.STP:
+            step = 1 if rlo else -1
+        elif not rlo:
+            return
+        else:
+            step = 1 if op is ast.CountOp.CU else -1
+        self._set_counter(n, max(0, min(TC_MAX, self._counter(n) + step)))
+
+
+def _set_bit(buffer: bytearray, index: int, bit: int, value: bool) -> None:
+    buffer[index] = buffer[index] | 1 << bit if value else buffer[index] & ~(1 << bit)
+
+
+_COMPARE: dict[ast.CompareOp, Callable[[int, int], bool]] = {
+    ast.CompareOp.EQ: lambda a, b: a == b,
+    ast.CompareOp.NE: lambda a, b: a != b,
+    ast.CompareOp.GT: lambda a, b: a > b,
+    ast.CompareOp.GE: lambda a, b: a >= b,
+    ast.CompareOp.LT: lambda a, b: a < b,
+    ast.CompareOp.LE: lambda a, b: a <= b,
+}

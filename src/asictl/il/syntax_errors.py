@@ -1,0 +1,206 @@
+"""Syntax errors as a modern compiler words them, from lark's parse exceptions.
+
+Lark reports which terminals the parser state could have taken; this module turns that
+into "expected a bit operand (...) after 'A', found end of line", with a code per class
+of error (the table below, also in docs/language.md). The found word is read from the
+source rather than from lark's token: after an unexpected character, lark's contextual
+lexer re-lexes with every terminal of the grammar, and its idea of the next token
+(often the rest of the line, as assembler text) is no help to a reader.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+
+from asictl.diagnostics import Diagnostic, Severity, Span
+from asictl.il.ast import SectionKind
+
+#: code -> (short title, when it is reported); docs/language.md has the same table.
+CODES: dict[str, tuple[str, str]] = {
+    "E101": ("unexpected character", "a character that has no place in IL outside comments"),
+    "E102": ("unexpected end of line", "the line ends before the instruction is complete"),
+    "E103": ("unexpected word", "a word or sign where the syntax expects something else"),
+    "E104": ("unknown instruction", "a [PROGRAM] line that starts with no operator or label"),
+    "E105": ("unknown section title", "a line starting with '[' that is no section title"),
+    "E106": ("missing section title", "statements before the first section title"),
+    "E107": ("number too large", "more than 9 decimal or 8 hexadecimal digits"),
+}
+
+#: Punctuation the language reads as a blank (3: only some punctuation is significant).
+IGNORED_PUNCTUATION = "\"#$%&',/?@\\^`{|}~"
+_SIGNIFICANT = set("*=()[].:+-!<>;_")
+_BLANKS = " \t\f\v"
+
+_FOUND = re.compile(r"\[[^\]]*\]?|[A-Za-z0-9_]+|\*+|[!<>=]+|.", re.DOTALL)
+_NUMBER_LIKE = re.compile(r"[0-9]+d?|[0-9a-f]+h", re.IGNORECASE)
+_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
+
+#: The sample line each section expects, for errors at the start of a line.
+_LINE_STARTS = {
+    SectionKind.OPTIONS: "an option such as 'auto_start: yes'",
+    SectionKind.SETUP: "a slave such as '16: iiio, 1, Eh'",
+    SectionKind.DECL: "a declaration such as 'Reading BYTE 5'",
+    SectionKind.GATING: "a gating line such as 'Q 17.3 = I 4.0'",
+    SectionKind.ASSEMBLY: "an assembler line",
+    SectionKind.RAW: "an Intel HEX record",
+}
+
+_TITLES = "[OPTIONS], [SETUP], [DECL], [PROGRAM], [GATING], [ASSEMBLY], [RAW] or [END]"
+
+MARK_WORDS = {
+    "I_MARK": "I", "I2_MARK": "I2", "Q_MARK": "Q", "F_MARK": "F", "T_MARK": "T",
+    "C_MARK": "C", "IB_MARK": "IB", "I2B_MARK": "I2B", "QB_MARK": "QB", "FY_MARK": "FY",
+    "FW_MARK": "FW", "PSEG_MARK": "PSeg", "KT_MARK": "KT", "KC_MARK": "KC",
+    "KP_MARK": "KP", "KB_MARK": "KB", "KW_MARK": "KW",
+}
+
+
+def _marks(*words: str) -> frozenset[str]:
+    by_word = {word: name for name, word in MARK_WORDS.items()}
+    return frozenset(by_word[w] for w in words)
+
+
+_BIT_MARKS = _marks("I", "I2", "Q", "F", "T", "C")
+_BYTE_WORD_MARKS = _marks("IB", "I2B", "QB", "FY", "PSeg", "FW", "T", "C")
+
+#: The operators that can start a [PROGRAM] instruction.
+_OPERATORS = frozenset(
+    [
+        "A", "AN", "O", "ON", "EQ", "S", "R", "N", "L", "T", "PLUS", "MINUS", "CMP_EQ",
+        "CMP_NE", "CMP_GT", "CMP_GE", "CMP_LT", "CMP_LE", "CU", "CD", "STP", "SEGMENT_END",
+        "BE", "BEC", "BEU", "JU", "JC", "PARAM", "ASM",
+    ]
+)
+
+#: Sets of terminals that read better as one phrase, tried in this order.
+_GROUPS: tuple[tuple[frozenset[str], str], ...] = (
+    (_OPERATORS, "an instruction"),
+    (_BIT_MARKS | {"NAME"}, "a bit operand (I, I2, Q, F, T, C or a variable)"),
+    (
+        _BYTE_WORD_MARKS | _marks("KT", "KC", "KP", "KB", "KW") | {"NAME"},
+        "an operand (KT, KC, KP, KB, KW, IB, I2B, QB, FY, PSeg, FW, T, C or a variable)",
+    ),
+    (_BYTE_WORD_MARKS | {"NAME"}, "a byte or word operand (IB, I2B, QB, FY, PSeg, FW, T, C "
+     "or a variable)"),
+    (frozenset({"NAME", "T_MARK", "C_MARK"}), "another declaration"),
+    (frozenset({"EQ", "FB", "NAME"}), "'=' and a label, or 'FB' and a block name"),
+    (frozenset({"NUMBER", "IO_CODE"}), "an I/O code (a number, or letters such as iiio)"),
+    (frozenset({"_DOT", "NUMBER"}), "'.' and a number"),
+    (frozenset({"NOT", "N"}), "'not'"),
+)
+
+_SINGLES = {
+    "NUMBER": "a number",
+    "NAME": "a name",
+    "BOOL": "yes or no",
+    "FILE_NAME": "a file name",
+    "ASM_TEXT": "assembler text",
+    "ASM_LINE": "an assembler line",
+    "RAW_RECORD": "an Intel HEX record",
+    "_COLON": "':'",
+    "_DOT": "'.'",
+    "_NL": "end of line",
+}
+_NOT_LISTED = frozenset({"$END", "END_REST"})
+
+
+@dataclass(frozen=True)
+class Diagnosis:
+    """A diagnosed error, and whether reading resumes on the next line or the next title."""
+
+    diagnostic: Diagnostic
+    #: Go on at the next section title: the lines up to it belong to no known section.
+    skip_to_title: bool
+
+
+def describe(expected: frozenset[str], keywords: dict[str, str]) -> str:
+    """Say in words what a set of terminal names stands for.
+
+    ``keywords`` maps the names of keyword terminals to their spelling (``BYTE`` ->
+    ``BYTE``, ``CMP_GE`` -> ``>=``).
+    """
+    rest = {t for t in expected if t not in _NOT_LISTED and not t.endswith("_TITLE")}
+    phrases = []
+    for group, phrase in _GROUPS:
+        if group <= rest:
+            phrases.append(phrase)
+            rest -= group
+    line_end = "_NL" in rest
+    rest.discard("_NL")
+    phrases += sorted(_single(t, keywords) for t in rest)
+    if line_end:
+        phrases.append(_SINGLES["_NL"])
+    if not phrases:
+        return "a section title"
+    return phrases[0] if len(phrases) == 1 else ", ".join(phrases[:-1]) + " or " + phrases[-1]
+
+
+def _single(terminal: str, keywords: dict[str, str]) -> str:
+    if terminal in _SINGLES:
+        return _SINGLES[terminal]
+    return f"'{MARK_WORDS.get(terminal) or keywords[terminal]}'"
+
+
+def _last_word(before: str) -> str:
+    words = before.split()
+    return _quote(words[-1]) if words else "the start of the line"
+
+
+def _quote(word: str) -> str:
+    return f"'{word}'" if len(word) <= 40 else f"'{word[:37]}...'"
+
+
+def diagnose(
+    text: str,
+    pos: int,
+    line: int,
+    expected: frozenset[str],
+    keywords: dict[str, str],
+    file: str,
+    section: SectionKind | None,
+) -> Diagnosis:
+    """Classify a parse error at offset ``pos`` (on line ``line``) of ``text``.
+
+    ``expected`` holds the terminals the parser could have taken there, ``keywords`` the
+    spelling of keyword terminals, ``section`` the section the line belongs to (None:
+    before the first title).
+    """
+    line_start = text.rfind("\n", 0, pos) + 1
+    before = text[line_start:pos]
+    said = before.rstrip(_BLANKS + IGNORED_PUNCTUATION)
+    rest = text[pos:text.index("\n", pos)].partition(";")[0]
+    found = _FOUND.match(rest).group() if rest.strip(_BLANKS + IGNORED_PUNCTUATION) else ""
+    char = text[pos]
+
+    def report(code: str, message: str, at: int = pos, length: int = len(found)) -> Diagnosis:
+        # Lines outside any known section are skipped up to the next title, unreported.
+        skip = section is None or code == "E105"
+        span = Span(file, line, at - line_start + 1, max(1, length))
+        return Diagnosis(Diagnostic(Severity.ERROR, code, message, span), skip)
+
+    if found and not (char.isascii() and (char.isalnum() or char in _SIGNIFICANT)):
+        shown = f"'{char}'" if char.isprintable() else f"U+{ord(char):04X}"
+        return report("E101", f"unexpected character {shown}")
+    if not said and found.startswith("["):
+        return report("E105", f"unknown section title {_quote(found)}; expected {_TITLES}")
+    if section is None:
+        return report("E106", "expected a section title such as [PROGRAM], found "
+                      f"{_quote(found) if found else 'end of line'}")
+    if "NUMBER" in expected and _NUMBER_LIKE.fullmatch(found):
+        return report("E107", f"number {_quote(found)} is too large")
+    if section is SectionKind.PROGRAM and expected == {"_COLON"}:
+        # A line that starts with a name reads as a label: more often a misspelt operator.
+        name = _NAME.search(before)
+        return report("E104", f"unknown instruction {_quote(name.group())} (a label is "
+                      f"written '{name.group()}:')", at=line_start + name.start(),
+                      length=len(name.group()))
+    if not found:
+        return report("E102", f"expected {describe(expected, keywords)} after "
+                      f"{_last_word(said)}, found end of line", at=line_start + len(said))
+    if section is SectionKind.PROGRAM and (not said or expected >= _OPERATORS):
+        return report("E104", f"unknown instruction {_quote(found)}")
+    if not said:
+        return report("E103", f"expected {_LINE_STARTS[section]}, found {_quote(found)}")
+    return report("E103", f"expected {describe(expected, keywords)} after "
+                  f"{_last_word(said)}, found {_quote(found)}")

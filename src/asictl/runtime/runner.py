@@ -1,0 +1,159 @@
+"""The firmware's side of the runtime contract: running a compiled program's cycles.
+
+docs/runtime.md is the contract; this is its one implementation, used by the emulated
+master and by the tests that hold the compiled code against the reference interpreter.
+Per cycle it copies the inputs (and the previous inputs) into the program's cells and
+the flags it keeps in internal RAM, calls the program with the stack set up so that its
+final RET lands on the cycle-end trap, and copies outputs and changed flags back.
+Timers count down in ``tick``, between cycles, as the master's 10 ms clock does.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from asictl.codegen8051.allocate import CellKind, Location, ProgramMap, Space, timer_status
+from asictl.mcs51.bus import Bus
+from asictl.mcs51.emulator import Emulator, StopReason
+from asictl.runtime import layout
+from asictl.runtime.firmware import FIRMWARE_BLOCKS, FirmwareServices
+
+_RET = 0x22
+
+
+class CycleTimeout(Exception):
+    """The program ran past the cycle budget (an endless loop); the master stops it."""
+
+
+@dataclass(frozen=True)
+class LoadedProgram:
+    """What the firmware needs of a program: its code, where it goes, and its map."""
+
+    code: bytes
+    pmap: ProgramMap
+    entry_points: dict[str, int]
+    code_base: int = layout.CODE_BASE
+
+
+class ProgramRunner:
+    """Runs one loaded program on an 8051 emulator whose XDATA holds the DPRAM."""
+
+    def __init__(
+        self,
+        program: LoadedProgram,
+        *,
+        firmware: FirmwareServices | None = None,
+        xdata: Bus | None = None,
+        budget: int = layout.CYCLE_BUDGET,
+    ) -> None:
+        self.program = program
+        self.pmap = program.pmap
+        self.firmware = firmware
+        self.budget = budget
+        self.cpu = Emulator(xdata=xdata)
+        self.cpu.code.load(program.code_base, program.code)
+        self.cpu.code[layout.CYCLE_END] = _RET
+        self.cpu.add_trap(layout.CYCLE_END, lambda cpu: True)
+        for name, address in program.entry_points.items():
+            self.cpu.code[address] = _RET
+            self.cpu.add_trap(address, self._firmware_trap(FIRMWARE_BLOCKS[name].name))
+        self.inputs = bytearray(16)
+        self.outputs = bytearray(16)
+        self._cells = {kind: self._cells_of(kind) for kind in CellKind}
+        self._timers = [
+            (self.pmap.timers[n], self.pmap.cells[timer_status(n)[0]], timer_status(n)[1])
+            for n in sorted(self.pmap.timers)
+        ]
+        #: machine cycles the last program cycle took
+        self.last_cycles = 0
+
+    def _cells_of(self, kind: CellKind) -> list[tuple[int, Location]]:
+        return sorted((i, loc) for (k, i), loc in self.pmap.cells.items() if k is kind)
+
+    # ------------------------------------------------------------------ memory
+
+    def read(self, location: Location) -> int:
+        if location.space is Space.IRAM:
+            return self.cpu.iram[location.address]
+        return self.cpu.xdata.read(location.address)
+
+    def write(self, location: Location, value: int) -> None:
+        if location.space is Space.IRAM:
+            self.cpu.iram[location.address] = value
+        else:
+            self.cpu.xdata.write(location.address, value)
+
+    def flag(self, n: int) -> int:
+        """Flag byte n as the program sees it (its cell between cycles equals the DPRAM)."""
+        return self.read(self.pmap.flag(n))
+
+    def reset(self) -> None:
+        """reset_bit: clear the program's memory, flags, images and the IL registers."""
+        self.cpu.iram[:] = bytes(256)
+        for address in range(layout.DATA_BASE, self.pmap.data_end):
+            self.cpu.xdata.write(address, 0)
+        for n in range(128):
+            self.cpu.xdata.write(layout.FLAGS_BASE + n, 0)
+        self.inputs[:] = bytes(16)
+        self.outputs[:] = bytes(16)
+
+    # ------------------------------------------------------------------ the cycle
+
+    def cycle(self, inputs: bytes | None = None) -> None:
+        """One program cycle; raises ``CycleTimeout`` when the budget runs out."""
+        cpu = self.cpu
+        previous = bytes(self.inputs)
+        if inputs is not None:
+            self.inputs[:] = inputs
+        for k, location in self._cells[CellKind.I]:
+            self.write(location, self.inputs[k])
+        for k, location in self._cells[CellKind.I2]:
+            self.write(location, previous[k])
+        flags = [
+            (n, location, cpu.xdata.read(layout.FLAGS_BASE + n))
+            for n, location in self._cells[CellKind.F]
+        ]
+        for _, location, value in flags:
+            cpu.iram[location.address] = value
+        cpu.sfr[0x81] = layout.STACK_START  # SP
+        cpu.sfr[0xD0] = 0  # PSW: bank 0
+        cpu.push(layout.CYCLE_END & 0xFF)
+        cpu.push(layout.CYCLE_END >> 8)
+        cpu.pc = self.program.code_base
+        start = cpu.cycles
+        reason = cpu.run(max_cycles=self.budget)
+        self.last_cycles = cpu.cycles - start
+        if reason is not StopReason.TRAP:
+            raise CycleTimeout(
+                f"program cycle longer than {self.budget} machine cycles (pc {cpu.pc:04X}h)"
+            )
+        for k, location in self._cells[CellKind.Q]:
+            self.outputs[k] = self.read(location)
+        for n, location, before in flags:
+            value = cpu.iram[location.address]
+            if value != before:
+                cpu.xdata.write(layout.FLAGS_BASE + n, value)
+
+    def tick(self, ticks: int = 1) -> None:
+        """``ticks`` x 10 ms of master time: running timers count down, status follows."""
+        xdata = self.cpu.xdata
+        for address, location, bit in self._timers:
+            remaining = xdata.read(address) | xdata.read(address + 1) << 8
+            if remaining:
+                remaining = max(0, remaining - ticks)
+                xdata.write(address, remaining & 0xFF)
+                xdata.write(address + 1, remaining >> 8)
+                if not remaining:
+                    self.write(location, self.read(location) & ~(1 << bit) & 0xFF)
+
+    def _firmware_trap(self, name: str):
+        def trap(cpu: Emulator) -> None:
+            base = cpu.dptr
+            pseg = bytearray(cpu.xdata.read(base + i) for i in range(16))
+            if self.firmware is not None:
+                self.firmware.call(name, pseg)
+            for i, value in enumerate(pseg):
+                cpu.xdata.write(base + i, value)
+            cpu.ret()
+
+        return trap

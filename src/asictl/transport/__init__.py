@@ -1,1 +1,0 @@
-"""Ways of reaching an AS-i Control master other than the PC2's DPRAM (docs/host.md)."""
