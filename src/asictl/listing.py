@@ -12,12 +12,13 @@ from __future__ import annotations
 from collections.abc import Iterator, Sequence
 
 from asictl import __version__
-from asictl.codegen8051.allocate import CellKind, Location, ProgramMap, Space
 from asictl.codegen8051.compiler import GENERATED, Compiled
-from asictl.image import EEPROM_SIZE, HEADER_SIZE, ProgramImage
+from asictl.image import HEADER_SIZE, ProgramImage
 from asictl.mcs51.assembly import ListingEntry
+from asictl.platform.master import EEPROM_SIZE
 from asictl.runtime import layout
 from asictl.runtime.firmware import FIRMWARE_BLOCKS
+from asictl.runtime.program_map import CellKind, Location, ProgramMap, Space
 from asictl.source import SourceText
 
 #: The first words of every listing: how an existing file is recognised as one.

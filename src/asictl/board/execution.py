@@ -17,14 +17,13 @@ from __future__ import annotations
 from collections.abc import Iterator
 from enum import Enum
 
-from asictl.board.asi import SLAVES, AsiBus, Slave
+from asictl.board.asi import AsiBus, Slave
+from asictl.platform.master import NO_PROFILE, SLAVES
 from asictl.platform.pc2 import EcFlag, Status
 
 #: Addresses 1..31: slave 0 (a new slave) is never projected, activated or counted
 #: in the configuration check.
 OPERATING = 0xFFFFFFFE
-#: CDI/PCD byte of an address without a slave / without a projected slave.
-NO_PROFILE = 0xFF
 #: The error counters saturate here; 255 means overflow (manual 6.2).
 COUNTER_LIMIT = 254
 COUNTER_OVERFLOW = 255

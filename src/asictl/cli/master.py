@@ -23,11 +23,11 @@ from click.core import ParameterSource
 
 from asictl.board.asi import Slave
 from asictl.board.board import Pc2Board
-from asictl.diagnostics import render_text
+from asictl.build import build_file
 from asictl.errors import ExitCode, UserError
 from asictl.host.boards import IO_BACKENDS, connect, parse_port, port_name
 from asictl.host.driver import EmulatedPort
-from asictl.host.program_files import prepare_image, uploaded_files, write_files
+from asictl.host.program_files import uploaded_files, write_files
 from asictl.host.status import MasterStatus, control_summary, read_status, render
 from asictl.host.target import (
     BAUD_RATES,
@@ -210,13 +210,13 @@ def download_command(file: str, start: str, lib: tuple[str, ...], **board: Any) 
     with _connect(**board) as master:
         transport = master.transport
         entry_points = transport.entry_points()
-        prepared = prepare_image(file, entry_points=entry_points, lib=lib)
-        click.echo(render_text(prepared.diagnostics, prepared.texts), nl=False, err=True)
-        image = prepared.image
-        if image is None:
+        built = build_file(file, entry_points=entry_points, lib=lib)
+        click.echo(built.render(), nl=False, err=True)
+        image = built.image
+        if built.has_errors or image is None:
             ctx.exit(int(ExitCode.FAILED))
         linked_for(image, entry_points)
-        if prepared.compiled and image.source_left_out:
+        if built.compiled is not None and image.source_left_out:
             click.echo(
                 "asictl: warning: the source text does not fit in the EEPROM and is left "
                 "out; an upload will give [RAW] records instead of the program text",

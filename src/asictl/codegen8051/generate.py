@@ -9,7 +9,6 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 
-from asictl.codegen8051.allocate import ProgramMap
 from asictl.codegen8051.emitter import (
     ENTRY_SYMBOL,
     PSEG_SYMBOL,
@@ -25,6 +24,7 @@ from asictl.il import ast
 from asictl.il.loader import Program
 from asictl.runtime import layout
 from asictl.runtime.firmware import FIRMWARE_BLOCKS
+from asictl.runtime.program_map import ProgramMap
 
 
 def generate(

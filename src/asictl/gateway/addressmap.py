@@ -17,13 +17,13 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from enum import IntEnum
 
-from asictl.board.asi import SLAVES
 from asictl.board.board import Pc2Board
 from asictl.host.driver import EmulatedPort, Pc2Driver
 from asictl.host.jobs import JobError
 from asictl.platform import display as master_display
 from asictl.platform import pc2 as d
-from asictl.platform.pc2 import Command, ControlFlag, Status
+from asictl.platform.master import SLAVES, ControlFlag
+from asictl.platform.pc2 import Command, Status
 
 #: The manual's limit on registers per telegram (functions 3, 4, 16).
 MAX_REGISTERS = 15

@@ -55,13 +55,9 @@ from asictl.host.target import (
     PARITIES,
     ModbusTarget,
 )
-from asictl.image import SLAVES, Configuration
-from asictl.platform.pc2 import (
-    ENTRY_TABLE_ADDRESS,
-    ENTRY_TABLE_SIZE,
-    ControlFlag,
-    ControlState,
-)
+from asictl.image import Configuration
+from asictl.platform.master import SLAVES, ControlFlag
+from asictl.platform.pc2 import ENTRY_TABLE_ADDRESS, ENTRY_TABLE_SIZE, ControlState
 from asictl.runtime.firmware import FIRMWARE_BLOCKS
 
 # pymodbus logs every time-out it retries; without a handler Python would print them.

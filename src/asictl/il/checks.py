@@ -9,7 +9,7 @@ manual and ``docs/language.md``; each diagnostic code is listed there.
 from __future__ import annotations
 
 import re
-from collections.abc import Iterable, Iterator
+from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import dataclass
 from enum import StrEnum
 from pathlib import Path
@@ -569,9 +569,13 @@ class CheckResult:
 
 
 def check_source(
-    source: SourceText, *, dialect: Dialect = Dialect.CONTROL2, lib: Iterable[str | Path] = ()
+    source: SourceText,
+    *,
+    dialect: Dialect = Dialect.CONTROL2,
+    lib: Iterable[str | Path] = (),
+    files: Mapping[str, SourceText] | None = None,
 ) -> CheckResult:
     """Read a main file and the blocks it calls, and check the whole program."""
-    program, load_diagnostics = load_program(source, lib=lib)
+    program, load_diagnostics = load_program(source, lib=lib, files=files)
     diagnostics = [*load_diagnostics, *check_program(program, dialect)]
     return CheckResult(program, sorted(diagnostics, key=Diagnostic.sort_key))

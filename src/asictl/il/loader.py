@@ -9,7 +9,7 @@ then along the library path (``--lib`` options, then ``ASICTL_LIB``, colon-separ
 from __future__ import annotations
 
 import os
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -17,6 +17,7 @@ from asictl.diagnostics import Diagnostic, Reporter
 from asictl.errors import UserError
 from asictl.il import ast
 from asictl.il.parser import parse
+from asictl.platform.master import Options
 from asictl.runtime.firmware import FIRMWARE_BLOCKS
 from asictl.source import SourceText, read_source
 
@@ -35,6 +36,20 @@ class Program:
 
     def modules(self) -> list[ast.Module]:
         return [self.main, *self.blocks.values()]
+
+    @property
+    def options(self) -> Options:
+        """The main file's [OPTIONS], the manual's defaults for what they leave out."""
+        return Options.from_values({
+            ast.key(o.name): o.value
+            for section in self.main.sections_of(ast.OptionsSection)
+            for o in section.options
+        })
+
+    @property
+    def slaves(self) -> list[ast.SlaveSetup]:
+        """The slaves all [SETUP] sections of the main file project."""
+        return [s for section in self.main.sections_of(ast.SetupSection) for s in section.slaves]
 
 
 def library_path(extra: Iterable[str | Path] = ()) -> list[Path]:
@@ -82,12 +97,17 @@ def calls(module: ast.Module) -> list[ast.CallFB]:
 
 
 def load_program(
-    source: SourceText, *, lib: Iterable[str | Path] = ()
+    source: SourceText,
+    *,
+    lib: Iterable[str | Path] = (),
+    files: Mapping[str, SourceText] | None = None,
 ) -> tuple[Program, list[Diagnostic]]:
     """Parse the main file and every block file it reaches; report what cannot be read.
 
-    Undeclared blocks and recursion are left to the semantic checks, which see the whole
-    program; here only missing and unreadable files are reported, at the call that needs them.
+    ``files`` are block files already in memory (an image's own source), found by their
+    base name before the disk is searched. Undeclared blocks and recursion are left to the
+    semantic checks, which see the whole program; here only missing and unreadable files
+    are reported, at the call that needs them.
     """
     report = Reporter()
     main, diags = parse(source)
@@ -107,6 +127,10 @@ def load_program(
                 continue
             if decl.span is None:  # a declaration always comes from a file
                 continue
+            known = _in_memory(files, decl.file)
+            if known is not None:
+                _add_block(program, name, known, pending, report)
+                continue
             path = find_block_file(decl.file, decl.span.file, search)
             if path is None:
                 report.error(
@@ -125,12 +149,25 @@ def load_program(
                 report.error("E208", f"cannot read function block file: {exc}", decl.span)
                 program.blocks[name] = ast.Module(file=str(path), sections=())
                 continue
-            block, diags = parse(text)
-            report.extend(diags)
-            program.sources[text.name] = text
-            program.blocks[name] = block
-            pending.append(block)
+            _add_block(program, name, text, pending, report)
     return program, report.diagnostics
+
+
+def _in_memory(files: Mapping[str, SourceText] | None, name: str) -> SourceText | None:
+    if not files:
+        return None
+    wanted = Path(name).name.casefold()
+    return next((text for key, text in files.items() if Path(key).name.casefold() == wanted), None)
+
+
+def _add_block(
+    program: Program, name: str, text: SourceText, pending: list[ast.Module], report: Reporter
+) -> None:
+    block, diags = parse(text)
+    report.extend(diags)
+    program.sources[text.name] = text
+    program.blocks[name] = block
+    pending.append(block)
 
 
 def is_firmware_block(name: str) -> bool:

@@ -12,11 +12,11 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from asictl.codegen8051.allocate import CellKind, Location, ProgramMap, Space, timer_status
 from asictl.mcs51.bus import Bus
 from asictl.mcs51.emulator import Emulator, StopReason
 from asictl.runtime import layout
 from asictl.runtime.firmware import FIRMWARE_BLOCKS, FirmwareServices
+from asictl.runtime.program_map import CellKind, Location, ProgramMap, Space, timer_status
 
 _RET = 0x22
 
