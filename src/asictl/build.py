@@ -23,6 +23,7 @@ from enum import StrEnum
 from pathlib import Path
 
 from asictl.codegen8051.compiler import GENERATED, Compiled, compile_program
+from asictl.codes import CompileCode, ImageCode
 from asictl.diagnostics import Diagnostic, DiagnosticError, Severity, Span, render_text
 from asictl.errors import ExitCode
 from asictl.il import ast
@@ -145,7 +146,7 @@ def build(
     try:
         built.image = build_image(compiled, with_source=with_source)
     except ImageError as exc:
-        built.diagnostics.append(Diagnostic(Severity.ERROR, "E303", str(exc)))
+        built.diagnostics.append(Diagnostic(Severity.ERROR, CompileCode.IMAGE_TOO_LARGE, str(exc)))
         return built
     report(Stage.IMAGE, built)
     return built
@@ -229,7 +230,8 @@ def _raw_image(module: ast.Module) -> tuple[ProgramImage | None, list[Diagnostic
     try:
         image = image_from_raw(records)
     except ImageError as exc:
-        return None, [Diagnostic(Severity.ERROR, "E601", f"[RAW] section: {exc}", where)]
+        problem = Diagnostic(Severity.ERROR, ImageCode.RAW_INVALID, f"[RAW] section: {exc}", where)
+        return None, [problem]
     problems = []
     if module.sections_of(ast.OptionsSection):
         wanted = Options.from_values({
@@ -255,7 +257,7 @@ def _raw_image(module: ast.Module) -> tuple[ProgramImage | None, list[Diagnostic
                 )
     if problems:
         return None, [Diagnostic(
-            Severity.ERROR, "E602",
+            Severity.ERROR, ImageCode.RAW_MISMATCH,
             "the [OPTIONS] and [SETUP] sections do not match the [RAW] image they describe: "
             + "; ".join(problems),
             where,

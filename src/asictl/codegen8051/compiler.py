@@ -14,6 +14,7 @@ from dataclasses import dataclass
 from asictl.codegen8051.allocate import allocate
 from asictl.codegen8051.emitter import Emitter, Line, firmware_symbol
 from asictl.codegen8051.generate import generate, symbols
+from asictl.codes import CompileCode
 from asictl.diagnostics import Diagnostic, DiagnosticError, Severity
 from asictl.il.ast import key
 from asictl.il.loader import Program
@@ -81,6 +82,7 @@ def compile_program(
     pmap = allocate(program, map_counters=options.map_counters)
     if pmap.data_end > layout.DATA_LIMIT:
         raise DiagnosticError([_error(
+            CompileCode.DATA_TOO_LARGE,
             f"the program's data needs {pmap.data_end - layout.DATA_BASE} bytes of RAM, "
             f"{layout.DATA_LIMIT - layout.DATA_BASE} are available"
         )])
@@ -114,6 +116,7 @@ def compile_program(
     end = layout.CODE_BASE + len(compiled.code)
     if end > layout.CODE_LIMIT:
         raise DiagnosticError([_error(
+            CompileCode.CODE_TOO_LARGE,
             f"the program's code is {len(compiled.code)} bytes; at most "
             f"{layout.CODE_LIMIT - layout.CODE_BASE} fit"
         )])
@@ -124,8 +127,8 @@ def _source(emitter: Emitter) -> SourceText:
     return from_string(GENERATED, "".join(f"{line.text}\n" for line in emitter.lines))
 
 
-def _error(message: str) -> Diagnostic:
-    return Diagnostic(Severity.ERROR, "E301", message, None)
+def _error(code: CompileCode, message: str) -> Diagnostic:
+    return Diagnostic(Severity.ERROR, code, message, None)
 
 
 def _map_back(diagnostics: list[Diagnostic], lines: tuple[Line, ...] | list[Line]):

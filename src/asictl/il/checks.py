@@ -14,17 +14,16 @@ from dataclasses import dataclass
 from enum import StrEnum
 from pathlib import Path
 
+from asictl.codes import CheckCode
 from asictl.diagnostics import Diagnostic, Reporter, Span
 from asictl.il import ast
 from asictl.il.ast import key
 from asictl.il.language import BUILTIN_TC, MAX_KT_MS, MAX_TC
 from asictl.il.loader import Program, calls, load_program
 from asictl.mcs51.asm_parser import RESERVED as ASSEMBLER_RESERVED
+from asictl.platform.master import Options
 from asictl.runtime.firmware import FIRMWARE_BLOCKS
 from asictl.source import SourceText
-
-KNOWN_OPTIONS = ("ignore_config_errors", "auto_start", "map_counters")
-
 
 CONST_RANGES = {
     ast.ConstKind.KT: MAX_KT_MS,
@@ -87,36 +86,40 @@ def _declarations(program: Program, report: Reporter) -> _Scope:
                     target = scope.timers if kind == "timer" else scope.counters
                     if decl.number > MAX_TC:
                         report.error(
-                            "E201",
+                            CheckCode.OUT_OF_RANGE,
                             f"{kind} number {decl.number} out of range 0..{MAX_TC}",
                             decl.span,
                         )
                     elif decl.number < BUILTIN_TC:
                         report.warning(
-                            "W204",
+                            CheckCode.BUILTIN_DECLARED,
                             f"{kind} {decl.number} always exists; only numbers above 14 "
                             "need a declaration",
                             decl.span,
                         )
                     if decl.number in target:
-                        report.error("E215", f"{kind} {decl.number} declared twice", decl.span)
+                        report.error(
+                            CheckCode.DUPLICATE_DECLARATION,
+                            f"{kind} {decl.number} declared twice", decl.span)
                     target.add(decl.number)
                     continue
                 name = key(decl.name)
                 if isinstance(decl, ast.VarDecl | ast.FBDecl) and name in FIRMWARE_BLOCKS:
                     report.error(
-                        "E215",
+                        CheckCode.DUPLICATE_DECLARATION,
                         f"'{decl.name}' is the name of a firmware function block",
                         decl.span,
                     )
                 elif name in seen:
                     where = f" (first declared at {seen[name]})" if seen[name] else ""
-                    report.error("E215", f"'{decl.name}' declared twice{where}", decl.span)
+                    report.error(
+                        CheckCode.DUPLICATE_DECLARATION,
+                        f"'{decl.name}' declared twice{where}", decl.span)
                 seen.setdefault(name, decl.span)
                 if isinstance(decl, ast.VarDecl):
                     if decl.name.upper() in ASSEMBLER_RESERVED:
                         report.error(
-                            "E219",
+                            CheckCode.OPERAND_LIKE_NAME,
                             f"variable '{decl.name}' is named like an 8051 register or "
                             "assembler word; the program's assembly could not refer to it",
                             decl.span,
@@ -124,14 +127,14 @@ def _declarations(program: Program, report: Reporter) -> _Scope:
                     shadow = _OPERAND_LOOKALIKE.match(decl.name)
                     if shadow:
                         report.error(
-                            "E219",
+                            CheckCode.OPERAND_LIKE_NAME,
                             f"variable '{decl.name}' cannot be used as an operand: "
                             f"'{decl.name} 0' reads as '{shadow[1].upper()} {shadow[2]}'",
                             decl.span,
                         )
                     if not 1 <= decl.size <= 255:
                         report.error(
-                            "E201",
+                            CheckCode.OUT_OF_RANGE,
                             f"variable size {decl.size} out of range 1..255 bytes",
                             decl.span,
                         )
@@ -144,7 +147,7 @@ def _check_main_only_sections(program: Program, report: Reporter) -> None:
         for section in block.sections:
             if isinstance(section, ast.OptionsSection | ast.SetupSection | ast.RawSection):
                 report.error(
-                    "E217",
+                    CheckCode.MISPLACED_SECTION,
                     f"[{section.kind.value}] belongs in the main program file, "
                     "not in a function block's file",
                     section.span,
@@ -155,7 +158,7 @@ def _check_main_only_sections(program: Program, report: Reporter) -> None:
     ):
         raw = main.sections_of(ast.RawSection)[0]
         report.error(
-            "E217",
+            CheckCode.MISPLACED_SECTION,
             "[RAW] holds a whole uploaded image and cannot be combined with program sections",
             raw.span,
         )
@@ -169,14 +172,15 @@ def _check_options(module: ast.Module, report: Reporter) -> None:
     for section in module.sections_of(ast.OptionsSection):
         for option in section.options:
             name = key(option.name)
-            if name not in KNOWN_OPTIONS:
+            if name not in Options.NAMES:
                 report.error(
-                    "E212",
-                    f"unknown option '{option.name}' (known: {', '.join(KNOWN_OPTIONS)})",
+                    CheckCode.UNKNOWN_OPTION,
+                    f"unknown option '{option.name}' (known: {', '.join(Options.NAMES)})",
                     option.span,
                 )
             elif name in seen:
-                report.warning("W203", f"option '{option.name}' given again", option.span)
+                report.warning(
+                    CheckCode.DUPLICATE_OPTION, f"option '{option.name}' given again", option.span)
             seen.add(name)
 
 
@@ -185,7 +189,7 @@ def _check_setup(module: ast.Module, report: Reporter) -> None:
         for slave in section.slaves:
             if not 1 <= slave.address <= 31:
                 report.error(
-                    "E211",
+                    CheckCode.BAD_SETUP,
                     f"slave address {slave.address} out of range 1..31 "
                     "(address 0 is reserved for new slaves)",
                     slave.span,
@@ -197,7 +201,8 @@ def _check_setup(module: ast.Module, report: Reporter) -> None:
             ):
                 if value is not None and not 0 <= value <= 0xF:
                     report.error(
-                        "E211", f"{what} {value} out of range 0..F (one hex digit)", slave.span
+                        CheckCode.BAD_SETUP,
+                        f"{what} {value} out of range 0..F (one hex digit)", slave.span
                     )
 
 
@@ -207,7 +212,7 @@ def _check_duplicate_slaves(program: Program, report: Reporter) -> None:
         for slave in section.slaves:
             if slave.address in first:
                 report.error(
-                    "E210",
+                    CheckCode.DUPLICATE_SLAVE,
                     f"slave {slave.address} is already set up at {first[slave.address].span}",
                     slave.span,
                 )
@@ -251,7 +256,7 @@ def _check_code(module: ast.Module, scope: _Scope, report: Reporter) -> None:
         _check_operand(operand, role, scope, report)
         if role == "assign" and isinstance(operand, ast.TimerRef | ast.CounterRef):
             report.error(
-                "E218",
+                CheckCode.ASSIGNED_TIMER_OR_COUNTER,
                 f"the status bit of {operand} is read-only: S {operand} loads it, "
                 f"R {operand} clears it",
                 operand.span,
@@ -262,7 +267,7 @@ def _check_code(module: ast.Module, scope: _Scope, report: Reporter) -> None:
             if const.kind is ast.ConstKind.KT and const.value % 10 and const.value <= MAX_KT_MS:
                 rounded = (const.value + 9) // 10 * 10
                 report.warning(
-                    "W202",
+                    CheckCode.TIME_ROUNDED,
                     f"timers count in 10 ms steps: KT {const.value} is rounded up to {rounded} ms",
                     const.span,
                 )
@@ -270,7 +275,7 @@ def _check_code(module: ast.Module, scope: _Scope, report: Reporter) -> None:
 
 def _range(report: Reporter, span: Span | None, what: str, value: int, hi: int, lo: int = 0):
     if not lo <= value <= hi:
-        report.error("E201", f"{what} {value} out of range {lo}..{hi}", span)
+        report.error(CheckCode.OUT_OF_RANGE, f"{what} {value} out of range {lo}..{hi}", span)
 
 
 def _check_operand(operand: object, role: str, scope: _Scope, report: Reporter) -> None:
@@ -290,7 +295,7 @@ def _check_operand(operand: object, role: str, scope: _Scope, report: Reporter) 
                 _range(report, span, f"{kind} number", n, MAX_TC)
             elif n >= BUILTIN_TC and n not in declared:
                 report.error(
-                    "E203",
+                    CheckCode.UNDECLARED_TIMER_OR_COUNTER,
                     f"{kind} {n} is not declared (only 0..14 exist without "
                     f"'{'T' if is_timer else 'C'}{n} {kind.upper()}' in [DECL])",
                     span,
@@ -313,7 +318,7 @@ def _check_operand(operand: object, role: str, scope: _Scope, report: Reporter) 
                 _range(report, span, f"{area.value} slave address", n, 30)
                 if n % 2:
                     report.error(
-                        "E202",
+                        CheckCode.ODD_SLAVE_ADDRESS,
                         f"{area.value} takes an even slave address (the byte holds slaves "
                         f"{n - 1} and {n} as {area.value} {n - 1})",
                         span,
@@ -330,7 +335,7 @@ def _check_operand(operand: object, role: str, scope: _Scope, report: Reporter) 
 def _variable(name: str, span: Span | None, scope: _Scope, report: Reporter):
     decl = scope.variables.get(key(name))
     if decl is None:
-        report.error("E214", f"'{name}' is not a declared variable", span)
+        report.error(CheckCode.UNDECLARED_VARIABLE, f"'{name}' is not a declared variable", span)
     return decl
 
 
@@ -344,7 +349,7 @@ def _check_labels_and_jumps(module: ast.Module, report: Reporter) -> None:
             name = key(statement.name)
             if name in labels:
                 report.error(
-                    "E205",
+                    CheckCode.DUPLICATE_LABEL,
                     f"label '{statement.name}' already defined at {labels[name].span}",
                     statement.span,
                 )
@@ -353,7 +358,7 @@ def _check_labels_and_jumps(module: ast.Module, report: Reporter) -> None:
     for statement in _statements(module):
         if isinstance(statement, ast.Jump) and key(statement.label) not in labels:
             report.error(
-                "E206",
+                CheckCode.UNKNOWN_LABEL,
                 f"jump to undefined label '{statement.label}' "
                 "(labels are local to the main program or one function block)",
                 statement.span,
@@ -365,7 +370,7 @@ def _check_calls(module: ast.Module, program: Program, report: Reporter) -> None
         name = key(call.name)
         if name not in FIRMWARE_BLOCKS and name not in program.fb_decls:
             report.error(
-                "E207",
+                CheckCode.UNKNOWN_BLOCK,
                 f"function block '{call.name}' is not declared "
                 f"(declare it in [DECL] as '{call.name} FB <file>')",
                 call.span,
@@ -390,7 +395,8 @@ def _check_recursion(program: Program, report: Reporter) -> None:
                 if callee not in reported:
                     reported.add(callee)
                     names = " -> ".join(program.fb_decls[n].name for n in cycle)
-                    report.error("E209", f"recursive function block call: {names}", call.span)
+                    report.error(
+                        CheckCode.RECURSION, f"recursive function block call: {names}", call.span)
             elif state.get(callee) is None:
                 visit(callee, [*path, callee])
         state[name] = 2
@@ -448,7 +454,7 @@ def _check_register_flow(module: ast.Module, report: Reporter) -> None:
                 first_check.add(i)
             elif stored:
                 report.warning(
-                    "W201",
+                    CheckCode.LOGIC_AFTER_STORE,
                     f"'{statement.op.value}' after '=', S or R continues the old logic string; "
                     "end the segment with *** to start a new one",
                     statement.span,
@@ -495,7 +501,7 @@ def _check_register_flow(module: ast.Module, report: Reporter) -> None:
         )
         if reads and may_defined[i] is False:
             report.error(
-                "E213",
+                CheckCode.UNDEFINED_REGISTER,
                 f"'{_op_text(statement)}' reads the single-bit register, which is always "
                 "undefined here (start of program, block or segment): begin with A, AN, O or ON",
                 statement.span,
@@ -513,7 +519,7 @@ def _check_control1(module: ast.Module, scope: _Scope, report: Reporter) -> None
     """Report what AS-i Control I cannot run (features marked "AS-i Control II only")."""
 
     def only2(what: str, span: Span | None) -> None:
-        report.error("E216", f"{what} is AS-i Control II only", span)
+        report.error(CheckCode.CONTROL2_ONLY, f"{what} is AS-i Control II only", span)
 
     for section in module.sections:
         if isinstance(section, ast.DeclSection):

@@ -13,6 +13,7 @@ from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from asictl.codes import CheckCode
 from asictl.diagnostics import Diagnostic, Reporter
 from asictl.errors import UserError
 from asictl.il import ast
@@ -134,7 +135,7 @@ def load_program(
             path = find_block_file(decl.file, decl.span.file, search)
             if path is None:
                 report.error(
-                    "E208",
+                    CheckCode.BLOCK_FILE_NOT_FOUND,
                     f"file '{decl.file}' of function block '{decl.name}' not found "
                     f"(looked next to {decl.span.file}"
                     + (" and in the library path" if search else "")
@@ -146,7 +147,9 @@ def load_program(
             try:
                 text = read_source(path)
             except UserError as exc:
-                report.error("E208", f"cannot read function block file: {exc}", decl.span)
+                report.error(
+                    CheckCode.BLOCK_FILE_NOT_FOUND,
+                    f"cannot read function block file: {exc}", decl.span)
                 program.blocks[name] = ast.Module(file=str(path), sections=())
                 continue
             _add_block(program, name, text, pending, report)

@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 from asictl.board.asi import AsiBus, Slave
 from asictl.board.board import Pc2Board
 from asictl.build import Build
+from asictl.codes import ScenarioCode
 from asictl.diagnostics import Diagnostic, DiagnosticError, Severity, Span
 from asictl.host.driver import EmulatedPort, Pc2Driver
 from asictl.host.transfer import Pc2Transport, StartMode, download
@@ -204,7 +205,7 @@ class Simulation:
         slaves = self.board.bus.at(address)
         if not slaves:
             raise DiagnosticError([Diagnostic(
-                Severity.ERROR, "E402",
+                Severity.ERROR, ScenarioCode.NO_SUCH_SLAVE,
                 f"at {step.at_ms:g} ms: '{what}' sets slave {address}, which is not on the bus",
                 Span(self.scenario.file, line, 1),
             )])

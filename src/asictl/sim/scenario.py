@@ -13,6 +13,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from asictl.codes import ScenarioCode
 from asictl.diagnostics import Diagnostic, DiagnosticError, Reporter, Severity, Span
 from asictl.il import ast
 from asictl.il.parser import parse_text
@@ -90,7 +91,7 @@ class _Reader:
         return Span(self.source.name, line, column)
 
     def error(self, message: str, line: int, column: int = 1) -> None:
-        self.report.error("E401", message, self.span(line, column))
+        self.report.error(ScenarioCode.INVALID, message, self.span(line, column))
 
     def find(self, text: str, start: int, end: int) -> int:
         """The line of ``text`` between two lines (1-based, inclusive), else ``start``."""
@@ -247,7 +248,7 @@ def read_scenario(source: SourceText, variables: Mapping[str, int] | None = None
         line, column = (int(where[1]), int(where[2])) if where else (1, 1)
         message = re.sub(r"\s*\(at line \d+, column \d+\)", "", str(exc))
         raise DiagnosticError([
-            Diagnostic(Severity.ERROR, "E400", f"not valid TOML: {message}",
+            Diagnostic(Severity.ERROR, ScenarioCode.NOT_TOML, f"not valid TOML: {message}",
                        reader.span(line, column))
         ]) from None
     for unknown in sorted(set(data) - {"program", "master", "step"}):
