@@ -17,6 +17,7 @@ build -> il (parse, load, check) -> codegen8051 (allocate, generate, assemble) -
 
 from __future__ import annotations
 
+import re
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field, replace
 from enum import StrEnum
@@ -41,6 +42,9 @@ from asictl.image import (
 )
 from asictl.platform.master import EEPROM_SIZE, Options
 from asictl.source import SourceText, from_bytes, read_source
+
+#: An Intel HEX record: colon, count, address, type, data, checksum.
+_HEX_RECORD = re.compile(r":(?:[0-9A-Fa-f]{2}){5,}")
 
 
 class Stage(StrEnum):
@@ -91,8 +95,9 @@ class Build:
 
 
 def is_hex(text: str) -> bool:
-    """Intel HEX text: its first line is a record. (An IL line never starts with ':'.)"""
-    return text.lstrip().startswith(":")
+    """Intel HEX text: its first line is a whole record (no IL line can be one)."""
+    first = text.lstrip().partition("\n")[0]
+    return _HEX_RECORD.fullmatch(first.strip()) is not None
 
 
 def check(

@@ -31,6 +31,7 @@ from asictl.platform.master import (
     EEPROM_SIZE,
     NO_PROFILE,
     SLAVES,
+    TICK_MS,
     ControlFlag,
 )
 from asictl.platform.pc2 import (
@@ -49,7 +50,7 @@ MASTER_VERSION = b"asictl emulation".ljust(16, b"\0")
 VERSION_ID = b"PC2C2.00"
 #: One AS-i transaction (master call, pauses, slave answer) and the cycle's management call.
 TRANSACTION_US = 150
-TICK_US = 10_000
+TICK_US = TICK_MS * 1000
 NONVOLATILE_FORMAT = "asictl-pc2-nonvolatile"
 NONVOLATILE_VERSION = 1
 #: The ODI is stored inverted (manual 7.3).

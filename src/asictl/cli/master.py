@@ -13,31 +13,32 @@ from __future__ import annotations
 import json
 import sys
 from collections.abc import Callable, Iterator
-from contextlib import contextmanager
-from dataclasses import dataclass
+from contextlib import AbstractContextManager, contextmanager
 from pathlib import Path
 from typing import Any
 
 import click
 from click.core import ParameterSource
 
-from asictl.board.asi import Slave
-from asictl.board.board import Pc2Board
 from asictl.build import build_file
 from asictl.errors import ExitCode, UserError
-from asictl.host.boards import IO_BACKENDS, connect, parse_port, port_name
-from asictl.host.driver import EmulatedPort
+from asictl.host.boards import IO_BACKENDS
+from asictl.host.connection import (
+    Master,
+    MasterAddress,
+    cable_setup_slaves,
+    connect_master,
+    settle,
+)
 from asictl.host.program_files import uploaded_files, write_files
-from asictl.host.status import MasterStatus, control_summary, read_status, render
+from asictl.host.status import render
 from asictl.host.target import (
     BAUD_RATES,
     DEFAULT_RETRIES,
     DEFAULT_TIMEOUT_S,
     PARITIES,
-    parse_target,
 )
 from asictl.host.transfer import (
-    Pc2Transport,
     StartMode,
     Transport,
     download,
@@ -47,7 +48,6 @@ from asictl.host.transfer import (
     set_start,
     upload,
 )
-from asictl.image import ProgramImage
 
 
 def _board_options(command: Callable) -> Callable:
@@ -104,56 +104,29 @@ def _board_options(command: Callable) -> Callable:
     return command
 
 
-def _name(port: str) -> str:
-    return port_name(parse_port(port))
-
-
-@dataclass(frozen=True)
-class _Master:
-    """A master as the commands see it, whichever way it is reached."""
-
-    transport: Transport
-    name: str
-    summary: Callable[[], str]
-    status: Callable[[], MasterStatus]
-
-
 _PC2_ONLY = ("port", "io", "state_dir")
 
 
-@contextmanager
-def _connect(
+def _address(
     port: str, io: str, state_dir: str | None, modbus: str | None, unit: int, baud: str,
     parity: str, stopbits: str, timeout: float, retries: int,
-) -> Iterator[_Master]:
-    """The PC2 board named by --port, or the gateway named by --modbus."""
-    if modbus is None:
-        with connect(port, io, state_dir) as driver:
-            name = _name(port)
-            yield _Master(
-                Pc2Transport(driver), name, lambda: control_summary(driver),
-                lambda: read_status(driver, name),
-            )
-        return
-    ctx = click.get_current_context()
-    clash = [
-        f"--{option.replace('_', '-')}" for option in _PC2_ONLY
-        if ctx.get_parameter_source(option) is not ParameterSource.DEFAULT
-    ]
-    if clash:
-        raise UserError(f"--modbus and {', '.join(clash)} exclude each other")
-    target = parse_target(modbus, baud=int(baud), parity=parity, stopbits=int(stopbits))
-    try:
-        from asictl.host import modbus as gateway
-    except ImportError as exc:
-        raise UserError(
-            f"--modbus needs pymodbus and pyserial ({exc}): pip install 'asictl[modbus]'"
-        ) from None
-    with gateway.open_modbus(target, unit, timeout=timeout, retries=retries) as transport:
-        yield _Master(
-            transport, f"{target} unit {unit}", lambda: gateway.control_summary(transport),
-            lambda: gateway.read_status(transport),
-        )
+) -> MasterAddress:
+    """The master the board options name; --modbus excludes the PC2 board's options."""
+    if modbus is not None:
+        ctx = click.get_current_context()
+        clash = [
+            f"--{option.replace('_', '-')}" for option in _PC2_ONLY
+            if ctx.get_parameter_source(option) is not ParameterSource.DEFAULT
+        ]
+        if clash:
+            raise UserError(f"--modbus and {', '.join(clash)} exclude each other")
+    return MasterAddress(
+        port, io, state_dir, modbus, unit, int(baud), parity, int(stopbits), timeout, retries
+    )
+
+
+def _connect(**board: Any) -> AbstractContextManager[Master]:
+    return connect_master(_address(**board))
 
 
 @contextmanager
@@ -163,21 +136,6 @@ def _progress(label: str, blocks: int) -> Iterator[Callable[[int], None]]:
         length=blocks, label=label, file=sys.stderr, show_eta=False,
     ) as bar:
         yield bar.update
-
-
-def _emulated_board(transport: object) -> Pc2Board | None:
-    port = getattr(getattr(transport, "driver", None), "port", None)
-    return port.board if isinstance(port, EmulatedPort) else None
-
-
-def _cable_setup_slaves(transport: object, image: ProgramImage) -> None:
-    """An emulated board with nothing on its AS-i cable gets the slaves of the program's
-    [SETUP], as a plant built for the program would have them (they stay in its state)."""
-    board = _emulated_board(transport)
-    if board is not None and not len(board.bus):
-        for slave in image.configuration.slaves():
-            board.bus.attach(Slave(slave.address, slave.io_code, slave.id_code))
-        board.advance(100)  # the master finds them
 
 
 @click.command("download")
@@ -222,14 +180,12 @@ def download_command(file: str, start: str, lib: tuple[str, ...], **board: Any) 
                 "out; an upload will give [RAW] records instead of the program text",
                 err=True,
             )
-        _cable_setup_slaves(transport, image)
+        cable_setup_slaves(master, image)
         size = len(image.to_bytes())
         steps = download_steps(size, transport.block_size)
         with _progress(f"download {size} bytes", steps) as bar:
             download(transport, image, start=StartMode(start), progress=bar)
-        board = _emulated_board(transport)
-        if board is not None:
-            board.advance(100)  # config_ok's delay after the configuration was written
+        settle(master)
         state = master.summary()
     click.echo(f"{master.name}: downloaded {file} ({size} bytes, identity "
                f"{image.identity_hex}); {state}", err=True)
