@@ -85,9 +85,9 @@ class Build:
     def has_errors(self) -> bool:
         return any(d.is_error for d in self.diagnostics)
 
-    def render(self) -> str:
-        """The diagnostics as ``asictl check`` prints them."""
-        return render_text(self.diagnostics, self.texts)
+    def render(self, *, colour: bool = False) -> str:
+        """The diagnostics as ``asictl check`` prints them (``colour``: for a terminal)."""
+        return render_text(self.diagnostics, self.texts, colour=colour)
 
     def source_program(self) -> Program | None:
         """The IL program the image was compiled from, where it is known: a source file's

@@ -3,6 +3,8 @@
 IL checks, the assembler and scenario files all report problems as ``Diagnostic``
 values with a source span, so one renderer gives the same ``file:line:col: error:``
 format, source line and caret everywhere, and the same JSON and GitHub annotations.
+A diagnostic may point at related places too (the [SETUP] line of a slave, the first
+of two assignments): its notes, rendered as ``file:line:col: note:`` lines.
 """
 
 from __future__ import annotations
@@ -32,18 +34,23 @@ class Severity(StrEnum):
     NOTE = "note"
 
 
+#: A related place and what it has to do with the diagnostic.
+Note = tuple[Span, str]
+
+
 @dataclass(frozen=True, slots=True)
 class Diagnostic:
     severity: Severity
     code: str
     message: str
     span: Span | None = None
+    notes: tuple[Note, ...] = ()
 
     @property
     def is_error(self) -> bool:
         return self.severity is Severity.ERROR
 
-    def sort_key(self) -> tuple:
+    def sort_key(self) -> tuple[str, int, int]:
         s = self.span
         return (s.file, s.line, s.column) if s else ("", 0, 0)
 
@@ -54,11 +61,15 @@ class Reporter:
 
     diagnostics: list[Diagnostic] = field(default_factory=list)
 
-    def error(self, code: str, message: str, span: Span | None = None) -> None:
-        self.diagnostics.append(Diagnostic(Severity.ERROR, code, message, span))
+    def error(
+        self, code: str, message: str, span: Span | None = None, notes: tuple[Note, ...] = ()
+    ) -> None:
+        self.diagnostics.append(Diagnostic(Severity.ERROR, code, message, span, notes))
 
-    def warning(self, code: str, message: str, span: Span | None = None) -> None:
-        self.diagnostics.append(Diagnostic(Severity.WARNING, code, message, span))
+    def warning(
+        self, code: str, message: str, span: Span | None = None, notes: tuple[Note, ...] = ()
+    ) -> None:
+        self.diagnostics.append(Diagnostic(Severity.WARNING, code, message, span, notes))
 
     @property
     def has_errors(self) -> bool:
@@ -82,29 +93,61 @@ def format_line(d: Diagnostic) -> str:
     return f"{where}{d.severity.value}: {d.message} [{d.code}]"
 
 
-def render_text(diagnostics: Iterable[Diagnostic], sources: Mapping[str, str]) -> str:
-    """Render as a modern compiler does: location line, then source line and caret.
+#: ANSI colours of a terminal, as compilers use them: severity coloured, location bold.
+_SEVERITY_COLOUR = {Severity.ERROR: "\x1b[1;31m", Severity.WARNING: "\x1b[1;35m",
+                    Severity.NOTE: "\x1b[1;36m"}
+_BOLD, _CARET, _RESET = "\x1b[1m", "\x1b[1;32m", "\x1b[0m"
+
+
+def _headline(span: Span | None, severity: Severity, message: str, colour: bool) -> str:
+    where = f"{span}: " if span else ""
+    if not colour:
+        return f"{where}{severity.value}: {message}"
+    where = f"{_BOLD}{where}{_RESET}" if where else ""
+    return f"{where}{_SEVERITY_COLOUR[severity]}{severity.value}:{_RESET} {message}"
+
+
+def _excerpt(
+    span: Span | None, sources: Mapping[str, str], lines_of: dict[str, list[str]], colour: bool
+) -> list[str]:
+    if span is None or span.file not in sources:
+        return []
+    if span.file not in lines_of:
+        lines_of[span.file] = sources[span.file].split("\n")
+    lines = lines_of[span.file]
+    if not 0 < span.line <= len(lines):
+        return []
+    src = lines[span.line - 1].expandtabs(1).rstrip()
+    caret = "^" + "~" * max(0, span.length - 1)
+    if colour:
+        caret = f"{_CARET}{caret}{_RESET}"
+    return [f"  {src}", "  " + " " * (span.column - 1) + caret]
+
+
+def render_text(
+    diagnostics: Iterable[Diagnostic], sources: Mapping[str, str], *, colour: bool = False
+) -> str:
+    """Render as a modern compiler does: location line, then source line and caret, then
+    each note the same way. ``colour`` adds ANSI colours (for a terminal).
 
     ``sources`` maps file names to their decoded text; a file not in it gets no excerpt.
     """
     out: list[str] = []
+    lines_of: dict[str, list[str]] = {}
     for d in diagnostics:
-        out.append(format_line(d))
-        text = sources.get(d.span.file) if d.span else None
-        if text is None or d.span is None:
-            continue
-        lines = text.split("\n")
-        if not 0 < d.span.line <= len(lines):
-            continue
-        src = lines[d.span.line - 1].expandtabs(1).rstrip()
-        out.append(f"  {src}")
-        out.append("  " + " " * (d.span.column - 1) + "^" + "~" * max(0, d.span.length - 1))
+        out.append(_headline(d.span, d.severity, f"{d.message} [{d.code}]", colour))
+        out += _excerpt(d.span, sources, lines_of, colour)
+        for span, message in d.notes:
+            out.append(_headline(span, Severity.NOTE, message, colour))
+            out += _excerpt(span, sources, lines_of, colour)
     return "\n".join(out) + ("\n" if out else "")
 
 
 def render_json(diagnostics: Iterable[Diagnostic]) -> str:
-    items = [
-        {
+    """A list of diagnostics; one with related places has them as a list under "notes"."""
+    items = []
+    for d in diagnostics:
+        item: dict[str, object] = {
             "file": d.span.file if d.span else None,
             "line": d.span.line if d.span else None,
             "column": d.span.column if d.span else None,
@@ -112,8 +155,12 @@ def render_json(diagnostics: Iterable[Diagnostic]) -> str:
             "code": d.code,
             "message": d.message,
         }
-        for d in diagnostics
-    ]
+        if d.notes:
+            item["notes"] = [
+                {"file": span.file, "line": span.line, "column": span.column, "message": text}
+                for span, text in d.notes
+            ]
+        items.append(item)
     return json.dumps(items, indent=2) + "\n"
 
 
@@ -137,5 +184,6 @@ def render_github(diagnostics: Iterable[Diagnostic]) -> str:
                 f"col={d.span.column}",
             ]
         props.append(f"title={_escape_github(d.code, property_value=True)}")
-        out.append(f"::{kind} {','.join(props)}::{_escape_github(d.message)}")
+        message = d.message + "".join(f"\n{span}: note: {text}" for span, text in d.notes)
+        out.append(f"::{kind} {','.join(props)}::{_escape_github(message)}")
     return "\n".join(out) + ("\n" if out else "")

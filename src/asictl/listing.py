@@ -2,7 +2,8 @@
 
 The listing answers "what did this IL line become, and what does it cost": every source
 line in order, each followed by the assembly generated for it with address, bytes and
-machine cycles, then where the program's data went. It is built from the generated
+machine cycles, then where the program's data went, then the cross-reference (which
+lines read and write each operand). It is built from the generated
 assembly's IL spans and the assembler's per-line listing, so it shows exactly the code
 in the image.
 """
@@ -13,6 +14,8 @@ from collections.abc import Iterator, Sequence
 
 from asictl import __version__
 from asictl.codegen8051.compiler import GENERATED, Compiled
+from asictl.crossref import LEGEND, entries, xref_text
+from asictl.il.xref import reference_index
 from asictl.image import HEADER_SIZE, ProgramImage
 from asictl.mcs51.assembly import ListingEntry
 from asictl.platform.master import EEPROM_SIZE
@@ -39,8 +42,21 @@ def listing_text(compiled: Compiled, image: ProgramImage) -> str:
         *_code_rows(compiled),
         "",
         *image_summary(image),
+        *cross_reference(compiled),
     ]
     return "\n".join(rows) + "\n"
+
+
+def cross_reference(compiled: Compiled) -> list[str]:
+    """The listing's last section: every operand with the lines that read and write it,
+    and each variable with its address."""
+    index = reference_index(compiled.program)
+    return [
+        ";",
+        "; ---- cross-reference",
+        f"; {LEGEND}",
+        *xref_text(entries(index, variables=compiled.pmap.variables), prefix="; "),
+    ]
 
 
 def raw_listing_text(name: str, image: ProgramImage) -> str:

@@ -22,6 +22,9 @@ COMMANDS: dict[str, tuple[str, str]] = {
         "asictl.cli.compile:compile_", "Compile an IL program into an image for the master."
     ),
     "check": ("asictl.cli.check:check", "Check IL source files for errors (for CI and editors)."),
+    "xref": (
+        "asictl.cli.xref:xref", "Cross-reference: where each operand is read and written."
+    ),
     "asm": ("asictl.cli.asm:asm", "Assemble 8051 source into Intel HEX."),
     "disasm": ("asictl.cli.asm:disasm", "Disassemble an Intel HEX image into 8051 source."),
     "emu": ("asictl.cli.emu:emu", "Run an Intel HEX image on the 8051 emulator."),
@@ -48,6 +51,17 @@ class LazyGroup(click.Group):
 
     def list_commands(self, ctx: click.Context) -> list[str]:
         return sorted(COMMANDS)
+
+    def resolve_command(
+        self, ctx: click.Context, args: list[str]
+    ) -> tuple[str | None, click.Command | None, list[str]]:
+        """Click's own resolution; an unknown command names the closest known one."""
+        try:
+            return super().resolve_command(ctx, args)
+        except click.exceptions.NoSuchCommand as exc:
+            raise click.exceptions.NoSuchCommand(
+                exc.command_name, possibilities=COMMANDS, ctx=ctx
+            ) from None
 
     def get_command(self, ctx: click.Context, cmd_name: str) -> click.Command | None:
         entry = COMMANDS.get(cmd_name)

@@ -7,6 +7,7 @@ from pathlib import Path
 import click
 
 from asictl.build import check as check_program_file
+from asictl.cli.terminal import stderr_colour
 from asictl.diagnostics import Diagnostic, Severity, render_github, render_json, render_text
 from asictl.errors import ExitCode, UserError
 from asictl.il.checks import Dialect
@@ -96,7 +97,7 @@ def check(
     elif fmt == "github":
         click.echo(render_github(diagnostics), nl=False)
     else:
-        click.echo(render_text(diagnostics, sources), nl=False, err=True)
+        click.echo(render_text(diagnostics, sources, colour=stderr_colour()), nl=False, err=True)
     if not quiet:
         click.echo(_summary(len(paths), diagnostics, unreadable), err=True)
 

@@ -67,3 +67,23 @@ class ExecutionRegister(IntEnum):
     KEY_LOCK = 1007
     WATCHDOG = 1008
     START_STOP = 1009  # the AS-i Control flags
+
+
+# --- where a control program's operands appear (the formulas docs/modbus.md tabulates)
+
+
+def data_bit(slave: int, bit: int) -> int:
+    """Coil (output data) or discrete input (input data) of a slave's data bit: 4n + b."""
+    return 4 * slave + bit
+
+
+def data_register(slave: int) -> tuple[int, int]:
+    """(register, lowest bit) of a slave's nibble in the data registers: four slaves a
+    register, slave 4k in bits 12-15 down to slave 4k+3 in bits 0-3."""
+    return slave // 4, 12 - 4 * (slave % 4)
+
+
+def memory_word(flag_byte: int) -> tuple[int, int]:
+    """(holding register, lowest bit) of a flag byte in the two-bytes-a-register user
+    memory: the even byte is the high byte."""
+    return MEMORY_WORDS + flag_byte // 2, 0 if flag_byte % 2 else 8
