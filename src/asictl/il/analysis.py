@@ -23,7 +23,7 @@ from asictl.il.xref import reference_index
 
 def is_whole_program(main: ast.Module) -> bool:
     """A main file that configures a master ([OPTIONS] or [SETUP]), not a fragment."""
-    return bool(main.sections_of(ast.OptionsSection | ast.SetupSection))
+    return any(isinstance(s, ast.OptionsSection | ast.SetupSection) for s in main.sections)
 
 
 def analyse(program: Program, directives: Directives, report: Reporter) -> None:

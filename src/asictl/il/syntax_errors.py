@@ -170,7 +170,8 @@ def diagnose(
     before = text[line_start:pos]
     said = before.rstrip(_BLANKS + IGNORED_PUNCTUATION)
     rest = text[pos:text.index("\n", pos)].partition(";")[0]
-    found = _FOUND.match(rest).group() if rest.strip(_BLANKS + IGNORED_PUNCTUATION) else ""
+    match = _FOUND.match(rest) if rest.strip(_BLANKS + IGNORED_PUNCTUATION) else None
+    found = match.group() if match else ""
     char = text[pos]
 
     def report(code: str, message: str, at: int = pos, length: int = len(found)) -> Diagnosis:

@@ -104,7 +104,7 @@ def _no_slaves(program: Program, wiring: Wiring, report: Reporter) -> None:
     main = program.main
     if not has_logic(main):
         return
-    logic = main.sections_of(ast.ProgramSection | ast.GatingSection)
+    logic = [s for s in main.sections if isinstance(s, ast.ProgramSection | ast.GatingSection)]
     where = wiring.titles[0] if wiring.titles else logic[0].span
     if wiring.ignore_config_errors:
         effect = ("the master exchanges data with no slave, so the program reads only "
