@@ -110,8 +110,12 @@ def _declarations(program: Program, report: Reporter) -> _Scope:
                         decl.span,
                     )
                 elif name in seen:
-                    where = f" (first declared at {seen[name]})" if seen[name] else ""
-                    report.error("E215", f"'{decl.name}' declared twice{where}", decl.span)
+                    first = seen[name]
+                    where = f" (first declared at {first})" if first else ""
+                    report.error(
+                        "E215", f"'{decl.name}' declared twice{where}", decl.span,
+                        _note(first, "first declared here"),
+                    )
                 seen.setdefault(name, decl.span)
                 if isinstance(decl, ast.VarDecl):
                     if decl.name.upper() in ASSEMBLER_RESERVED:
@@ -164,8 +168,13 @@ def _check_main_only_sections(program: Program, report: Reporter) -> None:
 # ---------------------------------------------------------------------- options/setup
 
 
+def _note(span: Span | None, message: str) -> list[tuple[Span, str]]:
+    """A related location for a diagnostic, when the place is known."""
+    return [(span, message)] if span else []
+
+
 def _check_options(module: ast.Module, report: Reporter) -> None:
-    seen: set[str] = set()
+    seen: dict[str, ast.Option] = {}
     for section in module.sections_of(ast.OptionsSection):
         for option in section.options:
             name = key(option.name)
@@ -176,8 +185,11 @@ def _check_options(module: ast.Module, report: Reporter) -> None:
                     option.span,
                 )
             elif name in seen:
-                report.warning("W203", f"option '{option.name}' given again", option.span)
-            seen.add(name)
+                report.warning(
+                    "W203", f"option '{option.name}' given again", option.span,
+                    _note(seen[name].span, "first given here"),
+                )
+            seen.setdefault(name, option)
 
 
 def _check_setup(module: ast.Module, report: Reporter) -> None:
@@ -210,6 +222,7 @@ def _check_duplicate_slaves(program: Program, report: Reporter) -> None:
                     "E210",
                     f"slave {slave.address} is already set up at {first[slave.address].span}",
                     slave.span,
+                    _note(first[slave.address].span, "first set up here"),
                 )
             else:
                 first[slave.address] = slave
@@ -347,6 +360,7 @@ def _check_labels_and_jumps(module: ast.Module, report: Reporter) -> None:
                     "E205",
                     f"label '{statement.name}' already defined at {labels[name].span}",
                     statement.span,
+                    _note(labels[name].span, "first defined here"),
                 )
             else:
                 labels[name] = statement
