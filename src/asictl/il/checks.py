@@ -9,7 +9,7 @@ manual and ``docs/language.md``; each diagnostic code is listed there.
 from __future__ import annotations
 
 import re
-from collections.abc import Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
 from enum import StrEnum
 from pathlib import Path
@@ -18,10 +18,10 @@ from asictl.diagnostics import Diagnostic, Reporter, Span
 from asictl.il import ast
 from asictl.il.ast import key
 from asictl.il.language import BUILTIN_TC, MAX_KT_MS, MAX_TC
-from asictl.il.loader import Program, calls, load_program
+from asictl.il.loader import Program, Reader, calls, load_program
 from asictl.mcs51.asm_parser import RESERVED as ASSEMBLER_RESERVED
 from asictl.runtime.firmware import FIRMWARE_BLOCKS
-from asictl.source import SourceText
+from asictl.source import SourceText, read_source
 
 KNOWN_OPTIONS = ("ignore_config_errors", "auto_start", "map_counters")
 
@@ -583,9 +583,13 @@ class CheckResult:
 
 
 def check_source(
-    source: SourceText, *, dialect: Dialect = Dialect.CONTROL2, lib: Iterable[str | Path] = ()
+    source: SourceText, *, dialect: Dialect = Dialect.CONTROL2, lib: Iterable[str | Path] = (),
+    read: Reader = read_source, exists: Callable[[Path], bool] = Path.is_file,
 ) -> CheckResult:
-    """Read a main file and the blocks it calls, and check the whole program."""
-    program, load_diagnostics = load_program(source, lib=lib)
+    """Read a main file and the blocks it calls, and check the whole program.
+
+    ``read`` and ``exists`` stand for the file system (an editor's open buffers).
+    """
+    program, load_diagnostics = load_program(source, lib=lib, read=read, exists=exists)
     diagnostics = [*load_diagnostics, *check_program(program, dialect)]
     return CheckResult(program, sorted(diagnostics, key=Diagnostic.sort_key))
