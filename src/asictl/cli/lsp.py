@@ -14,16 +14,18 @@ from asictl.errors import UserError
 
 
 @click.command()
-def lsp() -> None:
+@click.option(
+    "--lib", "lib", multiple=True, type=click.Path(file_okay=False),
+    help="Also look for function-block files here (repeatable; also $ASICTL_LIB).",
+)
+def lsp(lib: tuple[str, ...]) -> None:
     """Run the language server on stdin/stdout (editors start it; see docs/editors.md).
 
     Diagnostics as 'asictl check' gives them, hover, go to definition, find references,
     completion, document symbols, folding and formatting for .asi and .fb files.
     """
     if importlib.util.find_spec("pygls") is None:
-        raise UserError(
-            "the language server needs pygls: pip install 'asictl[lsp]'"
-        )
+        raise UserError("the language server needs pygls: pip install 'asictl[lsp]'")
     from asictl.lsp.server import serve
 
-    serve()
+    serve(lib)

@@ -244,7 +244,8 @@ def _declarations(line: _Line, width: int) -> str:
     return name.ljust(max(width, len(name) + 1)) + rest
 
 
-def _operator_length(statement: object) -> int:
+def operator_length(statement: object) -> int:
+    """How many characters the operator of a statement has (``JC`` of ``JC = end``)."""
     match statement:
         case ast.Logic(op=op) | ast.Store(op=op) | ast.Compare(op=op) | ast.Count(op=op):
             return len(op.value)
@@ -270,7 +271,7 @@ def _statement(line: _Line) -> str:
         return prefix
     span = statement.span  # type: ignore[attr-defined]
     start = span.column - 1
-    length = _operator_length(statement)
+    length = operator_length(statement)
     operator = line.code[start : start + length]
     rest = line.code[start + length :].strip()
     if isinstance(statement, ast.Jump):
