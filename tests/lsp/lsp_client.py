@@ -10,6 +10,7 @@ import subprocess
 import sys
 import threading
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -79,14 +80,18 @@ class LspClient:
         else:
             self.notifications.append(message)
 
-    def diagnostics(self, uri: str, after: int = 0) -> list[dict[str, Any]]:
+    def diagnostics(
+        self, uri: str, after: int = 0,
+        until: Callable[[list[dict[str, Any]]], bool] = lambda found: True,
+    ) -> list[dict[str, Any]]:
         """The diagnostics of the first publishDiagnostics for ``uri`` from notification
-        number ``after`` on, waiting for it."""
+        number ``after`` on that satisfies ``until``, waiting for it."""
         deadline = time.monotonic() + TIMEOUT
         while True:
             for message in self.notifications[after:]:
                 if message.get("method") == "textDocument/publishDiagnostics" and \
-                        message["params"]["uri"] == uri:
+                        message["params"]["uri"] == uri and until(
+                        message["params"]["diagnostics"]):
                     return list(message["params"]["diagnostics"])
             self._keep(self._next(deadline))
 

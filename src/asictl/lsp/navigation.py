@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from collections.abc import Iterator
 from dataclasses import dataclass, field
+from typing import get_args
 
 from asictl.diagnostics import Span
 from asictl.il import ast
@@ -76,10 +77,13 @@ def node_at(module: ast.Module, line: int, column: int) -> tuple[ast.Section | N
     return None, None
 
 
+_INSTRUCTIONS = tuple(t for t in get_args(ast.Statement) if t is not ast.Label)
+
+
 def operator_span(statement: object) -> Span | None:
     """The operator of a [PROGRAM] statement: ``JC`` of ``JC = end``."""
     span = getattr(statement, "span", None)
-    if span is None or isinstance(statement, ast.Label):
+    if span is None or not isinstance(statement, _INSTRUCTIONS):
         return None
     return Span(span.file, span.line, span.column, operator_length(statement))
 

@@ -66,15 +66,16 @@ OPERANDS: dict[str, Entry] = {
     "I2": Entry("I2 a.b", "input of the previous cycle: as I; compare I and I2 for edges"),
     "Q": Entry("Q a.b", "output: slave a 0..31, data bit b 0..3"),
     "F": Entry("F y.b", "flag: byte 0..127, bit 0..7"),
-    "T": Entry("T n", "timer: the status bit is 1 while the timer runs; as a word, the "
-               "remaining time in 10 ms ticks"),
-    "C": Entry("C n", "counter: the status bit is 1 while the count is not 0; as a word, "
-               "the count"),
-    "IB": Entry("IB n", "input byte: slave n in its low nibble and slave n+1 in its high "
-                "nibble (n even)"),
-    "I2B": Entry("I2B n", "input byte of the previous cycle (n even)"),
-    "QB": Entry("QB n", "output byte: slave n in its low nibble and slave n+1 in its high "
-                "nibble (n even)"),
+    "T": Entry("T n", "The status bit (A T n) is 1 while the remaining time is not 0; "
+               "the remaining time of timer n in 10 ms ticks"),
+    "C": Entry("C n", "The status bit (A C n) is 1 while the count is not 0; "
+               "the count of counter n"),
+    "IB": Entry("IB n", "n an *even* slave address (the byte holds slave n in its low nibble "
+                "and slave n+1 in its high nibble)"),
+    "I2B": Entry("I2B n", "input of the previous cycle; n an *even* slave address (the byte "
+                 "holds slave n in its low nibble and slave n+1 in its high nibble)"),
+    "QB": Entry("QB n", "n an *even* slave address (the byte holds slave n in its low nibble "
+                "and slave n+1 in its high nibble)"),
     "FY": Entry("FY n", "flag byte 0..127"),
     "FW": Entry("FW n", "flag word: FY n is the high byte, FY n+1 the low byte, as in STEP5"),
     "PSEG": Entry("PSeg n", "byte n of the parameter passing segment (16 bytes)"),
