@@ -12,9 +12,9 @@ import asyncio
 import re
 from collections.abc import Sequence
 from pathlib import Path
-from urllib.parse import unquote, urlparse
 
 from lsprotocol import types as lsp
+from pygls import uris
 from pygls.lsp.server import LanguageServer
 
 from asictl import __version__
@@ -67,19 +67,20 @@ class AsiLanguageServer(LanguageServer):
     # ------------------------------------------------------------ paths and positions
 
     def path(self, uri: str) -> str:
-        parsed = urlparse(uri)
-        if parsed.scheme != "file":
+        """The file a URI names; a URI that names no file (untitled:1) stands for itself."""
+        path = uris.to_fs_path(uri) if uris.uri_scheme(uri) == "file" else None
+        if path is None:
             return uri
-        path = normal(unquote(parsed.path))
+        path = normal(path)
         self.uris.setdefault(path, uri)
         return path
 
     def uri(self, path: str) -> str:
         if path in self.uris:
             return self.uris[path]
-        if ":" in path and not path.startswith("/"):
-            return path  # not a file: the editor's own URI (untitled:1)
-        return Path(path).absolute().as_uri()
+        if not Path(path).is_absolute():
+            return path  # the editor's own URI of a buffer that is no file
+        return uris.from_fs_path(path) or path
 
     def lines(self, path: str) -> list[str]:
         return _LINE_ENDS.split(self.documents.text(path))
