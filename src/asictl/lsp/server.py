@@ -147,7 +147,17 @@ class AsiLanguageServer(LanguageServer):
     def schedule(self, delay: float) -> None:
         if self.pending is not None:
             self.pending.cancel()
-        self.pending = asyncio.get_running_loop().call_later(delay, self.publish)
+        self.pending = asyncio.get_running_loop().call_later(delay, self._publish_or_log)
+
+    def _publish_or_log(self) -> None:
+        """``publish`` from a timer: a failure there would otherwise vanish unseen."""
+        try:
+            self.publish()
+        except Exception as exc:  # a bug: tell the editor's log rather than nobody
+            self.window_log_message(lsp.LogMessageParams(
+                type=lsp.MessageType.Error,
+                message=f"asictl {__version__}: internal error while checking: "
+                f"{type(exc).__name__}: {exc}"))
 
 
 def build(lib: Sequence[str] = ()) -> AsiLanguageServer:
