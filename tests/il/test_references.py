@@ -112,7 +112,7 @@ def _operands(module: ast.Module) -> list[object]:
     return found
 
 
-@settings(max_examples=150, deadline=None)
+@settings(max_examples=100, deadline=None)
 @given(modules(file="gen.asi"))
 def test_every_operand_is_indexed_at_its_own_text(module: ast.Module):
     text = module.to_source()

@@ -89,7 +89,8 @@ def _format(source: SourceText) -> str:
 
 
 def _verbatim(line: _Line) -> bool:
-    """Blank and comment lines, and assembler lines, stay as they are (less trailing blanks)."""
+    """[ASSEMBLY] lines stay as written, less trailing blanks (as blank and comment lines
+    do everywhere): their layout is the assembler's business."""
     return isinstance(line.section, ast.AssemblySection) and not line.is_title
 
 
