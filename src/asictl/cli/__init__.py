@@ -22,6 +22,8 @@ COMMANDS: dict[str, tuple[str, str]] = {
         "asictl.cli.compile:compile_", "Compile an IL program into an image for the master."
     ),
     "check": ("asictl.cli.check:check", "Check IL source files for errors (for CI and editors)."),
+    "fmt": ("asictl.cli.fmt:fmt", "Lay out IL source files canonically (--check for CI)."),
+    "lsp": ("asictl.cli.lsp:lsp", "Run the IL language server for editors (stdio)."),
     "asm": ("asictl.cli.asm:asm", "Assemble 8051 source into Intel HEX."),
     "disasm": ("asictl.cli.asm:disasm", "Disassemble an Intel HEX image into 8051 source."),
     "emu": ("asictl.cli.emu:emu", "Run an Intel HEX image on the 8051 emulator."),
