@@ -15,7 +15,7 @@ import sys
 from collections.abc import Callable, Iterator
 from contextlib import AbstractContextManager, contextmanager
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 import click
 from click.core import ParameterSource
@@ -49,8 +49,10 @@ from asictl.host.transfer import (
     upload,
 )
 
+_Callback = TypeVar("_Callback", bound=Callable[..., Any])
 
-def _board_options(command: Callable) -> Callable:
+
+def _board_options(command: _Callback) -> _Callback:
     options = [
         click.option(
             "--port", default="300h", show_default=True,
@@ -232,7 +234,9 @@ def upload_command(output: str, overwrite: bool, **board: Any) -> None:
         )
 
 
-def _control_command(name: str, help_text: str, action: Callable[[Transport], int]):
+def _control_command(
+    name: str, help_text: str, action: Callable[[Transport], int]
+) -> click.Command:
     @click.command(name, help=help_text)
     @_board_options
     def command(**board: Any) -> None:
