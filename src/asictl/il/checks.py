@@ -156,8 +156,9 @@ def _check_main_only_sections(program: Program, report: Reporter) -> None:
                     section.span,
                 )
     main = program.main
-    if main.sections_of(ast.RawSection) and main.sections_of(
-        ast.ProgramSection | ast.GatingSection | ast.AssemblySection
+    if main.sections_of(ast.RawSection) and any(
+        isinstance(s, ast.ProgramSection | ast.GatingSection | ast.AssemblySection)
+        for s in main.sections
     ):
         raw = main.sections_of(ast.RawSection)[0]
         report.error(
@@ -285,7 +286,9 @@ def _check_code(module: ast.Module, scope: _Scope, report: Reporter) -> None:
                 )
 
 
-def _range(report: Reporter, span: Span | None, what: str, value: int, hi: int, lo: int = 0):
+def _range(
+    report: Reporter, span: Span | None, what: str, value: int, hi: int, lo: int = 0
+) -> None:
     if not lo <= value <= hi:
         report.error(CheckCode.OUT_OF_RANGE, f"{what} {value} out of range {lo}..{hi}", span)
 
@@ -344,7 +347,9 @@ def _check_operand(operand: object, role: str, scope: _Scope, report: Reporter) 
             _range(report, span, "KP parameter", data, 15)
 
 
-def _variable(name: str, span: Span | None, scope: _Scope, report: Reporter):
+def _variable(
+    name: str, span: Span | None, scope: _Scope, report: Reporter
+) -> ast.VarDecl | None:
     decl = scope.variables.get(key(name))
     if decl is None:
         report.error(CheckCode.UNDECLARED_VARIABLE, f"'{name}' is not a declared variable", span)

@@ -124,8 +124,8 @@ def load_program(
     pending = [main]
     while pending:
         module = pending.pop()
-        for decl in fb_declarations(module):
-            program.fb_decls.setdefault(ast.key(decl.name), decl)
+        for declared in fb_declarations(module):
+            program.fb_decls.setdefault(ast.key(declared.name), declared)
         for call in calls(module):
             name = ast.key(call.name)
             decl = program.fb_decls.get(name)
