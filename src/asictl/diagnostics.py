@@ -3,8 +3,6 @@
 IL checks, the assembler and scenario files all report problems as ``Diagnostic``
 values with a source span, so one renderer gives the same ``file:line:col: error:``
 format, source line and caret everywhere, and the same JSON and GitHub annotations.
-A diagnostic may point at related places too (the [SETUP] line of a slave, the first
-of two assignments): its notes, rendered as ``file:line:col: note:`` lines.
 """
 
 from __future__ import annotations
@@ -34,17 +32,21 @@ class Severity(StrEnum):
     NOTE = "note"
 
 
-#: A related place and what it has to do with the diagnostic.
-Note = tuple[Span, str]
+#: A further place a diagnostic points at, with what it is: "first defined here".
+Related = tuple[Span, str]
 
 
 @dataclass(frozen=True, slots=True)
 class Diagnostic:
+    """One finding. ``related`` names other places that explain it (the first definition
+    of a duplicate, the [SETUP] line of a slave); text output shows each as a ``note:``
+    line, editors as related information."""
+
     severity: Severity
     code: str
     message: str
     span: Span | None = None
-    notes: tuple[Note, ...] = ()
+    related: tuple[Related, ...] = ()
 
     @property
     def is_error(self) -> bool:
@@ -62,14 +64,16 @@ class Reporter:
     diagnostics: list[Diagnostic] = field(default_factory=list)
 
     def error(
-        self, code: str, message: str, span: Span | None = None, notes: tuple[Note, ...] = ()
+        self, code: str, message: str, span: Span | None = None, related: Iterable[Related] = ()
     ) -> None:
-        self.diagnostics.append(Diagnostic(Severity.ERROR, code, message, span, notes))
+        self.diagnostics.append(Diagnostic(Severity.ERROR, code, message, span, tuple(related)))
 
     def warning(
-        self, code: str, message: str, span: Span | None = None, notes: tuple[Note, ...] = ()
+        self, code: str, message: str, span: Span | None = None, related: Iterable[Related] = ()
     ) -> None:
-        self.diagnostics.append(Diagnostic(Severity.WARNING, code, message, span, notes))
+        self.diagnostics.append(
+            Diagnostic(Severity.WARNING, code, message, span, tuple(related))
+        )
 
     @property
     def has_errors(self) -> bool:
@@ -107,9 +111,31 @@ def _headline(span: Span | None, severity: Severity, message: str, colour: bool)
     return f"{where}{_SEVERITY_COLOUR[severity]}{severity.value}:{_RESET} {message}"
 
 
+def render_text(
+    diagnostics: Iterable[Diagnostic], sources: Mapping[str, str], *, colour: bool = False
+) -> str:
+    """Render as a modern compiler does: location line, then source line and caret, then
+    each related place as a ``note:`` the same way. ``colour`` adds ANSI colours (for a
+    terminal).
+
+    ``sources`` maps file names to their decoded text; a file not in it gets no excerpt.
+    """
+    out: list[str] = []
+    lines_of: dict[str, list[str]] = {}
+    for d in diagnostics:
+        out.append(_headline(d.span, d.severity, f"{d.message} [{d.code}]", colour))
+        out += _excerpt(d.span, sources, lines_of, colour)
+        for span, note in d.related:
+            out.append(_headline(span, Severity.NOTE, note, colour))
+            out += _excerpt(span, sources, lines_of, colour)
+    return "\n".join(out) + ("\n" if out else "")
+
+
 def _excerpt(
     span: Span | None, sources: Mapping[str, str], lines_of: dict[str, list[str]], colour: bool
 ) -> list[str]:
+    """The source line of ``span`` and a caret under it (nothing if the text is unknown);
+    ``lines_of`` keeps each file's lines, split once however many diagnostics it has."""
     if span is None or span.file not in sources:
         return []
     if span.file not in lines_of:
@@ -124,27 +150,8 @@ def _excerpt(
     return [f"  {src}", "  " + " " * (span.column - 1) + caret]
 
 
-def render_text(
-    diagnostics: Iterable[Diagnostic], sources: Mapping[str, str], *, colour: bool = False
-) -> str:
-    """Render as a modern compiler does: location line, then source line and caret, then
-    each note the same way. ``colour`` adds ANSI colours (for a terminal).
-
-    ``sources`` maps file names to their decoded text; a file not in it gets no excerpt.
-    """
-    out: list[str] = []
-    lines_of: dict[str, list[str]] = {}
-    for d in diagnostics:
-        out.append(_headline(d.span, d.severity, f"{d.message} [{d.code}]", colour))
-        out += _excerpt(d.span, sources, lines_of, colour)
-        for span, message in d.notes:
-            out.append(_headline(span, Severity.NOTE, message, colour))
-            out += _excerpt(span, sources, lines_of, colour)
-    return "\n".join(out) + ("\n" if out else "")
-
-
 def render_json(diagnostics: Iterable[Diagnostic]) -> str:
-    """A list of diagnostics; one with related places has them as a list under "notes"."""
+    """A list of objects; ``related`` (file, line, column, message) only where there is one."""
     items = []
     for d in diagnostics:
         item: dict[str, object] = {
@@ -155,10 +162,10 @@ def render_json(diagnostics: Iterable[Diagnostic]) -> str:
             "code": d.code,
             "message": d.message,
         }
-        if d.notes:
-            item["notes"] = [
-                {"file": span.file, "line": span.line, "column": span.column, "message": text}
-                for span, text in d.notes
+        if d.related:
+            item["related"] = [
+                {"file": span.file, "line": span.line, "column": span.column, "message": note}
+                for span, note in d.related
             ]
         items.append(item)
     return json.dumps(items, indent=2) + "\n"
@@ -184,6 +191,6 @@ def render_github(diagnostics: Iterable[Diagnostic]) -> str:
                 f"col={d.span.column}",
             ]
         props.append(f"title={_escape_github(d.code, property_value=True)}")
-        message = d.message + "".join(f"\n{span}: note: {text}" for span, text in d.notes)
+        message = d.message + "".join(f"\nnote: {span}: {note}" for span, note in d.related)
         out.append(f"::{kind} {','.join(props)}::{_escape_github(message)}")
     return "\n".join(out) + ("\n" if out else "")

@@ -54,14 +54,14 @@ def test_reading_an_output_bit_names_the_operand_the_slave_and_its_setup_line():
     d = only(program("    A I 2.0", "    = Q 2.0"), "W701")
     assert d.span.line == 6 and d.span.column == 7
     assert "I 2.0" in d.message and "slave 2" in d.message and "output" in d.message
-    assert [(span.line, text) for span, text in d.notes] == [
+    assert [(span.line, text) for span, text in d.related] == [
         (3, "slave 2 is set up here as oooo (8h)")]
 
 
 def test_writing_an_input_bit_and_reading_it_back():
     diagnostics = [d for d in check(program("    A I 1.0", "    = Q 1.0", "    A Q 1.1"))
                    if d.code == "W701"]
-    assert [(d.span.line, d.notes[0][0].line) for d in diagnostics] == [(7, 2), (8, 2)]
+    assert [(d.span.line, d.related[0][0].line) for d in diagnostics] == [(7, 2), (8, 2)]
     assert "Q 1.0" in diagnostics[0].message and "input" in diagnostics[0].message
 
 
@@ -92,7 +92,7 @@ def test_slave_not_in_setup():
     d = only(program("    A I 1.0", "    = Q 7.3"), "W702")
     assert (d.span.line, d.span.column) == (7, 7)
     assert "Q 7.3" in d.message and "slave 7" in d.message and "configuration" in d.message
-    assert d.notes[0][0].line == 1 and "1, 2, 5" in d.notes[0][1]
+    assert d.related[0][0].line == 1 and "1, 2, 5" in d.related[0][1]
 
 
 def test_slave_not_in_setup_with_ignore_config_errors_and_bytes():
@@ -126,7 +126,7 @@ def test_param_and_firmware_blocks_for_a_slave_not_in_setup():
         "    L KB 9", "    T PSeg 0", "    JU FB GetLAS",
     )
     diagnostics = [d for d in check(text) if d.code == "W704"]
-    assert [(d.span.line, d.notes[0][0].line) for d in diagnostics] == [(8, 7), (14, 10)]
+    assert [(d.span.line, d.related[0][0].line) for d in diagnostics] == [(8, 7), (14, 10)]
     assert "slave 9" in diagnostics[0].message and "PARAM" in diagnostics[0].message
     assert "SetPP" in diagnostics[1].message and "slave 17" in diagnostics[1].message
 
@@ -143,7 +143,7 @@ def test_assigned_twice_names_both_lines():
     text = program("    A I 1.0", "    = Q 2.0", "***", "    A I 1.1", "    = Q 2.0")
     d = only(text, "W711")
     assert d.span.line == 10 and "Q 2.0" in d.message and "line 7" in d.message
-    assert [span.line for span, _ in d.notes] == [7]
+    assert [span.line for span, _ in d.related] == [7]
 
 
 def test_assignments_on_exclusive_paths_are_fine_as_in_the_jump_demo():
@@ -166,7 +166,7 @@ def test_gating_lines_and_set_reset_latches():
     text = SETUP + "[GATING]\nQ 2.0 = I 1.0\n[PROGRAM]\n    A I 1.1\n    S Q 2.0\n" \
         "    A I 1.2\n    R Q 2.0\n***\n    A I 1.3\n    = Q 2.0\n"
     d = only(text, "W711")
-    assert d.span.line == 14 and d.notes[0][0].line == 6
+    assert d.span.line == 14 and d.related[0][0].line == 6
 
 
 def test_an_assignment_in_a_called_block_counts_at_the_call(tmp_path: Path):
@@ -179,7 +179,7 @@ def test_an_assignment_in_a_called_block_counts_at_the_call(tmp_path: Path):
     diagnostics = [d for d in check_source(read_source(main)).diagnostics]
     assert [(d.code, Path(d.span.file).name, d.span.line) for d in diagnostics] == [
         ("W711", "blk.fb", 3)]
-    notes = diagnostics[0].notes
+    notes = diagnostics[0].related
     assert [(Path(s.file).name, s.line) for s, _ in notes] == [("main.asi", 9), ("main.asi", 10)]
 
 

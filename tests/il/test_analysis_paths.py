@@ -97,7 +97,7 @@ def test_assigned_twice_and_unreachable_agree_with_walking_every_path(lines: lis
     later = {b for a in assigns for b in reaches(lines, a)
              if b in assigns and b != a and assigns[b] == assigns[a]}
     reported = [d for d in diagnostics if d.code == "W711"]
-    pairs = {(d.notes[0][0].line - FIRST, d.span.line - FIRST) for d in reported}
+    pairs = {(d.related[0][0].line - FIRST, d.span.line - FIRST) for d in reported}
     for a, b in pairs:  # every report is a real pair: a path runs b after a
         assert assigns[a] == assigns[b] and b in reaches(lines, a)
     covered = {i for pair in pairs for i in pair}

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import bisect
 import re
-from collections.abc import Iterable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass
 from enum import StrEnum
 from pathlib import Path
@@ -22,12 +22,12 @@ from asictl.il.analysis import analyse
 from asictl.il.ast import key
 from asictl.il.foreign import operand_hint
 from asictl.il.language import BUILTIN_TC, MAX_KT_MS, MAX_TC
-from asictl.il.loader import Program, calls, load_program
+from asictl.il.loader import Program, Reader, calls, load_program
 from asictl.il.pragmas import read_directives
 from asictl.mcs51.asm_parser import RESERVED as ASSEMBLER_RESERVED
 from asictl.platform.master import Options
 from asictl.runtime.firmware import FIRMWARE_BLOCKS
-from asictl.source import SourceText
+from asictl.source import SourceText, read_source
 from asictl.suggest import did_you_mean
 
 CONST_RANGES = {
@@ -161,10 +161,13 @@ def _declarations(program: Program, report: Reporter) -> _Scope:
                         decl.span,
                     )
                 elif name in seen:
-                    where = f" (first declared at {seen[name]})" if seen[name] else ""
+                    first = seen[name]
+                    where = f" (first declared at {first})" if first else ""
                     report.error(
                         CheckCode.DUPLICATE_DECLARATION,
-                        f"'{decl.name}' declared twice{where}", decl.span)
+                        f"'{decl.name}' declared twice{where}", decl.span,
+                        _note(first, "first declared here"),
+                    )
                 seen.setdefault(name, decl.span)
                 if isinstance(decl, ast.VarDecl):
                     if decl.name.upper() in ASSEMBLER_RESERVED:
@@ -203,8 +206,9 @@ def _check_main_only_sections(program: Program, report: Reporter) -> None:
                     section.span,
                 )
     main = program.main
-    if main.sections_of(ast.RawSection) and main.sections_of(
-        ast.ProgramSection | ast.GatingSection | ast.AssemblySection
+    if main.sections_of(ast.RawSection) and any(
+        isinstance(s, ast.ProgramSection | ast.GatingSection | ast.AssemblySection)
+        for s in main.sections
     ):
         raw = main.sections_of(ast.RawSection)[0]
         report.error(
@@ -217,8 +221,13 @@ def _check_main_only_sections(program: Program, report: Reporter) -> None:
 # ---------------------------------------------------------------------- options/setup
 
 
+def _note(span: Span | None, message: str) -> list[tuple[Span, str]]:
+    """A related location for a diagnostic, when the place is known."""
+    return [(span, message)] if span else []
+
+
 def _check_options(module: ast.Module, report: Reporter) -> None:
-    seen: set[str] = set()
+    seen: dict[str, ast.Option] = {}
     for section in module.sections_of(ast.OptionsSection):
         for option in section.options:
             name = key(option.name)
@@ -231,8 +240,11 @@ def _check_options(module: ast.Module, report: Reporter) -> None:
                 )
             elif name in seen:
                 report.warning(
-                    CheckCode.DUPLICATE_OPTION, f"option '{option.name}' given again", option.span)
-            seen.add(name)
+                    CheckCode.DUPLICATE_OPTION,
+                    f"option '{option.name}' given again", option.span,
+                    _note(seen[name].span, "first given here"),
+                )
+            seen.setdefault(name, option)
 
 
 def _check_setup(module: ast.Module, report: Reporter) -> None:
@@ -266,6 +278,7 @@ def _check_duplicate_slaves(program: Program, report: Reporter) -> None:
                     CheckCode.DUPLICATE_SLAVE,
                     f"slave {slave.address} is already set up at {first[slave.address].span}",
                     slave.span,
+                    _note(first[slave.address].span, "first set up here"),
                 )
             else:
                 first[slave.address] = slave
@@ -324,7 +337,9 @@ def _check_code(module: ast.Module, scope: _Scope, report: Reporter) -> None:
                 )
 
 
-def _range(report: Reporter, span: Span | None, what: str, value: int, hi: int, lo: int = 0):
+def _range(
+    report: Reporter, span: Span | None, what: str, value: int, hi: int, lo: int = 0
+) -> None:
     if not lo <= value <= hi:
         report.error(CheckCode.OUT_OF_RANGE, f"{what} {value} out of range {lo}..{hi}", span)
 
@@ -409,6 +424,7 @@ def _check_labels_and_jumps(module: ast.Module, report: Reporter, lost: set[str]
                     CheckCode.DUPLICATE_LABEL,
                     f"label '{statement.name}' already defined at {labels[name].span}",
                     statement.span,
+                    _note(labels[name].span, "first defined here"),
                 )
             else:
                 labels[name] = statement
@@ -666,14 +682,14 @@ class CheckResult:
 
 
 def check_source(
-    source: SourceText,
-    *,
-    dialect: Dialect = Dialect.CONTROL2,
-    lib: Iterable[str | Path] = (),
-    files: Mapping[str, SourceText] | None = None,
+    source: SourceText, *, dialect: Dialect = Dialect.CONTROL2, lib: Iterable[str | Path] = (),
+    read: Reader = read_source, exists: Callable[[Path], bool] = Path.is_file,
 ) -> CheckResult:
-    """Read a main file and the blocks it calls, and check the whole program."""
-    program, load_diagnostics = load_program(source, lib=lib, files=files)
+    """Read a main file and the blocks it calls, and check the whole program.
+
+    ``read`` and ``exists`` stand for the file system (an editor's open buffers).
+    """
+    program, load_diagnostics = load_program(source, lib=lib, read=read, exists=exists)
     diagnostics = [
         *load_diagnostics, *check_program(program, dialect, read_errors=load_diagnostics)
     ]

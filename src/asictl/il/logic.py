@@ -12,7 +12,7 @@ from collections.abc import Iterable
 from dataclasses import dataclass, field
 
 from asictl.codes import AnalysisCode
-from asictl.diagnostics import Note, Reporter, Span
+from asictl.diagnostics import Related, Reporter, Span
 from asictl.il import ast
 from asictl.il.ast import key
 from asictl.il.flow import Flow, flow_of
@@ -217,7 +217,7 @@ def _report_twice(
         return
     reported.add(pair)
     text = assignment.symbol.text()
-    notes: list[Note] = [(earlier.site, f"{text} is assigned here too")]
+    notes: list[Related] = [(earlier.site, f"{text} is assigned here too")]
     notes += [(call, "in the block called here") for call in earlier.calls[:1]]
     notes += [(call, "this assignment runs in the block called here")
               for call in assignment.calls[:1]]

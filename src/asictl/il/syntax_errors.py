@@ -170,8 +170,9 @@ def diagnose(
     before = text[line_start:pos]
     said = before.rstrip(_BLANKS + IGNORED_PUNCTUATION)
     rest = text[pos:text.index("\n", pos)].partition(";")[0]
-    match = _FOUND.match(rest) if rest.strip(_BLANKS + IGNORED_PUNCTUATION) else None
-    found = match.group() if match else ""
+    # _FOUND's last alternative takes any character, so it matches wherever rest has text.
+    found_match = _FOUND.match(rest) if rest.strip(_BLANKS + IGNORED_PUNCTUATION) else None
+    found = found_match.group() if found_match else ""
     char = text[pos]
 
     def report(code: str, message: str, at: int = pos, length: int = len(found)) -> Diagnosis:

@@ -13,7 +13,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 
 from asictl.codes import AnalysisCode
-from asictl.diagnostics import Note, Reporter, Span
+from asictl.diagnostics import Related, Reporter, Span
 from asictl.il import ast
 from asictl.il.ast import key
 from asictl.il.loader import Program
@@ -47,13 +47,13 @@ class Wiring:
         )
         return cls(slaves, titles, program.options.ignore_config_errors)
 
-    def setup_note(self) -> tuple[Note, ...]:
+    def setup_note(self) -> tuple[Related, ...]:
         if not self.titles:
             return ()
         listed = ", ".join(str(a) for a in sorted(self.slaves)) or "none"
         return ((self.titles[0], f"[SETUP] projects these slaves: {listed}"),)
 
-    def slave_note(self, address: int) -> tuple[Note, ...]:
+    def slave_note(self, address: int) -> tuple[Related, ...]:
         slave = self.slaves[address]
         if slave.span is None:
             return ()
@@ -125,7 +125,7 @@ class _Verdict:
 
     code: AnalysisCode
     message: str
-    notes: tuple[Note, ...]
+    notes: tuple[Related, ...]
 
 
 def _judge(text: str, symbol: Symbol, wiring: Wiring) -> _Verdict | None:
