@@ -15,7 +15,6 @@ from collections.abc import Iterator, Sequence
 from asictl import __version__
 from asictl.codegen8051.compiler import GENERATED, Compiled
 from asictl.crossref import LEGEND, entries, xref_text
-from asictl.il.xref import reference_index
 from asictl.image import HEADER_SIZE, ProgramImage
 from asictl.mcs51.assembly import ListingEntry
 from asictl.platform.master import EEPROM_SIZE
@@ -50,12 +49,11 @@ def listing_text(compiled: Compiled, image: ProgramImage) -> str:
 def cross_reference(compiled: Compiled) -> list[str]:
     """The listing's last section: every operand with the lines that read and write it,
     and each variable with its address."""
-    index = reference_index(compiled.program)
     return [
         ";",
         "; ---- cross-reference",
         f"; {LEGEND}",
-        *xref_text(entries(index, variables=compiled.pmap.variables), prefix="; "),
+        *xref_text(entries(compiled.program, variables=compiled.pmap.variables), prefix="; "),
     ]
 
 

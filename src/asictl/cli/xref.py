@@ -20,7 +20,6 @@ from asictl.crossref import (
 )
 from asictl.errors import ExitCode, UserError
 from asictl.il.loader import Program
-from asictl.il.xref import reference_index
 from asictl.source import read_source
 
 
@@ -72,17 +71,16 @@ def xref(files: tuple[str, ...], fmt: str, modbus: bool, lib: tuple[str, ...]) -
 
 
 def _table(program: Program, modbus: bool) -> list[str]:
-    index = reference_index(program)
+    map_counters = program.options.map_counters
     if modbus:
-        return modbus_text(modbus_table(index, map_counters=program.options.map_counters))
-    variables = allocate(program, map_counters=program.options.map_counters).variables
-    return [f"; {LEGEND}", *xref_text(entries(index, variables=variables))]
+        return modbus_text(modbus_table(entries(program), map_counters=map_counters))
+    variables = allocate(program, map_counters=map_counters).variables
+    return [f"; {LEGEND}", *xref_text(entries(program, variables=variables))]
 
 
 def _document(program: Program, modbus: bool) -> dict[str, object]:
-    index = reference_index(program)
+    map_counters = program.options.map_counters
     if modbus:
-        table = modbus_table(index, map_counters=program.options.map_counters)
-        return {"modbus": json.loads(modbus_json(table))}
-    variables = allocate(program, map_counters=program.options.map_counters).variables
-    return {"operands": json.loads(xref_json(entries(index, variables=variables)))}
+        return {"modbus": modbus_json(modbus_table(entries(program), map_counters=map_counters))}
+    variables = allocate(program, map_counters=map_counters).variables
+    return {"operands": xref_json(entries(program, variables=variables))}

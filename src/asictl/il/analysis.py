@@ -17,8 +17,8 @@ from asictl.il import ast
 from asictl.il.loader import Program
 from asictl.il.logic import check_logic
 from asictl.il.pragmas import Directives
+from asictl.il.usage import usage_of
 from asictl.il.wiring import check_wiring
-from asictl.il.xref import reference_index
 
 
 def is_whole_program(main: ast.Module) -> bool:
@@ -27,7 +27,7 @@ def is_whole_program(main: ast.Module) -> bool:
 
 
 def analyse(program: Program, directives: Directives, report: Reporter) -> None:
-    index = reference_index(program)
+    index = usage_of(program)
     whole = is_whole_program(program.main)
     if whole:
         check_wiring(program, index, report)

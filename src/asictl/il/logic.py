@@ -18,32 +18,32 @@ from asictl.il.ast import key
 from asictl.il.flow import Flow, flow_of
 from asictl.il.language import BUILTIN_TC, COUNTER_FLAG_BASE, MAPPED_COUNTERS
 from asictl.il.loader import Program
-from asictl.il.wiring import has_logic
-from asictl.il.xref import (
+from asictl.il.usage import (
     Access,
-    Reference,
-    ReferenceIndex,
-    Symbol,
-    SymbolKind,
+    Operand,
+    OperandKind,
+    Usage,
+    Use,
     flag_bytes,
     is_firmware_block,
-    symbol_of,
+    operand_of,
 )
+from asictl.il.wiring import has_logic
 
 #: The flag operands, and the bytes map_counters gives the counters 0..14.
-_FLAGS = (SymbolKind.FLAG, SymbolKind.FLAG_BYTE, SymbolKind.FLAG_WORD)
+_FLAGS = (OperandKind.FLAG, OperandKind.FLAG_BYTE, OperandKind.FLAG_WORD)
 _MAPPED_FLAGS = range(COUNTER_FLAG_BASE, COUNTER_FLAG_BASE + 2 * MAPPED_COUNTERS)
 #: What sets a timer or counter going (R only stops or clears it).
-_SETS = {SymbolKind.TIMER: ("S", "T"), SymbolKind.COUNTER: ("S", "T", "CU", "CD", "STP")}
+_SETS = {OperandKind.TIMER: ("S", "T"), OperandKind.COUNTER: ("S", "T", "CU", "CD", "STP")}
 
 
 def check_logic(
     program: Program,
-    index: ReferenceIndex,
+    index: Usage,
     report: Reporter,
     *,
     whole_program: bool,
-    host_flags: Iterable[Symbol] = (),
+    host_flags: Iterable[Operand] = (),
 ) -> None:
     """Every W71x. ``whole_program``: the main file is a whole program ([OPTIONS] or
     [SETUP]), not a fragment, so its flags are its interface and are checked (W714)."""
@@ -51,14 +51,14 @@ def check_logic(
     _assigned_twice(program, flows, report)
     for flow in flows.values():
         _unreachable(flow, report)
-    by_symbol = index.by_symbol()
-    _unused_labels_and_blocks(program, index, by_symbol, report)
+    by_operand = index.by_operand()
+    _unused_labels_and_blocks(program, index, by_operand, report)
     if index.has_assembly:
         return  # assembler code may read and write anything: the balances would guess
     map_counters = program.options.map_counters
-    _timers_and_counters(by_symbol, map_counters, report)
+    _timers_and_counters(by_operand, map_counters, report)
     if whole_program:
-        _flags_never_written(index, by_symbol, map_counters, host_flags, report)
+        _flags_never_written(index, by_operand, map_counters, host_flags, report)
 
 
 # ------------------------------------------------------------ '=' twice in one cycle
@@ -68,7 +68,7 @@ def check_logic(
 class _Assignment:
     """An '=' of a Q or F bit, reached through ``calls`` (calls of blocks, outermost first)."""
 
-    symbol: Symbol
+    operand: Operand
     site: Span
     calls: tuple[Span, ...] = ()
 
@@ -87,10 +87,10 @@ def _assignment(node: object) -> _Assignment | None:
         return None
     if not isinstance(target, ast.ImageBit) or target.area not in _ASSIGNABLE_AREAS:
         return None
-    symbol = symbol_of(target)
-    if symbol is None or target.span is None:
+    operand = operand_of(target)
+    if operand is None or target.span is None:
         return None
-    return _Assignment(symbol, target.span)
+    return _Assignment(operand, target.span)
 
 
 @dataclass
@@ -114,7 +114,7 @@ class _Summaries:
                 a for i, n in enumerate(flow.nodes) if reachable[i] for a in self.events(n)
             )
         return tuple(
-            _Assignment(a.symbol, a.site, (node.span, *a.calls)) for a in self.done[name]
+            _Assignment(a.operand, a.site, (node.span, *a.calls)) for a in self.done[name]
         )
 
     def events(self, node: object) -> tuple[_Assignment, ...]:
@@ -171,14 +171,14 @@ def _assigned_twice(program: Program, flows: dict[str, Flow], report: Reporter) 
         blocks = flow.blocks()
         reachable = flow.reachable
         reach = _reaching(flow, blocks, reachable)
-        by_symbol: dict[Symbol, list[_Event]] = {}
+        by_operand: dict[Operand, list[_Event]] = {}
         for n, b in enumerate(blocks):
             if reachable[b.start]:
                 for i in b:
                     for assignment in summaries.events(flow.nodes[i]):
-                        by_symbol.setdefault(assignment.symbol, []).append(
+                        by_operand.setdefault(assignment.operand, []).append(
                             _Event(assignment, n, i))
-        for events in by_symbol.values():
+        for events in by_operand.values():
             if len(events) < 2:
                 continue
             in_blocks: dict[int, list[_Event]] = {}
@@ -216,7 +216,7 @@ def _report_twice(
     if pair in reported:
         return
     reported.add(pair)
-    text = assignment.symbol.text()
+    text = assignment.operand.text()
     notes: list[Related] = [(earlier.site, f"{text} is assigned here too")]
     notes += [(call, "in the block called here") for call in earlier.calls[:1]]
     notes += [(call, "this assignment runs in the block called here")
@@ -265,27 +265,27 @@ def _unreachable(flow: Flow, report: Reporter) -> None:
 
 
 def _unused_labels_and_blocks(
-    program: Program, index: ReferenceIndex, by_symbol: dict[Symbol, list[Reference]],
+    program: Program, index: Usage, by_operand: dict[Operand, list[Use]],
     report: Reporter,
 ) -> None:
     """W716 labels no jump names; W717 declared blocks no call names."""
     has_code = any(has_logic(m) for m in program.modules())
-    for symbol, references in by_symbol.items():
-        if symbol.kind not in (SymbolKind.LABEL, SymbolKind.BLOCK):
+    for operand, uses in by_operand.items():
+        if operand.kind not in (OperandKind.LABEL, OperandKind.BLOCK):
             continue
-        if any(r.access is Access.USE for r in references):
+        if any(r.access is Access.USE for r in uses):
             continue
-        for definition in (r for r in references if r.access is Access.DEFINE):
-            if symbol.kind is SymbolKind.LABEL:
+        for definition in (r for r in uses if r.access is Access.DEFINE):
+            if operand.kind is OperandKind.LABEL:
                 report.warning(
                     AnalysisCode.LABEL_UNUSED,
-                    f"label '{index.text(symbol)}' is never jumped to",
+                    f"label '{index.text(operand)}' is never jumped to",
                     definition.span,
                 )
-            elif has_code and not is_firmware_block(symbol):
+            elif has_code and not is_firmware_block(operand):
                 report.warning(
                     AnalysisCode.BLOCK_UNUSED,
-                    f"function block '{index.text(symbol)}' is declared but never called, "
+                    f"function block '{index.text(operand)}' is declared but never called, "
                     "so its file is not even read",
                     definition.span,
                 )
@@ -296,25 +296,25 @@ def _unused_labels_and_blocks(
 
 
 def _timers_and_counters(
-    by_symbol: dict[Symbol, list[Reference]], map_counters: bool, report: Reporter
+    by_operand: dict[Operand, list[Use]], map_counters: bool, report: Reporter
 ) -> None:
     """W712 set and never read; W713 read and never set. With map_counters, counters
     0..14 are flag bytes the host reads and writes too, so they are not judged."""
-    for symbol, references in by_symbol.items():
-        if symbol.kind not in _SETS:
+    for operand, uses in by_operand.items():
+        if operand.kind not in _SETS:
             continue
-        kind = "timer" if symbol.kind is SymbolKind.TIMER else "counter"
-        if symbol.kind is SymbolKind.COUNTER and map_counters and symbol.number < BUILTIN_TC:
+        kind = "timer" if operand.kind is OperandKind.TIMER else "counter"
+        if operand.kind is OperandKind.COUNTER and map_counters and operand.number < BUILTIN_TC:
             continue
-        sets = [r for r in references if r.access is Access.WRITE
-                and r.mark in _SETS[symbol.kind]]
-        reads = [r for r in references if r.access is Access.READ]
-        text = symbol.text()
+        sets = [r for r in uses if r.access is Access.WRITE
+                and r.mark in _SETS[operand.kind]]
+        reads = [r for r in uses if r.access is Access.READ]
+        text = operand.text()
         if sets and not reads:
             first = sets[0]
             report.warning(
                 AnalysisCode.SET_NEVER_READ,
-                f"{kind} {symbol.number} is {'started' if kind == 'timer' else 'set'} "
+                f"{kind} {operand.number} is {'started' if kind == 'timer' else 'set'} "
                 f"('{first.mark} {text}') but never read: nothing uses its "
                 f"{'status or time' if kind == 'timer' else 'status or count'}",
                 first.span,
@@ -323,8 +323,8 @@ def _timers_and_counters(
             verb = "started (S T" if kind == "timer" else "set or counted (S, CU, CD, STP"
             report.warning(
                 AnalysisCode.READ_NEVER_SET,
-                f"{kind} {symbol.number} is read ('{reads[0].mark} {text}') but never "
-                f"{verb} {symbol.number}): it is always 0",
+                f"{kind} {operand.number} is read ('{reads[0].mark} {text}') but never "
+                f"{verb} {operand.number}): it is always 0",
                 reads[0].span,
             )
 
@@ -333,34 +333,34 @@ def _timers_and_counters(
 
 
 def _flags_never_written(
-    index: ReferenceIndex,
-    by_symbol: dict[Symbol, list[Reference]],
+    index: Usage,
+    by_operand: dict[Operand, list[Use]],
     map_counters: bool,
-    host_flags: Iterable[Symbol],
+    host_flags: Iterable[Operand],
     report: Reporter,
 ) -> None:
     """W714: a flag the program reads and nothing writes: not the program, not PARAM
     (F 127), not the counters (map_counters), not the host (an ``asictl: host`` line)."""
     bits: set[tuple[int, int]] = set()  # written bit by bit
     whole: set[int] = set(_MAPPED_FLAGS) if map_counters else set()  # written as bytes
-    writers = [r.symbol for r in index.of_kind(*_FLAGS) if r.access is Access.WRITE]
-    for symbol in [*writers, *host_flags]:
-        if symbol.kind is SymbolKind.FLAG:
-            bits.add((symbol.number, symbol.bit))
+    writers = [r.operand for r in index.of_kind(*_FLAGS) if r.access is Access.WRITE]
+    for operand in [*writers, *host_flags]:
+        if operand.kind is OperandKind.FLAG:
+            bits.add((operand.number, operand.bit))
         else:
-            whole.update(flag_bytes(symbol))
+            whole.update(flag_bytes(operand))
     touched = whole | {byte for byte, _ in bits}
-    for symbol, references in by_symbol.items():
-        if symbol.kind not in _FLAGS:
+    for operand, uses in by_operand.items():
+        if operand.kind not in _FLAGS:
             continue
-        if symbol.kind is SymbolKind.FLAG:
-            written = (symbol.number, symbol.bit) in bits or symbol.number in whole
+        if operand.kind is OperandKind.FLAG:
+            written = (operand.number, operand.bit) in bits or operand.number in whole
         else:
-            written = any(b in touched for b in flag_bytes(symbol))
-        reads = [r for r in references if r.access is Access.READ]
+            written = any(b in touched for b in flag_bytes(operand))
+        reads = [r for r in uses if r.access is Access.READ]
         if written or not reads:
             continue
-        text = symbol.text()
+        text = operand.text()
         report.warning(
             AnalysisCode.FLAG_NEVER_WRITTEN,
             f"{text} is read but nothing in the program writes it; if the host writes it, "

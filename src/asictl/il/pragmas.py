@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 
 from asictl.codes import AnalysisCode, all_codes
 from asictl.diagnostics import Diagnostic, Severity, Span
-from asictl.il.xref import Symbol, SymbolKind
+from asictl.il.usage import Operand, OperandKind
 from asictl.source import SourceText
 
 _DIRECTIVE = re.compile(r";[ \t]*asictl[ \t]*:[ \t]*(?P<word>[^ \t\n,;]*)(?P<rest>.*)", re.I)
@@ -45,7 +45,7 @@ class Directives:
     #: file -> the codes silenced in the whole file
     files: dict[str, frozenset[str]] = field(default_factory=dict)
     #: flag operands the host writes, with the directive that says so
-    host_flags: list[tuple[Symbol, Span]] = field(default_factory=list)
+    host_flags: list[tuple[Operand, Span]] = field(default_factory=list)
     #: malformed directives (W721)
     problems: list[Diagnostic] = field(default_factory=list)
 
@@ -116,22 +116,22 @@ def _codes(rest: str, at: Span, directives: Directives) -> frozenset[str]:
     return frozenset(codes) if pos else EVERY
 
 
-def _host_flags(rest: str, at: Span, directives: Directives) -> list[Symbol]:
-    flags: list[Symbol] = []
+def _host_flags(rest: str, at: Span, directives: Directives) -> list[Operand]:
+    flags: list[Operand] = []
     pos = 0
     while (match := _HOST_FLAG.match(rest, pos)) is not None:
         pos = match.end()
         if match["area"]:
-            kind = SymbolKind.FLAG_WORD if match["area"].upper() == "FW" else SymbolKind.FLAG_BYTE
-            number, bit, top = int(match["n"]), -1, 126 if kind is SymbolKind.FLAG_WORD else 127
+            kind = OperandKind.FLAG_WORD if match["area"].upper() == "FW" else OperandKind.FLAG_BYTE
+            number, bit, top = int(match["n"]), -1, 126 if kind is OperandKind.FLAG_WORD else 127
         else:
-            kind, number, bit, top = SymbolKind.FLAG, int(match["byte"]), int(match["bit"]), 127
+            kind, number, bit, top = OperandKind.FLAG, int(match["byte"]), int(match["bit"]), 127
         if number > top or bit > 7:
             directives.problems.append(_problem(
                 f"'{match.group().strip(' ,')}' is no flag (bytes 0..127, bits 0..7, FW 0..126)",
                 at))
             continue
-        flags.append(Symbol(kind, number=number, bit=bit))
+        flags.append(Operand(kind, number=number, bit=bit))
     if not pos:
         directives.problems.append(_problem(
             "'asictl: host' needs the flags the host writes, such as 'F 10.0, FY 11, FW 12'", at))

@@ -17,14 +17,14 @@ from asictl.diagnostics import Related, Reporter, Span
 from asictl.il import ast
 from asictl.il.ast import key
 from asictl.il.loader import Program
-from asictl.il.xref import ReferenceIndex, Symbol, SymbolKind, slaves_of
+from asictl.il.usage import Operand, OperandKind, Usage, slaves_of
 from asictl.platform.master import IO_CODE_BITS, SLAVES
 from asictl.runtime.firmware import FIRMWARE_BLOCKS
 
 #: The operands of input data (any access reads the input image) and of output data.
-_INPUTS = (SymbolKind.INPUT, SymbolKind.OLD_INPUT, SymbolKind.INPUT_BYTE,
-           SymbolKind.OLD_INPUT_BYTE)
-_OUTPUTS = (SymbolKind.OUTPUT, SymbolKind.OUTPUT_BYTE)
+_INPUTS = (OperandKind.INPUT, OperandKind.OLD_INPUT, OperandKind.INPUT_BYTE,
+           OperandKind.OLD_INPUT_BYTE)
+_OUTPUTS = (OperandKind.OUTPUT, OperandKind.OUTPUT_BYTE)
 _BITS_PER_SLAVE = 4
 
 
@@ -73,21 +73,21 @@ def io_code_text(code: int) -> str:
     return f"{code:X}h (tristate)" if "t" in letters else f"{letters} ({code:X}h)"
 
 
-def check_wiring(program: Program, index: ReferenceIndex, report: Reporter) -> None:
+def check_wiring(program: Program, index: Usage, report: Reporter) -> None:
     """W701, W702 and W704 against the projected slaves; W703 when there are none."""
     wiring = Wiring.of(program)
     if not wiring.slaves:
         _no_slaves(program, wiring, report)
         return
-    verdicts: dict[Symbol, _Verdict | None] = {}
-    for reference in index.of_kind(*_INPUTS, *_OUTPUTS):
-        symbol = reference.symbol
-        if symbol not in verdicts:
-            verdicts[symbol] = _judge(index.text(symbol), symbol, wiring)
-        verdict = verdicts[symbol]
+    verdicts: dict[Operand, _Verdict | None] = {}
+    for use in index.of_kind(*_INPUTS, *_OUTPUTS):
+        operand = use.operand
+        if operand not in verdicts:
+            verdicts[operand] = _judge(index.text(operand), operand, wiring)
+        verdict = verdicts[operand]
         if verdict is not None:
-            report.warning(verdict.code, verdict.message, reference.span, verdict.notes)
-    if any(r.mark == "PARAM" or r.symbol.kind is SymbolKind.BLOCK for r in index.references):
+            report.warning(verdict.code, verdict.message, use.span, verdict.notes)
+    if any(r.mark == "PARAM" or r.operand.kind is OperandKind.BLOCK for r in index.uses):
         for module in program.modules():
             _check_slave_commands(module, wiring, report)
 
@@ -128,11 +128,11 @@ class _Verdict:
     notes: tuple[Related, ...]
 
 
-def _judge(text: str, symbol: Symbol, wiring: Wiring) -> _Verdict | None:
-    slaves = [a for a in slaves_of(symbol) if 0 <= a < SLAVES]
+def _judge(text: str, operand: Operand, wiring: Wiring) -> _Verdict | None:
+    slaves = [a for a in slaves_of(operand) if 0 <= a < SLAVES]
     if not slaves:
         return None
-    is_input = symbol.kind in _INPUTS
+    is_input = operand.kind in _INPUTS
     projected = [a for a in slaves if a in wiring.slaves]
     if not projected:
         if len(slaves) == 1:
@@ -147,17 +147,17 @@ def _judge(text: str, symbol: Symbol, wiring: Wiring) -> _Verdict | None:
             wiring.setup_note(),
         )
     wanted = "i" if is_input else "o"
-    bits = [symbol.bit] if symbol.bit >= 0 else list(range(_BITS_PER_SLAVE))
+    bits = [operand.bit] if operand.bit >= 0 else list(range(_BITS_PER_SLAVE))
     directions = [IO_CODE_BITS[wiring.slaves[a].io_code][b] for a in projected for b in bits]
     if any(d in (wanted, "b") for d in directions):
         return None
     notes = tuple(n for a in projected for n in wiring.slave_note(a))
-    if symbol.bit >= 0:
+    if operand.bit >= 0:
         slave = wiring.slaves[projected[0]]
         direction = {"i": "an input", "o": "an output", "t": "tristate"}[directions[0]]
         effect = ("the slave sends nothing on it" if is_input
                   else "the slave takes no output on it")
-        message = (f"{text} is data bit D{symbol.bit} of slave {slave.address}, which is "
+        message = (f"{text} is data bit D{operand.bit} of slave {slave.address}, which is "
                    f"{direction} by its I/O code {io_code_text(slave.io_code)}: {effect}")
     else:
         kind = "input" if is_input else "output"

@@ -1,12 +1,16 @@
-"""The reference index: every place a program reads, writes, defines or uses each operand.
+"""How a program uses each operand: the facts the analyses (``il.wiring``, ``il.logic``)
+judge, gathered in one walk over the checked program.
 
-One walk over the checked program gives the cross-reference (``asictl xref``, the
-listing's cross-reference) and the facts the analyses need (is a flag ever written, a
-timer ever read, a label ever jumped to, which slave an operand addresses), so each
-analysis asks the index instead of walking the tree again.
+An editor's use index (``il.uses``) answers "where is this name?" with
+names as text and places as spans. The analyses ask other questions, of every check of
+every program: which slave and data bit does this operand address, which bytes of the
+flags does it cover, does this instruction start the timer or stop it, does PARAM write
+F 127, is there assembler code that may touch anything? So an operand here is a
+structured ``Operand`` (kind, number, bit), each use carries the instruction (its
+"mark"), and the walk is kept lean: the analyses run on every ``asictl check``.
 
-An operand is a ``Symbol``: the same memory written two ways is two symbols (``F 11.0``
-and ``FY 11``), as a programmer reads them; ``overlapping_flag_bytes`` relates them.
+The same memory written two ways is two operands (``F 11.0`` and ``FY 11``), as a
+programmer reads them; ``flag_bytes`` relates them.
 """
 
 from __future__ import annotations
@@ -24,8 +28,8 @@ from asictl.il.loader import Program
 from asictl.runtime.firmware import FIRMWARE_BLOCKS
 
 
-class SymbolKind(IntEnum):
-    """What an operand is; the order is the order of a cross-reference."""
+class OperandKind(IntEnum):
+    """What an operand is (labels and blocks too)."""
 
     INPUT = 0
     OLD_INPUT = 1
@@ -45,34 +49,34 @@ class SymbolKind(IntEnum):
 
 
 _BIT_KINDS = {
-    ast.BitArea.I: SymbolKind.INPUT, ast.BitArea.I2: SymbolKind.OLD_INPUT,
-    ast.BitArea.Q: SymbolKind.OUTPUT, ast.BitArea.F: SymbolKind.FLAG,
+    ast.BitArea.I: OperandKind.INPUT, ast.BitArea.I2: OperandKind.OLD_INPUT,
+    ast.BitArea.Q: OperandKind.OUTPUT, ast.BitArea.F: OperandKind.FLAG,
 }
 _BYTE_KINDS = {
-    ast.ByteArea.IB: SymbolKind.INPUT_BYTE, ast.ByteArea.I2B: SymbolKind.OLD_INPUT_BYTE,
-    ast.ByteArea.QB: SymbolKind.OUTPUT_BYTE, ast.ByteArea.FY: SymbolKind.FLAG_BYTE,
-    ast.ByteArea.PSEG: SymbolKind.PSEG,
+    ast.ByteArea.IB: OperandKind.INPUT_BYTE, ast.ByteArea.I2B: OperandKind.OLD_INPUT_BYTE,
+    ast.ByteArea.QB: OperandKind.OUTPUT_BYTE, ast.ByteArea.FY: OperandKind.FLAG_BYTE,
+    ast.ByteArea.PSEG: OperandKind.PSEG,
 }
 _MARKS = {
-    SymbolKind.INPUT: "I", SymbolKind.OLD_INPUT: "I2", SymbolKind.OUTPUT: "Q",
-    SymbolKind.FLAG: "F", SymbolKind.INPUT_BYTE: "IB", SymbolKind.OLD_INPUT_BYTE: "I2B",
-    SymbolKind.OUTPUT_BYTE: "QB", SymbolKind.FLAG_BYTE: "FY", SymbolKind.FLAG_WORD: "FW",
-    SymbolKind.PSEG: "PSeg", SymbolKind.TIMER: "T", SymbolKind.COUNTER: "C",
+    OperandKind.INPUT: "I", OperandKind.OLD_INPUT: "I2", OperandKind.OUTPUT: "Q",
+    OperandKind.FLAG: "F", OperandKind.INPUT_BYTE: "IB", OperandKind.OLD_INPUT_BYTE: "I2B",
+    OperandKind.OUTPUT_BYTE: "QB", OperandKind.FLAG_BYTE: "FY", OperandKind.FLAG_WORD: "FW",
+    OperandKind.PSEG: "PSeg", OperandKind.TIMER: "T", OperandKind.COUNTER: "C",
 }
 #: The operands that address a slave's data: (kind, is a byte of two slaves).
 SLAVE_KINDS = {
-    SymbolKind.INPUT: False, SymbolKind.OLD_INPUT: False, SymbolKind.OUTPUT: False,
-    SymbolKind.INPUT_BYTE: True, SymbolKind.OLD_INPUT_BYTE: True, SymbolKind.OUTPUT_BYTE: True,
+    OperandKind.INPUT: False, OperandKind.OLD_INPUT: False, OperandKind.OUTPUT: False,
+    OperandKind.INPUT_BYTE: True, OperandKind.OLD_INPUT_BYTE: True, OperandKind.OUTPUT_BYTE: True,
 }
 
 
-class Symbol(NamedTuple):
+class Operand(NamedTuple):
     """One operand, label or block. ``name`` is ``key()`` of a variable, label or block;
     ``number`` the slave, byte, word, timer or counter number or a variable's byte offset;
     ``bit`` the bit (-1 for none); ``scope`` the file a label belongs to. (A named tuple:
     a program has thousands, made, hashed and sorted on every check.)"""
 
-    kind: SymbolKind
+    kind: OperandKind
     name: str = ""
     number: int = -1
     bit: int = -1
@@ -81,9 +85,9 @@ class Symbol(NamedTuple):
     def text(self, spelling: str = "") -> str:
         """The operand as IL writes it; ``spelling`` is a name as the source spells it."""
         name = spelling or self.name
-        if self.kind in (SymbolKind.LABEL, SymbolKind.BLOCK):
+        if self.kind in (OperandKind.LABEL, OperandKind.BLOCK):
             return name
-        if self.kind is SymbolKind.VARIABLE:
+        if self.kind is OperandKind.VARIABLE:
             if self.number < 0:
                 return name
             return f"{name} {self.number}" + (f".{self.bit}" if self.bit >= 0 else "")
@@ -92,7 +96,7 @@ class Symbol(NamedTuple):
 
 
 class Access(StrEnum):
-    """How a place refers to a symbol."""
+    """How a place uses an operand."""
 
     DEFINE = "defined"  # a declaration or a label
     READ = "read"
@@ -100,101 +104,99 @@ class Access(StrEnum):
     USE = "used"  # a jump to a label, a call of a block
 
 
-class Reference(NamedTuple):
+class Use(NamedTuple):
     """One place: ``mark`` is the instruction (``A``, ``=``, ``S``, ``L``, ``T``, ``CU``,
     ``JC``, ``:`` for a label, ``G`` for a [GATING] source, ``PARAM`` for its answer)."""
 
-    symbol: Symbol
+    operand: Operand
     access: Access
     mark: str
     span: Span
 
 
 @dataclass
-class ReferenceIndex:
-    """Every reference of a program, in source order (main file first, then the blocks)."""
+class Usage:
+    """Every use of an operand in a program, in source order (main file, then the blocks)."""
 
-    references: list[Reference] = field(default_factory=list)
+    uses: list[Use] = field(default_factory=list)
     #: (kind, key(name)) -> the name as first written, for variables, labels and blocks
-    spellings: dict[tuple[SymbolKind, str], str] = field(default_factory=dict)
-    #: the files in program order (main first), for sorting references
-    files: list[str] = field(default_factory=list)
+    spellings: dict[tuple[OperandKind, str], str] = field(default_factory=dict)
     #: whether the program has code the index cannot see into (ASM, [ASSEMBLY])
     has_assembly: bool = False
 
-    def by_symbol(self) -> dict[Symbol, list[Reference]]:
-        table: dict[Symbol, list[Reference]] = {}
-        for reference in self.references:
-            table.setdefault(reference.symbol, []).append(reference)
+    def by_operand(self) -> dict[Operand, list[Use]]:
+        table: dict[Operand, list[Use]] = {}
+        for use in self.uses:
+            table.setdefault(use.operand, []).append(use)
         return dict(sorted(table.items()))
 
-    def of_kind(self, *kinds: SymbolKind) -> Iterator[Reference]:
+    def of_kind(self, *kinds: OperandKind) -> Iterator[Use]:
         wanted = set(kinds)
-        return (r for r in self.references if r.symbol.kind in wanted)
+        return (r for r in self.uses if r.operand.kind in wanted)
 
-    def text(self, symbol: Symbol) -> str:
-        if is_firmware_block(symbol):
-            return FIRMWARE_BLOCKS[symbol.name].name
-        return symbol.text(self.spellings.get((symbol.kind, symbol.name), ""))
+    def text(self, operand: Operand) -> str:
+        if is_firmware_block(operand):
+            return FIRMWARE_BLOCKS[operand.name].name
+        return operand.text(self.spellings.get((operand.kind, operand.name), ""))
 
 
-def symbol_of(operand: object) -> Symbol | None:
-    """The symbol an operand refers to (None for constants)."""
+def operand_of(operand: object) -> Operand | None:
+    """The operand an operand refers to (None for constants)."""
     if isinstance(operand, ast.ImageBit):
-        return Symbol(_BIT_KINDS[operand.area], "", operand.address, operand.bit)
+        return Operand(_BIT_KINDS[operand.area], "", operand.address, operand.bit)
     if isinstance(operand, ast.ImageByte):
-        return Symbol(_BYTE_KINDS[operand.area], "", operand.number)
+        return Operand(_BYTE_KINDS[operand.area], "", operand.number)
     if isinstance(operand, ast.TimerRef):
-        return Symbol(SymbolKind.TIMER, "", operand.number)
+        return Operand(OperandKind.TIMER, "", operand.number)
     if isinstance(operand, ast.CounterRef):
-        return Symbol(SymbolKind.COUNTER, "", operand.number)
+        return Operand(OperandKind.COUNTER, "", operand.number)
     if isinstance(operand, ast.FlagWord):
-        return Symbol(SymbolKind.FLAG_WORD, "", operand.number)
+        return Operand(OperandKind.FLAG_WORD, "", operand.number)
     if isinstance(operand, ast.VarBit):
-        return Symbol(SymbolKind.VARIABLE, key(operand.name), operand.offset, operand.bit)
+        return Operand(OperandKind.VARIABLE, key(operand.name), operand.offset, operand.bit)
     if isinstance(operand, ast.VarByte):
-        return Symbol(SymbolKind.VARIABLE, key(operand.name), operand.offset)
+        return Operand(OperandKind.VARIABLE, key(operand.name), operand.offset)
     return None
 
 
-def flag_bytes(symbol: Symbol) -> range:
+def flag_bytes(operand: Operand) -> range:
     """The flag bytes a flag operand covers (FW n is FY n and FY n+1); empty for others."""
-    if symbol.kind in (SymbolKind.FLAG, SymbolKind.FLAG_BYTE):
-        return range(symbol.number, symbol.number + 1)
-    if symbol.kind is SymbolKind.FLAG_WORD:
-        return range(symbol.number, symbol.number + 2)
+    if operand.kind in (OperandKind.FLAG, OperandKind.FLAG_BYTE):
+        return range(operand.number, operand.number + 1)
+    if operand.kind is OperandKind.FLAG_WORD:
+        return range(operand.number, operand.number + 2)
     return range(0)
 
 
-def slaves_of(symbol: Symbol) -> tuple[int, ...]:
+def slaves_of(operand: Operand) -> tuple[int, ...]:
     """The slaves whose data an I/I2/Q operand addresses (two for a byte)."""
-    two = SLAVE_KINDS.get(symbol.kind)
+    two = SLAVE_KINDS.get(operand.kind)
     if two is None:
         return ()
-    return (symbol.number, symbol.number + 1) if two else (symbol.number,)
+    return (operand.number, operand.number + 1) if two else (operand.number,)
 
 
 class _Builder:
-    def __init__(self, index: ReferenceIndex) -> None:
+    def __init__(self, index: Usage) -> None:
         self.index = index
 
-    def add(self, symbol: Symbol, access: Access, mark: str, span: Span | None,
+    def add(self, operand: Operand, access: Access, mark: str, span: Span | None,
             spelling: str = "") -> None:
         if span is None:
             return
         if spelling:
-            self.index.spellings.setdefault((symbol.kind, symbol.name), spelling)
-        self.index.references.append(Reference(symbol, access, mark, span))
+            self.index.spellings.setdefault((operand.kind, operand.name), spelling)
+        self.index.uses.append(Use(operand, access, mark, span))
 
-    def operand(self, operand: object, access: Access, mark: str) -> None:
-        symbol = symbol_of(operand)
-        span = getattr(operand, "span", None)
-        if symbol is None or span is None:
+    def operand(self, node: object, access: Access, mark: str) -> None:
+        operand = operand_of(node)
+        span = getattr(node, "span", None)
+        if operand is None or span is None:
             return
-        if symbol.kind is SymbolKind.VARIABLE:
+        if operand.kind is OperandKind.VARIABLE:
             self.index.spellings.setdefault(
-                (symbol.kind, symbol.name), getattr(operand, "name", ""))
-        self.index.references.append(Reference(symbol, access, mark, span))
+                (operand.kind, operand.name), getattr(node, "name", ""))
+        self.index.uses.append(Use(operand, access, mark, span))
 
     def module(self, module: ast.Module) -> None:
         for section in module.sections:
@@ -216,16 +218,16 @@ class _Builder:
         for decl in section.declarations:
             match decl:
                 case ast.VarDecl(name=name, span=span):
-                    self.add(Symbol(SymbolKind.VARIABLE, name=key(name)), Access.DEFINE,
+                    self.add(Operand(OperandKind.VARIABLE, name=key(name)), Access.DEFINE,
                              "BYTE", span, name)
                 case ast.TimerDecl(number=number, span=span):
-                    self.add(Symbol(SymbolKind.TIMER, number=number), Access.DEFINE, "TIMER",
+                    self.add(Operand(OperandKind.TIMER, number=number), Access.DEFINE, "TIMER",
                              span)
                 case ast.CounterDecl(number=number, span=span):
-                    self.add(Symbol(SymbolKind.COUNTER, number=number), Access.DEFINE,
+                    self.add(Operand(OperandKind.COUNTER, number=number), Access.DEFINE,
                              "COUNTER", span)
                 case ast.FBDecl(name=name, span=span):
-                    self.add(Symbol(SymbolKind.BLOCK, name=key(name)), Access.DEFINE, "FB",
+                    self.add(Operand(OperandKind.BLOCK, name=key(name)), Access.DEFINE, "FB",
                              span, name)
 
     def statement(self, statement: ast.Statement, file: str) -> None:
@@ -241,29 +243,29 @@ class _Builder:
         elif isinstance(statement, ast.Count):
             self.operand(statement.counter, Access.WRITE, statement.op.value)
         elif isinstance(statement, ast.Label):
-            self.add(Symbol(SymbolKind.LABEL, key(statement.name), scope=file), Access.DEFINE,
+            self.add(Operand(OperandKind.LABEL, key(statement.name), scope=file), Access.DEFINE,
                      ":", statement.span, statement.name)
         elif isinstance(statement, ast.Jump):
-            self.add(Symbol(SymbolKind.LABEL, key(statement.label), scope=file), Access.USE,
+            self.add(Operand(OperandKind.LABEL, key(statement.label), scope=file), Access.USE,
                      "JC" if statement.conditional else "JU", statement.span, statement.label)
         elif isinstance(statement, ast.CallFB):
-            self.add(Symbol(SymbolKind.BLOCK, key(statement.name)), Access.USE,
+            self.add(Operand(OperandKind.BLOCK, key(statement.name)), Access.USE,
                      "JC" if statement.conditional else "JU", statement.span, statement.name)
         elif isinstance(statement, ast.Param):
-            self.add(Symbol(SymbolKind.FLAG_BYTE, "", PARAM_FLAG), Access.WRITE, "PARAM",
+            self.add(Operand(OperandKind.FLAG_BYTE, "", PARAM_FLAG), Access.WRITE, "PARAM",
                      statement.span)
         elif isinstance(statement, ast.Asm):
             self.index.has_assembly = True
 
 
-def reference_index(program: Program) -> ReferenceIndex:
-    """Every reference of the main file and of every block it calls."""
-    index = ReferenceIndex(files=list(dict.fromkeys(m.file for m in program.modules())))
+def usage_of(program: Program) -> Usage:
+    """Every use of an operand in the main file and in every block it calls."""
+    index = Usage()
     builder = _Builder(index)
     for module in program.modules():
         builder.module(module)
     return index
 
 
-def is_firmware_block(symbol: Symbol) -> bool:
-    return symbol.kind is SymbolKind.BLOCK and symbol.name in FIRMWARE_BLOCKS
+def is_firmware_block(operand: Operand) -> bool:
+    return operand.kind is OperandKind.BLOCK and operand.name in FIRMWARE_BLOCKS
