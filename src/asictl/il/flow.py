@@ -66,7 +66,7 @@ def flow_of(module: ast.Module) -> Flow:
     nodes = nodes_of(module)
     labels: dict[str, int] = {}
     for i, node in enumerate(nodes):
-        if isinstance(node, ast.Label):
+        if type(node) is ast.Label:
             labels.setdefault(key(node.name), i)
     return Flow(tuple(nodes), tuple(_successors(nodes, labels)))
 
@@ -76,13 +76,15 @@ def _successors(nodes: Sequence[Node], labels: dict[str, int]) -> list[tuple[int
     result: list[tuple[int, ...]] = []
     for i, node in enumerate(nodes):
         after = (i + 1,) if i + 1 < end else ()
-        match node:
-            case ast.Jump(conditional=conditional, label=label):
-                target = labels.get(key(label))
-                jump = (target,) if target is not None else ()
-                result.append(tuple(dict.fromkeys(jump + after)) if conditional else jump)
-            case ast.BlockEnd(kind=kind):
-                result.append(after if kind is ast.EndKind.BEC else ())
-            case _:
-                result.append(after)
+        kind = type(node)  # most nodes go on to the next: one test for them
+        if kind is ast.Jump:
+            assert isinstance(node, ast.Jump)
+            target = labels.get(key(node.label))
+            jump = (target,) if target is not None else ()
+            result.append(tuple(dict.fromkeys(jump + after)) if node.conditional else jump)
+        elif kind is ast.BlockEnd:
+            assert isinstance(node, ast.BlockEnd)
+            result.append(after if node.kind is ast.EndKind.BEC else ())
+        else:
+            result.append(after)
     return result

@@ -8,6 +8,7 @@ run at all, is this label or block ever used?
 
 from __future__ import annotations
 
+from collections import Counter
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 
@@ -48,7 +49,11 @@ def check_logic(
     """Every W71x. ``whole_program``: the main file is a whole program ([OPTIONS] or
     [SETUP]), not a fragment, so its flags are its interface and are checked (W714)."""
     flows = {module.file: flow_of(module) for module in program.modules()}
-    _assigned_twice(program, flows, report)
+    assignments = Counter(
+        u.operand for u in index.uses if u.mark == "=" and u.operand.kind in _ASSIGNABLE
+    )
+    if any(count > 1 for count in assignments.values()):  # else no bit can be assigned twice
+        _assigned_twice(program, flows, report)
     for flow in flows.values():
         _unreachable(flow, report)
     by_operand = index.by_operand()
@@ -74,6 +79,7 @@ class _Assignment:
 
 
 _ASSIGNABLE_AREAS = (ast.BitArea.Q, ast.BitArea.F)
+_ASSIGNABLE = (OperandKind.OUTPUT, OperandKind.FLAG)
 
 
 def _assignment(node: object) -> _Assignment | None:
@@ -240,6 +246,8 @@ def _other_file(span: Span, here: Span) -> str:
 def _unreachable(flow: Flow, report: Reporter) -> None:
     """W715: code no path reaches, reported once per run of it at its first instruction."""
     reachable = flow.reachable
+    if all(reachable):
+        return
     last_end: ast.Statement | None = None
     in_run = False
     for i, node in enumerate(flow.nodes):
