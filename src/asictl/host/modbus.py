@@ -196,7 +196,11 @@ class ModbusTransport:
         except JobError as exc:
             if exc.status is not JobStatus.REFUSED:
                 raise
-            raise exc.during("protected mode refused while a slave has address 0") from None
+            # the one reason the master has to refuse it (ASI_CTRL's 8385h)
+            raise JobError(
+                JobStatus.SLAVE_ZERO,
+                "protected mode refused: a slave with address 0 is present",
+            ) from None
         self.write_registers(g.PI, pp)
 
     def write_eeprom(self, address: int, data: bytes) -> None:
