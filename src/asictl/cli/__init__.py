@@ -43,6 +43,10 @@ COMMANDS: dict[str, tuple[str, str]] = {
         "asictl.cli.gateway:gateway", "Serve the emulated AS-i/Modbus gateway (Modbus TCP/RTU)."
     ),
     "test": ("asictl.cli.sim:test", "Run every *.scenario.toml and report N passed, M failed."),
+    "serve": (
+        "asictl.cli.live:serve", "Keep an emulated board running in real time (a live board)."
+    ),
+    "bus": ("asictl.cli.live:bus", "The emulated AS-i cable: show, plug, unplug, match, inputs."),
 }
 
 

@@ -1,25 +1,21 @@
 """``asictl gateway serve``: the emulated AS-i/Modbus gateway in front of a PC2 board.
 
-The gateway serves the same persistent emulated board that ``download``/``upload``/``status
---port`` use, holding its lock while it runs, so a program downloaded over Modbus is the one
-a PC2-port upload reads back afterwards (docs/modbus.md).
+The gateway is a live board (``asictl serve``, host/live.py) with Modbus in front: the board
+runs in real time, and the other commands for its port reach it through the live board's
+socket meanwhile, so a program downloaded over Modbus is the one a PC2-port upload reads
+back, and ``asictl monitor --port`` watches what the Modbus client does (docs/modbus.md).
+A port that ``asictl serve`` already serves is refused: stop that first.
 """
 
 from __future__ import annotations
 
-import asyncio
-import json
-import signal
-import time
+from collections.abc import Awaitable, Callable
 
 import click
 
 from asictl.errors import UserError
-from asictl.files import write_atomic
-from asictl.host.boards import emulated_board, parse_port, state_directory, state_file
-
-#: The board's non-volatile state is written this often while serving (and at the end).
-SAVE_INTERVAL_S = 10.0
+from asictl.host.boards import parse_port, state_directory
+from asictl.host.live import LiveBoard, run_live, socket_path
 
 
 def _tcp_address(text: str) -> tuple[str, int]:
@@ -66,17 +62,9 @@ def serve(
     directory = state_directory(state_dir)
     address = _tcp_address(tcp) if tcp else (None if rtu else ("127.0.0.1", 5020))
     line = SerialSettings(rtu, baud, parity, int(stopbits)) if rtu else None
-    with emulated_board(base, directory) as board:
-        slave = GatewaySlave(board, unit)
-        path = state_file(directory, base)
-        saved = [time.monotonic()]
 
-        def save_now_and_then() -> None:
-            if time.monotonic() - saved[0] >= SAVE_INTERVAL_S:
-                saved[0] = time.monotonic()
-                write_atomic(path, json.dumps(board.nonvolatile(), indent=1, sort_keys=True) + "\n")
-
-        server = GatewayServer(slave, on_tick=save_now_and_then)
+    def gateway_for(live: LiveBoard) -> tuple[Awaitable[None], Callable[[], None]]:
+        server = GatewayServer(GatewaySlave(live.board, unit, sync=live.sync))
 
         def started() -> None:
             listening = server.tcp_address  # set before started() if it serves TCP
@@ -84,21 +72,15 @@ def serve(
             where += [f"rtu {rtu} {baud} {parity}{stopbits}"] if rtu else []
             click.echo(
                 f"asictl: gateway unit {unit} for board {port} serving "
-                + ", ".join(where) + " (Ctrl-C stops)",
+                + ", ".join(where) + f"; the board is live at {socket_path(directory, base)}"
+                " (Ctrl-C stops)",
                 err=True,
             )
 
-        async def until_stopped() -> None:
-            # Ctrl-C and a service manager's SIGTERM end the serving loop itself, so the
-            # endpoints close and the state is saved. (Set here, not inherited: a process
-            # started in the background by a shell inherits SIGINT as ignored.)
-            loop = asyncio.get_running_loop()
-            for number in (signal.SIGINT, signal.SIGTERM):
-                loop.add_signal_handler(number, server.stop)
-            await server.serve(address, line, started=started)
+        return server.serve(address, line, started=started), server.stop
 
-        try:
-            asyncio.run(until_stopped())
-        except OSError as exc:
-            raise UserError(f"cannot serve: {exc.strerror or exc}") from None
-        click.echo("asictl: gateway stopped", err=True)
+    run_live(
+        base, directory, identity={"command": "asictl gateway serve", "port": port},
+        attach=gateway_for,
+    )
+    click.echo("asictl: gateway stopped", err=True)

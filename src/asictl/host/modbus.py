@@ -48,7 +48,13 @@ from asictl.gateway.pdus import (
     UploadRequest,
 )
 from asictl.host.jobs import JobError, JobStatus
-from asictl.host.status import MasterStatus, program_info, slave_fields, state_fields
+from asictl.host.status import (
+    MasterStatus,
+    program_info,
+    slave_data,
+    slave_fields,
+    state_fields,
+)
 from asictl.host.target import (
     DEFAULT_RETRIES,
     DEFAULT_TIMEOUT_S,
@@ -87,6 +93,11 @@ def slave_list(registers: Sequence[int]) -> list[int]:
 def pcd_register(pc2_byte: int) -> int:
     """PC2 PCD byte (ID code high, I/O code low) as the gateway's register (the other way)."""
     return (pc2_byte & 0xF) << 4 | pc2_byte >> 4
+
+
+def data_nibbles(registers: Sequence[int]) -> bytes:
+    """Data registers (four slaves a register, slave 4k in bits 12-15) one value a slave."""
+    return bytes(registers[n // 4] >> 4 * (3 - n % 4) & 0xF for n in range(4 * len(registers)))
 
 
 def pc2_profile(register: int) -> int:
@@ -313,6 +324,14 @@ def read_status(transport: ModbusTransport) -> MasterStatus:
         if text
     )
     state = ControlState.RUNNING if flags & ControlFlag.CONTROL_ACTIVE else ControlState.IDLE
+    slaves = slave_data(
+        {"LPS": lps, "LDS": lds, "LAS": las},
+        inputs=data_nibbles(transport.read_registers(g.INPUTS_MIRROR + g.INPUT_DATA, 8)),
+        outputs=data_nibbles(transport.read_registers(g.OUTPUT_DATA, 8)),
+        pcd=bytes(pcd), cdi=bytes(cdi),
+        pp=bytes(r & 0xF for r in transport.read_registers(g.PP, SLAVES)),
+        pi=bytes(r & 0xF for r in transport.read_registers(g.PI, SLAVES)),
+    )
     return MasterStatus(
         port=f"Modbus {transport.name} unit {transport.unit}",
         master_name=name,
@@ -326,4 +345,7 @@ def read_status(transport: ModbusTransport) -> MasterStatus:
         cycle_time_ms=0.0,
         max_cycle_time_ms=0.0,
         program=program_info(transport),
+        slaves=slaves,
+        hi_flags=transport.read_registers(g.HI_FLAGS, 1)[0] & 0x07,
+        flags=[r & 0xFF for r in transport.read_registers(g.MEMORY_BYTES, 128)],
     )
