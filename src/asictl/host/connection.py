@@ -21,6 +21,7 @@ from typing import Any
 from asictl.board.board import Pc2Board
 from asictl.errors import ExitCode, UserError
 from asictl.host.boards import connect, parse_port, port_name, state_directory, state_file
+from asictl.host.commissioning import Commissioning, ModbusCommissioning, Pc2Commissioning
 from asictl.host.driver import EmulatedPort, Pc2Driver
 from asictl.host.status import MasterStatus, control_summary, read_status
 from asictl.host.target import DEFAULT_RETRIES, DEFAULT_TIMEOUT_S, parse_target
@@ -70,6 +71,12 @@ class Master:
     live: str | None = None
     #: an emulated board that did not exist before this command (a new, empty one)
     created: bool = False
+    #: ASI_MON's editor-mode functions on this master
+    commissioning: Commissioning | None = None
+
+    def tools(self) -> Commissioning:
+        assert self.commissioning is not None, "every way to a master has them"
+        return self.commissioning
 
     def emulated(self, name: str, **args: Any) -> Any:
         """Run an emulated-board action; on real hardware a clear refusal (exit 1)."""
@@ -99,7 +106,8 @@ def _pc2_master(
 
     return Master(
         Pc2Transport(driver), name, lambda: control_summary(driver),
-        lambda: read_status(driver, name, view), action=action, driver=driver, **extra,
+        lambda: read_status(driver, name, view), action=action, driver=driver,
+        commissioning=Pc2Commissioning(driver, name), **extra,
     )
 
 
@@ -163,6 +171,7 @@ def connect_master(
         yield Master(
             transport, f"{target} unit {address.unit}",
             lambda: gateway.control_summary(transport), lambda: gateway.read_status(transport),
+            commissioning=ModbusCommissioning(transport),
         )
 
 

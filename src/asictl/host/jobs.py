@@ -76,6 +76,13 @@ _ADDRESS_CHANGE_TEXT: dict[JobStatus, str] = {
 _CODES = frozenset(Command)
 
 
+def address_change_failure(status_byte: int) -> tuple[JobStatus, str]:
+    """The STATUS word and its text for command 20's status byte (manual 10.2.7)."""
+    failure = _ADDRESS_CHANGE_STATUS.get(status_byte, JobStatus.REFUSED)
+    why = _ADDRESS_CHANGE_TEXT.get(failure, "refused by the master")
+    return failure, f"{why} (status byte {status_byte:02X}h)"
+
+
 class JobError(UserError):
     """A job that ended in ERROR; ``status`` is its STATUS word."""
 
@@ -212,10 +219,8 @@ class Job:
 
     def _address_change_failed(self, result: int) -> None:
         self.result = result
-        failure = _ADDRESS_CHANGE_STATUS.get(result, JobStatus.REFUSED)
-        why = _ADDRESS_CHANGE_TEXT.get(failure, "refused by the master")
-        self._fail(failure, f"address change {self.address} -> {self.data} failed: {why} "
-                   f"(status byte {result:02X}h)")
+        failure, why = address_change_failure(result)
+        self._fail(failure, f"address change {self.address} -> {self.data} failed: {why}")
 
     def _finish(self, result: int) -> None:
         self.result = result

@@ -299,10 +299,22 @@ class LiveServer:
 Attachment = Callable[[LiveBoard], tuple[Awaitable[None], Callable[[], None]]]
 
 
+def _saver(board: Pc2Board, path: Path) -> Callable[[], None]:
+    """Writes the board's non-volatile state when ``SAVE_INTERVAL_S`` have passed."""
+    saved = [time.monotonic()]
+
+    def save_now_and_then() -> None:
+        if time.monotonic() - saved[0] >= SAVE_INTERVAL_S:
+            saved[0] = time.monotonic()
+            text = json.dumps(board.nonvolatile(), indent=1, sort_keys=True)
+            write_atomic(path, text + "\n")
+
+    return save_now_and_then
+
+
 def run_live(
     base: int, directory: Path, *, identity: dict[str, JSON],
     started: Callable[[Path], None] | None = None, attach: Attachment | None = None,
-    ready: Callable[[], None] | None = None,
 ) -> None:
     """Serve the board at ``base`` live until SIGINT/SIGTERM, holding its lock throughout.
 
@@ -316,17 +328,9 @@ def run_live(
     path = socket_path(directory, base)
     with emulated_board(base, directory) as board:
         live = LiveBoard(board)
-        saved = [time.monotonic()]
-        state = state_file(directory, base)
-
-        def save_now_and_then() -> None:
-            if time.monotonic() - saved[0] >= SAVE_INTERVAL_S:
-                saved[0] = time.monotonic()
-                text = json.dumps(board.nonvolatile(), indent=1, sort_keys=True)
-                write_atomic(state, text + "\n")
-
         server = LiveServer(
-            live, path, identity={**identity, "pid": os.getpid()}, on_tick=save_now_and_then
+            live, path, identity={**identity, "pid": os.getpid()},
+            on_tick=_saver(board, state_file(directory, base)),
         )
 
         async def main() -> None:
@@ -361,8 +365,49 @@ def run_live(
             asyncio.run(main())
         except OSError as exc:
             raise UserError(f"cannot serve: {exc.strerror or exc}") from None
-        if ready is not None:
-            ready()
+
+
+@contextmanager
+def background_live(
+    base: int, directory: Path, *, identity: dict[str, JSON], timeout: float = 30.0
+) -> Iterator[Path]:
+    """The board at ``base`` served live from a thread of this process until the block
+    ends (the monitor does this when no ``asictl serve`` runs); its socket path."""
+    import threading
+
+    refuse_if_served(directory, base)
+    path = socket_path(directory, base)
+    ready = threading.Event()
+    errors: list[BaseException] = []
+    holder: dict[str, Any] = {}
+
+    def main() -> None:
+        try:
+            with emulated_board(base, directory) as board:
+                server = LiveServer(
+                    LiveBoard(board), path, identity={**identity, "pid": os.getpid()},
+                    on_tick=_saver(board, state_file(directory, base)),
+                )
+
+                async def run() -> None:
+                    holder["server"], holder["loop"] = server, asyncio.get_running_loop()
+                    await server.serve(ready.set)
+
+                asyncio.run(run())
+        except BaseException as exc:  # reported to the caller's thread
+            errors.append(exc)
+            ready.set()
+
+    thread = threading.Thread(target=main, name="asictl-live", daemon=True)
+    thread.start()
+    if not ready.wait(timeout) or errors:
+        why = errors[0] if errors else "time-out"
+        raise UserError(f"cannot serve board {port_name(base)}: {why}")
+    try:
+        yield path
+    finally:
+        holder["loop"].call_soon_threadsafe(holder["server"].stop)
+        thread.join(timeout)
 
 
 # --------------------------------------------------------------------------- the client

@@ -174,12 +174,17 @@ class ModbusTransport:
                 WriteMultipleRegistersRequest(address=start, registers=chunk),
             )
 
-    def execution_control(self, register: int, value: int, what: str) -> None:
+    def execution_result(self, register: int, value: int, what: str) -> int:
         """Write an execution-control register, then Read Exception Status (function 7):
-        Modbus has no result for a write, the gateway keeps it there (manual 6.3.10)."""
+        Modbus has no result for a write, the gateway keeps it there (manual 6.3.10): bit 7
+        set if the master refused, bits 0-3 its answer (a slave's, or command 20's status)."""
         self.write_registers(register, [value])
-        result = self._call(f"{what}: reading its result", ReadExceptionStatusRequest()).status
-        if result & g.EXCEPTION_STATUS_ERROR:
+        status = self._call(f"{what}: reading its result", ReadExceptionStatusRequest()).status
+        return int(status)
+
+    def execution_control(self, register: int, value: int, what: str) -> None:
+        """``execution_result``, a refusal raised as a ``JobError``."""
+        if self.execution_result(register, value, what) & g.EXCEPTION_STATUS_ERROR:
             raise JobError(JobStatus.REFUSED, f"{what}: refused by the master")
 
     def master_info(self, part: int) -> str:
