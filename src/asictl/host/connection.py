@@ -23,7 +23,7 @@ from asictl.errors import ExitCode, UserError
 from asictl.host.boards import connect, parse_port, port_name, state_directory, state_file
 from asictl.host.commissioning import Commissioning, ModbusCommissioning, Pc2Commissioning
 from asictl.host.driver import EmulatedPort, Pc2Driver
-from asictl.host.status import MasterStatus, control_summary, read_status
+from asictl.host.status import MasterStatus, ProgramInfo, control_summary, read_status
 from asictl.host.target import DEFAULT_RETRIES, DEFAULT_TIMEOUT_S, parse_target
 from asictl.host.transfer import Pc2Transport, Transport
 from asictl.image import ProgramImage
@@ -73,6 +73,8 @@ class Master:
     created: bool = False
     #: ASI_MON's editor-mode functions on this master
     commissioning: Commissioning | None = None
+    #: the status with the program image's description given, not read again (a monitor)
+    quick_status: Callable[[ProgramInfo], MasterStatus] | None = None
 
     def tools(self) -> Commissioning:
         assert self.commissioning is not None, "every way to a master has them"
@@ -89,9 +91,7 @@ class Master:
 
 
 def _who() -> str:
-    command = os.path.basename(sys.argv[0]) if sys.argv else "asictl"
-    words = [command, *sys.argv[1:2]]
-    return f"{' '.join(words)} (pid {os.getpid()})"
+    return f"{' '.join(['asictl', *sys.argv[1:2]])} (pid {os.getpid()})"
 
 
 def _stderr(text: str) -> None:
@@ -107,7 +107,8 @@ def _pc2_master(
     return Master(
         Pc2Transport(driver), name, lambda: control_summary(driver),
         lambda: read_status(driver, name, view), action=action, driver=driver,
-        commissioning=Pc2Commissioning(driver, name), **extra,
+        commissioning=Pc2Commissioning(driver, name),
+        quick_status=lambda program: read_status(driver, name, view, program=program), **extra,
     )
 
 

@@ -566,6 +566,14 @@ def open_live(directory: Path, base: int) -> LiveClient | None:
     return client
 
 
+def is_served(directory: Path, base: int) -> bool:
+    client = open_live(directory, base)
+    if client is None:
+        return False
+    client.close()
+    return True
+
+
 def refuse_if_served(directory: Path, base: int) -> None:
     """A second server for one board would wait on its lock forever: say who serves it."""
     client = open_live(directory, base)
