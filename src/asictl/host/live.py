@@ -582,7 +582,8 @@ def refuse_if_served(directory: Path, base: int) -> None:
         client.close()
         raise UserError(
             f"board {port_name(base)} is already served live by "
-            f"{server.get('command', 'another process')} (pid {server.get('pid', '?')})"
+            f"{server.get('command', 'another process')} (pid {server.get('pid', '?')})",
+            ExitCode.FAILED,
         )
 
 
