@@ -68,10 +68,10 @@ class MonitorApp(App[None]):
     """
     BINDINGS: ClassVar[list[BindingType]] = [
         Binding("q", "quit", "Quit"),
-        Binding("left", "move(-1)", "Select", show=False),
-        Binding("right", "move(1)", "Select", show=False),
-        Binding("up", "move(-8)", "Select", show=False),
-        Binding("down", "move(8)", "Select", show=False),
+        Binding("left", "move(-1)", "Select", show=False, priority=True),
+        Binding("right", "move(1)", "Select", show=False, priority=True),
+        Binding("up", "move(-8)", "Select", show=False, priority=True),
+        Binding("down", "move(8)", "Select", show=False, priority=True),
         Binding("0", "toggle_input(0)", "0-3 Input bit"),
         Binding("1", "toggle_input(1)", "Input bit 1", show=False),
         Binding("2", "toggle_input(2)", "Input bit 2", show=False),
@@ -121,10 +121,11 @@ class MonitorApp(App[None]):
                 yield Static(id="detail")
             yield Static(id="right")
         yield RichLog(id="log", max_lines=500, wrap=True)
-        yield Input(id="prompt")
+        yield Input(id="prompt", select_on_focus=False)
         yield Footer()
 
     def on_mount(self) -> None:
+        self.query_one("#log", RichLog).can_focus = False  # the arrows select slaves
         if self.note:
             self.log_event(self.note)
         self.source.notify = lambda text: self.call_from_thread(self.log_event, text)
@@ -194,6 +195,8 @@ class MonitorApp(App[None]):
         self.refresh_now()
 
     def action_move(self, step: int) -> None:
+        if self._prompting is not None:
+            return
         self.selected = (self.selected + step) % SLAVES
         if self.status is not None:
             self._paint()
@@ -260,6 +263,7 @@ class MonitorApp(App[None]):
         prompt = self.query_one("#prompt", Input)
         prompt.placeholder = self.PROMPTS[kind]
         prompt.value = "FY " if kind == "flag" else ""
+        prompt.cursor_position = len(prompt.value)
         prompt.add_class("visible")
         prompt.focus()
 
