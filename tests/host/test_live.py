@@ -311,3 +311,17 @@ def test_live_client_is_a_plain_client(live):
     assert isinstance(client, LiveClient)
     assert Pc2Driver(LivePort(client)).read(0x0B0, 48) == local
     client.close()
+
+
+def test_commissioning_on_a_live_board_keeps_volatile_state(served):
+    """Between two commands the live board keeps what only lives in RAM (the PI)."""
+    assert served("bus", "plug", "9", "7,F").exit_code == 0
+    assert served("store", "configuration").exit_code == 0
+    assert served("slave", "parameter", "9", "5").stdout.strip() == "5h"
+    assert served("store", "parameters").exit_code == 0
+    assert served.status()["slaves"]["9"]["pp"] == 5
+    assert served("bus", "show", "--io", "devport").exit_code == 2
+    assert served("write", "FY 10=0x12", "F 11.3=1").exit_code == 0
+    assert served.status()["flags"][10:12] == [0x12, 0x08]
+    assert served("write", "Q 9=0b0101", "Q 9.3=1").exit_code == 0
+    assert served.status()["slaves"]["9"]["outputs"] == 0b1101

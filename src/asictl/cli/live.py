@@ -78,14 +78,17 @@ def _report(master: Master) -> None:
 
 
 @click.group("bus", invoke_without_command=True)
+@_board_options
+@click.option("--json", "as_json", is_flag=True, help="Without a subcommand: JSON on stdout.")
 @click.pass_context
-def bus(ctx: click.Context) -> None:
+def bus(ctx: click.Context, as_json: bool, **board: Unpack[_BoardOptions]) -> None:
     """The emulated AS-i cable: its slaves, their inputs, plugging and unplugging.
 
-    Without a subcommand: 'asictl bus show'. Emulated boards only.
+    Without a subcommand: 'asictl bus show' (with the options given here). Emulated
+    boards only.
     """
     if ctx.invoked_subcommand is None:
-        ctx.invoke(show)
+        ctx.invoke(show, as_json=as_json, **board)
 
 
 def _slave_rows(slaves: list[dict[str, Any]]) -> str:
