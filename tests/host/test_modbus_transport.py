@@ -187,9 +187,9 @@ def test_bad_urls_are_refused(spec):
 
 
 def test_serial_and_tcp_targets():
-    target = parse_target("/dev/ttyUSB0", baud=19200, parity="even", stopbits=2)
+    target = parse_target("/dev/ttyUSB0", baud=19200, parity="even", stopbits=1)
     assert (target.device, target.baud, target.parity, target.stopbits) == (
-        "/dev/ttyUSB0", 19200, "even", 2,
+        "/dev/ttyUSB0", 19200, "E", 1,
     )
     assert parse_target("tcp://gw").port == 502
     assert parse_target("rtu+tcp://gw:4001").rtu

@@ -14,9 +14,11 @@ import time
 
 import click
 
+from asictl.cli.serial_options import serial_options, unit_option
 from asictl.errors import UserError
 from asictl.files import write_atomic
 from asictl.host.boards import emulated_board, parse_port, state_directory, state_file
+from asictl.host.target import check_serial_setting
 
 #: The board's non-volatile state is written this often while serving (and at the end).
 SAVE_INTERVAL_S = 10.0
@@ -40,17 +42,14 @@ def gateway() -> None:
     help="Serve Modbus/TCP here [default: 127.0.0.1:5020 unless --rtu is given].",
 )
 @click.option("--rtu", metavar="DEVICE", help="Serve Modbus RTU on this serial device.")
-@click.option("--baud", type=int, default=9600, show_default=True)
-@click.option("--parity", type=click.Choice(["N", "E", "O"]), default="N", show_default=True)
-@click.option("--stopbits", type=click.Choice(["1", "2"]), default="1", show_default=True)
-@click.option("--unit", type=click.IntRange(1, 247), default=1, show_default=True,
-              help="The gateway's Modbus slave address (0 is broadcast).")
+@serial_options("--rtu")
+@unit_option("The gateway's Modbus slave address, as set on the gateway (0 is broadcast).")
 @click.option("--port", default="300h", show_default=True,
               help="The emulated PC2 board (by I/O base) the gateway serves.")
 @click.option("--state-dir", type=click.Path(file_okay=False),
               help="Where emulated boards are kept (as for download/upload).")
 def serve(
-    tcp: str | None, rtu: str | None, baud: int, parity: str, stopbits: str, unit: int,
+    tcp: str | None, rtu: str | None, baud: str, parity: str, stopbits: str, unit: int,
     port: str, state_dir: str | None,
 ) -> None:
     """Serve the board over Modbus until Ctrl-C; its state is saved periodically and at exit."""
@@ -65,7 +64,8 @@ def serve(
     base = parse_port(port)
     directory = state_directory(state_dir)
     address = _tcp_address(tcp) if tcp else (None if rtu else ("127.0.0.1", 5020))
-    line = SerialSettings(rtu, baud, parity, int(stopbits)) if rtu else None
+    check_serial_setting(int(baud), parity, int(stopbits))
+    line = SerialSettings(rtu, int(baud), parity, int(stopbits)) if rtu else None
     with emulated_board(base, directory) as board:
         slave = GatewaySlave(board, unit)
         path = state_file(directory, base)

@@ -21,6 +21,7 @@ import click
 from click.core import ParameterSource
 
 from asictl.build import build_file
+from asictl.cli.serial_options import serial_options, unit_option
 from asictl.errors import ExitCode, UserError
 from asictl.host.boards import IO_BACKENDS
 from asictl.host.connection import (
@@ -32,12 +33,7 @@ from asictl.host.connection import (
 )
 from asictl.host.program_files import uploaded_files, write_files
 from asictl.host.status import render
-from asictl.host.target import (
-    BAUD_RATES,
-    DEFAULT_RETRIES,
-    DEFAULT_TIMEOUT_S,
-    PARITIES,
-)
+from asictl.host.target import DEFAULT_RETRIES, DEFAULT_TIMEOUT_S
 from asictl.host.transfer import (
     StartMode,
     Transport,
@@ -73,22 +69,8 @@ def _board_options(command: Callable) -> Callable:
             "(Modbus TCP), rtu+tcp://HOST[:PORT] (RTU through a device server) or a serial "
             "device such as /dev/ttyUSB0 (RTU). Excludes --port, --io and --state-dir.",
         ),
-        click.option(
-            "--unit", type=click.IntRange(1, 247), default=1, show_default=True,
-            help="The gateway's Modbus slave address (with --modbus).",
-        ),
-        click.option(
-            "--baud", type=click.Choice([str(b) for b in BAUD_RATES]), default="9600",
-            show_default=True, help="Serial --modbus: bits per second.",
-        ),
-        click.option(
-            "--parity", type=click.Choice(list(PARITIES)), default="none", show_default=True,
-            help="Serial --modbus: parity bit.",
-        ),
-        click.option(
-            "--stopbits", type=click.Choice(["1", "2"]), default="1", show_default=True,
-            help="Serial --modbus: stop bits.",
-        ),
+        unit_option("The gateway's Modbus slave address (with --modbus)."),
+        serial_options("Serial --modbus"),
         click.option(
             "--timeout", type=click.FloatRange(0.01, 60), default=DEFAULT_TIMEOUT_S,
             show_default=True, help="--modbus: seconds to wait for each answer.",

@@ -24,6 +24,7 @@ from asictl.board.board import Pc2Board
 from asictl.gateway import pdus
 from asictl.gateway.addressmap import MAX_BITS, AddressMap, ExceptionCode, ModbusError
 from asictl.platform import pc2 as d
+from asictl.platform.gateway import UNITS
 from asictl.platform.master import EEPROM_SIZE
 from asictl.platform.pc2 import Command
 
@@ -89,8 +90,8 @@ class GatewaySlave:
     def __init__(
         self, board: Pc2Board, unit: int = 1, clock: Callable[[], float] = time.monotonic
     ) -> None:
-        if not 1 <= unit <= 247:
-            raise ValueError(f"a Modbus slave address is 1..247, not {unit}")
+        if unit not in UNITS:
+            raise ValueError(f"the gateway's Modbus address is 1..64, not {unit}")
         self.board = board
         self.map = AddressMap(board)
         self.unit = unit

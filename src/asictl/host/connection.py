@@ -39,7 +39,7 @@ class MasterAddress:
     modbus: str | None = None
     unit: int = 1
     baud: int = 9600
-    parity: str = "none"
+    parity: str = "N"
     stopbits: int = 1
     timeout: float = DEFAULT_TIMEOUT_S
     retries: int = DEFAULT_RETRIES

@@ -52,7 +52,6 @@ from asictl.host.status import MasterStatus, program_info, slave_fields, state_f
 from asictl.host.target import (
     DEFAULT_RETRIES,
     DEFAULT_TIMEOUT_S,
-    PARITIES,
     ModbusTarget,
 )
 from asictl.image import Configuration
@@ -254,7 +253,7 @@ def _client(target: ModbusTarget, timeout: float, retries: int):
         )
     return ModbusSerialClient(
         target.device or "", framer=FramerType.RTU, baudrate=target.baud, bytesize=8,
-        parity=PARITIES[target.parity], stopbits=target.stopbits, timeout=timeout,
+        parity=target.parity, stopbits=target.stopbits, timeout=timeout,
         retries=retries, reconnect_delay=0,
     )
 
@@ -265,15 +264,17 @@ def open_modbus(
     retries: int = DEFAULT_RETRIES,
 ) -> Iterator[ModbusTransport]:
     """A connected transport; a gateway that cannot be reached is a plain ``JobError``."""
-    if not 1 <= unit <= 247:
-        raise UserError(f"--unit {unit}: a Modbus slave address is 1..247")
+    if unit not in g.UNITS:
+        raise UserError(
+            f"--unit {unit}: the gateway's Modbus address is {g.UNITS[0]}..{g.UNITS[-1]}"
+        )
     if retries < 0 or timeout <= 0:
         raise UserError("--retries must be 0 or more and --timeout more than 0")
     client = _client(target, timeout, retries)
     try:
         if not client.connect():
             raise JobError(
-                JobStatus.INTERFACE_ERROR, f"cannot open the Modbus connection to {target}"
+                JobStatus.INTERFACE_ERROR, f"cannot open the Modbus connection to {target.described()}"
             )
         yield ModbusTransport(client, unit, str(target), retries)
     finally:
