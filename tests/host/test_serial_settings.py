@@ -106,7 +106,7 @@ def test_the_client_takes_the_readmes_spelling(spelling, monkeypatch):
 
     seen = []
 
-    def connect(address):
+    def connect(address, notify=None):
         seen.append(address)
         raise UserError("stop here")
 

@@ -17,7 +17,14 @@ import click
 from asictl.cli.serial_options import serial_options, unit_option
 from asictl.errors import UserError
 from asictl.files import write_atomic
-from asictl.host.boards import emulated_board, parse_port, state_directory, state_file
+from asictl.host.boards import (
+    emulated_board,
+    lock_file,
+    parse_port,
+    state_directory,
+    state_file,
+)
+from asictl.host.locking import note_holder
 from asictl.host.target import check_serial_setting
 
 #: The board's non-volatile state is written this often while serving (and at the end).
@@ -29,6 +36,14 @@ def _tcp_address(text: str) -> tuple[str, int]:
     if not sep or not port.isdigit() or not 0 <= int(port) <= 65535:
         raise UserError(f"--tcp '{text}': expected HOST:PORT, e.g. 127.0.0.1:5020")
     return host or "127.0.0.1", int(port)
+
+
+def _notify(message: str) -> None:
+    click.echo(f"asictl: {message}", err=True)
+
+
+def _url_host(host: str) -> str:
+    return f"[{host}]" if ":" in host else host
 
 
 @click.group()
@@ -48,9 +63,11 @@ def gateway() -> None:
               help="The emulated PC2 board (by I/O base) the gateway serves.")
 @click.option("--state-dir", type=click.Path(file_okay=False),
               help="Where emulated boards are kept (as for download/upload).")
+@click.option("--wait", is_flag=True,
+              help="If another process holds the board, wait for it instead of stopping.")
 def serve(
     tcp: str | None, rtu: str | None, baud: str, parity: str, stopbits: str, unit: int,
-    port: str, state_dir: str | None,
+    port: str, state_dir: str | None, wait: bool,
 ) -> None:
     """Serve the board over Modbus until Ctrl-C; its state is saved periodically and at exit."""
     try:
@@ -66,7 +83,7 @@ def serve(
     address = _tcp_address(tcp) if tcp else (None if rtu else ("127.0.0.1", 5020))
     check_serial_setting(int(baud), parity, int(stopbits))
     line = SerialSettings(rtu, int(baud), parity, int(stopbits)) if rtu else None
-    with emulated_board(base, directory) as board:
+    with emulated_board(base, directory, wait=wait, notify=_notify) as board:
         slave = GatewaySlave(board, unit)
         path = state_file(directory, base)
         saved = [time.monotonic()]
@@ -81,6 +98,12 @@ def serve(
         def started() -> None:
             where = [f"tcp {server.tcp_address[0]}:{server.tcp_address[1]}"] if address else []
             where += [f"rtu {rtu} {baud} {parity}{stopbits}"] if rtu else []
+            note = f"it serves the board as Modbus gateway unit {unit} on {', '.join(where)}"
+            if server.tcp_address:
+                host, tcp_port = server.tcp_address
+                note += f": reach the board through it with --modbus tcp://{_url_host(host)}:"
+                note += f"{tcp_port}" + (f" --unit {unit}" if unit != 1 else "")
+            note_holder(lock_file(directory, base), note)
             click.echo(
                 f"asictl: gateway unit {unit} for board {port} serving "
                 + ", ".join(where) + " (Ctrl-C stops)",

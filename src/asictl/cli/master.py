@@ -64,10 +64,15 @@ def _board_options(command: Callable) -> Callable:
             "$XDG_STATE_HOME/asictl or ~/.local/state/asictl].",
         ),
         click.option(
+            "--wait", is_flag=True,
+            help="If another process (such as 'asictl gateway serve') holds the emulated "
+            "board, wait for it instead of stopping with exit status 1.",
+        ),
+        click.option(
             "--modbus", metavar="URL|DEVICE",
             help="Go through an AS-i/Modbus gateway instead of a PC2 board: tcp://HOST[:PORT] "
             "(Modbus TCP), rtu+tcp://HOST[:PORT] (RTU through a device server) or a serial "
-            "device such as /dev/ttyUSB0 (RTU). Excludes --port, --io and --state-dir.",
+            "device such as /dev/ttyUSB0 (RTU). Excludes --port, --io, --state-dir and --wait.",
         ),
         unit_option("The gateway's Modbus slave address (with --modbus)."),
         serial_options("Serial --modbus"),
@@ -86,12 +91,12 @@ def _board_options(command: Callable) -> Callable:
     return command
 
 
-_PC2_ONLY = ("port", "io", "state_dir")
+_PC2_ONLY = ("port", "io", "state_dir", "wait")
 
 
 def _address(
-    port: str, io: str, state_dir: str | None, modbus: str | None, unit: int, baud: str,
-    parity: str, stopbits: str, timeout: float, retries: int,
+    port: str, io: str, state_dir: str | None, wait: bool, modbus: str | None, unit: int,
+    baud: str, parity: str, stopbits: str, timeout: float, retries: int,
 ) -> MasterAddress:
     """The master the board options name; --modbus excludes the PC2 board's options."""
     if modbus is not None:
@@ -103,12 +108,15 @@ def _address(
         if clash:
             raise UserError(f"--modbus and {', '.join(clash)} exclude each other")
     return MasterAddress(
-        port, io, state_dir, modbus, unit, int(baud), parity, int(stopbits), timeout, retries
+        port, io, state_dir, modbus, unit, int(baud), parity, int(stopbits), timeout, retries,
+        wait,
     )
 
 
 def _connect(**board: Any) -> AbstractContextManager[Master]:
-    return connect_master(_address(**board))
+    return connect_master(
+        _address(**board), notify=lambda message: click.echo(f"asictl: {message}", err=True)
+    )
 
 
 @contextmanager

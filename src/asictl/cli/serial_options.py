@@ -12,26 +12,14 @@ from typing import Any, TypeVar
 
 import click
 
-from asictl.errors import UserError
-from asictl.host.target import BAUD_RATES, PARITY_SPELLINGS, parity_code
-from asictl.platform.gateway import DEFAULT_BAUD, UNITS
+from asictl.host.target import PARITY_SPELLINGS, parity_code
+from asictl.platform.gateway import BAUD_RATES, DEFAULT_BAUD, UNITS
 
 F = TypeVar("F", bound=Callable[..., Any])
 
 
-class Parity(click.ParamType):
-    """``none|even|odd|N|E|O`` (any case) as "N", "E" or "O"."""
-
-    name = "parity"
-
-    def get_metavar(self, param: click.Parameter, ctx: click.Context | None = None) -> str:
-        return "[" + "|".join(PARITY_SPELLINGS) + "]"
-
-    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> str:
-        try:
-            return parity_code(str(value))
-        except UserError as exc:
-            self.fail(str(exc), param, ctx)
+def _parity(ctx: click.Context, param: click.Parameter, value: str) -> str:
+    return parity_code(value)
 
 
 def serial_options(what: str) -> Callable[[F], F]:
@@ -44,7 +32,9 @@ def serial_options(what: str) -> Callable[[F], F]:
                 default=str(DEFAULT_BAUD), show_default=True, help=f"{what}: bits per second.",
             ),
             click.option(
-                "--parity", type=Parity(), default="none", show_default=True,
+                "--parity", type=click.Choice(PARITY_SPELLINGS, case_sensitive=False),
+                callback=_parity, default="none", show_default=True,
+                metavar="[" + "|".join(PARITY_SPELLINGS) + "]",
                 help=f"{what}: parity bit (none, even, odd; also N, E, O).",
             ),
             click.option(

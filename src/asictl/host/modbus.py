@@ -274,7 +274,8 @@ def open_modbus(
     try:
         if not client.connect():
             raise JobError(
-                JobStatus.INTERFACE_ERROR, f"cannot open the Modbus connection to {target.described()}"
+                JobStatus.INTERFACE_ERROR,
+                f"cannot open the Modbus connection to {target.described()}",
             )
         yield ModbusTransport(client, unit, str(target), retries)
     finally:

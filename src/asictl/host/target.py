@@ -47,7 +47,10 @@ class ModbusTarget:
         """The spec, with the port it means where the user left it out."""
         if self.host is None or self.port_given:
             return self.spec
-        return f"{self.spec} (port {self.port}, the Modbus/TCP default; tcp://HOST:PORT for another)"
+        return (
+            f"{self.spec} (port {self.port}, the Modbus/TCP default; tcp://HOST:PORT for "
+            "another)"
+        )
 
 
 def parity_code(text: str) -> str:
