@@ -68,7 +68,7 @@ def test_disasm_lists_the_code_at_its_link_address_after_the_map(blink, tmp_path
 
 @pytest.mark.parametrize("command", ["emu", "disasm"])
 def test_a_damaged_image_is_refused_not_run(command, blink, tmp_path: Path):
-    path, image = blink
+    _, image = blink
     data = bytearray(image.to_bytes())
     data[-1] ^= 0xFF  # the CRC no longer matches
     damaged = IntelHex()
