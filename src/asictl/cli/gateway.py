@@ -65,9 +65,12 @@ def gateway() -> None:
               help="Where emulated boards are kept (as for download/upload).")
 @click.option("--wait", is_flag=True,
               help="If another process holds the board, wait for it instead of stopping.")
+@click.option("-v", "--verbose", is_flag=True,
+              help="Log every request on stderr: unit, function, address, quantity, outcome "
+              "(answer, exception code, or why there is none).")
 def serve(
     tcp: str | None, rtu: str | None, baud: str, parity: str, stopbits: str, unit: int,
-    port: str, state_dir: str | None, wait: bool,
+    port: str, state_dir: str | None, wait: bool, verbose: bool,
 ) -> None:
     """Serve the board over Modbus until Ctrl-C; its state is saved periodically and at exit."""
     try:
@@ -85,6 +88,8 @@ def serve(
     line = SerialSettings(rtu, int(baud), parity, int(stopbits)) if rtu else None
     with emulated_board(base, directory, wait=wait, notify=_notify) as board:
         slave = GatewaySlave(board, unit)
+        if verbose:
+            slave.request_log = _notify
         path = state_file(directory, base)
         saved = [time.monotonic()]
 
