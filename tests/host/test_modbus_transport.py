@@ -218,3 +218,12 @@ def test_cli_refuses_modbus_with_port_and_an_unreachable_gateway(tmp_path):
     gone = runner.invoke(main, ["stop", "--modbus", "tcp://127.0.0.1:1", "--timeout", "0.1"])
     assert gone.exit_code == 1 and "Traceback" not in gone.output
     assert "127.0.0.1:1" in gone.output
+
+
+def test_a_url_without_port_says_it_tried_502():
+    gone = CliRunner().invoke(main, ["status", "--modbus", "tcp://127.0.0.1", "--timeout", "0.2"])
+    assert gone.exit_code == 1, gone.output
+    assert "cannot open the Modbus connection to tcp://127.0.0.1 (port 502, the Modbus/TCP " \
+        "default" in gone.stderr
+    given = CliRunner().invoke(main, ["status", "--modbus", "tcp://127.0.0.1:1"])
+    assert given.exit_code == 1 and "port 502" not in given.stderr

@@ -44,6 +44,7 @@ from asictl.host.transfer import (
     set_start,
     upload,
 )
+from asictl.platform.master import ControlFlag
 
 
 def _board_options(command: Callable) -> Callable:
@@ -177,8 +178,18 @@ def download_command(file: str, start: str, lib: tuple[str, ...], **board: Any) 
             download(transport, image, start=StartMode(start), progress=bar)
         settle(master)
         state = master.summary()
+        flags = transport.control_flags()
     click.echo(f"{master.name}: downloaded {file} ({size} bytes, identity "
                f"{image.identity_hex}); {state}", err=True)
+    if StartMode(start) is StartMode.KEEP and not flags & (
+        ControlFlag.START | ControlFlag.CONTROL_ACTIVE
+    ):
+        click.echo(
+            "asictl: note: the start flag is off (the download leaves it as it was): start "
+            "the program with 'asictl start' and the same board options, or download with "
+            "--start (auto_start only restarts a program the master stopped)",
+            err=True,
+        )
 
 
 @click.command("upload")
@@ -269,7 +280,8 @@ def status_command(as_json: bool, **board: Any) -> None:
     errors (projected slaves missing, unprojected ones present, wrong I/O or ID code),
     the control program (running or why not), its AS-i Control flags, the program image
     in the EEPROM (identity, size, whether it is valid) and the program cycle times
-    (a gateway shows no cycle times, stop reason or program status).
+    (a gateway shows no cycle times or program status; its control state and stop reason
+    are derived from the flags, as docs/host.md says).
 
     Exit status: 0 shown, 1 the master did not answer, 2 bad usage or a corrupt board state.
     """
