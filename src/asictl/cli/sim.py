@@ -105,11 +105,12 @@ def _report_lines(run: _Run) -> list[str]:
 
 
 def _annotations(run: _Run) -> list[str]:
-    """GitHub Actions annotations: each failed expectation at its scenario line."""
+    """GitHub Actions annotations: each failed expectation at its scenario line (an error),
+    each program stop at the scenario (a notice: a scenario may provoke one)."""
     file = str(run.scenario.file)
     lines = [github_command("error", str(f), file=file, line=f.line, title="expectation failed")
              for f in run.result.failures]
-    lines += [github_command("error", f"at {s.at_ms:g} ms: program stopped: {s.reason}",
+    lines += [github_command("notice", f"at {s.at_ms:g} ms: program stopped: {s.reason}",
                              file=file, title="program stopped") for s in run.result.stops]
     return lines
 
