@@ -163,3 +163,17 @@ def test_the_pre_commit_hook_matches_programs_and_blocks():
         assert files.search(name), name
     for name in ("a.asi.bak", "fb.txt", "notes.md"):
         assert not files.search(name), name
+
+
+def test_fmt_of_a_folder_leaves_hidden_folders_and_build_outputs_alone(
+    runner: CliRunner, tmp_path: Path
+):
+    untidy = "[PROGRAM]\nA I 1.0\n= Q 2.0\n"
+    tree(tmp_path, {"src/a.asi": untidy, "src/b.fb": untidy, ".venv/x.asi": untidy,
+                    "build/y.fb": untidy})
+    result = runner.invoke(main, ["fmt", str(tmp_path)])
+    assert result.exit_code == 0, result.output
+    assert (tmp_path / "src/a.asi").read_text() != untidy
+    assert (tmp_path / "src/b.fb").read_text() != untidy
+    assert (tmp_path / ".venv/x.asi").read_text() == untidy
+    assert (tmp_path / "build/y.fb").read_text() == untidy

@@ -1,10 +1,10 @@
-"""Which files a folder stands for: ``asictl check DIR`` checks a project's programs, not
-its version control, virtual environments and build outputs.
+"""Which files a folder stands for: ``asictl check DIR`` (and ``fmt DIR``) work on a
+project's programs, not its version control, virtual environments and build outputs.
 
-A folder is walked for ``*.asi`` files; folders whose name starts with a dot (``.git``,
-``.venv``, ``.tox``...) and the usual build outputs are not entered, and ``--exclude``
-globs leave out more. A folder named on the command line is walked even if it is hidden:
-the user asked for it.
+A folder is walked for ``*.asi`` files (``fmt``: also ``*.fb``); folders whose name
+starts with a dot (``.git``, ``.venv``, ``.tox``...) and the usual build outputs are not
+entered, and ``--exclude`` globs leave out more. A folder named on the command line is
+walked even if it is hidden: the user asked for it.
 """
 
 from __future__ import annotations
@@ -33,8 +33,10 @@ def excluded(path: PurePath, patterns: Sequence[str]) -> bool:
     return any(fnmatch(text, p) or fnmatch(path.name, p) for p in patterns)
 
 
-def programs_in(folder: Path, exclude: Sequence[str] = ()) -> list[Path]:
-    """Every ``*.asi`` file below ``folder`` (any case), in a stable order."""
+def programs_in(
+    folder: Path, exclude: Sequence[str] = (), suffixes: Sequence[str] = (PROGRAM_SUFFIX,)
+) -> list[Path]:
+    """Every file below ``folder`` with one of ``suffixes`` (any case), in a stable order."""
     found: list[Path] = []
     for parent, folders, files in os.walk(folder):
         here = Path(parent)
@@ -45,7 +47,7 @@ def programs_in(folder: Path, exclude: Sequence[str] = ()) -> list[Path]:
         )
         found.extend(
             here / name for name in sorted(files)
-            if name.lower().endswith(PROGRAM_SUFFIX) and not excluded(relative / name, exclude)
+            if name.lower().endswith(tuple(suffixes)) and not excluded(relative / name, exclude)
         )
     return found
 
