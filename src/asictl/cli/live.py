@@ -34,7 +34,11 @@ from asictl.host.emulated import (
     "--state-dir", type=click.Path(file_okay=False),
     help="Where emulated boards are kept (as for download/upload).",
 )
-def serve(port: str, state_dir: str | None) -> None:
+@click.option(
+    "--wait", is_flag=True,
+    help="If another process holds the board, wait for it instead of stopping.",
+)
+def serve(port: str, state_dir: str | None, wait: bool) -> None:
     """Keep the emulated board running in real time until Ctrl-C or SIGTERM.
 
     Master time follows the wall clock: the control program runs, its timers run, the
@@ -44,7 +48,8 @@ def serve(port: str, state_dir: str | None) -> None:
     state file. The board's non-volatile state is saved every 10 s and at the end.
     'asictl gateway serve' is the same live board with Modbus in front.
 
-    Exit status: 0 stopped by a signal, 1 the board is already served, 2 bad usage.
+    Exit status: 0 stopped by a signal, 1 the board is already served or held by another
+    process (it is named; --wait waits for it), 2 bad usage.
     """
     from asictl.host.live import run_live
 
@@ -54,9 +59,12 @@ def serve(port: str, state_dir: str | None) -> None:
     def started(path: object) -> None:
         click.echo(f"asictl: board {name} live at {path} (Ctrl-C stops)", err=True)
 
+    def notify(text: str) -> None:
+        click.echo(f"asictl: {text}", err=True)
+
     run_live(
         base, state_directory(state_dir), identity={"command": "asictl serve", "port": name},
-        started=started,
+        started=started, wait=wait, notify=notify,
     )
     click.echo(f"asictl: board {name} stopped; its state is saved", err=True)
 

@@ -43,10 +43,12 @@ class MasterAddress:
     modbus: str | None = None
     unit: int = 1
     baud: int = 9600
-    parity: str = "none"
+    parity: str = "N"
     stopbits: int = 1
     timeout: float = DEFAULT_TIMEOUT_S
     retries: int = DEFAULT_RETRIES
+    #: wait for an emulated board another process holds, rather than stop
+    wait: bool = False
 
 
 #: An emulated-board action (``host.emulated``): its name and arguments, its result.
@@ -114,9 +116,10 @@ def _pc2_master(
 
 @contextmanager
 def connect_master(
-    address: MasterAddress, notify: Callable[[str], None] = _stderr
+    address: MasterAddress, notify: Callable[[str], None] | None = None
 ) -> Iterator[Master]:
-    """The PC2 board at ``address.port``, or the gateway at ``address.modbus``.
+    """The PC2 board at ``address.port``, or the gateway at ``address.modbus``;
+    ``notify`` hears why a command waits (for a board another process or client holds).
 
     An emulated board that a live server (``asictl serve``) keeps running is reached
     through its socket, for the whole command in one session; otherwise the board is
@@ -133,7 +136,9 @@ def connect_master(
             if client is not None:
                 try:
                     def waiting(holder: str) -> None:
-                        notify(f"waiting for live board {name}, in use by {holder}")
+                        (notify or _stderr)(
+                            f"waiting for live board {name}, in use by {holder}"
+                        )
 
                     with client.session(_who(), waiting):
                         live_port = live.LivePort(client)
@@ -149,7 +154,9 @@ def connect_master(
             created = not state_file(directory, base).exists()
         else:
             created = False
-        with connect(address.port, address.io, address.state_dir) as driver:
+        with connect(
+            address.port, address.io, address.state_dir, wait=address.wait, notify=notify
+        ) as driver:
             port = driver.port
             board = port.board if isinstance(port, EmulatedPort) else None
             yield _pc2_master(

@@ -42,8 +42,9 @@ from typing import Any
 from asictl.board.board import Pc2Board
 from asictl.errors import ExitCode, UserError
 from asictl.files import write_atomic
-from asictl.host.boards import emulated_board, port_name, state_file
+from asictl.host.boards import emulated_board, lock_file, port_name, state_file
 from asictl.host.emulated import VIEWS, run_action
+from asictl.host.locking import note_holder
 from asictl.platform.pc2 import (
     ACK,
     COMMAND,
@@ -315,18 +316,24 @@ def _saver(board: Pc2Board, path: Path) -> Callable[[], None]:
 def run_live(
     base: int, directory: Path, *, identity: dict[str, JSON],
     started: Callable[[Path], None] | None = None, attach: Attachment | None = None,
+    wait: bool = False, notify: Callable[[str], None] | None = None,
 ) -> None:
     """Serve the board at ``base`` live until SIGINT/SIGTERM, holding its lock throughout.
 
     ``attach`` adds another server on the same loop (the Modbus gateway): it gets the live
     board and returns its coroutine and its stop function. The board's state is saved
-    every ``SAVE_INTERVAL_S`` and when serving ends.
+    every ``SAVE_INTERVAL_S`` and when serving ends. A board another process holds stops
+    this with the holder named (``LockBusy``), or is waited for with ``wait``.
     """
     import signal
 
     refuse_if_served(directory, base)
     path = socket_path(directory, base)
-    with emulated_board(base, directory) as board:
+    with emulated_board(base, directory, wait=wait, notify=notify) as board:
+        note_holder(
+            lock_file(directory, base),
+            f"it keeps the board running live: commands reach it through {path}",
+        )
         live = LiveBoard(board)
         server = LiveServer(
             live, path, identity={**identity, "pid": os.getpid()},
@@ -529,7 +536,7 @@ class LivePort:
 def _lock_is_free(directory: Path, base: int) -> bool:
     """Nobody holds the board's lock (so no live board can be serving it)."""
     try:
-        with open(state_file(directory, base).with_suffix(".lock"), "a") as lock:
+        with open(lock_file(directory, base), "a") as lock:
             try:
                 fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
             except BlockingIOError:
