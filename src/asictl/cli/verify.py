@@ -94,7 +94,7 @@ def verify(file: str, lib: tuple[str, ...], **board: Unpack[_BoardOptions]) -> N
             "changed since the download; 'asictl setup FILE' writes the program's again",
             err=True,
         )
-    if status.program_status != "loaded":
+    if master.driver is not None and status.program_status != "loaded":
         click.echo(
             f"{master.name}: note: the program is in the EEPROM but not loaded "
             f"({status.program_status}); 'asictl reset' loads it",

@@ -568,6 +568,9 @@ def open_live(directory: Path, base: int) -> LiveClient | None:
             f"{path}: a live board serves port {port_name(base)} but this user may not "
             "talk to it (the socket belongs to its owner)"
         ) from None
+    except OSError as exc:
+        sock.close()
+        raise UserError(f"{path}: cannot reach the live board: {exc.strerror or exc}") from None
     client = LiveClient(sock, path)
     client.hello()
     return client

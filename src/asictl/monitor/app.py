@@ -155,6 +155,8 @@ class MonitorApp(App[None]):
             self.log_event("master found again")
         if old is not None and self.status is not None:
             for event in _changes(old, self.status):
+                if self.emulated and event.startswith("configuration error"):
+                    event += " (an emulated cable: 'asictl bus match' plugs in the [SETUP])"
                 self.log_event(event)
         self.refreshes += 1
         self._paint()
