@@ -66,7 +66,8 @@ class Counters:
             setattr(self, f.name, 0)
 
     def by_code(self, code: int) -> int:
-        return getattr(self, fields(self)[code - Diagnostic.FIRST_COUNTER].name) & 0xFFFF
+        count: int = getattr(self, fields(self)[code - Diagnostic.FIRST_COUNTER].name)
+        return count & 0xFFFF
 
 
 def _unpack(fmt: str, data: bytes) -> tuple[int, ...]:

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import os
 import time
+from collections.abc import Iterator
 from typing import TYPE_CHECKING, Protocol
 
 from asictl.host.jobs import Job, PortError
@@ -137,7 +138,7 @@ class Pc2Driver:
         self.port.write(PORT_INDEX, address & 0xFF)
         self.port.write(PORT_PAGE, address >> 8 & PAGE_MASK)
 
-    def _chunks(self, address: int, size: int):
+    def _chunks(self, address: int, size: int) -> Iterator[tuple[int, int]]:
         """(address, length) pieces of a block that each stay within one page."""
         if address < 0 or size < 0 or address + size > DPRAM_SIZE:
             raise ValueError(f"DPRAM block {address:X}h+{size} is outside 000h-3FFh")

@@ -11,6 +11,8 @@ projected one (PCD) is wrong.
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass
+from enum import IntEnum
+from typing import Any
 
 from asictl.host.driver import Pc2Driver
 from asictl.host.jobs import JobError, JobStatus
@@ -101,7 +103,7 @@ class MasterStatus:
     max_cycle_time_ms: float
     program: ProgramInfo
 
-    def to_json(self) -> dict:
+    def to_json(self) -> dict[str, Any]:
         return asdict(self)
 
 
@@ -115,7 +117,7 @@ def _text(raw: bytes) -> str:
     return " ".join(part for part in parts if part)
 
 
-def _name(enum: type, value: int) -> str:
+def _name(enum: type[IntEnum], value: int) -> str:
     try:
         return enum(value).name.lower().replace("_", " ")
     except ValueError:
@@ -150,7 +152,7 @@ def program_info(transport: Transport) -> ProgramInfo:
     )
 
 
-def state_fields(ec: int, flags: int) -> dict:
+def state_fields(ec: int, flags: int) -> dict[str, Any]:
     """The fields ``MasterStatus`` derives from the ec-flags and the AS-i Control flags."""
     return {
         "ec_flags": ec,
@@ -169,7 +171,7 @@ def state_fields(ec: int, flags: int) -> dict:
 
 def slave_fields(
     lps: list[int], lds: list[int], las: list[int], pcd: bytes, cdi: bytes, *, ec: int
-) -> dict:
+) -> dict[str, Any]:
     """The slave lists, the configuration errors by their cause (PCD/CDI in PC2 layout)
     and the display code they make."""
     phase = {"normal operation": "normal", "offline": "offline"}.get(_phase(ec), "detection")
