@@ -28,8 +28,10 @@ from asictl.platform.pc2 import (
 
 MASTER_NAME = b"AS-i PC2 Master / AS-i Control".ljust(32, b"\0")
 MASTER_VERSION = b"asictl emulation".ljust(16, b"\0")
-#: The firmware version ID at 0F0h, also what the GetId block returns.
-VERSION_ID = b"PC2C2.00"
+#: The firmware version ID at 0F0h, also what the GetId block returns: eight ASCII digits,
+#: which the manual's own board check CheckAsiPc2 (10.3.3) requires 64 bytes after the
+#: name. The real firmware's number is unknown; this one is the emulation's (2.00).
+VERSION_ID = b"00000200"
 
 #: What the installed-software letters and the status bytes 305h-307h are made of.
 _Status = tuple[bool, bool, bool, bool, bool, ProgramStatus, StopReason, ControlState]
