@@ -27,8 +27,9 @@ from asictl.platform import pc2 as d
 from asictl.platform.master import EEPROM_SIZE
 from asictl.platform.pc2 import Command
 
-#: The gateway's own name (function 65, P = 1); version and ID come from the master.
-GATEWAY_NAME = "VAG-MOD-KF-R4 AS-i/Modbus Gateway"
+#: The gateway's own name (function 65, P = 1: at most 32 characters, gateway manual
+#: 6.3.12); version and ID come from the master.
+GATEWAY_NAME = "VAG-MOD-KF-R4 AS-i/Modbus"
 BROADCAST = 0
 #: Functions a broadcast executes (they write; reads make no sense without an answer).
 BROADCAST_FUNCTIONS = frozenset({5, 6, 15, 16, pdus.FC_DOWNLOAD})
