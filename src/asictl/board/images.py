@@ -33,6 +33,12 @@ MASTER_VERSION = b"asictl emulation".ljust(16, b"\0")
 #: name. The real firmware's number is unknown; this one is the emulation's (2.00).
 VERSION_ID = b"00000200"
 
+#: The master's capabilities, bytes 1-7 of the installed-software string (10.2.5): bus-capable
+#: (B), AS-i error counters (F), no EMC test mode (e: command 130 is refused, as on a master
+#: without that option; the manual describes too little of the mode to emulate it, see
+#: docs/master.md), advanced diagnostics (D), offline phase on configuration error (C).
+CAPABILITIES = "BFeDC.."
+
 #: What the installed-software letters and the status bytes 305h-307h are made of.
 _Status = tuple[bool, bool, bool, bool, bool, ProgramStatus, StopReason, ControlState]
 
@@ -116,7 +122,7 @@ class MasterImages:
         self._status = status
         letters = (
             "C" if control.running else "c",
-            "BFEDC..",
+            CAPABILITIES,
             "D" if ec.data_exchange_active else "d",
             "O" if ec.offline else "o",
             "A" if ec.auto_address_enable else "a",

@@ -479,10 +479,11 @@ class AddressMap:
         return self._flags_word()
 
     def installed_software(self) -> str:
-        """The gateway's 16 letters "CBFE....DOA...WT" from the master's string at 0E0h."""
+        """The gateway's 16 letters "CBFE....DOA...WT" from the master's string at 0E0h:
+        C, B, F, E and D, O, A are the master's, W and T the gateway's own."""
         master = self._ram(d.INSTALLED_SOFTWARE, d.INSTALLED_SOFTWARE_SIZE).decode("ascii")
         return (
-            master[0] + "BFE...." + master[8:11] + "..."
+            master[0:4] + "...." + master[8:11] + "..."
             + ("W" if self.settings.watchdog else "w")
             + ("t" if self.settings.key_lock else "T")
         )
