@@ -153,7 +153,12 @@ class Pc2Board:
         if not 0 <= value <= 0xFF:
             raise ValueError(f"an I/O write carries one byte, not {value}")
         if offset == d.PORT_DATA:
-            self._host_write(self._page << 8 | self._index, value)
+            kind = self._dpram.host_write(self._page << 8 | self._index, value)
+            self._host_dirty = True
+            if kind == COMMAND:
+                self._command_pending = value not in (d.ACK, d.NAK)
+            elif kind == MASTER_OWNED:
+                self._images.host_overwrote_lists()
             self._step_index()
         elif offset == d.PORT_INDEX:
             self._index = value
@@ -173,14 +178,6 @@ class Pc2Board:
             self._index = self._page = 0
         else:
             self._index += 1
-
-    def _host_write(self, address: int, value: int) -> None:
-        kind = self._dpram.host_write(address, value)
-        self._host_dirty = True
-        if kind == COMMAND:
-            self._command_pending = value not in (d.ACK, d.NAK)
-        elif kind == MASTER_OWNED:
-            self._images.host_overwrote_lists()
 
     def _hold_reset(self) -> None:
         """PAGE bit 4: the board stops; the slaves, no longer called, switch off."""
