@@ -215,9 +215,13 @@ def program_of_image(image: ProgramImage) -> Program | None:
     sources = image.sources()
     if not sources:
         return None
-    texts = {name: from_bytes(name, raw) for name, raw in sources.items()}
+    texts = {Path(name).name.casefold(): from_bytes(name, raw) for name, raw in sources.items()}
     main = next(iter(texts.values()))
-    result = check_source(main, files=texts)
+    result = check_source(
+        main,
+        read=lambda path: texts[path.name.casefold()],
+        exists=lambda path: path.name.casefold() in texts,
+    )
     return None if result.has_errors else result.program
 
 

@@ -32,18 +32,27 @@ class Severity(StrEnum):
     NOTE = "note"
 
 
+#: A further place a diagnostic points at, with what it is: "first defined here".
+Related = tuple[Span, str]
+
+
 @dataclass(frozen=True, slots=True)
 class Diagnostic:
+    """One finding. ``related`` names other places that explain it (the first definition
+    of a duplicate, the [SETUP] line of a slave); text output shows each as a ``note:``
+    line, editors as related information."""
+
     severity: Severity
     code: str
     message: str
     span: Span | None = None
+    related: tuple[Related, ...] = ()
 
     @property
     def is_error(self) -> bool:
         return self.severity is Severity.ERROR
 
-    def sort_key(self) -> tuple:
+    def sort_key(self) -> tuple[str, int, int]:
         s = self.span
         return (s.file, s.line, s.column) if s else ("", 0, 0)
 
@@ -54,11 +63,17 @@ class Reporter:
 
     diagnostics: list[Diagnostic] = field(default_factory=list)
 
-    def error(self, code: str, message: str, span: Span | None = None) -> None:
-        self.diagnostics.append(Diagnostic(Severity.ERROR, code, message, span))
+    def error(
+        self, code: str, message: str, span: Span | None = None, related: Iterable[Related] = ()
+    ) -> None:
+        self.diagnostics.append(Diagnostic(Severity.ERROR, code, message, span, tuple(related)))
 
-    def warning(self, code: str, message: str, span: Span | None = None) -> None:
-        self.diagnostics.append(Diagnostic(Severity.WARNING, code, message, span))
+    def warning(
+        self, code: str, message: str, span: Span | None = None, related: Iterable[Related] = ()
+    ) -> None:
+        self.diagnostics.append(
+            Diagnostic(Severity.WARNING, code, message, span, tuple(related))
+        )
 
     @property
     def has_errors(self) -> bool:
@@ -90,21 +105,30 @@ def render_text(diagnostics: Iterable[Diagnostic], sources: Mapping[str, str]) -
     out: list[str] = []
     for d in diagnostics:
         out.append(format_line(d))
-        text = sources.get(d.span.file) if d.span else None
-        if text is None or d.span is None:
-            continue
-        lines = text.split("\n")
-        if not 0 < d.span.line <= len(lines):
-            continue
-        src = lines[d.span.line - 1].expandtabs(1).rstrip()
-        out.append(f"  {src}")
-        out.append("  " + " " * (d.span.column - 1) + "^" + "~" * max(0, d.span.length - 1))
+        out.extend(_excerpt(d.span, sources))
+        for span, note in d.related:
+            out.append(f"{span}: {Severity.NOTE.value}: {note}")
+            out.extend(_excerpt(span, sources))
     return "\n".join(out) + ("\n" if out else "")
 
 
+def _excerpt(span: Span | None, sources: Mapping[str, str]) -> list[str]:
+    """The source line of ``span`` and a caret under it (nothing if the text is unknown)."""
+    text = sources.get(span.file) if span else None
+    if text is None or span is None:
+        return []
+    lines = text.split("\n")
+    if not 0 < span.line <= len(lines):
+        return []
+    src = lines[span.line - 1].expandtabs(1).rstrip()
+    return [f"  {src}", "  " + " " * (span.column - 1) + "^" + "~" * max(0, span.length - 1)]
+
+
 def render_json(diagnostics: Iterable[Diagnostic]) -> str:
-    items = [
-        {
+    """A list of objects; ``related`` (file, line, column, message) only where there is one."""
+    items = []
+    for d in diagnostics:
+        item: dict[str, object] = {
             "file": d.span.file if d.span else None,
             "line": d.span.line if d.span else None,
             "column": d.span.column if d.span else None,
@@ -112,8 +136,12 @@ def render_json(diagnostics: Iterable[Diagnostic]) -> str:
             "code": d.code,
             "message": d.message,
         }
-        for d in diagnostics
-    ]
+        if d.related:
+            item["related"] = [
+                {"file": span.file, "line": span.line, "column": span.column, "message": note}
+                for span, note in d.related
+            ]
+        items.append(item)
     return json.dumps(items, indent=2) + "\n"
 
 
@@ -137,5 +165,6 @@ def render_github(diagnostics: Iterable[Diagnostic]) -> str:
                 f"col={d.span.column}",
             ]
         props.append(f"title={_escape_github(d.code, property_value=True)}")
-        out.append(f"::{kind} {','.join(props)}::{_escape_github(d.message)}")
+        message = d.message + "".join(f"\nnote: {span}: {note}" for span, note in d.related)
+        out.append(f"::{kind} {','.join(props)}::{_escape_github(message)}")
     return "\n".join(out) + ("\n" if out else "")

@@ -24,7 +24,7 @@ import zlib
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import PurePath
-from typing import Protocol
+from typing import Any, Protocol
 
 from intelhex import IntelHex, IntelHexError
 
@@ -58,7 +58,8 @@ def image_length(header: bytes) -> int:
     of the EEPROM an upload reads and a reset loads."""
     if len(header) < HEADER_SIZE or header[: len(MAGIC)] != MAGIC:
         return 0
-    return _HEADER.unpack_from(header)[3]
+    length: int = _HEADER.unpack_from(header)[3]
+    return length
 
 # Image flags (header byte 5).
 SOURCE_INCLUDED = 0x01
@@ -403,17 +404,19 @@ class _Reader:
         self.offset += n
         return chunk
 
-    def unpack(self, fmt: str) -> tuple:
+    def unpack(self, fmt: str) -> tuple[Any, ...]:
         return struct.unpack(fmt, self.take(struct.calcsize(fmt)))
 
     def u8(self) -> int:
         return self.take(1)[0]
 
     def u16(self) -> int:
-        return self.unpack("<H")[0]
+        value: int = self.unpack("<H")[0]
+        return value
 
     def u32(self) -> int:
-        return self.unpack("<I")[0]
+        value: int = self.unpack("<I")[0]
+        return value
 
     def name(self) -> str:
         raw = self.take(self.u8())
@@ -449,4 +452,5 @@ def _hex_bytes(text: str) -> bytes:
         )
     if len(addresses) > EEPROM_SIZE:
         raise ImageError(f"the Intel HEX holds {len(addresses)} bytes; the EEPROM {EEPROM_SIZE}")
-    return hex_image.tobinstr()
+    data: bytes = hex_image.tobinstr()
+    return data

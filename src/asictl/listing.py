@@ -74,9 +74,11 @@ def _code_rows(compiled: Compiled) -> Iterator[str]:
             i += 1
             continue
         end = i + 1
-        while end < len(entries) and spans[end] is not None and (
-            spans[end].file, spans[end].line
-        ) == (span.file, span.line):
+        while (
+            end < len(entries)
+            and (following := spans[end]) is not None
+            and (following.file, following.line) == (span.file, span.line)
+        ):
             end += 1
         group = entries[i:end]
         source = sources.get(span.file, [])

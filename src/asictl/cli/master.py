@@ -15,7 +15,7 @@ import sys
 from collections.abc import Callable, Iterator
 from contextlib import AbstractContextManager, contextmanager
 from pathlib import Path
-from typing import Any
+from typing import TypedDict, TypeVar, Unpack
 
 import click
 from click.core import ParameterSource
@@ -49,8 +49,25 @@ from asictl.host.transfer import (
     upload,
 )
 
+_Callback = TypeVar("_Callback", bound=Callable[..., object])
 
-def _board_options(command: Callable) -> Callable:
+
+class _BoardOptions(TypedDict):
+    """The values of the options ``_board_options`` adds, as click passes them."""
+
+    port: str
+    io: str
+    state_dir: str | None
+    modbus: str | None
+    unit: int
+    baud: str
+    parity: str
+    stopbits: str
+    timeout: float
+    retries: int
+
+
+def _board_options(command: _Callback) -> _Callback:
     options = [
         click.option(
             "--port", default="300h", show_default=True,
@@ -125,7 +142,7 @@ def _address(
     )
 
 
-def _connect(**board: Any) -> AbstractContextManager[Master]:
+def _connect(**board: Unpack[_BoardOptions]) -> AbstractContextManager[Master]:
     return connect_master(_address(**board))
 
 
@@ -151,7 +168,9 @@ def _progress(label: str, blocks: int) -> Iterator[Callable[[int], None]]:
     "--lib", "lib", multiple=True, type=click.Path(file_okay=False),
     help="Also look for function-block files here (repeatable; also $ASICTL_LIB).",
 )
-def download_command(file: str, start: str, lib: tuple[str, ...], **board: Any) -> None:
+def download_command(
+    file: str, start: str, lib: tuple[str, ...], **board: Unpack[_BoardOptions]
+) -> None:
     """Store a program in the master's EEPROM and load it (ACF /d+).
 
     FILE is IL source (compiled against the entry points the master reports) or an image
@@ -200,7 +219,7 @@ def download_command(file: str, start: str, lib: tuple[str, ...], **board: Any) 
 @click.option(
     "--overwrite", is_flag=True, help="Replace files that exist with other content (ACF /o+).",
 )
-def upload_command(output: str, overwrite: bool, **board: Any) -> None:
+def upload_command(output: str, overwrite: bool, **board: Unpack[_BoardOptions]) -> None:
     """Read the program back from the master into a source file (ACF /u+).
 
     The image is read from the EEPROM and checked (CRC). If it carries its source, the
@@ -232,10 +251,12 @@ def upload_command(output: str, overwrite: bool, **board: Any) -> None:
         )
 
 
-def _control_command(name: str, help_text: str, action: Callable[[Transport], int]):
+def _control_command(
+    name: str, help_text: str, action: Callable[[Transport], int]
+) -> click.Command:
     @click.command(name, help=help_text)
     @_board_options
-    def command(**board: Any) -> None:
+    def command(**board: Unpack[_BoardOptions]) -> None:
         with _connect(**board) as master:
             action(master.transport)
             state = master.summary()
@@ -272,7 +293,7 @@ reset_command = _control_command(
 @click.command("status")
 @_board_options
 @click.option("--json", "as_json", is_flag=True, help="One JSON object on stdout.")
-def status_command(as_json: bool, **board: Any) -> None:
+def status_command(as_json: bool, **board: Unpack[_BoardOptions]) -> None:
     """Show the master's state, as the ASI_MON screen does.
 
     Phase and mode, execution control flags, the slave lists LPS/LDS/LAS, configuration

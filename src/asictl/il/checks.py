@@ -9,7 +9,7 @@ manual and ``docs/language.md``; each diagnostic code is listed there.
 from __future__ import annotations
 
 import re
-from collections.abc import Iterable, Iterator, Mapping
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
 from enum import StrEnum
 from pathlib import Path
@@ -19,11 +19,11 @@ from asictl.diagnostics import Diagnostic, Reporter, Span
 from asictl.il import ast
 from asictl.il.ast import key
 from asictl.il.language import BUILTIN_TC, MAX_KT_MS, MAX_TC
-from asictl.il.loader import Program, calls, load_program
+from asictl.il.loader import Program, Reader, calls, load_program
 from asictl.mcs51.asm_parser import RESERVED as ASSEMBLER_RESERVED
 from asictl.platform.master import Options
 from asictl.runtime.firmware import FIRMWARE_BLOCKS
-from asictl.source import SourceText
+from asictl.source import SourceText, read_source
 
 CONST_RANGES = {
     ast.ConstKind.KT: MAX_KT_MS,
@@ -111,10 +111,13 @@ def _declarations(program: Program, report: Reporter) -> _Scope:
                         decl.span,
                     )
                 elif name in seen:
-                    where = f" (first declared at {seen[name]})" if seen[name] else ""
+                    first = seen[name]
+                    where = f" (first declared at {first})" if first else ""
                     report.error(
                         CheckCode.DUPLICATE_DECLARATION,
-                        f"'{decl.name}' declared twice{where}", decl.span)
+                        f"'{decl.name}' declared twice{where}", decl.span,
+                        _note(first, "first declared here"),
+                    )
                 seen.setdefault(name, decl.span)
                 if isinstance(decl, ast.VarDecl):
                     if decl.name.upper() in ASSEMBLER_RESERVED:
@@ -153,8 +156,9 @@ def _check_main_only_sections(program: Program, report: Reporter) -> None:
                     section.span,
                 )
     main = program.main
-    if main.sections_of(ast.RawSection) and main.sections_of(
-        ast.ProgramSection | ast.GatingSection | ast.AssemblySection
+    if main.sections_of(ast.RawSection) and any(
+        isinstance(s, ast.ProgramSection | ast.GatingSection | ast.AssemblySection)
+        for s in main.sections
     ):
         raw = main.sections_of(ast.RawSection)[0]
         report.error(
@@ -167,8 +171,13 @@ def _check_main_only_sections(program: Program, report: Reporter) -> None:
 # ---------------------------------------------------------------------- options/setup
 
 
+def _note(span: Span | None, message: str) -> list[tuple[Span, str]]:
+    """A related location for a diagnostic, when the place is known."""
+    return [(span, message)] if span else []
+
+
 def _check_options(module: ast.Module, report: Reporter) -> None:
-    seen: set[str] = set()
+    seen: dict[str, ast.Option] = {}
     for section in module.sections_of(ast.OptionsSection):
         for option in section.options:
             name = key(option.name)
@@ -180,8 +189,11 @@ def _check_options(module: ast.Module, report: Reporter) -> None:
                 )
             elif name in seen:
                 report.warning(
-                    CheckCode.DUPLICATE_OPTION, f"option '{option.name}' given again", option.span)
-            seen.add(name)
+                    CheckCode.DUPLICATE_OPTION,
+                    f"option '{option.name}' given again", option.span,
+                    _note(seen[name].span, "first given here"),
+                )
+            seen.setdefault(name, option)
 
 
 def _check_setup(module: ast.Module, report: Reporter) -> None:
@@ -215,6 +227,7 @@ def _check_duplicate_slaves(program: Program, report: Reporter) -> None:
                     CheckCode.DUPLICATE_SLAVE,
                     f"slave {slave.address} is already set up at {first[slave.address].span}",
                     slave.span,
+                    _note(first[slave.address].span, "first set up here"),
                 )
             else:
                 first[slave.address] = slave
@@ -273,7 +286,9 @@ def _check_code(module: ast.Module, scope: _Scope, report: Reporter) -> None:
                 )
 
 
-def _range(report: Reporter, span: Span | None, what: str, value: int, hi: int, lo: int = 0):
+def _range(
+    report: Reporter, span: Span | None, what: str, value: int, hi: int, lo: int = 0
+) -> None:
     if not lo <= value <= hi:
         report.error(CheckCode.OUT_OF_RANGE, f"{what} {value} out of range {lo}..{hi}", span)
 
@@ -332,7 +347,9 @@ def _check_operand(operand: object, role: str, scope: _Scope, report: Reporter) 
             _range(report, span, "KP parameter", data, 15)
 
 
-def _variable(name: str, span: Span | None, scope: _Scope, report: Reporter):
+def _variable(
+    name: str, span: Span | None, scope: _Scope, report: Reporter
+) -> ast.VarDecl | None:
     decl = scope.variables.get(key(name))
     if decl is None:
         report.error(CheckCode.UNDECLARED_VARIABLE, f"'{name}' is not a declared variable", span)
@@ -352,6 +369,7 @@ def _check_labels_and_jumps(module: ast.Module, report: Reporter) -> None:
                     CheckCode.DUPLICATE_LABEL,
                     f"label '{statement.name}' already defined at {labels[name].span}",
                     statement.span,
+                    _note(labels[name].span, "first defined here"),
                 )
             else:
                 labels[name] = statement
@@ -575,13 +593,13 @@ class CheckResult:
 
 
 def check_source(
-    source: SourceText,
-    *,
-    dialect: Dialect = Dialect.CONTROL2,
-    lib: Iterable[str | Path] = (),
-    files: Mapping[str, SourceText] | None = None,
+    source: SourceText, *, dialect: Dialect = Dialect.CONTROL2, lib: Iterable[str | Path] = (),
+    read: Reader = read_source, exists: Callable[[Path], bool] = Path.is_file,
 ) -> CheckResult:
-    """Read a main file and the blocks it calls, and check the whole program."""
-    program, load_diagnostics = load_program(source, lib=lib, files=files)
+    """Read a main file and the blocks it calls, and check the whole program.
+
+    ``read`` and ``exists`` stand for the file system (an editor's open buffers).
+    """
+    program, load_diagnostics = load_program(source, lib=lib, read=read, exists=exists)
     diagnostics = [*load_diagnostics, *check_program(program, dialect)]
     return CheckResult(program, sorted(diagnostics, key=Diagnostic.sort_key))

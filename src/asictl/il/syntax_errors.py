@@ -160,7 +160,9 @@ def diagnose(
     before = text[line_start:pos]
     said = before.rstrip(_BLANKS + IGNORED_PUNCTUATION)
     rest = text[pos:text.index("\n", pos)].partition(";")[0]
-    found = _FOUND.match(rest).group() if rest.strip(_BLANKS + IGNORED_PUNCTUATION) else ""
+    # _FOUND's last alternative takes any character, so it matches wherever rest has text.
+    found_match = _FOUND.match(rest) if rest.strip(_BLANKS + IGNORED_PUNCTUATION) else None
+    found = found_match.group() if found_match else ""
     char = text[pos]
 
     def report(code: str, message: str, at: int = pos, length: int = len(found)) -> Diagnosis:
@@ -185,6 +187,7 @@ def diagnose(
     if section is SectionKind.PROGRAM and expected == {"_COLON"}:
         # A line that starts with a name reads as a label: more often a misspelt operator.
         name = _NAME.search(before)
+        assert name is not None  # the parser wants a colon after a name on this line
         return report(
             SyntaxCode.UNKNOWN_INSTRUCTION,
             f"unknown instruction {_quote(name.group())} (a label is "

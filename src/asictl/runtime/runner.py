@@ -10,6 +10,7 @@ Timers count down in ``tick``, between cycles, as the master's 10 ms clock does.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 from asictl.mcs51.bus import Bus
@@ -146,7 +147,7 @@ class ProgramRunner:
                 if not remaining:
                     self.write(location, self.read(location) & ~(1 << bit) & 0xFF)
 
-    def _firmware_trap(self, name: str):
+    def _firmware_trap(self, name: str) -> Callable[[Emulator], None]:
         def trap(cpu: Emulator) -> None:
             base = cpu.dptr
             pseg = bytearray(cpu.xdata.read(base + i) for i in range(16))
