@@ -14,9 +14,18 @@ import time
 
 import click
 
+from asictl.cli.serial_options import serial_options, unit_option
 from asictl.errors import UserError
 from asictl.files import write_atomic
-from asictl.host.boards import emulated_board, parse_port, state_directory, state_file
+from asictl.host.boards import (
+    emulated_board,
+    lock_file,
+    parse_port,
+    state_directory,
+    state_file,
+)
+from asictl.host.locking import note_holder
+from asictl.host.target import check_serial_setting
 
 #: The board's non-volatile state is written this often while serving (and at the end).
 SAVE_INTERVAL_S = 10.0
@@ -27,6 +36,14 @@ def _tcp_address(text: str) -> tuple[str, int]:
     if not sep or not port.isdigit() or not 0 <= int(port) <= 65535:
         raise UserError(f"--tcp '{text}': expected HOST:PORT, e.g. 127.0.0.1:5020")
     return host or "127.0.0.1", int(port)
+
+
+def _notify(message: str) -> None:
+    click.echo(f"asictl: {message}", err=True)
+
+
+def _url_host(host: str) -> str:
+    return f"[{host}]" if ":" in host else host
 
 
 @click.group()
@@ -40,18 +57,20 @@ def gateway() -> None:
     help="Serve Modbus/TCP here [default: 127.0.0.1:5020 unless --rtu is given].",
 )
 @click.option("--rtu", metavar="DEVICE", help="Serve Modbus RTU on this serial device.")
-@click.option("--baud", type=int, default=9600, show_default=True)
-@click.option("--parity", type=click.Choice(["N", "E", "O"]), default="N", show_default=True)
-@click.option("--stopbits", type=click.Choice(["1", "2"]), default="1", show_default=True)
-@click.option("--unit", type=click.IntRange(1, 247), default=1, show_default=True,
-              help="The gateway's Modbus slave address (0 is broadcast).")
+@serial_options("--rtu")
+@unit_option("The gateway's Modbus slave address, as set on the gateway (0 is broadcast).")
 @click.option("--port", default="300h", show_default=True,
               help="The emulated PC2 board (by I/O base) the gateway serves.")
 @click.option("--state-dir", type=click.Path(file_okay=False),
               help="Where emulated boards are kept (as for download/upload).")
+@click.option("--wait", is_flag=True,
+              help="If another process holds the board, wait for it instead of stopping.")
+@click.option("-v", "--verbose", is_flag=True,
+              help="Log every request on stderr: unit, function, address, quantity, outcome "
+              "(answer, exception code, or why there is none).")
 def serve(
-    tcp: str | None, rtu: str | None, baud: int, parity: str, stopbits: str, unit: int,
-    port: str, state_dir: str | None,
+    tcp: str | None, rtu: str | None, baud: str, parity: str, stopbits: str, unit: int,
+    port: str, state_dir: str | None, wait: bool, verbose: bool,
 ) -> None:
     """Serve the board over Modbus until Ctrl-C; its state is saved periodically and at exit."""
     try:
@@ -65,9 +84,12 @@ def serve(
     base = parse_port(port)
     directory = state_directory(state_dir)
     address = _tcp_address(tcp) if tcp else (None if rtu else ("127.0.0.1", 5020))
-    line = SerialSettings(rtu, baud, parity, int(stopbits)) if rtu else None
-    with emulated_board(base, directory) as board:
+    check_serial_setting(int(baud), parity, int(stopbits))
+    line = SerialSettings(rtu, int(baud), parity, int(stopbits)) if rtu else None
+    with emulated_board(base, directory, wait=wait, notify=_notify) as board:
         slave = GatewaySlave(board, unit)
+        if verbose:
+            slave.request_log = _notify
         path = state_file(directory, base)
         saved = [time.monotonic()]
 
@@ -82,6 +104,12 @@ def serve(
             listening = server.tcp_address  # set before started() if it serves TCP
             where = [f"tcp {listening[0]}:{listening[1]}"] if listening is not None else []
             where += [f"rtu {rtu} {baud} {parity}{stopbits}"] if rtu else []
+            note = f"it serves the board as Modbus gateway unit {unit} on {', '.join(where)}"
+            if server.tcp_address:
+                host, tcp_port = server.tcp_address
+                note += f": reach the board through it with --modbus tcp://{_url_host(host)}:"
+                note += f"{tcp_port}" + (f" --unit {unit}" if unit != 1 else "")
+            note_holder(lock_file(directory, base), note)
             click.echo(
                 f"asictl: gateway unit {unit} for board {port} serving "
                 + ", ".join(where) + " (Ctrl-C stops)",
