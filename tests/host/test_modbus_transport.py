@@ -20,7 +20,11 @@ from asictl.board.board import Pc2Board
 from asictl.board.images import VERSION_ID
 from asictl.build import build_file
 from asictl.cli import main
-from asictl.gateway.pdus import (
+from asictl.gateway.server import background_gateway
+from asictl.gateway.slave import GATEWAY_NAME, GatewaySlave
+from asictl.host.boards import emulated_board
+from asictl.host.driver import EmulatedPort, Pc2Driver
+from asictl.host.gateway_pdus import (
     INFO_SOFTWARE,
     DownloadRequest,
     DownloadResponse,
@@ -29,10 +33,6 @@ from asictl.gateway.pdus import (
     UploadRequest,
     UploadResponse,
 )
-from asictl.gateway.server import background_gateway
-from asictl.gateway.slave import GATEWAY_NAME, GatewaySlave
-from asictl.host.boards import emulated_board
-from asictl.host.driver import EmulatedPort, Pc2Driver
 from asictl.host.jobs import JobError, JobStatus
 from asictl.host.modbus import open_modbus
 from asictl.host.target import parse_target

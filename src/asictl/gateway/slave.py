@@ -8,7 +8,7 @@ function code (no CRC counter, no "illegal function" answer) and it has no liste
 all of which the gateway manual requires (6.3.11).
 
 The user-defined functions 65, 66 and 67 are decoded and encoded by the PDU classes of
-``gateway.pdus``, the very classes our Modbus client uses, so both ends share one wire format.
+``host.gateway_pdus``, the very classes our Modbus client uses, so both ends share one wire format.
 """
 
 from __future__ import annotations
@@ -21,9 +21,9 @@ from dataclasses import dataclass, fields
 from pymodbus.pdu import ModbusPDU
 
 from asictl.board.board import Pc2Board
-from asictl.gateway import pdus
 from asictl.gateway.addressmap import MAX_BITS, AddressMap, ExceptionCode, ModbusError
 from asictl.gateway.requestlog import request_line
+from asictl.host import gateway_pdus as pdus
 from asictl.platform import pc2 as d
 from asictl.platform.gateway import UNITS
 from asictl.platform.master import EEPROM_SIZE

@@ -37,7 +37,7 @@ from pymodbus.pdu.register_message import (
 )
 
 from asictl.errors import UserError
-from asictl.gateway.pdus import (
+from asictl.host.gateway_pdus import (
     BLOCK_SIZE,
     CLIENT_PDUS,
     INFO_NAME,
