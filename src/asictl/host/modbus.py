@@ -22,6 +22,7 @@ import logging
 import struct
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
+from typing import TypeVar
 
 from pymodbus import FramerType
 from pymodbus.client import ModbusSerialClient, ModbusTcpClient
@@ -36,7 +37,7 @@ from pymodbus.pdu.register_message import (
 )
 
 from asictl.errors import UserError
-from asictl.gateway.pdus import (
+from asictl.host.gateway_pdus import (
     BLOCK_SIZE,
     CLIENT_PDUS,
     INFO_NAME,
@@ -45,7 +46,9 @@ from asictl.gateway.pdus import (
     INFO_VERSION_ID,
     DownloadRequest,
     MasterInfoRequest,
+    MasterInfoResponse,
     UploadRequest,
+    UploadResponse,
 )
 from asictl.host.jobs import JobError, JobStatus
 from asictl.host.status import (
@@ -74,7 +77,9 @@ logging.getLogger("pymodbus").addHandler(logging.NullHandler())
 #: Flags a write of 1009 may carry; control_active only reads back.
 _WRITABLE_FLAGS = 0xFF & ~ControlFlag.CONTROL_ACTIVE
 
-_EXCEPTION_NAMES = {code: code.name.lower().replace("_", " ") for code in ExcCodes}
+_Response = TypeVar("_Response", bound=ModbusPDU)
+
+_EXCEPTION_NAMES = {int(code): code.name.lower().replace("_", " ") for code in ExcCodes}
 
 
 def _words(registers: Sequence[int]) -> list[int]:
@@ -150,6 +155,16 @@ class ModbusTransport:
             )
         return response
 
+    def _answer(self, what: str, request: ModbusPDU, kind: type[_Response]) -> _Response:
+        """``_call`` for one of this project's own responses (65, 67)."""
+        response = self._call(what, request)
+        if not isinstance(response, kind):
+            raise JobError(
+                JobStatus.INTERFACE_ERROR,
+                f"{what}: the gateway answered with function {response.function_code}",
+            )
+        return response
+
     def read_registers(self, address: int, count: int) -> list[int]:
         """Holding registers (function 3), at most 15 per telegram as the gateway allows."""
         values: list[int] = []
@@ -190,7 +205,8 @@ class ModbusTransport:
 
     def master_info(self, part: int) -> str:
         """Function 65: name, version, installed software or version ID."""
-        return self._call("reading the master's name", MasterInfoRequest(part)).text
+        request = MasterInfoRequest(part)
+        return self._answer("reading the master's name", request, MasterInfoResponse).text
 
     # --- Transport -----------------------------------------------------------------------
 
@@ -239,8 +255,8 @@ class ModbusTransport:
         return raw[address - first : address - first + size]
 
     def _read_block(self, address: int) -> bytes:
-        response = self._call(
-            f"reading {address:04X}h (function 67)", UploadRequest(address=address)
+        response = self._answer(
+            f"reading {address:04X}h (function 67)", UploadRequest(address=address), UploadResponse
         )
         if response.address != address:
             raise JobError(
@@ -266,7 +282,9 @@ class ModbusTransport:
 # --- opening one --------------------------------------------------------------------------
 
 
-def _client(target: ModbusTarget, timeout: float, retries: int):
+def _client(
+    target: ModbusTarget, timeout: float, retries: int
+) -> ModbusTcpClient | ModbusSerialClient:
     if target.host is not None:
         framer = FramerType.RTU if target.rtu else FramerType.SOCKET
         return ModbusTcpClient(
@@ -301,7 +319,8 @@ def open_modbus(
             )
         yield ModbusTransport(client, unit, str(target), retries)
     finally:
-        client.close()
+        # pymodbus leaves the sync clients' close() unannotated
+        client.close()  # type: ignore[no-untyped-call]
 
 
 # --- status -----------------------------------------------------------------------------
