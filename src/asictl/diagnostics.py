@@ -82,24 +82,68 @@ def format_line(d: Diagnostic) -> str:
     return f"{where}{d.severity.value}: {d.message} [{d.code}]"
 
 
-def render_text(diagnostics: Iterable[Diagnostic], sources: Mapping[str, str]) -> str:
+#: Diagnostics per file that text output shows by default; the rest are counted, as a
+#: compiler does: past the first few hundred, more lines help nobody read a terminal.
+TEXT_LIMIT = 200
+
+
+def render_text(
+    diagnostics: Iterable[Diagnostic], sources: Mapping[str, str], *, limit: int = TEXT_LIMIT
+) -> str:
     """Render as a modern compiler does: location line, then source line and caret.
 
     ``sources`` maps file names to their decoded text; a file not in it gets no excerpt.
+    At most ``limit`` diagnostics per file are shown (0: all), then one line with the
+    number left out. Each file's text is split into lines once, so rendering takes time
+    linear in the diagnostics and the text.
     """
     out: list[str] = []
+    lines_of: dict[str, list[str]] = {}
+    shown: dict[str, int] = {}
+    left_out: dict[str, int] = {}
     for d in diagnostics:
+        file = d.span.file if d.span else ""
+        if limit and shown.get(file, 0) >= limit:
+            left_out[file] = left_out.get(file, 0) + 1
+            continue
+        shown[file] = shown.get(file, 0) + 1
         out.append(format_line(d))
         text = sources.get(d.span.file) if d.span else None
         if text is None or d.span is None:
             continue
-        lines = text.split("\n")
+        if d.span.file not in lines_of:
+            lines_of[d.span.file] = text.split("\n")
+        lines = lines_of[d.span.file]
         if not 0 < d.span.line <= len(lines):
             continue
-        src = lines[d.span.line - 1].expandtabs(1).rstrip()
+        src, column = _excerpt(lines[d.span.line - 1], d.span.column)
         out.append(f"  {src}")
-        out.append("  " + " " * (d.span.column - 1) + "^" + "~" * max(0, d.span.length - 1))
+        length = min(d.span.length, max(1, len(src) - column + 1))
+        out.append("  " + " " * (column - 1) + "^" + "~" * max(0, length - 1))
+    for file, count in left_out.items():
+        what = f"{count} more diagnostic{'' if count == 1 else 's'}"
+        out.append(f"{file or 'asictl'}: {what} not shown (only the first {limit} are)")
     return "\n".join(out) + ("\n" if out else "")
+
+
+#: Source lines longer than this are shown as a window around the column.
+EXCERPT_WIDTH = 160
+
+
+def _excerpt(line: str, column: int) -> tuple[str, int]:
+    """The source line to show and the caret's column in it.
+
+    A line of a megabyte (a binary file, generated text) is cut to a window around the
+    column, so one diagnostic never prints more than about ``EXCERPT_WIDTH`` characters.
+    """
+    src = line.expandtabs(1).rstrip()
+    if len(src) <= EXCERPT_WIDTH:
+        return src, column
+    start = max(0, min(column - 1 - EXCERPT_WIDTH // 2, len(src) - EXCERPT_WIDTH))
+    window = src[start : start + EXCERPT_WIDTH]
+    prefix = "..." if start else ""
+    suffix = "..." if start + EXCERPT_WIDTH < len(src) else ""
+    return prefix + window + suffix, column - start + len(prefix)
 
 
 def render_json(diagnostics: Iterable[Diagnostic]) -> str:

@@ -6,7 +6,14 @@ from pathlib import Path
 
 import click
 
-from asictl.diagnostics import Diagnostic, Severity, render_github, render_json, render_text
+from asictl.diagnostics import (
+    TEXT_LIMIT,
+    Diagnostic,
+    Severity,
+    render_github,
+    render_json,
+    render_text,
+)
 from asictl.errors import ExitCode, UserError
 from asictl.il.checks import Dialect, check_source
 from asictl.source import read_source
@@ -56,15 +63,22 @@ def _summary(files: int, diagnostics: list[Diagnostic], unreadable: int) -> str:
     "--lib", "lib", multiple=True, type=click.Path(file_okay=False),
     help="Also look for function-block files here (repeatable; also $ASICTL_LIB).",
 )
+@click.option(
+    "--max-diagnostics", type=click.IntRange(min=0), default=TEXT_LIMIT, show_default=True,
+    metavar="N", help="Text output shows the first N diagnostics of each file and counts the "
+    "rest (0: all). json and github always list all.",
+)
 @click.option("-q", "--quiet", is_flag=True, help="No summary line.")
 def check(
     files: tuple[str, ...], fmt: str, werror: bool, dialect: str, lib: tuple[str, ...],
-    quiet: bool,
+    max_diagnostics: int, quiet: bool,
 ) -> None:
     """Check IL source files (FILE... or - for stdin; a directory means its *.asi files).
 
     Reads each main program and the function-block files it calls, and reports every
     syntax and semantic problem as file:line:col: error|warning: message [code].
+    Text output shows the first 200 of each file (--max-diagnostics) and then how many
+    more there are; the summary line counts them all.
 
     Exit status: 0 no errors, 1 errors found (or warnings, with --werror), 2 bad usage or
     an unreadable file.
@@ -90,7 +104,7 @@ def check(
     elif fmt == "github":
         click.echo(render_github(diagnostics), nl=False)
     else:
-        click.echo(render_text(diagnostics, sources), nl=False, err=True)
+        click.echo(render_text(diagnostics, sources, limit=max_diagnostics), nl=False, err=True)
     if not quiet:
         click.echo(_summary(len(paths), diagnostics, unreadable), err=True)
 

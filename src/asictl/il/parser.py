@@ -12,7 +12,9 @@ language is line-based), in the section it was reading, so one run reports every
    title instead: the lines in between belong to no known section.
 
 Each failed attempt stops at its error, so an erroneous file costs about two parses, a
-clean one exactly one. Only syntax is checked here; ranges, names and labels are the
+clean one exactly one. Each attempt starts with the line count where the last one left
+off (lark would count the lines before the slice again every time: quadratic in the
+number of errors). Only syntax is checked here; ranges, names and labels are the
 semantic checks' job.
 """
 
@@ -22,12 +24,14 @@ import os
 import re
 import sys
 import threading
+from copy import copy
 from functools import cache
 from importlib.resources import files
 
 import lark
 from lark import Lark, Token
 from lark.exceptions import UnexpectedInput
+from lark.lexer import LexerState, LexerThread, LineCounter
 from lark.utils import TextSlice
 
 from asictl.diagnostics import Diagnostic, Span
@@ -119,6 +123,17 @@ class _Reader:
         )
         self._accepts: dict[tuple, frozenset[str]] = {}
 
+    def parse(self, text: str, start: int, end: int, rule: str, lines: LineCounter) -> list:
+        """``text[start:end]`` with ``rule``; ``lines`` is the line count at ``start``.
+
+        (What ``Lark.parse`` does with a ``TextSlice``, except that it counts the lines
+        from the beginning of ``text`` again.)
+        """
+        frontend = self.lark.parser
+        state = LexerState(TextSlice(text, start, end), copy(lines))
+        result: list = frontend.parser.parse(LexerThread(frontend.lexer, state), rule)
+        return result
+
     def expected(self, error: UnexpectedInput) -> frozenset[str]:
         """The terminals the parser could take where it failed.
 
@@ -175,19 +190,20 @@ def _read(reader: _Reader, text: str, file: str) -> tuple[list, list[Diagnostic]
     pieces: list = []
     diagnostics: list[Diagnostic] = []
     pos, section = 0, None
+    lines = LineCounter("\n")  # always at ``pos``
     while pos < len(text):
         rule = _START_RULES[section]
         try:
-            pieces += reader.lark.parse(TextSlice(text, pos, len(text)), start=rule)
+            pieces += reader.parse(text, pos, len(text), rule, lines)
             break
         except UnexpectedInput as error:
             failure = error
         where = min(max(failure.pos_in_stream or 0, pos), len(text) - 1)
         line = failure.line if isinstance(failure.line, int) and failure.line > 0 else (
-            text.count("\n", 0, where) + 1)
+            lines.line + text.count("\n", pos, where))
         line_start = text.rfind("\n", 0, where) + 1
         if line_start > pos:
-            done = reader.lark.parse(TextSlice(text, pos, line_start), start=rule)
+            done = reader.parse(text, pos, line_start, rule, lines)
             pieces += done
             section = _last_section(done, section)
         title = reader.title_at(text, line_start, line)
@@ -197,9 +213,11 @@ def _read(reader: _Reader, text: str, file: str) -> tuple[list, list[Diagnostic]
         diagnosis = diagnose(text, where, line, reader.expected(failure), reader.keywords,
                              file, section)
         diagnostics.append(diagnosis.diagnostic)
-        pos = text.index("\n", where) + 1
+        next_pos = text.index("\n", where) + 1
         if diagnosis.skip_to_title:
-            pos, section = reader.next_title(text, pos), None
+            next_pos, section = reader.next_title(text, next_pos), None
+        lines.feed(TextSlice(text, pos, next_pos))
+        pos = next_pos
     return pieces, diagnostics
 
 
