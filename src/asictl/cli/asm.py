@@ -2,15 +2,14 @@
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 import click
-from intelhex import IntelHex, IntelHexError
 
 from asictl.diagnostics import DiagnosticError, render_text
 from asictl.errors import ExitCode, UserError
 from asictl.files import write_atomic
+from asictl.hexfile import read_hex
 from asictl.mcs51.assembler import assemble, load_relative
 from asictl.mcs51.disassembler import disassemble
 from asictl.source import SourceText, read_source
@@ -69,12 +68,10 @@ def disasm(image: str, output: str | None) -> None:
 
     Exit status: 0 done, 2 bad usage or an unreadable or malformed HEX file.
     """
-    try:
-        hex_image = IntelHex(sys.stdin if image == "-" else image)
-    except OSError as exc:
-        raise UserError(f"{image}: cannot read: {exc.strerror or exc}") from None
-    except IntelHexError as exc:
-        raise UserError(f"{image}: not a valid Intel HEX file: {exc}") from None
+    hex_file = read_hex(image)
+    for warning in hex_file.warnings:
+        click.echo(f"asictl: warning: {warning}", err=True)
+    hex_image = hex_file.image
     if hex_image.maxaddr() is not None and hex_image.maxaddr() > 0xFFFF:
         raise UserError(f"{image}: has bytes above FFFFh, outside the 8051 code space")
     text = disassemble(hex_image)
