@@ -16,7 +16,7 @@ import click
 from asictl.codegen8051.compiler import GENERATED, Compiled, compile_program
 from asictl.diagnostics import DiagnosticError, Severity, render_text
 from asictl.errors import ExitCode, UserError
-from asictl.files import write_atomic
+from asictl.files import write_output
 from asictl.il import ast
 from asictl.il.checks import check_source
 from asictl.il.loader import Program
@@ -80,8 +80,8 @@ def _check_target(
     inputs = {Path(name).resolve() for name in program.sources if name != "<stdin>"}
     if target.resolve() in inputs:
         raise UserError(f"{path}: is a source file of this program; not overwritten")
-    if force or not target.exists():
-        return
+    if force or not target.is_file():
+        return  # nothing there, or a device or FIFO, which is written to as a stream
     try:
         with target.open("rb") as existing:
             first_line = existing.readline(200).decode("latin-1")
@@ -187,16 +187,18 @@ def compile_(
             err=True,
         )
 
+    inputs = list(program.sources)
     if hex_path == "-":
         click.echo(image.to_hex(), nl=False)
     else:
-        write_atomic(hex_path, image.to_hex())
+        write_output(hex_path, image.to_hex(), inputs=inputs)
         log(f"wrote {hex_path}")
     if listing:
         name = next(iter(program.sources))
-        write_atomic(
+        write_output(
             listing,
             listing_text(compiled, image) if compiled else raw_listing_text(name, image),
+            inputs=inputs,
         )
         log(f"wrote {listing}")
     click.echo(
