@@ -29,6 +29,10 @@ def _tcp_address(text: str) -> tuple[str, int]:
     return host or "127.0.0.1", int(port)
 
 
+def _log(message: str) -> None:
+    click.echo(f"asictl: {message}", err=True)
+
+
 @click.group()
 def gateway() -> None:
     """The emulated AS-i/Modbus gateway VAG-MOD-KF-R4."""
@@ -49,13 +53,27 @@ def gateway() -> None:
               help="The emulated PC2 board (by I/O base) the gateway serves.")
 @click.option("--state-dir", type=click.Path(file_okay=False),
               help="Where emulated boards are kept (as for download/upload).")
+@click.option("--max-connections", type=click.IntRange(1, 1000), default=32, show_default=True,
+              help="TCP connections served at once; further ones are closed at once.")
+@click.option("--idle-timeout", type=click.FloatRange(min=0), default=60.0, show_default=True,
+              metavar="SECONDS", help="Close a TCP connection silent this long (0: never).")
+@click.option("--save-interval", type=click.FloatRange(min=0.1), default=SAVE_INTERVAL_S,
+              show_default=True, metavar="SECONDS",
+              help="How often the board's state is saved while serving.")
 def serve(
     tcp: str | None, rtu: str | None, baud: int, parity: str, stopbits: str, unit: int,
-    port: str, state_dir: str | None,
+    port: str, state_dir: str | None, max_connections: int, idle_timeout: float,
+    save_interval: float,
 ) -> None:
-    """Serve the board over Modbus until Ctrl-C; its state is saved periodically and at exit."""
+    """Serve the board over Modbus until Ctrl-C; its state is saved periodically and at exit.
+
+    At most --max-connections TCP connections are served at once: a new one takes the
+    place of the one silent longest, or is closed at once if all are in use. A state save
+    that fails while serving (the state directory removed, the disk full) is logged and
+    tried again at the next interval; serving goes on.
+    """
     try:
-        from asictl.gateway.server import GatewayServer, SerialSettings
+        from asictl.gateway.server import ConditionLog, GatewayServer, SerialSettings
         from asictl.gateway.slave import GatewaySlave
     except ImportError as exc:
         raise UserError(
@@ -70,13 +88,29 @@ def serve(
         slave = GatewaySlave(board, unit)
         path = state_file(directory, base)
         saved = [time.monotonic()]
+        failing = [False]
+        conditions = ConditionLog(_log)
 
         def save_now_and_then() -> None:
-            if time.monotonic() - saved[0] >= SAVE_INTERVAL_S:
-                saved[0] = time.monotonic()
-                write_atomic(path, json.dumps(board.nonvolatile(), indent=1, sort_keys=True) + "\n")
+            if time.monotonic() - saved[0] < save_interval:
+                return
+            saved[0] = time.monotonic()
+            try:
+                write_atomic(path, json.dumps(board.nonvolatile(), indent=1, sort_keys=True)
+                             + "\n")
+            except UserError as exc:
+                failing[0] = True
+                conditions.event("save", f"gateway: cannot save the board state ({exc}); "
+                                 f"trying again every {save_interval:g} s, still serving")
+                return
+            if failing[0]:
+                failing[0] = False
+                _log(f"gateway: the board state is saved again in {path}")
 
-        server = GatewayServer(slave, on_tick=save_now_and_then)
+        server = GatewayServer(
+            slave, on_tick=save_now_and_then, max_connections=max_connections,
+            idle_timeout=idle_timeout, log=_log,
+        )
 
         def started() -> None:
             where = [f"tcp {server.tcp_address[0]}:{server.tcp_address[1]}"] if address else []
