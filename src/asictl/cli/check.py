@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import click
@@ -19,18 +20,37 @@ from asictl.il.checks import Dialect, check_source
 from asictl.source import read_source
 
 
-def _expand(paths: tuple[str, ...]) -> list[str]:
-    """Files as given; a directory stands for every ``*.asi`` below it."""
+def _expand(paths: tuple[str, ...]) -> tuple[list[str], list[str]]:
+    """Files as given, a directory standing for every ``*.asi`` below it; and the folders
+    below that could not be read (each a message), which a plain rglob would skip silently.
+    """
     files: list[str] = []
+    unreadable: list[str] = []
     for path in paths:
         if path != "-" and Path(path).is_dir():
-            found = sorted(str(p) for p in Path(path).rglob("*") if p.suffix.lower() == ".asi")
-            if not found:
+            found, problems = _asi_files(path)
+            unreadable += problems
+            if not found and not problems:
                 raise UserError(f"{path}: no .asi files in this directory")
             files.extend(found)
         else:
             files.append(path)
-    return files
+    return files, unreadable
+
+
+def _asi_files(directory: str) -> tuple[list[str], list[str]]:
+    problems: list[str] = []
+
+    def failed(error: OSError) -> None:
+        problems.append(f"{error.filename}: cannot read: {error.strerror or error}")
+
+    found = [
+        str(Path(folder) / name)
+        for folder, _, names in os.walk(directory, onerror=failed)
+        for name in names
+        if Path(name).suffix.lower() == ".asi"
+    ]
+    return sorted(found), problems
 
 
 def _summary(files: int, diagnostics: list[Diagnostic], unreadable: int) -> str:
@@ -86,8 +106,10 @@ def check(
     ctx = click.get_current_context()
     diagnostics: list[Diagnostic] = []
     sources: dict[str, str] = {}
-    unreadable = 0
-    paths = _expand(files)
+    paths, folders = _expand(files)
+    for problem in folders:
+        click.echo(f"asictl: error: {problem}", err=True)
+    unreadable = len(folders)
     for path in paths:
         try:
             source = read_source(path)

@@ -17,6 +17,7 @@ import click
 from asictl.errors import UserError
 from asictl.files import write_atomic
 from asictl.host.boards import emulated_board, parse_port, state_directory, state_file
+from asictl.host.target import port_number
 
 #: The board's non-volatile state is written this often while serving (and at the end).
 SAVE_INTERVAL_S = 10.0
@@ -24,9 +25,11 @@ SAVE_INTERVAL_S = 10.0
 
 def _tcp_address(text: str) -> tuple[str, int]:
     host, sep, port = text.rpartition(":")
-    if not sep or not port.isdigit() or not 0 <= int(port) <= 65535:
-        raise UserError(f"--tcp '{text}': expected HOST:PORT, e.g. 127.0.0.1:5020")
-    return host or "127.0.0.1", int(port)
+    number = port_number(port)
+    if not sep or number is None:
+        shown = text if len(text) <= 40 else f"{text[:37]}..."
+        raise UserError(f"--tcp '{shown}': expected HOST:PORT, e.g. 127.0.0.1:5020")
+    return host or "127.0.0.1", number
 
 
 def _log(message: str) -> None:
