@@ -12,6 +12,7 @@ import os
 import shutil
 import stat
 import threading
+import time
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -123,23 +124,32 @@ def test_every_command_writes_to_a_device_without_replacing_it(runner, tmp_path,
 def test_a_fifo_is_written_as_a_stream(tmp_path):
     fifo = tmp_path / "out"
     os.mkfifo(fifo)
-    received: list[bytes] = []
-    ready = threading.Event()
+    received = bytearray()
+    written = threading.Event()
+    fd = os.open(fifo, os.O_RDONLY | os.O_NONBLOCK)  # the reader is there before the writer
 
     def read() -> None:
-        fd = os.open(fifo, os.O_RDONLY | os.O_NONBLOCK)
-        ready.set()
-        os.set_blocking(fd, True)
-        with os.fdopen(fd, "rb") as stream:
-            received.append(stream.read())
+        while True:
+            try:
+                chunk = os.read(fd, 65536)
+            except BlockingIOError:
+                time.sleep(0.001)
+                continue
+            if chunk:
+                received.extend(chunk)
+            elif written.is_set():  # end of file after the writer closed
+                return
+            else:
+                time.sleep(0.001)
 
     reader = threading.Thread(target=read, daemon=True)
     reader.start()
-    assert ready.wait(5)
     data = b"x" * 300_000  # more than a pipe holds: the writer must wait for the reader
     write_atomic(fifo, data)
-    reader.join(5)
-    assert received == [data]
+    written.set()
+    reader.join(10)
+    os.close(fd)
+    assert bytes(received) == data
     assert stat.S_ISFIFO(os.stat(fifo).st_mode)
 
 

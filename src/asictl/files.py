@@ -18,7 +18,7 @@ import os
 import stat
 import sys
 import tempfile
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 from pathlib import Path
 
 from asictl.errors import UserError
@@ -68,20 +68,43 @@ def refuse_inputs(path: str | Path, inputs: Iterable[str | Path]) -> None:
 def write_atomic(path: str | Path, data: str | bytes) -> None:
     """Replace ``path`` with ``data`` (text is written as UTF-8 with LF line ends) in one
     step, or write it as a stream to a device or FIFO; failures are a ``UserError``."""
-    target = Path(path)
-    raw = data if isinstance(data, bytes) else data.encode("utf-8")
+    write_together([(path, data)])
+
+
+def write_together(items: Sequence[tuple[str | Path, str | bytes]]) -> None:
+    """Write several files all or nothing: every regular file is first written in full
+    to a temporary file beside it, and only when all are complete are they renamed into
+    place (devices and FIFOs are written after that, as streams). A name too long, a
+    full disk or a missing folder thus stops the lot before any file is touched."""
+    staged: list[tuple[Path, Path, Path]] = []  # (temporary, real target, as named)
+    streams: list[tuple[Path, bytes]] = []
     try:
-        mode = os.stat(target).st_mode
-    except FileNotFoundError:
-        mode = None
-    except OSError as exc:
-        raise UserError(f"{target}: cannot write: {exc.strerror or exc}") from None
-    if mode is not None and stat.S_ISDIR(mode):
-        raise UserError(f"{target}: cannot write: it is a directory")
-    if mode is not None and not stat.S_ISREG(mode):
+        for path, data in items:
+            target = Path(path)
+            raw = data if isinstance(data, bytes) else data.encode("utf-8")
+            try:
+                mode = os.stat(target).st_mode
+            except FileNotFoundError:
+                mode = None
+            except OSError as exc:
+                raise UserError(f"{target}: cannot write: {exc.strerror or exc}") from None
+            if mode is not None and stat.S_ISDIR(mode):
+                raise UserError(f"{target}: cannot write: it is a directory")
+            if mode is not None and not stat.S_ISREG(mode):
+                streams.append((target, raw))
+                continue
+            real = Path(os.path.realpath(target))
+            staged.append((_stage(real, raw, shown=target), real, target))
+        for temp, real, shown in staged:
+            try:
+                os.replace(temp, real)
+            except OSError as exc:
+                raise UserError(f"{shown}: cannot write: {exc.strerror or exc}") from None
+    finally:
+        for temp, _, _ in staged:
+            temp.unlink(missing_ok=True)  # gone once renamed; left over after a failure
+    for target, raw in streams:
         _write_stream(target, raw)
-        return
-    _replace(Path(os.path.realpath(target)), raw, shown=target)
 
 
 def _is_regular(path: Path) -> bool:
@@ -91,19 +114,36 @@ def _is_regular(path: Path) -> bool:
         return False
 
 
-def _replace(target: Path, data: bytes, *, shown: Path) -> None:
+def _stage(target: Path, data: bytes, *, shown: Path) -> Path:
+    """``data`` complete in a temporary file beside ``target``, with the target's mode.
+
+    The temporary name keeps at most 100 characters of the target's, so that a target
+    name near the file system's limit still has room for the affixes.
+    """
     try:
-        fd, temp = tempfile.mkstemp(dir=target.parent, prefix=f".{target.name}.", suffix=".tmp")
+        fd, name = tempfile.mkstemp(
+            dir=target.parent, prefix=f".{target.name[:100]}.", suffix=".tmp"
+        )
     except OSError as exc:
         raise UserError(f"{shown}: cannot write: {exc.strerror or exc}") from None
+    temp = Path(name)
     try:
         with os.fdopen(fd, "wb") as out:
             out.write(data)
         os.chmod(temp, _mode_for(target))
-        os.replace(temp, target)
     except OSError as exc:
-        Path(temp).unlink(missing_ok=True)
+        temp.unlink(missing_ok=True)
         raise UserError(f"{shown}: cannot write: {exc.strerror or exc}") from None
+    return temp
+
+
+def shown_name(name: str) -> str:
+    """A file name as it can be printed safely: control characters (an escape sequence
+    would drive the terminal) and other unprintable ones are written as escapes."""
+    return "".join(
+        char if char.isprintable() else char.encode("unicode_escape").decode("ascii")
+        for char in name
+    )
 
 
 def _write_stream(target: Path, data: bytes) -> None:
