@@ -43,7 +43,7 @@ class Diagnostic:
     def is_error(self) -> bool:
         return self.severity is Severity.ERROR
 
-    def sort_key(self) -> tuple:
+    def sort_key(self) -> tuple[str, int, int]:
         s = self.span
         return (s.file, s.line, s.column) if s else ("", 0, 0)
 

@@ -11,10 +11,12 @@ from __future__ import annotations
 import random
 
 import pytest
+from click.testing import CliRunner
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from time_limit import no_hang
 
+from asictl.cli import main
 from asictl.diagnostics import DiagnosticError
 from asictl.mcs51.asm_expr import MAX_OPERATORS, VALUE_LIMIT
 from asictl.mcs51.assembler import assemble_text
@@ -141,3 +143,15 @@ def test_random_expression_chains_assemble_exactly_or_fail_at_a_line(chain):
     assert None not in expected.values()
     values = {s.name: s.value for s in assembly.symbols.values()}
     assert values == expected
+
+
+def test_an_il_program_whose_assembly_squares_itself_fails_compile_at_the_line(tmp_path):
+    program = tmp_path / "sq.asi"
+    program.write_text("[PROGRAM]\n  A I 1.0\n  = Q 1.0\n[ASSEMBLY]\n"
+                       + "\n".join(squaring_chain(25)) + "\n  mov a, #x24\n[END]\n")
+    with no_hang():
+        result = CliRunner().invoke(main, ["compile", str(program), "-o",
+                                           str(tmp_path / "sq.hex")])
+    assert result.exit_code == 1, result.output
+    # [ASSEMBLY] is line 4, x0 line 5: x5 on line 10
+    assert f"{program}:10:1: error: value out of range: more than 32 bits" in result.stderr

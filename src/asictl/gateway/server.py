@@ -126,11 +126,13 @@ class GatewayServer:
         self.conditions = ConditionLog(log or (lambda message: None))
         self.tcp_address: tuple[str, int] | None = None
         self._stop = asyncio.Event()
-        self._connections: dict[asyncio.Task, _Connection] = {}
+        self._connections: dict[asyncio.Task[None], _Connection] = {}
 
     # ------------------------------------------------------------------ TCP
 
-    async def _tcp_client(self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter):
+    async def _tcp_client(
+        self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter
+    ) -> None:
         """MBAP: a malformed header ends the connection, as Modbus/TCP asks."""
         if len(self._connections) >= self.max_connections and not self._make_room():
             self.conditions.event(
