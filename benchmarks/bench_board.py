@@ -14,10 +14,11 @@ import time
 
 from asictl.board.asi import AsiBus, Slave
 from asictl.board.board import Pc2Board
+from asictl.build import build_image
 from asictl.codegen8051.compiler import compile_program
 from asictl.il.checks import check_source
-from asictl.image import build_image
-from asictl.platform.pc2 import ControlFlag, ControlState
+from asictl.platform.master import ControlFlag
+from asictl.platform.pc2 import ControlState
 from asictl.source import from_string
 
 FOLLOW = "[PROGRAM]\n        A I 1.0\n        = Q 2.0\n"

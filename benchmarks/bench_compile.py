@@ -19,10 +19,12 @@ from pathlib import Path
 
 from bench_check import generate, timed
 
+from asictl.build import build_image
 from asictl.codegen8051.compiler import compile_program
 from asictl.diagnostics import DiagnosticError
 from asictl.il.checks import check_source
-from asictl.image import EEPROM_SIZE, ImageError, ProgramImage, build_image
+from asictl.image import ImageError, ProgramImage
+from asictl.platform.master import EEPROM_SIZE
 from asictl.source import from_string
 
 

@@ -17,7 +17,8 @@ import tempfile
 import time
 from pathlib import Path
 
-from asictl.sim.engine import Simulation, load_program_for
+from asictl.build import build_file
+from asictl.sim.engine import Simulation
 from asictl.sim.scenario import Scenario
 
 NETWORKS = 50
@@ -63,10 +64,10 @@ def run_asictl(hours: float) -> tuple[float, int, int]:
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "bench.asi"
         path.write_text(il_program())
-        program, image, _ = load_program_for(path)
+        built = build_file(path)
     duration = hours * 3_600_000
     scenario = Scenario("<bench>", None, 5.0, None, [])
-    sim = Simulation(program, image, scenario, duration_ms=duration)
+    sim = Simulation(built, scenario, duration_ms=duration)
     sim.start()
     runner = sim.board.program
     executed = 0

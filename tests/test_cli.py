@@ -48,7 +48,7 @@ def test_internal_errors_are_labelled_as_bugs_without_traceback(monkeypatch):
     def boom(*args, **kwargs):
         raise RuntimeError("kaput")
 
-    monkeypatch.setattr(check_module, "check_source", boom)
+    monkeypatch.setattr(check_module, "check_program_file", boom)
     monkeypatch.delenv("ASICTL_DEBUG", raising=False)
     result = CliRunner().invoke(main, ["check", "demos/blink.asi"])
     assert result.exit_code == 3

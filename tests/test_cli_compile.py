@@ -10,10 +10,12 @@ from pathlib import Path
 import pytest
 from click.testing import CliRunner
 
+from asictl.build import build_image
 from asictl.cli import main
 from asictl.codegen8051.compiler import Compiled, compile_program
+from asictl.host.program_files import uploaded_source
 from asictl.il.checks import check_source
-from asictl.image import ProgramImage, build_image, uploaded_source
+from asictl.image import ProgramImage
 from asictl.source import read_source
 
 DEMO = Path(__file__).resolve().parent.parent / "demos" / "blink.asi"
@@ -142,7 +144,7 @@ def test_verbose_log(runner: CliRunner, blink: Path):
         ),
         pytest.param(
             "[PROGRAM]\n    BE\n[ASSEMBLY]\n    DS 16300\n",
-            ["asictl: error: image needs ", "bytes, the EEPROM holds 16384"],
+            ["error: image needs ", "bytes, the EEPROM holds 16384"],
             id="too-big",
         ),
     ],

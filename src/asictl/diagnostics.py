@@ -32,12 +32,21 @@ class Severity(StrEnum):
     NOTE = "note"
 
 
+#: A further place a diagnostic points at, with what it is: "first defined here".
+Related = tuple[Span, str]
+
+
 @dataclass(frozen=True, slots=True)
 class Diagnostic:
+    """One finding. ``related`` names other places that explain it (the first definition
+    of a duplicate, the [SETUP] line of a slave); text output shows each as a ``note:``
+    line, editors as related information."""
+
     severity: Severity
     code: str
     message: str
     span: Span | None = None
+    related: tuple[Related, ...] = ()
 
     @property
     def is_error(self) -> bool:
@@ -54,11 +63,17 @@ class Reporter:
 
     diagnostics: list[Diagnostic] = field(default_factory=list)
 
-    def error(self, code: str, message: str, span: Span | None = None) -> None:
-        self.diagnostics.append(Diagnostic(Severity.ERROR, code, message, span))
+    def error(
+        self, code: str, message: str, span: Span | None = None, related: Iterable[Related] = ()
+    ) -> None:
+        self.diagnostics.append(Diagnostic(Severity.ERROR, code, message, span, tuple(related)))
 
-    def warning(self, code: str, message: str, span: Span | None = None) -> None:
-        self.diagnostics.append(Diagnostic(Severity.WARNING, code, message, span))
+    def warning(
+        self, code: str, message: str, span: Span | None = None, related: Iterable[Related] = ()
+    ) -> None:
+        self.diagnostics.append(
+            Diagnostic(Severity.WARNING, code, message, span, tuple(related))
+        )
 
     @property
     def has_errors(self) -> bool:
@@ -108,18 +123,10 @@ def render_text(
             continue
         shown[file] = shown.get(file, 0) + 1
         out.append(format_line(d))
-        text = sources.get(d.span.file) if d.span else None
-        if text is None or d.span is None:
-            continue
-        if d.span.file not in lines_of:
-            lines_of[d.span.file] = text.split("\n")
-        lines = lines_of[d.span.file]
-        if not 0 < d.span.line <= len(lines):
-            continue
-        src, column = _excerpt(lines[d.span.line - 1], d.span.column)
-        out.append(f"  {src}")
-        length = min(d.span.length, max(1, len(src) - column + 1))
-        out.append("  " + " " * (column - 1) + "^" + "~" * max(0, length - 1))
+        out.extend(_excerpt(d.span, sources, lines_of))
+        for span, note in d.related:
+            out.append(f"{span}: {Severity.NOTE.value}: {note}")
+            out.extend(_excerpt(span, sources, lines_of))
     for file, count in left_out.items():
         what = f"{count} more diagnostic{'' if count == 1 else 's'}"
         out.append(f"{file or 'asictl'}: {what} not shown (only the first {limit} are)")
@@ -130,25 +137,41 @@ def render_text(
 EXCERPT_WIDTH = 160
 
 
-def _excerpt(line: str, column: int) -> tuple[str, int]:
-    """The source line to show and the caret's column in it.
+def _excerpt(
+    span: Span | None, sources: Mapping[str, str], lines_of: dict[str, list[str]]
+) -> list[str]:
+    """The source line of ``span`` and a caret under it (nothing if the text is unknown).
 
-    A line of a megabyte (a binary file, generated text) is cut to a window around the
-    column, so one diagnostic never prints more than about ``EXCERPT_WIDTH`` characters.
+    ``lines_of`` keeps each text split into lines, so a file is split once however many
+    diagnostics it has. A line of a megabyte (a binary file, generated text) is cut to a
+    window around the column, so one diagnostic never prints more than about
+    ``EXCERPT_WIDTH`` characters.
     """
-    src = line.expandtabs(1).rstrip()
-    if len(src) <= EXCERPT_WIDTH:
-        return src, column
-    start = max(0, min(column - 1 - EXCERPT_WIDTH // 2, len(src) - EXCERPT_WIDTH))
-    window = src[start : start + EXCERPT_WIDTH]
-    prefix = "..." if start else ""
-    suffix = "..." if start + EXCERPT_WIDTH < len(src) else ""
-    return prefix + window + suffix, column - start + len(prefix)
+    text = sources.get(span.file) if span else None
+    if text is None or span is None:
+        return []
+    if span.file not in lines_of:
+        lines_of[span.file] = text.split("\n")
+    lines = lines_of[span.file]
+    if not 0 < span.line <= len(lines):
+        return []
+    src = lines[span.line - 1].expandtabs(1).rstrip()
+    column = span.column
+    if len(src) > EXCERPT_WIDTH:
+        start = max(0, min(column - 1 - EXCERPT_WIDTH // 2, len(src) - EXCERPT_WIDTH))
+        prefix = "..." if start else ""
+        suffix = "..." if start + EXCERPT_WIDTH < len(src) else ""
+        src = prefix + src[start : start + EXCERPT_WIDTH] + suffix
+        column = column - start + len(prefix)
+    length = min(span.length, max(1, len(src) - column + 1))
+    return [f"  {src}", "  " + " " * (column - 1) + "^" + "~" * max(0, length - 1)]
 
 
 def render_json(diagnostics: Iterable[Diagnostic]) -> str:
-    items = [
-        {
+    """A list of objects; ``related`` (file, line, column, message) only where there is one."""
+    items = []
+    for d in diagnostics:
+        item: dict[str, object] = {
             "file": d.span.file if d.span else None,
             "line": d.span.line if d.span else None,
             "column": d.span.column if d.span else None,
@@ -156,8 +179,12 @@ def render_json(diagnostics: Iterable[Diagnostic]) -> str:
             "code": d.code,
             "message": d.message,
         }
-        for d in diagnostics
-    ]
+        if d.related:
+            item["related"] = [
+                {"file": span.file, "line": span.line, "column": span.column, "message": note}
+                for span, note in d.related
+            ]
+        items.append(item)
     return json.dumps(items, indent=2) + "\n"
 
 
@@ -181,5 +208,6 @@ def render_github(diagnostics: Iterable[Diagnostic]) -> str:
                 f"col={d.span.column}",
             ]
         props.append(f"title={_escape_github(d.code, property_value=True)}")
-        out.append(f"::{kind} {','.join(props)}::{_escape_github(d.message)}")
+        message = d.message + "".join(f"\nnote: {span}: {note}" for span, note in d.related)
+        out.append(f"::{kind} {','.join(props)}::{_escape_github(message)}")
     return "\n".join(out) + ("\n" if out else "")

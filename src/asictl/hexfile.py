@@ -12,7 +12,7 @@ import io
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from intelhex import IntelHex, IntelHexError  # type: ignore[import-untyped]
+from intelhex import IntelHex, IntelHexError
 
 from asictl.errors import UserError
 from asictl.source import read_bounded

@@ -8,6 +8,9 @@ gives the engineer back what was compiled. Download and upload move these bytes
 unchanged; an uploaded file without source keeps them as Intel HEX records in a [RAW]
 section, so downloading that file restores the identical image.
 
+This module is the format only: it knows nothing of IL or of the compiler (``build``
+makes images from programs), so the emulated board reads images without them.
+
 Every image asictl accepts has exactly one encoding: ``from_bytes`` refuses anything
 ``to_bytes`` would not write, so decoding and encoding again never changes a byte.
 """
@@ -16,31 +19,33 @@ from __future__ import annotations
 
 import hashlib
 import io
-import re
 import struct
 import zlib
 from collections.abc import Iterable, Mapping
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from pathlib import PurePath
+from typing import Any, Protocol
 
 from intelhex import IntelHex, IntelHexError
 
 from asictl import __version__
-from asictl.codegen8051.allocate import CellKind, Location, ProgramMap, Space, Variable
-from asictl.codegen8051.compiler import Compiled, Options
-from asictl.codegen8051.emitter import firmware_symbol
 from asictl.errors import ExitCode, UserError
-from asictl.il import ast
-from asictl.il.ast import key
+from asictl.platform.master import (
+    DEFAULT_PARAMETER,
+    EEPROM_SIZE,
+    NO_PROFILE,
+    OPTION_FLAGS,
+    SLAVES,
+    ControlFlag,
+    Options,
+)
 from asictl.runtime import layout
 from asictl.runtime.firmware import FIRMWARE_BLOCKS
+from asictl.runtime.program_map import CellKind, Location, ProgramMap, Space, Variable
 from asictl.runtime.runner import LoadedProgram
 
 MAGIC = b"ASI2"
 FORMAT_VERSION = 1
-#: The master's EEPROM, which holds the image and nothing else.
-EEPROM_SIZE = 16384
-SLAVES = 32
 
 # Header layout (all little-endian); docs/image-format.md has the table.
 _HEADER = struct.Struct("<4sBBHIB16s4s32s16sHHHH")
@@ -53,22 +58,12 @@ def image_length(header: bytes) -> int:
     of the EEPROM an upload reads and a reset loads."""
     if len(header) < HEADER_SIZE or header[: len(MAGIC)] != MAGIC:
         return 0
-    return _HEADER.unpack_from(header)[3]
+    length: int = _HEADER.unpack_from(header)[3]
+    return length
 
 # Image flags (header byte 5).
 SOURCE_INCLUDED = 0x01
 SOURCE_LEFT_OUT = 0x02  # left out because it did not fit, not because it was not wanted
-
-# The AS-i Control flags byte (PC2 DPRAM 304h); an image sets only these three.
-IGNORE_CONFIG_ERRORS = 0x04
-WAIT_FOR_SET_BUTTON = 0x08  # the inverse of [OPTIONS] auto_start
-MAP_COUNTERS = 0x10
-_IMAGE_CONTROL_FLAGS = IGNORE_CONFIG_ERRORS | WAIT_FOR_SET_BUTTON | MAP_COUNTERS
-
-#: The manual's default parameter (3.2); also what unprojected slaves get.
-DEFAULT_PARAMETER = 0xF
-#: PCD byte of a slave that is not projected: I/O code F, ID code F.
-UNPROJECTED_PCD = 0xFF
 
 _CELL_KINDS = tuple(CellKind)
 _SPACE_BIT = 0x80
@@ -83,6 +78,29 @@ class ImageError(UserError):
 # --------------------------------------------------------------------------- pieces
 
 
+class ProjectedSlave(Protocol):
+    """A slave as [SETUP] projects it (``ast.SlaveSetup`` is one); parameter None: F."""
+
+    @property
+    def address(self) -> int: ...
+    @property
+    def io_code(self) -> int: ...
+    @property
+    def id_code(self) -> int: ...
+    @property
+    def parameter(self) -> int | None: ...
+
+
+@dataclass(frozen=True)
+class SlaveConfig:
+    """A projected slave of an image's configuration."""
+
+    address: int
+    io_code: int
+    id_code: int
+    parameter: int
+
+
 @dataclass(frozen=True)
 class Configuration:
     """The projected configuration a download writes: LPS, PCD and PP in PC2 layout."""
@@ -90,12 +108,12 @@ class Configuration:
     #: list of projected slaves: slave n is bit n % 8 of byte n // 8
     lps: bytes = bytes(4)
     #: permanent configuration data: byte n = ID code << 4 | I/O code of slave n
-    pcd: bytes = bytes([UNPROJECTED_PCD]) * SLAVES
+    pcd: bytes = bytes([NO_PROFILE]) * SLAVES
     #: permanent parameters: slave 2k in the low nibble of byte k, 2k+1 in the high nibble
     pp: bytes = bytes([DEFAULT_PARAMETER * 0x11]) * (SLAVES // 2)
 
     @classmethod
-    def of(cls, slaves: Iterable[ast.SlaveSetup]) -> Configuration:
+    def of(cls, slaves: Iterable[ProjectedSlave]) -> Configuration:
         lps, pcd, pp = bytearray(4), bytearray(cls().pcd), bytearray(cls().pp)
         for slave in slaves:
             n = slave.address
@@ -106,40 +124,18 @@ class Configuration:
             pp[n // 2] = pp[n // 2] & ~(0xF << shift) | parameter << shift
         return cls(bytes(lps), bytes(pcd), bytes(pp))
 
-    @classmethod
-    def of_module(cls, module: ast.Module) -> Configuration:
-        """All [SETUP] sections of a main program together."""
-        return cls.of(s for section in module.sections_of(ast.SetupSection) for s in section.slaves)
-
     def projected(self) -> list[int]:
         return [n for n in range(SLAVES) if self.lps[n // 8] >> n % 8 & 1]
 
     def parameter(self, n: int) -> int:
         return self.pp[n // 2] >> 4 * (n % 2) & 0xF
 
-    def slaves(self) -> list[ast.SlaveSetup]:
-        """The projected slaves as [SETUP] lines, in address order."""
+    def slaves(self) -> list[SlaveConfig]:
+        """The projected slaves, in address order."""
         return [
-            ast.SlaveSetup(n, self.pcd[n] & 0xF, self.pcd[n] >> 4, self.parameter(n))
+            SlaveConfig(n, self.pcd[n] & 0xF, self.pcd[n] >> 4, self.parameter(n))
             for n in self.projected()
         ]
-
-
-def control_flags(options: Options) -> int:
-    """The AS-i Control flags byte for [OPTIONS]; start_flag is the download's decision."""
-    return (
-        (IGNORE_CONFIG_ERRORS if options.ignore_config_errors else 0)
-        | (0 if options.auto_start else WAIT_FOR_SET_BUTTON)
-        | (MAP_COUNTERS if options.map_counters else 0)
-    )
-
-
-def options_of(flags: int) -> Options:
-    return Options(
-        auto_start=not flags & WAIT_FOR_SET_BUTTON,
-        ignore_config_errors=bool(flags & IGNORE_CONFIG_ERRORS),
-        map_counters=bool(flags & MAP_COUNTERS),
-    )
 
 
 def _source_name(name: str) -> str:
@@ -209,7 +205,7 @@ class ProgramImage:
 
     @property
     def options(self) -> Options:
-        return options_of(self.flags)
+        return Options.from_flags(self.flags)
 
     @property
     def identity_hex(self) -> str:
@@ -274,7 +270,7 @@ class ProgramImage:
                 f"image sections ({code_size} + {map_size} + {source_size} bytes after the "
                 f"header) do not add up to its length {length}"
             )
-        if flags & ~_IMAGE_CONTROL_FLAGS & 0xFF:
+        if flags & ~OPTION_FLAGS & 0xFF:
             raise ImageError(f"image sets AS-i Control flags an image cannot set: {flags:02X}h")
         if image_flags not in (
             (SOURCE_INCLUDED,) if source_size else (0, SOURCE_LEFT_OUT)
@@ -289,7 +285,7 @@ class ProgramImage:
             raise ImageError("image projects slave 0, which is reserved for new slaves")
         code_end = HEADER_SIZE + code_size
         pmap, entry_points = _decode_map(
-            data[code_end : code_end + map_size], bool(flags & MAP_COUNTERS)
+            data[code_end : code_end + map_size], bool(flags & ControlFlag.MAP_COUNTERS)
         )
         image = cls(
             flags=flags,
@@ -341,51 +337,6 @@ class ProgramImage:
         return files
 
 
-def build_image(compiled: Compiled, *, with_source: bool = True) -> ProgramImage:
-    """The image of a compiled program, with its source if wanted and if it fits.
-
-    Raises ``ImageError`` when even the code and map exceed the EEPROM.
-    """
-    files = source_files({name: s.raw for name, s in compiled.program.sources.items()})
-    image = ProgramImage(
-        flags=control_flags(compiled.options),
-        configuration=Configuration.of_module(compiled.program.main),
-        identity=program_identity(files),
-        code=compiled.code,
-        pmap=compiled.pmap,
-        entry_points=used_entry_points(compiled),
-    )
-    size = len(image.to_bytes())
-    if size > EEPROM_SIZE:
-        raise ImageError(
-            f"image needs {size} bytes, the EEPROM holds {EEPROM_SIZE} "
-            f"(code {len(image.code)}, program map {size - HEADER_SIZE - len(image.code)}, "
-            f"header {HEADER_SIZE})",
-            ExitCode.FAILED,
-        )
-    if not with_source:
-        return image
-    source = pack_sources(files)
-    if size + len(source) > EEPROM_SIZE:
-        return replace(image, source_left_out=True)
-    return replace(image, source=source)
-
-
-def used_entry_points(compiled: Compiled) -> dict[str, int]:
-    """The firmware blocks the code refers to, by symbol, in generated or [ASSEMBLY] code.
-
-    A master whose firmware has these blocks at these addresses can run the program.
-    """
-    code = "\n".join(line.text.partition(";")[0] for line in compiled.lines)
-    symbols = "|".join(re.escape(firmware_symbol(name)) for name in compiled.entry_points)
-    used = {key(m) for m in re.findall(rf"(?<![\w?])(?:{symbols})(?![\w?])", code, re.I)}
-    return {
-        name: address
-        for name, address in sorted(compiled.entry_points.items())
-        if key(firmware_symbol(name)) in used
-    }
-
-
 # --------------------------------------------------------------------------- program map
 
 
@@ -426,7 +377,7 @@ def _decode_map(data: bytes, map_counters: bool) -> tuple[ProgramMap, dict[str, 
     for _ in range(reader.u16()):
         address, size = reader.unpack("<HB")
         name = reader.name()
-        pmap.variables[key(name)] = Variable(name, address, size)
+        pmap.variables[name.casefold()] = Variable(name, address, size)
     entry_points = {}
     for _ in range(reader.u8()):
         (address,) = reader.unpack("<H")
@@ -453,17 +404,19 @@ class _Reader:
         self.offset += n
         return chunk
 
-    def unpack(self, fmt: str) -> tuple:
+    def unpack(self, fmt: str) -> tuple[Any, ...]:
         return struct.unpack(fmt, self.take(struct.calcsize(fmt)))
 
     def u8(self) -> int:
         return self.take(1)[0]
 
     def u16(self) -> int:
-        return self.unpack("<H")[0]
+        value: int = self.unpack("<H")[0]
+        return value
 
     def u32(self) -> int:
-        return self.unpack("<I")[0]
+        value: int = self.unpack("<I")[0]
+        return value
 
     def name(self) -> str:
         raw = self.take(self.u8())
@@ -479,7 +432,7 @@ class _Reader:
             )
 
 
-# --------------------------------------------------------------------------- HEX and [RAW]
+# --------------------------------------------------------------------------- Intel HEX
 
 
 def _hex_bytes(text: str) -> bytes:
@@ -499,74 +452,5 @@ def _hex_bytes(text: str) -> bytes:
         )
     if len(addresses) > EEPROM_SIZE:
         raise ImageError(f"the Intel HEX holds {len(addresses)} bytes; the EEPROM {EEPROM_SIZE}")
-    return hex_image.tobinstr()
-
-
-def image_from_raw(records: Iterable[str]) -> ProgramImage:
-    """The image an upload wrote as [RAW] records; ``to_bytes`` gives it back unchanged."""
-    return ProgramImage.from_hex("\n".join(records) + "\n")
-
-
-def image_from_uploaded(module: ast.Module) -> ProgramImage:
-    """The image of an uploaded file, whose [OPTIONS] and [SETUP] must describe its [RAW].
-
-    The [RAW] records are what gets downloaded; a file whose other sections were edited
-    would silently download something other than it says, so a mismatch is an error.
-    """
-    records = [r for section in module.sections_of(ast.RawSection) for r in section.records]
-    try:
-        image = image_from_raw(records)
-    except ImageError as exc:
-        raise ImageError(f"[RAW] section: {exc}", ExitCode.FAILED) from None
-    problems = []
-    if module.sections_of(ast.OptionsSection):
-        wanted = Options.of(module)
-        problems += [
-            f"[OPTIONS] {name}: {'yes' if getattr(wanted, name) else 'no'}, "
-            f"the image has {'yes' if getattr(image.options, name) else 'no'}"
-            for name in ("ignore_config_errors", "auto_start", "map_counters")
-            if getattr(wanted, name) != getattr(image.options, name)
-        ]
-    if module.sections_of(ast.SetupSection):
-        wanted_slaves = {s.address: s for s in Configuration.of_module(module).slaves()}
-        image_slaves = {s.address: s for s in image.configuration.slaves()}
-        for n in sorted(wanted_slaves.keys() | image_slaves.keys()):
-            if wanted_slaves.get(n) != image_slaves.get(n):
-                problems.append(
-                    f"[SETUP] slave {n}: {_setup_text(wanted_slaves.get(n))}, "
-                    f"the image has {_setup_text(image_slaves.get(n))}"
-                )
-    if problems:
-        raise ImageError(
-            "the [OPTIONS] and [SETUP] sections do not match the [RAW] image they describe: "
-            + "; ".join(problems),
-            ExitCode.FAILED,
-        )
-    return image
-
-
-def _setup_text(slave: ast.SlaveSetup | None) -> str:
-    return "not set up" if slave is None else slave.to_source().partition(": ")[2]
-
-
-def uploaded_source(image: ProgramImage) -> str:
-    """IL source text for an image without source: its settings, and itself as [RAW]."""
-    options = image.options
-    module = ast.Module(
-        file="",
-        sections=(
-            ast.OptionsSection(tuple(
-                ast.Option(name, getattr(options, name))
-                for name in ("ignore_config_errors", "auto_start", "map_counters")
-            )),
-            ast.SetupSection(tuple(image.configuration.slaves())),
-            ast.RawSection(tuple(image.to_hex().splitlines())),
-        ),
-    )
-    why = "it did not fit in the EEPROM" if image.source_left_out else "it was left out"
-    return (
-        f"; Uploaded program {image.identity_hex}: the image carries no source text ({why}).\n"
-        "; [OPTIONS] and [SETUP] describe the image; [RAW] is the image itself, and\n"
-        "; downloading this file writes it back unchanged.\n"
-        "\n" + module.to_source()
-    )
+    data: bytes = hex_image.tobinstr()
+    return data

@@ -12,12 +12,13 @@ from __future__ import annotations
 from collections.abc import Iterator, Sequence
 
 from asictl import __version__
-from asictl.codegen8051.allocate import CellKind, Location, ProgramMap, Space
 from asictl.codegen8051.compiler import GENERATED, Compiled
-from asictl.image import EEPROM_SIZE, HEADER_SIZE, ProgramImage
+from asictl.image import HEADER_SIZE, ProgramImage
 from asictl.mcs51.assembly import ListingEntry
+from asictl.platform.master import EEPROM_SIZE
 from asictl.runtime import layout
 from asictl.runtime.firmware import FIRMWARE_BLOCKS
+from asictl.runtime.program_map import CellKind, Location, ProgramMap, Space
 from asictl.source import SourceText
 
 #: The first words of every listing: how an existing file is recognised as one.
@@ -73,9 +74,11 @@ def _code_rows(compiled: Compiled) -> Iterator[str]:
             i += 1
             continue
         end = i + 1
-        while end < len(entries) and spans[end] is not None and (
-            spans[end].file, spans[end].line
-        ) == (span.file, span.line):
+        while (
+            end < len(entries)
+            and (following := spans[end]) is not None
+            and (following.file, following.line) == (span.file, span.line)
+        ):
             end += 1
         group = entries[i:end]
         source = sources.get(span.file, [])

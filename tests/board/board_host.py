@@ -9,10 +9,12 @@ from __future__ import annotations
 from collections.abc import Iterable
 
 from asictl.board.board import Pc2Board
+from asictl.build import build_image
 from asictl.codegen8051.compiler import compile_program
 from asictl.il.checks import check_source
-from asictl.image import ProgramImage, build_image
+from asictl.image import ProgramImage
 from asictl.platform import pc2 as d
+from asictl.platform.master import ControlFlag
 from asictl.source import from_string
 
 
@@ -101,7 +103,7 @@ class Host:
         """Project, download, reset (and start); the answer to command 50."""
         self.project(image)
         self.download(image.to_bytes())
-        return self.control_flags(image.flags | d.ControlFlag.RESET | (1 if start else 0))
+        return self.control_flags(image.flags | ControlFlag.RESET | (1 if start else 0))
 
     # views
     def ec_flags(self) -> d.EcFlag:

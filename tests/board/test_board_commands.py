@@ -8,7 +8,8 @@ from board_host import Host, compile_image
 from asictl.board.asi import Slave
 from asictl.board.board import Pc2Board
 from asictl.platform import pc2 as d
-from asictl.platform.pc2 import Command, ControlFlag, ProgramStatus, Status
+from asictl.platform.master import CONTROL_FLAGS_NONVOLATILE, EEPROM_SIZE, ControlFlag
+from asictl.platform.pc2 import Command, ProgramStatus, Status
 from asictl.runtime.layout import default_entry_points
 
 
@@ -215,7 +216,7 @@ def test_50_reset_with_a_corrupted_image_reports_it(board, host: Host):
 
 def test_50_flags_are_non_volatile_and_control_active_read_only(board, host: Host):
     assert host.control_flags(0xFF & ~ControlFlag.RESET) == d.ACK
-    flags = d.CONTROL_FLAGS_NONVOLATILE
+    flags = CONTROL_FLAGS_NONVOLATILE
     assert host.byte(d.CONTROL_FLAGS) == flags  # no program: not active
     assert board.nonvolatile()["control_flags"] == flags
 
@@ -249,8 +250,8 @@ def test_52_53_blocks_of_up_to_240_bytes(board, host: Host):
         (240, 0, d.ACK),
         (241, 0, d.NAK),
         (0, 0, d.NAK),
-        (16, d.EEPROM_SIZE - 16, d.ACK),
-        (16, d.EEPROM_SIZE - 15, d.NAK),
+        (16, EEPROM_SIZE - 16, d.ACK),
+        (16, EEPROM_SIZE - 15, d.NAK),
         (1, 0x8000, d.NAK),
     ],
 )

@@ -8,6 +8,7 @@ from asictl.board.asi import Slave
 from asictl.board.board import Pc2Board
 from asictl.board.services import ERROR, OK, MasterFirmware
 from asictl.platform import pc2 as d
+from asictl.platform.master import EEPROM_SIZE
 from asictl.runtime.firmware import FIRMWARE_BLOCKS
 
 
@@ -17,7 +18,7 @@ def firmware(board: Pc2Board) -> MasterFirmware:
     board.bus.attach(Slave(9, 0x8, 0x0))
     board.bus.attach(Slave(30, 0x8, 0x0))
     board.advance(20)  # configuration mode: 1, 9, 30 active
-    return MasterFirmware(board.execution, bytearray(b"\xff" * d.EEPROM_SIZE), b"IDENTITY")
+    return MasterFirmware(board.execution, bytearray(b"\xff" * EEPROM_SIZE), b"IDENTITY")
 
 
 def call(firmware: MasterFirmware, name: str, *args: int) -> bytearray:

@@ -12,6 +12,7 @@ from asictl.board.asi import AsiBus, BusError, Slave
 from asictl.board.board import NonvolatileError, Pc2Board
 from asictl.board.execution import Phase
 from asictl.platform import pc2 as d
+from asictl.platform.master import EEPROM_SIZE, ControlFlag
 from asictl.platform.pc2 import Command
 
 
@@ -25,7 +26,7 @@ def test_round_trip_through_json(board: Pc2Board, host: Host):
     host.write(d.CONFIG_OK_DELAY, 7)
     host.download(b"\x01\x02\x03", start=0x100)
     host.ok(Command.SET_OPERATION_MODE, data=0)
-    assert host.control_flags(d.ControlFlag.START | d.ControlFlag.MAP_COUNTERS) == d.ACK
+    assert host.control_flags(ControlFlag.START | ControlFlag.MAP_COUNTERS) == d.ACK
 
     saved = json.loads(json.dumps(board.nonvolatile()))
     again = Pc2Board.from_nonvolatile(saved)
@@ -35,7 +36,7 @@ def test_round_trip_through_json(board: Pc2Board, host: Host):
     assert again.dpram[d.LPS : d.LPS + 4] == d.list_bytes({5, 6})
     assert again.dpram[d.PCD + 6] == 0x21
     assert again.dpram[d.LOS : d.LOS + 4] == d.list_bytes({6})
-    assert again.dpram[d.CONTROL_FLAGS] == d.ControlFlag.START | d.ControlFlag.MAP_COUNTERS
+    assert again.dpram[d.CONTROL_FLAGS] == ControlFlag.START | ControlFlag.MAP_COUNTERS
     valve = again.bus.slave(5)
     assert (valve.name, valve.inputs, valve.outputs) == ("valve", 3, 0)
     assert not again.bus.slave(6).parameter_echo
@@ -64,7 +65,7 @@ def test_power_fail_is_kept():
         ({"format": "x"}, "not a saved PC2 board state"),
         ({"version": 9}, "version 9"),
         ({"eeprom": "zz"}, "'eeprom'"),
-        ({"eeprom": "00" * (d.EEPROM_SIZE + 1)}, "at most 16384 bytes"),
+        ({"eeprom": "00" * (EEPROM_SIZE + 1)}, "at most 16384 bytes"),
         ({"pcd": "ff"}, "'pcd' must be hex text of 32 bytes"),
         ({"pp": None}, "'pp'"),
         ({"lps": [0]}, "'lps' must be a list of slave addresses 1..31"),

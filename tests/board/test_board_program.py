@@ -8,7 +8,8 @@ from board_host import Host, compile_image
 from asictl.board.asi import Slave
 from asictl.board.board import Pc2Board
 from asictl.platform import pc2 as d
-from asictl.platform.pc2 import Command, ControlFlag, ControlState, StopReason
+from asictl.platform.master import ControlFlag
+from asictl.platform.pc2 import Command, ControlState, StopReason
 
 SETUP = "[SETUP]\n1: iiii, 1\n3: oooo, 0\n"
 FOLLOW = SETUP + """

@@ -19,7 +19,8 @@ from asictl.board.asi import Slave
 from asictl.board.board import Pc2Board
 from asictl.board.execution import Phase
 from asictl.platform import pc2 as d
-from asictl.platform.pc2 import Command, ControlFlag, ControlState, EcFlag, HiFlag, StopReason
+from asictl.platform.master import ControlFlag
+from asictl.platform.pc2 import Command, ControlState, EcFlag, HiFlag, StopReason
 
 IMAGE = compile_image("""
 [SETUP]

@@ -16,13 +16,13 @@ from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 from il_strategies import gatings, programs, scopes
 
-from asictl.codegen8051.allocate import Location, Space
 from asictl.codegen8051.compiler import compile_program
 from asictl.il import ast
 from asictl.il.checks import check_program
 from asictl.il.loader import Program
 from asictl.il.reference import CycleTimeout as InterpreterTimeout
 from asictl.il.reference import Interpreter
+from asictl.runtime.program_map import Location, Space
 from asictl.runtime.runner import CycleTimeout, LoadedProgram, ProgramRunner
 
 EXAMPLES = int(os.environ.get("ASICTL_DIFF_EXAMPLES", "2000"))

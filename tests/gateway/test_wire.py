@@ -22,6 +22,7 @@ from asictl.gateway.server import SerialSettings, background_gateway, crc16
 from asictl.gateway.slave import GatewaySlave
 from asictl.host.driver import EmulatedPort, Pc2Driver
 from asictl.platform import pc2 as d
+from asictl.platform.master import EEPROM_SIZE
 
 
 @pytest.fixture
@@ -74,7 +75,7 @@ def test_tcp_user_functions_share_the_eeprom_with_the_pc2_port(tcp, board):
         return driver.read(d.PROGRAM_BUFFER, 64)
 
     assert gateway.call(through_pc2_port) == b"".join(blocks)
-    error = client.execute(False, pdus.UploadRequest(address=d.EEPROM_SIZE, dev_id=1))
+    error = client.execute(False, pdus.UploadRequest(address=EEPROM_SIZE, dev_id=1))
     assert error.isError() and error.exception_code == 2
 
 

@@ -17,12 +17,13 @@ import pytest
 from host_helpers import Interrupted, InterruptingPort
 
 from asictl.board.board import Pc2Board
+from asictl.build import build_file
 from asictl.host.driver import EmulatedPort, Pc2Driver
 from asictl.host.jobs import JobError, JobStatus
-from asictl.host.program_files import prepare_image
 from asictl.host.transfer import Pc2Transport, StartMode, download, reset
 from asictl.image import ProgramImage
-from asictl.platform.pc2 import Command, ControlFlag, ProgramStatus
+from asictl.platform.master import ControlFlag
+from asictl.platform.pc2 import Command, ProgramStatus
 
 DEMOS = Path(__file__).resolve().parents[2] / "demos"
 
@@ -44,7 +45,7 @@ class RecordingDriver(Pc2Driver):
 def image_of(name: str) -> ProgramImage:
     board = Pc2Board()
     entry_points = Pc2Transport(Pc2Driver(EmulatedPort(board))).entry_points()
-    image = prepare_image(str(DEMOS / name), entry_points=entry_points).image
+    image = build_file(str(DEMOS / name), entry_points=entry_points).image
     assert image is not None
     return image
 

@@ -10,10 +10,11 @@ from manual_examples import EXAMPLES
 
 from asictl.board.asi import Slave
 from asictl.board.board import Pc2Board
+from asictl.build import build_file, build_image
 from asictl.codegen8051.compiler import compile_program
 from asictl.host.driver import EmulatedPort, Pc2Driver
 from asictl.host.jobs import JobError, JobStatus
-from asictl.host.program_files import prepare_image, uploaded_files, write_files
+from asictl.host.program_files import uploaded_files, write_files
 from asictl.host.transfer import (
     Pc2Transport,
     StartMode,
@@ -25,15 +26,9 @@ from asictl.host.transfer import (
     upload,
 )
 from asictl.il.checks import check_source
-from asictl.image import ProgramImage, build_image
-from asictl.platform.pc2 import (
-    IDI,
-    INSTALLED_SOFTWARE,
-    ODI,
-    ControlFlag,
-    ControlState,
-    ProgramStatus,
-)
+from asictl.image import ProgramImage
+from asictl.platform.master import ControlFlag
+from asictl.platform.pc2 import IDI, INSTALLED_SOFTWARE, ODI, ControlState, ProgramStatus
 from asictl.source import read_source
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -45,7 +40,7 @@ def transport_for(board: Pc2Board) -> Pc2Transport:
 
 
 def prepared(path: Path, transport: Pc2Transport) -> ProgramImage:
-    result = prepare_image(str(path), entry_points=transport.entry_points())
+    result = build_file(str(path), entry_points=transport.entry_points())
     assert result.image is not None, result.diagnostics
     return result.image
 
@@ -118,8 +113,8 @@ def test_round_trip_of_an_image_without_source(tmp_path: Path):
     out = tmp_path / "timer.asi"
     write_files(uploaded_files(upload(transport), out), overwrite=False)
     assert "[RAW]" in out.read_text()
-    raw = prepare_image(str(out), entry_points=transport.entry_points())
-    assert raw.image is not None and not raw.compiled
+    raw = build_file(str(out), entry_points=transport.entry_points())
+    assert raw.image is not None and raw.compiled is None
     download(transport, raw.image)
     assert upload(transport).to_bytes() == image.to_bytes()
     second = tmp_path / "second" / "timer.asi"

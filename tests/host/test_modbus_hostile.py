@@ -25,6 +25,7 @@ from hypothesis import strategies as st
 from time_limit import no_hang
 
 from asictl.board.board import Pc2Board
+from asictl.build import build_file
 from asictl.cli import main
 from asictl.errors import UserError
 from asictl.gateway.server import background_gateway
@@ -32,7 +33,6 @@ from asictl.gateway.slave import GatewaySlave
 from asictl.host.driver import EmulatedPort, Pc2Driver
 from asictl.host.jobs import JobError, JobStatus
 from asictl.host.modbus import open_modbus, read_status
-from asictl.host.program_files import prepare_image
 from asictl.host.target import parse_target
 from asictl.host.transfer import Pc2Transport, StartMode, download, set_start, upload
 
@@ -147,7 +147,7 @@ def gateway_address() -> Iterator[tuple[str, int]]:
     """The emulated gateway in front of a master holding a program (so uploads read one)."""
     board = Pc2Board()
     transport = Pc2Transport(Pc2Driver(EmulatedPort(board)))
-    prepared = prepare_image(str(DEMO), entry_points=transport.entry_points())
+    prepared = build_file(str(DEMO), entry_points=transport.entry_points())
     assert prepared.image is not None
     download(transport, prepared.image, start=StartMode.STOP)
     with background_gateway(GatewaySlave(board)) as gateway:

@@ -16,6 +16,7 @@ from click.testing import CliRunner
 from gateway_stub import stub_gateway
 
 from asictl.board.board import Pc2Board
+from asictl.build import build_file
 from asictl.cli import main
 from asictl.gateway.pdus import (
     INFO_SOFTWARE,
@@ -32,10 +33,9 @@ from asictl.host.boards import emulated_board
 from asictl.host.driver import EmulatedPort, Pc2Driver
 from asictl.host.jobs import JobError, JobStatus
 from asictl.host.modbus import open_modbus
-from asictl.host.program_files import prepare_image
 from asictl.host.target import parse_target
 from asictl.host.transfer import Pc2Transport, StartMode, download, reset, set_start, upload
-from asictl.platform.pc2 import ControlFlag
+from asictl.platform.master import ControlFlag
 
 ROOT = Path(__file__).resolve().parents[2]
 DEMO = sorted((ROOT / "demos").glob("*.asi"))[0]
@@ -46,7 +46,7 @@ def pc2(board: Pc2Board) -> Pc2Transport:
 
 
 def image_for(transport) -> object:
-    result = prepare_image(str(DEMO), entry_points=transport.entry_points())
+    result = build_file(str(DEMO), entry_points=transport.entry_points())
     assert result.image is not None
     return result.image
 

@@ -19,12 +19,13 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from asictl.board.board import Pc2Board
+from asictl.build import build_file
 from asictl.cli import main
 from asictl.errors import UserError
 from asictl.files import shown_name
 from asictl.host.boards import emulated_board
 from asictl.host.driver import EmulatedPort, Pc2Driver
-from asictl.host.program_files import prepare_image, uploaded_files, write_files
+from asictl.host.program_files import uploaded_files, write_files
 from asictl.host.transfer import Pc2Transport, StartMode, download
 from asictl.image import ProgramImage, pack_sources
 
@@ -35,7 +36,7 @@ MAIN = b"[PROGRAM]\n  BE\n"
 def crafted(*blocks: str) -> ProgramImage:
     """The demo's image carrying a main file and block files of the given names."""
     transport = Pc2Transport(Pc2Driver(EmulatedPort(Pc2Board())))
-    image = prepare_image(str(DEMO), entry_points=transport.entry_points()).image
+    image = build_file(str(DEMO), entry_points=transport.entry_points()).image
     assert image is not None
     files = [("main.asi", MAIN)] + [(name, f"; {i}\n".encode()) for i, name in enumerate(blocks)]
     return dataclasses.replace(image, source=pack_sources(files))

@@ -6,8 +6,8 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from il_strategies import modules
 
+from asictl.codes import SyntaxCode
 from asictl.il.parser import parse
-from asictl.il.syntax_errors import CODES
 from asictl.source import SourceText, from_bytes, from_string
 
 HOSTILE = settings(max_examples=200, deadline=None,
@@ -35,7 +35,7 @@ def assert_sane(source: SourceText, diagnostics: list) -> None:
     """Errors only, with known codes, in reading order, at places that exist."""
     lines = source.text.split("\n")
     for d in diagnostics:
-        assert d.is_error and d.code in CODES
+        assert d.is_error and d.code in set(SyntaxCode)
         assert d.span.file == source.name
         assert 1 <= d.span.line <= len(lines)
         assert 1 <= d.span.column <= len(lines[d.span.line - 1]) + 1

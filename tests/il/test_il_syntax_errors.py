@@ -6,8 +6,6 @@ in one run and the lines around an error still reach the AST.
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import pytest
 
 from asictl.il.ast import (
@@ -24,9 +22,6 @@ from asictl.il.ast import (
     VarDecl,
 )
 from asictl.il.parser import parse_text
-from asictl.il.syntax_errors import CODES
-
-DOCS = Path(__file__).resolve().parents[2] / "docs" / "language.md"
 
 
 def errors(text: str) -> list[tuple[int, int, str, str]]:
@@ -192,10 +187,3 @@ def test_an_error_on_a_title_line_keeps_the_section() -> None:
 def test_errors_on_consecutive_lines() -> None:
     assert [e[:3] for e in errors("[PROGRAM]\n" + "    A\n" * 5 + "    L FY\n")] == [
         (n, 6, "E102") for n in range(2, 7)] + [(7, 9, "E102")]
-
-
-def test_codes_are_documented() -> None:
-    """docs/language.md lists every code with its title, as CODES does."""
-    doc = DOCS.read_text(encoding="utf-8")
-    for code, (title, _) in CODES.items():
-        assert f"| {code} | {title} |" in doc

@@ -14,25 +14,21 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from manual_examples import EXAMPLES
 
-from asictl.codegen8051.compiler import Compiled, Options, compile_program
+from asictl.build import Origin, build, build_image, image_from_raw
+from asictl.codegen8051.compiler import Compiled, compile_program
+from asictl.host.program_files import uploaded_source
 from asictl.il import ast
 from asictl.il.checks import check_source
-from asictl.il.parser import parse
 from asictl.image import (
-    EEPROM_SIZE,
     HEADER_SIZE,
     MAGIC,
     Configuration,
     ImageError,
     ProgramImage,
-    build_image,
-    control_flags,
-    image_from_raw,
-    image_from_uploaded,
-    options_of,
+    SlaveConfig,
     program_identity,
-    uploaded_source,
 )
+from asictl.platform.master import EEPROM_SIZE, Options
 from asictl.runtime import layout
 from asictl.runtime.runner import LoadedProgram, ProgramRunner
 from asictl.source import from_string, read_source
@@ -163,8 +159,8 @@ def test_image_runs_like_the_compiled_program(blink: Compiled, blink_bytes: byte
     ],
 )
 def test_control_flags(options: Options, byte: int):
-    assert control_flags(options) == byte
-    assert options_of(byte) == options
+    assert options.control_flags() == byte
+    assert Options.from_flags(byte) == options
 
 
 def test_manual_options_example_sets_ignore_and_wait_for_set_button():
@@ -186,7 +182,7 @@ def test_manual_setup_example_gives_exact_lps_pcd_pp():
     assert config.pp == bytes(pp)  # slave 3 without parameter: F
     data = image.to_bytes()
     assert data[29:33] == config.lps and data[33:65] == config.pcd and data[65:81] == config.pp
-    assert config.slaves() == [ast.SlaveSetup(3, 0xB, 0, 0xF), ast.SlaveSetup(16, 1, 1, 0xE)]
+    assert config.slaves() == [SlaveConfig(3, 0xB, 0, 0xF), SlaveConfig(16, 1, 1, 0xE)]
 
 
 def test_odd_slave_parameter_is_the_high_nibble():
@@ -330,12 +326,22 @@ def uploaded_module(image: ProgramImage) -> ast.Module:
     return result.program.main
 
 
+def image_from_uploaded(text: str) -> ProgramImage:
+    """What the build makes of an uploaded file; its diagnostics raised as ``ImageError``."""
+    built = build(from_string("uploaded.asi", text))
+    assert built.origin is Origin.RAW
+    if built.diagnostics:
+        raise ImageError("; ".join(d.message for d in built.diagnostics))
+    assert built.image is not None
+    return built.image
+
+
 def test_raw_round_trip_gives_the_identical_image(blink: Compiled):
     image = build_image(blink, with_source=False)
     module = uploaded_module(image)
     (raw,) = module.sections_of(ast.RawSection)
     assert image_from_raw(raw.records).to_bytes() == image.to_bytes()
-    assert image_from_uploaded(module).to_bytes() == image.to_bytes()
+    assert image_from_uploaded(uploaded_source(image)).to_bytes() == image.to_bytes()
 
 
 def test_uploaded_source_shows_options_and_setup():
@@ -344,15 +350,14 @@ def test_uploaded_source_shows_options_and_setup():
     source = uploaded_source(image)
     assert "ignore_config_errors: yes\nauto_start: no\nmap_counters: no\n" in source
     assert "[SETUP]\n3: Bh, 0h, Fh\n16: 1h, 1h, Eh\n" in source
-    assert image_from_uploaded(uploaded_module(image)) == image
+    assert image_from_uploaded(uploaded_module(image).to_source()) == image
 
 
 def test_edited_uploaded_sections_are_refused(blink: Compiled):
     text = uploaded_source(build_image(blink, with_source=False))
     edited = text.replace("auto_start: yes", "auto_start: no").replace("31: 8h", "30: 8h")
-    module, _ = parse(from_string("u.asi", edited))
     with pytest.raises(ImageError) as caught:
-        image_from_uploaded(module)
+        image_from_uploaded(edited)
     message = str(caught.value)
     assert "[OPTIONS] auto_start: no, the image has yes" in message
     assert "[SETUP] slave 30: 8h, 0h, Fh, the image has not set up" in message
@@ -360,9 +365,8 @@ def test_edited_uploaded_sections_are_refused(blink: Compiled):
 
 
 def test_broken_raw_records_name_the_section():
-    module, _ = parse(from_string("u.asi", "[RAW]\n:0300000002003BC0\n:00000001FF\n"))
     with pytest.raises(ImageError, match=r"^\[RAW\] section: not an AS-i Control II"):
-        image_from_uploaded(module)
+        image_from_uploaded("[RAW]\n:0300000002003BC0\n:00000001FF\n")
 
 
 # ----------------------------------------------------------------------- size limits

@@ -5,8 +5,6 @@ from __future__ import annotations
 import pytest
 
 from asictl.diagnostics import DiagnosticError
-from asictl.il import ast
-from asictl.il.parser import parse_text
 from asictl.sim.scenario import SlaveSpec, parse_duration, read_scenario
 from asictl.source import from_string
 
@@ -29,9 +27,9 @@ power_fail = false
 """
 
 
-def errors(text: str, program: ast.Module | None = None) -> list[tuple[int, int, str]]:
+def errors(text: str, variables: dict[str, int] | None = None) -> list[tuple[int, int, str]]:
     with pytest.raises(DiagnosticError) as info:
-        read_scenario(from_string("s.toml", text), program)
+        read_scenario(from_string("s.toml", text), variables)
     return [(d.span.line, d.span.column, d.message) for d in info.value.diagnostics]
 
 
@@ -81,9 +79,8 @@ def test_only_inputs_and_flags_can_be_set():
 
 
 def test_odd_byte_address_and_unknown_variable():
-    program, _ = parse_text("[DECL]\nReading BYTE 2\n", "p.asi")
     text = '[[step]]\nat_ms = 0\nexpect = { "IB 5" = 1, "Reading 2" = 0, "Other 0" = 1 }\n'
-    messages = [m for _, _, m in errors(text, program)]
+    messages = [m for _, _, m in errors(text, {"reading": 2})]
     assert messages == [
         "'IB 5': an even slave address 0..30",
         "'Reading 2': 'Reading' has 2 bytes",

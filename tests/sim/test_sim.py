@@ -11,9 +11,10 @@ from xml.etree import ElementTree
 import pytest
 from click.testing import CliRunner
 
+from asictl.build import build_file
 from asictl.cli import main
 from asictl.platform import pc2 as d
-from asictl.sim.engine import Simulation, load_program_for
+from asictl.sim.engine import Simulation, variables_of
 from asictl.sim.scenario import load_scenario
 
 SCENARIOS = Path(__file__).resolve().parents[1] / "scenarios"
@@ -31,9 +32,10 @@ def test_manual_example_scenarios_pass(name: str):
 
 
 def test_set_pp_example_changes_the_masters_permanent_parameter():
-    program, image, _ = load_program_for(SCENARIOS / "set_pp.asi")
-    scenario = load_scenario(SCENARIOS / "set_pp.scenario.toml", program.main)
-    sim = Simulation(program, image, scenario)
+    built = build_file(SCENARIOS / "set_pp.asi")
+    assert built.image is not None
+    scenario = load_scenario(SCENARIOS / "set_pp.scenario.toml", variables_of(built.image.pmap))
+    sim = Simulation(built, scenario)
     sim.run()
     assert sim.board.dpram[d.PP + 8] >> 4 == 0x0A  # slave 17: high nibble of byte 8
 

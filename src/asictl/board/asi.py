@@ -14,9 +14,7 @@ from __future__ import annotations
 from collections.abc import Iterator
 from typing import Any
 
-SLAVES = 32
-#: The slave's parameter after power-up, before the master sends one (AS-i default).
-DEFAULT_PARAMETER = 0xF
+from asictl.platform.master import DEFAULT_PARAMETER, SLAVES
 
 
 class BusError(ValueError):

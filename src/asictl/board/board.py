@@ -18,16 +18,23 @@ import math
 from collections.abc import Callable
 from typing import Any
 
-from asictl.board.asi import SLAVES, AsiBus, BusError
+from asictl.board.asi import AsiBus, BusError
 from asictl.board.commands import CommandsMixin
 from asictl.board.control import AsiControl
-from asictl.board.execution import NO_PROFILE, ExecutionControl, Phase
+from asictl.board.execution import ExecutionControl, Phase
 from asictl.board.services import MasterFirmware
 from asictl.image import ProgramImage
 from asictl.mcs51.bus import Bus
 from asictl.platform import pc2 as d
-from asictl.platform.pc2 import (
+from asictl.platform.master import (
+    CONTROL_FLAGS_NONVOLATILE,
+    EEPROM_SIZE,
+    NO_PROFILE,
+    SLAVES,
+    TICK_MS,
     ControlFlag,
+)
+from asictl.platform.pc2 import (
     ControlState,
     HiFlag,
     InterruptSource,
@@ -43,7 +50,7 @@ MASTER_VERSION = b"asictl emulation".ljust(16, b"\0")
 VERSION_ID = b"PC2C2.00"
 #: One AS-i transaction (master call, pauses, slave answer) and the cycle's management call.
 TRANSACTION_US = 150
-TICK_US = 10_000
+TICK_US = TICK_MS * 1000
 NONVOLATILE_FORMAT = "asictl-pc2-nonvolatile"
 NONVOLATILE_VERSION = 1
 #: The ODI is stored inverted (manual 7.3).
@@ -603,7 +610,7 @@ def _addresses(mask: int) -> list[int]:
 def _factory_state() -> dict[str, Any]:
     """A new board: empty EEPROM, configuration mode, nothing projected."""
     return {
-        "eeprom": b"\xff" * d.EEPROM_SIZE,
+        "eeprom": b"\xff" * EEPROM_SIZE,
         "control_flags": 0,
         "configuration_mode": True,
         "lps": 0,
@@ -628,9 +635,9 @@ def _parse_nonvolatile(data: Any) -> tuple[dict[str, Any], AsiBus]:
             f"this asictl reads version {NONVOLATILE_VERSION}"
         )
     state = _factory_state()
-    eeprom = _hex(data, "eeprom", max_size=d.EEPROM_SIZE)
-    state["eeprom"] = eeprom + b"\xff" * (d.EEPROM_SIZE - len(eeprom))
-    state["control_flags"] = _byte(data, "control_flags") & d.CONTROL_FLAGS_NONVOLATILE
+    eeprom = _hex(data, "eeprom", max_size=EEPROM_SIZE)
+    state["eeprom"] = eeprom + b"\xff" * (EEPROM_SIZE - len(eeprom))
+    state["control_flags"] = _byte(data, "control_flags") & CONTROL_FLAGS_NONVOLATILE
     mode = data.get("configuration_mode")
     if not isinstance(mode, bool):
         raise NonvolatileError(f"'configuration_mode' must be true or false, not {mode!r}")

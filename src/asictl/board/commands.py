@@ -8,7 +8,8 @@ and answers in the command byte with 00h (done) or FFh (refused); results go to 
 from __future__ import annotations
 
 from asictl.platform import pc2 as d
-from asictl.platform.pc2 import Command, ControlFlag, Status, nibbles
+from asictl.platform.master import EEPROM_SIZE, ControlFlag
+from asictl.platform.pc2 import Command, Status, nibbles
 from asictl.runtime.layout import default_entry_points
 
 #: Command 53 from FF00h: the firmware's function-block entry points, 2 bytes each, LE.
@@ -118,7 +119,7 @@ class CommandsMixin:
         return True
 
     def _download(self) -> bool:
-        block = self._block(d.EEPROM_SIZE)
+        block = self._block(EEPROM_SIZE)
         if block is None:
             return False
         self._eeprom[block.start : block.stop] = self._ram[self._buffer(len(block))]
@@ -130,7 +131,7 @@ class CommandsMixin:
             block = self._block(d.ENTRY_TABLE_ADDRESS + d.ENTRY_TABLE_SIZE)
             source, offset = ENTRY_TABLE, d.ENTRY_TABLE_ADDRESS
         else:
-            block = self._block(d.EEPROM_SIZE)
+            block = self._block(EEPROM_SIZE)
             source, offset = bytes(self._eeprom), 0
         if block is None:
             return False

@@ -13,20 +13,10 @@ from __future__ import annotations
 
 from asictl.image import ImageError, ProgramImage, image_length
 from asictl.mcs51.bus import Bus
-from asictl.platform.pc2 import (
-    CONTROL_FLAGS_NONVOLATILE,
-    FLAGS,
-    FLAGS_SIZE,
-    ControlFlag,
-    ControlState,
-    ProgramStatus,
-    StopReason,
-)
+from asictl.platform.master import CONTROL_FLAGS_NONVOLATILE, MACHINE_CYCLE_US, ControlFlag
+from asictl.platform.pc2 import FLAGS, FLAGS_SIZE, ControlState, ProgramStatus, StopReason
 from asictl.runtime.firmware import FirmwareServices
 from asictl.runtime.runner import ProgramRunner
-
-#: 12 clocks a machine cycle at 11.0592 MHz (docs/runtime.md).
-MACHINE_CYCLE_US = 12 / 11.0592
 
 # Plain ints: the run/stop check happens every AS-i cycle, IntFlag arithmetic is slow.
 _START = int(ControlFlag.START)

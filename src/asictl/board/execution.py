@@ -17,14 +17,13 @@ from __future__ import annotations
 from collections.abc import Iterator
 from enum import Enum
 
-from asictl.board.asi import SLAVES, AsiBus, Slave
+from asictl.board.asi import AsiBus, Slave
+from asictl.platform.master import NO_PROFILE, SLAVES, TICK_MS
 from asictl.platform.pc2 import EcFlag, Status
 
 #: Addresses 1..31: slave 0 (a new slave) is never projected, activated or counted
 #: in the configuration check.
 OPERATING = 0xFFFFFFFE
-#: CDI/PCD byte of an address without a slave / without a projected slave.
-NO_PROFILE = 0xFF
 #: The error counters saturate here; 255 means overflow (manual 6.2).
 COUNTER_LIMIT = 254
 COUNTER_OVERFLOW = 255
@@ -271,7 +270,7 @@ class ExecutionControl:
         elif not self.config_ok:
             if self._ok_since is None:
                 self._ok_since = now_us
-            if now_us - self._ok_since >= self.config_ok_delay * 10_000:
+            if now_us - self._ok_since >= self.config_ok_delay * TICK_MS * 1000:
                 self.config_ok, self._ok_since = True, None
 
     def _go_offline(self) -> None:

@@ -12,7 +12,8 @@ from __future__ import annotations
 from collections.abc import Callable
 
 from asictl.board.execution import ExecutionControl
-from asictl.platform.pc2 import EEPROM_SIZE, Status
+from asictl.platform.master import EEPROM_SIZE
+from asictl.platform.pc2 import Status
 
 OK = 0x00
 ERROR = 0x80

@@ -10,6 +10,7 @@ from __future__ import annotations
 import importlib
 import os
 import sys
+from typing import Any
 
 import click
 
@@ -22,6 +23,8 @@ COMMANDS: dict[str, tuple[str, str]] = {
         "asictl.cli.compile:compile_", "Compile an IL program into an image for the master."
     ),
     "check": ("asictl.cli.check:check", "Check IL source files for errors (for CI and editors)."),
+    "fmt": ("asictl.cli.fmt:fmt", "Lay out IL source files canonically (--check for CI)."),
+    "lsp": ("asictl.cli.lsp:lsp", "Run the IL language server for editors (stdio)."),
     "asm": ("asictl.cli.asm:asm", "Assemble 8051 source into Intel HEX."),
     "disasm": ("asictl.cli.asm:disasm", "Disassemble an Intel HEX image into 8051 source."),
     "emu": ("asictl.cli.emu:emu", "Run an Intel HEX image on the 8051 emulator."),
@@ -54,14 +57,16 @@ class LazyGroup(click.Group):
         if entry is None:
             return None
         module_name, _, attr = entry[0].partition(":")
-        return getattr(importlib.import_module(module_name), attr)
+        command = getattr(importlib.import_module(module_name), attr)
+        assert isinstance(command, click.Command), entry[0]
+        return command
 
     def format_commands(self, ctx: click.Context, formatter: click.HelpFormatter) -> None:
         rows = [(name, COMMANDS[name][1]) for name in self.list_commands(ctx)]
         with formatter.section("Commands"):
             formatter.write_dl(rows)
 
-    def invoke(self, ctx: click.Context):
+    def invoke(self, ctx: click.Context) -> Any:  # what the command returns, as click types it
         try:
             return super().invoke(ctx)
         except UserError as exc:

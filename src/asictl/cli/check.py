@@ -7,6 +7,7 @@ from pathlib import Path
 
 import click
 
+from asictl.build import check as check_program_file
 from asictl.diagnostics import (
     TEXT_LIMIT,
     Diagnostic,
@@ -16,7 +17,7 @@ from asictl.diagnostics import (
     render_text,
 )
 from asictl.errors import ExitCode, UserError
-from asictl.il.checks import Dialect, check_source
+from asictl.il.checks import Dialect
 from asictl.source import read_source
 
 
@@ -117,9 +118,14 @@ def check(
             click.echo(f"asictl: error: {exc}", err=True)
             unreadable += 1
             continue
-        result = check_source(source, dialect=Dialect(dialect), lib=lib)
+        try:
+            result = check_program_file(source, dialect=Dialect(dialect), lib=lib)
+        except UserError as exc:  # an Intel HEX file that holds no valid image
+            click.echo(f"asictl: error: {source.name}: {exc}", err=True)
+            unreadable += 1
+            continue
         diagnostics.extend(result.diagnostics)
-        sources.update({name: s.text for name, s in result.program.sources.items()})
+        sources.update(result.texts)
 
     if fmt == "json":
         click.echo(render_json(diagnostics), nl=False)

@@ -8,25 +8,16 @@ the step log (CTRL2.{l}) with -v.
 from __future__ import annotations
 
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 
 import click
 
-from asictl.codegen8051.compiler import GENERATED, Compiled, compile_program
-from asictl.diagnostics import DiagnosticError, Severity, render_text
+from asictl.build import Build, Origin, Stage, build_file
+from asictl.diagnostics import Diagnostic, Severity
 from asictl.errors import ExitCode, UserError
 from asictl.files import write_output
-from asictl.il import ast
-from asictl.il.checks import check_source
-from asictl.il.loader import Program
-from asictl.image import (
-    MAGIC,
-    build_image,
-    image_from_uploaded,
-    pack_sources,
-    source_files,
-)
+from asictl.image import MAGIC, pack_sources, source_files
 from asictl.listing import (
     LISTING_MARK,
     cells_summary,
@@ -36,7 +27,6 @@ from asictl.listing import (
     listing_text,
     raw_listing_text,
 )
-from asictl.source import read_source
 
 _OUTPUT = click.Path(dir_okay=False)
 #: The first record of every image asictl writes: 16 bytes at address 0, starting with MAGIC.
@@ -70,14 +60,15 @@ def _is_listing(first_line: str) -> bool:
 
 
 def _check_target(
-    path: str, recognise: Callable[[str], bool], what: str, program: Program, force: bool
+    path: str, recognise: Callable[[str], bool], what: str, sources: Mapping[str, object],
+    force: bool,
 ) -> None:
     """The overwrite policy: replace asictl's own outputs, anything else only with --force.
 
     A source file of the program is never replaced, not even with --force.
     """
     target = Path(path)
-    inputs = {Path(name).resolve() for name in program.sources if name != "<stdin>"}
+    inputs = {Path(name).resolve() for name in sources if name != "<stdin>"}
     if target.resolve() in inputs:
         raise UserError(f"{path}: is a source file of this program; not overwritten")
     if force or not target.is_file():
@@ -93,7 +84,7 @@ def _check_target(
         )
 
 
-def _summary_counts(diagnostics) -> tuple[int, int]:
+def _summary_counts(diagnostics: Sequence[Diagnostic]) -> tuple[int, int]:
     errors = sum(d.severity is Severity.ERROR for d in diagnostics)
     return errors, len(diagnostics) - errors
 
@@ -142,44 +133,36 @@ def compile_(
     ctx = click.get_current_context()
     log = _Log(verbose)
 
-    main_source = read_source(source)
-    result = check_source(main_source, lib=lib)
-    program = result.program
-    for name, text in program.sources.items():
-        log(f"read {name} ({len(text.raw)} bytes)")
-    texts = {name: s.text for name, s in program.sources.items()}
-    click.echo(render_text(result.diagnostics, texts), nl=False, err=True)
-    errors, warnings = _summary_counts(result.diagnostics)
-    log.step(f"checked: {errors} errors, {warnings} warnings")
-    if errors:
+    def on_stage(stage: Stage, built: Build) -> None:
+        if stage is Stage.CHECKED:
+            for name, text in built.program.sources.items() if built.program else ():
+                log(f"read {name} ({len(text.raw)} bytes)")
+            errors, warnings = _summary_counts(built.diagnostics)
+            log.step(f"checked: {errors} errors, {warnings} warnings")
+        elif stage is Stage.COMPILED and built.compiled is not None:
+            pmap = built.compiled.pmap
+            log(f"allocated {cells_summary(pmap)}; {data_summary(pmap)}")
+            log.step(f"assembled {len(built.compiled.lines)} lines of 8051 assembly")
+        elif stage is Stage.IMAGE:
+            log.step("image built")
+
+    built = build_file(source, lib=lib, with_source=not no_source, on_stage=on_stage)
+    click.echo(built.render(), nl=False, err=True)
+    image = built.image
+    if built.has_errors or image is None:
         ctx.exit(int(ExitCode.FAILED))
-
+    if built.origin is not Origin.SOURCE:
+        log.step(f"image read from {'the [RAW] section' if built.origin is Origin.RAW else source}")
+    sources = built.program.sources if built.program else {}
     if hex_path != "-":
-        _check_target(hex_path, _is_image_hex, "image", program, force)
+        _check_target(hex_path, _is_image_hex, "image", sources, force)
     if listing:
-        _check_target(listing, _is_listing, "listing", program, force)
-
-    compiled: Compiled | None = None
-    if program.main.sections_of(ast.RawSection):
-        image = image_from_uploaded(program.main)
-        log.step("image read from the [RAW] section")
-    else:
-        try:
-            compiled = compile_program(program)
-        except DiagnosticError as exc:
-            click.echo(render_text(exc.diagnostics, texts), nl=False, err=True)
-            ctx.exit(int(ExitCode.FAILED))
-        texts[GENERATED] = compiled.assembly_text
-        click.echo(render_text(compiled.diagnostics, texts), nl=False, err=True)
-        log(f"allocated {cells_summary(compiled.pmap)}; {data_summary(compiled.pmap)}")
-        log.step(f"assembled {len(compiled.lines)} lines of 8051 assembly")
-        image = build_image(compiled, with_source=not no_source)
-        log.step("image built")
+        _check_target(listing, _is_listing, "listing", sources, force)
     log(f"code: {code_summary(image)}")
     log(f"image: {image_size_summary(image)}")
     log(f"identity: {image.identity_hex}")
-    if image.source_left_out:
-        files = source_files({name: s.raw for name, s in program.sources.items()})
+    if image.source_left_out and built.compiled is not None:
+        files = source_files({name: s.raw for name, s in sources.items()})
         click.echo(
             f"asictl: warning: the source text ({len(pack_sources(files))} bytes compressed) "
             "does not fit in the image and is left out; an upload will give [RAW] records "
@@ -187,17 +170,17 @@ def compile_(
             err=True,
         )
 
-    inputs = list(program.sources)
+    inputs = [source, *sources]
     if hex_path == "-":
         click.echo(image.to_hex(), nl=False)
     else:
         write_output(hex_path, image.to_hex(), inputs=inputs)
         log(f"wrote {hex_path}")
     if listing:
-        name = next(iter(program.sources))
         write_output(
             listing,
-            listing_text(compiled, image) if compiled else raw_listing_text(name, image),
+            listing_text(built.compiled, image) if built.compiled
+            else raw_listing_text(built.name, image),
             inputs=inputs,
         )
         log(f"wrote {listing}")

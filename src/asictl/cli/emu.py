@@ -15,12 +15,14 @@ from asictl.mcs51.emulator import Emulator, StopReason
 DEFAULT_MAX_INSTRUCTIONS = 100_000_000
 
 
-class Address(click.ParamType):
+class Address(click.ParamType[int]):
     """A code address as 8051 people write it: 0x100, 100h or 256."""
 
     name = "ADDR"
 
-    def convert(self, value, param, ctx) -> int:
+    def convert(
+        self, value: int | str, param: click.Parameter | None, ctx: click.Context | None
+    ) -> int:
         if isinstance(value, int):
             return value
         text = value.strip().lower()
@@ -57,7 +59,7 @@ def _trace(emu: Emulator, address: int) -> None:
     )
 
 
-def final_state(emu: Emulator, stopped: StopReason) -> dict:
+def final_state(emu: Emulator, stopped: StopReason) -> dict[str, int | str | list[int]]:
     return {
         "pc": emu.pc,
         "a": emu.a,

@@ -116,7 +116,8 @@ def serve(
         )
 
         def started() -> None:
-            where = [f"tcp {server.tcp_address[0]}:{server.tcp_address[1]}"] if address else []
+            listening = server.tcp_address  # set before started() if it serves TCP
+            where = [f"tcp {listening[0]}:{listening[1]}"] if listening is not None else []
             where += [f"rtu {rtu} {baud} {parity}{stopbits}"] if rtu else []
             click.echo(
                 f"asictl: gateway unit {unit} for board {port} serving "

@@ -13,32 +13,33 @@ from __future__ import annotations
 import json
 import sys
 from collections.abc import Callable, Iterator
-from contextlib import contextmanager
-from dataclasses import dataclass
+from contextlib import AbstractContextManager, contextmanager
 from pathlib import Path
-from typing import Any
+from typing import TypedDict, TypeVar, Unpack
 
 import click
 from click.core import ParameterSource
 
-from asictl.board.asi import Slave
-from asictl.board.board import Pc2Board
-from asictl.diagnostics import render_text
+from asictl.build import build_file
 from asictl.errors import ExitCode, UserError
 from asictl.files import STDOUT, shown_name, write_output
-from asictl.host.boards import IO_BACKENDS, connect, parse_port, port_name
-from asictl.host.driver import EmulatedPort
-from asictl.host.program_files import prepare_image, uploaded_files, write_files
-from asictl.host.status import MasterStatus, control_summary, read_status, render
+from asictl.host.boards import IO_BACKENDS
+from asictl.host.connection import (
+    Master,
+    MasterAddress,
+    cable_setup_slaves,
+    connect_master,
+    settle,
+)
+from asictl.host.program_files import uploaded_files, write_files
+from asictl.host.status import render
 from asictl.host.target import (
     BAUD_RATES,
     DEFAULT_RETRIES,
     DEFAULT_TIMEOUT_S,
     PARITIES,
-    parse_target,
 )
 from asictl.host.transfer import (
-    Pc2Transport,
     StartMode,
     Transport,
     download,
@@ -48,10 +49,26 @@ from asictl.host.transfer import (
     set_start,
     upload,
 )
-from asictl.image import ProgramImage
+
+_Callback = TypeVar("_Callback", bound=Callable[..., object])
 
 
-def _board_options(command: Callable) -> Callable:
+class _BoardOptions(TypedDict):
+    """The values of the options ``_board_options`` adds, as click passes them."""
+
+    port: str
+    io: str
+    state_dir: str | None
+    modbus: str | None
+    unit: int
+    baud: str
+    parity: str
+    stopbits: str
+    timeout: float
+    retries: int
+
+
+def _board_options(command: _Callback) -> _Callback:
     options = [
         click.option(
             "--port", default="300h", show_default=True,
@@ -105,56 +122,29 @@ def _board_options(command: Callable) -> Callable:
     return command
 
 
-def _name(port: str) -> str:
-    return port_name(parse_port(port))
-
-
-@dataclass(frozen=True)
-class _Master:
-    """A master as the commands see it, whichever way it is reached."""
-
-    transport: Transport
-    name: str
-    summary: Callable[[], str]
-    status: Callable[[], MasterStatus]
-
-
 _PC2_ONLY = ("port", "io", "state_dir")
 
 
-@contextmanager
-def _connect(
+def _address(
     port: str, io: str, state_dir: str | None, modbus: str | None, unit: int, baud: str,
     parity: str, stopbits: str, timeout: float, retries: int,
-) -> Iterator[_Master]:
-    """The PC2 board named by --port, or the gateway named by --modbus."""
-    if modbus is None:
-        with connect(port, io, state_dir) as driver:
-            name = _name(port)
-            yield _Master(
-                Pc2Transport(driver), name, lambda: control_summary(driver),
-                lambda: read_status(driver, name),
-            )
-        return
-    ctx = click.get_current_context()
-    clash = [
-        f"--{option.replace('_', '-')}" for option in _PC2_ONLY
-        if ctx.get_parameter_source(option) is not ParameterSource.DEFAULT
-    ]
-    if clash:
-        raise UserError(f"--modbus and {', '.join(clash)} exclude each other")
-    target = parse_target(modbus, baud=int(baud), parity=parity, stopbits=int(stopbits))
-    try:
-        from asictl.host import modbus as gateway
-    except ImportError as exc:
-        raise UserError(
-            f"--modbus needs pymodbus and pyserial ({exc}): pip install 'asictl[modbus]'"
-        ) from None
-    with gateway.open_modbus(target, unit, timeout=timeout, retries=retries) as transport:
-        yield _Master(
-            transport, f"{target} unit {unit}", lambda: gateway.control_summary(transport),
-            lambda: gateway.read_status(transport),
-        )
+) -> MasterAddress:
+    """The master the board options name; --modbus excludes the PC2 board's options."""
+    if modbus is not None:
+        ctx = click.get_current_context()
+        clash = [
+            f"--{option.replace('_', '-')}" for option in _PC2_ONLY
+            if ctx.get_parameter_source(option) is not ParameterSource.DEFAULT
+        ]
+        if clash:
+            raise UserError(f"--modbus and {', '.join(clash)} exclude each other")
+    return MasterAddress(
+        port, io, state_dir, modbus, unit, int(baud), parity, int(stopbits), timeout, retries
+    )
+
+
+def _connect(**board: Unpack[_BoardOptions]) -> AbstractContextManager[Master]:
+    return connect_master(_address(**board))
 
 
 @contextmanager
@@ -164,21 +154,6 @@ def _progress(label: str, blocks: int) -> Iterator[Callable[[int], None]]:
         length=blocks, label=label, file=sys.stderr, show_eta=False,
     ) as bar:
         yield bar.update
-
-
-def _emulated_board(transport: object) -> Pc2Board | None:
-    port = getattr(getattr(transport, "driver", None), "port", None)
-    return port.board if isinstance(port, EmulatedPort) else None
-
-
-def _cable_setup_slaves(transport: object, image: ProgramImage) -> None:
-    """An emulated board with nothing on its AS-i cable gets the slaves of the program's
-    [SETUP], as a plant built for the program would have them (they stay in its state)."""
-    board = _emulated_board(transport)
-    if board is not None and not len(board.bus):
-        for slave in image.configuration.slaves():
-            board.bus.attach(Slave(slave.address, slave.io_code, slave.id_code))
-        board.advance(100)  # the master finds them
 
 
 @click.command("download")
@@ -194,7 +169,9 @@ def _cable_setup_slaves(transport: object, image: ProgramImage) -> None:
     "--lib", "lib", multiple=True, type=click.Path(file_okay=False),
     help="Also look for function-block files here (repeatable; also $ASICTL_LIB).",
 )
-def download_command(file: str, start: str, lib: tuple[str, ...], **board: Any) -> None:
+def download_command(
+    file: str, start: str, lib: tuple[str, ...], **board: Unpack[_BoardOptions]
+) -> None:
     """Store a program in the master's EEPROM and load it (ACF /d+).
 
     FILE is IL source (compiled against the entry points the master reports) or an image
@@ -211,26 +188,24 @@ def download_command(file: str, start: str, lib: tuple[str, ...], **board: Any) 
     with _connect(**board) as master:
         transport = master.transport
         entry_points = transport.entry_points()
-        prepared = prepare_image(file, entry_points=entry_points, lib=lib)
-        click.echo(render_text(prepared.diagnostics, prepared.texts), nl=False, err=True)
-        image = prepared.image
-        if image is None:
+        built = build_file(file, entry_points=entry_points, lib=lib)
+        click.echo(built.render(), nl=False, err=True)
+        image = built.image
+        if built.has_errors or image is None:
             ctx.exit(int(ExitCode.FAILED))
         linked_for(image, entry_points)
-        if prepared.compiled and image.source_left_out:
+        if built.compiled is not None and image.source_left_out:
             click.echo(
                 "asictl: warning: the source text does not fit in the EEPROM and is left "
                 "out; an upload will give [RAW] records instead of the program text",
                 err=True,
             )
-        _cable_setup_slaves(transport, image)
+        cable_setup_slaves(master, image)
         size = len(image.to_bytes())
         steps = download_steps(size, transport.block_size)
         with _progress(f"download {size} bytes", steps) as bar:
             download(transport, image, start=StartMode(start), progress=bar)
-        board = _emulated_board(transport)
-        if board is not None:
-            board.advance(100)  # config_ok's delay after the configuration was written
+        settle(master)
         state = master.summary()
     click.echo(f"{master.name}: downloaded {file} ({size} bytes, identity "
                f"{image.identity_hex}); {state}", err=True)
@@ -245,7 +220,7 @@ def download_command(file: str, start: str, lib: tuple[str, ...], **board: Any) 
 @click.option(
     "--overwrite", is_flag=True, help="Replace files that exist with other content (ACF /o+).",
 )
-def upload_command(output: str, overwrite: bool, **board: Any) -> None:
+def upload_command(output: str, overwrite: bool, **board: Unpack[_BoardOptions]) -> None:
     """Read the program back from the master into a source file (ACF /u+).
 
     The image is read from the EEPROM and checked (CRC). If it carries its source, the
@@ -289,10 +264,12 @@ def upload_command(output: str, overwrite: bool, **board: Any) -> None:
         )
 
 
-def _control_command(name: str, help_text: str, action: Callable[[Transport], int]):
+def _control_command(
+    name: str, help_text: str, action: Callable[[Transport], int]
+) -> click.Command:
     @click.command(name, help=help_text)
     @_board_options
-    def command(**board: Any) -> None:
+    def command(**board: Unpack[_BoardOptions]) -> None:
         with _connect(**board) as master:
             action(master.transport)
             state = master.summary()
@@ -329,7 +306,7 @@ reset_command = _control_command(
 @click.command("status")
 @_board_options
 @click.option("--json", "as_json", is_flag=True, help="One JSON object on stdout.")
-def status_command(as_json: bool, **board: Any) -> None:
+def status_command(as_json: bool, **board: Unpack[_BoardOptions]) -> None:
     """Show the master's state, as the ASI_MON screen does.
 
     Phase and mode, execution control flags, the slave lists LPS/LDS/LAS, configuration

@@ -11,10 +11,11 @@ from xml.etree import ElementTree
 
 import click
 
+from asictl.build import build_file
 from asictl.diagnostics import DiagnosticError, render_text
 from asictl.errors import ExitCode, UserError
 from asictl.files import refuse_inputs, write_output
-from asictl.sim.engine import SimResult, Simulation, load_program_for
+from asictl.sim.engine import SimResult, Simulation, variables_of
 from asictl.sim.scenario import Scenario, load_scenario, parse_duration
 from asictl.sim.trace import to_csv, to_vcd, write_plot
 from asictl.source import read_source
@@ -71,14 +72,13 @@ def _run(
             program_path = _program_for(scenario_path)
     if program_path is None:
         raise UserError("no program: name one, or give the scenario a 'program = \"...\"' line")
-    try:
-        program, image, texts = load_program_for(Path(program_path), lib)
-    except DiagnosticError as exc:
-        _show(exc, _texts(program_path))
-        raise _Invalid from None
+    built = build_file(program_path, lib=lib)
+    click.echo(built.render(), nl=False, err=True)
+    if built.has_errors or built.image is None:
+        raise _Invalid
     if scenario_path is not None:
         try:  # again, now that the program's variables are known
-            scenario = load_scenario(scenario_path, program.main)
+            scenario = load_scenario(scenario_path, variables_of(built.image.pmap))
         except DiagnosticError as exc:
             _show(exc, _texts(scenario_path))
             raise _Invalid from None
@@ -87,10 +87,13 @@ def _run(
         duration_ms = duration_ms if duration_ms is not None else DEFAULT_DURATION_MS
     start = time.perf_counter()
     try:
-        result = Simulation(program, image, scenario, duration_ms=duration_ms, trace=trace).run()
+        simulation = Simulation(built, scenario, duration_ms=duration_ms, trace=trace)
+        result = simulation.run()
     except DiagnosticError as exc:
-        _show(exc, {**texts, **_texts(scenario_path)})
+        _show(exc, {**built.texts, **_texts(scenario_path)})
         raise _Invalid from None
+    if simulation.untraced:
+        click.echo(f"asictl: note: {program_path}: {simulation.untraced}", err=True)
     return _Run(Path(program_path), scenario, result, time.perf_counter() - start)
 
 

@@ -14,44 +14,21 @@ from __future__ import annotations
 from collections import Counter
 from collections.abc import Iterator
 from dataclasses import dataclass, field
-from enum import StrEnum
 
 from asictl.il import ast
 from asictl.il.ast import key
 from asictl.il.language import COUNTER_FLAG_BASE, MAPPED_COUNTERS
 from asictl.il.loader import Program
 from asictl.runtime import layout
-
-
-class Space(StrEnum):
-    IRAM = "iram"
-    XDATA = "xdata"
-
-
-@dataclass(frozen=True, slots=True, order=True)
-class Location:
-    space: Space
-    address: int
-
-    @property
-    def bit_addressable(self) -> bool:
-        return self.space is Space.IRAM and 0x20 <= self.address < 0x30
-
-    def bit_address(self, bit: int) -> int:
-        return (self.address - 0x20) * 8 + bit
-
-
-class CellKind(StrEnum):
-    """Byte-sized pieces of the process images a program can address bit by bit."""
-
-    I = "I"  # noqa: E741 - the manual's name: input image byte k = slaves 2k, 2k+1
-    I2 = "I2"
-    Q = "Q"
-    F = "F"  # flag byte n
-    TS = "TS"  # status bits of timers 8g..8g+7
-
-
-Cell = tuple[CellKind, int]
+from asictl.runtime.program_map import (
+    Cell,
+    CellKind,
+    Location,
+    ProgramMap,
+    Space,
+    Variable,
+    timer_status,
+)
 
 _IMAGE_CELLS = {
     ast.BitArea.I: CellKind.I, ast.BitArea.I2: CellKind.I2, ast.BitArea.Q: CellKind.Q
@@ -75,41 +52,10 @@ def byte_cell(operand: ast.ImageByte) -> Cell:
     return _BYTE_CELLS[operand.area], operand.number >> 1
 
 
-def timer_status(number: int) -> tuple[Cell, int]:
-    return (CellKind.TS, number >> 3), number & 7
-
-
-@dataclass
-class Variable:
-    name: str
-    address: int
-    size: int
-
-
-@dataclass
-class ProgramMap:
-    """Where everything is; the firmware and the simulator read it from the image."""
-
-    cells: dict[Cell, Location] = field(default_factory=dict)
-    #: timer number -> XDATA address of its remaining time (2 bytes, low first)
-    timers: dict[int, int] = field(default_factory=dict)
-    #: counter number -> XDATA address of its count (2 bytes, low first)
-    counters: dict[int, int] = field(default_factory=dict)
-    #: key(name) -> the variable's XDATA bytes
-    variables: dict[str, Variable] = field(default_factory=dict)
-    pseg: int = layout.DATA_BASE
-    data_end: int = layout.DATA_BASE
-    map_counters: bool = False
-
-    def flag(self, n: int) -> Location:
-        """Flag byte n: its cell if allocated, else its home in the communication memory."""
-        return self.cells.get((CellKind.F, n), Location(Space.XDATA, layout.FLAGS_BASE + n))
-
-
 @dataclass
 class _Usage:
-    bit_uses: Counter = field(default_factory=Counter)
-    byte_uses: Counter = field(default_factory=Counter)
+    bit_uses: Counter[Cell] = field(default_factory=Counter)
+    byte_uses: Counter[Cell] = field(default_factory=Counter)
     timers: set[int] = field(default_factory=set)
     counters: set[int] = field(default_factory=set)
 
@@ -146,12 +92,14 @@ def _usage(program: Program) -> _Usage:
                     usage.counters.add(n)
         for section in module.sections_of(ast.ProgramSection):
             for statement in section.statements:
-                operand = getattr(statement, "operand", None) or getattr(statement, "counter", None)
-                match operand:
+                used: object = getattr(statement, "operand", None) or getattr(
+                    statement, "counter", None
+                )
+                match used:
                     case ast.ImageByte(area=ast.ByteArea.PSEG):
                         pass
                     case ast.ImageByte():
-                        usage.byte(byte_cell(operand))
+                        usage.byte(byte_cell(used))
                     case ast.FlagWord(number=n):
                         usage.byte((CellKind.F, n))
                         usage.byte((CellKind.F, n + 1))
@@ -176,7 +124,7 @@ def allocate(program: Program, *, map_counters: bool) -> ProgramMap:
     )
     used = [c for c in {*usage.bit_uses, *usage.byte_uses} if c not in pinned]
 
-    def weight(cell: Cell) -> tuple:
+    def weight(cell: Cell) -> tuple[int, int, Cell]:
         return (-usage.bit_uses[cell], -usage.byte_uses[cell], cell)
 
     bit_pool = list(layout.BIT_POOL)
@@ -208,8 +156,10 @@ def allocate(program: Program, *, map_counters: bool) -> ProgramMap:
     for module in program.modules():
         for section in module.sections_of(ast.DeclSection):
             for decl in section.declarations:
-                name = key(decl.name) if isinstance(decl, ast.VarDecl) else None
-                if name is not None and name not in result.variables:
+                if not isinstance(decl, ast.VarDecl):
+                    continue
+                name = key(decl.name)
+                if name not in result.variables:
                     result.variables[name] = Variable(decl.name, take(decl.size), decl.size)
     # cells that did not fit: flags stay at home in the communication memory
     for cell in sorted(c for c in used if c not in result.cells and c[0] is not CellKind.F):

@@ -7,45 +7,28 @@ and the program assembled again, so code stays compact without guessing distance
 
 from __future__ import annotations
 
+import re
 from collections.abc import Mapping
 from dataclasses import dataclass
 
-from asictl.codegen8051.allocate import ProgramMap, allocate
-from asictl.codegen8051.emitter import Emitter, Line
+from asictl.codegen8051.allocate import allocate
+from asictl.codegen8051.emitter import Emitter, Line, firmware_symbol
 from asictl.codegen8051.generate import generate, symbols
+from asictl.codes import CompileCode
 from asictl.diagnostics import Diagnostic, DiagnosticError, Severity
-from asictl.il import ast
 from asictl.il.ast import key
 from asictl.il.loader import Program
 from asictl.mcs51.asm_errors import Code
 from asictl.mcs51.assembler import assemble
 from asictl.mcs51.assembly import Assembly
+from asictl.platform.master import Options
 from asictl.runtime import layout
+from asictl.runtime.program_map import ProgramMap
 from asictl.source import SourceText, from_string
 
 #: The name generated assembly goes by in listings and internal diagnostics.
 GENERATED = "<generated>"
 _MAX_RELAXATIONS = 16
-
-
-@dataclass(frozen=True)
-class Options:
-    """The [OPTIONS] flags, with the manual's defaults (3.1)."""
-
-    auto_start: bool = True
-    ignore_config_errors: bool = False
-    map_counters: bool = False
-
-    @classmethod
-    def of(cls, module: ast.Module) -> Options:
-        values = {
-            key(o.name): o.value for s in module.sections_of(ast.OptionsSection) for o in s.options
-        }
-        return cls(
-            auto_start=values.get("auto_start", True),
-            ignore_config_errors=values.get("ignore_config_errors", False),
-            map_counters=values.get("map_counters", False),
-        )
 
 
 @dataclass(frozen=True)
@@ -75,16 +58,31 @@ class Compiled:
     def assembly_text(self) -> str:
         return "".join(f"{line.text}\n" for line in self.lines)
 
+    def used_entry_points(self) -> dict[str, int]:
+        """The firmware blocks the code refers to, by symbol, in generated or [ASSEMBLY] code.
+
+        A master whose firmware has these blocks at these addresses can run the program.
+        """
+        code = "\n".join(line.text.partition(";")[0] for line in self.lines)
+        names = "|".join(re.escape(firmware_symbol(name)) for name in self.entry_points)
+        used = {key(m) for m in re.findall(rf"(?<![\w?])(?:{names})(?![\w?])", code, re.I)}
+        return {
+            name: address
+            for name, address in sorted(self.entry_points.items())
+            if key(firmware_symbol(name)) in used
+        }
+
 
 def compile_program(
     program: Program, *, entry_points: Mapping[str, int] | None = None
 ) -> Compiled:
     """Translate a program that has passed the checks. Raises ``DiagnosticError``."""
     entry_points = dict(entry_points or layout.default_entry_points())
-    options = Options.of(program.main)
+    options = program.options
     pmap = allocate(program, map_counters=options.map_counters)
     if pmap.data_end > layout.DATA_LIMIT:
         raise DiagnosticError([_error(
+            CompileCode.DATA_TOO_LARGE,
             f"the program's data needs {pmap.data_end - layout.DATA_BASE} bytes of RAM, "
             f"{layout.DATA_LIMIT - layout.DATA_BASE} are available"
         )])
@@ -118,6 +116,7 @@ def compile_program(
     end = layout.CODE_BASE + len(compiled.code)
     if end > layout.CODE_LIMIT:
         raise DiagnosticError([_error(
+            CompileCode.CODE_TOO_LARGE,
             f"the program's code is {len(compiled.code)} bytes; at most "
             f"{layout.CODE_LIMIT - layout.CODE_BASE} fit"
         )])
@@ -128,13 +127,15 @@ def _source(emitter: Emitter) -> SourceText:
     return from_string(GENERATED, "".join(f"{line.text}\n" for line in emitter.lines))
 
 
-def _error(message: str) -> Diagnostic:
-    return Diagnostic(Severity.ERROR, "E301", message, None)
+def _error(code: CompileCode, message: str) -> Diagnostic:
+    return Diagnostic(Severity.ERROR, code, message, None)
 
 
-def _map_back(diagnostics: list[Diagnostic], lines: tuple[Line, ...] | list[Line]):
+def _map_back(
+    diagnostics: list[Diagnostic], lines: tuple[Line, ...] | list[Line]
+) -> list[Diagnostic]:
     """Assembler findings on generated lines, reported at the IL line that produced them."""
-    mapped = []
+    mapped: list[Diagnostic] = []
     for d in diagnostics:
         span = d.span
         if span is not None and span.file == GENERATED and 0 < span.line <= len(lines):

@@ -13,21 +13,14 @@ from __future__ import annotations
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 
-from asictl.codegen8051.allocate import (
-    CellKind,
-    Location,
-    ProgramMap,
-    Space,
-    bit_cell,
-    byte_cell,
-    timer_status,
-)
+from asictl.codegen8051.allocate import bit_cell, byte_cell
 from asictl.diagnostics import Span
 from asictl.il import ast
 from asictl.il.ast import key
 from asictl.il.language import PARAM_FLAG
 from asictl.runtime import layout
 from asictl.runtime.firmware import FIRMWARE_BLOCKS
+from asictl.runtime.program_map import CellKind, Location, ProgramMap, Space, timer_status
 
 
 def _hex(value: int) -> str:

@@ -17,21 +17,20 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from enum import IntEnum
 
-from asictl.board.asi import SLAVES
 from asictl.board.board import Pc2Board
 from asictl.host.driver import EmulatedPort, Pc2Driver
 from asictl.host.jobs import JobError
 from asictl.platform import display as master_display
+from asictl.platform import gateway as g
 from asictl.platform import pc2 as d
-from asictl.platform.pc2 import Command, ControlFlag, Status
-
-#: The manual's limit on registers per telegram (functions 3, 4, 16).
-MAX_REGISTERS = 15
-#: Bits per telegram (functions 1, 2, 15): the same 30 data bytes as 15 registers.
-MAX_BITS = 16 * MAX_REGISTERS
-
-#: Function 7's byte: MSB = the last execution-control function failed.
-EXCEPTION_STATUS_ERROR = 0x80
+from asictl.platform.gateway import (
+    EXCEPTION_STATUS_ERROR,
+    MAX_BITS,
+    MAX_REGISTERS,
+    ExecutionRegister,
+)
+from asictl.platform.master import SLAVES, ControlFlag
+from asictl.platform.pc2 import Command, Status
 
 
 class ExceptionCode(IntEnum):
@@ -51,19 +50,6 @@ class ModbusError(Exception):
         self.code = code
 
 
-class ExecutionRegister(IntEnum):
-    """Holding registers 1000..1009 (the manual's 41001..41010)."""
-
-    SET_OPERATION_MODE = 1000
-    CHANGE_ADDRESS_OLD = 1001
-    CHANGE_ADDRESS_NEW = 1002
-    STORE_ACTUAL_PARAMETERS = 1003
-    STORE_ACTUAL_CONFIGURATION = 1004
-    EXECUTE_COMMAND_ADDRESS = 1005
-    EXECUTE_COMMAND_INFORMATION = 1006
-    KEY_LOCK = 1007
-    WATCHDOG = 1008
-    START_STOP = 1009
 
 
 @dataclass
@@ -173,36 +159,36 @@ class AddressMap:
 
     def _coil(self, address: int) -> tuple[Callable[[], bool], Callable[[bool], None]] | None:
         """Reader and writer of one coil, or None where the map has none."""
-        if 0 <= address < 4 * SLAVES:
-            slave, bit = divmod(address, 4)
+        if g.COIL_OUTPUTS <= address < g.COIL_OUTPUTS + 4 * SLAVES:
+            slave, bit = divmod(address - g.COIL_OUTPUTS, 4)
             return (
                 lambda: _bit(self._output_nibble(slave), bit),
                 lambda on: self._set_output_nibbles(
                     {slave: self._output_nibble(slave) & ~(1 << bit) | on << bit}
                 ),
             )
-        if 128 <= address <= 130:
-            bit = address - 128
+        if g.COIL_HI_FLAGS <= address < g.COIL_HI_FLAGS + 3:
+            bit = address - g.COIL_HI_FLAGS
             return (
                 lambda: _bit(self._byte(d.HI_FLAGS), bit),
                 lambda on: self._set_hi_flags(self._byte(d.HI_FLAGS) & ~(1 << bit) | on << bit),
             )
-        if 200 <= address < 200 + SLAVES:
-            slave = address - 200
+        if g.COIL_LPS <= address < g.COIL_LPS + SLAVES:
+            slave = address - g.COIL_LPS
             return (
                 lambda: _bit(self._list(d.LPS), slave),
                 lambda on: self._set_lps(self._list(d.LPS) & ~(1 << slave) | on << slave),
             )
-        if 300 <= address < 300 + 4 * SLAVES:
-            slave, bit = divmod(address - 300, 4)
+        if g.COIL_PI <= address < g.COIL_PI + 4 * SLAVES:
+            slave, bit = divmod(address - g.COIL_PI, 4)
             return (
                 lambda: _bit(self._nibble(d.PI, slave), bit),
                 lambda on: self._write_parameter(
                     slave, self._nibble(d.PI, slave) & ~(1 << bit) | on << bit
                 ),
             )
-        if 500 <= address < 500 + 4 * SLAVES:
-            slave, bit = divmod(address - 500, 4)
+        if g.COIL_PP <= address < g.COIL_PP + 4 * SLAVES:
+            slave, bit = divmod(address - g.COIL_PP, 4)
             return (
                 lambda: _bit(self._nibble(d.PP, slave), bit),
                 lambda on: self._set_permanent_parameters(
@@ -231,15 +217,15 @@ class AddressMap:
     # ------------------------------------------------------------------ discrete inputs
 
     def _input_bit(self, address: int) -> bool | None:
-        if 0 <= address < 4 * SLAVES:
-            slave, bit = divmod(address, 4)
+        if g.INPUT_BIT_DATA <= address < g.INPUT_BIT_DATA + 4 * SLAVES:
+            slave, bit = divmod(address - g.INPUT_BIT_DATA, 4)
             return _bit(self._nibble(d.IDI, slave), bit)
-        if 128 <= address <= 135:
-            return _bit(self._byte(d.EC_FLAGS), address - 128)
-        if 300 <= address < 300 + SLAVES:
-            return _bit(self._list(d.LAS), address - 300)
-        if 400 <= address < 400 + SLAVES:
-            return _bit(self._list(d.LDS), address - 400)
+        if g.INPUT_BIT_EC_FLAGS <= address < g.INPUT_BIT_EC_FLAGS + 8:
+            return _bit(self._byte(d.EC_FLAGS), address - g.INPUT_BIT_EC_FLAGS)
+        if g.INPUT_BIT_LAS <= address < g.INPUT_BIT_LAS + SLAVES:
+            return _bit(self._list(d.LAS), address - g.INPUT_BIT_LAS)
+        if g.INPUT_BIT_LDS <= address < g.INPUT_BIT_LDS + SLAVES:
+            return _bit(self._list(d.LDS), address - g.INPUT_BIT_LDS)
         return None
 
     def read_discrete_inputs(self, address: int, count: int) -> list[bool]:
@@ -275,13 +261,15 @@ class AddressMap:
     def _input_registers(self) -> dict[int, Callable[[], int]]:
         table: dict[int, Callable[[], int]] = {}
         for k in range(8):
-            table[k] = lambda k=k: self._data_register(lambda s: self._nibble(d.IDI, s), k)
-        table[8] = lambda: self._byte(d.EC_FLAGS)
+            table[g.INPUT_DATA + k] = lambda k=k: self._data_register(
+                lambda s: self._nibble(d.IDI, s), k
+            )
+        table[g.INPUT_EC_FLAGS] = lambda: self._byte(d.EC_FLAGS)
         for half in range(2):
-            table[9 + half] = lambda h=half: self._list_word(d.LAS, h)
-            table[11 + half] = lambda h=half: self._list_word(d.LDS, h)
+            table[g.INPUT_LAS + half] = lambda h=half: self._list_word(d.LAS, h)
+            table[g.INPUT_LDS + half] = lambda h=half: self._list_word(d.LDS, h)
         for slave in range(SLAVES):
-            table[100 + slave] = lambda s=slave: self._pcd_register(d.CDI, s)
+            table[g.INPUT_CDI + slave] = lambda s=slave: self._pcd_register(d.CDI, s)
         return table
 
     def _holding_table(
@@ -304,38 +292,42 @@ class AddressMap:
             self._set_output_nibbles(nibbles)
 
         for k in range(8):
-            read[k] = lambda k=k: output_register(k)
-            write[k] = write_outputs
-        read[8] = lambda: self._byte(d.HI_FLAGS) & 0x07
-        write[8] = lambda values: self._set_hi_flags(values[8])
+            read[g.OUTPUT_DATA + k] = lambda k=k: output_register(k)
+            write[g.OUTPUT_DATA + k] = write_outputs
+        read[g.HI_FLAGS] = lambda: self._byte(d.HI_FLAGS) & 0x07
+        write[g.HI_FLAGS] = lambda values: self._set_hi_flags(values[g.HI_FLAGS])
         for slave in range(SLAVES):
-            read[100 + slave] = lambda s=slave: self._nibble(d.PI, s)
-            write[100 + slave] = self._write_parameters
-            read[200 + slave] = lambda s=slave: self._nibble(d.PP, s)
-            write[200 + slave] = lambda v: self._set_permanent_parameters(
-                {a - 200: x for a, x in v.items()}
+            read[g.PI + slave] = lambda s=slave: self._nibble(d.PI, s)
+            write[g.PI + slave] = self._write_parameters
+            read[g.PP + slave] = lambda s=slave: self._nibble(d.PP, s)
+            write[g.PP + slave] = lambda v: self._set_permanent_parameters(
+                {a - g.PP: x for a, x in v.items()}
             )
-            read[300 + slave] = lambda s=slave: self._pcd_register(d.PCD, s)
-            write[300 + slave] = lambda v: self._set_pcd({a - 300: x for a, x in v.items()})
+            read[g.PCD + slave] = lambda s=slave: self._pcd_register(d.PCD, s)
+            write[g.PCD + slave] = lambda v: self._set_pcd({a - g.PCD: x for a, x in v.items()})
         for half in range(2):
-            read[140 + half] = lambda h=half: self._list_word(d.LPS, h)
-            write[140 + half] = self._write_lps_words
-        read[399] = read[799] = self._flags_word
-        write[399] = write[799] = lambda v: self._set_hi_flags(next(iter(v.values())) >> 8)
+            read[g.LPS + half] = lambda h=half: self._list_word(d.LPS, h)
+            write[g.LPS + half] = self._write_lps_words
+        read[g.FLAGS_WORD] = read[g.FLAGS_WORD_MIRROR] = self._flags_word
+        write[g.FLAGS_WORD] = write[g.FLAGS_WORD_MIRROR] = lambda v: self._set_hi_flags(
+            next(iter(v.values())) >> 8
+        )
         for n in range(d.FLAGS_SIZE):
-            read[400 + n] = lambda n=n: self._memory_byte(n)
-            write[400 + n] = self._write_memory_bytes
+            read[g.MEMORY_BYTES + n] = lambda n=n: self._memory_byte(n)
+            write[g.MEMORY_BYTES + n] = self._write_memory_bytes
         for k in range(d.FLAGS_SIZE // 2):
-            read[800 + k] = lambda k=k: self._memory_byte(2 * k) << 8 | self._memory_byte(2 * k + 1)
-            write[800 + k] = self._write_memory_words
+            read[g.MEMORY_WORDS + k] = (
+                lambda k=k: self._memory_byte(2 * k) << 8 | self._memory_byte(2 * k + 1)
+            )
+            write[g.MEMORY_WORDS + k] = self._write_memory_words
         ignore: Callable[[dict[int, int]], None] = lambda values: None  # noqa: E731
         inputs = self._input_registers()
-        for offset in range(13):  # input data, ec-flags, LAS, LDS: readable, writes ignored
-            read[600 + offset] = inputs[offset]
-            write[600 + offset] = ignore
+        for offset in range(g.INPUT_LDS + 2):  # data, ec-flags, LAS, LDS: writes ignored
+            read[g.INPUTS_MIRROR + offset] = inputs[offset]
+            write[g.INPUTS_MIRROR + offset] = ignore
         for slave in range(SLAVES):
-            read[700 + slave] = inputs[100 + slave]
-            write[700 + slave] = ignore
+            read[g.CDI + slave] = inputs[g.INPUT_CDI + slave]
+            write[g.CDI + slave] = ignore
         for register in ExecutionRegister:
             read[register] = lambda r=register: self._read_execution(r)
             write[register] = self._write_execution
@@ -345,22 +337,22 @@ class AddressMap:
 
     def _write_parameters(self, values: dict[int, int]) -> None:
         for address, value in values.items():
-            self._write_parameter(address - 100, value)
+            self._write_parameter(address - g.PI, value)
 
     def _write_lps_words(self, values: dict[int, int]) -> None:
         lps = self._list(d.LPS)
         for address, value in values.items():
-            shift = 16 * (address - 140)
+            shift = 16 * (address - g.LPS)
             lps = lps & ~(0xFFFF << shift) | value << shift
         self._set_lps(lps)
 
     def _write_memory_bytes(self, values: dict[int, int]) -> None:
         for address, value in values.items():
-            self.driver.write_byte(d.FLAGS + address - 400, value)
+            self.driver.write_byte(d.FLAGS + address - g.MEMORY_BYTES, value)
 
     def _write_memory_words(self, values: dict[int, int]) -> None:
         for address, value in values.items():
-            self.driver.write(d.FLAGS + 2 * (address - 800), value.to_bytes(2, "big"))
+            self.driver.write(d.FLAGS + 2 * (address - g.MEMORY_WORDS), value.to_bytes(2, "big"))
 
     # ------------------------------------------------------------------ execution control
 
@@ -503,13 +495,13 @@ def _check_count(count: int, limit: int) -> None:
 
 def _register_limit(address: int) -> int:
     """The largest value a holding register takes (larger values: exception 3)."""
-    if 100 <= address < 132 or 200 <= address < 232:
+    if g.PI <= address < g.PI + SLAVES or g.PP <= address < g.PP + SLAVES:
         return 0xF
-    if address == 8:
+    if address == g.HI_FLAGS:
         return 0x7
-    if 300 <= address < 332 or 400 <= address < 528:
+    if g.PCD <= address < g.PCD + SLAVES or g.MEMORY_BYTES <= address < g.MEMORY_BYTES + 128:
         return 0xFF
-    if address in (399, 799):
+    if address in (g.FLAGS_WORD, g.FLAGS_WORD_MIRROR):
         return 0x7FF
     if address in (ExecutionRegister.CHANGE_ADDRESS_OLD, ExecutionRegister.CHANGE_ADDRESS_NEW,
                    ExecutionRegister.EXECUTE_COMMAND_ADDRESS):

@@ -24,6 +24,7 @@ from asictl.board.board import Pc2Board
 from asictl.gateway import pdus
 from asictl.gateway.addressmap import MAX_BITS, AddressMap, ExceptionCode, ModbusError
 from asictl.platform import pc2 as d
+from asictl.platform.master import EEPROM_SIZE
 from asictl.platform.pc2 import Command
 
 #: The gateway's own name (function 65, P = 1); version and ID come from the master.
@@ -284,7 +285,7 @@ class GatewaySlave:
         return ram[d.VERSION_ID : d.VERSION_ID + d.VERSION_ID_SIZE].decode("ascii")
 
     def _block_address(self, address: int, *, upload: bool) -> None:
-        inside = address + pdus.BLOCK_SIZE <= d.EEPROM_SIZE or (
+        inside = address + pdus.BLOCK_SIZE <= EEPROM_SIZE or (
             upload
             and address >= d.ENTRY_TABLE_ADDRESS
             and address + pdus.BLOCK_SIZE <= d.ENTRY_TABLE_ADDRESS + d.ENTRY_TABLE_SIZE

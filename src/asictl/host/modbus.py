@@ -46,6 +46,7 @@ from asictl.gateway.pdus import (
     DownloadRequest,
     MasterInfoRequest,
     UploadRequest,
+    UploadResponse,
 )
 from asictl.host.jobs import JobError, JobStatus
 from asictl.host.status import MasterStatus, program_info, slave_fields, state_fields
@@ -55,33 +56,14 @@ from asictl.host.target import (
     PARITIES,
     ModbusTarget,
 )
-from asictl.image import SLAVES, Configuration
-from asictl.platform.pc2 import (
-    ENTRY_TABLE_ADDRESS,
-    ENTRY_TABLE_SIZE,
-    ControlFlag,
-    ControlState,
-)
+from asictl.image import Configuration
+from asictl.platform import gateway as g
+from asictl.platform.master import SLAVES, ControlFlag
+from asictl.platform.pc2 import ENTRY_TABLE_ADDRESS, ENTRY_TABLE_SIZE, ControlState
 from asictl.runtime.firmware import FIRMWARE_BLOCKS
 
 # pymodbus logs every time-out it retries; without a handler Python would print them.
 logging.getLogger("pymodbus").addHandler(logging.NullHandler())
-
-# --- the gateway's registers (manual 7.3; "41001" = register 1000) ---------------------
-PI_REGISTERS = 100  # 100..131: actual parameters, one register per slave
-LPS_REGISTERS = 140  # 140..141: slave n = bit n % 16 of register 140 + n // 16
-PP_REGISTERS = 200  # 200..231: projected parameters
-PCD_REGISTERS = 300  # 300..331: bits 0-3 ID code, bits 4-7 I/O code
-EC_FLAGS_REGISTER = 608
-LAS_REGISTERS = 609
-LDS_REGISTERS = 611
-CDI_REGISTERS = 700  # 700..731: as PCD
-SET_OPERATION_MODE = 1000  # 0 protected mode, anything else configuration mode
-CONTROL_FLAGS_REGISTER = 1009
-#: Registers one telegram may carry (manual 6.3.3, 6.3.8).
-MAX_REGISTERS = 15
-#: Function 7: bit 7 of the result of the last execution-control function = error.
-EXCEPTION_STATUS_ERROR = 0x80
 
 #: Flags a write of 1009 may carry; control_active only reads back.
 _WRITABLE_FLAGS = 0xFF & ~ControlFlag.CONTROL_ACTIVE
@@ -182,8 +164,8 @@ class ModbusTransport:
     def read_registers(self, address: int, count: int) -> list[int]:
         """Holding registers (function 3), at most 15 per telegram as the gateway allows."""
         values: list[int] = []
-        for start in range(address, address + count, MAX_REGISTERS):
-            n = min(MAX_REGISTERS, address + count - start)
+        for start in range(address, address + count, g.MAX_REGISTERS):
+            n = min(g.MAX_REGISTERS, address + count - start)
             what = f"reading registers {start}..{start + n - 1}"
             registers = self._call(what, ReadHoldingRegistersRequest(address=start, count=n))
             if len(registers.registers) != n:
@@ -199,8 +181,8 @@ class ModbusTransport:
             request: ModbusPDU = WriteSingleRegisterRequest(address=address, registers=words)
             self._call(f"writing register {address}", request)
             return
-        for offset in range(0, len(words), MAX_REGISTERS):
-            chunk = words[offset : offset + MAX_REGISTERS]
+        for offset in range(0, len(words), g.MAX_REGISTERS):
+            chunk = words[offset : offset + g.MAX_REGISTERS]
             start = address + offset
             self._call(
                 f"writing registers {start}..{start + len(chunk) - 1}",
@@ -212,7 +194,7 @@ class ModbusTransport:
         Modbus has no result for a write, the gateway keeps it there (manual 6.3.10)."""
         self.write_registers(register, [value])
         result = self._call(f"{what}: reading its result", ReadExceptionStatusRequest()).status
-        if result & EXCEPTION_STATUS_ERROR:
+        if result & g.EXCEPTION_STATUS_ERROR:
             raise JobError(JobStatus.REFUSED, f"{what}: refused by the master")
 
     def master_info(self, part: int) -> str:
@@ -231,17 +213,17 @@ class ModbusTransport:
         """The PC2 sequence in registers: configuration mode, LPS, PCD, PP, protected mode,
         then PI so the slaves get their parameters without waiting for a restart."""
         pp = [configuration.parameter(n) for n in range(SLAVES)]
-        self.execution_control(SET_OPERATION_MODE, 1, "configuration mode")
-        self.write_registers(LPS_REGISTERS, lps_registers(configuration.lps))
-        self.write_registers(PCD_REGISTERS, [pcd_register(b) for b in configuration.pcd])
-        self.write_registers(PP_REGISTERS, pp)
+        self.execution_control(g.ExecutionRegister.SET_OPERATION_MODE, 1, "configuration mode")
+        self.write_registers(g.LPS, lps_registers(configuration.lps))
+        self.write_registers(g.PCD, [pcd_register(b) for b in configuration.pcd])
+        self.write_registers(g.PP, pp)
         try:
-            self.execution_control(SET_OPERATION_MODE, 0, "protected mode")
+            self.execution_control(g.ExecutionRegister.SET_OPERATION_MODE, 0, "protected mode")
         except JobError as exc:
             if exc.status is not JobStatus.REFUSED:
                 raise
             raise exc.during("protected mode refused while a slave has address 0") from None
-        self.write_registers(PI_REGISTERS, pp)
+        self.write_registers(g.PI, pp)
 
     def write_eeprom(self, address: int, data: bytes) -> None:
         end = address + len(data)
@@ -264,6 +246,8 @@ class ModbusTransport:
     def _read_block(self, address: int) -> bytes:
         what = f"reading {address:04X}h (function 67)"
         response = self._call(what, UploadRequest(address=address))
+        if not isinstance(response, UploadResponse):
+            raise _malformed(what, f"an answer of type {type(response).__name__}")
         if len(response.data) != BLOCK_SIZE:
             raise _malformed(what, f"{len(response.data)} bytes instead of {BLOCK_SIZE}")
         if response.address != address:
@@ -275,13 +259,14 @@ class ModbusTransport:
         return response.data
 
     def control_flags(self) -> int:
-        return self.read_registers(CONTROL_FLAGS_REGISTER, 1)[0] & 0xFF
+        return self.read_registers(g.ExecutionRegister.START_STOP, 1)[0] & 0xFF
 
     def write_control_flags(self, flags: int) -> int:
         """Register 1009, checked with function 7 like the execution-control registers: the
         gateway keeps the master's answer (a refused reset: no valid program) there too."""
         self.execution_control(
-            CONTROL_FLAGS_REGISTER, flags & _WRITABLE_FLAGS, "writing the AS-i Control flags"
+            g.ExecutionRegister.START_STOP, flags & _WRITABLE_FLAGS,
+            "writing the AS-i Control flags",
         )
         return self.control_flags()
 
@@ -341,12 +326,12 @@ def read_status(transport: ModbusTransport) -> MasterStatus:
     The gateway shows no control state, stop reason, program status or cycle times: the
     state is derived from control_active and the rest is reported as not available.
     """
-    ec = transport.read_registers(EC_FLAGS_REGISTER, 1)[0] & 0xFF
-    lps = slave_list(transport.read_registers(LPS_REGISTERS, 2))
-    las = slave_list(transport.read_registers(LAS_REGISTERS, 2))
-    lds = slave_list(transport.read_registers(LDS_REGISTERS, 2))
-    pcd = [pc2_profile(r) for r in transport.read_registers(PCD_REGISTERS, SLAVES)]
-    cdi = [pc2_profile(r) for r in transport.read_registers(CDI_REGISTERS, SLAVES)]
+    ec = transport.read_registers(g.EC_FLAGS, 1)[0] & 0xFF
+    lps = slave_list(transport.read_registers(g.LPS, 2))
+    las = slave_list(transport.read_registers(g.LAS, 2))
+    lds = slave_list(transport.read_registers(g.LDS, 2))
+    pcd = [pc2_profile(r) for r in transport.read_registers(g.PCD, SLAVES)]
+    cdi = [pc2_profile(r) for r in transport.read_registers(g.CDI, SLAVES)]
     flags = transport.control_flags()
     name = " ".join(
         text for text in (transport.master_info(INFO_NAME), transport.master_info(INFO_VERSION))

@@ -1,9 +1,4 @@
-"""From a file to the image a download stores, and from an uploaded image back to files.
-
-A download takes what ACF took, an IL source, and also an image (Intel HEX from
-``asictl compile``, or an uploaded file's [RAW] section). Sources are compiled against
-the entry points the master itself reports (manual 3.8: "prior to every translation,
-the compiler reads the entry point of these functions out of the AS-i master").
+"""From an uploaded image back to files (the way there is ``asictl.build``).
 
 An upload gives back the exact source files the image carries (the main file under the
 name asked for, its function-block files beside it), or, for an image without source,
@@ -12,52 +7,12 @@ a file whose [RAW] section downloads the identical image again.
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Mapping
-from dataclasses import dataclass, field
 from pathlib import Path, PurePath
 
-from asictl.codegen8051.compiler import GENERATED, compile_program
-from asictl.diagnostics import Diagnostic, DiagnosticError
 from asictl.errors import ExitCode, UserError
 from asictl.files import shown_name, write_together
 from asictl.il import ast
-from asictl.il.checks import check_source
-from asictl.image import ImageError, ProgramImage, build_image, image_from_uploaded, uploaded_source
-from asictl.source import read_source
-
-
-@dataclass
-class Prepared:
-    """The image to download, or the diagnostics that stop it; texts to show them with."""
-
-    image: ProgramImage | None
-    diagnostics: list[Diagnostic] = field(default_factory=list)
-    texts: dict[str, str] = field(default_factory=dict)
-    #: built from source here (not taken as it was from a .hex file or a [RAW] section)
-    compiled: bool = False
-
-
-def prepare_image(
-    path: str, *, entry_points: Mapping[str, int], lib: Iterable[str | Path] = ()
-) -> Prepared:
-    """The image of ``path`` (.hex: as it is; otherwise IL source, compiled here)."""
-    source = read_source(path)
-    if Path(path).suffix.lower() == ".hex":
-        return Prepared(ProgramImage.from_hex(source.text))
-    result = check_source(source, lib=lib)
-    program = result.program
-    texts = {name: s.text for name, s in program.sources.items()}
-    if result.has_errors:
-        return Prepared(None, result.diagnostics, texts)
-    if program.main.sections_of(ast.RawSection):
-        return Prepared(image_from_uploaded(program.main), result.diagnostics, texts)
-    try:
-        compiled = compile_program(program, entry_points=entry_points)
-    except DiagnosticError as exc:
-        return Prepared(None, [*result.diagnostics, *exc.diagnostics], texts)
-    texts[GENERATED] = compiled.assembly_text
-    diagnostics = [*result.diagnostics, *compiled.assembly.diagnostics]
-    return Prepared(build_image(compiled), diagnostics, texts, compiled=True)
+from asictl.image import ImageError, ProgramImage
 
 
 def uploaded_files(image: ProgramImage, output: str | Path) -> list[tuple[Path, bytes]]:
@@ -136,3 +91,26 @@ def _existing(path: Path) -> bytes | None:
         return path.read_bytes()
     except OSError as exc:
         raise UserError(f"{path}: cannot read: {exc.strerror or exc}") from None
+
+
+def uploaded_source(image: ProgramImage) -> str:
+    """IL source text for an image without source: its settings, and itself as [RAW]."""
+    options = image.options
+    module = ast.Module(
+        file="",
+        sections=(
+            ast.OptionsSection(tuple(ast.Option(n, v) for n, v in options.values().items())),
+            ast.SetupSection(tuple(
+                ast.SlaveSetup(s.address, s.io_code, s.id_code, s.parameter)
+                for s in image.configuration.slaves()
+            )),
+            ast.RawSection(tuple(image.to_hex().splitlines())),
+        ),
+    )
+    why = "it did not fit in the EEPROM" if image.source_left_out else "it was left out"
+    return (
+        f"; Uploaded program {image.identity_hex}: the image carries no source text ({why}).\n"
+        "; [OPTIONS] and [SETUP] describe the image; [RAW] is the image itself, and\n"
+        "; downloading this file writes it back unchanged.\n"
+        "\n" + module.to_source()
+    )

@@ -15,8 +15,9 @@ from dataclasses import asdict, dataclass
 from asictl.host.driver import Pc2Driver
 from asictl.host.jobs import JobError, JobStatus
 from asictl.host.transfer import Pc2Transport, Transport, upload
-from asictl.image import HEADER_SIZE, MAGIC, SLAVES
+from asictl.image import HEADER_SIZE, MAGIC
 from asictl.platform.display import display_code, display_text
+from asictl.platform.master import SLAVES, ControlFlag
 from asictl.platform.pc2 import (
     CDI,
     CONFIG_SIZE,
@@ -40,7 +41,6 @@ from asictl.platform.pc2 import (
     VERSION_ID,
     VERSION_ID_SIZE,
     Command,
-    ControlFlag,
     ControlState,
     EcFlag,
     ProgramStatus,

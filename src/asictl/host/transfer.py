@@ -21,15 +21,8 @@ from typing import Protocol
 from asictl.errors import ExitCode, UserError
 from asictl.host.driver import Pc2Driver
 from asictl.host.jobs import JobError, JobStatus
-from asictl.image import (
-    EEPROM_SIZE,
-    HEADER_SIZE,
-    MAGIC,
-    Configuration,
-    ImageError,
-    ProgramImage,
-    image_length,
-)
+from asictl.image import HEADER_SIZE, MAGIC, Configuration, ImageError, ProgramImage, image_length
+from asictl.platform.master import EEPROM_SIZE, ControlFlag
 from asictl.platform.pc2 import (
     CONTROL_FLAGS,
     ENTRY_TABLE_ADDRESS,
@@ -41,7 +34,6 @@ from asictl.platform.pc2 import (
     PROGRAM_BUFFER,
     PROGRAM_BUFFER_SIZE,
     Command,
-    ControlFlag,
 )
 from asictl.runtime.firmware import FIRMWARE_BLOCKS
 

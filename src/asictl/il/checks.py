@@ -9,11 +9,12 @@ manual and ``docs/language.md``; each diagnostic code is listed there.
 from __future__ import annotations
 
 import re
-from collections.abc import Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
 from enum import StrEnum
 from pathlib import Path
 
+from asictl.codes import CheckCode
 from asictl.diagnostics import Diagnostic, Reporter, Span
 from asictl.il import ast
 from asictl.il.ast import key
@@ -24,13 +25,11 @@ from asictl.il.language import (
     MAX_SOURCE_FILES,
     MAX_TC,
 )
-from asictl.il.loader import Program, calls, load_program
+from asictl.il.loader import Program, Reader, calls, load_program
 from asictl.mcs51.asm_parser import RESERVED as ASSEMBLER_RESERVED
+from asictl.platform.master import Options
 from asictl.runtime.firmware import FIRMWARE_BLOCKS
-from asictl.source import SourceText
-
-KNOWN_OPTIONS = ("ignore_config_errors", "auto_start", "map_counters")
-
+from asictl.source import SourceText, read_source
 
 CONST_RANGES = {
     ast.ConstKind.KT: MAX_KT_MS,
@@ -95,7 +94,7 @@ def _check_image_limits(program: Program, report: Reporter) -> None:
         span = decl.span if decl is not None else None
         if number == MAX_SOURCE_FILES + 1:
             report.error(
-                "E221",
+                CheckCode.TOO_MANY_FILES,
                 f"the program has {len(program.sources)} source files (the main file and "
                 f"its function-block files); an image holds at most {MAX_SOURCE_FILES}",
                 span,
@@ -103,7 +102,7 @@ def _check_image_limits(program: Program, report: Reporter) -> None:
         base = Path(file).name or file
         if base in names:
             report.error(
-                "E222",
+                CheckCode.DUPLICATE_FILE_NAME,
                 f"function-block file '{file}' has the same name as '{names[base]}'; "
                 "an image stores source files by name: rename one",
                 span,
@@ -125,36 +124,43 @@ def _declarations(program: Program, report: Reporter) -> _Scope:
                     target = scope.timers if kind == "timer" else scope.counters
                     if decl.number > MAX_TC:
                         report.error(
-                            "E201",
+                            CheckCode.OUT_OF_RANGE,
                             f"{kind} number {decl.number} out of range 0..{MAX_TC}",
                             decl.span,
                         )
                     elif decl.number < BUILTIN_TC:
                         report.warning(
-                            "W204",
+                            CheckCode.BUILTIN_DECLARED,
                             f"{kind} {decl.number} always exists; only numbers above 14 "
                             "need a declaration",
                             decl.span,
                         )
                     if decl.number in target:
-                        report.error("E215", f"{kind} {decl.number} declared twice", decl.span)
+                        report.error(
+                            CheckCode.DUPLICATE_DECLARATION,
+                            f"{kind} {decl.number} declared twice", decl.span)
                     target.add(decl.number)
                     continue
                 name = key(decl.name)
                 if isinstance(decl, ast.VarDecl | ast.FBDecl) and name in FIRMWARE_BLOCKS:
                     report.error(
-                        "E215",
+                        CheckCode.DUPLICATE_DECLARATION,
                         f"'{decl.name}' is the name of a firmware function block",
                         decl.span,
                     )
                 elif name in seen:
-                    where = f" (first declared at {seen[name]})" if seen[name] else ""
-                    report.error("E215", f"'{decl.name}' declared twice{where}", decl.span)
+                    first = seen[name]
+                    where = f" (first declared at {first})" if first else ""
+                    report.error(
+                        CheckCode.DUPLICATE_DECLARATION,
+                        f"'{decl.name}' declared twice{where}", decl.span,
+                        _note(first, "first declared here"),
+                    )
                 seen.setdefault(name, decl.span)
                 if isinstance(decl, ast.VarDecl):
                     if decl.name.upper() in ASSEMBLER_RESERVED:
                         report.error(
-                            "E219",
+                            CheckCode.OPERAND_LIKE_NAME,
                             f"variable '{decl.name}' is named like an 8051 register or "
                             "assembler word; the program's assembly could not refer to it",
                             decl.span,
@@ -162,7 +168,7 @@ def _declarations(program: Program, report: Reporter) -> _Scope:
                     shadow = _OPERAND_LOOKALIKE.match(decl.name)
                     if shadow:
                         report.error(
-                            "E219",
+                            CheckCode.OPERAND_LIKE_NAME,
                             f"variable '{decl.name}' cannot be used as an operand: "
                             f"'{decl.name} 0' reads as '{shadow[1].upper()} {shadow[2]}'",
                             decl.span,
@@ -170,14 +176,14 @@ def _declarations(program: Program, report: Reporter) -> _Scope:
                     size = len(decl.name.encode("utf-8"))
                     if size > MAX_IMAGE_NAME_BYTES:
                         report.error(
-                            "E220",
+                            CheckCode.NAME_TOO_LONG,
                             f"variable name of {size} bytes; the image stores names of at "
                             f"most {MAX_IMAGE_NAME_BYTES}",
                             decl.span,
                         )
                     if not 1 <= decl.size <= 255:
                         report.error(
-                            "E201",
+                            CheckCode.OUT_OF_RANGE,
                             f"variable size {decl.size} out of range 1..255 bytes",
                             decl.span,
                         )
@@ -190,18 +196,19 @@ def _check_main_only_sections(program: Program, report: Reporter) -> None:
         for section in block.sections:
             if isinstance(section, ast.OptionsSection | ast.SetupSection | ast.RawSection):
                 report.error(
-                    "E217",
+                    CheckCode.MISPLACED_SECTION,
                     f"[{section.kind.value}] belongs in the main program file, "
                     "not in a function block's file",
                     section.span,
                 )
     main = program.main
-    if main.sections_of(ast.RawSection) and main.sections_of(
-        ast.ProgramSection | ast.GatingSection | ast.AssemblySection
+    if main.sections_of(ast.RawSection) and any(
+        isinstance(s, ast.ProgramSection | ast.GatingSection | ast.AssemblySection)
+        for s in main.sections
     ):
         raw = main.sections_of(ast.RawSection)[0]
         report.error(
-            "E217",
+            CheckCode.MISPLACED_SECTION,
             "[RAW] holds a whole uploaded image and cannot be combined with program sections",
             raw.span,
         )
@@ -210,20 +217,29 @@ def _check_main_only_sections(program: Program, report: Reporter) -> None:
 # ---------------------------------------------------------------------- options/setup
 
 
+def _note(span: Span | None, message: str) -> list[tuple[Span, str]]:
+    """A related location for a diagnostic, when the place is known."""
+    return [(span, message)] if span else []
+
+
 def _check_options(module: ast.Module, report: Reporter) -> None:
-    seen: set[str] = set()
+    seen: dict[str, ast.Option] = {}
     for section in module.sections_of(ast.OptionsSection):
         for option in section.options:
             name = key(option.name)
-            if name not in KNOWN_OPTIONS:
+            if name not in Options.NAMES:
                 report.error(
-                    "E212",
-                    f"unknown option '{option.name}' (known: {', '.join(KNOWN_OPTIONS)})",
+                    CheckCode.UNKNOWN_OPTION,
+                    f"unknown option '{option.name}' (known: {', '.join(Options.NAMES)})",
                     option.span,
                 )
             elif name in seen:
-                report.warning("W203", f"option '{option.name}' given again", option.span)
-            seen.add(name)
+                report.warning(
+                    CheckCode.DUPLICATE_OPTION,
+                    f"option '{option.name}' given again", option.span,
+                    _note(seen[name].span, "first given here"),
+                )
+            seen.setdefault(name, option)
 
 
 def _check_setup(module: ast.Module, report: Reporter) -> None:
@@ -231,7 +247,7 @@ def _check_setup(module: ast.Module, report: Reporter) -> None:
         for slave in section.slaves:
             if not 1 <= slave.address <= 31:
                 report.error(
-                    "E211",
+                    CheckCode.BAD_SETUP,
                     f"slave address {slave.address} out of range 1..31 "
                     "(address 0 is reserved for new slaves)",
                     slave.span,
@@ -243,7 +259,8 @@ def _check_setup(module: ast.Module, report: Reporter) -> None:
             ):
                 if value is not None and not 0 <= value <= 0xF:
                     report.error(
-                        "E211", f"{what} {value} out of range 0..F (one hex digit)", slave.span
+                        CheckCode.BAD_SETUP,
+                        f"{what} {value} out of range 0..F (one hex digit)", slave.span
                     )
 
 
@@ -253,9 +270,10 @@ def _check_duplicate_slaves(program: Program, report: Reporter) -> None:
         for slave in section.slaves:
             if slave.address in first:
                 report.error(
-                    "E210",
+                    CheckCode.DUPLICATE_SLAVE,
                     f"slave {slave.address} is already set up at {first[slave.address].span}",
                     slave.span,
+                    _note(first[slave.address].span, "first set up here"),
                 )
             else:
                 first[slave.address] = slave
@@ -297,7 +315,7 @@ def _check_code(module: ast.Module, scope: _Scope, report: Reporter) -> None:
         _check_operand(operand, role, scope, report)
         if role == "assign" and isinstance(operand, ast.TimerRef | ast.CounterRef):
             report.error(
-                "E218",
+                CheckCode.ASSIGNED_TIMER_OR_COUNTER,
                 f"the status bit of {operand} is read-only: S {operand} loads it, "
                 f"R {operand} clears it",
                 operand.span,
@@ -308,15 +326,17 @@ def _check_code(module: ast.Module, scope: _Scope, report: Reporter) -> None:
             if const.kind is ast.ConstKind.KT and const.value % 10 and const.value <= MAX_KT_MS:
                 rounded = (const.value + 9) // 10 * 10
                 report.warning(
-                    "W202",
+                    CheckCode.TIME_ROUNDED,
                     f"timers count in 10 ms steps: KT {const.value} is rounded up to {rounded} ms",
                     const.span,
                 )
 
 
-def _range(report: Reporter, span: Span | None, what: str, value: int, hi: int, lo: int = 0):
+def _range(
+    report: Reporter, span: Span | None, what: str, value: int, hi: int, lo: int = 0
+) -> None:
     if not lo <= value <= hi:
-        report.error("E201", f"{what} {value} out of range {lo}..{hi}", span)
+        report.error(CheckCode.OUT_OF_RANGE, f"{what} {value} out of range {lo}..{hi}", span)
 
 
 def _check_operand(operand: object, role: str, scope: _Scope, report: Reporter) -> None:
@@ -336,7 +356,7 @@ def _check_operand(operand: object, role: str, scope: _Scope, report: Reporter) 
                 _range(report, span, f"{kind} number", n, MAX_TC)
             elif n >= BUILTIN_TC and n not in declared:
                 report.error(
-                    "E203",
+                    CheckCode.UNDECLARED_TIMER_OR_COUNTER,
                     f"{kind} {n} is not declared (only 0..14 exist without "
                     f"'{'T' if is_timer else 'C'}{n} {kind.upper()}' in [DECL])",
                     span,
@@ -359,7 +379,7 @@ def _check_operand(operand: object, role: str, scope: _Scope, report: Reporter) 
                 _range(report, span, f"{area.value} slave address", n, 30)
                 if n % 2:
                     report.error(
-                        "E202",
+                        CheckCode.ODD_SLAVE_ADDRESS,
                         f"{area.value} takes an even slave address (the byte holds slaves "
                         f"{n - 1} and {n} as {area.value} {n - 1})",
                         span,
@@ -373,10 +393,12 @@ def _check_operand(operand: object, role: str, scope: _Scope, report: Reporter) 
             _range(report, span, "KP parameter", data, 15)
 
 
-def _variable(name: str, span: Span | None, scope: _Scope, report: Reporter):
+def _variable(
+    name: str, span: Span | None, scope: _Scope, report: Reporter
+) -> ast.VarDecl | None:
     decl = scope.variables.get(key(name))
     if decl is None:
-        report.error("E214", f"'{name}' is not a declared variable", span)
+        report.error(CheckCode.UNDECLARED_VARIABLE, f"'{name}' is not a declared variable", span)
     return decl
 
 
@@ -390,16 +412,17 @@ def _check_labels_and_jumps(module: ast.Module, report: Reporter) -> None:
             name = key(statement.name)
             if name in labels:
                 report.error(
-                    "E205",
+                    CheckCode.DUPLICATE_LABEL,
                     f"label '{statement.name}' already defined at {labels[name].span}",
                     statement.span,
+                    _note(labels[name].span, "first defined here"),
                 )
             else:
                 labels[name] = statement
     for statement in _statements(module):
         if isinstance(statement, ast.Jump) and key(statement.label) not in labels:
             report.error(
-                "E206",
+                CheckCode.UNKNOWN_LABEL,
                 f"jump to undefined label '{statement.label}' "
                 "(labels are local to the main program or one function block)",
                 statement.span,
@@ -411,7 +434,7 @@ def _check_calls(module: ast.Module, program: Program, report: Reporter) -> None
         name = key(call.name)
         if name not in FIRMWARE_BLOCKS and name not in program.fb_decls:
             report.error(
-                "E207",
+                CheckCode.UNKNOWN_BLOCK,
                 f"function block '{call.name}' is not declared "
                 f"(declare it in [DECL] as '{call.name} FB <file>')",
                 call.span,
@@ -436,7 +459,8 @@ def _check_recursion(program: Program, report: Reporter) -> None:
                 if callee not in reported:
                     reported.add(callee)
                     names = " -> ".join(program.fb_decls[n].name for n in cycle)
-                    report.error("E209", f"recursive function block call: {names}", call.span)
+                    report.error(
+                        CheckCode.RECURSION, f"recursive function block call: {names}", call.span)
             elif state.get(callee) is None:
                 visit(callee, [*path, callee])
         state[name] = 2
@@ -494,7 +518,7 @@ def _check_register_flow(module: ast.Module, report: Reporter) -> None:
                 first_check.add(i)
             elif stored:
                 report.warning(
-                    "W201",
+                    CheckCode.LOGIC_AFTER_STORE,
                     f"'{statement.op.value}' after '=', S or R continues the old logic string; "
                     "end the segment with *** to start a new one",
                     statement.span,
@@ -541,7 +565,7 @@ def _check_register_flow(module: ast.Module, report: Reporter) -> None:
         )
         if reads and may_defined[i] is False:
             report.error(
-                "E213",
+                CheckCode.UNDEFINED_REGISTER,
                 f"'{_op_text(statement)}' reads the single-bit register, which is always "
                 "undefined here (start of program, block or segment): begin with A, AN, O or ON",
                 statement.span,
@@ -559,7 +583,7 @@ def _check_control1(module: ast.Module, scope: _Scope, report: Reporter) -> None
     """Report what AS-i Control I cannot run (features marked "AS-i Control II only")."""
 
     def only2(what: str, span: Span | None) -> None:
-        report.error("E216", f"{what} is AS-i Control II only", span)
+        report.error(CheckCode.CONTROL2_ONLY, f"{what} is AS-i Control II only", span)
 
     for section in module.sections:
         if isinstance(section, ast.DeclSection):
@@ -615,9 +639,13 @@ class CheckResult:
 
 
 def check_source(
-    source: SourceText, *, dialect: Dialect = Dialect.CONTROL2, lib: Iterable[str | Path] = ()
+    source: SourceText, *, dialect: Dialect = Dialect.CONTROL2, lib: Iterable[str | Path] = (),
+    read: Reader = read_source, exists: Callable[[Path], bool] = Path.is_file,
 ) -> CheckResult:
-    """Read a main file and the blocks it calls, and check the whole program."""
-    program, load_diagnostics = load_program(source, lib=lib)
+    """Read a main file and the blocks it calls, and check the whole program.
+
+    ``read`` and ``exists`` stand for the file system (an editor's open buffers).
+    """
+    program, load_diagnostics = load_program(source, lib=lib, read=read, exists=exists)
     diagnostics = [*load_diagnostics, *check_program(program, dialect)]
     return CheckResult(program, sorted(diagnostics, key=Diagnostic.sort_key))

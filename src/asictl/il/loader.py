@@ -9,14 +9,16 @@ then along the library path (``--lib`` options, then ``ASICTL_LIB``, colon-separ
 from __future__ import annotations
 
 import os
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from asictl.codes import CheckCode
 from asictl.diagnostics import Diagnostic, Reporter
 from asictl.errors import UserError
 from asictl.il import ast
 from asictl.il.parser import parse
+from asictl.platform.master import Options
 from asictl.runtime.firmware import FIRMWARE_BLOCKS
 from asictl.source import SourceText, read_source
 
@@ -36,6 +38,20 @@ class Program:
     def modules(self) -> list[ast.Module]:
         return [self.main, *self.blocks.values()]
 
+    @property
+    def options(self) -> Options:
+        """The main file's [OPTIONS], the manual's defaults for what they leave out."""
+        return Options.from_values({
+            ast.key(o.name): o.value
+            for section in self.main.sections_of(ast.OptionsSection)
+            for o in section.options
+        })
+
+    @property
+    def slaves(self) -> list[ast.SlaveSetup]:
+        """The slaves all [SETUP] sections of the main file project."""
+        return [s for section in self.main.sections_of(ast.SetupSection) for s in section.slaves]
+
 
 def library_path(extra: Iterable[str | Path] = ()) -> list[Path]:
     paths = [Path(p) for p in extra]
@@ -44,15 +60,19 @@ def library_path(extra: Iterable[str | Path] = ()) -> list[Path]:
     return paths
 
 
-def find_block_file(name: str, declared_in: str, search: Sequence[Path]) -> Path | None:
+def find_block_file(
+    name: str, declared_in: str, search: Sequence[Path],
+    exists: Callable[[Path], bool] = Path.is_file,
+) -> Path | None:
     """Where a block's source is: next to the declaring file, then on the library path.
 
-    DOS file names are case-insensitive, so ``MEAN.FB`` finds ``mean.fb``.
+    DOS file names are case-insensitive, so ``MEAN.FB`` finds ``mean.fb``. ``exists`` lets
+    an editor count its unsaved buffers as files.
     """
     base = Path(declared_in).parent if declared_in not in ("<stdin>", "<string>") else Path()
     for folder in (base, *search):
         candidate = folder / name
-        if candidate.is_file():
+        if exists(candidate):
             return candidate
         try:
             for entry in folder.iterdir():
@@ -81,13 +101,19 @@ def calls(module: ast.Module) -> list[ast.CallFB]:
     ]
 
 
+#: How the loader reads a block's file; an editor passes one that prefers its open buffers.
+Reader = Callable[[Path], SourceText]
+
+
 def load_program(
-    source: SourceText, *, lib: Iterable[str | Path] = ()
+    source: SourceText, *, lib: Iterable[str | Path] = (), read: Reader = read_source,
+    exists: Callable[[Path], bool] = Path.is_file,
 ) -> tuple[Program, list[Diagnostic]]:
     """Parse the main file and every block file it reaches; report what cannot be read.
 
     Undeclared blocks and recursion are left to the semantic checks, which see the whole
     program; here only missing and unreadable files are reported, at the call that needs them.
+    ``read`` and ``exists`` stand for the file system (see ``find_block_file``).
     """
     report = Reporter()
     main, diags = parse(source)
@@ -98,8 +124,8 @@ def load_program(
     pending = [main]
     while pending:
         module = pending.pop()
-        for decl in fb_declarations(module):
-            program.fb_decls.setdefault(ast.key(decl.name), decl)
+        for declared in fb_declarations(module):
+            program.fb_decls.setdefault(ast.key(declared.name), declared)
         for call in calls(module):
             name = ast.key(call.name)
             decl = program.fb_decls.get(name)
@@ -107,10 +133,10 @@ def load_program(
                 continue
             if decl.span is None:  # a declaration always comes from a file
                 continue
-            path = find_block_file(decl.file, decl.span.file, search)
+            path = find_block_file(decl.file, decl.span.file, search, exists)
             if path is None:
                 report.error(
-                    "E208",
+                    CheckCode.BLOCK_FILE_NOT_FOUND,
                     f"file '{decl.file}' of function block '{decl.name}' not found "
                     f"(looked next to {decl.span.file}"
                     + (" and in the library path" if search else "")
@@ -120,9 +146,11 @@ def load_program(
                 program.blocks[name] = ast.Module(file=decl.file, sections=())
                 continue
             try:
-                text = read_source(path)
+                text = read(path)
             except UserError as exc:
-                report.error("E208", f"cannot read function block file: {exc}", decl.span)
+                report.error(
+                    CheckCode.BLOCK_FILE_NOT_FOUND,
+                    f"cannot read function block file: {exc}", decl.span)
                 program.blocks[name] = ast.Module(file=str(path), sections=())
                 continue
             block, diags = parse(text)

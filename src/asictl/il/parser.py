@@ -24,9 +24,11 @@ import os
 import re
 import sys
 import threading
+from collections.abc import Callable
 from copy import copy
 from functools import cache
 from importlib.resources import files
+from typing import TypedDict
 
 import lark
 from lark import Lark, Token
@@ -37,7 +39,7 @@ from lark.utils import TextSlice
 from asictl.diagnostics import Diagnostic, Span
 from asictl.il import ast
 from asictl.il.syntax_errors import diagnose
-from asictl.il.transformer import AstBuilder
+from asictl.il.transformer import AstBuilder, Piece, SectionItem
 from asictl.source import SourceText, from_string
 
 #: Keywords and operand marks: never names, so that "A FY 1" and "JU = A" fail plainly.
@@ -94,7 +96,14 @@ def grammar_text() -> str:
     return files("asictl").joinpath("grammar/il.lark").read_text(encoding="utf-8")
 
 
-def lark_options() -> dict:
+class LarkOptions(TypedDict):
+    parser: str
+    lexer: str
+    start: list[str]
+    lexer_callbacks: dict[str, Callable[[Token], Token]]
+
+
+def lark_options() -> LarkOptions:
     """The options the grammar is built with (tests add ``strict=True``)."""
     return {
         "parser": "lalr",
@@ -121,18 +130,22 @@ class _Reader:
             + "|".join(f"(?P<{n}>{self.lark.get_terminal(n).pattern.to_regexp()})" for n in titles)
             + ")"
         )
-        self._accepts: dict[tuple, frozenset[str]] = {}
+        self._accepts: dict[tuple[int, ...], frozenset[str]] = {}
 
-    def parse(self, text: str, start: int, end: int, rule: str, lines: LineCounter) -> list:
-        """``text[start:end]`` with ``rule``; ``lines`` is the line count at ``start``.
+    def parse(
+        self, text: str, start: int, end: int, rule: str, lines: LineCounter
+    ) -> list[Piece]:
+        """The flat list (see ``AstBuilder.start``) of ``text[start:end]`` read with
+        ``rule``; ``lines`` is the line count at ``start``.
 
         (What ``Lark.parse`` does with a ``TextSlice``, except that it counts the lines
-        from the beginning of ``text`` again.)
+        from the beginning of ``text`` again. With transformer= the parser returns what
+        the builder's method for the start rule returns, the flat list.)
         """
         frontend = self.lark.parser
         state = LexerState(TextSlice(text, start, end), copy(lines))
-        result: list = frontend.parser.parse(LexerThread(frontend.lexer, state), rule)
-        return result
+        pieces: list[Piece] = frontend.parser.parse(LexerThread(frontend.lexer, state), rule)
+        return pieces
 
     def expected(self, error: UnexpectedInput) -> frozenset[str]:
         """The terminals the parser could take where it failed.
@@ -144,7 +157,8 @@ class _Reader:
         parser = error.interactive_parser
         key = tuple(parser.parser_state.state_stack)
         if key not in self._accepts:
-            self._accepts[key] = frozenset(parser.accepts())
+            # lark leaves accepts() unannotated; it returns the set of terminal names.
+            self._accepts[key] = frozenset(parser.accepts())  # type: ignore[no-untyped-call]
         return self._accepts[key]
 
     def title_at(self, text: str, line_start: int, line: int) -> Token | None:
@@ -153,6 +167,7 @@ class _Reader:
         if match is None:
             return None
         name = match.lastgroup
+        assert name is not None  # every alternative of the pattern is a named group
         start, end = match.span(name)
         column = start - line_start + 1
         return Token(name, match.group(name), start, line, column, line,
@@ -185,12 +200,12 @@ def parse_text(text: str, name: str = "<string>") -> tuple[ast.Module, list[Diag
     return parse(from_string(name, text))
 
 
-def _read(reader: _Reader, text: str, file: str) -> tuple[list, list[Diagnostic]]:
+def _read(reader: _Reader, text: str, file: str) -> tuple[list[Piece], list[Diagnostic]]:
     """The file as a flat list (title tokens, each followed by its section's nodes)."""
-    pieces: list = []
+    pieces: list[Piece] = []
     diagnostics: list[Diagnostic] = []
     pos, section = 0, None
-    lines = LineCounter("\n")  # always at ``pos``
+    lines = LineCounter("\n")  # type: ignore[no-untyped-call]  # (lark: untyped); at ``pos``
     while pos < len(text):
         rule = _START_RULES[section]
         try:
@@ -221,7 +236,7 @@ def _read(reader: _Reader, text: str, file: str) -> tuple[list, list[Diagnostic]
     return pieces, diagnostics
 
 
-def _last_section(pieces: list, section: ast.SectionKind | None) -> ast.SectionKind | None:
+def _last_section(pieces: list[Piece], section: ast.SectionKind | None) -> ast.SectionKind | None:
     """The section open at the end of ``pieces`` (``section`` if they hold no title)."""
     for piece in reversed(pieces):
         if isinstance(piece, Token):
@@ -229,17 +244,19 @@ def _last_section(pieces: list, section: ast.SectionKind | None) -> ast.SectionK
     return section
 
 
-def _sections(pieces: list, file: str) -> list[ast.Section]:
+def _sections(pieces: list[Piece], file: str) -> list[ast.Section]:
     """Group the flat list into sections: the grammar puts a title before any node."""
     sections: list[ast.Section] = []
     title: Token | None = None
-    body: list = []
+    body: list[SectionItem] = []
     for piece in [*pieces, None]:
         if piece is not None and not isinstance(piece, Token):
             body.append(piece)
             continue
         if title is not None and title.type in _TITLES:
-            span = Span(file, title.line, title.column, title.end_column - title.column)
+            line, column, end = title.line, title.column, title.end_column
+            assert line is not None and column is not None and end is not None
+            span = Span(file, line, column, end - column)
             sections.append(_TITLES[title.type][1](tuple(body), span))
         title, body = piece, []
     return sections

@@ -13,19 +13,9 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass
 
+from asictl.codes import SyntaxCode
 from asictl.diagnostics import Diagnostic, Severity, Span
 from asictl.il.ast import SectionKind
-
-#: code -> (short title, when it is reported); docs/language.md has the same table.
-CODES: dict[str, tuple[str, str]] = {
-    "E101": ("unexpected character", "a character that has no place in IL outside comments"),
-    "E102": ("unexpected end of line", "the line ends before the instruction is complete"),
-    "E103": ("unexpected word", "a word or sign where the syntax expects something else"),
-    "E104": ("unknown instruction", "a [PROGRAM] line that starts with no operator or label"),
-    "E105": ("unknown section title", "a line starting with '[' that is no section title"),
-    "E106": ("missing section title", "statements before the first section title"),
-    "E107": ("number too large", "more than 9 decimal or 8 hexadecimal digits"),
-}
 
 #: Punctuation the language reads as a blank (3: only some punctuation is significant).
 IGNORED_PUNCTUATION = "\"#$%&',/?@\\^`{|}~"
@@ -170,37 +160,47 @@ def diagnose(
     before = text[line_start:pos]
     said = before.rstrip(_BLANKS + IGNORED_PUNCTUATION)
     rest = text[pos:text.index("\n", pos)].partition(";")[0]
-    found = _FOUND.match(rest).group() if rest.strip(_BLANKS + IGNORED_PUNCTUATION) else ""
+    # _FOUND's last alternative takes any character, so it matches wherever rest has text.
+    found_match = _FOUND.match(rest) if rest.strip(_BLANKS + IGNORED_PUNCTUATION) else None
+    found = found_match.group() if found_match else ""
     char = text[pos]
 
     def report(code: str, message: str, at: int = pos, length: int = len(found)) -> Diagnosis:
         # Lines outside any known section are skipped up to the next title, unreported.
-        skip = section is None or code == "E105"
+        skip = section is None or code == SyntaxCode.UNKNOWN_SECTION
         span = Span(file, line, at - line_start + 1, max(1, length))
         return Diagnosis(Diagnostic(Severity.ERROR, code, message, span), skip)
 
     if found and not (char.isascii() and (char.isalnum() or char in _SIGNIFICANT)):
         shown = f"'{char}'" if char.isprintable() else f"U+{ord(char):04X}"
-        return report("E101", f"unexpected character {shown}")
+        return report(SyntaxCode.UNEXPECTED_CHARACTER, f"unexpected character {shown}")
     if not said and found.startswith("["):
-        return report("E105", f"unknown section title {_quote(found)}; expected {_TITLES}")
+        return report(
+            SyntaxCode.UNKNOWN_SECTION,
+            f"unknown section title {_quote(found)}; expected {_TITLES}")
     if section is None:
-        return report("E106", "expected a section title such as [PROGRAM], found "
-                      f"{_quote(found) if found else 'end of line'}")
+        return report(
+            SyntaxCode.MISSING_SECTION, "expected a section title such as [PROGRAM], found "
+            f"{_quote(found) if found else 'end of line'}")
     if "NUMBER" in expected and _NUMBER_LIKE.fullmatch(found):
-        return report("E107", f"number {_quote(found)} is too large")
+        return report(SyntaxCode.NUMBER_TOO_LARGE, f"number {_quote(found)} is too large")
     if section is SectionKind.PROGRAM and expected == {"_COLON"}:
         # A line that starts with a name reads as a label: more often a misspelt operator.
         name = _NAME.search(before)
-        return report("E104", f"unknown instruction {_quote(name.group())} (a label is "
-                      f"written '{name.group()}:')", at=line_start + name.start(),
-                      length=len(name.group()))
+        assert name is not None  # the parser wants a colon after a name on this line
+        return report(
+            SyntaxCode.UNKNOWN_INSTRUCTION,
+            f"unknown instruction {_quote(name.group())} (a label is "
+            f"written '{name.group()}:')", at=line_start + name.start(),
+            length=len(name.group()))
     if not found:
-        return report("E102", f"expected {describe(expected, keywords)} after "
-                      f"{_last_word(said)}, found end of line", at=line_start + len(said))
+        return report(
+            SyntaxCode.UNEXPECTED_END_OF_LINE, f"expected {describe(expected, keywords)} after "
+            f"{_last_word(said)}, found end of line", at=line_start + len(said))
     if section is SectionKind.PROGRAM and (not said or expected >= _OPERATORS):
-        return report("E104", f"unknown instruction {_quote(found)}")
+        return report(SyntaxCode.UNKNOWN_INSTRUCTION, f"unknown instruction {_quote(found)}")
     if not said:
-        return report("E103", f"expected {_LINE_STARTS[section]}, found {_quote(found)}")
-    return report("E103", f"expected {describe(expected, keywords)} after "
+        return report(
+            SyntaxCode.UNEXPECTED_WORD, f"expected {_LINE_STARTS[section]}, found {_quote(found)}")
+    return report(SyntaxCode.UNEXPECTED_WORD, f"expected {describe(expected, keywords)} after "
                   f"{_last_word(said)}, found {_quote(found)}")

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
-SLAVES = 32
+from asictl.platform.master import SLAVES
 
 DISPLAY_TEXT = {
     40: "the AS-i master is in the offline phase",

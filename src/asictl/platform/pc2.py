@@ -121,7 +121,6 @@ COMMAND_TIMEOUT_MS = 200
 
 #: Download/Upload address the EEPROM; 53 from ENTRY_TABLE_ADDRESS on reads the firmware's
 #: function-block entry points instead (16 x 2 bytes little-endian, manual 3.8.2 order).
-EEPROM_SIZE = 16 * 1024
 ENTRY_TABLE_ADDRESS = 0xFF00
 ENTRY_TABLE_SIZE = 32
 
@@ -167,28 +166,8 @@ class HiFlag(IntFlag):
     AUTO_ADDRESS_OFF = 0x04
 
 
-class ControlFlag(IntFlag):
-    """AS-i Control flags, 304h.
-
-    ``WAIT_FOR_SET_BUTTON`` is the manual's "auto_start" bit with its inverted meaning:
-    set, a stopped program waits for the set button ([OPTIONS] ``auto_start: no``).
-    """
-
-    START = 0x01
-    RESET = 0x02
-    IGNORE_CONFIG_ERRORS = 0x04
-    WAIT_FOR_SET_BUTTON = 0x08
-    MAP_COUNTERS = 0x10
-    CONTROL_ACTIVE = 0x20
 
 
-#: The control flags the host may set with command 50 and that survive power-off.
-CONTROL_FLAGS_NONVOLATILE = (
-    ControlFlag.START
-    | ControlFlag.IGNORE_CONFIG_ERRORS
-    | ControlFlag.WAIT_FOR_SET_BUTTON
-    | ControlFlag.MAP_COUNTERS
-)
 
 
 class InterruptSource(IntFlag):

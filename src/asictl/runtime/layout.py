@@ -9,6 +9,8 @@ program map in the image.
 
 from __future__ import annotations
 
+from asictl.platform import pc2
+from asictl.platform.master import CYCLE_TIMEOUT_MS, MACHINE_CYCLE_US
 from asictl.runtime.firmware import FIRMWARE_BLOCKS
 
 # --- code memory ------------------------------------------------------------------
@@ -44,16 +46,15 @@ STATUS_BIT = 0xD1
 # --- external data (XDATA) ----------------------------------------------------------
 
 #: The dual-port RAM appears in XDATA at its own addresses (0000h-03FFh).
-DPRAM_SIZE = 0x400
+DPRAM_SIZE = pc2.DPRAM_SIZE
 #: Flag byte n is byte 200h+n of the communication memory.
-FLAGS_BASE = 0x200
+FLAGS_BASE = pc2.FLAGS
 #: The program's own data (timers, counters, variables, PSeg) starts here.
 DATA_BASE = 0x1000
 DATA_LIMIT = 0x8000
 
-#: Machine cycles one program cycle may take before the firmware stops it: 200 ms of an
-#: 8051 at 11.0592 MHz (12 clocks a machine cycle).
-CYCLE_BUDGET = 184_320
+#: Machine cycles one program cycle may take before the firmware stops it (200 ms).
+CYCLE_BUDGET = round(CYCLE_TIMEOUT_MS * 1000 / MACHINE_CYCLE_US)
 
 
 def default_entry_points() -> dict[str, int]:

@@ -10,13 +10,14 @@ Timers count down in ``tick``, between cycles, as the master's 10 ms clock does.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
-from asictl.codegen8051.allocate import CellKind, Location, ProgramMap, Space, timer_status
 from asictl.mcs51.bus import Bus
 from asictl.mcs51.emulator import Emulator, StopReason
 from asictl.runtime import layout
 from asictl.runtime.firmware import FIRMWARE_BLOCKS, FirmwareServices
+from asictl.runtime.program_map import CellKind, Location, ProgramMap, Space, timer_status
 
 _RET = 0x22
 
@@ -146,7 +147,7 @@ class ProgramRunner:
                 if not remaining:
                     self.write(location, self.read(location) & ~(1 << bit) & 0xFF)
 
-    def _firmware_trap(self, name: str):
+    def _firmware_trap(self, name: str) -> Callable[[Emulator], None]:
         def trap(cpu: Emulator) -> None:
             base = cpu.dptr
             pseg = bytearray(cpu.xdata.read(base + i) for i in range(16))

@@ -1,6 +1,7 @@
 """Running a scenario: a program on a fresh emulated master, in virtual time.
 
-The program is compiled and downloaded through the same driver and commands as
+The program's image (built by ``asictl.build`` from source, an uploaded [RAW] file or a
+.hex image) is downloaded through the same driver and commands as
 ``asictl download`` (so the simulation exercises what the plant would get), then the
 scenario's steps are applied at their times. Master time 0 is the moment the download
 has set the start flag. Timing rules (docs/simulation.md): a ``set`` at T takes effect for
@@ -12,19 +13,20 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from pathlib import Path
 
 from asictl.board.asi import AsiBus, Slave
 from asictl.board.board import Pc2Board
-from asictl.codegen8051.allocate import CellKind
+from asictl.build import Build
+from asictl.codes import ScenarioCode
 from asictl.diagnostics import Diagnostic, DiagnosticError, Severity, Span
 from asictl.host.driver import EmulatedPort, Pc2Driver
 from asictl.host.transfer import Pc2Transport, StartMode, download
 from asictl.il import ast
 from asictl.il.loader import Program
-from asictl.image import ProgramImage, build_image
+from asictl.image import ProgramImage
 from asictl.platform import pc2 as d
-from asictl.sim.operands import Operand
+from asictl.runtime.program_map import CellKind, ProgramMap
+from asictl.sim.operands import Operand, parse_operand
 from asictl.sim.scenario import Scenario, SlaveSpec, Step
 from asictl.sim.trace import Signal, Trace
 
@@ -71,36 +73,55 @@ def _slave(spec: SlaveSpec) -> Slave:
     return Slave(spec.address, spec.io_code, spec.id_code)
 
 
-def _setup_slaves(program: ast.Module) -> list[SlaveSpec]:
+def _setup_slaves(image: ProgramImage) -> list[SlaveSpec]:
     return [
-        SlaveSpec(s.address, s.io_code, s.id_code, 0xF if s.parameter is None else s.parameter)
-        for section in program.sections_of(ast.SetupSection)
-        for s in section.slaves
+        SlaveSpec(s.address, s.io_code, s.id_code, s.parameter)
+        for s in image.configuration.slaves()
     ]
 
 
+def variables_of(pmap: ProgramMap) -> dict[str, int]:
+    """A program's variables as scenarios name them: key name -> size in bytes."""
+    return {name: variable.size for name, variable in pmap.variables.items()}
+
+
 class Simulation:
-    """One scenario on one fresh master."""
+    """One scenario on one fresh master, running the image of one build."""
 
     def __init__(
         self,
-        program: Program,
-        image: ProgramImage,
+        build: Build,
         scenario: Scenario,
         *,
         duration_ms: float | None = None,
         trace: bool = False,
     ) -> None:
-        self.program = program
-        self.image = image
+        if build.image is None:
+            raise ValueError("a simulation needs a build with an image")
+        self.build = build
+        self.image = build.image
         self.scenario = scenario
         self.end_ms = duration_ms if duration_ms is not None else scenario.end_ms
-        specs = scenario.slaves if scenario.slaves is not None else _setup_slaves(program.main)
+        specs = scenario.slaves if scenario.slaves is not None else _setup_slaves(self.image)
         self.board = Pc2Board(bus=AsiBus([_slave(s) for s in specs]))
         if scenario.cycle_ms is not None:
             self.board.cycle_period_us = round(scenario.cycle_ms * 1000)
         self.result = SimResult(scenario)
-        self._signals = _trace_signals(program) if trace else []
+        #: what a trace cannot show, in words (an image without its source)
+        self.untraced = ""
+        self._signals: list[tuple[Signal, Callable[[Simulation], int]]] = []
+        if trace:
+            program = build.source_program()
+            if program is not None:
+                self._signals = _trace_signals(program)
+            else:
+                self._signals = _image_signals(self.image)
+                self.untraced = (
+                    "the image carries no source: the trace shows the operands its program "
+                    "map names (inputs and outputs of its slaves, the flag bytes it keeps "
+                    "in internal RAM, its timers), not the flags it keeps in the "
+                    "communication memory"
+                )
         self._t0: float | None = 0.0
         self._running = True
 
@@ -184,7 +205,7 @@ class Simulation:
         slaves = self.board.bus.at(address)
         if not slaves:
             raise DiagnosticError([Diagnostic(
-                Severity.ERROR, "E402",
+                Severity.ERROR, ScenarioCode.NO_SUCH_SLAVE,
                 f"at {step.at_ms:g} ms: '{what}' sets slave {address}, which is not on the bus",
                 Span(self.scenario.file, line, 1),
             )])
@@ -282,7 +303,6 @@ class Simulation:
 
 def _trace_signals(program: Program) -> list[tuple[Signal, Callable[[Simulation], int]]]:
     """Every I and Q bit the program uses, the flags it writes, its timers' status."""
-    from asictl.sim.operands import parse_operand
 
     inputs, outputs, flags, timers = set(), set(), set(), set()
     for module in program.modules():
@@ -317,9 +337,36 @@ def _trace_signals(program: Program) -> list[tuple[Signal, Callable[[Simulation]
         + sorted(flags, key=_flag_order)
         + [f"T {n}" for n in sorted(timers)]
     )
+    return _signals(names)
+
+
+def _image_signals(image: ProgramImage) -> list[tuple[Signal, Callable[[Simulation], int]]]:
+    """What an image's program map names: the I/O bits of the projected slaves its cells
+    hold, the flag bytes in cells, the timers."""
+    pmap = image.pmap
+    projected = set(image.configuration.projected())
+
+    def bits(kinds: tuple[CellKind, ...]) -> list[tuple[int, int]]:
+        slaves = {
+            address
+            for (kind, k), _ in pmap.cells.items() if kind in kinds
+            for address in (2 * k, 2 * k + 1) if address in projected
+        }
+        return [(a, b) for a in sorted(slaves) for b in range(4)]
+
+    names = (
+        [f"I {a}.{b}" for a, b in bits((CellKind.I, CellKind.I2))]
+        + [f"Q {a}.{b}" for a, b in bits((CellKind.Q,))]
+        + [f"FY {n}" for kind, n in sorted(pmap.cells) if kind is CellKind.F]
+        + [f"T {n}" for n in sorted(pmap.timers)]
+    )
+    return _signals(names)
+
+
+def _signals(names: list[str]) -> list[tuple[Signal, Callable[[Simulation], int]]]:
     signals = []
     for name in names:
-        operand = parse_operand(name, program.main)
+        operand = parse_operand(name)
         width = 1 if operand.is_bit else 8
         signals.append((Signal(name, width), lambda sim, op=operand: sim.read(op)))
     return signals
@@ -327,17 +374,3 @@ def _trace_signals(program: Program) -> list[tuple[Signal, Callable[[Simulation]
 
 def _flag_order(name: str) -> tuple[bool, list[int]]:
     return name.startswith("FY"), [int(x) for x in name.split()[1].split(".")]
-
-
-def load_program_for(path: Path, lib=()) -> tuple[Program, ProgramImage, dict[str, str]]:
-    """Check and compile a program for simulation; errors raise ``DiagnosticError``."""
-    from asictl.codegen8051.compiler import compile_program
-    from asictl.il.checks import check_source
-    from asictl.source import read_source
-
-    result = check_source(read_source(path), lib=lib)
-    texts = {name: s.text for name, s in result.program.sources.items()}
-    if result.has_errors:
-        raise DiagnosticError(result.diagnostics)
-    compiled = compile_program(result.program)
-    return result.program, build_image(compiled), texts

@@ -3,6 +3,7 @@ the IL reader reads them, so a scenario speaks the program's own language."""
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 from asictl.il import ast
@@ -47,19 +48,10 @@ def _statement(text: str) -> ast.Statement | None:
     return statements[0] if len(statements) == 1 else None
 
 
-def _variables(program: ast.Module | None) -> dict[str, int]:
-    if program is None:
-        return {}
-    return {
-        key(d.name): d.size
-        for s in program.sections_of(ast.DeclSection)
-        for d in s.declarations
-        if isinstance(d, ast.VarDecl)
-    }
+def parse_operand(text: str, variables: Mapping[str, int] | None = None) -> Operand:
+    """Raise ``ValueError`` with a message for the user if ``text`` names no operand.
 
-
-def parse_operand(text: str, program: ast.Module | None = None) -> Operand:
-    """Raise ``ValueError`` with a message for the user if ``text`` names no operand."""
+    ``variables`` are the program's variables (key name -> size in bytes)."""
     if not text.strip() or "\n" in text or ";" in text:
         raise ValueError(f"'{text}' is not an operand")
     statement = _statement(f"A {text}")
@@ -74,11 +66,11 @@ def parse_operand(text: str, program: ast.Module | None = None) -> Operand:
             f"'{text}' is not an operand a scenario can use (bits: I, I2, Q, F, T, C, "
             "variable bits; bytes: IB, I2B, QB, FY, PSeg, variable bytes)"
         )
-    _check_range(node, text, _variables(program))
+    _check_range(node, text, variables or {})
     return Operand(node)
 
 
-def _check_range(node: BitNode | ByteNode, text: str, variables: dict[str, int]) -> None:
+def _check_range(node: BitNode | ByteNode, text: str, variables: Mapping[str, int]) -> None:
     def need(ok: bool, what: str) -> None:
         if not ok:
             raise ValueError(f"'{text}': {what}")

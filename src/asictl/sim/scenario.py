@@ -9,9 +9,11 @@ from __future__ import annotations
 
 import re
 import tomllib
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from asictl.codes import ScenarioCode
 from asictl.diagnostics import Diagnostic, DiagnosticError, Reporter, Severity, Span
 from asictl.il import ast
 from asictl.il.parser import parse_text
@@ -76,11 +78,11 @@ _STEP_KEYS = {"at_ms", "at", "set", "expect", "add_slaves", "remove_slaves", "po
 
 
 class _Reader:
-    def __init__(self, source: SourceText, program: ast.Module | None) -> None:
+    def __init__(self, source: SourceText, variables: Mapping[str, int] | None) -> None:
         self.source = source
         self.lines = source.text.split("\n")
         self.report = Reporter()
-        self.program = program
+        self.variables = variables
         self.step_lines = [
             i + 1 for i, line in enumerate(self.lines) if re.match(r"\s*\[\[\s*step\s*\]\]", line)
         ]
@@ -89,7 +91,7 @@ class _Reader:
         return Span(self.source.name, line, column)
 
     def error(self, message: str, line: int, column: int = 1) -> None:
-        self.report.error("E401", message, self.span(line, column))
+        self.report.error(ScenarioCode.INVALID, message, self.span(line, column))
 
     def find(self, text: str, start: int, end: int) -> int:
         """The line of ``text`` between two lines (1-based, inclusive), else ``start``."""
@@ -161,7 +163,7 @@ def _operands(
     for key, value in table.items():
         at, column = reader.key_at(key, line, end)
         try:
-            operand = parse_operand(key, reader.program)
+            operand = parse_operand(key, reader.variables)
         except ValueError as exc:
             reader.error(str(exc), at, column)
             continue
@@ -232,12 +234,13 @@ def _step(reader: _Reader, index: int, data: object) -> Step | None:
     return step
 
 
-def read_scenario(source: SourceText, program: ast.Module | None = None) -> Scenario:
-    """Parse and validate a scenario; ``program`` (its main module) resolves variables.
+def read_scenario(source: SourceText, variables: Mapping[str, int] | None = None) -> Scenario:
+    """Parse and validate a scenario; ``variables`` (the program's: key name -> size in
+    bytes) resolve variable operands.
 
     Raises ``DiagnosticError`` with every problem found.
     """
-    reader = _Reader(source, program)
+    reader = _Reader(source, variables)
     try:
         data = tomllib.loads(source.text)
     except tomllib.TOMLDecodeError as exc:
@@ -245,7 +248,7 @@ def read_scenario(source: SourceText, program: ast.Module | None = None) -> Scen
         line, column = (int(where[1]), int(where[2])) if where else (1, 1)
         message = re.sub(r"\s*\(at line \d+, column \d+\)", "", str(exc))
         raise DiagnosticError([
-            Diagnostic(Severity.ERROR, "E400", f"not valid TOML: {message}",
+            Diagnostic(Severity.ERROR, ScenarioCode.NOT_TOML, f"not valid TOML: {message}",
                        reader.span(line, column))
         ]) from None
     for unknown in sorted(set(data) - {"program", "master", "step"}):
@@ -287,5 +290,5 @@ def read_scenario(source: SourceText, program: ast.Module | None = None) -> Scen
     return Scenario(source.name, program_path, cycle_ms, slaves, steps)
 
 
-def load_scenario(path: str | Path, program: ast.Module | None = None) -> Scenario:
-    return read_scenario(read_source(path), program)
+def load_scenario(path: str | Path, variables: Mapping[str, int] | None = None) -> Scenario:
+    return read_scenario(read_source(path), variables)
