@@ -195,19 +195,27 @@ def _escape_github(value: str, *, property_value: bool = False) -> str:
     return value
 
 
+def github_command(
+    kind: str, message: str, *, file: str | None = None, line: int | None = None,
+    column: int | None = None, title: str | None = None,
+) -> str:
+    """One GitHub Actions workflow command (``::error file=...,line=...::message``)."""
+    props = [f"file={_escape_github(file, property_value=True)}"] if file else []
+    props += [f"line={line}"] if line is not None else []
+    props += [f"col={column}"] if column is not None else []
+    props += [f"title={_escape_github(title, property_value=True)}"] if title else []
+    return f"::{kind} {','.join(props)}::{_escape_github(message)}"
+
+
 def render_github(diagnostics: Iterable[Diagnostic]) -> str:
     """GitHub Actions workflow commands, so problems show up as annotations on the diff."""
     out = []
     for d in diagnostics:
         kind = "error" if d.is_error else "warning" if d.severity is Severity.WARNING else "notice"
-        props = []
-        if d.span:
-            props = [
-                f"file={_escape_github(d.span.file, property_value=True)}",
-                f"line={d.span.line}",
-                f"col={d.span.column}",
-            ]
-        props.append(f"title={_escape_github(d.code, property_value=True)}")
-        message = d.message + "".join(f"\nnote: {span}: {note}" for span, note in d.related)
-        out.append(f"::{kind} {','.join(props)}::{_escape_github(message)}")
+        span = d.span
+        message = d.message + "".join(f"\nnote: {where}: {note}" for where, note in d.related)
+        out.append(github_command(
+            kind, message, file=span.file if span else None, line=span.line if span else None,
+            column=span.column if span else None, title=d.code,
+        ))
     return "\n".join(out) + ("\n" if out else "")

@@ -236,8 +236,10 @@ class ProgramImage:
         data = bytes(data)
         if data[:4] != MAGIC[: len(data)]:
             raise ImageError(
-                f"not an AS-i Control II program image (it starts with {data[:4].hex(' ')}; "
-                f"an image starts with {MAGIC.hex(' ')}, '{MAGIC.decode()}')"
+                f"not a program image written by asictl (it starts with {data[:4].hex(' ')}; "
+                f"asictl's images start with {MAGIC.hex(' ')}, '{MAGIC.decode()}'): asictl "
+                "reads only the images it wrote itself, not those of other tools such as "
+                "the vendor's"
             )
         if len(data) > EEPROM_SIZE:
             raise ImageError(f"image is {len(data)} bytes; the EEPROM holds {EEPROM_SIZE}")

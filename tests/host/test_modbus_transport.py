@@ -187,9 +187,9 @@ def test_bad_urls_are_refused(spec):
 
 
 def test_serial_and_tcp_targets():
-    target = parse_target("/dev/ttyUSB0", baud=19200, parity="even", stopbits=2)
+    target = parse_target("/dev/ttyUSB0", baud=19200, parity="even", stopbits=1)
     assert (target.device, target.baud, target.parity, target.stopbits) == (
-        "/dev/ttyUSB0", 19200, "even", 2,
+        "/dev/ttyUSB0", 19200, "E", 1,
     )
     assert parse_target("tcp://gw").port == 502
     assert parse_target("rtu+tcp://gw:4001").rtu
@@ -218,3 +218,12 @@ def test_cli_refuses_modbus_with_port_and_an_unreachable_gateway(tmp_path):
     gone = runner.invoke(main, ["stop", "--modbus", "tcp://127.0.0.1:1", "--timeout", "0.1"])
     assert gone.exit_code == 1 and "Traceback" not in gone.output
     assert "127.0.0.1:1" in gone.output
+
+
+def test_a_url_without_port_says_it_tried_502():
+    gone = CliRunner().invoke(main, ["status", "--modbus", "tcp://127.0.0.1", "--timeout", "0.2"])
+    assert gone.exit_code == 1, gone.output
+    assert "cannot open the Modbus connection to tcp://127.0.0.1 (port 502, the Modbus/TCP " \
+        "default" in gone.stderr
+    given = CliRunner().invoke(main, ["status", "--modbus", "tcp://127.0.0.1:1"])
+    assert given.exit_code == 1 and "port 502" not in given.stderr

@@ -8,6 +8,7 @@ from pathlib import Path
 
 import click
 
+from asictl.cli.discovery import programs_in
 from asictl.diagnostics import DiagnosticError, render_text
 from asictl.errors import ExitCode, UserError
 from asictl.files import write_atomic
@@ -21,10 +22,8 @@ SUFFIXES = (".asi", ".fb")
 def _expand(paths: tuple[str, ...]) -> list[str]:
     files: list[str] = []
     for path in paths:
-        if path != "-" and Path(path).is_dir():
-            found = sorted(
-                str(p) for p in Path(path).rglob("*") if p.suffix.lower() in SUFFIXES
-            )
+        if path != "-" and Path(path).is_dir():  # without hidden folders and build outputs
+            found = [str(p) for p in programs_in(Path(path), suffixes=SUFFIXES)]
             if not found:
                 raise UserError(f"{path}: no .asi or .fb files in this directory")
             files.extend(found)

@@ -14,10 +14,18 @@ import time
 
 import click
 
+from asictl.cli.serial_options import serial_options, unit_option
 from asictl.errors import UserError
 from asictl.files import write_atomic
-from asictl.host.boards import emulated_board, parse_port, state_directory, state_file
-from asictl.host.target import port_number
+from asictl.host.boards import (
+    emulated_board,
+    lock_file,
+    parse_port,
+    state_directory,
+    state_file,
+)
+from asictl.host.locking import note_holder
+from asictl.host.target import check_serial_setting, port_number
 
 #: The board's non-volatile state is written this often while serving (and at the end).
 SAVE_INTERVAL_S = 10.0
@@ -32,8 +40,12 @@ def _tcp_address(text: str) -> tuple[str, int]:
     return host or "127.0.0.1", number
 
 
-def _log(message: str) -> None:
+def _notify(message: str) -> None:
     click.echo(f"asictl: {message}", err=True)
+
+
+def _url_host(host: str) -> str:
+    return f"[{host}]" if ":" in host else host
 
 
 @click.group()
@@ -47,15 +59,17 @@ def gateway() -> None:
     help="Serve Modbus/TCP here [default: 127.0.0.1:5020 unless --rtu is given].",
 )
 @click.option("--rtu", metavar="DEVICE", help="Serve Modbus RTU on this serial device.")
-@click.option("--baud", type=int, default=9600, show_default=True)
-@click.option("--parity", type=click.Choice(["N", "E", "O"]), default="N", show_default=True)
-@click.option("--stopbits", type=click.Choice(["1", "2"]), default="1", show_default=True)
-@click.option("--unit", type=click.IntRange(1, 247), default=1, show_default=True,
-              help="The gateway's Modbus slave address (0 is broadcast).")
+@serial_options("--rtu")
+@unit_option("The gateway's Modbus slave address, as set on the gateway (0 is broadcast).")
 @click.option("--port", default="300h", show_default=True,
               help="The emulated PC2 board (by I/O base) the gateway serves.")
 @click.option("--state-dir", type=click.Path(file_okay=False),
               help="Where emulated boards are kept (as for download/upload).")
+@click.option("--wait", is_flag=True,
+              help="If another process holds the board, wait for it instead of stopping.")
+@click.option("-v", "--verbose", is_flag=True,
+              help="Log every request on stderr: unit, function, address, quantity, outcome "
+              "(answer, exception code, or why there is none).")
 @click.option("--max-connections", type=click.IntRange(1, 1000), default=32, show_default=True,
               help="TCP connections served at once; further ones are closed at once.")
 @click.option("--idle-timeout", type=click.FloatRange(min=0), default=60.0, show_default=True,
@@ -64,9 +78,9 @@ def gateway() -> None:
               show_default=True, metavar="SECONDS",
               help="How often the board's state is saved while serving.")
 def serve(
-    tcp: str | None, rtu: str | None, baud: int, parity: str, stopbits: str, unit: int,
-    port: str, state_dir: str | None, max_connections: int, idle_timeout: float,
-    save_interval: float,
+    tcp: str | None, rtu: str | None, baud: str, parity: str, stopbits: str, unit: int,
+    port: str, state_dir: str | None, wait: bool, verbose: bool, max_connections: int,
+    idle_timeout: float, save_interval: float,
 ) -> None:
     """Serve the board over Modbus until Ctrl-C; its state is saved periodically and at exit.
 
@@ -86,13 +100,16 @@ def serve(
     base = parse_port(port)
     directory = state_directory(state_dir)
     address = _tcp_address(tcp) if tcp else (None if rtu else ("127.0.0.1", 5020))
-    line = SerialSettings(rtu, baud, parity, int(stopbits)) if rtu else None
-    with emulated_board(base, directory) as board:
+    check_serial_setting(int(baud), parity, int(stopbits))
+    line = SerialSettings(rtu, int(baud), parity, int(stopbits)) if rtu else None
+    with emulated_board(base, directory, wait=wait, notify=_notify) as board:
         slave = GatewaySlave(board, unit)
+        if verbose:
+            slave.request_log = _notify
         path = state_file(directory, base)
         saved = [time.monotonic()]
         failing = [False]
-        conditions = ConditionLog(_log)
+        conditions = ConditionLog(_notify)
 
         def save_now_and_then() -> None:
             if time.monotonic() - saved[0] < save_interval:
@@ -108,17 +125,23 @@ def serve(
                 return
             if failing[0]:
                 failing[0] = False
-                _log(f"gateway: the board state is saved again in {path}")
+                _notify(f"gateway: the board state is saved again in {path}")
 
         server = GatewayServer(
             slave, on_tick=save_now_and_then, max_connections=max_connections,
-            idle_timeout=idle_timeout, log=_log,
+            idle_timeout=idle_timeout, log=_notify,
         )
 
         def started() -> None:
             listening = server.tcp_address  # set before started() if it serves TCP
             where = [f"tcp {listening[0]}:{listening[1]}"] if listening is not None else []
             where += [f"rtu {rtu} {baud} {parity}{stopbits}"] if rtu else []
+            note = f"it serves the board as Modbus gateway unit {unit} on {', '.join(where)}"
+            if server.tcp_address:
+                host, tcp_port = server.tcp_address
+                note += f": reach the board through it with --modbus tcp://{_url_host(host)}:"
+                note += f"{tcp_port}" + (f" --unit {unit}" if unit != 1 else "")
+            note_holder(lock_file(directory, base), note)
             click.echo(
                 f"asictl: gateway unit {unit} for board {port} serving "
                 + ", ".join(where) + " (Ctrl-C stops)",

@@ -21,6 +21,7 @@ import click
 from click.core import ParameterSource
 
 from asictl.build import build_file
+from asictl.cli.serial_options import serial_options, unit_option
 from asictl.errors import ExitCode, UserError
 from asictl.files import STDOUT, shown_name, write_output
 from asictl.host.boards import IO_BACKENDS
@@ -33,12 +34,7 @@ from asictl.host.connection import (
 )
 from asictl.host.program_files import uploaded_files, write_files
 from asictl.host.status import render
-from asictl.host.target import (
-    BAUD_RATES,
-    DEFAULT_RETRIES,
-    DEFAULT_TIMEOUT_S,
-    PARITIES,
-)
+from asictl.host.target import DEFAULT_RETRIES, DEFAULT_TIMEOUT_S
 from asictl.host.transfer import (
     StartMode,
     Transport,
@@ -49,6 +45,7 @@ from asictl.host.transfer import (
     set_start,
     upload,
 )
+from asictl.platform.master import ControlFlag
 
 _Callback = TypeVar("_Callback", bound=Callable[..., object])
 
@@ -59,6 +56,7 @@ class _BoardOptions(TypedDict):
     port: str
     io: str
     state_dir: str | None
+    wait: bool
     modbus: str | None
     unit: int
     baud: str
@@ -86,27 +84,18 @@ def _board_options(command: _Callback) -> _Callback:
             "$XDG_STATE_HOME/asictl or ~/.local/state/asictl].",
         ),
         click.option(
+            "--wait", is_flag=True,
+            help="If another process (such as 'asictl gateway serve') holds the emulated "
+            "board, wait for it instead of stopping with exit status 1.",
+        ),
+        click.option(
             "--modbus", metavar="URL|DEVICE",
             help="Go through an AS-i/Modbus gateway instead of a PC2 board: tcp://HOST[:PORT] "
             "(Modbus TCP), rtu+tcp://HOST[:PORT] (RTU through a device server) or a serial "
-            "device such as /dev/ttyUSB0 (RTU). Excludes --port, --io and --state-dir.",
+            "device such as /dev/ttyUSB0 (RTU). Excludes --port, --io, --state-dir and --wait.",
         ),
-        click.option(
-            "--unit", type=click.IntRange(1, 247), default=1, show_default=True,
-            help="The gateway's Modbus slave address (with --modbus).",
-        ),
-        click.option(
-            "--baud", type=click.Choice([str(b) for b in BAUD_RATES]), default="9600",
-            show_default=True, help="Serial --modbus: bits per second.",
-        ),
-        click.option(
-            "--parity", type=click.Choice(list(PARITIES)), default="none", show_default=True,
-            help="Serial --modbus: parity bit.",
-        ),
-        click.option(
-            "--stopbits", type=click.Choice(["1", "2"]), default="1", show_default=True,
-            help="Serial --modbus: stop bits.",
-        ),
+        unit_option("The gateway's Modbus slave address (with --modbus)."),
+        serial_options("Serial --modbus"),
         click.option(
             "--timeout", type=click.FloatRange(0.01, 60), default=DEFAULT_TIMEOUT_S,
             show_default=True, help="--modbus: seconds to wait for each answer.",
@@ -122,12 +111,12 @@ def _board_options(command: _Callback) -> _Callback:
     return command
 
 
-_PC2_ONLY = ("port", "io", "state_dir")
+_PC2_ONLY = ("port", "io", "state_dir", "wait")
 
 
 def _address(
-    port: str, io: str, state_dir: str | None, modbus: str | None, unit: int, baud: str,
-    parity: str, stopbits: str, timeout: float, retries: int,
+    port: str, io: str, state_dir: str | None, wait: bool, modbus: str | None, unit: int,
+    baud: str, parity: str, stopbits: str, timeout: float, retries: int,
 ) -> MasterAddress:
     """The master the board options name; --modbus excludes the PC2 board's options."""
     if modbus is not None:
@@ -139,12 +128,15 @@ def _address(
         if clash:
             raise UserError(f"--modbus and {', '.join(clash)} exclude each other")
     return MasterAddress(
-        port, io, state_dir, modbus, unit, int(baud), parity, int(stopbits), timeout, retries
+        port, io, state_dir, modbus, unit, int(baud), parity, int(stopbits), timeout, retries,
+        wait,
     )
 
 
 def _connect(**board: Unpack[_BoardOptions]) -> AbstractContextManager[Master]:
-    return connect_master(_address(**board))
+    return connect_master(
+        _address(**board), notify=lambda message: click.echo(f"asictl: {message}", err=True)
+    )
 
 
 @contextmanager
@@ -207,8 +199,18 @@ def download_command(
             download(transport, image, start=StartMode(start), progress=bar)
         settle(master)
         state = master.summary()
+        flags = transport.control_flags()
     click.echo(f"{master.name}: downloaded {file} ({size} bytes, identity "
                f"{image.identity_hex}); {state}", err=True)
+    if StartMode(start) is StartMode.KEEP and not flags & (
+        ControlFlag.START | ControlFlag.CONTROL_ACTIVE
+    ):
+        click.echo(
+            "asictl: note: the start flag is off (the download leaves it as it was): start "
+            "the program with 'asictl start' and the same board options, or download with "
+            "--start (auto_start only restarts a program the master stopped)",
+            err=True,
+        )
 
 
 @click.command("upload")
@@ -313,7 +315,8 @@ def status_command(as_json: bool, **board: Unpack[_BoardOptions]) -> None:
     errors (projected slaves missing, unprojected ones present, wrong I/O or ID code),
     the control program (running or why not), its AS-i Control flags, the program image
     in the EEPROM (identity, size, whether it is valid) and the program cycle times
-    (a gateway shows no cycle times, stop reason or program status).
+    (a gateway shows no cycle times or program status; its control state and stop reason
+    are derived from the flags, as docs/host.md says).
 
     Exit status: 0 shown, 1 the master did not answer, 2 bad usage or a corrupt board state.
     """

@@ -12,7 +12,7 @@ from xml.etree import ElementTree
 import click
 
 from asictl.build import build_file
-from asictl.diagnostics import DiagnosticError, render_text
+from asictl.diagnostics import DiagnosticError, github_command, render_text
 from asictl.errors import ExitCode, UserError
 from asictl.files import refuse_inputs, write_output
 from asictl.sim.engine import SimResult, Simulation, variables_of
@@ -101,6 +101,17 @@ def _report_lines(run: _Run) -> list[str]:
     lines = [f"{run.scenario.file}:{f.line}: {f}" for f in run.result.failures]
     lines += [f"{run.scenario.file}: at {s.at_ms:g} ms: program stopped: {s.reason}"
               for s in run.result.stops]
+    return lines
+
+
+def _annotations(run: _Run) -> list[str]:
+    """GitHub Actions annotations: each failed expectation at its scenario line (an error),
+    each program stop at the scenario (a notice: a scenario may provoke one)."""
+    file = str(run.scenario.file)
+    lines = [github_command("error", str(f), file=file, line=f.line, title="expectation failed")
+             for f in run.result.failures]
+    lines += [github_command("notice", f"at {s.at_ms:g} ms: program stopped: {s.reason}",
+                             file=file, title="program stopped") for s in run.result.stops]
     return lines
 
 
@@ -227,7 +238,12 @@ def _junit(results: list[tuple[Path, _Run | None, str]], path: Path) -> None:
               help="Also write the results as JUnit XML for CI systems.")
 @click.option("--lib", multiple=True, type=click.Path(file_okay=False),
               help="Also look for function-block files here.")
-def test(paths: tuple[Path, ...], junit: Path | None, lib: tuple[str, ...]) -> None:
+@click.option("--format", "fmt", type=click.Choice(["text", "github"]), default="text",
+              show_default=True, help="github: also a GitHub Actions annotation at the "
+              "scenario line of each failed expectation.")
+def test(
+    paths: tuple[Path, ...], junit: Path | None, lib: tuple[str, ...], fmt: str
+) -> None:
     """Run every *.scenario.toml under PATHs (default: the current directory).
 
     A scenario without a 'program' line tests the program of the same name beside it
@@ -247,12 +263,17 @@ def test(paths: tuple[Path, ...], junit: Path | None, lib: tuple[str, ...]) -> N
         except (_Invalid, UserError) as exc:
             message = str(exc) if isinstance(exc, UserError) else "invalid scenario or program"
             click.echo(f"ERROR {path}: {message}")
+            if fmt == "github":
+                click.echo(github_command("error", message, file=str(path), title="asictl test"))
             results.append((path, None, message))
             continue
         results.append((path, run, ""))
         click.echo(f"{'PASS' if run.result.passed else 'FAIL'} {path}: {_summary(run)}")
         for line in _report_lines(run):
             click.echo(f"    {line}")
+        if fmt == "github":
+            for annotation in _annotations(run):
+                click.echo(annotation)
     passed = sum(1 for _, run, _ in results if run and run.result.passed)
     errors = sum(1 for _, run, _ in results if run is None)
     click.echo(f"{passed} passed, {len(results) - passed} failed")

@@ -23,7 +23,9 @@ from pymodbus.pdu import ModbusPDU
 from asictl.board.board import Pc2Board
 from asictl.gateway import pdus
 from asictl.gateway.addressmap import MAX_BITS, AddressMap, ExceptionCode, ModbusError
+from asictl.gateway.requestlog import request_line
 from asictl.platform import pc2 as d
+from asictl.platform.gateway import UNITS
 from asictl.platform.master import EEPROM_SIZE
 from asictl.platform.pc2 import Command
 
@@ -89,13 +91,15 @@ class GatewaySlave:
     def __init__(
         self, board: Pc2Board, unit: int = 1, clock: Callable[[], float] = time.monotonic
     ) -> None:
-        if not 1 <= unit <= 247:
-            raise ValueError(f"a Modbus slave address is 1..247, not {unit}")
+        if unit not in UNITS:
+            raise ValueError(f"the gateway's Modbus address is 1..64, not {unit}")
         self.board = board
         self.map = AddressMap(board)
         self.unit = unit
         self.listen_only = False
         self.counters = Counters()
+        #: told one line per frame (``gateway serve --verbose``)
+        self.request_log: Callable[[str], None] | None = None
         self._clock = clock
         self._synced = clock()
         self._last_telegram: float | None = None
@@ -133,6 +137,15 @@ class GatewaySlave:
 
     def frame(self, unit: int, pdu: bytes, *, crc_ok: bool = True) -> bytes | None:
         """A frame seen on the bus; the response PDU, or None when the gateway stays silent."""
+        response = self._frame(unit, pdu, crc_ok=crc_ok)
+        if self.request_log is not None:
+            self.request_log(request_line(
+                unit, pdu, response, own_unit=self.unit, crc_ok=crc_ok,
+                listen_only=self.listen_only,
+            ))
+        return response
+
+    def _frame(self, unit: int, pdu: bytes, *, crc_ok: bool) -> bytes | None:
         c = self.counters
         c.bus_messages += 1
         if unit not in (self.unit, BROADCAST):

@@ -39,10 +39,12 @@ class MasterAddress:
     modbus: str | None = None
     unit: int = 1
     baud: int = 9600
-    parity: str = "none"
+    parity: str = "N"
     stopbits: int = 1
     timeout: float = DEFAULT_TIMEOUT_S
     retries: int = DEFAULT_RETRIES
+    #: wait for an emulated board another process holds, rather than stop
+    wait: bool = False
 
 
 @dataclass(frozen=True)
@@ -58,10 +60,15 @@ class Master:
 
 
 @contextmanager
-def connect_master(address: MasterAddress) -> Iterator[Master]:
-    """The PC2 board at ``address.port``, or the gateway at ``address.modbus``."""
+def connect_master(
+    address: MasterAddress, notify: Callable[[str], None] | None = None
+) -> Iterator[Master]:
+    """The PC2 board at ``address.port``, or the gateway at ``address.modbus``;
+    ``notify`` hears why a command waits (for a board another process holds)."""
     if address.modbus is None:
-        with connect(address.port, address.io, address.state_dir) as driver:
+        with connect(
+            address.port, address.io, address.state_dir, wait=address.wait, notify=notify
+        ) as driver:
             name = port_name(parse_port(address.port))
             port = driver.port
             yield Master(

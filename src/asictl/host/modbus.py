@@ -49,17 +49,23 @@ from asictl.gateway.pdus import (
     UploadResponse,
 )
 from asictl.host.jobs import JobError, JobStatus
-from asictl.host.status import MasterStatus, program_info, slave_fields, state_fields
+from asictl.host.status import (
+    MasterStatus,
+    derived_control_state,
+    program_info,
+    slave_fields,
+    state_fields,
+    state_summary,
+)
 from asictl.host.target import (
     DEFAULT_RETRIES,
     DEFAULT_TIMEOUT_S,
-    PARITIES,
     ModbusTarget,
 )
-from asictl.image import Configuration
+from asictl.image import MAGIC, Configuration
 from asictl.platform import gateway as g
 from asictl.platform.master import SLAVES, ControlFlag
-from asictl.platform.pc2 import ENTRY_TABLE_ADDRESS, ENTRY_TABLE_SIZE, ControlState
+from asictl.platform.pc2 import ENTRY_TABLE_ADDRESS, ENTRY_TABLE_SIZE, ControlState, StopReason
 from asictl.runtime.firmware import FIRMWARE_BLOCKS
 
 # pymodbus logs every time-out it retries; without a handler Python would print them.
@@ -283,7 +289,7 @@ def _client(target: ModbusTarget, timeout: float, retries: int):
         )
     return ModbusSerialClient(
         target.device or "", framer=FramerType.RTU, baudrate=target.baud, bytesize=8,
-        parity=PARITIES[target.parity], stopbits=target.stopbits, timeout=timeout,
+        parity=target.parity, stopbits=target.stopbits, timeout=timeout,
         retries=retries, reconnect_delay=0,
     )
 
@@ -294,15 +300,18 @@ def open_modbus(
     retries: int = DEFAULT_RETRIES,
 ) -> Iterator[ModbusTransport]:
     """A connected transport; a gateway that cannot be reached is a plain ``JobError``."""
-    if not 1 <= unit <= 247:
-        raise UserError(f"--unit {unit}: a Modbus slave address is 1..247")
+    if unit not in g.UNITS:
+        raise UserError(
+            f"--unit {unit}: the gateway's Modbus address is {g.UNITS[0]}..{g.UNITS[-1]}"
+        )
     if retries < 0 or timeout <= 0:
         raise UserError("--retries must be 0 or more and --timeout more than 0")
     client = _client(target, timeout, retries)
     try:
         if not client.connect():
             raise JobError(
-                JobStatus.INTERFACE_ERROR, f"cannot open the Modbus connection to {target}"
+                JobStatus.INTERFACE_ERROR,
+                f"cannot open the Modbus connection to {target.described()}",
             )
         yield ModbusTransport(client, unit, str(target), retries)
     finally:
@@ -312,12 +321,22 @@ def open_modbus(
 # --- status -----------------------------------------------------------------------------
 
 
-def control_summary(transport: ModbusTransport) -> str:
-    """What the gateway can tell of the control program: 1009's control_active bit."""
-    flags = transport.control_flags()
+def _control_state(
+    transport: ModbusTransport, flags: int, ec: int | None = None
+) -> tuple[ControlState, StopReason | None]:
+    """The gateway shows no control state or stop reason: derived as the PC2 reports them
+    from 1009's flags, the ec-flags (608) and the image's magic in the EEPROM."""
     if flags & ControlFlag.CONTROL_ACTIVE:
-        return "control program running"
-    return "control program not running" + ("" if flags & ControlFlag.START else " (stopped)")
+        return ControlState.RUNNING, StopReason.NONE
+    program = transport.read_eeprom(0, len(MAGIC)) == MAGIC
+    if ec is None:
+        ec = transport.read_registers(g.EC_FLAGS, 1)[0] & 0xFF
+    return derived_control_state(program, flags, ec)
+
+
+def control_summary(transport: ModbusTransport) -> str:
+    """What the control program does, and why not, as the PC2 path says it."""
+    return state_summary(*_control_state(transport, transport.control_flags()))
 
 
 def read_status(transport: ModbusTransport) -> MasterStatus:
@@ -337,7 +356,7 @@ def read_status(transport: ModbusTransport) -> MasterStatus:
         text for text in (transport.master_info(INFO_NAME), transport.master_info(INFO_VERSION))
         if text
     )
-    state = ControlState.RUNNING if flags & ControlFlag.CONTROL_ACTIVE else ControlState.IDLE
+    state, reason = _control_state(transport, flags, ec)
     return MasterStatus(
         port=f"Modbus {transport.name} unit {transport.unit}",
         master_name=name,
@@ -346,7 +365,10 @@ def read_status(transport: ModbusTransport) -> MasterStatus:
         **state_fields(ec, flags),
         **slave_fields(lps, lds, las, bytes(pcd), bytes(cdi), ec=ec),
         control_state=state.name.lower(),
-        stop_reason=None,
+        stop_reason=(
+            "cycle time-out or waiting for the set button" if reason is None
+            else None if reason is StopReason.NONE else reason.name.lower().replace("_", " ")
+        ),
         program_status="not shown by the gateway",
         cycle_time_ms=0.0,
         max_cycle_time_ms=0.0,

@@ -214,6 +214,37 @@ def read_status(driver: Pc2Driver, port: str) -> MasterStatus:
     )
 
 
+def derived_control_state(
+    program: bool, flags: int, ec: int
+) -> tuple[ControlState, StopReason | None]:
+    """The control state and stop reason as the PC2 reports them (307h, 306h), worked out
+    from what a gateway shows (the flags, the ec-flags, whether the EEPROM holds an
+    image), in the order the master checks them (board/control.py). None: stopped with
+    the start flag set in normal operation and a good configuration, which is a cycle
+    time-out or a wait for the set button, which the gateway does not tell apart."""
+    if flags & ControlFlag.CONTROL_ACTIVE:
+        return ControlState.RUNNING, StopReason.NONE
+    if not program:
+        return ControlState.IDLE, StopReason.NO_PROGRAM
+    if not flags & ControlFlag.START:
+        return ControlState.IDLE, StopReason.NOT_STARTED
+    if not ec & EcFlag.NORMAL_OPERATION_ACTIVE:
+        return ControlState.WAITING, StopReason.NOT_NORMAL_OPERATION
+    if not ec & EcFlag.CONFIG_OK and not flags & ControlFlag.IGNORE_CONFIG_ERRORS:
+        return ControlState.WAITING, StopReason.CONFIG_ERROR
+    return ControlState.HALTED, None
+
+
+def state_summary(state: ControlState, reason: StopReason | None) -> str:
+    """``control program STATE (REASON)``, the one line a command ends with."""
+    text = f"control program {_name(ControlState, state)}"
+    if reason is None:
+        return text + " (a cycle time-out or waiting for the set button)"
+    if reason is StopReason.NONE:
+        return text
+    return f"{text} ({_name(StopReason, reason)})"
+
+
 def control_summary(driver: Pc2Driver) -> str:
     """One line on the control program after a command: what it does, and why not."""
     state = _name(ControlState, driver.read_byte(CONTROL_STATE))

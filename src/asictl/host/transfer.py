@@ -226,10 +226,15 @@ def upload(transport: Transport) -> ProgramImage:
     head = transport.read_eeprom(0, max(HEADER_SIZE, transport.block_size))
     length = image_length(head)
     if not HEADER_SIZE <= length <= EEPROM_SIZE:
+        erased = not head.strip(b"\xff") or not head.strip(b"\x00")
         raise JobError(
             JobStatus.EEPROM_ERROR,
             "the master's EEPROM holds no program image"
-            + (f" (its header gives a length of {length} bytes)" if length else ""),
+            + (f" (its header gives a length of {length} bytes)" if length else "")
+            + ("" if length or erased else (
+                f" written by asictl (it starts with {head[:4].hex(' ')}): asictl reads only "
+                "the images it wrote itself, not those of other tools such as the vendor's"
+            )),
         )
     data = head[:length] + transport.read_eeprom(len(head), max(0, length - len(head)))
     try:

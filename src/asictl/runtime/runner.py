@@ -116,11 +116,7 @@ class ProgramRunner:
         ]
         for _, location, value in flags:
             cpu.iram[location.address] = value
-        cpu.sfr[0x81] = layout.STACK_START  # SP
-        cpu.sfr[0xD0] = 0  # PSW: bank 0
-        cpu.push(layout.CYCLE_END & 0xFF)
-        cpu.push(layout.CYCLE_END >> 8)
-        cpu.pc = self.program.code_base
+        self.enter()
         start = cpu.cycles
         reason = cpu.run(max_cycles=self.budget)
         self.last_cycles = cpu.cycles - start
@@ -134,6 +130,16 @@ class ProgramRunner:
             value = cpu.iram[location.address]
             if value != before:
                 cpu.xdata.write(layout.FLAGS_BASE + n, value)
+
+    def enter(self) -> None:
+        """Call the program as the firmware does: bank 0, the stack set up so that its
+        final RET lands on the cycle-end trap, the PC at its code base."""
+        cpu = self.cpu
+        cpu.sfr[0x81] = layout.STACK_START  # SP
+        cpu.sfr[0xD0] = 0  # PSW: bank 0
+        cpu.push(layout.CYCLE_END & 0xFF)
+        cpu.push(layout.CYCLE_END >> 8)
+        cpu.pc = self.program.code_base
 
     def tick(self, ticks: int = 1) -> None:
         """``ticks`` x 10 ms of master time: running timers count down, status follows."""
