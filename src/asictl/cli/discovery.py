@@ -66,13 +66,15 @@ def expand(
     paths: Iterable[str], exclude: Sequence[str] = (), unreadable: list[str] | None = None
 ) -> list[str]:
     """Files as given (unless excluded), each folder as the programs below it; a file
-    named twice is checked once. A folder without programs is a ``UserError``, unless
-    part of it could not be read: that is added to ``unreadable``."""
+    named twice is checked once. A folder without programs is a ``UserError``; so is a
+    folder that cannot be read, unless the caller collects those in ``unreadable``."""
     files: list[str] = []
     for path in paths:
         if path != "-" and Path(path).is_dir():
             problems: list[str] = []
             found = programs_in(Path(path), exclude, unreadable=problems)
+            if problems and unreadable is None:
+                raise UserError("; ".join(problems))
             if unreadable is not None:
                 unreadable += problems
             if not found and not problems:
