@@ -49,3 +49,16 @@ def test_the_command_line_starts_without_its_commands():
     """``asictl --help`` stays fast: commands and their dependencies load when run."""
     loaded = modules_after_import("asictl.cli")
     assert not [m for m in loaded if m.startswith(("lark", "asictl.il", "asictl.board"))]
+
+
+def test_only_the_monitor_loads_textual():
+    """Textual is an optional extra: no other command, nor the monitor's data side, loads it."""
+    code = (
+        "import sys; import asictl.cli.master, asictl.cli.live, asictl.cli.commission, "
+        "asictl.cli.verify, asictl.cli.monitor, asictl.monitor.source, asictl.host.live; "
+        "print(any(m.split('.')[0] in ('textual', 'rich') for m in sys.modules))"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "False"
+    loaded = modules_after_import("asictl.monitor.app")
+    assert "asictl.monitor.app" in loaded

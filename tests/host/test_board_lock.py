@@ -81,11 +81,19 @@ def test_every_board_command_stops_at_once_naming_the_holder(command, tmp_path: 
 
 
 def test_status_while_gateway_serve_holds_the_board(tmp_path: Path):
+    """The gateway's board is live: status reaches it through its socket. Without the
+    socket (here removed), status finds the lock held and names the holder at once."""
     env = {**os.environ, "ASICTL_STATE_DIR": str(tmp_path)}
     server = _asictl("gateway", "serve", "--tcp", "127.0.0.1:0", env=env)
     try:
         assert server.stderr is not None
         assert "serving tcp" in server.stderr.readline()
+        live = subprocess.run(
+            [sys.executable, "-m", "asictl", "status"], capture_output=True, text=True,
+            env=env, timeout=HANG_GUARD_S,
+        )
+        assert live.returncode == 0 and "LPS" in live.stdout, live.stderr
+        (tmp_path / "pc2-300h.sock").unlink()
         status = subprocess.run(
             [sys.executable, "-m", "asictl", "status"], capture_output=True, text=True,
             env=env, timeout=HANG_GUARD_S,
@@ -105,7 +113,9 @@ def test_status_while_gateway_serve_holds_the_board(tmp_path: Path):
             [sys.executable, "-m", "asictl", "gateway", "serve", "--tcp", "127.0.0.1:0"],
             capture_output=True, text=True, env=env, timeout=HANG_GUARD_S,
         )
-        assert second.returncode == 1 and "is in use by process" in second.stderr
+        assert second.returncode == 1 and "is in use by process" in second.stderr, (
+            second.stderr
+        )
     finally:
         server.send_signal(signal.SIGINT)
         assert server.wait(timeout=HANG_GUARD_S) == 0

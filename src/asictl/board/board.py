@@ -524,6 +524,11 @@ class Pc2Board(CommandsMixin):
         """The set button: a program stopped with "wait for set button" may start again."""
         self._control.press_set_button()
 
+    def diagnostics(self) -> tuple[int, bytes]:
+        """The LCS and the slaves' error counters as they stand, without clearing them
+        (commands 70 and 71 read and clear; a monitor only looks)."""
+        return self._ec.lcs, bytes(self._ec.error_counters)
+
     @property
     def dpram(self) -> bytes:
         return bytes(self._ram[: d.DPRAM_SIZE])

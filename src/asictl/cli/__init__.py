@@ -37,12 +37,36 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "reset": (
         "asictl.cli.master:reset_command", "Reload the master's program from its EEPROM."
     ),
-    "status": ("asictl.cli.master:status_command", "Show the master's state (like ASI_MON)."),
+    "status": (
+        "asictl.cli.master:status_command",
+        "Show the master's state: slaves' data, lists, flags, timers (ASI_MON's screens).",
+    ),
     "sim": ("asictl.cli.sim:sim", "Run a program on an emulated master against a scenario."),
     "gateway": (
         "asictl.cli.gateway:gateway", "Serve the emulated AS-i/Modbus gateway (Modbus TCP/RTU)."
     ),
     "test": ("asictl.cli.sim:test", "Run every *.scenario.toml and report N passed, M failed."),
+    "serve": (
+        "asictl.cli.live:serve", "Keep an emulated board running in real time (a live board)."
+    ),
+    "bus": ("asictl.cli.live:bus", "The emulated AS-i cable: show, plug, unplug, match, inputs."),
+    "slave": (
+        "asictl.cli.commission:slave", "Change a slave's address, write its parameter, send "
+        "it an AS-i command."
+    ),
+    "mode": ("asictl.cli.commission:mode", "Show or switch protected/configuration mode."),
+    "store": (
+        "asictl.cli.commission:store", "Store the actual configuration or parameters (F6/F5)."
+    ),
+    "setup": (
+        "asictl.cli.commission:setup", "Write a program's [SETUP] as the projected configuration."
+    ),
+    "diag": (
+        "asictl.cli.commission:diag", "Read and clear LCS, error and telegram counters; the LOS."
+    ),
+    "write": ("asictl.cli.commission:write", "Write flags (F 10.0=1, FY 10=0x12) and outputs."),
+    "verify": ("asictl.cli.verify:verify", "Compare a program with the one the master runs."),
+    "monitor": ("asictl.cli.monitor:monitor", "A live full-screen view of the master (ASI_MON)."),
 }
 
 

@@ -1,34 +1,24 @@
 """``asictl gateway serve``: the emulated AS-i/Modbus gateway in front of a PC2 board.
 
-The gateway serves the same persistent emulated board that ``download``/``upload``/``status
---port`` use, holding its lock while it runs, so a program downloaded over Modbus is the one
-a PC2-port upload reads back afterwards (docs/modbus.md).
+The gateway is a live board (``asictl serve``, host/live.py) with Modbus in front: the board
+runs in real time, holding its lock, and the other commands for its port reach it through
+the live board's socket meanwhile, so a program downloaded over Modbus is the one a PC2-port
+upload reads back, and ``asictl monitor --port`` watches what the Modbus client does
+(docs/modbus.md). A port that ``asictl serve`` already serves is refused: stop that first.
 """
 
 from __future__ import annotations
 
-import asyncio
-import json
-import signal
-import time
+from collections.abc import Awaitable, Callable
 
 import click
 
 from asictl.cli.serial_options import serial_options, unit_option
 from asictl.errors import UserError
-from asictl.files import write_atomic
-from asictl.host.boards import (
-    emulated_board,
-    lock_file,
-    parse_port,
-    state_directory,
-    state_file,
-)
+from asictl.host.boards import lock_file, parse_port, state_directory
+from asictl.host.live import SAVE_INTERVAL_S, LiveBoard, run_live, socket_path
 from asictl.host.locking import note_holder
 from asictl.host.target import check_serial_setting, port_number
-
-#: The board's non-volatile state is written this often while serving (and at the end).
-SAVE_INTERVAL_S = 10.0
 
 
 def _tcp_address(text: str) -> tuple[str, int]:
@@ -90,7 +80,7 @@ def serve(
     tried again at the next interval; serving goes on.
     """
     try:
-        from asictl.gateway.server import ConditionLog, GatewayServer, SerialSettings
+        from asictl.gateway.server import GatewayServer, SerialSettings
         from asictl.gateway.slave import GatewaySlave
     except ImportError as exc:
         raise UserError(
@@ -102,34 +92,14 @@ def serve(
     address = _tcp_address(tcp) if tcp else (None if rtu else ("127.0.0.1", 5020))
     check_serial_setting(int(baud), parity, int(stopbits))
     line = SerialSettings(rtu, int(baud), parity, int(stopbits)) if rtu else None
-    with emulated_board(base, directory, wait=wait, notify=_notify) as board:
-        slave = GatewaySlave(board, unit)
+    live_at = socket_path(directory, base)
+
+    def gateway_for(live: LiveBoard) -> tuple[Awaitable[None], Callable[[], None]]:
+        slave = GatewaySlave(live.board, unit, sync=live.sync)
         if verbose:
             slave.request_log = _notify
-        path = state_file(directory, base)
-        saved = [time.monotonic()]
-        failing = [False]
-        conditions = ConditionLog(_notify)
-
-        def save_now_and_then() -> None:
-            if time.monotonic() - saved[0] < save_interval:
-                return
-            saved[0] = time.monotonic()
-            try:
-                write_atomic(path, json.dumps(board.nonvolatile(), indent=1, sort_keys=True)
-                             + "\n")
-            except UserError as exc:
-                failing[0] = True
-                conditions.event("save", f"gateway: cannot save the board state ({exc}); "
-                                 f"trying again every {save_interval:g} s, still serving")
-                return
-            if failing[0]:
-                failing[0] = False
-                _notify(f"gateway: the board state is saved again in {path}")
-
         server = GatewayServer(
-            slave, on_tick=save_now_and_then, max_connections=max_connections,
-            idle_timeout=idle_timeout, log=_notify,
+            slave, max_connections=max_connections, idle_timeout=idle_timeout, log=_notify
         )
 
         def started() -> None:
@@ -141,24 +111,18 @@ def serve(
                 host, tcp_port = server.tcp_address
                 note += f": reach the board through it with --modbus tcp://{_url_host(host)}:"
                 note += f"{tcp_port}" + (f" --unit {unit}" if unit != 1 else "")
+            note += f"; the board is live at {live_at}"
             note_holder(lock_file(directory, base), note)
             click.echo(
                 f"asictl: gateway unit {unit} for board {port} serving "
-                + ", ".join(where) + " (Ctrl-C stops)",
+                + ", ".join(where) + f"; the board is live at {live_at} (Ctrl-C stops)",
                 err=True,
             )
 
-        async def until_stopped() -> None:
-            # Ctrl-C and a service manager's SIGTERM end the serving loop itself, so the
-            # endpoints close and the state is saved. (Set here, not inherited: a process
-            # started in the background by a shell inherits SIGINT as ignored.)
-            loop = asyncio.get_running_loop()
-            for number in (signal.SIGINT, signal.SIGTERM):
-                loop.add_signal_handler(number, server.stop)
-            await server.serve(address, line, started=started)
+        return server.serve(address, line, started=started), server.stop
 
-        try:
-            asyncio.run(until_stopped())
-        except OSError as exc:
-            raise UserError(f"cannot serve: {exc.strerror or exc}") from None
-        click.echo("asictl: gateway stopped", err=True)
+    run_live(
+        base, directory, identity={"command": "asictl gateway serve", "port": port},
+        attach=gateway_for, wait=wait, notify=_notify, save_interval=save_interval,
+    )
+    click.echo("asictl: gateway stopped", err=True)

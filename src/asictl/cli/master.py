@@ -33,7 +33,7 @@ from asictl.host.connection import (
     settle,
 )
 from asictl.host.program_files import uploaded_files, write_files
-from asictl.host.status import render
+from asictl.host.status import program_info, render
 from asictl.host.target import DEFAULT_RETRIES, DEFAULT_TIMEOUT_S
 from asictl.host.transfer import (
     StartMode,
@@ -211,6 +211,7 @@ def download_command(
             "--start (auto_start only restarts a program the master stopped)",
             err=True,
         )
+    _cable_hint(master, state)
 
 
 @click.command("upload")
@@ -266,16 +267,35 @@ def upload_command(output: str, overwrite: bool, **board: Unpack[_BoardOptions])
         )
 
 
+def _cable_hint(master: Master, summary: str) -> None:
+    """On an emulated board a configuration error is usually a cable that does not match
+    the program yet: say how to plug in the [SETUP]'s slaves."""
+    if master.action is not None and "config error" in summary:
+        click.echo(
+            f"{master.name}: hint: the emulated AS-i cable does not match the projected "
+            "configuration; 'asictl bus match' plugs in the [SETUP]'s slaves "
+            "('asictl bus' shows the cable)",
+            err=True,
+        )
+
+
 def _control_command(
-    name: str, help_text: str, action: Callable[[Transport], int]
+    name: str, help_text: str, action: Callable[[Transport], int], *, needs_program: bool = False
 ) -> click.Command:
     @click.command(name, help=help_text)
     @_board_options
     def command(**board: Unpack[_BoardOptions]) -> None:
         with _connect(**board) as master:
+            if needs_program and not program_info(master.transport).valid:
+                raise UserError(
+                    f"{master.name}: no valid program in the master to start "
+                    "(download one first)", ExitCode.FAILED,
+                )
             action(master.transport)
+            settle(master)
             state = master.summary()
         click.echo(f"{master.name}: {state}", err=True)
+        _cable_hint(master, state)
 
     return command
 
@@ -290,6 +310,7 @@ start_command = _control_command(
     "Set the start flag: the control program runs as soon as the master permits "
     "(normal operation, and no configuration error unless ignore_config_errors)." + _EXIT_STATUS,
     lambda transport: set_start(transport, start=True),
+    needs_program=True,
 )
 stop_command = _control_command(
     "stop",
@@ -309,20 +330,32 @@ reset_command = _control_command(
 @_board_options
 @click.option("--json", "as_json", is_flag=True, help="One JSON object on stdout.")
 def status_command(as_json: bool, **board: Unpack[_BoardOptions]) -> None:
-    """Show the master's state, as the ASI_MON screen does.
+    """Show the master's state: what ASI_MON's screens showed.
 
-    Phase and mode, execution control flags, the slave lists LPS/LDS/LAS, configuration
-    errors (projected slaves missing, unprojected ones present, wrong I/O or ID code),
-    the control program (running or why not), its AS-i Control flags, the program image
-    in the EEPROM (identity, size, whether it is valid) and the program cycle times
-    (a gateway shows no cycle times or program status; its control state and stop reason
-    are derived from the flags, as docs/host.md says).
+    Phase and mode, execution control flags, the slave lists LPS/LDS/LAS/LCS/LOS,
+    configuration errors (projected slaves missing, unprojected ones present, wrong I/O
+    or ID code), the control program (running or why not), its AS-i Control flags, the
+    program image in the EEPROM (identity, size, whether it is valid), the program cycle
+    times, the hi-flags, the program's timers and counters (emulated boards), per slave
+    its input and output data, configuration (PCD/CDI), parameters (PP/PI), lists and
+    error counter, and the flag bytes F0..F127. A gateway shows no cycle times, program
+    status, LCS, LOS or timers (its control state and stop reason are derived from the
+    flags, as docs/host.md says). docs/commissioning.md has the JSON schema.
 
     Exit status: 0 shown, 1 the master did not answer, 2 bad usage or a corrupt board state.
     """
     with _connect(**board) as master:
         status = master.status()
+    if master.created:
+        click.echo(
+            f"asictl: note: there was no emulated board at {master.name} in the state "
+            "directory: a new, empty one was created (is ASICTL_STATE_DIR or --state-dir "
+            "the one you meant?)",
+            err=True,
+        )
     if as_json:
         click.echo(json.dumps(status.to_json(), indent=2))
     else:
         click.echo(render(status), nl=False)
+    if status.missing or status.unexpected or status.wrong_profile:
+        _cable_hint(master, "config error")

@@ -27,6 +27,7 @@ from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from typing import Any
 
+from asictl.condition_log import ConditionLog
 from asictl.gateway.slave import GatewaySlave
 
 #: How often master time catches up with the wall clock while nobody asks.
@@ -39,8 +40,6 @@ _MBAP = struct.Struct(">HHHB")
 DEFAULT_MAX_CONNECTIONS = 32
 #: Seconds a TCP connection may stay silent by default before the gateway closes it.
 DEFAULT_IDLE_TIMEOUT_S = 60.0
-#: A condition that goes on is logged again at most this often, with a count.
-LOG_INTERVAL_S = 60.0
 
 
 #: A connection silent this long makes way for a new one when all are taken.
@@ -54,30 +53,6 @@ class _Connection:
     since: float = field(default_factory=time.monotonic)
     #: inside a request: never closed to make room
     busy: bool = False
-
-
-@dataclass
-class ConditionLog:
-    """Logs a condition once when it starts, then at most every ``interval`` seconds with
-    the number of events since: a flood of connections must not become a flood of lines."""
-
-    log: Callable[[str], None]
-    interval: float = LOG_INTERVAL_S
-    clock: Callable[[], float] = time.monotonic
-    _last: dict[str, float] = field(default_factory=dict)
-    _count: dict[str, int] = field(default_factory=dict)
-
-    def event(self, condition: str, message: str) -> None:
-        """One event of ``condition``; ``message`` says what happens (logged when due)."""
-        now = self.clock()
-        self._count[condition] = self._count.get(condition, 0) + 1
-        last = self._last.get(condition)
-        if last is not None and now - last < self.interval:
-            return
-        count = self._count.pop(condition)
-        self._last[condition] = now
-        times = "" if last is None else f" ({count} times in the last {now - last:.0f} s)"
-        self.log(f"{message}{times}")
 
 
 def crc16(data: bytes) -> bytes:

@@ -89,7 +89,8 @@ class GatewaySlave:
     """The Modbus slave of one gateway over one master; not thread-safe (one event loop)."""
 
     def __init__(
-        self, board: Pc2Board, unit: int = 1, clock: Callable[[], float] = time.monotonic
+        self, board: Pc2Board, unit: int = 1, clock: Callable[[], float] = time.monotonic,
+        *, sync: Callable[[], None] | None = None,
     ) -> None:
         if unit not in UNITS:
             raise ValueError(f"the gateway's Modbus address is 1..64, not {unit}")
@@ -102,6 +103,8 @@ class GatewaySlave:
         self.request_log: Callable[[str], None] | None = None
         self._clock = clock
         self._synced = clock()
+        #: who keeps master time with the wall clock instead (a live board: ``host.live``)
+        self._sync = sync
         self._last_telegram: float | None = None
         self._functions: dict[int, Callable[[bytes], bytes | None]] = {
             1: self._read_coils,
@@ -127,6 +130,9 @@ class GatewaySlave:
         The gateway is live: the master's cycles, program and watchdog run while nobody
         asks. Transports call this before each request and from a periodic timer.
         """
+        if self._sync is not None:
+            self._sync()
+            return
         now = self._clock()
         elapsed_ms = (now - self._synced) * 1000
         self._synced = now

@@ -53,6 +53,7 @@ from asictl.host.status import (
     MasterStatus,
     derived_control_state,
     program_info,
+    slave_data,
     slave_fields,
     state_fields,
     state_summary,
@@ -94,6 +95,11 @@ def slave_list(registers: Sequence[int]) -> list[int]:
 def pcd_register(pc2_byte: int) -> int:
     """PC2 PCD byte (ID code high, I/O code low) as the gateway's register (the other way)."""
     return (pc2_byte & 0xF) << 4 | pc2_byte >> 4
+
+
+def data_nibbles(registers: Sequence[int]) -> bytes:
+    """Data registers (four slaves a register, slave 4k in bits 12-15) one value a slave."""
+    return bytes(registers[n // 4] >> 4 * (3 - n % 4) & 0xF for n in range(4 * len(registers)))
 
 
 def pc2_profile(register: int) -> int:
@@ -195,12 +201,17 @@ class ModbusTransport:
                 WriteMultipleRegistersRequest(address=start, registers=chunk),
             )
 
-    def execution_control(self, register: int, value: int, what: str) -> None:
+    def execution_result(self, register: int, value: int, what: str) -> int:
         """Write an execution-control register, then Read Exception Status (function 7):
-        Modbus has no result for a write, the gateway keeps it there (manual 6.3.10)."""
+        Modbus has no result for a write, the gateway keeps it there (manual 6.3.10): bit 7
+        set if the master refused, bits 0-3 its answer (a slave's, or command 20's status)."""
         self.write_registers(register, [value])
-        result = self._call(f"{what}: reading its result", ReadExceptionStatusRequest()).status
-        if result & g.EXCEPTION_STATUS_ERROR:
+        status = self._call(f"{what}: reading its result", ReadExceptionStatusRequest()).status
+        return int(status)
+
+    def execution_control(self, register: int, value: int, what: str) -> None:
+        """``execution_result``, a refusal raised as a ``JobError``."""
+        if self.execution_result(register, value, what) & g.EXCEPTION_STATUS_ERROR:
             raise JobError(JobStatus.REFUSED, f"{what}: refused by the master")
 
     def master_info(self, part: int) -> str:
@@ -228,7 +239,11 @@ class ModbusTransport:
         except JobError as exc:
             if exc.status is not JobStatus.REFUSED:
                 raise
-            raise exc.during("protected mode refused while a slave has address 0") from None
+            # the one reason the master has to refuse it (ASI_CTRL's 8385h)
+            raise JobError(
+                JobStatus.SLAVE_ZERO,
+                "protected mode refused: a slave with address 0 is present",
+            ) from None
         self.write_registers(g.PI, pp)
 
     def write_eeprom(self, address: int, data: bytes) -> None:
@@ -357,6 +372,14 @@ def read_status(transport: ModbusTransport) -> MasterStatus:
         if text
     )
     state, reason = _control_state(transport, flags, ec)
+    slaves = slave_data(
+        {"LPS": lps, "LDS": lds, "LAS": las},
+        inputs=data_nibbles(transport.read_registers(g.INPUTS_MIRROR + g.INPUT_DATA, 8)),
+        outputs=data_nibbles(transport.read_registers(g.OUTPUT_DATA, 8)),
+        pcd=bytes(pcd), cdi=bytes(cdi),
+        pp=bytes(r & 0xF for r in transport.read_registers(g.PP, SLAVES)),
+        pi=bytes(r & 0xF for r in transport.read_registers(g.PI, SLAVES)),
+    )
     return MasterStatus(
         port=f"Modbus {transport.name} unit {transport.unit}",
         master_name=name,
@@ -373,4 +396,7 @@ def read_status(transport: ModbusTransport) -> MasterStatus:
         cycle_time_ms=0.0,
         max_cycle_time_ms=0.0,
         program=program_info(transport),
+        slaves=slaves,
+        hi_flags=transport.read_registers(g.HI_FLAGS, 1)[0] & 0x07,
+        flags=[r & 0xFF for r in transport.read_registers(g.MEMORY_BYTES, 128)],
     )

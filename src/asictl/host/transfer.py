@@ -104,9 +104,7 @@ class Pc2Transport:
         try:
             run(Command.SET_OPERATION_MODE, data=0)
         except JobError as exc:
-            if exc.status is not JobStatus.REFUSED:
-                raise
-            raise exc.during("protected mode refused while a slave has address 0") from None
+            raise exc.during("switching to protected mode") from None
         self.driver.write(PI, configuration.pp)
 
     def write_eeprom(self, address: int, data: bytes) -> None:
