@@ -13,8 +13,8 @@ from pathlib import Path
 
 from pymodbus.client import ModbusTcpClient
 
-from asictl.gateway import pdus
 from asictl.gateway.slave import GatewaySlave
+from asictl.host import gateway_pdus as pdus
 
 
 def _logged(gw: GatewaySlave) -> list[str]:

@@ -11,8 +11,8 @@ from __future__ import annotations
 import struct
 import time
 
-from asictl.gateway import pdus
 from asictl.gateway.addressmap import ExceptionCode
+from asictl.host import gateway_pdus as pdus
 
 FUNCTION_NAMES = {
     1: "read coils",

@@ -184,7 +184,8 @@ class GatewayServer:
 
     # ------------------------------------------------------------------ RTU
 
-    def _open_serial(self, settings: SerialSettings):
+    def _open_serial(self, settings: SerialSettings) -> tuple[Any, int]:
+        """The open line (a ``serial.Serial``: pyserial has no type information) and its fd."""
         import serial  # pyserial: the optional 'modbus' extra
 
         line = serial.Serial(
@@ -256,7 +257,8 @@ class GatewayServer:
         loop = asyncio.get_running_loop()
         loop.set_exception_handler(self._loop_trouble)
         server = await self._serve_tcp(*tcp) if tcp else None
-        line = fd = None
+        line: Any = None
+        fd = -1
         if rtu is not None:
             line, fd = self._open_serial(rtu)
         try:

@@ -8,7 +8,7 @@ function code (no CRC counter, no "illegal function" answer) and it has no liste
 all of which the gateway manual requires (6.3.11).
 
 The user-defined functions 65, 66 and 67 are decoded and encoded by the PDU classes of
-``gateway.pdus``, the very classes our Modbus client uses, so both ends share one wire format.
+``host.gateway_pdus``, the very classes our Modbus client uses, so both ends share one wire format.
 """
 
 from __future__ import annotations
@@ -21,16 +21,17 @@ from dataclasses import dataclass, fields
 from pymodbus.pdu import ModbusPDU
 
 from asictl.board.board import Pc2Board
-from asictl.gateway import pdus
 from asictl.gateway.addressmap import MAX_BITS, AddressMap, ExceptionCode, ModbusError
 from asictl.gateway.requestlog import request_line
+from asictl.host import gateway_pdus as pdus
 from asictl.platform import pc2 as d
 from asictl.platform.gateway import UNITS
 from asictl.platform.master import EEPROM_SIZE
 from asictl.platform.pc2 import Command
 
-#: The gateway's own name (function 65, P = 1); version and ID come from the master.
-GATEWAY_NAME = "VAG-MOD-KF-R4 AS-i/Modbus Gateway"
+#: The gateway's own name (function 65, P = 1: at most 32 characters, gateway manual
+#: 6.3.12); version and ID come from the master.
+GATEWAY_NAME = "VAG-MOD-KF-R4 AS-i/Modbus"
 BROADCAST = 0
 #: Functions a broadcast executes (they write; reads make no sense without an answer).
 BROADCAST_FUNCTIONS = frozenset({5, 6, 15, 16, pdus.FC_DOWNLOAD})
@@ -68,7 +69,8 @@ class Counters:
             setattr(self, f.name, 0)
 
     def by_code(self, code: int) -> int:
-        return getattr(self, fields(self)[code - Diagnostic.FIRST_COUNTER].name) & 0xFFFF
+        count: int = getattr(self, fields(self)[code - Diagnostic.FIRST_COUNTER].name)
+        return count & 0xFFFF
 
 
 def _unpack(fmt: str, data: bytes) -> tuple[int, ...]:

@@ -19,6 +19,13 @@ from asictl.errors import ExitCode, UserError
 from asictl.host.driver import Pc2Driver
 from asictl.host.jobs import JobError, JobStatus, address_change_failure
 from asictl.image import Configuration
+from asictl.platform.gateway import (
+    EXCEPTION_STATUS_ERROR,
+    MEMORY_BYTES,
+    OUTPUT_DATA,
+    PI,
+    ExecutionRegister,
+)
 from asictl.platform.master import SLAVES, ControlFlag
 from asictl.platform.pc2 import (
     CONTROL_FLAGS,
@@ -218,16 +225,12 @@ class ModbusCommissioning:
         self.name = f"{transport.name} unit {transport.unit}"
 
     def _result(self, register: int, value: int, what: str) -> int:
-        from asictl.platform.gateway import EXCEPTION_STATUS_ERROR
-
         result = self.transport.execution_result(register, value, what)
         if result & EXCEPTION_STATUS_ERROR:
             raise JobError(JobStatus.REFUSED, f"{what}: refused by the master")
         return result & 0xF
 
     def change_address(self, old: int, new: int) -> None:
-        from asictl.platform.gateway import EXCEPTION_STATUS_ERROR, ExecutionRegister
-
         check_address(old)
         check_address(new)
         self.transport.write_registers(ExecutionRegister.CHANGE_ADDRESS_OLD, [old])
@@ -239,14 +242,10 @@ class ModbusCommissioning:
             raise JobError(status, f"address change {old} -> {new} failed: {why}")
 
     def write_parameter(self, address: int, value: int) -> int:
-        from asictl.platform.gateway import PI
-
         check_address(address, zero=False)
         return self._result(PI + address, value & 0xF, f"writing parameter to slave {address}")
 
     def execute_command(self, address: int, information: int) -> int:
-        from asictl.platform.gateway import ExecutionRegister
-
         check_address(address)
         self.transport.write_registers(ExecutionRegister.EXECUTE_COMMAND_ADDRESS, [address])
         return self._result(
@@ -255,8 +254,6 @@ class ModbusCommissioning:
         )
 
     def set_mode(self, *, configuration: bool) -> None:
-        from asictl.platform.gateway import ExecutionRegister
-
         try:
             self._result(
                 ExecutionRegister.SET_OPERATION_MODE, int(configuration), "set operation mode"
@@ -270,8 +267,6 @@ class ModbusCommissioning:
             ) from None
 
     def store_configuration(self) -> None:
-        from asictl.platform.gateway import ExecutionRegister
-
         try:
             self._result(
                 ExecutionRegister.STORE_ACTUAL_CONFIGURATION, 1, "store actual configuration"
@@ -280,8 +275,6 @@ class ModbusCommissioning:
             raise _refused_in_protected_mode(exc, "store actual configuration") from None
 
     def store_parameters(self) -> None:
-        from asictl.platform.gateway import ExecutionRegister
-
         self._result(ExecutionRegister.STORE_ACTUAL_PARAMETERS, 1, "store actual parameters")
 
     def set_configuration(self, configuration: Configuration) -> None:
@@ -297,20 +290,14 @@ class ModbusCommissioning:
         raise NotOffered(f"{self.name}: the gateway has no register for the LOS")
 
     def write_flags(self, first: int, values: bytes) -> None:
-        from asictl.platform.gateway import MEMORY_BYTES
-
         if first < 0 or first + len(values) > FLAGS_SIZE:
             raise UserError(f"flag bytes F{first}..: the flags are F0..F127", ExitCode.USAGE)
         self.transport.write_registers(MEMORY_BYTES + first, list(values))
 
     def read_flags(self) -> bytes:
-        from asictl.platform.gateway import MEMORY_BYTES
-
         return bytes(r & 0xFF for r in self.transport.read_registers(MEMORY_BYTES, FLAGS_SIZE))
 
     def write_outputs(self, changes: dict[int, tuple[int, int]]) -> None:
-        from asictl.platform.gateway import OUTPUT_DATA
-
         if self.transport.control_flags() & ControlFlag.CONTROL_ACTIVE:
             raise UserError(
                 "the control program is running and owns the outputs: stop it first "

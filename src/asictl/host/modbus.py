@@ -22,6 +22,7 @@ import logging
 import struct
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
+from typing import TypeVar
 
 from pymodbus import FramerType
 from pymodbus.client import ModbusSerialClient, ModbusTcpClient
@@ -36,7 +37,7 @@ from pymodbus.pdu.register_message import (
 )
 
 from asictl.errors import UserError
-from asictl.gateway.pdus import (
+from asictl.host.gateway_pdus import (
     BLOCK_SIZE,
     CLIENT_PDUS,
     INFO_NAME,
@@ -45,6 +46,7 @@ from asictl.gateway.pdus import (
     INFO_VERSION_ID,
     DownloadRequest,
     MasterInfoRequest,
+    MasterInfoResponse,
     UploadRequest,
     UploadResponse,
 )
@@ -75,7 +77,9 @@ logging.getLogger("pymodbus").addHandler(logging.NullHandler())
 #: Flags a write of 1009 may carry; control_active only reads back.
 _WRITABLE_FLAGS = 0xFF & ~ControlFlag.CONTROL_ACTIVE
 
-_EXCEPTION_NAMES = {code: code.name.lower().replace("_", " ") for code in ExcCodes}
+_Response = TypeVar("_Response", bound=ModbusPDU)
+
+_EXCEPTION_NAMES = {int(code): code.name.lower().replace("_", " ") for code in ExcCodes}
 
 
 def _words(registers: Sequence[int]) -> list[int]:
@@ -173,6 +177,16 @@ class ModbusTransport:
             raise _malformed(what, f"an answer of function {response.function_code}")
         return response
 
+    def _answer(self, what: str, request: ModbusPDU, kind: type[_Response]) -> _Response:
+        """``_call`` for one of this project's own responses (65, 67)."""
+        response = self._call(what, request)
+        if not isinstance(response, kind):
+            raise JobError(
+                JobStatus.INTERFACE_ERROR,
+                f"{what}: the gateway answered with function {response.function_code}",
+            )
+        return response
+
     def read_registers(self, address: int, count: int) -> list[int]:
         """Holding registers (function 3), at most 15 per telegram as the gateway allows."""
         values: list[int] = []
@@ -216,7 +230,8 @@ class ModbusTransport:
 
     def master_info(self, part: int) -> str:
         """Function 65: name, version, installed software or version ID."""
-        return self._call("reading the master's name", MasterInfoRequest(part)).text
+        request = MasterInfoRequest(part)
+        return self._answer("reading the master's name", request, MasterInfoResponse).text
 
     # --- Transport -----------------------------------------------------------------------
 
@@ -266,9 +281,7 @@ class ModbusTransport:
 
     def _read_block(self, address: int) -> bytes:
         what = f"reading {address:04X}h (function 67)"
-        response = self._call(what, UploadRequest(address=address))
-        if not isinstance(response, UploadResponse):
-            raise _malformed(what, f"an answer of type {type(response).__name__}")
+        response = self._answer(what, UploadRequest(address=address), UploadResponse)
         if len(response.data) != BLOCK_SIZE:
             raise _malformed(what, f"{len(response.data)} bytes instead of {BLOCK_SIZE}")
         if response.address != address:
@@ -295,7 +308,9 @@ class ModbusTransport:
 # --- opening one --------------------------------------------------------------------------
 
 
-def _client(target: ModbusTarget, timeout: float, retries: int):
+def _client(
+    target: ModbusTarget, timeout: float, retries: int
+) -> ModbusTcpClient | ModbusSerialClient:
     if target.host is not None:
         framer = FramerType.RTU if target.rtu else FramerType.SOCKET
         return ModbusTcpClient(
@@ -330,7 +345,8 @@ def open_modbus(
             )
         yield ModbusTransport(client, unit, str(target), retries)
     finally:
-        client.close()
+        # pymodbus leaves the sync clients' close() unannotated
+        client.close()  # type: ignore[no-untyped-call]
 
 
 # --- status -----------------------------------------------------------------------------

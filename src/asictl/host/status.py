@@ -17,6 +17,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
+from enum import IntEnum
 from typing import Any
 
 from asictl.host.driver import Pc2Driver
@@ -179,7 +180,7 @@ def _text(raw: bytes) -> str:
     return " ".join(part for part in parts if part)
 
 
-def _name(enum: type, value: int) -> str:
+def _name(enum: type[IntEnum], value: int) -> str:
     try:
         return str(enum(value).name).lower().replace("_", " ")
     except ValueError:

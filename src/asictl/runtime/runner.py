@@ -100,7 +100,7 @@ class ProgramRunner:
 
     # ------------------------------------------------------------------ the cycle
 
-    def cycle(self, inputs: bytes | None = None) -> None:
+    def cycle(self, inputs: bytes | bytearray | None = None) -> None:
         """One program cycle; raises ``CycleTimeout`` when the budget runs out."""
         cpu = self.cpu
         previous = bytes(self.inputs)
