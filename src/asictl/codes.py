@@ -49,6 +49,9 @@ class CheckCode(StrEnum):
     MISPLACED_SECTION = "E217"
     ASSIGNED_TIMER_OR_COUNTER = "E218"
     OPERAND_LIKE_NAME = "E219"
+    NAME_TOO_LONG = "E220"
+    TOO_MANY_FILES = "E221"
+    DUPLICATE_FILE_NAME = "E222"
     LOGIC_AFTER_STORE = "W201"
     TIME_ROUNDED = "W202"
     DUPLICATE_OPTION = "W203"
@@ -147,6 +150,9 @@ TITLES: dict[str, str] = {
     "E217": "section not allowed here",
     "E218": "'=' on a timer or counter",
     "E219": "variable named like an operand",
+    "E220": "name too long for the image",
+    "E221": "too many source files for the image",
+    "E222": "two source files of one name",
     "W201": "logic continues after a store",
     "W202": "time rounded to 10 ms",
     "W203": "option given twice",

@@ -102,6 +102,12 @@ _SEVERITY_COLOUR = {Severity.ERROR: "\x1b[1;31m", Severity.WARNING: "\x1b[1;35m"
                     Severity.NOTE: "\x1b[1;36m"}
 _BOLD, _CARET, _RESET = "\x1b[1m", "\x1b[1;32m", "\x1b[0m"
 
+#: Diagnostics per file that text output shows by default; the rest are counted, as a
+#: compiler does: past the first few hundred, more lines help nobody read a terminal.
+TEXT_LIMIT = 200
+#: Source lines longer than this are shown as a window around the column.
+EXCERPT_WIDTH = 160
+
 
 def _headline(span: Span | None, severity: Severity, message: str, colour: bool) -> str:
     where = f"{span}: " if span else ""
@@ -112,42 +118,73 @@ def _headline(span: Span | None, severity: Severity, message: str, colour: bool)
 
 
 def render_text(
-    diagnostics: Iterable[Diagnostic], sources: Mapping[str, str], *, colour: bool = False
+    diagnostics: Iterable[Diagnostic],
+    sources: Mapping[str, str],
+    *,
+    limit: int = TEXT_LIMIT,
+    colour: bool = False,
 ) -> str:
     """Render as a modern compiler does: location line, then source line and caret, then
     each related place as a ``note:`` the same way. ``colour`` adds ANSI colours (for a
     terminal).
 
     ``sources`` maps file names to their decoded text; a file not in it gets no excerpt.
+    At most ``limit`` diagnostics per file are shown (0: all), then one line with the
+    number left out. Each file's text is split into lines once, so rendering takes time
+    linear in the diagnostics and the text.
     """
     out: list[str] = []
     lines_of: dict[str, list[str]] = {}
+    shown: dict[str, int] = {}
+    left_out: dict[str, int] = {}
     for d in diagnostics:
+        file = d.span.file if d.span else ""
+        if limit and shown.get(file, 0) >= limit:
+            left_out[file] = left_out.get(file, 0) + 1
+            continue
+        shown[file] = shown.get(file, 0) + 1
         out.append(_headline(d.span, d.severity, f"{d.message} [{d.code}]", colour))
         out += _excerpt(d.span, sources, lines_of, colour)
         for span, note in d.related:
             out.append(_headline(span, Severity.NOTE, note, colour))
             out += _excerpt(span, sources, lines_of, colour)
+    for file, count in left_out.items():
+        what = f"{count} more diagnostic{'' if count == 1 else 's'}"
+        out.append(f"{file or 'asictl'}: {what} not shown (only the first {limit} are)")
     return "\n".join(out) + ("\n" if out else "")
 
 
 def _excerpt(
     span: Span | None, sources: Mapping[str, str], lines_of: dict[str, list[str]], colour: bool
 ) -> list[str]:
-    """The source line of ``span`` and a caret under it (nothing if the text is unknown);
-    ``lines_of`` keeps each file's lines, split once however many diagnostics it has."""
-    if span is None or span.file not in sources:
+    """The source line of ``span`` and a caret under it (nothing if the text is unknown).
+
+    ``lines_of`` keeps each text split into lines, so a file is split once however many
+    diagnostics it has. A line of a megabyte (a binary file, generated text) is cut to a
+    window around the column, so one diagnostic never prints more than about
+    ``EXCERPT_WIDTH`` characters.
+    """
+    text = sources.get(span.file) if span else None
+    if text is None or span is None:
         return []
     if span.file not in lines_of:
-        lines_of[span.file] = sources[span.file].split("\n")
+        lines_of[span.file] = text.split("\n")
     lines = lines_of[span.file]
     if not 0 < span.line <= len(lines):
         return []
     src = lines[span.line - 1].expandtabs(1).rstrip()
-    caret = "^" + "~" * max(0, span.length - 1)
+    column = span.column
+    if len(src) > EXCERPT_WIDTH:
+        start = max(0, min(column - 1 - EXCERPT_WIDTH // 2, len(src) - EXCERPT_WIDTH))
+        prefix = "..." if start else ""
+        suffix = "..." if start + EXCERPT_WIDTH < len(src) else ""
+        src = prefix + src[start : start + EXCERPT_WIDTH] + suffix
+        column = column - start + len(prefix)
+    length = min(span.length, max(1, len(src) - column + 1))
+    caret = "^" + "~" * max(0, length - 1)
     if colour:
         caret = f"{_CARET}{caret}{_RESET}"
-    return [f"  {src}", "  " + " " * (span.column - 1) + caret]
+    return [f"  {src}", "  " + " " * (column - 1) + caret]
 
 
 def render_json(diagnostics: Iterable[Diagnostic]) -> str:

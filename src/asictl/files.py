@@ -1,39 +1,170 @@
-"""Writing output files so that a failure never leaves a half-written one behind.
+"""Writing output files: never half-written, never over an input, never over a device.
 
-A HEX image that is cut short would still look plausible to a programmer tool, so
-every output is written to a temporary file in the target directory and renamed over
-the target only when complete (a rename within one directory is atomic).
+A HEX image that is cut short would still look plausible to a programmer tool, so a
+regular file is written to a temporary file in its directory and renamed over the target
+only when complete (a rename within one directory is atomic). A character device or a
+FIFO (``-o /dev/null``, ``--csv >(sort)``) is written as a stream: replacing it by a
+regular file would, run as root, turn /dev/null into a plain file. A symbolic link keeps
+pointing at the file it names, which is the one replaced.
+
+``write_output`` is what commands use: it also refuses to replace one of the command's
+own inputs and writes '-' to standard output.
 """
 
 from __future__ import annotations
 
+import errno
 import os
+import stat
+import sys
 import tempfile
+from collections.abc import Iterable, Sequence
 from pathlib import Path
 
 from asictl.errors import UserError
 
+#: The name that means standard output.
+STDOUT = "-"
+#: Names that stand for standard input among a command's inputs.
+_STDIN_NAMES = frozenset({"-", "<stdin>"})
+
+
+def write_output(
+    path: str | Path, data: str | bytes, *, inputs: Iterable[str | Path] = ()
+) -> None:
+    """Write a command's output: '-' to standard output, otherwise as ``write_atomic``
+    does, after ``refuse_inputs``."""
+    if str(path) == STDOUT:
+        if isinstance(data, bytes):
+            sys.stdout.flush()
+            sys.stdout.buffer.write(data)
+            sys.stdout.buffer.flush()
+        else:
+            sys.stdout.write(data)
+            sys.stdout.flush()
+        return
+    refuse_inputs(path, inputs)
+    write_atomic(path, data)
+
+
+def refuse_inputs(path: str | Path, inputs: Iterable[str | Path]) -> None:
+    """A ``UserError`` if ``path`` is one of ``inputs`` (by name, link or hard link)."""
+    target = Path(path)
+    if not _is_regular(target):
+        return  # nothing there to lose, or a device or FIFO, which is written as a stream
+    for source in inputs:
+        if str(source) in _STDIN_NAMES:
+            continue
+        try:
+            same = os.path.samefile(target, source)
+        except OSError:
+            same = False
+        if same:
+            raise UserError(
+                f"{path}: is an input of this command ({source}); not overwritten"
+            )
+
 
 def write_atomic(path: str | Path, data: str | bytes) -> None:
     """Replace ``path`` with ``data`` (text is written as UTF-8 with LF line ends) in one
-    step; failures are a ``UserError``."""
-    target = Path(path)
+    step, or write it as a stream to a device or FIFO; failures are a ``UserError``."""
+    write_together([(path, data)])
+
+
+def write_together(items: Sequence[tuple[str | Path, str | bytes]]) -> None:
+    """Write several files all or nothing: every regular file is first written in full
+    to a temporary file beside it, and only when all are complete are they renamed into
+    place (devices and FIFOs are written after that, as streams). A name too long, a
+    full disk or a missing folder thus stops the lot before any file is touched."""
+    staged: list[tuple[Path, Path, Path]] = []  # (temporary, real target, as named)
+    streams: list[tuple[Path, bytes]] = []
     try:
-        fd, temp = tempfile.mkstemp(dir=target.parent, prefix=f".{target.name}.", suffix=".tmp")
+        for path, data in items:
+            target = Path(path)
+            raw = data if isinstance(data, bytes) else data.encode("utf-8")
+            try:
+                mode = os.stat(target).st_mode
+            except FileNotFoundError:
+                mode = None
+            except OSError as exc:
+                raise UserError(f"{target}: cannot write: {exc.strerror or exc}") from None
+            if mode is not None and stat.S_ISDIR(mode):
+                raise UserError(f"{target}: cannot write: it is a directory")
+            if mode is not None and not stat.S_ISREG(mode):
+                streams.append((target, raw))
+                continue
+            real = Path(os.path.realpath(target))
+            staged.append((_stage(real, raw, shown=target), real, target))
+        for temp, real, shown in staged:
+            try:
+                os.replace(temp, real)
+            except OSError as exc:
+                raise UserError(f"{shown}: cannot write: {exc.strerror or exc}") from None
+    finally:
+        for temp, _, _ in staged:
+            temp.unlink(missing_ok=True)  # gone once renamed; left over after a failure
+    for target, raw in streams:
+        _write_stream(target, raw)
+
+
+def _is_regular(path: Path) -> bool:
+    try:
+        return stat.S_ISREG(os.stat(path).st_mode)
+    except OSError:
+        return False
+
+
+def _stage(target: Path, data: bytes, *, shown: Path) -> Path:
+    """``data`` complete in a temporary file beside ``target``, with the target's mode.
+
+    The temporary name keeps at most 100 characters of the target's, so that a target
+    name near the file system's limit still has room for the affixes.
+    """
+    try:
+        fd, name = tempfile.mkstemp(
+            dir=target.parent, prefix=f".{target.name[:100]}.", suffix=".tmp"
+        )
     except OSError as exc:
-        raise UserError(f"{target}: cannot write: {exc.strerror or exc}") from None
+        raise UserError(f"{shown}: cannot write: {exc.strerror or exc}") from None
+    temp = Path(name)
     try:
-        if isinstance(data, bytes):
-            with os.fdopen(fd, "wb") as out:
-                out.write(data)
-        else:
-            with os.fdopen(fd, "w", encoding="utf-8", newline="\n") as out:
-                out.write(data)
+        with os.fdopen(fd, "wb") as out:
+            out.write(data)
         os.chmod(temp, _mode_for(target))
-        os.replace(temp, target)
     except OSError as exc:
-        Path(temp).unlink(missing_ok=True)
+        temp.unlink(missing_ok=True)
+        raise UserError(f"{shown}: cannot write: {exc.strerror or exc}") from None
+    return temp
+
+
+def shown_name(name: str) -> str:
+    """A file name as it can be printed safely: control characters (an escape sequence
+    would drive the terminal) and other unprintable ones are written as escapes."""
+    return "".join(
+        char if char.isprintable() else char.encode("unicode_escape").decode("ascii")
+        for char in name
+    )
+
+
+def _write_stream(target: Path, data: bytes) -> None:
+    """Write to a device or FIFO as ``cat > target`` would, but never wait for a reader
+    that is not there (opening a FIFO for writing blocks until one is)."""
+    try:
+        fd = os.open(target, os.O_WRONLY | os.O_NONBLOCK)
+    except OSError as exc:
+        reason = exc.strerror or str(exc)
+        if exc.errno == errno.ENXIO:  # a FIFO nobody has open for reading
+            reason = "no process reads from it"
+        raise UserError(f"{target}: cannot write: {reason}") from None
+    try:
+        os.set_blocking(fd, True)
+        view = memoryview(data)
+        while view:
+            view = view[os.write(fd, view) :]
+    except OSError as exc:
         raise UserError(f"{target}: cannot write: {exc.strerror or exc}") from None
+    finally:
+        os.close(fd)
 
 
 def _mode_for(target: Path) -> int:

@@ -8,6 +8,8 @@ source back to the engineer on upload.
 
 from __future__ import annotations
 
+import os
+import stat
 import sys
 from dataclasses import dataclass
 from pathlib import Path
@@ -15,6 +17,9 @@ from pathlib import Path
 from asictl.errors import UserError
 
 CTRL_Z = b"\x1a"
+#: The largest source file read. Programs are a few hundred KB at most (the EEPROM the
+#: program lands in holds 16 KB); more is a wrong file, or a device such as /dev/zero.
+MAX_SOURCE_BYTES = 8 * 1024 * 1024
 
 
 @dataclass(frozen=True)
@@ -101,8 +106,53 @@ def from_string(name: str, text: str) -> SourceText:
 def read_source(path: str | Path) -> SourceText:
     """Read a source file ('-' is standard input); unreadable files are a ``UserError``."""
     name = str(path)
+    raw = read_bounded(path, MAX_SOURCE_BYTES, "a source file")
+    return from_bytes("<stdin>" if name == "-" else name, raw)
+
+
+def read_bounded(path: str | Path, limit: int, what: str) -> bytes:
+    """The bytes of ``path`` ('-' is standard input), refused if there are more than
+    ``limit``: ``what`` names the kind of file for the message.
+
+    At most ``limit`` + 1 bytes are read, so /dev/zero or a huge file given by mistake is
+    refused without filling the memory. A FIFO is opened without waiting for a writer
+    (a plain open would block forever when there is none) and then read to its end, so
+    ``<(command)`` works and a FIFO nobody writes to reads as empty.
+    """
+    name = str(path)
+    data = sys.stdin.buffer.read(limit + 1) if name == "-" else _read_file(name, limit + 1)
+    if len(data) > limit:
+        raise UserError(
+            f"{'<stdin>' if name == '-' else name}: more than {_size(limit)}, too large for "
+            f"{what}; not read"
+        )
+    return data
+
+
+def _read_file(name: str, size: int) -> bytes:
     try:
-        raw = sys.stdin.buffer.read() if name == "-" else Path(path).read_bytes()
+        fd = os.open(name, os.O_RDONLY | os.O_NONBLOCK)
     except OSError as exc:
         raise UserError(f"{name}: cannot read: {exc.strerror or exc}") from None
-    return from_bytes("<stdin>" if name == "-" else name, raw)
+    try:
+        mode = os.fstat(fd).st_mode
+        if stat.S_ISDIR(mode):
+            raise UserError(f"{name}: cannot read: it is a directory")
+        os.set_blocking(fd, True)
+        chunks: list[bytes] = []
+        left = size
+        while left > 0:
+            chunk = os.read(fd, min(left, 1 << 20))
+            if not chunk:
+                break
+            chunks.append(chunk)
+            left -= len(chunk)
+        return b"".join(chunks)
+    except OSError as exc:
+        raise UserError(f"{name}: cannot read: {exc.strerror or exc}") from None
+    finally:
+        os.close(fd)
+
+
+def _size(limit: int) -> str:
+    return f"{limit // (1024 * 1024)} MB" if limit >= 1024 * 1024 else f"{limit // 1024} KB"

@@ -2,16 +2,15 @@
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 import click
-from intelhex import IntelHex, IntelHexError
 
 from asictl.cli.hex_images import code_hex, describe, program_image
 from asictl.diagnostics import DiagnosticError, render_text
 from asictl.errors import ExitCode, UserError
-from asictl.files import write_atomic
+from asictl.files import write_output
+from asictl.hexfile import read_hex
 from asictl.mcs51.assembler import assemble, load_relative
 from asictl.mcs51.disassembler import disassemble
 from asictl.source import SourceText, read_source
@@ -30,7 +29,8 @@ def asm(source: str, output: str | None, listing: str | None, symbols: str | Non
     The HEX file goes next to the source unless -o names another; use -o when reading
     standard input (-). Problems are reported as file:line:col: error: message [code]
     with the source line and a caret. If there is any error, no file is written.
-    Output files are replaced in one step, never left half-written.
+    Output files are replaced in one step, never left half-written; an input file is
+    never replaced, and a device such as /dev/null is written to, not replaced.
 
     Exit status: 0 assembled, 1 assembly errors, 2 bad usage or an unreadable file.
     """
@@ -50,11 +50,12 @@ def asm(source: str, output: str | None, listing: str | None, symbols: str | Non
         click.echo(render_text(exc.diagnostics, texts), nl=False, err=True)
         click.get_current_context().exit(int(ExitCode.FAILED))
     click.echo(render_text(result.diagnostics, texts), nl=False, err=True)
-    write_atomic(output or Path(source).with_suffix(".hex"), result.to_hex())
+    inputs = list(texts)
+    write_output(output or Path(source).with_suffix(".hex"), result.to_hex(), inputs=inputs)
     if listing:
-        write_atomic(listing, result.listing_text())
+        write_output(listing, result.listing_text(), inputs=inputs)
     if symbols:
-        write_atomic(symbols, result.symbol_table_text())
+        write_output(symbols, result.symbol_table_text(), inputs=inputs)
 
 
 @click.command()
@@ -75,12 +76,10 @@ def disasm(image: str, output: str | None) -> None:
 
     Exit status: 0 done, 2 bad usage or an unreadable or malformed HEX file.
     """
-    try:
-        hex_image = IntelHex(sys.stdin if image == "-" else image)
-    except OSError as exc:
-        raise UserError(f"{image}: cannot read: {exc.strerror or exc}") from None
-    except IntelHexError as exc:
-        raise UserError(f"{image}: not a valid Intel HEX file: {exc}") from None
+    hex_file = read_hex(image)
+    for warning in hex_file.warnings:
+        click.echo(f"asictl: warning: {warning}", err=True)
+    hex_image = hex_file.image
     if hex_image.maxaddr() is not None and hex_image.maxaddr() > 0xFFFF:
         raise UserError(f"{image}: has bytes above FFFFh, outside the 8051 code space")
     program = program_image(hex_image, image)
@@ -89,6 +88,6 @@ def disasm(image: str, output: str | None) -> None:
     else:
         text = "\n".join(describe(image, program)) + "\n\n" + disassemble(code_hex(program))
     if output:
-        write_atomic(output, text)
+        write_output(output, text, inputs=[image])
     else:
         click.echo(text, nl=False)

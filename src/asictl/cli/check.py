@@ -11,7 +11,14 @@ from asictl.build import Build
 from asictl.build import check as check_program_file
 from asictl.cli.discovery import BLOCK_SUFFIX, PROGRAM_SUFFIX, expand
 from asictl.cli.terminal import stderr_colour
-from asictl.diagnostics import Diagnostic, Severity, render_github, render_json, render_text
+from asictl.diagnostics import (
+    TEXT_LIMIT,
+    Diagnostic,
+    Severity,
+    render_github,
+    render_json,
+    render_text,
+)
 from asictl.errors import ExitCode, UserError
 from asictl.il.checks import Dialect
 from asictl.source import read_source
@@ -119,10 +126,15 @@ def _summary(files: int, diagnostics: list[Diagnostic], unreadable: int) -> str:
     help="Leave out files and folders matching GLOB (by path or name; repeatable), e.g. "
     "--exclude 'old' --exclude '*_draft.asi'.",
 )
+@click.option(
+    "--max-diagnostics", type=click.IntRange(min=0), default=TEXT_LIMIT, show_default=True,
+    metavar="N", help="Text output shows the first N diagnostics of each file and counts the "
+    "rest (0: all). json and github always list all.",
+)
 @click.option("-q", "--quiet", is_flag=True, help="No summary line.")
 def check(
     files: tuple[str, ...], fmt: str, werror: bool, dialect: str, lib: tuple[str, ...],
-    exclude: tuple[str, ...], quiet: bool,
+    exclude: tuple[str, ...], max_diagnostics: int, quiet: bool,
 ) -> None:
     """Check IL source files: FILE... (- for stdin), a folder (its *.asi files), or without
     arguments the *.asi files in and below the current folder.
@@ -133,6 +145,9 @@ def check(
 
     Reads each main program and the function-block files it calls, and reports every
     syntax and semantic problem as file:line:col: error|warning: message [code].
+    Text output shows the first 200 of each file (--max-diagnostics) and then how many
+    more there are; the summary line counts them all. A folder that cannot be read is
+    reported as unreadable.
 
     Exit status: 0 no errors, 1 errors found (or warnings, with --werror), 2 bad usage or
     an unreadable file.
@@ -140,9 +155,12 @@ def check(
     ctx = click.get_current_context()
     diagnostics: list[Diagnostic] = []
     sources: dict[str, str] = {}
-    unreadable = 0
     checker = _Checker(Dialect(dialect), lib)
-    paths = _targets(expand(files or (".",), exclude), checker, quiet=quiet)
+    folders: list[str] = []
+    paths = _targets(expand(files or (".",), exclude, unreadable=folders), checker, quiet=quiet)
+    for problem in folders:
+        click.echo(f"asictl: error: {problem}", err=True)
+    unreadable = len(folders)
     for path in paths:
         result = checker.result(path)
         if isinstance(result, str):
@@ -157,7 +175,8 @@ def check(
     elif fmt == "github":
         click.echo(render_github(diagnostics), nl=False)
     else:
-        click.echo(render_text(diagnostics, sources, colour=stderr_colour()), nl=False, err=True)
+        text = render_text(diagnostics, sources, limit=max_diagnostics, colour=stderr_colour())
+        click.echo(text, nl=False, err=True)
     if not quiet:
         click.echo(_summary(len(paths), diagnostics, unreadable), err=True)
 

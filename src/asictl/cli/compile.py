@@ -17,7 +17,7 @@ from asictl.build import Build, Origin, Stage, build_file
 from asictl.cli.terminal import stderr_colour
 from asictl.diagnostics import Diagnostic, Severity
 from asictl.errors import ExitCode, UserError
-from asictl.files import write_atomic
+from asictl.files import write_output
 from asictl.image import MAGIC, pack_sources, source_files
 from asictl.listing import (
     LISTING_MARK,
@@ -72,8 +72,8 @@ def _check_target(
     inputs = {Path(name).resolve() for name in sources if name != "<stdin>"}
     if target.resolve() in inputs:
         raise UserError(f"{path}: is a source file of this program; not overwritten")
-    if force or not target.exists():
-        return
+    if force or not target.is_file():
+        return  # nothing there, or a device or FIFO, which is written to as a stream
     try:
         with target.open("rb") as existing:
             first_line = existing.readline(200).decode("latin-1")
@@ -171,16 +171,18 @@ def compile_(
             err=True,
         )
 
+    inputs = [source, *sources]
     if hex_path == "-":
         click.echo(image.to_hex(), nl=False)
     else:
-        write_atomic(hex_path, image.to_hex())
+        write_output(hex_path, image.to_hex(), inputs=inputs)
         log(f"wrote {hex_path}")
     if listing:
-        write_atomic(
+        write_output(
             listing,
             listing_text(built.compiled, image) if built.compiled
             else raw_listing_text(built.name, image),
+            inputs=inputs,
         )
         log(f"wrote {listing}")
     click.echo(

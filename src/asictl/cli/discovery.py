@@ -34,11 +34,21 @@ def excluded(path: PurePath, patterns: Sequence[str]) -> bool:
 
 
 def programs_in(
-    folder: Path, exclude: Sequence[str] = (), suffixes: Sequence[str] = (PROGRAM_SUFFIX,)
+    folder: Path, exclude: Sequence[str] = (), suffixes: Sequence[str] = (PROGRAM_SUFFIX,),
+    unreadable: list[str] | None = None,
 ) -> list[Path]:
-    """Every file below ``folder`` with one of ``suffixes`` (any case), in a stable order."""
+    """Every file below ``folder`` with one of ``suffixes`` (any case), in a stable order.
+
+    A folder that cannot be read is added to ``unreadable`` (as a message): os.walk would
+    otherwise skip it without a word.
+    """
     found: list[Path] = []
-    for parent, folders, files in os.walk(folder):
+
+    def failed(error: OSError) -> None:
+        if unreadable is not None:
+            unreadable.append(f"{error.filename}: cannot read: {error.strerror or error}")
+
+    for parent, folders, files in os.walk(folder, onerror=failed):
         here = Path(parent)
         relative = here.relative_to(folder)
         folders[:] = sorted(
@@ -52,14 +62,22 @@ def programs_in(
     return found
 
 
-def expand(paths: Iterable[str], exclude: Sequence[str] = ()) -> list[str]:
+def expand(
+    paths: Iterable[str], exclude: Sequence[str] = (), unreadable: list[str] | None = None
+) -> list[str]:
     """Files as given (unless excluded), each folder as the programs below it; a file
-    named twice is checked once. A folder without programs is a ``UserError``."""
+    named twice is checked once. A folder without programs is a ``UserError``; so is a
+    folder that cannot be read, unless the caller collects those in ``unreadable``."""
     files: list[str] = []
     for path in paths:
         if path != "-" and Path(path).is_dir():
-            found = programs_in(Path(path), exclude)
-            if not found:
+            problems: list[str] = []
+            found = programs_in(Path(path), exclude, unreadable=problems)
+            if problems and unreadable is None:
+                raise UserError("; ".join(problems))
+            if unreadable is not None:
+                unreadable += problems
+            if not found and not problems:
                 raise UserError(
                     f"{path}: no .asi files in this folder (hidden folders, build outputs "
                     "and --exclude matches are not searched)"

@@ -5,10 +5,10 @@ from __future__ import annotations
 import json
 
 import click
-from intelhex import IntelHex, IntelHexError
 
 from asictl.cli.hex_images import describe, program_image
 from asictl.errors import ExitCode, UserError
+from asictl.hexfile import read_hex
 from asictl.image import ProgramImage
 from asictl.mcs51.disassembler import decode, format_instruction
 from asictl.mcs51.emulator import Emulator, StopReason
@@ -122,7 +122,7 @@ def _program_cycle(name: str, image: ProgramImage, start: int | None) -> Emulato
 def emu(
     image: str, start: int | None, until: int | None, max_instructions: int, trace: bool
 ) -> None:
-    """Run an Intel HEX image on the 8051 emulator and print the final state as JSON.
+    """Run an Intel HEX image (- for stdin) on the 8051 emulator; print the final state as JSON.
 
     The image is loaded into code memory; internal RAM, XDATA and the registers start
     at zero, SFRs at their reset values (SP=07h, P0-P3=FFh). Execution starts at
@@ -148,12 +148,10 @@ def emu(
     or --until was given and not reached within --max-instructions; 2 bad usage or an
     unreadable or malformed HEX file.
     """
-    try:
-        hex_image = IntelHex(image)
-    except OSError as exc:
-        raise UserError(f"{image}: cannot read: {exc.strerror or exc}") from None
-    except IntelHexError as exc:
-        raise UserError(f"{image}: not a valid Intel HEX file: {exc}") from None
+    hex_file = read_hex(image)
+    for warning in hex_file.warnings:
+        click.echo(f"asictl: warning: {warning}", err=True)
+    hex_image = hex_file.image
     if hex_image.maxaddr() is not None and hex_image.maxaddr() > 0xFFFF:
         raise UserError(
             f"{image}: data beyond the 64 KB code space (up to {hex_image.maxaddr():#x})"

@@ -16,16 +16,18 @@ import click
 from asictl.cli.serial_options import serial_options, unit_option
 from asictl.errors import UserError
 from asictl.host.boards import lock_file, parse_port, state_directory
-from asictl.host.live import LiveBoard, run_live, socket_path
+from asictl.host.live import SAVE_INTERVAL_S, LiveBoard, run_live, socket_path
 from asictl.host.locking import note_holder
-from asictl.host.target import check_serial_setting
+from asictl.host.target import check_serial_setting, port_number
 
 
 def _tcp_address(text: str) -> tuple[str, int]:
     host, sep, port = text.rpartition(":")
-    if not sep or not port.isdigit() or not 0 <= int(port) <= 65535:
-        raise UserError(f"--tcp '{text}': expected HOST:PORT, e.g. 127.0.0.1:5020")
-    return host or "127.0.0.1", int(port)
+    number = port_number(port)
+    if not sep or number is None:
+        shown = text if len(text) <= 40 else f"{text[:37]}..."
+        raise UserError(f"--tcp '{shown}': expected HOST:PORT, e.g. 127.0.0.1:5020")
+    return host or "127.0.0.1", number
 
 
 def _notify(message: str) -> None:
@@ -58,11 +60,25 @@ def gateway() -> None:
 @click.option("-v", "--verbose", is_flag=True,
               help="Log every request on stderr: unit, function, address, quantity, outcome "
               "(answer, exception code, or why there is none).")
+@click.option("--max-connections", type=click.IntRange(1, 1000), default=32, show_default=True,
+              help="TCP connections served at once; further ones are closed at once.")
+@click.option("--idle-timeout", type=click.FloatRange(min=0), default=60.0, show_default=True,
+              metavar="SECONDS", help="Close a TCP connection silent this long (0: never).")
+@click.option("--save-interval", type=click.FloatRange(min=0.1), default=SAVE_INTERVAL_S,
+              show_default=True, metavar="SECONDS",
+              help="How often the board's state is saved while serving.")
 def serve(
     tcp: str | None, rtu: str | None, baud: str, parity: str, stopbits: str, unit: int,
-    port: str, state_dir: str | None, wait: bool, verbose: bool,
+    port: str, state_dir: str | None, wait: bool, verbose: bool, max_connections: int,
+    idle_timeout: float, save_interval: float,
 ) -> None:
-    """Serve the board over Modbus until Ctrl-C; its state is saved periodically and at exit."""
+    """Serve the board over Modbus until Ctrl-C; its state is saved periodically and at exit.
+
+    At most --max-connections TCP connections are served at once: a new one takes the
+    place of the one silent longest, or is closed at once if all are in use. A state save
+    that fails while serving (the state directory removed, the disk full) is logged and
+    tried again at the next interval; serving goes on.
+    """
     try:
         from asictl.gateway.server import GatewayServer, SerialSettings
         from asictl.gateway.slave import GatewaySlave
@@ -82,7 +98,9 @@ def serve(
         slave = GatewaySlave(live.board, unit, sync=live.sync)
         if verbose:
             slave.request_log = _notify
-        server = GatewayServer(slave)
+        server = GatewayServer(
+            slave, max_connections=max_connections, idle_timeout=idle_timeout, log=_notify
+        )
 
         def started() -> None:
             listening = server.tcp_address  # set before started() if it serves TCP
@@ -105,6 +123,6 @@ def serve(
 
     run_live(
         base, directory, identity={"command": "asictl gateway serve", "port": port},
-        attach=gateway_for, wait=wait, notify=_notify,
+        attach=gateway_for, wait=wait, notify=_notify, save_interval=save_interval,
     )
     click.echo("asictl: gateway stopped", err=True)

@@ -23,6 +23,7 @@ from click.core import ParameterSource
 from asictl.build import build_file
 from asictl.cli.serial_options import serial_options, unit_option
 from asictl.errors import ExitCode, UserError
+from asictl.files import STDOUT, shown_name, write_output
 from asictl.host.boards import IO_BACKENDS
 from asictl.host.connection import (
     Master,
@@ -217,7 +218,7 @@ def download_command(
 @_board_options
 @click.option(
     "-o", "--output", required=True, type=click.Path(dir_okay=False), metavar="FILE.asi",
-    help="The source file to write; function-block files go beside it.",
+    help="The source file to write (- for stdout); function-block files go beside it.",
 )
 @click.option(
     "--overwrite", is_flag=True, help="Replace files that exist with other content (ACF /o+).",
@@ -231,25 +232,37 @@ def upload_command(output: str, overwrite: bool, **board: Unpack[_BoardOptions])
     image itself as [RAW] records. Either way, downloading FILE.asi stores the identical
     image again (the file names are part of a program's identity: keep the main file's
     name). Files that exist with other content are left alone (and nothing is written)
-    unless --overwrite is given.
+    unless --overwrite is given. Names of function-block files that are not plain,
+    printable file names stop the upload before anything is written.
 
     Exit status: 0 uploaded, 1 no valid program in the master, a file not overwritten or
     a failed command, 2 bad usage or a corrupt board state.
     """
     with _connect(**board) as master:
         image = upload(master.transport)
-    written = write_files(uploaded_files(image, output), overwrite=overwrite)
+    files = uploaded_files(image, output)
     source = "its source" if image.source else "[RAW] records (the image carries no source)"
+    if output == STDOUT:
+        if len(files) > 1:
+            raise UserError(
+                f"the program has {len(files) - 1} function-block file(s), which cannot go to "
+                "standard output: give -o FILE.asi to write them beside it"
+            )
+        write_output(STDOUT, files[0][1])
+        click.echo(f"{master.name}: uploaded {image.identity_hex} as {source}", err=True)
+        return
+    written = write_files(files, overwrite=overwrite)
     click.echo(
         f"{master.name}: uploaded {image.identity_hex} as {source}; "
-        + (f"wrote {', '.join(map(str, written))}" if written else "files already up to date"),
+        + (f"wrote {', '.join(shown_name(str(p)) for p in written)}" if written
+           else "files already up to date"),
         err=True,
     )
     main_name = next(iter(image.sources()), None)
     if main_name is not None and main_name != Path(output).name:
         click.echo(
-            f"asictl: note: the program's main file was '{main_name}'; compiled as "
-            f"'{Path(output).name}' it gets another identity",
+            f"asictl: note: the program's main file was '{shown_name(main_name)}'; compiled "
+            f"as '{shown_name(Path(output).name)}' it gets another identity",
             err=True,
         )
 

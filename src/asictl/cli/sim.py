@@ -14,7 +14,7 @@ import click
 from asictl.build import build_file
 from asictl.diagnostics import DiagnosticError, github_command, render_text
 from asictl.errors import ExitCode, UserError
-from asictl.files import write_atomic
+from asictl.files import refuse_inputs, write_output
 from asictl.sim.engine import SimResult, Simulation, variables_of
 from asictl.sim.scenario import Scenario, load_scenario, parse_duration
 from asictl.sim.trace import to_csv, to_vcd, write_plot
@@ -181,11 +181,13 @@ def sim(
         ctx.exit(int(ExitCode.USAGE))
     trace = run.result.trace
     if trace is not None:
+        inputs = [run.program, *([scenario_path] if scenario_path else [])]
         if vcd:
-            write_atomic(vcd, to_vcd(trace))
+            write_output(vcd, to_vcd(trace), inputs=inputs)
         if csv_path:
-            write_atomic(csv_path, to_csv(trace))
+            write_output(csv_path, to_csv(trace), inputs=inputs)
         if plot:
+            refuse_inputs(plot, inputs)
             write_plot(trace, plot, title=f"{run.program.name}: {run.scenario.file}")
     if as_json:
         click.echo(json.dumps(_as_json(run), indent=2))
@@ -225,8 +227,9 @@ def _junit(results: list[tuple[Path, _Run | None, str]], path: Path) -> None:
             failure = ElementTree.SubElement(case, "failure", message=_summary(run))
             failure.text = "\n".join(_report_lines(run))
     ElementTree.indent(suite)
-    write_atomic(path, ElementTree.tostring(suite, encoding="unicode", xml_declaration=True)
-                 + "\n")
+    inputs = [p for scenario, run, _ in results for p in (scenario, run and run.program) if p]
+    write_output(path, ElementTree.tostring(suite, encoding="unicode", xml_declaration=True)
+                 + "\n", inputs=inputs)
 
 
 @click.command()

@@ -6,6 +6,13 @@ it, so the master model needs no locks. The framing is ours (MBAP for TCP; for R
 what pymodbus's server framers hide: frames with a bad CRC, frames for other slaves, frames
 not answered (slave.py). Master time follows the wall clock: ``PACING_S`` timer plus a
 catch-up before every request.
+
+A gateway must survive its clients. At most ``max_connections`` TCP connections are served
+at once: a new one beyond takes the place of the connection silent longest (if one has
+been silent ``EVICT_AFTER_S``), else it is closed at once, so it costs no descriptor; a
+connection silent for ``idle_timeout`` seconds is closed; and every trouble of that kind (refused
+connections, idle ones closed, the process out of descriptors) is logged as one line when
+it starts and then at most once a minute with a count, never once per event.
 """
 
 from __future__ import annotations
@@ -15,10 +22,12 @@ import contextlib
 import os
 import struct
 import threading
+import time
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
+from asictl.condition_log import ConditionLog
 from asictl.gateway.slave import GatewaySlave
 
 #: How often master time catches up with the wall clock while nobody asks.
@@ -27,6 +36,23 @@ PACING_S = 0.02
 #: deliver bytes in bursts, so 3.5 character times at high baud rates would split frames.
 MIN_FRAME_GAP_S = 0.005
 _MBAP = struct.Struct(">HHHB")
+#: TCP connections served at once by default (a real gateway takes a handful).
+DEFAULT_MAX_CONNECTIONS = 32
+#: Seconds a TCP connection may stay silent by default before the gateway closes it.
+DEFAULT_IDLE_TIMEOUT_S = 60.0
+
+
+#: A connection silent this long makes way for a new one when all are taken.
+EVICT_AFTER_S = 1.0
+
+
+@dataclass
+class _Connection:
+    writer: asyncio.StreamWriter
+    #: when it last finished a request (or opened)
+    since: float = field(default_factory=time.monotonic)
+    #: inside a request: never closed to make room
+    busy: bool = False
 
 
 def crc16(data: bytes) -> bytes:
@@ -57,13 +83,25 @@ class SerialSettings:
 class GatewayServer:
     """Serves one ``GatewaySlave`` over TCP and/or RTU until ``stop``."""
 
-    def __init__(self, slave: GatewaySlave, *, on_tick: Callable[[], None] | None = None):
+    def __init__(
+        self,
+        slave: GatewaySlave,
+        *,
+        on_tick: Callable[[], None] | None = None,
+        max_connections: int = DEFAULT_MAX_CONNECTIONS,
+        idle_timeout: float | None = DEFAULT_IDLE_TIMEOUT_S,
+        log: Callable[[str], None] | None = None,
+    ):
         self.slave = slave
         #: called from the pacing timer (the CLI saves the board state from here)
         self.on_tick = on_tick
+        self.max_connections = max_connections
+        #: seconds; None or 0: connections may stay silent for ever
+        self.idle_timeout = idle_timeout or None
+        self.conditions = ConditionLog(log or (lambda message: None))
         self.tcp_address: tuple[str, int] | None = None
         self._stop = asyncio.Event()
-        self._tasks: set[asyncio.Task[None]] = set()
+        self._connections: dict[asyncio.Task[None], _Connection] = {}
 
     # ------------------------------------------------------------------ TCP
 
@@ -71,28 +109,73 @@ class GatewayServer:
         self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter
     ) -> None:
         """MBAP: a malformed header ends the connection, as Modbus/TCP asks."""
+        if len(self._connections) >= self.max_connections and not self._make_room():
+            self.conditions.event(
+                "limit", f"gateway: {self.max_connections} connections busy "
+                "(--max-connections); refusing further ones",
+            )
+            writer.close()
+            return
         task = asyncio.current_task()
-        if task is not None:
-            self._tasks.add(task)
+        assert task is not None
+        connection = _Connection(writer)
+        self._connections[task] = connection
         try:
             while True:
-                header = await reader.readexactly(_MBAP.size)
+                try:
+                    header = await asyncio.wait_for(
+                        reader.readexactly(_MBAP.size), self.idle_timeout
+                    )
+                except TimeoutError:
+                    self.conditions.event(
+                        "idle", f"gateway: closing connections silent for {self.idle_timeout:g} s"
+                        " (--idle-timeout)",
+                    )
+                    break
+                connection.busy = True
                 tid, protocol, length, unit = _MBAP.unpack(header)
                 if not 2 <= length <= 254:
                     break
-                pdu = await reader.readexactly(length - 1)
+                pdu = await asyncio.wait_for(reader.readexactly(length - 1), self.idle_timeout)
                 if protocol != 0:
                     continue
                 response = self.slave.frame(unit, pdu)
                 if response is not None:
                     writer.write(_MBAP.pack(tid, 0, len(response) + 1, unit) + response)
                     await writer.drain()
-        except (asyncio.IncompleteReadError, ConnectionError, asyncio.CancelledError):
+                connection.busy, connection.since = False, time.monotonic()
+        except (asyncio.IncompleteReadError, OSError, TimeoutError, asyncio.CancelledError):
             pass
         finally:
-            if task is not None:
-                self._tasks.discard(task)
+            self._connections.pop(task, None)
             writer.close()
+
+    def _make_room(self) -> bool:
+        """Close the connection silent longest, if one has been silent ``EVICT_AFTER_S``:
+        a client that polls keeps its connection, one that only holds it makes way."""
+        now = time.monotonic()
+        quiet = [(c.since, task) for task, c in self._connections.items() if not c.busy]
+        if not quiet:
+            return False
+        since, task = min(quiet, key=lambda item: item[0])
+        if now - since < EVICT_AFTER_S:
+            return False
+        self.conditions.event(
+            "evict", f"gateway: {self.max_connections} connections open (--max-connections); "
+            "closing the one silent longest for each new one",
+        )
+        connection = self._connections.pop(task)
+        connection.writer.close()
+        task.cancel()
+        return True
+
+    def _loop_trouble(self, loop: asyncio.AbstractEventLoop, context: dict[str, Any]) -> None:
+        """asyncio's own troubles (above all accept() failing when the process is out of
+        descriptors, which asyncio retries every second) as one line per condition."""
+        message = str(context.get("message", "event loop error"))
+        exception = context.get("exception")
+        detail = f": {exception}" if exception is not None else ""
+        self.conditions.event(message, f"gateway: {message}{detail}")
 
     async def _serve_tcp(self, host: str, port: int) -> asyncio.Server:
         server = await asyncio.start_server(self._tcp_client, host, port)
@@ -171,6 +254,8 @@ class GatewayServer:
         """Serve until ``stop()``; ``started`` is called once the endpoints are open."""
         if tcp is None and rtu is None:
             raise ValueError("nothing to serve: give a TCP address or a serial line")
+        loop = asyncio.get_running_loop()
+        loop.set_exception_handler(self._loop_trouble)
         server = await self._serve_tcp(*tcp) if tcp else None
         line: Any = None
         fd = -1
@@ -186,7 +271,7 @@ class GatewayServer:
                 line.close()
             if server is not None:
                 server.close()
-                for task in list(self._tasks):
+                for task in list(self._connections):
                     task.cancel()
                 await server.wait_closed()
 
@@ -216,15 +301,17 @@ def background_gateway(
     tcp: tuple[str, int] | None = ("127.0.0.1", 0),
     rtu: SerialSettings | None = None,
     timeout: float = 5.0,
+    **options: Any,
 ) -> Iterator[BackgroundGateway]:
-    """Serve ``slave`` from a thread until the block ends (TCP port 0: any free port)."""
+    """Serve ``slave`` from a thread until the block ends (TCP port 0: any free port);
+    ``options`` go to ``GatewayServer``."""
     ready = threading.Event()
     errors: list[BaseException] = []
     holder: dict[str, object] = {}
 
     def main() -> None:
         async def run() -> None:
-            server = GatewayServer(slave)
+            server = GatewayServer(slave, **options)
             holder["server"], holder["loop"] = server, asyncio.get_running_loop()
             await server.serve(tcp, rtu, started=ready.set)
 

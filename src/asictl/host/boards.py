@@ -81,7 +81,8 @@ def _load(path: Path) -> Pc2Board:
         raise UserError(f"{path}: cannot read the emulated board's state: {exc}") from None
     try:
         return Pc2Board.from_nonvolatile(json.loads(text))
-    except ValueError as exc:  # JSONDecodeError is one too
+    except (ValueError, RecursionError) as exc:  # JSONDecodeError is a ValueError; deep
+        # nesting ([[[[...) exhausts the decoder's stack
         raise UserError(
             f"{path}: the emulated board's state is corrupt ({exc}); it is left as it is. "
             "Move it away to start again with a new, empty board."

@@ -40,6 +40,7 @@ from pathlib import Path
 from typing import Any
 
 from asictl.board.board import Pc2Board
+from asictl.condition_log import ConditionLog
 from asictl.errors import ExitCode, UserError
 from asictl.files import write_atomic
 from asictl.host.boards import emulated_board, lock_file, port_name, state_file
@@ -300,15 +301,36 @@ class LiveServer:
 Attachment = Callable[[LiveBoard], tuple[Awaitable[None], Callable[[], None]]]
 
 
-def _saver(board: Pc2Board, path: Path) -> Callable[[], None]:
-    """Writes the board's non-volatile state when ``SAVE_INTERVAL_S`` have passed."""
+def _saver(
+    board: Pc2Board, path: Path, *, interval: float = SAVE_INTERVAL_S,
+    notify: Callable[[str], None] | None = None,
+) -> Callable[[], None]:
+    """Writes the board's non-volatile state when ``interval`` seconds have passed.
+
+    A save that fails (the state directory removed, the disk full) must not end the
+    serving: it is logged (once, then at most once a minute) and tried again at the next
+    interval, and a line says when a save succeeds again.
+    """
     saved = [time.monotonic()]
+    failing = [False]
+    log = notify or (lambda message: None)
+    conditions = ConditionLog(log)
 
     def save_now_and_then() -> None:
-        if time.monotonic() - saved[0] >= SAVE_INTERVAL_S:
-            saved[0] = time.monotonic()
-            text = json.dumps(board.nonvolatile(), indent=1, sort_keys=True)
+        if time.monotonic() - saved[0] < interval:
+            return
+        saved[0] = time.monotonic()
+        text = json.dumps(board.nonvolatile(), indent=1, sort_keys=True)
+        try:
             write_atomic(path, text + "\n")
+        except UserError as exc:
+            failing[0] = True
+            conditions.event("save", f"cannot save the board state ({exc}); trying again "
+                             f"every {interval:g} s, still serving")
+            return
+        if failing[0]:
+            failing[0] = False
+            log(f"the board state is saved again in {path}")
 
     return save_now_and_then
 
@@ -317,12 +339,14 @@ def run_live(
     base: int, directory: Path, *, identity: dict[str, JSON],
     started: Callable[[Path], None] | None = None, attach: Attachment | None = None,
     wait: bool = False, notify: Callable[[str], None] | None = None,
+    save_interval: float = SAVE_INTERVAL_S,
 ) -> None:
     """Serve the board at ``base`` live until SIGINT/SIGTERM, holding its lock throughout.
 
     ``attach`` adds another server on the same loop (the Modbus gateway): it gets the live
     board and returns its coroutine and its stop function. The board's state is saved
-    every ``SAVE_INTERVAL_S`` and when serving ends. A board another process holds stops
+    every ``save_interval`` seconds (a failed save is logged and tried again) and when
+    serving ends. A board another process holds stops
     this with the holder named (``LockBusy``), or is waited for with ``wait``.
     """
     import signal
@@ -337,7 +361,9 @@ def run_live(
         live = LiveBoard(board)
         server = LiveServer(
             live, path, identity={**identity, "pid": os.getpid()},
-            on_tick=_saver(board, state_file(directory, base)),
+            on_tick=_saver(
+                board, state_file(directory, base), interval=save_interval, notify=notify
+            ),
         )
 
         async def main() -> None:

@@ -111,6 +111,12 @@ def pc2_profile(register: int) -> int:
     return (register & 0xF) << 4 | register >> 4 & 0xF
 
 
+def _malformed(what: str, detail: str) -> JobError:
+    return JobError(
+        JobStatus.INTERFACE_ERROR, f"{what}: malformed answer from the gateway ({detail})"
+    )
+
+
 class ModbusTransport:
     """``Transport`` over a pymodbus client talking to one gateway (``unit``)."""
 
@@ -129,6 +135,12 @@ class ModbusTransport:
     # --- one request, its failures as JobErrors ------------------------------------------
 
     def _call(self, what: str, request: ModbusPDU) -> ModbusPDU:
+        """Send ``request`` and return the gateway's answer to it.
+
+        Whatever the gateway does wrong (no answer, a reset connection, an answer that does
+        not decode or belongs to another function) is a ``JobError`` with STATUS
+        INTERFACE_ERROR, the word ASI_CTRL shows when the PC2's interface fails.
+        """
         request.dev_id = self.unit
         try:
             response = self.client.execute(False, request)
@@ -143,6 +155,14 @@ class ModbusTransport:
                 f"{what}: no valid answer from unit {self.unit} at {self.name} after "
                 f"{self.retries + 1} tries (time-out or CRC error)",
             ) from None
+        except OSError as exc:  # reset or closed by the gateway mid-request
+            raise JobError(
+                JobStatus.INTERFACE_ERROR,
+                f"{what}: the connection to the gateway at {self.name} was lost "
+                f"({exc.strerror or exc})",
+            ) from None
+        except Exception as exc:  # a malformed answer, whatever pymodbus raises decoding it
+            raise _malformed(what, f"{type(exc).__name__}: {exc}") from None
         if response.isError():
             code = response.exception_code
             status = (
@@ -153,6 +173,8 @@ class ModbusTransport:
                 status, f"{what}: the gateway answered with exception {code} "
                 f"({_EXCEPTION_NAMES.get(code, 'unknown')})",
             )
+        if response.function_code != request.function_code:
+            raise _malformed(what, f"an answer of function {response.function_code}")
         return response
 
     def _answer(self, what: str, request: ModbusPDU, kind: type[_Response]) -> _Response:
@@ -170,8 +192,11 @@ class ModbusTransport:
         values: list[int] = []
         for start in range(address, address + count, g.MAX_REGISTERS):
             n = min(g.MAX_REGISTERS, address + count - start)
-            request = ReadHoldingRegistersRequest(address=start, count=n)
-            values += self._call(f"reading registers {start}..{start + n - 1}", request).registers
+            what = f"reading registers {start}..{start + n - 1}"
+            registers = self._call(what, ReadHoldingRegistersRequest(address=start, count=n))
+            if len(registers.registers) != n:
+                raise _malformed(what, f"{len(registers.registers)} registers instead of {n}")
+            values += registers.registers
         return values
 
     def write_registers(self, address: int, values: Sequence[int]) -> None:
@@ -255,9 +280,10 @@ class ModbusTransport:
         return raw[address - first : address - first + size]
 
     def _read_block(self, address: int) -> bytes:
-        response = self._answer(
-            f"reading {address:04X}h (function 67)", UploadRequest(address=address), UploadResponse
-        )
+        what = f"reading {address:04X}h (function 67)"
+        response = self._answer(what, UploadRequest(address=address), UploadResponse)
+        if len(response.data) != BLOCK_SIZE:
+            raise _malformed(what, f"{len(response.data)} bytes instead of {BLOCK_SIZE}")
         if response.address != address:
             raise JobError(
                 JobStatus.INTERFACE_ERROR,

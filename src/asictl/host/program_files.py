@@ -10,13 +10,18 @@ from __future__ import annotations
 from pathlib import Path, PurePath
 
 from asictl.errors import ExitCode, UserError
-from asictl.files import write_atomic
+from asictl.files import shown_name, write_together
 from asictl.il import ast
 from asictl.image import ImageError, ProgramImage
 
 
 def uploaded_files(image: ProgramImage, output: str | Path) -> list[tuple[Path, bytes]]:
-    """(path, exact bytes) of every file an upload to ``output`` writes, main first."""
+    """(path, exact bytes) of every file an upload to ``output`` writes, main first.
+
+    The block files' names come from the image, which anyone can craft: each must be a
+    plain, printable file name (no folder, no NUL, no escape sequence that would drive
+    the terminal it is printed on), or nothing is written.
+    """
     output = Path(output)
     sources = image.sources()
     if not sources:
@@ -24,9 +29,11 @@ def uploaded_files(image: ProgramImage, output: str | Path) -> list[tuple[Path, 
     (_, main), *blocks = sources.items()
     files = [(output, main)]
     for name, raw in blocks:
-        if PurePath(name).name != name or name in (".", ".."):
+        problem = _name_problem(name)
+        if problem:
             raise ImageError(
-                f"the image names a source file '{name}', which is not a plain file name",
+                f"the image names a source file '{shown_name(name)}', {problem}; "
+                "no file was written",
                 ExitCode.FAILED,
             )
         files.append((output.parent / name, raw))
@@ -39,20 +46,27 @@ def uploaded_files(image: ProgramImage, output: str | Path) -> list[tuple[Path, 
     return files
 
 
-def write_files(files: list[tuple[Path, bytes]], *, overwrite: bool) -> list[Path]:
-    """Write the files; one that exists with other content stops all unless ``overwrite``.
+def _name_problem(name: str) -> str | None:
+    if not name:
+        return "with an empty name"
+    if not name.isprintable():
+        return "with control characters in its name"
+    if PurePath(name).name != name or name in (".", ".."):
+        return "which is not a plain file name"
+    return None
 
-    Returns the files written (an existing file with the same bytes is left untouched).
+
+def write_files(files: list[tuple[Path, bytes]], *, overwrite: bool) -> list[Path]:
+    """Write the files, all or none; one that exists with other content stops all unless
+    ``overwrite``.
+
+    Returns the files written (an existing file with the same bytes is left untouched; a
+    device or FIFO is written to as a stream).
     """
     changed = []
     kept = []
     for path, data in files:
-        try:
-            existing = path.read_bytes()
-        except FileNotFoundError:
-            existing = None
-        except OSError as exc:
-            raise UserError(f"{path}: cannot read: {exc.strerror or exc}") from None
+        existing = _existing(path)
         if existing == data:
             continue
         changed.append((path, data))
@@ -64,9 +78,19 @@ def write_files(files: list[tuple[Path, bytes]], *, overwrite: bool) -> list[Pat
             "(use --overwrite); no file was written",
             ExitCode.FAILED,
         )
-    for path, data in changed:
-        write_atomic(path, data)
+    write_together(changed)
     return [path for path, _ in changed]
+
+
+def _existing(path: Path) -> bytes | None:
+    """The bytes of a regular file at ``path``; None if there is none (reading a FIFO
+    would wait for a writer, and a device is not replaced but written to)."""
+    try:
+        if not path.is_file():
+            return None
+        return path.read_bytes()
+    except OSError as exc:
+        raise UserError(f"{path}: cannot read: {exc.strerror or exc}") from None
 
 
 def uploaded_source(image: ProgramImage) -> str:

@@ -77,7 +77,18 @@ def check_serial_setting(baud: int, parity: str, stopbits: int) -> None:
     )
 
 
-_URL = re.compile(r"(?P<scheme>tcp|rtu\+tcp)://(?P<host>\[[^\]]+\]|[^:/]+)(?::(?P<port>\d+))?/?")
+_URL = re.compile(
+    r"(?P<scheme>tcp|rtu\+tcp)://(?P<host>\[[^\]]+\]|[^:/]+)(?::(?P<port>[^/]*))?/?"
+)
+
+
+def port_number(text: str) -> int | None:
+    """A TCP port as written: 1 to 5 ASCII digits, 0..65535; None for anything else
+    (``str.isdigit`` and ``int`` take '²' and 5000-digit numbers, which are no ports)."""
+    if not re.fullmatch(r"[0-9]{1,5}", text):
+        return None
+    number = int(text)
+    return number if number <= 65535 else None
 
 
 def parse_target(
@@ -90,12 +101,16 @@ def parse_target(
         check_serial_setting(baud, code, stopbits)
         return ModbusTarget(spec, device=spec, baud=baud, parity=code, stopbits=stopbits)
     match = _URL.fullmatch(spec)
-    if not match or not 0 < int(match["port"] or DEFAULT_TCP_PORT) < 65536:
+    port = DEFAULT_TCP_PORT if match and match["port"] is None else (
+        port_number(match["port"]) if match else None
+    )
+    if not match or not port:
+        shown = spec if len(spec) <= 60 else f"{spec[:57]}..."
         raise UserError(
-            f"--modbus '{spec}': expected tcp://HOST[:PORT], rtu+tcp://HOST[:PORT] or a "
+            f"--modbus '{shown}': expected tcp://HOST[:PORT], rtu+tcp://HOST[:PORT] or a "
             "serial device such as /dev/ttyUSB0"
         )
     return ModbusTarget(
-        spec, host=match["host"].strip("[]"), port=int(match["port"] or DEFAULT_TCP_PORT),
+        spec, host=match["host"].strip("[]"), port=port,
         rtu=match["scheme"] == "rtu+tcp", port_given=match["port"] is not None,
     )

@@ -21,7 +21,13 @@ from asictl.il import ast
 from asictl.il.analysis import analyse
 from asictl.il.ast import key
 from asictl.il.foreign import operand_hint
-from asictl.il.language import BUILTIN_TC, MAX_KT_MS, MAX_TC
+from asictl.il.language import (
+    BUILTIN_TC,
+    MAX_IMAGE_NAME_BYTES,
+    MAX_KT_MS,
+    MAX_SOURCE_FILES,
+    MAX_TC,
+)
 from asictl.il.loader import Program, Reader, calls, load_program
 from asictl.il.pragmas import read_directives
 from asictl.mcs51.asm_parser import RESERVED as ASSEMBLER_RESERVED
@@ -87,6 +93,7 @@ def check_program(
             _check_control1(module, scope, report)
     _check_duplicate_slaves(program, report)
     _check_recursion(program, report)
+    _check_image_limits(program, report)
     directives = read_directives(program.sources)
     if not report.has_errors and not any(d.is_error for d in read_errors):
         analyse(program, directives, report)
@@ -120,6 +127,37 @@ def _lost_labels(program: Program, file: str, lines: Sequence[int]) -> set[str]:
         if match:
             names.add(key(match[1]))
     return names
+
+
+# ----------------------------------------------------------------------- the image
+
+
+def _check_image_limits(program: Program, report: Reporter) -> None:
+    """What the image format cannot store, found here so that ``compile`` refuses nothing
+    that ``check`` passed: at most 255 source files, each under its own base name."""
+    decl_of_file = {
+        module.file: program.fb_decls.get(name) for name, module in program.blocks.items()
+    }
+    names: dict[str, str] = {}
+    for number, file in enumerate(program.sources, start=1):
+        decl = decl_of_file.get(file)
+        span = decl.span if decl is not None else None
+        if number == MAX_SOURCE_FILES + 1:
+            report.error(
+                CheckCode.TOO_MANY_FILES,
+                f"the program has {len(program.sources)} source files (the main file and "
+                f"its function-block files); an image holds at most {MAX_SOURCE_FILES}",
+                span,
+            )
+        base = Path(file).name or file
+        if base in names:
+            report.error(
+                CheckCode.DUPLICATE_FILE_NAME,
+                f"function-block file '{file}' has the same name as '{names[base]}'; "
+                "an image stores source files by name: rename one",
+                span,
+            )
+        names.setdefault(base, file)
 
 
 # ----------------------------------------------------------------------- declarations
@@ -183,6 +221,14 @@ def _declarations(program: Program, report: Reporter) -> _Scope:
                             CheckCode.OPERAND_LIKE_NAME,
                             f"variable '{decl.name}' cannot be used as an operand: "
                             f"'{decl.name} 0' reads as '{shadow[1].upper()} {shadow[2]}'",
+                            decl.span,
+                        )
+                    size = len(decl.name.encode("utf-8"))
+                    if size > MAX_IMAGE_NAME_BYTES:
+                        report.error(
+                            CheckCode.NAME_TOO_LONG,
+                            f"variable name of {size} bytes; the image stores names of at "
+                            f"most {MAX_IMAGE_NAME_BYTES}",
                             decl.span,
                         )
                     if not 1 <= decl.size <= 255:

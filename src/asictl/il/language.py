@@ -14,3 +14,7 @@ COUNTER_FLAG_BASE = 96
 MAPPED_COUNTERS = 15
 #: PARAM leaves the slave's answer in bits 0-3 of this flag byte, success in bit 7.
 PARAM_FLAG = 127
+#: The image stores a name (a variable's, a source file's) with a length byte, and the
+#: number of source files (main and function-block files) in one byte (docs/image-format.md).
+MAX_IMAGE_NAME_BYTES = 255
+MAX_SOURCE_FILES = 255

@@ -12,7 +12,9 @@ language is line-based), in the section it was reading, so one run reports every
    title instead: the lines in between belong to no known section.
 
 Each failed attempt stops at its error, so an erroneous file costs about two parses, a
-clean one exactly one. Only syntax is checked here; ranges, names and labels are the
+clean one exactly one. Each attempt starts with the line count where the last one left
+off (lark would count the lines before the slice again every time: quadratic in the
+number of errors). Only syntax is checked here; ranges, names and labels are the
 semantic checks' job.
 """
 
@@ -23,6 +25,7 @@ import re
 import sys
 import threading
 from collections.abc import Callable
+from copy import copy
 from functools import cache
 from importlib.resources import files
 from typing import TypedDict
@@ -30,6 +33,7 @@ from typing import TypedDict
 import lark
 from lark import Lark, Token
 from lark.exceptions import UnexpectedInput
+from lark.lexer import LexerState, LexerThread, LineCounter
 from lark.utils import TextSlice
 
 from asictl.diagnostics import Diagnostic, Span
@@ -128,13 +132,19 @@ class _Reader:
         )
         self._accepts: dict[tuple[int, ...], frozenset[str]] = {}
 
-    def parse(self, text: str, start: int, end: int, rule: str) -> list[Piece]:
-        """The flat list (see ``AstBuilder.start``) of ``text[start:end]`` read with ``rule``."""
-        # lark types parse() as returning a tree; with transformer= it returns what the
-        # builder's method for the start rule returns, the flat list.
-        pieces: list[Piece] = self.lark.parse(  # type: ignore[assignment]
-            TextSlice(text, start, end), start=rule
-        )
+    def parse(
+        self, text: str, start: int, end: int, rule: str, lines: LineCounter
+    ) -> list[Piece]:
+        """The flat list (see ``AstBuilder.start``) of ``text[start:end]`` read with
+        ``rule``; ``lines`` is the line count at ``start``.
+
+        (What ``Lark.parse`` does with a ``TextSlice``, except that it counts the lines
+        from the beginning of ``text`` again. With transformer= the parser returns what
+        the builder's method for the start rule returns, the flat list.)
+        """
+        frontend = self.lark.parser
+        state = LexerState(TextSlice(text, start, end), copy(lines))
+        pieces: list[Piece] = frontend.parser.parse(LexerThread(frontend.lexer, state), rule)
         return pieces
 
     def expected(self, error: UnexpectedInput) -> frozenset[str]:
@@ -195,19 +205,20 @@ def _read(reader: _Reader, text: str, file: str) -> tuple[list[Piece], list[Diag
     pieces: list[Piece] = []
     diagnostics: list[Diagnostic] = []
     pos, section = 0, None
+    lines = LineCounter("\n")  # type: ignore[no-untyped-call]  # (lark: untyped); at ``pos``
     while pos < len(text):
         rule = _START_RULES[section]
         try:
-            pieces += reader.parse(text, pos, len(text), rule)
+            pieces += reader.parse(text, pos, len(text), rule, lines)
             break
         except UnexpectedInput as error:
             failure = error
         where = min(max(failure.pos_in_stream or 0, pos), len(text) - 1)
         line = failure.line if isinstance(failure.line, int) and failure.line > 0 else (
-            text.count("\n", 0, where) + 1)
+            lines.line + text.count("\n", pos, where))
         line_start = text.rfind("\n", 0, where) + 1
         if line_start > pos:
-            done = reader.parse(text, pos, line_start, rule)
+            done = reader.parse(text, pos, line_start, rule, lines)
             pieces += done
             section = _last_section(done, section)
         title = reader.title_at(text, line_start, line)
@@ -217,9 +228,11 @@ def _read(reader: _Reader, text: str, file: str) -> tuple[list[Piece], list[Diag
         diagnosis = diagnose(text, where, line, reader.expected(failure), reader.keywords,
                              file, section)
         diagnostics.append(diagnosis.diagnostic)
-        pos = text.index("\n", where) + 1
+        next_pos = text.index("\n", where) + 1
         if diagnosis.skip_to_title:
-            pos, section = reader.next_title(text, pos), None
+            next_pos, section = reader.next_title(text, next_pos), None
+        lines.feed(TextSlice(text, pos, next_pos))
+        pos = next_pos
     return pieces, diagnostics
 
 

@@ -6,6 +6,11 @@ over ``*`` over ``+``, so ``2+3&1`` is 3 there and 1 here, and ``2|4&1`` is 0 th
 and 2 here. Rather than pick one and silently miscompile sources written for the
 other, an expression whose meaning differs between the two orders must be
 parenthesised; everything both read the same way is accepted as written.
+
+Values are bounded: every number and every intermediate result must fit in 32 bits
+(``VALUE_LIMIT``), and one expression holds at most ``MAX_OPERATORS`` operators. Without
+the bound, 25 lines of ``EQU`` that square each other make numbers of millions of bits and
+the assembler never finishes; without the second, deep nesting exhausts Python's stack.
 """
 
 from __future__ import annotations
@@ -16,6 +21,21 @@ from dataclasses import dataclass
 from asictl.mcs51.asm_errors import AsmError, Code
 from asictl.mcs51.asm_lexer import Token, TokenKind, parse_number
 from asictl.mcs51.isa import bit_address, is_bit_addressable_byte
+
+#: Every value, final or intermediate, lies strictly between -VALUE_LIMIT and VALUE_LIMIT:
+#: 32 bits, signed or unsigned, more than any 8051 operand needs.
+VALUE_LIMIT = 1 << 32
+#: Operators (parentheses and ``.`` included) one expression may hold.
+MAX_OPERATORS = 64
+
+
+def bounded(value: int, node: Expr) -> int:
+    """``value`` if it fits in 32 bits, else an error at the expression that made it."""
+    if -VALUE_LIMIT < value < VALUE_LIMIT:
+        return value
+    raise AsmError(
+        "value out of range: more than 32 bits", node.column, node.length, Code.EXPRESSION
+    )
 
 
 class Undefined(AsmError):
@@ -82,7 +102,7 @@ class Unary(Expr):
             case "+":
                 return v
             case "~":
-                return ~v
+                return bounded(~v, self)
             case "HIGH":
                 return (v >> 8) & 0xFF
             case _:  # LOW
@@ -98,8 +118,9 @@ class Binary(Expr):
     grouped: bool = False
 
     def value(self, env: Env) -> int:
-        a = self.left.value(env)
-        b = self.right.value(env)
+        return bounded(self._compute(self.left.value(env), self.right.value(env)), self)
+
+    def _compute(self, a: int, b: int) -> int:
         match self.op:
             case "+":
                 return a + b
@@ -154,6 +175,19 @@ class BitSelect(Expr):
         return bit_address(byte, bit)
 
 
+def operator_count(expr: Expr) -> int:
+    """How deep an expression's evaluation nests (its operators, an upper bound)."""
+    match expr:
+        case Unary(operand=operand):
+            return 1 + operator_count(operand)
+        case Binary(left=left, right=right):
+            return 1 + operator_count(left) + operator_count(right)
+        case BitSelect(byte=byte, bit=bit):
+            return 1 + operator_count(byte) + operator_count(bit)
+        case _:
+            return 0
+
+
 def format_hex(value: int, width: int = 1) -> str:
     """A value the way ASM51 writes hex, at least ``width`` digits: 0FFh, 20h, 0012h."""
     if value < 0 or (value < 10 and width == 1):
@@ -189,6 +223,19 @@ class ExprParser:
         self.pos = pos
         #: Column just past the line's text, for "expected a value" at the end.
         self.end_column = end_column
+        self.operators = 0
+
+    def _count_operator(self, token: Token) -> None:
+        """Stop before nesting gets deep enough to exhaust the stack (``MAX_OPERATORS``)."""
+        self.operators += 1
+        if self.operators > MAX_OPERATORS:
+            raise AsmError(
+                f"expression too complex: more than {MAX_OPERATORS} operators; "
+                "split it with EQU",
+                token.column,
+                len(token.text),
+                Code.EXPRESSION,
+            )
 
     def peek(self) -> Token | None:
         return self.tokens[self.pos] if self.pos < len(self.tokens) else None
@@ -204,6 +251,7 @@ class ExprParser:
             if op is None or (precedence := _PRECEDENCE.get(op, 0)) <= min_precedence:
                 return left
             op_token = self.tokens[self.pos]
+            self._count_operator(op_token)
             self.pos += 1
             right = self.parse(precedence)
             self._check_as31_agrees(op, op_token, left, right)
@@ -231,6 +279,7 @@ class ExprParser:
             (tok.kind is TokenKind.PUNCT and tok.text in "-+~")
             or (tok.kind is TokenKind.IDENT and tok.text.upper() in _UNARY_WORDS)
         ):
+            self._count_operator(tok)
             self.pos += 1
             operand = self._unary()
             op = tok.text.upper()
@@ -240,6 +289,7 @@ class ExprParser:
     def _postfix(self) -> Expr:
         node = self._primary()
         while self.peek_punct() == ".":
+            self._count_operator(self.tokens[self.pos])
             self.pos += 1
             bit = self._primary()
             node = BitSelect(node.column, bit.end - node.column, node, bit)
@@ -268,6 +318,7 @@ class ExprParser:
         if tok.text in ("$", "*"):
             return Here(tok.column, 1)
         if tok.text == "(":
+            self._count_operator(tok)
             inner = self.parse()
             close = self.peek()
             if close is None or close.text != ")":

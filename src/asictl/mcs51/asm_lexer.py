@@ -107,4 +107,9 @@ def parse_number(text: str) -> int:
         base, digits = 10, lower
     if not digits or any(c not in _DIGITS[base] for c in digits):
         raise ValueError(f"malformed number '{text}'")
+    significant = digits.lstrip("0")
+    # 32 bits are at most 32 binary digits; checked before int() meets a huge string
+    if len(significant) > 32 or int(significant or "0", base) >= 1 << 32:
+        shown = text if len(text) <= 20 else f"{text[:16]}...{text[-2:]}"
+        raise ValueError(f"number '{shown}' does not fit in 32 bits")
     return int(digits, base)

@@ -19,7 +19,15 @@ from pathlib import Path
 from asictl.diagnostics import DiagnosticError, Reporter, Span
 from asictl.errors import UserError
 from asictl.mcs51.asm_errors import AsmError, Code
-from asictl.mcs51.asm_expr import BitSelect, Env, Expr, SymbolRef, Undefined, format_hex
+from asictl.mcs51.asm_expr import (
+    BitSelect,
+    Env,
+    Expr,
+    SymbolRef,
+    Undefined,
+    format_hex,
+    operator_count,
+)
 from asictl.mcs51.asm_parser import (
     RESERVED,
     DataString,
@@ -42,6 +50,9 @@ IncludeLoader = Callable[[str, SourceText], SourceText]
 
 _MAX_INCLUDE_DEPTH = 16
 _ADDRESS_LIMIT = 0x10000
+#: Symbols are evaluated on first use, recursively; this bounds the evaluation's depth (in
+#: operators and symbols) well inside Python's stack, however the definitions chain.
+_MAX_NESTING = 400
 
 # Range of each operand kind's value; negative immediates are two's complement.
 _RANGES: dict[Operand, tuple[int, int, str]] = {
@@ -166,6 +177,8 @@ class _Assembler:
     used: bytearray = field(default_factory=lambda: bytearray(_ADDRESS_LIMIT))
     listing: list[ListingEntry] = field(default_factory=list)
     location: int = 0
+    #: How deep the symbol definitions being evaluated nest now (see ``_MAX_NESTING``).
+    nesting: int = 0
 
     # ----- diagnostics -----
 
@@ -234,12 +247,36 @@ class _Assembler:
                     len(name),
                     Code.EXPRESSION,
                 )
+            depth = operator_count(entry.expr) + 1
+            if self.nesting + depth > _MAX_NESTING:
+                raise AsmError(
+                    f"symbol '{name}': definitions in terms of later ones nest too deeply "
+                    "(define symbols before their use)",
+                    column,
+                    len(name),
+                    Code.EXPRESSION,
+                )
             entry.resolving = True
+            self.nesting += depth
             try:
                 entry.value = entry.expr.value(Env(self.lookup, entry.here))
+            except Undefined:
+                raise
+            except AsmError as exc:
+                self.report_at_definition(entry, exc)
+                raise _Reported from None
             finally:
                 entry.resolving = False
+                self.nesting -= depth
         return entry.value
+
+    def report_at_definition(self, entry: _SymbolEntry, exc: AsmError) -> None:
+        """A problem in a symbol's own expression belongs to the line that defines it,
+        not to the line that happened to use the symbol first."""
+        entry.failed = True
+        assert entry.span is not None  # only source definitions have an expression
+        where = Span(entry.span.file, entry.span.line, exc.column, exc.length)
+        self.reporter.error(exc.code, exc.message, where)
 
     def evaluate(self, expr: Expr) -> int:
         return expr.value(Env(self.lookup, self.location))

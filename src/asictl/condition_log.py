@@ -1,0 +1,39 @@
+"""Logging a condition that may repeat thousands of times a second as a few lines.
+
+A flood of connections, a state file that cannot be saved every 10 s: each is one line
+when it starts, then at most one a minute with the number of events since, so the log
+stays readable and the process does not spend its time writing it.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+#: A condition that goes on is logged again at most this often, with a count.
+LOG_INTERVAL_S = 60.0
+
+
+@dataclass
+class ConditionLog:
+    """Logs a condition once when it starts, then at most every ``interval`` seconds with
+    the number of events since: a flood of connections must not become a flood of lines."""
+
+    log: Callable[[str], None]
+    interval: float = LOG_INTERVAL_S
+    clock: Callable[[], float] = time.monotonic
+    _last: dict[str, float] = field(default_factory=dict)
+    _count: dict[str, int] = field(default_factory=dict)
+
+    def event(self, condition: str, message: str) -> None:
+        """One event of ``condition``; ``message`` says what happens (logged when due)."""
+        now = self.clock()
+        self._count[condition] = self._count.get(condition, 0) + 1
+        last = self._last.get(condition)
+        if last is not None and now - last < self.interval:
+            return
+        count = self._count.pop(condition)
+        self._last[condition] = now
+        times = "" if last is None else f" ({count} times in the last {now - last:.0f} s)"
+        self.log(f"{message}{times}")
