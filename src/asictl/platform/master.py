@@ -29,6 +29,12 @@ TICK_MS = 10
 #: A program cycle longer than this is an endless loop: the master stops the program.
 CYCLE_TIMEOUT_MS = 200
 
+#: AS-i Control II has 1024 timers and 1024 counters, 0..1023 (programming manual 2).
+MAX_TC = 1023
+#: map_counters: counter n (0..14) is flag bytes 96+2n (low) and 97+2n (high nibble).
+COUNTER_FLAG_BASE = 96
+MAPPED_COUNTERS = 15
+
 #: The AS-i I/O codes by their data bits D0..D3 (I input, O output, B both, T tristate).
 IO_CODE_BITS = (
     "iiii", "iiio", "iiib", "iioo", "iibb", "iooo", "ibbb", "bbbb",
