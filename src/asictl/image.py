@@ -39,7 +39,7 @@ from asictl.platform.master import (
     ControlFlag,
     Options,
 )
-from asictl.runtime import layout
+from asictl.runtime import contract, layout
 from asictl.runtime.firmware import FIRMWARE_BLOCKS
 from asictl.runtime.program_map import CellKind, Location, ProgramMap, Space, Variable
 from asictl.runtime.runner import LoadedProgram
@@ -278,11 +278,6 @@ class ProgramImage:
             (SOURCE_INCLUDED,) if source_size else (0, SOURCE_LEFT_OUT)
         ):
             raise ImageError(f"image flags {image_flags:02X}h do not match its contents")
-        if not layout.CODE_BASE <= code_base <= code_base + code_size <= layout.CODE_LIMIT:
-            raise ImageError(
-                f"image code at {code_base:04X}h, {code_size} bytes, lies outside the "
-                f"program's code memory {layout.CODE_BASE:04X}h-{layout.CODE_LIMIT - 1:04X}h"
-            )
         if lps[0] & 1:
             raise ImageError("image projects slave 0, which is reserved for new slaves")
         code_end = HEADER_SIZE + code_size
@@ -302,6 +297,10 @@ class ProgramImage:
         )
         if image.to_bytes() != data:
             raise ImageError("image is not in the form asictl writes (entries out of order?)")
+        try:
+            contract.check(image.loaded_program())
+        except contract.ContractError as exc:
+            raise ImageError(f"image breaks the runtime contract: {exc}") from None
         return image
 
     def to_hex(self) -> str:

@@ -304,7 +304,7 @@ def test_header_consistency_is_checked(blink_bytes: bytes):
         ProgramImage.from_bytes(with_fixed_crc(both))
     moved = bytearray(blink_bytes)
     struct.pack_into("<H", moved, 81, 0x0100)
-    with pytest.raises(ImageError, match="lies outside the program's code memory 4000h-7FFFh"):
+    with pytest.raises(ImageError, match="code linked at 0100h; the firmware enters programs at"):
         ProgramImage.from_bytes(with_fixed_crc(moved))
     with pytest.raises(ImageError, match="image is 16385 bytes; the EEPROM holds 16384"):
         ProgramImage.from_bytes(MAGIC + bytes(EEPROM_SIZE + 1 - len(MAGIC)))
