@@ -92,7 +92,8 @@ def test_a_cycle_time_out_is_one_of_two_reasons_over_the_gateway():
         host, port = gateway.server.tcp_address
         with modbus.open_modbus(parse_target(f"tcp://{host}:{port}")) as transport:
             assert modbus.control_summary(transport) == (
-                "control program halted (a cycle time-out or waiting for the set button)"
+                "control program halted "
+                "(a cycle time-out, a program fault or waiting for the set button)"
             )
 
 

@@ -30,6 +30,7 @@ from asictl.board.images import VERSION_ID, MasterImages
 from asictl.board.nonvolatile import Nonvolatile
 from asictl.board.services import MasterFirmware
 from asictl.image import ProgramImage
+from asictl.mcs51.emulator import EmulatorError
 from asictl.platform import pc2 as d
 from asictl.platform.master import SLAVES, TICK_MS, ControlFlag
 from asictl.platform.pc2 import ControlState, HiFlag, InterruptSource, StopReason, nibbles
@@ -282,7 +283,10 @@ class Pc2Board:
                 self._images.write_status()  # the W/w and O/o letters change with it
         runner = self._control.runner
         if self._control.running and runner is not None and self._timers_running():
-            runner.tick()
+            try:
+                runner.tick()
+            except Exception as exc:  # as in a program cycle: never out of ``advance``
+                self._halt(StopReason.PROGRAM_FAULT, _fault(exc))
             self._dpram.stirred = True
 
     def _timers_running(self) -> bool:
@@ -370,9 +374,10 @@ class Pc2Board:
         try:
             runner.cycle(self._ec.idi)
         except CycleTimeout as exc:
-            control.stop(StopReason.CYCLE_TIMEOUT, str(exc))
-            self.safe_outputs()
-            self._images.write_status()
+            self._halt(StopReason.CYCLE_TIMEOUT, str(exc))
+            return
+        except Exception as exc:  # whatever the program did, the master carries on
+            self._halt(StopReason.PROGRAM_FAULT, _fault(exc))
             return
         duration = control.record_cycle(runner.last_cycles)
         self._program_ready_us = self._now_us + math.ceil(duration)
@@ -387,6 +392,12 @@ class Pc2Board:
             self._odi_written = odi
             dpram.put(d.ODI, odi)
         self._images.update_settings()
+
+    def _halt(self, reason: StopReason, detail: str) -> None:
+        """The firmware stops a program that cannot go on: outputs to the safe state."""
+        self._control.stop(reason, detail)
+        self.safe_outputs()
+        self._images.write_status()
 
     @staticmethod
     def _snapshot(runner: ProgramRunner) -> bytes:
@@ -484,3 +495,11 @@ class Pc2Board:
     def interrupt_request(self) -> bool:
         """The ISA interrupt line: an enabled source has an event pending."""
         return self._dpram.interrupt_request
+
+
+def _fault(exc: Exception) -> str:
+    """A program fault in words: the emulator's own message for what the 8051 cannot run
+    (an undefined opcode), else what went wrong, named so that it can be reported."""
+    if isinstance(exc, EmulatorError):
+        return str(exc)
+    return f"the emulation failed ({type(exc).__name__}: {exc}); please report it"

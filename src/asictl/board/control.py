@@ -15,12 +15,16 @@ from asictl.image import ImageError, ProgramImage, image_length
 from asictl.mcs51.bus import Bus
 from asictl.platform.master import CONTROL_FLAGS_NONVOLATILE, MACHINE_CYCLE_US, ControlFlag
 from asictl.platform.pc2 import FLAGS, FLAGS_SIZE, ControlState, ProgramStatus, StopReason
+from asictl.runtime import contract
 from asictl.runtime.firmware import FirmwareServices
+from asictl.runtime.layout import default_entry_points
 from asictl.runtime.runner import ProgramRunner
 
 # Plain ints: the run/stop check happens every AS-i cycle, IntFlag arithmetic is slow.
 _START = int(ControlFlag.START)
 _IGNORE_CONFIG_ERRORS = int(ControlFlag.IGNORE_CONFIG_ERRORS)
+#: Where this firmware's function blocks are: what command 53 reports from FF00h.
+_FIRMWARE_TABLE = default_entry_points()
 
 _MESSAGES = {
     StopReason.NONE: "running",
@@ -29,7 +33,11 @@ _MESSAGES = {
     StopReason.NOT_NORMAL_OPERATION: "AS-i master not in normal operation",
     StopReason.CONFIG_ERROR: "AS-i configuration error",
     StopReason.CYCLE_TIMEOUT: "program cycle time-out",
+    StopReason.PROGRAM_FAULT: "program fault",
 }
+#: Stops that wait for the set button or a new start whatever the flags: running the
+#: program again would only do the same.
+_HALTING = (StopReason.CYCLE_TIMEOUT, StopReason.PROGRAM_FAULT)
 
 
 class AsiControl:
@@ -47,7 +55,7 @@ class AsiControl:
         self.running = False
         self.halted = False
         self.reason = StopReason.NO_PROGRAM
-        #: the time-out's own message, when that was the reason
+        #: the time-out's or the fault's own message, when that was the reason
         self.detail = ""
         #: program cycle times in microseconds: the last one and the maximum since loading
         self.previous_us = 0.0
@@ -69,7 +77,7 @@ class AsiControl:
         text = _MESSAGES[self.reason]
         if self.reason is StopReason.NO_PROGRAM and self.load_error:
             text += f" ({self.load_error})"
-        if self.detail and self.reason is StopReason.CYCLE_TIMEOUT:
+        if self.detail and self.reason in _HALTING:
             text += f": {self.detail}"
         if self.halted:
             text += "; waiting for the set button or a new start"
@@ -91,20 +99,37 @@ class AsiControl:
             self.load_error = "the EEPROM holds no program image"
         else:
             try:
-                self.image = ProgramImage.from_bytes(eeprom[:length])
+                self.image, self.runner = self._runner(eeprom[:length])
             except ImageError as exc:
                 self.program_status = ProgramStatus.BAD_IMAGE
                 self.load_error = str(exc)
             else:
-                self.runner = ProgramRunner(
-                    self.image.loaded_program(), firmware=self._firmware, xdata=self._xdata
-                )
                 self.program_status = ProgramStatus.LOADED
         if self.runner is not None:
             self.runner.reset()
         else:
             self._xdata.ram[FLAGS : FLAGS + FLAGS_SIZE] = bytes(FLAGS_SIZE)  # erased all the same
         return self.runner is not None
+
+    def _runner(self, data: bytes) -> tuple[ProgramImage, ProgramRunner]:
+        """The image in ``data`` made ready to run; ``ImageError`` if it cannot be.
+
+        ``from_bytes`` holds the image to the runtime contract, and the firmware to its
+        own entry table. Whatever else fails while setting the program up is still the
+        image's fault as far as the master can tell: a power-up must never fail, or a
+        board holding such an image could not be used again.
+        """
+        image = ProgramImage.from_bytes(data)
+        program = image.loaded_program()
+        try:
+            contract.check(program, _FIRMWARE_TABLE)
+        except contract.ContractError as exc:
+            raise ImageError(f"image not linked for this master: {exc}") from None
+        try:
+            runner = ProgramRunner(program, firmware=self._firmware, xdata=self._xdata)
+        except Exception as exc:  # any failure here is the image's
+            raise ImageError(f"the firmware cannot load the image: {exc!r}") from None
+        return image, runner
 
     def write_flags(self, value: int) -> None:
         """Command 50's flags (reset is the caller's); setting start is a new start."""
@@ -136,7 +161,7 @@ class AsiControl:
         """Stop for ``reason``; a stop the master caused may have to wait for the button."""
         was_running = self.running
         self.running, self.reason, self.detail = False, reason, detail
-        if reason is StopReason.CYCLE_TIMEOUT or (
+        if reason in _HALTING or (
             was_running
             and reason in (StopReason.NOT_NORMAL_OPERATION, StopReason.CONFIG_ERROR)
             and self.flags & ControlFlag.WAIT_FOR_SET_BUTTON

@@ -405,7 +405,7 @@ def read_status(transport: ModbusTransport) -> MasterStatus:
         **slave_fields(lps, lds, las, bytes(pcd), bytes(cdi), ec=ec),
         control_state=state.name.lower(),
         stop_reason=(
-            "cycle time-out or waiting for the set button" if reason is None
+            "cycle time-out, program fault or waiting for the set button" if reason is None
             else None if reason is StopReason.NONE else reason.name.lower().replace("_", " ")
         ),
         program_status="not shown by the gateway",

@@ -334,7 +334,8 @@ def derived_control_state(
     from what a gateway shows (the flags, the ec-flags, whether the EEPROM holds an
     image), in the order the master checks them (board/control.py). None: stopped with
     the start flag set in normal operation and a good configuration, which is a cycle
-    time-out or a wait for the set button, which the gateway does not tell apart."""
+    time-out, a program fault or a wait for the set button, which the gateway does not
+    tell apart."""
     if flags & ControlFlag.CONTROL_ACTIVE:
         return ControlState.RUNNING, StopReason.NONE
     if not program:
@@ -352,7 +353,7 @@ def state_summary(state: ControlState, reason: StopReason | None) -> str:
     """``control program STATE (REASON)``, the one line a command ends with."""
     text = f"control program {_name(ControlState, state)}"
     if reason is None:
-        return text + " (a cycle time-out or waiting for the set button)"
+        return text + " (a cycle time-out, a program fault or waiting for the set button)"
     if reason is StopReason.NONE:
         return text
     return f"{text} ({_name(StopReason, reason)})"

@@ -183,7 +183,7 @@ class ProgramStatus(IntEnum):
 
     LOADED = 0x00
     NOT_LOADED = 0x01  # no reset since power-up
-    BAD_IMAGE = 0x02  # magic, version, length or CRC wrong
+    BAD_IMAGE = 0x02  # refused: damaged, or breaks the runtime contract
 
 
 class StopReason(IntEnum):
@@ -195,6 +195,7 @@ class StopReason(IntEnum):
     NOT_NORMAL_OPERATION = 0x03  # master offline, in detection/activation, APF
     CONFIG_ERROR = 0x04
     CYCLE_TIMEOUT = 0x05
+    PROGRAM_FAULT = 0x06  # the program did what no 8051 can run (an undefined opcode)
 
 
 class ControlState(IntEnum):

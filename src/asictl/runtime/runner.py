@@ -155,12 +155,12 @@ class ProgramRunner:
 
     def _firmware_trap(self, name: str) -> Callable[[Emulator], None]:
         def trap(cpu: Emulator) -> None:
-            base = cpu.dptr
-            pseg = bytearray(cpu.xdata.read(base + i) for i in range(16))
+            base = cpu.dptr  # PSeg's 16 bytes from here, wrapping at 64 KB as DPTR does
+            pseg = bytearray(cpu.xdata.read(base + i & 0xFFFF) for i in range(16))
             if self.firmware is not None:
                 self.firmware.call(name, pseg)
             for i, value in enumerate(pseg):
-                cpu.xdata.write(base + i, value)
+                cpu.xdata.write(base + i & 0xFFFF, value)
             cpu.ret()
 
         return trap
