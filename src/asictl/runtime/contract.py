@@ -75,8 +75,9 @@ def check(program: LoadedProgram, firmware: Mapping[str, int] | None = None) -> 
     """Raise ``ContractError`` naming the first problem (and how many more there are)."""
     found = problems(program, firmware)
     if found:
-        more = f" (and {len(found) - 1} more problems)" if len(found) > 1 else ""
-        raise ContractError(found[0] + more)
+        more = len(found) - 1
+        more_text = f" (and {more} more problem{'s' if more > 1 else ''})" if more else ""
+        raise ContractError(found[0] + more_text)
 
 
 def _code(program: LoadedProgram) -> Iterator[str]:
