@@ -68,6 +68,7 @@ class ScenarioCode(StrEnum):
     NOT_TOML = "E400"
     INVALID = "E401"
     NO_SUCH_SLAVE = "E402"
+    SYMBOLS = "E403"
 
 
 class AssemblerCode(StrEnum):
@@ -135,6 +136,7 @@ TITLES: dict[str, str] = {
     "E400": "scenario is not valid TOML",
     "E401": "invalid scenario",
     "E402": "scenario sets a slave that is not on the bus",
+    "E403": "invalid symbol table",
     "E501": "syntax",
     "E502": "unknown mnemonic or directive",
     "E503": "operand not valid for the instruction",
