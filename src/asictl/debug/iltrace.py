@@ -63,7 +63,9 @@ def _operand_of(statement: ast.Statement) -> object:
     match statement:
         case ast.Count(counter=counter):
             return CounterValue(counter.number)
-        case ast.Load(operand=ast.TimerRef(number=n)) | ast.Transfer(operand=ast.TimerRef(number=n)):
+        case ast.Load(operand=ast.TimerRef(number=n)) | ast.Transfer(
+            operand=ast.TimerRef(number=n)
+        ):
             return TimerValue(n)
         case ast.Load(operand=ast.CounterRef(number=n)) | ast.Transfer(
             operand=ast.CounterRef(number=n)
@@ -109,7 +111,7 @@ class ILTracer:
         lines = self._lines.get(line.file)
         if lines is None or not 0 < line.line <= len(lines):
             return ""
-        return lines[line.line - 1].strip()
+        return lines[line.line - 1].partition(";")[0].strip()
 
     def _cycle_start(self) -> None:
         self.cycle += 1

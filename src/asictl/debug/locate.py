@@ -10,8 +10,10 @@ jump that closes the loop, found by running a copy of the machine a little furth
 
 from __future__ import annotations
 
+import contextlib
+
 from asictl.mcs51.bus import Bus
-from asictl.mcs51.emulator import Emulator
+from asictl.mcs51.emulator import Emulator, EmulatorError
 from asictl.mcs51.isa import OPCODES
 from asictl.runtime import layout
 from asictl.runtime.line_map import LineMap, SourceLine
@@ -66,10 +68,8 @@ def loop_line(cpu: Emulator, line_map: LineMap) -> SourceLine | None:
         if info is not None and info.mnemonic in _JUMPS and emulator.pc <= address:
             jumps.append(address)
 
-    try:
+    with contextlib.suppress(EmulatorError):  # the copy may run into an undefined opcode
         copy.run(max_instructions=_LOOP_SEARCH, trace=watch)
-    except Exception:  # noqa: BLE001 - the copy may run into anything; the PC still tells
-        pass
     for address in reversed(jumps):
         line = line_map.line_at(address)
         if line is not None:

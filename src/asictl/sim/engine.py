@@ -37,10 +37,10 @@ from asictl.image import ProgramImage
 from asictl.mcs51.emulator import Emulator
 from asictl.platform import pc2 as d
 from asictl.platform.master import ControlFlag
+from asictl.runtime.firmware import FIRMWARE_BLOCKS
 from asictl.runtime.line_map import LineMap
 from asictl.runtime.program_map import CellKind, ProgramMap
 from asictl.runtime.runner import ProgramRunner
-from asictl.runtime.firmware import FIRMWARE_BLOCKS
 from asictl.sim.operands import Operand, parse_operand
 from asictl.sim.scenario import Scenario, SlaveSpec, Step
 from asictl.sim.trace import Mark, Signal, Trace
@@ -211,7 +211,8 @@ class Simulation:
     # ------------------------------------------------------------------ reading
 
     def now_ms(self) -> float:
-        return self.board.now_ms - (self._t0 or 0.0)
+        """Master time since time 0 (whole microseconds, so the sum is exact)."""
+        return (round(self.board.now_ms * 1000) - round((self._t0 or 0.0) * 1000)) / 1000
 
     @property
     def runner(self) -> ProgramRunner | None:

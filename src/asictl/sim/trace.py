@@ -177,8 +177,9 @@ def write_plot(trace: Trace, path: Path, *, title: str) -> None:
         targets = [axes[lane, 0]] if lane is not None else list(axes[:, 0])
         for ax in targets:
             ax.axvline(mark.at_ms / scale, color="red", linewidth=1.2)
-        targets[0].annotate(mark.text, (mark.at_ms / scale, 1.0), xycoords=("data", "axes fraction"),
-                            color="red", fontsize=7, ha="left", va="bottom")
+        targets[0].annotate(mark.text, (mark.at_ms / scale, 1.0),
+                            xycoords=("data", "axes fraction"), color="red", fontsize=7,
+                            ha="left", va="bottom")
     axes[-1, 0].set_xlabel(f"master time ({unit})")
     axes[-1, 0].set_xlim(start / scale, end / scale)
     fig.suptitle(title, fontsize=11)
