@@ -313,7 +313,11 @@ class Simulation:
         board = self.board
         board.advance(_POWER_UP_MS)
         download(Pc2Transport(Pc2Driver(EmulatedPort(board))), self.image, start=StartMode.STOP)
-        if self.scenario.cycle_ms is not None:  # after the download: its commands need cycles
+        settled = d.EcFlag.CONFIG_OK | d.EcFlag.NORMAL_OPERATION_ACTIVE
+        deadline = board.now_ms + _START_WAIT_MS
+        while board.dpram[d.EC_FLAGS] & settled != settled and board.now_ms < deadline:
+            board.advance(1.0)  # the master activates the slaves of the new configuration
+        if self.scenario.cycle_ms is not None:  # only now: download and start-up need cycles
             board.cycle_period_us = round(self.scenario.cycle_ms * 1000)
         self._watch_firmware()
         self._t0 = None
@@ -327,7 +331,7 @@ class Simulation:
         flags = int(board.control_flags) & ~(ControlFlag.CONTROL_ACTIVE | ControlFlag.RESET)
         self._host_write(d.CONTROL_FLAGS, flags | ControlFlag.START)
         self._host_write(d.COMMAND, d.Command.WRITE_CONTROL_FLAGS)
-        deadline = board.now_ms + _START_WAIT_MS
+        deadline = board.now_ms + _START_WAIT_MS + 2 * (self.scenario.cycle_ms or 0.0)
         while self._t0 is None and board.now_ms < deadline:
             board.advance(_BEFORE_MS)  # to the microsecond: time 0 is exact
         if self._t0 is None:
