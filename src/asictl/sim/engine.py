@@ -500,8 +500,15 @@ class Simulation:
             )
         if on:
             self._tracer.hooks.install()
+            self.wake()
         else:
             self._tracer.hooks.remove()
+
+    def wake(self) -> None:
+        """Make the master run the next cycle even if the program looked idle (it skips
+        cycles that would repeat the last one): a host access, rewriting a byte of the
+        download buffer with what it holds, counts as news and changes nothing."""
+        self._host_write(d.PROGRAM_BUFFER, self.board.dpram[d.PROGRAM_BUFFER])
 
     # ------------------------------------------------------------------ trace signals
 
