@@ -168,7 +168,10 @@ def write_plot(trace: Trace, path: Path, *, title: str) -> None:
                 if x1 > x0 and (x1 - x0) > span / 40:
                     text = f"{y:02X}h" if signal.width == 8 else str(y)
                     ax.text((x0 + x1) / 2, y, text, ha="center", va="bottom", fontsize=7)
-        ax.set_ylabel(signal.name, rotation=0, ha="right", va="center", fontsize=9)
+        label = signal.name
+        if signal.operand and signal.operand != signal.name:
+            label += f"\n{signal.operand}"  # a symbol, and what it stands for
+        ax.set_ylabel(label, rotation=0, ha="right", va="center", fontsize=9)
         ax.grid(axis="x", alpha=0.3)
         for side in ("top", "right"):
             ax.spines[side].set_visible(False)
@@ -177,9 +180,10 @@ def write_plot(trace: Trace, path: Path, *, title: str) -> None:
         targets = [axes[lane, 0]] if lane is not None else list(axes[:, 0])
         for ax in targets:
             ax.axvline(mark.at_ms / scale, color="red", linewidth=1.2)
+        late = mark.at_ms - start > 0.6 * (end - start)  # label to the left near the end
         targets[0].annotate(mark.text, (mark.at_ms / scale, 1.0),
                             xycoords=("data", "axes fraction"), color="red", fontsize=7,
-                            ha="left", va="bottom")
+                            ha="right" if late else "left", va="bottom")
     axes[-1, 0].set_xlabel(f"master time ({unit})")
     axes[-1, 0].set_xlim(start / scale, end / scale)
     fig.suptitle(title, fontsize=11)
