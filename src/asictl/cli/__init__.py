@@ -40,6 +40,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
         "asictl.cli.gateway:gateway", "Serve the emulated AS-i/Modbus gateway (Modbus TCP/RTU)."
     ),
     "test": ("asictl.cli.sim:test", "Run every *.scenario.toml and report N passed, M failed."),
+    "debug": ("asictl.cli.debug:debug", "Debug a program at the IL level on an emulated master."),
 }
 
 

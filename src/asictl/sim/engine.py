@@ -207,6 +207,16 @@ class Simulation:
         self._t0: float | None = 0.0
         self._running = True
         self._refusals: dict[tuple[str, str, int], Refusal] = {}
+        self._by_time: dict[float, list[Step]] = {}
+        for step in scenario.ordered():
+            if step.at_ms <= self.end_ms:
+                self._by_time.setdefault(step.at_ms, []).append(step)
+        marks = {t for t in window if t is not None and 0 < t <= self.end_ms}
+        self._marks = marks
+        #: step times and trace window edges, in order; the next one to come
+        self._events = sorted({*self._by_time, *marks})
+        self._next_event = 0
+        self._done_ms = -1.0
 
     # ------------------------------------------------------------------ reading
 
@@ -306,10 +316,14 @@ class Simulation:
     # ------------------------------------------------------------------ running
 
     def start(self) -> None:
-        """Power up, download the program stopped, apply the steps at time 0, then start
-        it: time 0 is the master time of the first program cycle (or, if the program
-        cannot start within a second, the moment the start was given, the stop then
-        being reported at time 0)."""
+        """Power up, download, apply the steps at time 0 and start the program: time 0 is
+        the master time of its first cycle."""
+        self.load()
+        self.begin()
+
+    def load(self) -> None:
+        """Power up and download the program stopped; wait until the master has its
+        slaves in normal operation (at most a second)."""
         board = self.board
         board.advance(_POWER_UP_MS)
         download(Pc2Transport(Pc2Driver(EmulatedPort(board))), self.image, start=StartMode.STOP)
@@ -321,10 +335,14 @@ class Simulation:
             board.cycle_period_us = round(self.scenario.cycle_ms * 1000)
         self._watch_firmware()
         self._t0 = None
-        for step in self._steps_at(0.0):
-            self._apply(step)
-        for step in self._steps_at(0.0):
-            self._check(step)
+
+    def begin(self) -> None:
+        """Apply the steps at time 0 (and check its expectations against the state before
+        any cycle), then set the start flag: time 0 is the master time of the first
+        program cycle (or, if the program cannot start within a second, the moment the
+        start was given, the stop then being reported at time 0)."""
+        board = self.board
+        self._run_steps(0.0)
         if self._il_trace and self.window[0] <= 0:
             self._trace_lines(True)
         board.observer = self._observe  # notes the first program cycle as time 0
@@ -339,25 +357,41 @@ class Simulation:
             self._running = False
             self._stop(0.0)
 
-    def _steps_at(self, at: float) -> list[Step]:
-        return [s for s in self.scenario.ordered() if s.at_ms == at]
+    @property
+    def started(self) -> bool:
+        return self._t0 is not None
+
+    def _run_steps(self, at: float) -> None:
+        """The steps at one time: all sets (and bus changes) first, then all checks."""
+        steps = self._by_time.get(at, [])
+        for step in steps:
+            self._apply(step)
+        for step in steps:
+            self._check(step)
+        self._done_ms = max(self._done_ms, at)
 
     def run(self) -> SimResult:
         self.start()
-        times = sorted({s.at_ms for s in self.scenario.steps if 0 < s.at_ms <= self.end_ms})
-        marks = [t for t in self.window if t is not None and 0 < t <= self.end_ms]
-        for at in sorted({*times, *marks}):
-            self._advance_to(at - _BEFORE_MS if at in times else at)
-            self._window_edge(at)
-            if at in times:
-                steps = self._steps_at(at)
-                for step in steps:
-                    self._apply(step)
-                for step in steps:
-                    self._check(step)
-        self._advance_to(self.end_ms)
+        self.run_to(self.end_ms)
         self._trace_lines(False)
         return self.finish()
+
+    def run_to(self, t_ms: float) -> None:
+        """Let master time pass up to ``t_ms``, applying the steps (and trace window
+        edges) on the way; the steps at ``t_ms`` are applied and its cycles run."""
+        events = self._events
+        while self._next_event < len(events) and events[self._next_event] <= t_ms:
+            at = events[self._next_event]
+            self._next_event += 1
+            if at <= self._done_ms:
+                continue
+            step = at in self._by_time
+            self._advance_to(at - _BEFORE_MS if step else at)
+            self._window_edge(at)
+            if step:
+                self._run_steps(at)
+            self._done_ms = at
+        self._advance_to(t_ms)
 
     def finish(self) -> SimResult:
         result = self.result
