@@ -8,7 +8,7 @@ from pathlib import Path
 
 import click
 
-from asictl.debug.debugger import Debugger, DebugError
+from asictl.debug.debugger import DebugError, Debugger
 from asictl.errors import ExitCode, UserError
 from asictl.sim.scenario import parse_duration
 from asictl.sim.session import Invalid, prepare, scenario_for

@@ -375,7 +375,7 @@ class Debugger:
                 self._pause(_Pause("time"))
         except _Quit:
             return
-        except Exception as exc:  # noqa: BLE001 - reported to the user, not lost in a thread
+        except Exception as exc:
             self.ended = True
             self._pauses.put(_Pause("error", text=f"{type(exc).__name__}: {exc}"))
 
