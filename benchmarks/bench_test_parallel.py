@@ -1,0 +1,74 @@
+"""``asictl test -j N``: wall time of a folder of 30 scenarios, one after the other (-j 1)
+against worker processes (-j 2, -j N).
+
+Each scenario runs a program that changes its state every cycle (so the master cannot
+skip cycles) for 30 s of master time at a 5 ms cycle: 6,000 program cycles. Half of the
+scenarios hold, a few fail, so the exit status (1) is compared too. Usage:
+
+    python3 benchmarks/bench_test_parallel.py [--scenarios 30] [--jobs 1 2 4]
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+PROGRAM = """\
+[SETUP]
+1: iiii, 0
+2: oooo, 0
+[PROGRAM]
+    L   FY 10           ; a cycle counter: the state changes every cycle
+    L   KB 1
+    +   F
+    T   FY 10
+***
+    A   I 1.0
+    CU  C 0
+***
+    A   C 0
+    =   Q 2.0
+"""
+
+
+def scenario(i: int) -> str:
+    expected = 1 if i % 7 else 0  # every seventh scenario fails
+    return (
+        "[master]\ncycle_ms = 5\n"
+        f'[[step]]\nat_ms = {i * 10}\nset = {{ "I 1.0" = 1 }}\n'
+        f'[[step]]\nat_ms = 30000\nexpect = {{ "Q 2.0" = {expected} }}\n'
+    )
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--scenarios", type=int, default=30)
+    parser.add_argument("--jobs", type=int, nargs="+", default=[1, 2])
+    args = parser.parse_args()
+    with tempfile.TemporaryDirectory() as tmp:
+        folder = Path(tmp)
+        for i in range(args.scenarios):
+            (folder / f"count{i:02}.asi").write_text(PROGRAM)
+            (folder / f"count{i:02}.scenario.toml").write_text(scenario(i))
+        env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[1] / "src")}
+        base = None
+        print(f"{args.scenarios} scenarios, {os.cpu_count()} cores")
+        print(f"{'-j':>4} {'wall s':>8} {'of -j 1':>8} {'exit':>5}")
+        for jobs in args.jobs:
+            start = time.perf_counter()
+            done = subprocess.run(
+                [sys.executable, "-m", "asictl", "test", str(folder), "-j", str(jobs)],
+                env=env, capture_output=True, text=True,
+            )
+            seconds = time.perf_counter() - start
+            base = base or seconds
+            print(f"{jobs:>4} {seconds:>8.2f} {seconds / base:>8.2f} {done.returncode:>5}")
+
+
+if __name__ == "__main__":
+    main()
