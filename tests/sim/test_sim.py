@@ -4,8 +4,8 @@ failure reports, program stops, determinism, JUnit output, bad input."""
 from __future__ import annotations
 
 import importlib.util
-import re
 import json
+import re
 from pathlib import Path
 from xml.etree import ElementTree
 
