@@ -5,6 +5,7 @@ from __future__ import annotations
 import concurrent.futures
 import json
 import sys
+from collections.abc import Iterator
 from pathlib import Path
 from xml.etree import ElementTree
 
@@ -204,7 +205,7 @@ def _print(outcome: Outcome, progress: _Progress) -> None:
             click.echo(f"    {line}")
 
 
-def _outcomes(paths: list[str], lib: tuple[str, ...], jobs: int):
+def _outcomes(paths: list[str], lib: tuple[str, ...], jobs: int) -> Iterator[Outcome]:
     """Each scenario's outcome in the order of ``paths`` as soon as it and every one
     before it are done; worker processes when ``jobs`` > 1."""
     if jobs <= 1 or len(paths) <= 1:

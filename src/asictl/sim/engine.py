@@ -17,6 +17,7 @@ left by the cycles that started before T; at equal times sets come before checks
 from __future__ import annotations
 
 import fnmatch
+import functools
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import PurePath
@@ -550,13 +551,20 @@ class Simulation:
         signals: list[tuple[Signal, Callable[[Simulation], int]]] = []
         for name in names:
             if name == RUNNING:
-                signals.append((Signal(RUNNING, 1, operand=RUNNING),
-                                lambda sim: int(sim._running)))
+                signals.append((Signal(RUNNING, 1, operand=RUNNING), _running))
                 continue
             operand = parse_operand(name)
             signal = Signal(self.symbols.label(name), operand.width, operand=name)
-            signals.append((signal, lambda sim, op=operand: sim.read(op)))
+            signals.append((signal, functools.partial(_read, operand)))
         return signals
+
+
+def _running(sim: Simulation) -> int:
+    return int(sim._running)
+
+
+def _read(operand: Operand, sim: Simulation) -> int:
+    return sim.read(operand)
 
 
 def config_problems(dpram: bytes) -> str:

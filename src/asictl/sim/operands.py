@@ -98,8 +98,10 @@ def _statement(text: str) -> ast.Statement | None:
     module, diagnostics = parse_text(f"[PROGRAM]\n{text}\n", "<operand>")
     if diagnostics or not module.sections:
         return None
-    statements = module.sections[0].statements
-    return statements[0] if len(statements) == 1 else None
+    section = module.sections[0]
+    if not isinstance(section, ast.ProgramSection) or len(section.statements) != 1:
+        return None
+    return section.statements[0]
 
 
 def parse_operand(
@@ -121,7 +123,9 @@ def parse_operand(
         kind = CounterValue if value[1].upper() == "CV" else TimerValue
         return Operand(kind(number))
     statement = _statement(f"A {text}")
-    node = statement.operand if isinstance(statement, ast.Logic) else None
+    node: BitNode | ByteNode | None = (
+        statement.operand if isinstance(statement, ast.Logic) else None
+    )
     if node is None:
         statement = _statement(f"L {text}")
         loaded = statement.operand if isinstance(statement, ast.Load) else None
@@ -157,5 +161,6 @@ def _check_range(node: BitNode | ByteNode, text: str, variables: Mapping[str, in
             need(n <= 30 and n % 2 == 0, "an even slave address 0..30")
         case ast.VarBit(name=name, offset=offset) | ast.VarByte(name=name, offset=offset):
             size = variables.get(key(name))
-            need(size is not None, f"'{name}' is not a variable declared by the program")
+            if size is None:
+                raise ValueError(f"'{text}': '{name}' is not a variable declared by the program")
             need(offset < size, f"'{name}' has {size} bytes")

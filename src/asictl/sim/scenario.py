@@ -148,7 +148,7 @@ class _Reader:
 
 def _slave(reader: _Reader, address: object, spec: object, line: int) -> SlaveSpec | None:
     try:
-        number = int(address)  # TOML keys are strings
+        number = int(str(address))  # TOML keys are strings
     except ValueError:
         reader.error(f"slave address '{address}' is not a number", line)
         return None
