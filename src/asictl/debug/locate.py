@@ -5,24 +5,17 @@ its block line and the lines that called it, read from the return addresses on t
 8051's stack (the compiled code calls blocks and helpers with LCALL, and the firmware
 entered the program with the cycle-end address pushed first, docs/runtime.md). A cycle
 time-out happens wherever the endless loop happened to be; the line people need is the
-jump that closes the loop, found by running a copy of the machine a little further.
+jump that closes the loop, which the firmware finds (``runtime.runner``) and leaves in
+the communication memory for the host.
 """
 
 from __future__ import annotations
 
-import contextlib
-
-from asictl.mcs51.bus import Bus
-from asictl.mcs51.emulator import Emulator, EmulatorError
-from asictl.mcs51.isa import OPCODES
+from asictl.mcs51.emulator import Emulator
 from asictl.runtime import layout
 from asictl.runtime.line_map import LineMap, SourceLine
 
 _SP = 0x81
-_JUMPS = frozenset({"AJMP", "LJMP", "SJMP", "JMP", "JC", "JNC", "JZ", "JNZ", "JB", "JNB",
-                    "JBC", "CJNE", "DJNZ"})
-#: How far a copy of the machine runs to find the jump that closes an endless loop.
-_LOOP_SEARCH = 20_000
 
 
 def call_chain(cpu: Emulator, line_map: LineMap) -> list[SourceLine]:
@@ -55,35 +48,3 @@ def describe(line: SourceLine | None, cpu: Emulator, line_map: LineMap) -> str:
     if not callers:
         return str(line)
     return f"{line} (called from {', '.join(str(c) for c in reversed(callers))})"
-
-
-def loop_line(cpu: Emulator, line_map: LineMap) -> SourceLine | None:
-    """The line of the jump that keeps a program looping: the last backward jump a copy
-    of the machine takes; else the line at the PC."""
-    copy = _copy(cpu)
-    jumps: list[int] = []
-
-    def watch(emulator: Emulator, address: int) -> None:
-        info = OPCODES[emulator.code[address]]
-        if info is not None and info.mnemonic in _JUMPS and emulator.pc <= address:
-            jumps.append(address)
-
-    with contextlib.suppress(EmulatorError):  # the copy may run into an undefined opcode
-        copy.run(max_instructions=_LOOP_SEARCH, trace=watch)
-    for address in reversed(jumps):
-        line = line_map.line_at(address)
-        if line is not None:
-            return line
-    return current_line(cpu, line_map)
-
-
-def _copy(cpu: Emulator) -> Emulator:
-    """A detached copy of the machine: same memories and registers, no traps."""
-    xdata = Bus()
-    xdata.ram[:] = cpu.xdata.ram
-    copy = Emulator(xdata=xdata, translate=False)
-    copy.code.load(0, bytes(cpu.code))
-    copy.iram[:] = cpu.iram
-    copy.sfr[:] = cpu.sfr
-    copy.pc = cpu.pc
-    return copy

@@ -27,7 +27,7 @@ from asictl.board.board import Pc2Board
 from asictl.build import Build
 from asictl.codes import ScenarioCode
 from asictl.debug.iltrace import ILTracer, LineRow, line_operands
-from asictl.debug.locate import describe, loop_line
+from asictl.debug.locate import current_line, describe
 from asictl.debug.view import ProgramView
 from asictl.diagnostics import Diagnostic, DiagnosticError, Severity, Span
 from asictl.host.driver import EmulatedPort, Pc2Driver
@@ -475,7 +475,9 @@ class Simulation:
         runner = board.program
         if board.stop_reason is d.StopReason.CYCLE_TIMEOUT and runner is not None:
             cpu = runner.cpu
-            where = describe(loop_line(cpu, self.line_map), cpu, self.line_map)
+            stop = board.dpram[d.STOP_ADDRESS : d.STOP_ADDRESS + 2]  # the loop's jump
+            line = self.line_map.line_at(int.from_bytes(stop, "little"))
+            where = describe(line or current_line(cpu, self.line_map), cpu, self.line_map)
         elif board.stop_reason is d.StopReason.CONFIG_ERROR:
             problems = config_problems(board.dpram)
             if problems:
