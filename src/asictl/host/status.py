@@ -19,7 +19,6 @@ from asictl.image import HEADER_SIZE, MAGIC, ProgramImage
 from asictl.platform.display import display_code, display_text
 from asictl.platform.master import SLAVES, ControlFlag
 from asictl.platform.pc2 import (
-    STOP_ADDRESS,
     CDI,
     CONFIG_SIZE,
     CONTROL_FLAGS,
@@ -38,6 +37,7 @@ from asictl.platform.pc2 import (
     MASTER_NAME_SIZE,
     PCD,
     PROGRAM_STATUS,
+    STOP_ADDRESS,
     STOP_REASON,
     VERSION_ID,
     VERSION_ID_SIZE,
