@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import re
 import subprocess
 import sys
 import tempfile
@@ -57,17 +58,26 @@ def main() -> None:
             (folder / f"count{i:02}.scenario.toml").write_text(scenario(i))
         env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[1] / "src")}
         base = None
-        print(f"{args.scenarios} scenarios, {os.cpu_count()} cores")
-        print(f"{'-j':>4} {'wall s':>8} {'of -j 1':>8} {'exit':>5}")
+        print(f"{args.scenarios} scenarios, {os.cpu_count()} cores, load average "
+              f"{os.getloadavg()[0]:.1f} (other processes share the cores: compare CPU s)")
+        print(f"{'-j':>4} {'wall s':>8} {'of -j 1':>8} {'CPU s':>7} {'exit':>5}")
+        outputs = set()
         for jobs in args.jobs:
+            before = os.times()
             start = time.perf_counter()
             done = subprocess.run(
                 [sys.executable, "-m", "asictl", "test", str(folder), "-j", str(jobs)],
                 env=env, capture_output=True, text=True,
             )
             seconds = time.perf_counter() - start
+            after = os.times()
+            cpu = (after.children_user - before.children_user
+                   + after.children_system - before.children_system)
             base = base or seconds
-            print(f"{jobs:>4} {seconds:>8.2f} {seconds / base:>8.2f} {done.returncode:>5}")
+            outputs.add(re.sub(r"in \d+\.\d+ s", "", done.stdout))
+            print(f"{jobs:>4} {seconds:>8.2f} {seconds / base:>8.2f} {cpu:>7.2f} "
+                  f"{done.returncode:>5}")
+        print("same output for every -j:", len(outputs) == 1)
 
 
 if __name__ == "__main__":

@@ -88,12 +88,12 @@ def test_csv_has_counter_and_timer_columns(counter: Path, tmp_path: Path):
     out = tmp_path / "t.csv"
     assert run("sim", counter, "--csv", out).exit_code == 0
     table = rows(out)
-    for column in ("C 0", "CV 0", "T 1", "TV 1", "running", "I 1.0", "Q 2.0"):
+    for column in ("C 0", "CV 0", "T 1", "TV 1", "program running", "I 1.0", "Q 2.0"):
         assert column in table[0], column
     assert table[0]["CV 0"] == "4095" and table[-1]["CV 0"] == "4094"
     remaining = [int(r["TV 1"]) for r in table]
     assert remaining[0] == 500 and remaining[-1] == 490  # loaded every cycle until 15 ms
-    assert all(int(r["running"]) == 1 for r in table)
+    assert all(int(r["program running"]) == 1 for r in table)
 
 
 def test_signals_choose_lanes_in_their_order(counter: Path, tmp_path: Path):

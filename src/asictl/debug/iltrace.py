@@ -93,11 +93,13 @@ class ILTracer:
         clock: Callable[[], float],
         view: ProgramView,
         operands: Mapping[SourceLine, Operand] | None = None,
+        window: tuple[float, float | None] = (0.0, None),
     ) -> None:
         self.line_map = line_map
         self.clock = clock
         self.view = view
         self.operands = operands or {}
+        self.window = window
         self._lines = {PurePath(name).name: text.split("\n") for name, text in texts.items()}
         self.rows: list[LineRow] = []
         self.cycle = 0
@@ -126,10 +128,14 @@ class ILTracer:
         if line is None:
             return
         self._pending = None
+        now = self.clock()
+        start, end = self.window
+        if now < start or (end is not None and now > end):
+            return
         view = self.view
         operand = self.operands.get(line)
         self.rows.append(LineRow(
-            self.clock(), self.cycle, line, view.rlo, view.accu1, view.accu2,
+            now, self.cycle, line, view.rlo, view.accu1, view.accu2,
             None if operand is None else view.read(operand), self.source(line),
         ))
 

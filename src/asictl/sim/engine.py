@@ -57,7 +57,7 @@ _START_WAIT_MS = 1000.0
 _STATUS_BLOCKS = frozenset({"setpp", "getpp", "sendprm", "getpi", "getpcd", "getcdi",
                             "dataex", "address", "autoaddr", "command"})
 #: The name of the lane that shows whether the program runs.
-RUNNING = "running"
+RUNNING = "program running"
 
 
 @dataclass
@@ -212,7 +212,9 @@ class Simulation:
         for step in scenario.ordered():
             if step.at_ms <= self.end_ms:
                 self._by_time.setdefault(step.at_ms, []).append(step)
-        marks = {t for t in window if t is not None and 0 < t <= self.end_ms}
+        start, end = window  # the trace goes on at its start, off after the cycles at its end
+        marks = {t for t in (start, None if end is None else end + _BEFORE_MS)
+                 if t is not None and 0 < t <= self.end_ms}
         self._marks = marks
         #: step times and trace window edges, in order; the next one to come
         self._events = sorted({*self._by_time, *marks})
@@ -357,6 +359,9 @@ class Simulation:
             self._t0 = board.now_ms
             self._running = False
             self._stop(0.0)
+        end = self.window[1]
+        if end is not None and end <= 0:  # a window of time 0 alone: its cycle has run
+            self._trace_lines(False)
 
     @property
     def started(self) -> bool:
@@ -399,7 +404,7 @@ class Simulation:
         result.end_ms = self.end_ms
         result.refusals = sorted(self._refusals.values(), key=lambda r: r.at_ms)
         if self._signals:
-            marks = [Mark(f.at_ms, f"{f.operand} expected {f.expected}, got {f.got}",
+            marks = [Mark(f.at_ms, f"{f.written or f.operand} expected {f.expected}, got {f.got}",
                           str(f.operand)) for f in result.failures]
             marks += [Mark(s.at_ms, f"stopped: {s.text}", RUNNING) for s in result.stops]
             result.trace = Trace([s for s, _ in self._signals], end_ms=self.end_ms,
@@ -414,7 +419,7 @@ class Simulation:
         start, end = self.window
         if at == start:
             self._trace_lines(True)
-        if end is not None and at == end:
+        if end is not None and at == end + _BEFORE_MS:
             self._trace_lines(False)
 
     def advance(self, ms: float) -> None:
@@ -534,6 +539,7 @@ class Simulation:
                 runner, self.line_map, texts=source_texts(self.build),
                 clock=lambda: self.now_ms() if self._t0 is not None else 0.0,
                 view=ProgramView(runner, self.read), operands=line_operands(self.program),
+                window=self.window,
             )
         if on:
             self._tracer.hooks.install()
