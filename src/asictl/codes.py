@@ -6,7 +6,8 @@ in docs/assembler.md); a test holds the documentation and this registry together
 another that no stage reports a code that is not registered here.
 
 The hundreds are the stages: E1xx reading IL (syntax), E2xx checking it (semantics),
-E3xx compiling it, E4xx scenarios, E5xx the 8051 assembler, E6xx program images.
+E3xx compiling it, E4xx scenarios and symbol tables, E5xx the 8051 assembler, E6xx program
+images.
 Warnings (W) share their stage's hundred.
 """
 
@@ -63,7 +64,7 @@ class CompileCode(StrEnum):
 
 
 class ScenarioCode(StrEnum):
-    """Reading and running scenarios (``sim``)."""
+    """Reading and running scenarios (``sim``), and the symbol tables they use."""
 
     NOT_TOML = "E400"
     INVALID = "E401"

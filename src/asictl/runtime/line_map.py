@@ -126,7 +126,7 @@ class LineMap:
             if changed:
                 out.append(file_code)
             previous_start, previous_line, previous_file = start, line, file_code
-        out += _uleb(self.end - previous_start)
+        out += _uleb(self.end - previous_start if self.ranges else 0)
         return bytes(out)
 
     @classmethod
@@ -159,6 +159,8 @@ class LineMap:
 
 
 def _uleb(value: int) -> bytes:
+    if value < 0:
+        raise ValueError(f"a line map number is never negative: {value}")
     out = bytearray()
     while True:
         byte, value = value & 0x7F, value >> 7
