@@ -108,6 +108,7 @@ def sim(
     except Invalid as exc:
         click.echo(exc.text, nl=False, err=True)
         ctx.exit(int(ExitCode.USAGE))
+    click.echo(run.note, nl=False, err=True)
     trace = run.result.trace
     if trace is not None:
         shown = trace.window(start, end) if (start or end is not None) else trace

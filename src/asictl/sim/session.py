@@ -173,6 +173,8 @@ class Run:
     prepared: Prepared
     result: SimResult
     seconds: float
+    #: what the trace could not show, for standard error
+    note: str = ""
 
     @property
     def scenario(self) -> Scenario:
@@ -197,9 +199,9 @@ def simulate(
     except DiagnosticError as exc:
         raise _invalid(exc, {**prepared.build.texts, **_texts(Path(prepared.scenario.file))}) \
             from None
-    if simulation.untraced:
-        prepared.notes += f"asictl: note: {prepared.program}: {simulation.untraced}\n"
-    return Run(prepared, result, time.perf_counter() - start)
+    note = f"asictl: note: {prepared.program}: {simulation.untraced}\n" if simulation.untraced \
+        else ""
+    return Run(prepared, result, time.perf_counter() - start, note)
 
 
 def events(run: Run) -> list[str]:
@@ -284,7 +286,7 @@ def run_file(path: str, lib: tuple[str, ...] = ()) -> Outcome:
         )
     return Outcome(
         path, "PASS" if run.result.passed else "FAIL", summary(run), events(run),
-        prepared.notes, seconds=run.seconds, markers=list(prepared.scenario.markers),
+        prepared.notes + run.note, seconds=run.seconds, markers=list(prepared.scenario.markers),
         failures=[(f.line, str(f)) for f in run.result.failures],
     )
 
