@@ -49,6 +49,11 @@ def mbpoll_path() -> str:
     return require_tool("mbpoll", "mbpoll")
 
 
+@pytest.fixture(scope="session")
+def socat_path() -> str:
+    return require_tool("socat", "socat")
+
+
 @pytest.fixture
 def runner() -> CliRunner:
     """Runs ``asictl`` commands in process, with stdout and stderr kept apart."""

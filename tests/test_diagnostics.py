@@ -2,7 +2,17 @@
 
 from __future__ import annotations
 
-from asictl.diagnostics import Diagnostic, Severity, Span, render_github, render_text
+import json
+import re
+
+from asictl.diagnostics import (
+    Diagnostic,
+    Severity,
+    Span,
+    render_github,
+    render_json,
+    render_text,
+)
 from asictl.source import decode, from_bytes
 
 
@@ -34,3 +44,46 @@ def test_source_keeps_raw_bytes():
     source = from_bytes("x.asi", raw)
     assert source.raw == raw and source.text == "[PROGRAM]\n"
     assert source.line(1) == "[PROGRAM]" and source.line(5) == ""
+
+
+def test_related_locations_are_note_lines_with_their_excerpt():
+    first = Span("f.asi", 2, 1, 2)
+    d = Diagnostic(Severity.ERROR, "E210", "twice", Span("f.asi", 3, 1, 2),
+                   ((first, "first set up here"),))
+    text = render_text([d], {"f.asi": "[SETUP]\n16: 8h, 0\n16: 0h, 0\n"})
+    assert text.splitlines() == [
+        "f.asi:3:1: error: twice [E210]", "  16: 0h, 0", "  ^~",
+        "f.asi:2:1: note: first set up here", "  16: 8h, 0", "  ^~",
+    ]
+
+
+def test_related_locations_in_json_and_github():
+
+
+    d = Diagnostic(Severity.WARNING, "W203", "again", Span("f.asi", 3, 1),
+                   ((Span("f.asi", 2, 1), "first given here"),))
+    item = json.loads(render_json([d]))[0]
+    assert item["related"] == [{"file": "f.asi", "line": 2, "column": 1,
+                                "message": "first given here"}]
+    plain = Diagnostic(Severity.WARNING, "W1", "w", Span("f.asi", 1, 1))
+    assert "related" not in json.loads(render_json([plain]))[0]
+    assert render_github([d]).endswith("::again%0Anote: f.asi:2:1: first given here\n")
+
+
+def test_checks_attach_the_first_definition_as_related():
+    from asictl.il.checks import check_source
+    from asictl.source import from_string
+
+    text = "[SETUP]\n16: 8h, 0\n16: 0h, 0\n[PROGRAM]\nx: A I 1.0\nX: = Q 16.0\n"
+    result = check_source(from_string("d.asi", text))
+    related = {d.code: d.related for d in result.diagnostics}
+    assert related["E210"] == ((Span("d.asi", 2, 1, 9), "first set up here"),)
+    assert related["E205"] == ((Span("d.asi", 5, 1, 1), "first defined here"),)
+
+
+def test_colour_marks_location_severity_and_caret_and_nothing_else():
+    d = Diagnostic(Severity.ERROR, "E201", "bad", Span("f.asi", 1, 3, 2),
+                   related=((Span("f.asi", 1, 1), "see"),))
+    coloured = render_text([d], {"f.asi": "A I 32.0\n"}, colour=True)
+    assert "\x1b[1;31merror:\x1b[0m" in coloured and "\x1b[1;36mnote:\x1b[0m" in coloured
+    assert re.sub(r"\x1b\[[0-9;]*m", "", coloured) == render_text([d], {"f.asi": "A I 32.0\n"})

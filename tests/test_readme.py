@@ -25,3 +25,39 @@ def test_ci_runs_the_readme_test_command():
     test_command = readme_commands()[1]
     assert "pytest" in test_command
     assert test_command in (ROOT / ".ci" / "run").read_text().splitlines()
+
+
+def _yaml_blocks() -> list[str]:
+    return re.findall(r"```yaml\n(.*?)```", (ROOT / "README.md").read_text(), re.S)
+
+
+def test_the_pre_commit_recipe_names_the_hook():
+    (pre_commit,) = [b for b in _yaml_blocks() if "hooks:" in b]
+    hook = re.search(r"id: ([\w-]+)", pre_commit)
+    assert hook and f"- id: {hook.group(1)}" in (ROOT / ".pre-commit-hooks.yaml").read_text()
+
+
+def test_the_ci_recipe_is_ten_lines_and_its_commands_pass_on_the_demos(tmp_path):
+    """The workflow's asictl steps, run as CI would in a project holding the demos."""
+    import os
+    import shutil
+    import subprocess
+    import sys
+
+    (workflow,) = [b for b in _yaml_blocks() if "runs-on:" in b]
+    assert len(workflow.splitlines()) <= 10
+    commands = re.findall(r"- run: (asictl .*)", workflow)
+    assert [c.split()[1] for c in commands] == ["check", "test"]
+    project = tmp_path / "project"
+    shutil.copytree(ROOT / "demos", project)
+    for command in commands:
+        result = subprocess.run(
+            [sys.executable, "-m", *command.split()], cwd=project, capture_output=True,
+            text=True, env={**os.environ, "ASICTL_STATE_DIR": str(tmp_path / "state")},
+            timeout=600,
+        )
+        assert result.returncode == 0, (command, result.stdout, result.stderr)
+        assert "::error" not in result.stdout and "::warning" not in result.stdout
+    assert (project / "scenarios.xml").read_text().count("<testcase") == len(
+        list((ROOT / "demos").glob("*.scenario.toml"))
+    )

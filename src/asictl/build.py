@@ -22,8 +22,8 @@ from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field, replace
 from enum import StrEnum
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from asictl.codegen8051.compiler import GENERATED, Compiled, compile_program
 from asictl.codes import CompileCode, ImageCode
 from asictl.diagnostics import Diagnostic, DiagnosticError, Severity, Span, render_text
 from asictl.errors import ExitCode
@@ -42,6 +42,9 @@ from asictl.image import (
 )
 from asictl.platform.master import EEPROM_SIZE, Options
 from asictl.source import SourceText, from_bytes, read_source
+
+if TYPE_CHECKING:
+    from asictl.codegen8051.compiler import Compiled
 
 #: An Intel HEX record: colon, count, address, type, data, checksum.
 _HEX_RECORD = re.compile(r":(?:[0-9A-Fa-f]{2}){5,}")
@@ -82,9 +85,9 @@ class Build:
     def has_errors(self) -> bool:
         return any(d.is_error for d in self.diagnostics)
 
-    def render(self) -> str:
-        """The diagnostics as ``asictl check`` prints them."""
-        return render_text(self.diagnostics, self.texts)
+    def render(self, *, colour: bool = False) -> str:
+        """The diagnostics as ``asictl check`` prints them (``colour``: for a terminal)."""
+        return render_text(self.diagnostics, self.texts, colour=colour)
 
     def source_program(self) -> Program | None:
         """The IL program the image was compiled from, where it is known: a source file's
@@ -133,6 +136,9 @@ def build(
     Raises ``ImageError`` for an Intel HEX file that holds no valid image (unreadable
     input); everything else wrong with the program is in the diagnostics.
     """
+    # imported here, not above: ``check`` (what ``asictl check`` runs) needs no compiler
+    from asictl.codegen8051.compiler import GENERATED, compile_program
+
     report = on_stage or (lambda stage, built: None)
     built = check(source, lib=lib)
     report(Stage.CHECKED, built)
@@ -212,9 +218,13 @@ def program_of_image(image: ProgramImage) -> Program | None:
     sources = image.sources()
     if not sources:
         return None
-    texts = {name: from_bytes(name, raw) for name, raw in sources.items()}
+    texts = {Path(name).name.casefold(): from_bytes(name, raw) for name, raw in sources.items()}
     main = next(iter(texts.values()))
-    result = check_source(main, files=texts)
+    result = check_source(
+        main,
+        read=lambda path: texts[path.name.casefold()],
+        exists=lambda path: path.name.casefold() in texts,
+    )
     return None if result.has_errors else result.program
 
 

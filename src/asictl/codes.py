@@ -7,7 +7,7 @@ another that no stage reports a code that is not registered here.
 
 The hundreds are the stages: E1xx reading IL (syntax), E2xx checking it (semantics),
 E3xx compiling it, E4xx scenarios and symbol tables, E5xx the 8051 assembler, E6xx program
-images.
+images, W7xx analysing a checked program (wiring against [SETUP], data flow, reachability).
 Warnings (W) share their stage's hundred.
 """
 
@@ -53,6 +53,27 @@ class CheckCode(StrEnum):
     TIME_ROUNDED = "W202"
     DUPLICATE_OPTION = "W203"
     BUILTIN_DECLARED = "W204"
+
+
+class AnalysisCode(StrEnum):
+    """Analysing a program that checked clean (``il.wiring``, ``il.logic``, ``il.pragmas``).
+
+    W70x: the program against its wiring ([SETUP]); W71x: its logic and data flow;
+    W72x: asictl's own comment directives.
+    """
+
+    WRONG_DIRECTION = "W701"
+    SLAVE_NOT_PROJECTED = "W702"
+    NO_SLAVES = "W703"
+    SLAVE_COMMAND_NOT_PROJECTED = "W704"
+    ASSIGNED_TWICE = "W711"
+    SET_NEVER_READ = "W712"
+    READ_NEVER_SET = "W713"
+    FLAG_NEVER_WRITTEN = "W714"
+    UNREACHABLE = "W715"
+    LABEL_UNUSED = "W716"
+    BLOCK_UNUSED = "W717"
+    BAD_DIRECTIVE = "W721"
 
 
 class CompileCode(StrEnum):
@@ -156,11 +177,23 @@ TITLES: dict[str, str] = {
     "W502": "text after END",
     "E601": "invalid [RAW] image",
     "E602": "[OPTIONS] or [SETUP] do not match the [RAW] image",
+    "W701": "I/O operand against the slave's I/O code",
+    "W702": "slave not in [SETUP]",
+    "W703": "no slave in [SETUP]",
+    "W704": "parameter or command for a slave not in [SETUP]",
+    "W711": "bit assigned with '=' in two places",
+    "W712": "timer or counter set but never read",
+    "W713": "timer or counter read but never set",
+    "W714": "flag read but never written",
+    "W715": "unreachable code",
+    "W716": "label never jumped to",
+    "W717": "function block never called",
+    "W721": "invalid asictl directive",
 }
 
 #: The registry: every stage's codes.
 STAGES: tuple[type[StrEnum], ...] = (
-    SyntaxCode, CheckCode, CompileCode, ScenarioCode, AssemblerCode, ImageCode,
+    SyntaxCode, CheckCode, CompileCode, ScenarioCode, AssemblerCode, ImageCode, AnalysisCode,
 )
 
 

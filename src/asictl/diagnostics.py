@@ -32,18 +32,27 @@ class Severity(StrEnum):
     NOTE = "note"
 
 
+#: A further place a diagnostic points at, with what it is: "first defined here".
+Related = tuple[Span, str]
+
+
 @dataclass(frozen=True, slots=True)
 class Diagnostic:
+    """One finding. ``related`` names other places that explain it (the first definition
+    of a duplicate, the [SETUP] line of a slave); text output shows each as a ``note:``
+    line, editors as related information."""
+
     severity: Severity
     code: str
     message: str
     span: Span | None = None
+    related: tuple[Related, ...] = ()
 
     @property
     def is_error(self) -> bool:
         return self.severity is Severity.ERROR
 
-    def sort_key(self) -> tuple:
+    def sort_key(self) -> tuple[str, int, int]:
         s = self.span
         return (s.file, s.line, s.column) if s else ("", 0, 0)
 
@@ -54,11 +63,17 @@ class Reporter:
 
     diagnostics: list[Diagnostic] = field(default_factory=list)
 
-    def error(self, code: str, message: str, span: Span | None = None) -> None:
-        self.diagnostics.append(Diagnostic(Severity.ERROR, code, message, span))
+    def error(
+        self, code: str, message: str, span: Span | None = None, related: Iterable[Related] = ()
+    ) -> None:
+        self.diagnostics.append(Diagnostic(Severity.ERROR, code, message, span, tuple(related)))
 
-    def warning(self, code: str, message: str, span: Span | None = None) -> None:
-        self.diagnostics.append(Diagnostic(Severity.WARNING, code, message, span))
+    def warning(
+        self, code: str, message: str, span: Span | None = None, related: Iterable[Related] = ()
+    ) -> None:
+        self.diagnostics.append(
+            Diagnostic(Severity.WARNING, code, message, span, tuple(related))
+        )
 
     @property
     def has_errors(self) -> bool:
@@ -82,29 +97,64 @@ def format_line(d: Diagnostic) -> str:
     return f"{where}{d.severity.value}: {d.message} [{d.code}]"
 
 
-def render_text(diagnostics: Iterable[Diagnostic], sources: Mapping[str, str]) -> str:
-    """Render as a modern compiler does: location line, then source line and caret.
+#: ANSI colours of a terminal, as compilers use them: severity coloured, location bold.
+_SEVERITY_COLOUR = {Severity.ERROR: "\x1b[1;31m", Severity.WARNING: "\x1b[1;35m",
+                    Severity.NOTE: "\x1b[1;36m"}
+_BOLD, _CARET, _RESET = "\x1b[1m", "\x1b[1;32m", "\x1b[0m"
+
+
+def _headline(span: Span | None, severity: Severity, message: str, colour: bool) -> str:
+    where = f"{span}: " if span else ""
+    if not colour:
+        return f"{where}{severity.value}: {message}"
+    where = f"{_BOLD}{where}{_RESET}" if where else ""
+    return f"{where}{_SEVERITY_COLOUR[severity]}{severity.value}:{_RESET} {message}"
+
+
+def render_text(
+    diagnostics: Iterable[Diagnostic], sources: Mapping[str, str], *, colour: bool = False
+) -> str:
+    """Render as a modern compiler does: location line, then source line and caret, then
+    each related place as a ``note:`` the same way. ``colour`` adds ANSI colours (for a
+    terminal).
 
     ``sources`` maps file names to their decoded text; a file not in it gets no excerpt.
     """
     out: list[str] = []
+    lines_of: dict[str, list[str]] = {}
     for d in diagnostics:
-        out.append(format_line(d))
-        text = sources.get(d.span.file) if d.span else None
-        if text is None or d.span is None:
-            continue
-        lines = text.split("\n")
-        if not 0 < d.span.line <= len(lines):
-            continue
-        src = lines[d.span.line - 1].expandtabs(1).rstrip()
-        out.append(f"  {src}")
-        out.append("  " + " " * (d.span.column - 1) + "^" + "~" * max(0, d.span.length - 1))
+        out.append(_headline(d.span, d.severity, f"{d.message} [{d.code}]", colour))
+        out += _excerpt(d.span, sources, lines_of, colour)
+        for span, note in d.related:
+            out.append(_headline(span, Severity.NOTE, note, colour))
+            out += _excerpt(span, sources, lines_of, colour)
     return "\n".join(out) + ("\n" if out else "")
 
 
+def _excerpt(
+    span: Span | None, sources: Mapping[str, str], lines_of: dict[str, list[str]], colour: bool
+) -> list[str]:
+    """The source line of ``span`` and a caret under it (nothing if the text is unknown);
+    ``lines_of`` keeps each file's lines, split once however many diagnostics it has."""
+    if span is None or span.file not in sources:
+        return []
+    if span.file not in lines_of:
+        lines_of[span.file] = sources[span.file].split("\n")
+    lines = lines_of[span.file]
+    if not 0 < span.line <= len(lines):
+        return []
+    src = lines[span.line - 1].expandtabs(1).rstrip()
+    caret = "^" + "~" * max(0, span.length - 1)
+    if colour:
+        caret = f"{_CARET}{caret}{_RESET}"
+    return [f"  {src}", "  " + " " * (span.column - 1) + caret]
+
+
 def render_json(diagnostics: Iterable[Diagnostic]) -> str:
-    items = [
-        {
+    """A list of objects; ``related`` (file, line, column, message) only where there is one."""
+    items = []
+    for d in diagnostics:
+        item: dict[str, object] = {
             "file": d.span.file if d.span else None,
             "line": d.span.line if d.span else None,
             "column": d.span.column if d.span else None,
@@ -112,8 +162,12 @@ def render_json(diagnostics: Iterable[Diagnostic]) -> str:
             "code": d.code,
             "message": d.message,
         }
-        for d in diagnostics
-    ]
+        if d.related:
+            item["related"] = [
+                {"file": span.file, "line": span.line, "column": span.column, "message": note}
+                for span, note in d.related
+            ]
+        items.append(item)
     return json.dumps(items, indent=2) + "\n"
 
 
@@ -124,18 +178,27 @@ def _escape_github(value: str, *, property_value: bool = False) -> str:
     return value
 
 
+def github_command(
+    kind: str, message: str, *, file: str | None = None, line: int | None = None,
+    column: int | None = None, title: str | None = None,
+) -> str:
+    """One GitHub Actions workflow command (``::error file=...,line=...::message``)."""
+    props = [f"file={_escape_github(file, property_value=True)}"] if file else []
+    props += [f"line={line}"] if line is not None else []
+    props += [f"col={column}"] if column is not None else []
+    props += [f"title={_escape_github(title, property_value=True)}"] if title else []
+    return f"::{kind} {','.join(props)}::{_escape_github(message)}"
+
+
 def render_github(diagnostics: Iterable[Diagnostic]) -> str:
     """GitHub Actions workflow commands, so problems show up as annotations on the diff."""
     out = []
     for d in diagnostics:
         kind = "error" if d.is_error else "warning" if d.severity is Severity.WARNING else "notice"
-        props = []
-        if d.span:
-            props = [
-                f"file={_escape_github(d.span.file, property_value=True)}",
-                f"line={d.span.line}",
-                f"col={d.span.column}",
-            ]
-        props.append(f"title={_escape_github(d.code, property_value=True)}")
-        out.append(f"::{kind} {','.join(props)}::{_escape_github(d.message)}")
+        span = d.span
+        message = d.message + "".join(f"\nnote: {where}: {note}" for where, note in d.related)
+        out.append(github_command(
+            kind, message, file=span.file if span else None, line=span.line if span else None,
+            column=span.column if span else None, title=d.code,
+        ))
     return "\n".join(out) + ("\n" if out else "")

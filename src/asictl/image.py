@@ -24,7 +24,7 @@ import zlib
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import PurePath
-from typing import Protocol
+from typing import Any, Protocol
 
 from intelhex import IntelHex, IntelHexError
 
@@ -62,7 +62,8 @@ def image_length(header: bytes) -> int:
     of the EEPROM an upload reads and a reset loads."""
     if len(header) < HEADER_SIZE or header[: len(MAGIC)] != MAGIC:
         return 0
-    return _HEADER.unpack_from(header)[3]
+    length: int = _HEADER.unpack_from(header)[3]
+    return length
 
 # Image flags (header byte 5).
 SOURCE_INCLUDED = 0x01
@@ -246,8 +247,10 @@ class ProgramImage:
         data = bytes(data)
         if data[:4] != MAGIC[: len(data)]:
             raise ImageError(
-                f"not an AS-i Control II program image (it starts with {data[:4].hex(' ')}; "
-                f"an image starts with {MAGIC.hex(' ')}, '{MAGIC.decode()}')"
+                f"not a program image written by asictl (it starts with {data[:4].hex(' ')}; "
+                f"asictl's images start with {MAGIC.hex(' ')}, '{MAGIC.decode()}'): asictl "
+                "reads only the images it wrote itself, not those of other tools such as "
+                "the vendor's"
             )
         if len(data) > EEPROM_SIZE:
             raise ImageError(f"image is {len(data)} bytes; the EEPROM holds {EEPROM_SIZE}")
@@ -426,7 +429,7 @@ class _Reader:
         self.offset += n
         return chunk
 
-    def unpack(self, fmt: str) -> tuple:
+    def unpack(self, fmt: str) -> tuple[Any, ...]:
         return struct.unpack(fmt, self.take(struct.calcsize(fmt)))
 
     def u8(self) -> int:
@@ -436,10 +439,12 @@ class _Reader:
         return self.take(len(self.data) - self.offset)
 
     def u16(self) -> int:
-        return self.unpack("<H")[0]
+        value: int = self.unpack("<H")[0]
+        return value
 
     def u32(self) -> int:
-        return self.unpack("<I")[0]
+        value: int = self.unpack("<I")[0]
+        return value
 
     def name(self) -> str:
         raw = self.take(self.u8())
@@ -475,4 +480,5 @@ def _hex_bytes(text: str) -> bytes:
         )
     if len(addresses) > EEPROM_SIZE:
         raise ImageError(f"the Intel HEX holds {len(addresses)} bytes; the EEPROM {EEPROM_SIZE}")
-    return hex_image.tobinstr()
+    data: bytes = hex_image.tobinstr()
+    return data

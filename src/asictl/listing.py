@@ -2,7 +2,8 @@
 
 The listing answers "what did this IL line become, and what does it cost": every source
 line in order, each followed by the assembly generated for it with address, bytes and
-machine cycles, then where the program's data went. It is built from the generated
+machine cycles, then where the program's data went, then the cross-reference (which
+lines read and write each operand). It is built from the generated
 assembly's IL spans and the assembler's per-line listing, so it shows exactly the code
 in the image.
 """
@@ -13,6 +14,7 @@ from collections.abc import Iterator, Sequence
 
 from asictl import __version__
 from asictl.codegen8051.compiler import GENERATED, Compiled
+from asictl.crossref import LEGEND, entries, xref_text
 from asictl.image import HEADER_SIZE, ProgramImage
 from asictl.mcs51.assembly import ListingEntry
 from asictl.platform.master import EEPROM_SIZE
@@ -39,8 +41,20 @@ def listing_text(compiled: Compiled, image: ProgramImage) -> str:
         *_code_rows(compiled),
         "",
         *image_summary(image),
+        *cross_reference(compiled),
     ]
     return "\n".join(rows) + "\n"
+
+
+def cross_reference(compiled: Compiled) -> list[str]:
+    """The listing's last section: every operand with the lines that read and write it,
+    and each variable with its address."""
+    return [
+        ";",
+        "; ---- cross-reference",
+        f"; {LEGEND}",
+        *xref_text(entries(compiled.program, variables=compiled.pmap.variables), prefix="; "),
+    ]
 
 
 def raw_listing_text(name: str, image: ProgramImage) -> str:
@@ -74,9 +88,11 @@ def _code_rows(compiled: Compiled) -> Iterator[str]:
             i += 1
             continue
         end = i + 1
-        while end < len(entries) and spans[end] is not None and (
-            spans[end].file, spans[end].line
-        ) == (span.file, span.line):
+        while (
+            end < len(entries)
+            and (following := spans[end]) is not None
+            and (following.file, following.line) == (span.file, span.line)
+        ):
             end += 1
         group = entries[i:end]
         source = sources.get(span.file, [])

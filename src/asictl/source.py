@@ -31,6 +31,9 @@ class SourceText:
         return lines[number - 1] if 0 < number <= len(lines) else ""
 
 
+UTF8_BOM = "\ufeff"
+
+
 def decode(raw: bytes) -> str:
     """Decode 8-bit source text, normalising line ends and dropping a DOS end-of-file mark.
 
@@ -38,17 +41,53 @@ def decode(raw: bytes) -> str:
     bytes 80h..9Fh are control characters in Latin-1 but umlauts in CP850 (0x81 'ü',
     0x84 'ä', 0x94 'ö'), so their presence picks CP850.
     """
-    end = raw.find(CTRL_Z)
-    if end >= 0:
-        raw = raw[:end]
-    try:
-        text = raw.decode("utf-8")
-    except UnicodeDecodeError:
-        codec = "cp850" if any(0x80 <= b <= 0x9F for b in raw) else "latin-1"
-        text = raw.decode(codec)
-    if text.startswith("\ufeff"):
+    body = _body(raw)
+    text = body.decode(_codec(body))
+    if text.startswith(UTF8_BOM):
         text = text[1:]
     return text.replace("\r\n", "\n").replace("\r", "\n")
+
+
+def _body(raw: bytes) -> bytes:
+    """The bytes before the DOS end-of-file mark."""
+    end = raw.find(CTRL_Z)
+    return raw if end < 0 else raw[:end]
+
+
+def _codec(body: bytes) -> str:
+    try:
+        body.decode("utf-8")
+    except UnicodeDecodeError:
+        return "cp850" if any(0x80 <= b <= 0x9F for b in body) else "latin-1"
+    return "utf-8"
+
+
+@dataclass(frozen=True)
+class TextForm:
+    """How a file's bytes carry its text, so that a tool that rewrites the text (a
+    formatter) writes it back the way the engineer's tools wrote it."""
+
+    codec: str
+    bom: bool
+    #: the file's line end: the most frequent of CR LF, LF and a lone CR
+    newline: str
+    #: a DOS end-of-file mark and whatever follows it, kept byte for byte
+    tail: bytes
+
+    def encode(self, text: str) -> bytes:
+        """``text`` (with LF line ends, as ``decode`` gives it) in this form."""
+        body = (UTF8_BOM if self.bom else "") + text.replace("\n", self.newline)
+        return body.encode(self.codec) + self.tail
+
+
+def text_form(raw: bytes) -> TextForm:
+    body = _body(raw)
+    codec = _codec(body)
+    crlf = body.count(b"\r\n")
+    counts = {"\r\n": crlf, "\n": body.count(b"\n") - crlf, "\r": body.count(b"\r") - crlf}
+    newline = max(counts, key=lambda end: (counts[end], end == "\n"))
+    return TextForm(codec, codec == "utf-8" and body.startswith(UTF8_BOM.encode()), newline,
+                    raw[len(body):])
 
 
 def from_bytes(name: str, raw: bytes) -> SourceText:

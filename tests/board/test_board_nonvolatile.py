@@ -9,8 +9,9 @@ import pytest
 from board_host import Host
 
 from asictl.board.asi import AsiBus, BusError, Slave
-from asictl.board.board import NonvolatileError, Pc2Board
+from asictl.board.board import Pc2Board
 from asictl.board.execution import Phase
+from asictl.board.nonvolatile import NonvolatileError
 from asictl.platform import pc2 as d
 from asictl.platform.master import EEPROM_SIZE, ControlFlag
 from asictl.platform.pc2 import Command

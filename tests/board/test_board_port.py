@@ -10,6 +10,7 @@ from board_host import Host
 from asictl.board.asi import AsiBus, Slave
 from asictl.board.board import Pc2Board
 from asictl.board.execution import Phase
+from asictl.board.images import VERSION_ID
 from asictl.platform import pc2 as d
 
 
@@ -64,7 +65,7 @@ def test_power_up_dpram(board: Pc2Board):
     ram = board.dpram
     assert ram[d.ODI : d.ODI + 16] == b"\xff" * 16  # outputs 0, stored inverted
     assert ram[d.MASTER_NAME : d.MASTER_NAME + 4] == b"AS-i"
-    assert ram[d.VERSION_ID : d.VERSION_ID + 8] == b"PC2C2.00"
+    assert ram[d.VERSION_ID : d.VERSION_ID + 8] == VERSION_ID
     assert ram[d.CDI : d.CDI + 32] == b"\xff" * 32
     assert ram[d.PCD : d.PCD + 32] == b"\xff" * 32
     assert ram[d.PP : d.PP + 16] == b"\xff" * 16

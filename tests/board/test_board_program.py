@@ -7,6 +7,7 @@ from board_host import Host, compile_image
 
 from asictl.board.asi import Slave
 from asictl.board.board import Pc2Board
+from asictl.board.images import VERSION_ID
 from asictl.platform import pc2 as d
 from asictl.platform.master import ControlFlag
 from asictl.platform.pc2 import Command, ControlState, StopReason
@@ -235,7 +236,7 @@ def test_firmware_blocks_act_on_the_master(slaves, board, host: Host):
         L   PSeg 1
         T   FY 15
 """)
-    assert host.read(d.FLAGS + 10, 6) == bytes([0x00, 0b1010, 0x00, 0x00, ord("P"), 0x10])
+    assert host.read(d.FLAGS + 10, 6) == bytes([0x00, 0b1010, 0x00, 0x00, VERSION_ID[0], 0x10])
     assert board.execution.pp[3] == 0xA
     assert d.nibbles(host.read(d.PP, 16))[3] == 0xA
     assert board.nonvolatile()["pp"][2:4] == "af"

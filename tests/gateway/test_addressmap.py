@@ -165,11 +165,11 @@ def test_start_stop_register_is_the_control_flags_byte(gw, board):
 
 
 def test_key_lock_and_watchdog_letters(gw, board):
-    assert request(gw, 65, "BB", 1, 3)[2:18] == b"cBFE....DoA...wT"
+    assert request(gw, 65, "BB", 1, 3)[2:18] == b"cBFe....DoA...wT"
     write_holding(gw, 1007, 1)
     write_holding(gw, 1008, 50)
     assert read_holding(gw, 1007) == [1]
-    assert request(gw, 65, "BB", 1, 3)[2:18] == b"cBFE....DoA...Wt"
+    assert request(gw, 65, "BB", 1, 3)[2:18] == b"cBFe....DoA...Wt"
 
 
 def test_modbus_watchdog_sends_the_master_offline(gw, board, clock: FakeClock):

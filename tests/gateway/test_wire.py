@@ -17,9 +17,10 @@ import pytest
 from pymodbus.client import ModbusSerialClient, ModbusTcpClient
 
 from asictl.board.execution import Phase
-from asictl.gateway import pdus
+from asictl.board.images import VERSION_ID
 from asictl.gateway.server import SerialSettings, background_gateway, crc16
-from asictl.gateway.slave import GatewaySlave
+from asictl.gateway.slave import GATEWAY_NAME, GatewaySlave
+from asictl.host import gateway_pdus as pdus
 from asictl.host.driver import EmulatedPort, Pc2Driver
 from asictl.platform import pc2 as d
 from asictl.platform.master import EEPROM_SIZE
@@ -57,10 +58,21 @@ def test_tcp_documented_addresses(tcp, board):
     assert gateway.call(lambda: board.bus.outputs(6)) == 0xF
 
 
+def test_tcp_function_65_names_the_gateway_in_full(tcp):
+    """P = 1: the master name in 32 characters and a NUL (gateway manual 6.3.12)."""
+    client, _ = tcp
+    name = client.execute(False, pdus.MasterInfoRequest(pdus.INFO_NAME, dev_id=1))
+    assert name.text == GATEWAY_NAME
+    raw = pdus.MasterInfoResponse(GATEWAY_NAME, pdus.INFO_NAME).encode()  # B, D1 ... D33
+    assert raw[0] == 33 and raw[1 : 1 + len(GATEWAY_NAME)] == GATEWAY_NAME.encode("ascii")
+    version_id = client.execute(False, pdus.MasterInfoRequest(pdus.INFO_VERSION_ID, dev_id=1))
+    assert version_id.text == VERSION_ID.decode("ascii")
+
+
 def test_tcp_user_functions_share_the_eeprom_with_the_pc2_port(tcp, board):
     client, gateway = tcp
     info = client.execute(False, pdus.MasterInfoRequest(pdus.INFO_SOFTWARE, dev_id=1))
-    assert info.text == "cBFE....DoA...wT"
+    assert info.text == "cBFe....DoA...wT"  # e: no EMC test mode, as the master
     assert "VAG-MOD-KF-R4" in client.execute(False, pdus.MasterInfoRequest(1, dev_id=1)).text
     blocks = [bytes((16 * k + i) & 0xFF for i in range(16)) for k in range(4)]
     for k, block in enumerate(blocks):

@@ -10,6 +10,7 @@ import pytest
 from click.testing import CliRunner, Result
 
 from asictl.board.asi import Slave
+from asictl.board.images import VERSION_ID
 from asictl.cli import main
 from asictl.host import boards as state
 from asictl.host.boards import emulated_board
@@ -62,6 +63,14 @@ def test_download_then_status(run):
     assert "LPS  ...............................X" in text.stdout
     assert "config   no errors" in text.stdout and "display  blank" in text.stdout
     assert program["identity"] in text.stdout
+
+
+def test_status_shows_the_firmware_version_id(run):
+    """The eight digits at 0F0h that the manual's board check looks for (10.3.3)."""
+    fields = json.loads(run("status", "--json").stdout)
+    assert fields["version_id"] == VERSION_ID.decode("ascii")
+    assert len(fields["version_id"]) == 8 and fields["version_id"].isdigit()
+    assert f"  {fields['version_id']}  at 300h" in run("status").stdout
 
 
 def test_status_of_a_running_program_with_a_wrong_slave(run):

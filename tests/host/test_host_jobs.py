@@ -112,3 +112,55 @@ def test_port_failure_is_error_8383():
     job.request()
     assert job.error and job.status == 0x8383
     assert "Input/output error" in job.message
+
+
+@pytest.mark.parametrize(
+    ("status_byte", "expected"),
+    [
+        (Status.NO_SLAVE, 0x83A1),
+        (Status.SLAVE_ZERO_PRESENT, 0x83A2),
+        (Status.ADDRESS_OCCUPIED, 0x83A3),
+        (Status.CANNOT_PROGRAM_ZERO, 0x83A4),
+        (Status.CANNOT_SET_ADDRESS, 0x83A5),
+        (Status.CANNOT_STORE_ADDRESS, 0x83A6),
+        (Status.ERROR, 0x8384),
+    ],
+)
+def test_a_refused_address_change_reads_the_status_byte(status_byte: int, expected: int):
+    """The PC2 answers a failed command 20 with FFh and leaves the reason in ``data``."""
+
+    def refuse(board: ScriptedBoard) -> int:
+        board.dpram[DATA] = status_byte
+        return NAK
+
+    driver = driver_for(ScriptedBoard({Command.CHANGE_SLAVE_ADDRESS: refuse}))
+    with pytest.raises(JobError) as caught:
+        driver.command(Command.CHANGE_SLAVE_ADDRESS, data=7, address=3)
+    assert caught.value.status == expected
+    assert "3 -> 7" in str(caught.value)
+
+
+def test_the_emulated_board_refuses_an_address_change_with_83a1():
+    """The board's own command 20, not a script: no slave at the old address."""
+    from asictl.board.board import Pc2Board
+
+    board = Pc2Board()
+    board.advance(100)
+    driver = Pc2Driver(EmulatedPort(board))
+    with pytest.raises(JobError) as caught:
+        driver.command(Command.CHANGE_SLAVE_ADDRESS, data=10, address=9)
+    assert caught.value.status == JobStatus.NO_SLAVE == 0x83A1
+    assert "no slave at the old address" in str(caught.value)
+
+
+def test_protected_mode_refused_for_slave_zero_is_8385():
+    from asictl.board.asi import Slave
+    from asictl.board.board import Pc2Board
+
+    board = Pc2Board()
+    board.bus.attach(Slave(0, 0x7, 0xF))
+    board.advance(100)
+    driver = Pc2Driver(EmulatedPort(board))
+    with pytest.raises(JobError) as caught:
+        driver.command(Command.SET_OPERATION_MODE, data=0)
+    assert caught.value.status == JobStatus.SLAVE_ZERO == 0x8385

@@ -71,8 +71,9 @@ def test_two_processes_in_turn_see_the_same_board(tmp_path: Path):
 
 
 def hold_board(directory: str, name: str, log: str) -> None:
-    """In a process of its own: use the board for a while and note when."""
-    with emulated_board(0x300, Path(directory)) as board:
+    """In a process of its own: use the board for a while (waiting for it, as --wait
+    does) and note when."""
+    with emulated_board(0x300, Path(directory), wait=True) as board:
         began = time.monotonic()
         board.bus.attach(Slave(len(board.bus) + 1, io_code=0, id_code=0, name=name))
         time.sleep(0.15)

@@ -190,9 +190,9 @@ def test_protected_mode_refused_with_a_slave_zero(tmp_path: Path):
     board.bus.attach(Slave(0, io_code=0, id_code=0))
     transport = transport_for(board)
     board.advance(50)
-    with pytest.raises(JobError, match="slave has address 0") as caught:
+    with pytest.raises(JobError, match="slave with address 0 is present") as caught:
         download(transport, prepared(ROOT / "demos" / "blink.asi", transport))
-    assert caught.value.status is JobStatus.REFUSED
+    assert caught.value.status is JobStatus.SLAVE_ZERO
 
 
 class ForgetfulTransport(Pc2Transport):

@@ -6,6 +6,7 @@ The bars: a download over Modbus uploads identically over the PC2 port of the sa
 
 from __future__ import annotations
 
+import json
 import time
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -16,9 +17,14 @@ from click.testing import CliRunner
 from gateway_stub import stub_gateway
 
 from asictl.board.board import Pc2Board
+from asictl.board.images import VERSION_ID
 from asictl.build import build_file
 from asictl.cli import main
-from asictl.gateway.pdus import (
+from asictl.gateway.server import background_gateway
+from asictl.gateway.slave import GATEWAY_NAME, GatewaySlave
+from asictl.host.boards import emulated_board
+from asictl.host.driver import EmulatedPort, Pc2Driver
+from asictl.host.gateway_pdus import (
     INFO_SOFTWARE,
     DownloadRequest,
     DownloadResponse,
@@ -27,10 +33,6 @@ from asictl.gateway.pdus import (
     UploadRequest,
     UploadResponse,
 )
-from asictl.gateway.server import background_gateway
-from asictl.gateway.slave import GatewaySlave
-from asictl.host.boards import emulated_board
-from asictl.host.driver import EmulatedPort, Pc2Driver
 from asictl.host.jobs import JobError, JobStatus
 from asictl.host.modbus import open_modbus
 from asictl.host.target import parse_target
@@ -187,9 +189,9 @@ def test_bad_urls_are_refused(spec):
 
 
 def test_serial_and_tcp_targets():
-    target = parse_target("/dev/ttyUSB0", baud=19200, parity="even", stopbits=2)
+    target = parse_target("/dev/ttyUSB0", baud=19200, parity="even", stopbits=1)
     assert (target.device, target.baud, target.parity, target.stopbits) == (
-        "/dev/ttyUSB0", 19200, "even", 2,
+        "/dev/ttyUSB0", 19200, "E", 1,
     )
     assert parse_target("tcp://gw").port == 502
     assert parse_target("rtu+tcp://gw:4001").rtu
@@ -211,6 +213,15 @@ def test_cli_download_over_modbus_then_upload_over_the_pc2_port(tmp_path):
     assert out.read_text() == DEMO.read_text()
 
 
+def test_cli_status_over_modbus_names_the_gateway_in_full():
+    with serving(Pc2Board(), "gateway") as url:
+        status = CliRunner().invoke(main, ["status", "--modbus", url, "--json"])
+    assert status.exit_code == 0, status.output
+    fields = json.loads(status.stdout)
+    assert fields["master_name"].startswith(GATEWAY_NAME + " ")  # then the master's version
+    assert fields["version_id"] == VERSION_ID.decode("ascii")
+
+
 def test_cli_refuses_modbus_with_port_and_an_unreachable_gateway(tmp_path):
     runner = CliRunner()
     both = runner.invoke(main, ["stop", "--modbus", "tcp://127.0.0.1:1", "--port", "304h"])
@@ -218,3 +229,12 @@ def test_cli_refuses_modbus_with_port_and_an_unreachable_gateway(tmp_path):
     gone = runner.invoke(main, ["stop", "--modbus", "tcp://127.0.0.1:1", "--timeout", "0.1"])
     assert gone.exit_code == 1 and "Traceback" not in gone.output
     assert "127.0.0.1:1" in gone.output
+
+
+def test_a_url_without_port_says_it_tried_502():
+    gone = CliRunner().invoke(main, ["status", "--modbus", "tcp://127.0.0.1", "--timeout", "0.2"])
+    assert gone.exit_code == 1, gone.output
+    assert "cannot open the Modbus connection to tcp://127.0.0.1 (port 502, the Modbus/TCP " \
+        "default" in gone.stderr
+    given = CliRunner().invoke(main, ["status", "--modbus", "tcp://127.0.0.1:1"])
+    assert given.exit_code == 1 and "port 502" not in given.stderr

@@ -84,7 +84,10 @@ def test_undeclared_timer_and_counter_above_14():
 
 
 def test_declared_timer_and_counter_are_accepted():
-    src = "[DECL]\nT134 TIMER\nC27 COUNTER\n[PROGRAM]\n    A T 134\n    S C 27\n"
+    src = (
+        "[DECL]\nT134 TIMER\nC27 COUNTER\n[PROGRAM]\n    A T 134\n    S C 27\n***\n"
+        "    A C 27\n    S T 134\n"
+    )
     assert diags(src) == []
 
 

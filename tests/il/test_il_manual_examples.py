@@ -211,7 +211,9 @@ def test_language_reference_examples_read_clean() -> None:
     """The IL blocks of docs/language.md (fenced without a language) hold no syntax error;
     the ones without a title are [PROGRAM] lines."""
     doc = (ROOT / "docs" / "language.md").read_text(encoding="utf-8")
-    blocks = re.findall(r"^```\n(.*?)^```", doc, re.MULTILINE | re.DOTALL)
+    # each fenced block, opening fence with its language (a closing fence is no opening)
+    fenced = re.findall(r"^```(\w*)\n(.*?)^```\n", doc, re.MULTILINE | re.DOTALL)
+    blocks = [body for language, body in fenced if not language]
     assert len(blocks) >= 10
     for block in blocks:
         text = block if block.startswith("[") else "[PROGRAM]\n" + block

@@ -74,7 +74,11 @@ def test_e102_unexpected_end_of_line(line: str, error: tuple) -> None:
         ("[PROGRAM]\n    JU = BE\n", (2, 10, "E103", "expected a name after '=', found 'BE'")),
         ("[PROGRAM]\n    + G\n", (2, 7, "E103", "expected 'F' after '+', found 'G'")),
         ("[SETUP]\n16: ioio 1\n", (2, 5, "E103", "expected an I/O code (a number, or letters "
-                                                 "such as iiio) after '16:', found 'ioio'")),
+                                                 "such as iiio) after '16:', found 'ioio'; "
+                                                 "the I/O codes are iiii, iiio, iiib, iioo, "
+                                                 "iibb, iooo, ibbb, bbbb, oooo, oooi, ooob, "
+                                                 "ooii, oobb, oiii, obbb or a number 0..F "
+                                                 "(Fh: tristate)")),
         ("[SETUP]\nslave 16\n", (2, 1, "E103", "expected a slave such as '16: iiio, 1, Eh', "
                                                "found 'slave'")),
         ("[OPTIONS]\nauto_start: maybe\n", (2, 13, "E103", "expected yes or no after "
@@ -94,13 +98,29 @@ def test_e103_unexpected_word(text: str, error: tuple) -> None:
 @pytest.mark.parametrize(
     ("line", "error"),
     [
-        ("    Q 17.3 = I 4.0", (2, 5, "E104", "unknown instruction 'Q'")),
+        ("    Q 17.3 = I 4.0", (2, 5, "E104", "unknown instruction 'Q' (a gating line "
+                                              "belongs in a [GATING] section)")),
         ("    !x", (2, 5, "E104", "unknown instruction '!'")),
-        ("    MOV A,#1", (2, 5, "E104", "unknown instruction 'MOV' (a label is written "
-                                        "'MOV:')")),
+        ("    MOV A,#1", (2, 5, "E104", "unknown instruction 'MOV' (8051 assembler belongs "
+                                        "after ASM or in an [ASSEMBLY] section)")),
         ("end BE", (2, 1, "E104", "unknown instruction 'end' (a label is written 'end:')")),
+        ("    BEX", (2, 5, "E104", "unknown instruction 'BEX'; did you mean 'BE'?")),
+        ("    PARM", (2, 5, "E104", "unknown instruction 'PARM'; did you mean 'PARAM'?")),
+        ("    U E 1.0", (2, 5, "E104", "unknown instruction 'U' (STEP 5's German 'U' is 'A' "
+                                       "here: 'A I 1.0')")),
+        ("    UN M 3.1", (2, 5, "E104", "unknown instruction 'UN' (STEP 5's German 'UN' is "
+                                        "'AN' here: 'AN F 3.1')")),
+        ("    SPB = x", (2, 5, "E104", "unknown instruction 'SPB' (STEP 5's German 'SPB' is "
+                                       "'JC' here: 'JC = x')")),
+        ("    LD I 1.0", (2, 5, "E104", "unknown instruction 'LD' (IEC 61131-3's 'LD' is 'A' "
+                                        "here)")),
+        ("    AND I 1.0", (2, 5, "E104", "unknown instruction 'AND' (IEC 61131-3's 'AND' is "
+                                         "'A' here)")),
+        ("    ST Q 2.0", (2, 5, "E104", "unknown instruction 'ST' (IEC 61131-3's 'ST' is '=' "
+                                        "here)")),
     ],
-    ids=["mark", "sign", "name", "label-without-colon"],
+    ids=["mark", "sign", "assembler", "label-without-colon", "misspelt", "misspelt-long",
+         "step5-u", "step5-un-m", "step5-jump", "iec-ld", "iec-and", "iec-st"],
 )
 def test_e104_unknown_instruction(line: str, error: tuple) -> None:
     assert errors(f"[PROGRAM]\n{line}\n") == [error]
@@ -114,8 +134,9 @@ def test_e105_unknown_title_skips_its_section() -> None:
         "[PROGRAM]\n"
         "    A\n"
     ) == [
-        (1, 1, "E105", "unknown section title '[PROGRAMM]'; expected [OPTIONS], [SETUP], "
-                       "[DECL], [PROGRAM], [GATING], [ASSEMBLY], [RAW] or [END]"),
+        (1, 1, "E105", "unknown section title '[PROGRAMM]'; did you mean [PROGRAM]? (the "
+                       "titles: [OPTIONS], [SETUP], [DECL], [PROGRAM], [GATING], [ASSEMBLY], "
+                       "[RAW] or [END])"),
         (5, 6, "E102", "expected a bit operand (I, I2, Q, F, T, C or a variable) after 'A', "
                        "found end of line"),
     ]

@@ -254,7 +254,7 @@ def test_crc_error_message(blink_bytes: bytes):
 @settings(suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(st.integers(0, 443))
 def test_truncated_image_is_refused_clearly(blink_bytes: bytes, length: int):
-    with pytest.raises(ImageError, match=r"cut short|not an AS-i Control II program image"):
+    with pytest.raises(ImageError, match=r"cut short|not a program image written by asictl"):
         ProgramImage.from_bytes(blink_bytes[:length])
 
 
@@ -294,7 +294,7 @@ def test_other_version_and_foreign_data_messages(blink_bytes: bytes):
     newer[4] = 3
     with pytest.raises(ImageError, match="format version 3; this asictl reads versions 1, 2"):
         ProgramImage.from_bytes(with_fixed_crc(newer))
-    with pytest.raises(ImageError, match=r"starts with 3a 31 30 30; an image starts with"):
+    with pytest.raises(ImageError, match=r"starts with 3a 31 30 30; asictl's images start with"):
         ProgramImage.from_bytes(b":10000000")
     with pytest.raises(ImageError, match="extra bytes at the end"):
         ProgramImage.from_bytes(blink_bytes + b"\0")
@@ -368,7 +368,7 @@ def test_edited_uploaded_sections_are_refused(blink: Compiled):
 
 
 def test_broken_raw_records_name_the_section():
-    with pytest.raises(ImageError, match=r"^\[RAW\] section: not an AS-i Control II"):
+    with pytest.raises(ImageError, match=r"^\[RAW\] section: not a program image written by"):
         image_from_uploaded("[RAW]\n:0300000002003BC0\n:00000001FF\n")
 
 

@@ -2,11 +2,21 @@
 
 The board runs a pending command at its next firmware pass (the start of an AS-i cycle)
 and answers in the command byte with 00h (done) or FFh (refused); results go to ``data``
-(1F1h) or the program buffer (310h). This is the board's own code, split off for size.
+(1F1h) or the program buffer (310h). Each command is a function of the master's parts:
+the execution control for the AS-i master functions, AS-i Control and the EEPROM for the
+program, the DPRAM for parameters and results, and the images for what the master
+rewrites after a change. The board itself is needed for two things only (``Board``).
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from typing import Protocol
+
+from asictl.board.control import AsiControl
+from asictl.board.dpram import Dpram
+from asictl.board.execution import ExecutionControl
+from asictl.board.images import MasterImages
 from asictl.platform import pc2 as d
 from asictl.platform.master import EEPROM_SIZE, ControlFlag
 from asictl.platform.pc2 import Command, Status, nibbles
@@ -16,12 +26,64 @@ from asictl.runtime.layout import default_entry_points
 ENTRY_TABLE = b"".join(a.to_bytes(2, "little") for a in default_entry_points().values())
 
 
-class CommandsMixin:
-    """Command execution for ``Pc2Board`` (which supplies the attributes used here)."""
+class Board(Protocol):
+    """What command 50's reset bit needs of the board around the master."""
 
-    def _run_command(self, code: int) -> bool:
-        handler = _HANDLERS.get(code)
-        return bool(handler and handler(self))
+    def reload_program(self) -> bool:
+        """Load the program from the EEPROM again; False if there is no valid one."""
+        ...
+
+    def safe_outputs(self) -> None:
+        """Outputs 0 until the host writes the ODI again."""
+        ...
+
+
+class HostCommands:
+    """Runs the command codes the host writes to 1F0h."""
+
+    def __init__(
+        self,
+        board: Board,
+        dpram: Dpram,
+        execution: ExecutionControl,
+        control: AsiControl,
+        eeprom: bytearray,
+        images: MasterImages,
+    ) -> None:
+        self._board = board
+        self._dpram = dpram
+        self._ram = dpram.ram
+        self._ec = execution
+        self._control = control
+        self._eeprom = eeprom
+        self._images = images
+        self._handlers: dict[int, Callable[[], bool]] = {
+            Command.SET_PERMANENT_PARAMETER: self._set_permanent_parameter,
+            Command.WRITE_PARAMETER: self._write_parameter,
+            Command.STORE_ACTUAL_PARAMETER: self._store_actual_parameter,
+            Command.SET_PERMANENT_CONFIGURATION: self._set_permanent_configuration,
+            Command.STORE_ACTUAL_CONFIGURATION: self._store_actual_configuration,
+            Command.SET_LPS: self._set_lps,
+            Command.SET_OPERATION_MODE: self._set_operation_mode,
+            Command.CHANGE_SLAVE_ADDRESS: self._change_slave_address,
+            Command.EXECUTE_COMMAND: self._execute_command,
+            Command.WRITE_CONTROL_FLAGS: self._write_control_flags,
+            Command.GET_STATUS: self._get_status,
+            Command.DOWNLOAD: self._download,
+            Command.UPLOAD: self._upload,
+            Command.WRITE_COMM_MEMORY: self._write_comm_memory,
+            Command.READ_COMM_MEMORY: self._read_comm_memory,
+            Command.READ_CLEAR_LCS: self._read_clear_lcs,
+            Command.READ_CLEAR_ERROR_COUNTERS: self._read_clear_error_counters,
+            Command.SET_LOS: self._set_los,
+            Command.UPDATE_DPRAM: self._update_dpram,
+            Command.READ_TELEGRAM_COUNTERS: self._read_telegram_counters,
+        }
+
+    def run(self, code: int) -> bool:
+        """Run command ``code``; False if it is refused (unknown codes are)."""
+        handler = self._handlers.get(code)
+        return handler is not None and handler()
 
     # --- parameters and results -------------------------------------------------
 
@@ -32,24 +94,21 @@ class CommandsMixin:
         return self._ram[d.ADDRESS]
 
     def _block(self, limit: int) -> range | None:
-        """Command 52/53/54/56's block: ``data`` bytes from ``address``; None if invalid."""
+        """Command 52/53's block: ``data`` bytes from ``address``; None if invalid."""
         size = self._ram[d.DATA]
         start = self._ram[d.ADDRESS] | self._ram[d.ADDRESS_EXT] << 8
         if not 1 <= size <= d.PROGRAM_BUFFER_SIZE or start + size > limit:
             return None
         return range(start, start + size)
 
-    def _buffer(self, size: int) -> slice:
-        return slice(d.PROGRAM_BUFFER, d.PROGRAM_BUFFER + size)
-
     def _image(self, address: int, size: int) -> bytes:
-        return bytes(self._ram[address : address + size])
+        return self._dpram.image(address, size)
 
     # --- AS-i master ------------------------------------------------------------
 
     def _set_permanent_parameter(self) -> bool:
         self._ec.set_permanent_parameters(nibbles(self._image(d.PP, d.IMAGE_SIZE)))
-        self._write_settings()
+        self._images.write_settings()
         return True
 
     def _write_parameter(self) -> bool:
@@ -57,7 +116,7 @@ class CommandsMixin:
         if address >= 32:
             return False
         answer = self._ec.write_parameter(address, self._param_data())
-        self._write_settings()
+        self._images.write_settings()
         if answer is None:
             return False
         self._ram[d.DATA] = answer
@@ -65,23 +124,23 @@ class CommandsMixin:
 
     def _store_actual_parameter(self) -> bool:
         self._ec.store_actual_parameters()
-        self._write_settings()
+        self._images.write_settings()
         return True
 
     def _set_permanent_configuration(self) -> bool:
         done = self._ec.set_permanent_configuration(self._image(d.PCD, d.CONFIG_SIZE))
-        self._write_settings()
+        self._images.write_settings()
         return done
 
     def _store_actual_configuration(self) -> bool:
         done = self._ec.store_actual_configuration()
-        self._write_settings()
+        self._images.write_settings()
         return done
 
     def _set_lps(self) -> bool:
         lps = int.from_bytes(self._image(d.LPS, d.LIST_SIZE), "little")
         done = self._ec.set_lps(lps)
-        self._write_settings()
+        self._images.write_settings()
         return done
 
     def _set_operation_mode(self) -> bool:
@@ -102,27 +161,27 @@ class CommandsMixin:
 
     # --- AS-i Control -------------------------------------------------------------
 
-    def _write_control_flags_command(self) -> bool:
+    def _write_control_flags(self) -> bool:
         value = self._ram[d.CONTROL_FLAGS]
         self._control.write_flags(value)
         loaded = True
         if value & ControlFlag.RESET:
-            loaded = self._load_program()
-            self._safe_outputs()
-        self._write_control_flags()
-        self._write_status()
+            loaded = self._board.reload_program()
+            self._board.safe_outputs()
+        self._images.write_control_flags()
+        self._images.write_status()
         return loaded
 
     def _get_status(self) -> bool:
-        self._write_control_flags()
-        self._write_cycle_times()
+        self._images.write_control_flags()
+        self._images.write_cycle_times()
         return True
 
     def _download(self) -> bool:
         block = self._block(EEPROM_SIZE)
         if block is None:
             return False
-        self._eeprom[block.start : block.stop] = self._ram[self._buffer(len(block))]
+        self._eeprom[block.start : block.stop] = self._image(d.PROGRAM_BUFFER, len(block))
         return True
 
     def _upload(self) -> bool:
@@ -135,7 +194,7 @@ class CommandsMixin:
             source, offset = bytes(self._eeprom), 0
         if block is None:
             return False
-        self._put(d.PROGRAM_BUFFER, source[block.start - offset : block.stop - offset])
+        self._dpram.put(d.PROGRAM_BUFFER, source[block.start - offset : block.stop - offset])
         return True
 
     def _comm_block(self) -> range | None:
@@ -149,66 +208,45 @@ class CommandsMixin:
         block = self._comm_block()
         if block is None:
             return False
-        self._put(block.start, self._image(d.PROGRAM_BUFFER, len(block)))
+        self._dpram.put(block.start, self._image(d.PROGRAM_BUFFER, len(block)))
         return True
 
     def _read_comm_memory(self) -> bool:
         block = self._comm_block()
         if block is None:
             return False
-        self._put(d.PROGRAM_BUFFER, self._image(block.start, len(block)))
+        self._dpram.put(d.PROGRAM_BUFFER, self._image(block.start, len(block)))
         return True
 
     # --- diagnostics --------------------------------------------------------------
 
     def _read_clear_lcs(self) -> bool:
-        self._put(d.PROGRAM_BUFFER, self._ec.read_clear_lcs().to_bytes(4, "little"))
+        self._dpram.put(d.PROGRAM_BUFFER, self._ec.read_clear_lcs().to_bytes(4, "little"))
         return True
 
     def _read_clear_error_counters(self) -> bool:
-        self._put(d.PROGRAM_BUFFER, self._ec.read_clear_error_counters())
+        self._dpram.put(d.PROGRAM_BUFFER, self._ec.read_clear_error_counters())
         return True
 
     def _set_los(self) -> bool:
         self._ec.set_los(int.from_bytes(self._image(d.LOS, d.LIST_SIZE), "little"))
-        self._write_settings()
+        self._images.write_settings()
         return True
 
     def _update_dpram(self) -> bool:
         """128: everything the master owns written again (not the watchdog, not the ODI)."""
-        self._write_identity()
-        self._put(d.CONFIG_OK_DELAY, bytes([self._ec.config_ok_delay]))
-        self._write_lists()
-        self._write_settings()
-        self._write_control_flags()
-        self._write_cycle_times()
+        images = self._images
+        images.write_identity()
+        images.write_config_ok_delay()
+        images.write_lists()
+        images.write_settings()
+        images.write_control_flags()
+        images.write_cycle_times()
         return True
 
     def _read_telegram_counters(self) -> bool:
         counts = self._ec.read_clear_telegram_counters()
-        self._put(d.PROGRAM_BUFFER, b"".join(min(n, 0xFFFF).to_bytes(2, "little") for n in counts))
+        self._dpram.put(
+            d.PROGRAM_BUFFER, b"".join(min(n, 0xFFFF).to_bytes(2, "little") for n in counts)
+        )
         return True
-
-
-_HANDLERS = {
-    Command.SET_PERMANENT_PARAMETER: CommandsMixin._set_permanent_parameter,
-    Command.WRITE_PARAMETER: CommandsMixin._write_parameter,
-    Command.STORE_ACTUAL_PARAMETER: CommandsMixin._store_actual_parameter,
-    Command.SET_PERMANENT_CONFIGURATION: CommandsMixin._set_permanent_configuration,
-    Command.STORE_ACTUAL_CONFIGURATION: CommandsMixin._store_actual_configuration,
-    Command.SET_LPS: CommandsMixin._set_lps,
-    Command.SET_OPERATION_MODE: CommandsMixin._set_operation_mode,
-    Command.CHANGE_SLAVE_ADDRESS: CommandsMixin._change_slave_address,
-    Command.EXECUTE_COMMAND: CommandsMixin._execute_command,
-    Command.WRITE_CONTROL_FLAGS: CommandsMixin._write_control_flags_command,
-    Command.GET_STATUS: CommandsMixin._get_status,
-    Command.DOWNLOAD: CommandsMixin._download,
-    Command.UPLOAD: CommandsMixin._upload,
-    Command.WRITE_COMM_MEMORY: CommandsMixin._write_comm_memory,
-    Command.READ_COMM_MEMORY: CommandsMixin._read_comm_memory,
-    Command.READ_CLEAR_LCS: CommandsMixin._read_clear_lcs,
-    Command.READ_CLEAR_ERROR_COUNTERS: CommandsMixin._read_clear_error_counters,
-    Command.SET_LOS: CommandsMixin._set_los,
-    Command.UPDATE_DPRAM: CommandsMixin._update_dpram,
-    Command.READ_TELEGRAM_COUNTERS: CommandsMixin._read_telegram_counters,
-}

@@ -109,7 +109,7 @@ class ExecutionControl:
         self._active: list[tuple[int, Slave]] = []
         self._by_address: dict[int, Slave] = {}
         self._sent: bytes | None = None
-        self._shown: tuple = ()
+        self._shown: tuple[int, int, int, bytes] | None = None
 
     # ------------------------------------------------------------------ views
 
@@ -284,7 +284,7 @@ class ExecutionControl:
         self._sent = None
         self.idi[:] = bytes(16)
 
-    def _visible(self) -> tuple:
+    def _visible(self) -> tuple[int, int, int, bytes]:
         return (self.ec_flags, self.lds, self.las, bytes(self.cdi))
 
     # ------------------------------------------------------------------ data exchange
@@ -353,7 +353,7 @@ class ExecutionControl:
 
     # ------------------------------------------------------------------ host functions
 
-    def set_permanent_parameters(self, pp: bytes) -> None:
+    def set_permanent_parameters(self, pp: bytes | bytearray) -> None:
         if bytes(pp) != bytes(self.pp):
             self.pp[:] = (p & 0xF for p in pp)
             self.settings_generation += 1

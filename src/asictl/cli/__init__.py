@@ -10,6 +10,7 @@ from __future__ import annotations
 import importlib
 import os
 import sys
+from typing import Any
 
 import click
 
@@ -22,6 +23,11 @@ COMMANDS: dict[str, tuple[str, str]] = {
         "asictl.cli.compile:compile_", "Compile an IL program into an image for the master."
     ),
     "check": ("asictl.cli.check:check", "Check IL source files for errors (for CI and editors)."),
+    "xref": (
+        "asictl.cli.xref:xref", "Cross-reference: where each operand is read and written."
+    ),
+    "fmt": ("asictl.cli.fmt:fmt", "Lay out IL source files canonically (--check for CI)."),
+    "lsp": ("asictl.cli.lsp:lsp", "Run the IL language server for editors (stdio)."),
     "asm": ("asictl.cli.asm:asm", "Assemble 8051 source into Intel HEX."),
     "disasm": ("asictl.cli.asm:disasm", "Disassemble an Intel HEX image into 8051 source."),
     "emu": ("asictl.cli.emu:emu", "Run an Intel HEX image on the 8051 emulator."),
@@ -34,12 +40,36 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "reset": (
         "asictl.cli.master:reset_command", "Reload the master's program from its EEPROM."
     ),
-    "status": ("asictl.cli.master:status_command", "Show the master's state (like ASI_MON)."),
+    "status": (
+        "asictl.cli.master:status_command",
+        "Show the master's state: slaves' data, lists, flags, timers (ASI_MON's screens).",
+    ),
     "sim": ("asictl.cli.sim:sim", "Run a program on an emulated master against a scenario."),
     "gateway": (
         "asictl.cli.gateway:gateway", "Serve the emulated AS-i/Modbus gateway (Modbus TCP/RTU)."
     ),
     "test": ("asictl.cli.sim:test", "Run every *.scenario.toml and report N passed, M failed."),
+    "serve": (
+        "asictl.cli.live:serve", "Keep an emulated board running in real time (a live board)."
+    ),
+    "bus": ("asictl.cli.live:bus", "The emulated AS-i cable: show, plug, unplug, match, inputs."),
+    "slave": (
+        "asictl.cli.commission:slave", "Change a slave's address, write its parameter, send "
+        "it an AS-i command."
+    ),
+    "mode": ("asictl.cli.commission:mode", "Show or switch protected/configuration mode."),
+    "store": (
+        "asictl.cli.commission:store", "Store the actual configuration or parameters (F6/F5)."
+    ),
+    "setup": (
+        "asictl.cli.commission:setup", "Write a program's [SETUP] as the projected configuration."
+    ),
+    "diag": (
+        "asictl.cli.commission:diag", "Read and clear LCS, error and telegram counters; the LOS."
+    ),
+    "write": ("asictl.cli.commission:write", "Write flags (F 10.0=1, FY 10=0x12) and outputs."),
+    "verify": ("asictl.cli.verify:verify", "Compare a program with the one the master runs."),
+    "monitor": ("asictl.cli.monitor:monitor", "A live full-screen view of the master (ASI_MON)."),
     "debug": ("asictl.cli.debug:debug", "Debug a program at the IL level on an emulated master."),
 }
 
@@ -50,19 +80,32 @@ class LazyGroup(click.Group):
     def list_commands(self, ctx: click.Context) -> list[str]:
         return sorted(COMMANDS)
 
+    def resolve_command(
+        self, ctx: click.Context, args: list[str]
+    ) -> tuple[str | None, click.Command | None, list[str]]:
+        """Click's own resolution; an unknown command names the closest known one."""
+        try:
+            return super().resolve_command(ctx, args)
+        except click.exceptions.NoSuchCommand as exc:
+            raise click.exceptions.NoSuchCommand(
+                exc.command_name, possibilities=COMMANDS, ctx=ctx
+            ) from None
+
     def get_command(self, ctx: click.Context, cmd_name: str) -> click.Command | None:
         entry = COMMANDS.get(cmd_name)
         if entry is None:
             return None
         module_name, _, attr = entry[0].partition(":")
-        return getattr(importlib.import_module(module_name), attr)
+        command = getattr(importlib.import_module(module_name), attr)
+        assert isinstance(command, click.Command), entry[0]
+        return command
 
     def format_commands(self, ctx: click.Context, formatter: click.HelpFormatter) -> None:
         rows = [(name, COMMANDS[name][1]) for name in self.list_commands(ctx)]
         with formatter.section("Commands"):
             formatter.write_dl(rows)
 
-    def invoke(self, ctx: click.Context):
+    def invoke(self, ctx: click.Context) -> Any:  # what the command returns, as click types it
         try:
             return super().invoke(ctx)
         except UserError as exc:

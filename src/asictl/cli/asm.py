@@ -8,6 +8,7 @@ from pathlib import Path
 import click
 from intelhex import IntelHex, IntelHexError
 
+from asictl.cli.hex_images import code_hex, describe, program_image
 from asictl.diagnostics import DiagnosticError, render_text
 from asictl.errors import ExitCode, UserError
 from asictl.files import write_atomic
@@ -67,6 +68,11 @@ def disasm(image: str, output: str | None) -> None:
     become DB, and jump targets get labels. Every byte is decoded as code; tables in
     the image show up as (harmless, exact) instructions.
 
+    An image written by 'asictl compile' (an asictl program image) is recognised: its
+    code is disassembled at its link address, after its program map as comments; the
+    header, program map and source are data and are left out, so the source reassembles
+    to the image's code.
+
     Exit status: 0 done, 2 bad usage or an unreadable or malformed HEX file.
     """
     try:
@@ -77,7 +83,11 @@ def disasm(image: str, output: str | None) -> None:
         raise UserError(f"{image}: not a valid Intel HEX file: {exc}") from None
     if hex_image.maxaddr() is not None and hex_image.maxaddr() > 0xFFFF:
         raise UserError(f"{image}: has bytes above FFFFh, outside the 8051 code space")
-    text = disassemble(hex_image)
+    program = program_image(hex_image, image)
+    if program is None:
+        text = disassemble(hex_image)
+    else:
+        text = "\n".join(describe(image, program)) + "\n\n" + disassemble(code_hex(program))
     if output:
         write_atomic(output, text)
     else:

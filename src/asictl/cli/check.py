@@ -2,29 +2,86 @@
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import click
 
+from asictl.build import Build
 from asictl.build import check as check_program_file
+from asictl.cli.discovery import BLOCK_SUFFIX, PROGRAM_SUFFIX, expand
+from asictl.cli.terminal import stderr_colour
 from asictl.diagnostics import Diagnostic, Severity, render_github, render_json, render_text
 from asictl.errors import ExitCode, UserError
 from asictl.il.checks import Dialect
 from asictl.source import read_source
 
 
-def _expand(paths: tuple[str, ...]) -> list[str]:
-    """Files as given; a directory stands for every ``*.asi`` below it."""
-    files: list[str] = []
+class _Checker:
+    """Checks each file once: a function-block file's callers are found by checking the
+    programs beside it, which may be named on the command line as well."""
+
+    def __init__(self, dialect: Dialect, lib: tuple[str, ...]) -> None:
+        self.dialect = dialect
+        self.lib = lib
+        #: path -> its check, or why it could not be checked
+        self.results: dict[str, Build | str] = {}
+
+    def result(self, path: str) -> Build | str:
+        if path not in self.results:
+            self.results[path] = self._check(path)
+        return self.results[path]
+
+    def _check(self, path: str) -> Build | str:
+        try:
+            source = read_source(path)
+        except UserError as exc:
+            return str(exc)
+        try:
+            return check_program_file(source, dialect=self.dialect, lib=self.lib)
+        except UserError as exc:  # an Intel HEX file that holds no valid image
+            return f"{source.name}: {exc}"
+
+    def callers(self, block: Path) -> list[str]:
+        """The programs beside a function-block file that call it (and so read it)."""
+        programs = sorted(
+            p for p in block.parent.iterdir()
+            if p.is_file() and p.name.lower().endswith(PROGRAM_SUFFIX)
+        )
+        return [
+            str(p) for p in programs
+            if isinstance(built := self.result(str(p)), Build) and _reads(built, block)
+        ]
+
+
+def _reads(built: Build, block: Path) -> bool:
+    for name in built.texts:
+        try:
+            if os.path.samefile(name, block):
+                return True
+        except OSError:
+            continue
+    return False
+
+
+def _targets(paths: list[str], checker: _Checker, *, quiet: bool) -> list[str]:
+    """The files to check: a function-block file stands for the programs beside it that
+    call it (its errors are what they see of it), else for itself."""
+    targets: list[str] = []
     for path in paths:
-        if path != "-" and Path(path).is_dir():
-            found = sorted(str(p) for p in Path(path).rglob("*") if p.suffix.lower() == ".asi")
-            if not found:
-                raise UserError(f"{path}: no .asi files in this directory")
-            files.extend(found)
-        else:
-            files.append(path)
-    return files
+        if path.lower().endswith(BLOCK_SUFFIX) and Path(path).is_file():
+            callers = checker.callers(Path(path))
+            if callers:
+                if not quiet:
+                    click.echo(
+                        f"asictl: note: {path}: checked through the programs that call it: "
+                        + ", ".join(callers),
+                        err=True,
+                    )
+                targets.extend(callers)
+                continue
+        targets.append(path)
+    return list(dict.fromkeys(targets))
 
 
 def _summary(files: int, diagnostics: list[Diagnostic], unreadable: int) -> str:
@@ -41,7 +98,7 @@ def _summary(files: int, diagnostics: list[Diagnostic], unreadable: int) -> str:
 
 
 @click.command()
-@click.argument("files", nargs=-1, required=True, metavar="FILE...")
+@click.argument("files", nargs=-1, metavar="[FILE|DIR]...")
 @click.option(
     "--format", "fmt", type=click.Choice(["text", "json", "github"]), default="text",
     show_default=True,
@@ -57,12 +114,22 @@ def _summary(files: int, diagnostics: list[Diagnostic], unreadable: int) -> str:
     "--lib", "lib", multiple=True, type=click.Path(file_okay=False),
     help="Also look for function-block files here (repeatable; also $ASICTL_LIB).",
 )
+@click.option(
+    "--exclude", multiple=True, metavar="GLOB",
+    help="Leave out files and folders matching GLOB (by path or name; repeatable), e.g. "
+    "--exclude 'old' --exclude '*_draft.asi'.",
+)
 @click.option("-q", "--quiet", is_flag=True, help="No summary line.")
 def check(
     files: tuple[str, ...], fmt: str, werror: bool, dialect: str, lib: tuple[str, ...],
-    quiet: bool,
+    exclude: tuple[str, ...], quiet: bool,
 ) -> None:
-    """Check IL source files (FILE... or - for stdin; a directory means its *.asi files).
+    """Check IL source files: FILE... (- for stdin), a folder (its *.asi files), or without
+    arguments the *.asi files in and below the current folder.
+
+    Folders whose name starts with a dot (.git, .venv...), build, dist, __pycache__ and
+    node_modules are not searched. A function-block file (.fb) is checked through the
+    programs beside it that call it, or on its own when none does.
 
     Reads each main program and the function-block files it calls, and reports every
     syntax and semantic problem as file:line:col: error|warning: message [code].
@@ -74,18 +141,12 @@ def check(
     diagnostics: list[Diagnostic] = []
     sources: dict[str, str] = {}
     unreadable = 0
-    paths = _expand(files)
+    checker = _Checker(Dialect(dialect), lib)
+    paths = _targets(expand(files or (".",), exclude), checker, quiet=quiet)
     for path in paths:
-        try:
-            source = read_source(path)
-        except UserError as exc:
-            click.echo(f"asictl: error: {exc}", err=True)
-            unreadable += 1
-            continue
-        try:
-            result = check_program_file(source, dialect=Dialect(dialect), lib=lib)
-        except UserError as exc:  # an Intel HEX file that holds no valid image
-            click.echo(f"asictl: error: {source.name}: {exc}", err=True)
+        result = checker.result(path)
+        if isinstance(result, str):
+            click.echo(f"asictl: error: {result}", err=True)
             unreadable += 1
             continue
         diagnostics.extend(result.diagnostics)
@@ -96,7 +157,7 @@ def check(
     elif fmt == "github":
         click.echo(render_github(diagnostics), nl=False)
     else:
-        click.echo(render_text(diagnostics, sources), nl=False, err=True)
+        click.echo(render_text(diagnostics, sources, colour=stderr_colour()), nl=False, err=True)
     if not quiet:
         click.echo(_summary(len(paths), diagnostics, unreadable), err=True)
 

@@ -14,6 +14,7 @@ from pathlib import Path
 import click
 
 from asictl.build import Build, Origin, Stage, build_file
+from asictl.cli.terminal import stderr_colour
 from asictl.diagnostics import Diagnostic, Severity
 from asictl.errors import ExitCode, UserError
 from asictl.files import write_atomic
@@ -147,7 +148,7 @@ def compile_(
             log.step("image built")
 
     built = build_file(source, lib=lib, with_source=not no_source, on_stage=on_stage)
-    click.echo(built.render(), nl=False, err=True)
+    click.echo(built.render(colour=stderr_colour()), nl=False, err=True)
     image = built.image
     if built.has_errors or image is None:
         ctx.exit(int(ExitCode.FAILED))

@@ -7,20 +7,26 @@ import json
 import click
 from intelhex import IntelHex, IntelHexError
 
+from asictl.cli.hex_images import describe, program_image
 from asictl.errors import ExitCode, UserError
+from asictl.image import ProgramImage
 from asictl.mcs51.disassembler import decode, format_instruction
 from asictl.mcs51.emulator import Emulator, StopReason
+from asictl.runtime import layout
+from asictl.runtime.runner import ProgramRunner
 
 #: Safety net for programs that never reach --until (or when it is not given).
 DEFAULT_MAX_INSTRUCTIONS = 100_000_000
 
 
-class Address(click.ParamType):
+class Address(click.ParamType[int]):
     """A code address as 8051 people write it: 0x100, 100h or 256."""
 
     name = "ADDR"
 
-    def convert(self, value, param, ctx) -> int:
+    def convert(
+        self, value: int | str, param: click.Parameter | None, ctx: click.Context | None
+    ) -> int:
         if isinstance(value, int):
             return value
         text = value.strip().lower()
@@ -57,7 +63,7 @@ def _trace(emu: Emulator, address: int) -> None:
     )
 
 
-def final_state(emu: Emulator, stopped: StopReason) -> dict:
+def final_state(emu: Emulator, stopped: StopReason) -> dict[str, int | str | list[int]]:
     return {
         "pc": emu.pc,
         "a": emu.a,
@@ -73,9 +79,30 @@ def final_state(emu: Emulator, stopped: StopReason) -> dict:
     }
 
 
+def _program_cycle(name: str, image: ProgramImage, start: int | None) -> Emulator:
+    """An emulator set up to run one cycle of an asictl image's program, as the firmware
+    calls it: the code at its link address, firmware blocks that return at once, the
+    final RET ending the run; inputs, flags and data are 0."""
+    runner = ProgramRunner(image.loaded_program())
+    runner.enter()
+    if start is not None:
+        runner.cpu.pc = start
+    for line in describe(name, image):
+        click.echo(line, err=True)
+    click.echo(
+        f"asictl: running one program cycle from {runner.cpu.pc:04X}h; it ends at the "
+        f"return to {layout.CYCLE_END:04X}h ('stopped by trap')",
+        err=True,
+    )
+    return runner.cpu
+
+
 @click.command()
 @click.argument("image", metavar="FILE.hex")
-@click.option("--start", type=Address(), default=0, help="Address to start at [default: 0].")
+@click.option(
+    "--start", type=Address(),
+    help="Address to start at [default: 0; for an asictl program image its code base].",
+)
 @click.option(
     "--until",
     type=Address(),
@@ -92,7 +119,9 @@ def final_state(emu: Emulator, stopped: StopReason) -> dict:
 @click.option(
     "--trace", is_flag=True, help="Print every instruction executed, with registers, to stderr."
 )
-def emu(image: str, start: int, until: int | None, max_instructions: int, trace: bool) -> None:
+def emu(
+    image: str, start: int | None, until: int | None, max_instructions: int, trace: bool
+) -> None:
     """Run an Intel HEX image on the 8051 emulator and print the final state as JSON.
 
     The image is loaded into code memory; internal RAM, XDATA and the registers start
@@ -106,6 +135,12 @@ def emu(image: str, start: int, until: int | None, max_instructions: int, trace:
     --trace prints one line per instruction to stderr: its address, bytes and
     disassembly, then the registers after it ran. Tracing is much slower than a plain
     run, which translates straight-line code into Python functions.
+
+    An image written by 'asictl compile' (an asictl program image) is recognised: its
+    program map goes to stderr, and one program cycle of its code runs at its link
+    address, as the master's firmware calls it (firmware blocks return at once; inputs,
+    flags and data are 0); the run ends when the program returns (stopped: 'stopped by
+    trap'). 'asictl sim' runs a program with inputs and time.
 
     Addresses may be written 0x100, 100h or 256.
 
@@ -124,12 +159,16 @@ def emu(image: str, start: int, until: int | None, max_instructions: int, trace:
             f"{image}: data beyond the 64 KB code space (up to {hex_image.maxaddr():#x})"
         )
 
-    emulator = Emulator()
-    for start_address, end_address in hex_image.segments():
-        emulator.code[start_address:end_address] = hex_image.tobinstr(
-            start=start_address, end=end_address - 1
-        )
-    emulator.pc = start
+    program = program_image(hex_image, image)
+    if program is not None:
+        emulator = _program_cycle(image, program, start)
+    else:
+        emulator = Emulator()
+        for start_address, end_address in hex_image.segments():
+            emulator.code[start_address:end_address] = hex_image.tobinstr(
+                start=start_address, end=end_address - 1
+            )
+        emulator.pc = start or 0
     stopped = emulator.run(
         max_instructions=max_instructions, until=until, trace=_trace if trace else None
     )

@@ -1,25 +1,24 @@
 """``asictl gateway serve``: the emulated AS-i/Modbus gateway in front of a PC2 board.
 
-The gateway serves the same persistent emulated board that ``download``/``upload``/``status
---port`` use, holding its lock while it runs, so a program downloaded over Modbus is the one
-a PC2-port upload reads back afterwards (docs/modbus.md).
+The gateway is a live board (``asictl serve``, host/live.py) with Modbus in front: the board
+runs in real time, holding its lock, and the other commands for its port reach it through
+the live board's socket meanwhile, so a program downloaded over Modbus is the one a PC2-port
+upload reads back, and ``asictl monitor --port`` watches what the Modbus client does
+(docs/modbus.md). A port that ``asictl serve`` already serves is refused: stop that first.
 """
 
 from __future__ import annotations
 
-import asyncio
-import json
-import signal
-import time
+from collections.abc import Awaitable, Callable
 
 import click
 
+from asictl.cli.serial_options import serial_options, unit_option
 from asictl.errors import UserError
-from asictl.files import write_atomic
-from asictl.host.boards import emulated_board, parse_port, state_directory, state_file
-
-#: The board's non-volatile state is written this often while serving (and at the end).
-SAVE_INTERVAL_S = 10.0
+from asictl.host.boards import lock_file, parse_port, state_directory
+from asictl.host.live import LiveBoard, run_live, socket_path
+from asictl.host.locking import note_holder
+from asictl.host.target import check_serial_setting
 
 
 def _tcp_address(text: str) -> tuple[str, int]:
@@ -27,6 +26,14 @@ def _tcp_address(text: str) -> tuple[str, int]:
     if not sep or not port.isdigit() or not 0 <= int(port) <= 65535:
         raise UserError(f"--tcp '{text}': expected HOST:PORT, e.g. 127.0.0.1:5020")
     return host or "127.0.0.1", int(port)
+
+
+def _notify(message: str) -> None:
+    click.echo(f"asictl: {message}", err=True)
+
+
+def _url_host(host: str) -> str:
+    return f"[{host}]" if ":" in host else host
 
 
 @click.group()
@@ -40,18 +47,20 @@ def gateway() -> None:
     help="Serve Modbus/TCP here [default: 127.0.0.1:5020 unless --rtu is given].",
 )
 @click.option("--rtu", metavar="DEVICE", help="Serve Modbus RTU on this serial device.")
-@click.option("--baud", type=int, default=9600, show_default=True)
-@click.option("--parity", type=click.Choice(["N", "E", "O"]), default="N", show_default=True)
-@click.option("--stopbits", type=click.Choice(["1", "2"]), default="1", show_default=True)
-@click.option("--unit", type=click.IntRange(1, 247), default=1, show_default=True,
-              help="The gateway's Modbus slave address (0 is broadcast).")
+@serial_options("--rtu")
+@unit_option("The gateway's Modbus slave address, as set on the gateway (0 is broadcast).")
 @click.option("--port", default="300h", show_default=True,
               help="The emulated PC2 board (by I/O base) the gateway serves.")
 @click.option("--state-dir", type=click.Path(file_okay=False),
               help="Where emulated boards are kept (as for download/upload).")
+@click.option("--wait", is_flag=True,
+              help="If another process holds the board, wait for it instead of stopping.")
+@click.option("-v", "--verbose", is_flag=True,
+              help="Log every request on stderr: unit, function, address, quantity, outcome "
+              "(answer, exception code, or why there is none).")
 def serve(
-    tcp: str | None, rtu: str | None, baud: int, parity: str, stopbits: str, unit: int,
-    port: str, state_dir: str | None,
+    tcp: str | None, rtu: str | None, baud: str, parity: str, stopbits: str, unit: int,
+    port: str, state_dir: str | None, wait: bool, verbose: bool,
 ) -> None:
     """Serve the board over Modbus until Ctrl-C; its state is saved periodically and at exit."""
     try:
@@ -65,39 +74,37 @@ def serve(
     base = parse_port(port)
     directory = state_directory(state_dir)
     address = _tcp_address(tcp) if tcp else (None if rtu else ("127.0.0.1", 5020))
-    line = SerialSettings(rtu, baud, parity, int(stopbits)) if rtu else None
-    with emulated_board(base, directory) as board:
-        slave = GatewaySlave(board, unit)
-        path = state_file(directory, base)
-        saved = [time.monotonic()]
+    check_serial_setting(int(baud), parity, int(stopbits))
+    line = SerialSettings(rtu, int(baud), parity, int(stopbits)) if rtu else None
+    live_at = socket_path(directory, base)
 
-        def save_now_and_then() -> None:
-            if time.monotonic() - saved[0] >= SAVE_INTERVAL_S:
-                saved[0] = time.monotonic()
-                write_atomic(path, json.dumps(board.nonvolatile(), indent=1, sort_keys=True) + "\n")
-
-        server = GatewayServer(slave, on_tick=save_now_and_then)
+    def gateway_for(live: LiveBoard) -> tuple[Awaitable[None], Callable[[], None]]:
+        slave = GatewaySlave(live.board, unit, sync=live.sync)
+        if verbose:
+            slave.request_log = _notify
+        server = GatewayServer(slave)
 
         def started() -> None:
-            where = [f"tcp {server.tcp_address[0]}:{server.tcp_address[1]}"] if address else []
+            listening = server.tcp_address  # set before started() if it serves TCP
+            where = [f"tcp {listening[0]}:{listening[1]}"] if listening is not None else []
             where += [f"rtu {rtu} {baud} {parity}{stopbits}"] if rtu else []
+            note = f"it serves the board as Modbus gateway unit {unit} on {', '.join(where)}"
+            if server.tcp_address:
+                host, tcp_port = server.tcp_address
+                note += f": reach the board through it with --modbus tcp://{_url_host(host)}:"
+                note += f"{tcp_port}" + (f" --unit {unit}" if unit != 1 else "")
+            note += f"; the board is live at {live_at}"
+            note_holder(lock_file(directory, base), note)
             click.echo(
                 f"asictl: gateway unit {unit} for board {port} serving "
-                + ", ".join(where) + " (Ctrl-C stops)",
+                + ", ".join(where) + f"; the board is live at {live_at} (Ctrl-C stops)",
                 err=True,
             )
 
-        async def until_stopped() -> None:
-            # Ctrl-C and a service manager's SIGTERM end the serving loop itself, so the
-            # endpoints close and the state is saved. (Set here, not inherited: a process
-            # started in the background by a shell inherits SIGINT as ignored.)
-            loop = asyncio.get_running_loop()
-            for number in (signal.SIGINT, signal.SIGTERM):
-                loop.add_signal_handler(number, server.stop)
-            await server.serve(address, line, started=started)
+        return server.serve(address, line, started=started), server.stop
 
-        try:
-            asyncio.run(until_stopped())
-        except OSError as exc:
-            raise UserError(f"cannot serve: {exc.strerror or exc}") from None
-        click.echo("asictl: gateway stopped", err=True)
+    run_live(
+        base, directory, identity={"command": "asictl gateway serve", "port": port},
+        attach=gateway_for, wait=wait, notify=_notify,
+    )
+    click.echo("asictl: gateway stopped", err=True)

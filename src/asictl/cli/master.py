@@ -15,12 +15,13 @@ import sys
 from collections.abc import Callable, Iterator
 from contextlib import AbstractContextManager, contextmanager
 from pathlib import Path
-from typing import Any
+from typing import TypedDict, TypeVar, Unpack
 
 import click
 from click.core import ParameterSource
 
 from asictl.build import build_file
+from asictl.cli.serial_options import serial_options, unit_option
 from asictl.errors import ExitCode, UserError
 from asictl.host.boards import IO_BACKENDS
 from asictl.host.connection import (
@@ -31,13 +32,8 @@ from asictl.host.connection import (
     settle,
 )
 from asictl.host.program_files import uploaded_files, write_files
-from asictl.host.status import render
-from asictl.host.target import (
-    BAUD_RATES,
-    DEFAULT_RETRIES,
-    DEFAULT_TIMEOUT_S,
-    PARITIES,
-)
+from asictl.host.status import program_info, render
+from asictl.host.target import DEFAULT_RETRIES, DEFAULT_TIMEOUT_S
 from asictl.host.transfer import (
     StartMode,
     Transport,
@@ -48,9 +44,28 @@ from asictl.host.transfer import (
     set_start,
     upload,
 )
+from asictl.platform.master import ControlFlag
+
+_Callback = TypeVar("_Callback", bound=Callable[..., object])
 
 
-def _board_options(command: Callable) -> Callable:
+class _BoardOptions(TypedDict):
+    """The values of the options ``_board_options`` adds, as click passes them."""
+
+    port: str
+    io: str
+    state_dir: str | None
+    wait: bool
+    modbus: str | None
+    unit: int
+    baud: str
+    parity: str
+    stopbits: str
+    timeout: float
+    retries: int
+
+
+def _board_options(command: _Callback) -> _Callback:
     options = [
         click.option(
             "--port", default="300h", show_default=True,
@@ -68,27 +83,18 @@ def _board_options(command: Callable) -> Callable:
             "$XDG_STATE_HOME/asictl or ~/.local/state/asictl].",
         ),
         click.option(
+            "--wait", is_flag=True,
+            help="If another process (such as 'asictl gateway serve') holds the emulated "
+            "board, wait for it instead of stopping with exit status 1.",
+        ),
+        click.option(
             "--modbus", metavar="URL|DEVICE",
             help="Go through an AS-i/Modbus gateway instead of a PC2 board: tcp://HOST[:PORT] "
             "(Modbus TCP), rtu+tcp://HOST[:PORT] (RTU through a device server) or a serial "
-            "device such as /dev/ttyUSB0 (RTU). Excludes --port, --io and --state-dir.",
+            "device such as /dev/ttyUSB0 (RTU). Excludes --port, --io, --state-dir and --wait.",
         ),
-        click.option(
-            "--unit", type=click.IntRange(1, 247), default=1, show_default=True,
-            help="The gateway's Modbus slave address (with --modbus).",
-        ),
-        click.option(
-            "--baud", type=click.Choice([str(b) for b in BAUD_RATES]), default="9600",
-            show_default=True, help="Serial --modbus: bits per second.",
-        ),
-        click.option(
-            "--parity", type=click.Choice(list(PARITIES)), default="none", show_default=True,
-            help="Serial --modbus: parity bit.",
-        ),
-        click.option(
-            "--stopbits", type=click.Choice(["1", "2"]), default="1", show_default=True,
-            help="Serial --modbus: stop bits.",
-        ),
+        unit_option("The gateway's Modbus slave address (with --modbus)."),
+        serial_options("Serial --modbus"),
         click.option(
             "--timeout", type=click.FloatRange(0.01, 60), default=DEFAULT_TIMEOUT_S,
             show_default=True, help="--modbus: seconds to wait for each answer.",
@@ -104,12 +110,12 @@ def _board_options(command: Callable) -> Callable:
     return command
 
 
-_PC2_ONLY = ("port", "io", "state_dir")
+_PC2_ONLY = ("port", "io", "state_dir", "wait")
 
 
 def _address(
-    port: str, io: str, state_dir: str | None, modbus: str | None, unit: int, baud: str,
-    parity: str, stopbits: str, timeout: float, retries: int,
+    port: str, io: str, state_dir: str | None, wait: bool, modbus: str | None, unit: int,
+    baud: str, parity: str, stopbits: str, timeout: float, retries: int,
 ) -> MasterAddress:
     """The master the board options name; --modbus excludes the PC2 board's options."""
     if modbus is not None:
@@ -121,12 +127,15 @@ def _address(
         if clash:
             raise UserError(f"--modbus and {', '.join(clash)} exclude each other")
     return MasterAddress(
-        port, io, state_dir, modbus, unit, int(baud), parity, int(stopbits), timeout, retries
+        port, io, state_dir, modbus, unit, int(baud), parity, int(stopbits), timeout, retries,
+        wait,
     )
 
 
-def _connect(**board: Any) -> AbstractContextManager[Master]:
-    return connect_master(_address(**board))
+def _connect(**board: Unpack[_BoardOptions]) -> AbstractContextManager[Master]:
+    return connect_master(
+        _address(**board), notify=lambda message: click.echo(f"asictl: {message}", err=True)
+    )
 
 
 @contextmanager
@@ -151,7 +160,9 @@ def _progress(label: str, blocks: int) -> Iterator[Callable[[int], None]]:
     "--lib", "lib", multiple=True, type=click.Path(file_okay=False),
     help="Also look for function-block files here (repeatable; also $ASICTL_LIB).",
 )
-def download_command(file: str, start: str, lib: tuple[str, ...], **board: Any) -> None:
+def download_command(
+    file: str, start: str, lib: tuple[str, ...], **board: Unpack[_BoardOptions]
+) -> None:
     """Store a program in the master's EEPROM and load it (ACF /d+).
 
     FILE is IL source (compiled against the entry points the master reports) or an image
@@ -187,8 +198,19 @@ def download_command(file: str, start: str, lib: tuple[str, ...], **board: Any) 
             download(transport, image, start=StartMode(start), progress=bar)
         settle(master)
         state = master.summary()
+        flags = transport.control_flags()
     click.echo(f"{master.name}: downloaded {file} ({size} bytes, identity "
                f"{image.identity_hex}); {state}", err=True)
+    if StartMode(start) is StartMode.KEEP and not flags & (
+        ControlFlag.START | ControlFlag.CONTROL_ACTIVE
+    ):
+        click.echo(
+            "asictl: note: the start flag is off (the download leaves it as it was): start "
+            "the program with 'asictl start' and the same board options, or download with "
+            "--start (auto_start only restarts a program the master stopped)",
+            err=True,
+        )
+    _cable_hint(master, state)
 
 
 @click.command("upload")
@@ -200,7 +222,7 @@ def download_command(file: str, start: str, lib: tuple[str, ...], **board: Any) 
 @click.option(
     "--overwrite", is_flag=True, help="Replace files that exist with other content (ACF /o+).",
 )
-def upload_command(output: str, overwrite: bool, **board: Any) -> None:
+def upload_command(output: str, overwrite: bool, **board: Unpack[_BoardOptions]) -> None:
     """Read the program back from the master into a source file (ACF /u+).
 
     The image is read from the EEPROM and checked (CRC). If it carries its source, the
@@ -232,14 +254,35 @@ def upload_command(output: str, overwrite: bool, **board: Any) -> None:
         )
 
 
-def _control_command(name: str, help_text: str, action: Callable[[Transport], int]):
+def _cable_hint(master: Master, summary: str) -> None:
+    """On an emulated board a configuration error is usually a cable that does not match
+    the program yet: say how to plug in the [SETUP]'s slaves."""
+    if master.action is not None and "config error" in summary:
+        click.echo(
+            f"{master.name}: hint: the emulated AS-i cable does not match the projected "
+            "configuration; 'asictl bus match' plugs in the [SETUP]'s slaves "
+            "('asictl bus' shows the cable)",
+            err=True,
+        )
+
+
+def _control_command(
+    name: str, help_text: str, action: Callable[[Transport], int], *, needs_program: bool = False
+) -> click.Command:
     @click.command(name, help=help_text)
     @_board_options
-    def command(**board: Any) -> None:
+    def command(**board: Unpack[_BoardOptions]) -> None:
         with _connect(**board) as master:
+            if needs_program and not program_info(master.transport).valid:
+                raise UserError(
+                    f"{master.name}: no valid program in the master to start "
+                    "(download one first)", ExitCode.FAILED,
+                )
             action(master.transport)
+            settle(master)
             state = master.summary()
         click.echo(f"{master.name}: {state}", err=True)
+        _cable_hint(master, state)
 
     return command
 
@@ -254,6 +297,7 @@ start_command = _control_command(
     "Set the start flag: the control program runs as soon as the master permits "
     "(normal operation, and no configuration error unless ignore_config_errors)." + _EXIT_STATUS,
     lambda transport: set_start(transport, start=True),
+    needs_program=True,
 )
 stop_command = _control_command(
     "stop",
@@ -272,20 +316,33 @@ reset_command = _control_command(
 @click.command("status")
 @_board_options
 @click.option("--json", "as_json", is_flag=True, help="One JSON object on stdout.")
-def status_command(as_json: bool, **board: Any) -> None:
-    """Show the master's state, as the ASI_MON screen does.
+def status_command(as_json: bool, **board: Unpack[_BoardOptions]) -> None:
+    """Show the master's state: what ASI_MON's screens showed.
 
-    Phase and mode, execution control flags, the slave lists LPS/LDS/LAS, configuration
-    errors (projected slaves missing, unprojected ones present, wrong I/O or ID code),
-    the control program (running or why not), its AS-i Control flags, the program image
-    in the EEPROM (identity, size, whether it is valid) and the program cycle times
-    (a gateway shows no cycle times, stop reason or program status).
+    Phase and mode, execution control flags, the slave lists LPS/LDS/LAS/LCS/LOS,
+    configuration errors (projected slaves missing, unprojected ones present, wrong I/O
+    or ID code), the control program (running or why not), its AS-i Control flags, the
+    program image in the EEPROM (identity, size, whether it is valid), the program cycle
+    times, the hi-flags, the program's timers and counters (emulated boards), per slave
+    its input and output data, configuration (PCD/CDI), parameters (PP/PI), lists and
+    error counter, and the flag bytes F0..F127. A gateway shows no cycle times, program
+    status, LCS, LOS or timers (its control state and stop reason are derived from the
+    flags, as docs/host.md says). docs/commissioning.md has the JSON schema.
 
     Exit status: 0 shown, 1 the master did not answer, 2 bad usage or a corrupt board state.
     """
     with _connect(**board) as master:
         status = master.status()
+    if master.created:
+        click.echo(
+            f"asictl: note: there was no emulated board at {master.name} in the state "
+            "directory: a new, empty one was created (is ASICTL_STATE_DIR or --state-dir "
+            "the one you meant?)",
+            err=True,
+        )
     if as_json:
         click.echo(json.dumps(status.to_json(), indent=2))
     else:
         click.echo(render(status), nl=False)
+    if status.missing or status.unexpected or status.wrong_profile:
+        _cable_hint(master, "config error")

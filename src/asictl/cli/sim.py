@@ -12,6 +12,7 @@ from xml.etree import ElementTree
 import click
 
 from asictl.debug.iltrace import to_csv as rows_csv
+from asictl.diagnostics import github_command
 from asictl.errors import ExitCode, UserError
 from asictl.files import write_atomic
 from asictl.sim.engine import line_map_of
@@ -194,7 +195,7 @@ class _Progress:
             sys.stderr.flush()
 
 
-def _print(outcome: Outcome, progress: _Progress) -> None:
+def _print(outcome: Outcome, progress: _Progress, fmt: str) -> None:
     progress.clear()
     if outcome.stderr:
         click.echo(outcome.stderr, nl=False, err=True)
@@ -204,6 +205,23 @@ def _print(outcome: Outcome, progress: _Progress) -> None:
         click.echo(f"{outcome.status} {outcome.path}: {outcome.summary}")
         for line in outcome.events:
             click.echo(f"    {line}")
+    if fmt == "github":
+        for annotation in _annotations(outcome):
+            click.echo(annotation)
+
+
+def _annotations(outcome: Outcome) -> list[str]:
+    """GitHub Actions annotations: each failed expectation at its scenario line (an error),
+    each program stop at the scenario (a notice: a scenario may provoke one), an invalid
+    scenario at its file."""
+    if outcome.status == "ERROR":
+        return [github_command("error", outcome.message, file=outcome.path,
+                               title="asictl test")]
+    lines = [github_command("error", text, file=outcome.path, line=line,
+                            title="expectation failed") for line, text in outcome.failures]
+    lines += [github_command("notice", text, file=outcome.path, title="program stopped")
+              for text in outcome.stops]
+    return lines
 
 
 def _outcomes(paths: list[str], lib: tuple[str, ...], jobs: int) -> Iterator[Outcome]:
@@ -228,8 +246,11 @@ def _outcomes(paths: list[str], lib: tuple[str, ...], jobs: int) -> Iterator[Out
               "cores; 1 runs them one after the other here).")
 @click.option("--lib", multiple=True, type=click.Path(file_okay=False),
               help="Also look for function-block files here.")
+@click.option("--format", "fmt", type=click.Choice(["text", "github"]), default="text",
+              show_default=True, help="github: also a GitHub Actions annotation at the "
+              "scenario line of each failed expectation.")
 def test(paths: tuple[Path, ...], junit: Path | None, jobs: int | None,
-         lib: tuple[str, ...]) -> None:
+         lib: tuple[str, ...], fmt: str) -> None:
     """Run every *.scenario.toml under PATHs (default: the current directory).
 
     A scenario without a 'program' line tests the program of the same name beside it
@@ -246,7 +267,7 @@ def test(paths: tuple[Path, ...], junit: Path | None, jobs: int | None,
     outcomes: list[Outcome] = []
     for outcome in _outcomes(scenarios, lib, jobs or default_jobs()):
         outcomes.append(outcome)
-        _print(outcome, progress)
+        _print(outcome, progress, fmt)
         progress.update(outcome)
     progress.clear()
     passed = sum(1 for o in outcomes if o.status == "PASS")

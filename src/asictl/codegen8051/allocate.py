@@ -54,8 +54,8 @@ def byte_cell(operand: ast.ImageByte) -> Cell:
 
 @dataclass
 class _Usage:
-    bit_uses: Counter = field(default_factory=Counter)
-    byte_uses: Counter = field(default_factory=Counter)
+    bit_uses: Counter[Cell] = field(default_factory=Counter)
+    byte_uses: Counter[Cell] = field(default_factory=Counter)
     timers: set[int] = field(default_factory=set)
     counters: set[int] = field(default_factory=set)
 
@@ -92,12 +92,14 @@ def _usage(program: Program) -> _Usage:
                     usage.counters.add(n)
         for section in module.sections_of(ast.ProgramSection):
             for statement in section.statements:
-                operand = getattr(statement, "operand", None) or getattr(statement, "counter", None)
-                match operand:
+                used: object = getattr(statement, "operand", None) or getattr(
+                    statement, "counter", None
+                )
+                match used:
                     case ast.ImageByte(area=ast.ByteArea.PSEG):
                         pass
                     case ast.ImageByte():
-                        usage.byte(byte_cell(operand))
+                        usage.byte(byte_cell(used))
                     case ast.FlagWord(number=n):
                         usage.byte((CellKind.F, n))
                         usage.byte((CellKind.F, n + 1))
@@ -122,7 +124,7 @@ def allocate(program: Program, *, map_counters: bool) -> ProgramMap:
     )
     used = [c for c in {*usage.bit_uses, *usage.byte_uses} if c not in pinned]
 
-    def weight(cell: Cell) -> tuple:
+    def weight(cell: Cell) -> tuple[int, int, Cell]:
         return (-usage.bit_uses[cell], -usage.byte_uses[cell], cell)
 
     bit_pool = list(layout.BIT_POOL)
@@ -154,8 +156,10 @@ def allocate(program: Program, *, map_counters: bool) -> ProgramMap:
     for module in program.modules():
         for section in module.sections_of(ast.DeclSection):
             for decl in section.declarations:
-                name = key(decl.name) if isinstance(decl, ast.VarDecl) else None
-                if name is not None and name not in result.variables:
+                if not isinstance(decl, ast.VarDecl):
+                    continue
+                name = key(decl.name)
+                if name not in result.variables:
                     result.variables[name] = Variable(decl.name, take(decl.size), decl.size)
     # cells that did not fit: flags stay at home in the communication memory
     for cell in sorted(c for c in used if c not in result.cells and c[0] is not CellKind.F):

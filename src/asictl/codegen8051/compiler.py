@@ -141,9 +141,11 @@ def _error(code: CompileCode, message: str) -> Diagnostic:
     return Diagnostic(Severity.ERROR, code, message, None)
 
 
-def _map_back(diagnostics: list[Diagnostic], lines: tuple[Line, ...] | list[Line]):
+def _map_back(
+    diagnostics: list[Diagnostic], lines: tuple[Line, ...] | list[Line]
+) -> list[Diagnostic]:
     """Assembler findings on generated lines, reported at the IL line that produced them."""
-    mapped = []
+    mapped: list[Diagnostic] = []
     for d in diagnostics:
         span = d.span
         if span is not None and span.file == GENERATED and 0 < span.line <= len(lines):

@@ -75,14 +75,14 @@ def _body(out: Emitter, module: ast.Module, scope: str | None, user_blocks: set[
         match section:
             case ast.ProgramSection(statements=statements):
                 _statements(out, statements, scope, user_blocks)
-            case ast.GatingSection(lines=lines):
-                for line in lines:
-                    out.span = line.span
-                    out.gating(line)
-            case ast.AssemblySection(lines=lines):
-                for line in lines:
-                    out.span = line.span
-                    out.raw(line.text)
+            case ast.GatingSection(lines=gating_lines):
+                for gating_line in gating_lines:
+                    out.span = gating_line.span
+                    out.gating(gating_line)
+            case ast.AssemblySection(lines=asm_lines):
+                for asm_line in asm_lines:
+                    out.span = asm_line.span
+                    out.raw(asm_line.text)
     out.span = None
     out.emit("RET")  # the end of the last section is an implicit BE
 

@@ -13,9 +13,10 @@ last execution-control function (function 7). Layouts and inversions: docs/modbu
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Container
 from dataclasses import dataclass
 from enum import IntEnum
+from functools import partial
 
 from asictl.board.board import Pc2Board
 from asictl.host.driver import EmulatedPort, Pc2Driver
@@ -197,15 +198,17 @@ class AddressMap:
             )
         return None
 
-    def _coils(self, address: int, count: int) -> list[tuple[Callable, Callable]]:
+    def _coils(
+        self, address: int, count: int
+    ) -> list[tuple[Callable[[], bool], Callable[[bool], None]]]:
         _check_count(count, MAX_BITS)
-        found = [self._coil(a) for a in range(address, address + count)]
-        if None in found:
-            raise ModbusError(
-                ExceptionCode.ILLEGAL_DATA_ADDRESS,
-                f"no coil at {found.index(None) + address}",
-            )
-        return found  # type: ignore[return-value]
+        found = []
+        for a in range(address, address + count):
+            coil = self._coil(a)
+            if coil is None:
+                raise ModbusError(ExceptionCode.ILLEGAL_DATA_ADDRESS, f"no coil at {a}")
+            found.append(coil)
+        return found
 
     def read_coils(self, address: int, count: int) -> list[bool]:
         return [read() for read, _ in self._coils(address, count)]
@@ -230,13 +233,13 @@ class AddressMap:
 
     def read_discrete_inputs(self, address: int, count: int) -> list[bool]:
         _check_count(count, MAX_BITS)
-        values = [self._input_bit(a) for a in range(address, address + count)]
-        if None in values:
-            raise ModbusError(
-                ExceptionCode.ILLEGAL_DATA_ADDRESS,
-                f"no discrete input at {values.index(None) + address}",
-            )
-        return values  # type: ignore[return-value]
+        values = []
+        for a in range(address, address + count):
+            value = self._input_bit(a)
+            if value is None:
+                raise ModbusError(ExceptionCode.ILLEGAL_DATA_ADDRESS, f"no discrete input at {a}")
+            values.append(value)
+        return values
 
     # ------------------------------------------------------------------ register layouts
 
@@ -258,18 +261,19 @@ class AddressMap:
     def _memory_byte(self, n: int) -> int:
         return self._byte(d.FLAGS + n)
 
+    def _memory_word(self, k: int) -> int:
+        return self._memory_byte(2 * k) << 8 | self._memory_byte(2 * k + 1)
+
     def _input_registers(self) -> dict[int, Callable[[], int]]:
         table: dict[int, Callable[[], int]] = {}
         for k in range(8):
-            table[g.INPUT_DATA + k] = lambda k=k: self._data_register(
-                lambda s: self._nibble(d.IDI, s), k
-            )
+            table[g.INPUT_DATA + k] = partial(self._data_register, partial(self._nibble, d.IDI), k)
         table[g.INPUT_EC_FLAGS] = lambda: self._byte(d.EC_FLAGS)
         for half in range(2):
-            table[g.INPUT_LAS + half] = lambda h=half: self._list_word(d.LAS, h)
-            table[g.INPUT_LDS + half] = lambda h=half: self._list_word(d.LDS, h)
+            table[g.INPUT_LAS + half] = partial(self._list_word, d.LAS, half)
+            table[g.INPUT_LDS + half] = partial(self._list_word, d.LDS, half)
         for slave in range(SLAVES):
-            table[g.INPUT_CDI + slave] = lambda s=slave: self._pcd_register(d.CDI, s)
+            table[g.INPUT_CDI + slave] = partial(self._pcd_register, d.CDI, slave)
         return table
 
     def _holding_table(
@@ -292,33 +296,31 @@ class AddressMap:
             self._set_output_nibbles(nibbles)
 
         for k in range(8):
-            read[g.OUTPUT_DATA + k] = lambda k=k: output_register(k)
+            read[g.OUTPUT_DATA + k] = partial(output_register, k)
             write[g.OUTPUT_DATA + k] = write_outputs
         read[g.HI_FLAGS] = lambda: self._byte(d.HI_FLAGS) & 0x07
         write[g.HI_FLAGS] = lambda values: self._set_hi_flags(values[g.HI_FLAGS])
         for slave in range(SLAVES):
-            read[g.PI + slave] = lambda s=slave: self._nibble(d.PI, s)
+            read[g.PI + slave] = partial(self._nibble, d.PI, slave)
             write[g.PI + slave] = self._write_parameters
-            read[g.PP + slave] = lambda s=slave: self._nibble(d.PP, s)
+            read[g.PP + slave] = partial(self._nibble, d.PP, slave)
             write[g.PP + slave] = lambda v: self._set_permanent_parameters(
                 {a - g.PP: x for a, x in v.items()}
             )
-            read[g.PCD + slave] = lambda s=slave: self._pcd_register(d.PCD, s)
+            read[g.PCD + slave] = partial(self._pcd_register, d.PCD, slave)
             write[g.PCD + slave] = lambda v: self._set_pcd({a - g.PCD: x for a, x in v.items()})
         for half in range(2):
-            read[g.LPS + half] = lambda h=half: self._list_word(d.LPS, h)
+            read[g.LPS + half] = partial(self._list_word, d.LPS, half)
             write[g.LPS + half] = self._write_lps_words
         read[g.FLAGS_WORD] = read[g.FLAGS_WORD_MIRROR] = self._flags_word
         write[g.FLAGS_WORD] = write[g.FLAGS_WORD_MIRROR] = lambda v: self._set_hi_flags(
             next(iter(v.values())) >> 8
         )
         for n in range(d.FLAGS_SIZE):
-            read[g.MEMORY_BYTES + n] = lambda n=n: self._memory_byte(n)
+            read[g.MEMORY_BYTES + n] = partial(self._memory_byte, n)
             write[g.MEMORY_BYTES + n] = self._write_memory_bytes
         for k in range(d.FLAGS_SIZE // 2):
-            read[g.MEMORY_WORDS + k] = (
-                lambda k=k: self._memory_byte(2 * k) << 8 | self._memory_byte(2 * k + 1)
-            )
+            read[g.MEMORY_WORDS + k] = partial(self._memory_word, k)
             write[g.MEMORY_WORDS + k] = self._write_memory_words
         ignore: Callable[[dict[int, int]], None] = lambda values: None  # noqa: E731
         inputs = self._input_registers()
@@ -329,7 +331,7 @@ class AddressMap:
             read[g.CDI + slave] = inputs[g.INPUT_CDI + slave]
             write[g.CDI + slave] = ignore
         for register in ExecutionRegister:
-            read[register] = lambda r=register: self._read_execution(r)
+            read[register] = partial(self._read_execution, register)
             write[register] = self._write_execution
         return read, write
 
@@ -435,7 +437,7 @@ class AddressMap:
     # ------------------------------------------------------------------ registers
 
     def _check_registers(
-        self, table: dict[int, Callable], address: int, count: int, what: str
+        self, table: Container[int], address: int, count: int, what: str
     ) -> range:
         _check_count(count, MAX_REGISTERS)
         span = range(address, address + count)
@@ -463,7 +465,7 @@ class AddressMap:
                 raise ModbusError(
                     ExceptionCode.ILLEGAL_DATA_VALUE, f"{value} is out of range for register {a}"
                 )
-        groups: dict[Callable, dict[int, int]] = {}
+        groups: dict[Callable[[dict[int, int]], None], dict[int, int]] = {}
         for a, value in zip(span, values, strict=True):
             groups.setdefault(self._holding_writers[a], {})[a] = value
         for writer, group in groups.items():
@@ -477,10 +479,11 @@ class AddressMap:
         return self._flags_word()
 
     def installed_software(self) -> str:
-        """The gateway's 16 letters "CBFE....DOA...WT" from the master's string at 0E0h."""
+        """The gateway's 16 letters "CBFE....DOA...WT" from the master's string at 0E0h:
+        C, B, F, E and D, O, A are the master's, W and T the gateway's own."""
         master = self._ram(d.INSTALLED_SOFTWARE, d.INSTALLED_SOFTWARE_SIZE).decode("ascii")
         return (
-            master[0] + "BFE...." + master[8:11] + "..."
+            master[0:4] + "...." + master[8:11] + "..."
             + ("W" if self.settings.watchdog else "w")
             + ("t" if self.settings.key_lock else "T")
         )

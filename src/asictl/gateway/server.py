@@ -17,6 +17,7 @@ import struct
 import threading
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
+from typing import Any
 
 from asictl.gateway.slave import GatewaySlave
 
@@ -62,11 +63,13 @@ class GatewayServer:
         self.on_tick = on_tick
         self.tcp_address: tuple[str, int] | None = None
         self._stop = asyncio.Event()
-        self._tasks: set[asyncio.Task] = set()
+        self._tasks: set[asyncio.Task[None]] = set()
 
     # ------------------------------------------------------------------ TCP
 
-    async def _tcp_client(self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter):
+    async def _tcp_client(
+        self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter
+    ) -> None:
         """MBAP: a malformed header ends the connection, as Modbus/TCP asks."""
         task = asyncio.current_task()
         if task is not None:
@@ -98,7 +101,8 @@ class GatewayServer:
 
     # ------------------------------------------------------------------ RTU
 
-    def _open_serial(self, settings: SerialSettings):
+    def _open_serial(self, settings: SerialSettings) -> tuple[Any, int]:
+        """The open line (a ``serial.Serial``: pyserial has no type information) and its fd."""
         import serial  # pyserial: the optional 'modbus' extra
 
         line = serial.Serial(
@@ -168,7 +172,8 @@ class GatewayServer:
         if tcp is None and rtu is None:
             raise ValueError("nothing to serve: give a TCP address or a serial line")
         server = await self._serve_tcp(*tcp) if tcp else None
-        line = fd = None
+        line: Any = None
+        fd = -1
         if rtu is not None:
             line, fd = self._open_serial(rtu)
         try:

@@ -8,7 +8,7 @@ function code (no CRC counter, no "illegal function" answer) and it has no liste
 all of which the gateway manual requires (6.3.11).
 
 The user-defined functions 65, 66 and 67 are decoded and encoded by the PDU classes of
-``gateway.pdus``, the very classes our Modbus client uses, so both ends share one wire format.
+``host.gateway_pdus``, the very classes our Modbus client uses, so both ends share one wire format.
 """
 
 from __future__ import annotations
@@ -21,14 +21,17 @@ from dataclasses import dataclass, fields
 from pymodbus.pdu import ModbusPDU
 
 from asictl.board.board import Pc2Board
-from asictl.gateway import pdus
 from asictl.gateway.addressmap import MAX_BITS, AddressMap, ExceptionCode, ModbusError
+from asictl.gateway.requestlog import request_line
+from asictl.host import gateway_pdus as pdus
 from asictl.platform import pc2 as d
+from asictl.platform.gateway import UNITS
 from asictl.platform.master import EEPROM_SIZE
 from asictl.platform.pc2 import Command
 
-#: The gateway's own name (function 65, P = 1); version and ID come from the master.
-GATEWAY_NAME = "VAG-MOD-KF-R4 AS-i/Modbus Gateway"
+#: The gateway's own name (function 65, P = 1: at most 32 characters, gateway manual
+#: 6.3.12); version and ID come from the master.
+GATEWAY_NAME = "VAG-MOD-KF-R4 AS-i/Modbus"
 BROADCAST = 0
 #: Functions a broadcast executes (they write; reads make no sense without an answer).
 BROADCAST_FUNCTIONS = frozenset({5, 6, 15, 16, pdus.FC_DOWNLOAD})
@@ -66,7 +69,8 @@ class Counters:
             setattr(self, f.name, 0)
 
     def by_code(self, code: int) -> int:
-        return getattr(self, fields(self)[code - Diagnostic.FIRST_COUNTER].name) & 0xFFFF
+        count: int = getattr(self, fields(self)[code - Diagnostic.FIRST_COUNTER].name)
+        return count & 0xFFFF
 
 
 def _unpack(fmt: str, data: bytes) -> tuple[int, ...]:
@@ -87,17 +91,22 @@ class GatewaySlave:
     """The Modbus slave of one gateway over one master; not thread-safe (one event loop)."""
 
     def __init__(
-        self, board: Pc2Board, unit: int = 1, clock: Callable[[], float] = time.monotonic
+        self, board: Pc2Board, unit: int = 1, clock: Callable[[], float] = time.monotonic,
+        *, sync: Callable[[], None] | None = None,
     ) -> None:
-        if not 1 <= unit <= 247:
-            raise ValueError(f"a Modbus slave address is 1..247, not {unit}")
+        if unit not in UNITS:
+            raise ValueError(f"the gateway's Modbus address is 1..64, not {unit}")
         self.board = board
         self.map = AddressMap(board)
         self.unit = unit
         self.listen_only = False
         self.counters = Counters()
+        #: told one line per frame (``gateway serve --verbose``)
+        self.request_log: Callable[[str], None] | None = None
         self._clock = clock
         self._synced = clock()
+        #: who keeps master time with the wall clock instead (a live board: ``host.live``)
+        self._sync = sync
         self._last_telegram: float | None = None
         self._functions: dict[int, Callable[[bytes], bytes | None]] = {
             1: self._read_coils,
@@ -123,6 +132,9 @@ class GatewaySlave:
         The gateway is live: the master's cycles, program and watchdog run while nobody
         asks. Transports call this before each request and from a periodic timer.
         """
+        if self._sync is not None:
+            self._sync()
+            return
         now = self._clock()
         elapsed_ms = (now - self._synced) * 1000
         self._synced = now
@@ -133,6 +145,15 @@ class GatewaySlave:
 
     def frame(self, unit: int, pdu: bytes, *, crc_ok: bool = True) -> bytes | None:
         """A frame seen on the bus; the response PDU, or None when the gateway stays silent."""
+        response = self._frame(unit, pdu, crc_ok=crc_ok)
+        if self.request_log is not None:
+            self.request_log(request_line(
+                unit, pdu, response, own_unit=self.unit, crc_ok=crc_ok,
+                listen_only=self.listen_only,
+            ))
+        return response
+
+    def _frame(self, unit: int, pdu: bytes, *, crc_ok: bool) -> bytes | None:
         c = self.counters
         c.bus_messages += 1
         if unit not in (self.unit, BROADCAST):

@@ -5,18 +5,18 @@ emulated board (the default) every port is a board of its own whose non-volatile
 (EEPROM, flags, configuration) lives in a JSON file in the user's state directory, so a
 download in one command is there for the upload in the next, as on a real master.
 
-Each command holds an exclusive ``flock`` on the board's lock file from loading the state
-to saving it, so two commands never interleave on one board; the state is replaced in one
+Each command holds an exclusive lock on the board (host/locking.py) from loading the state
+to saving it, so two commands never interleave on one board; a command that finds the
+board held says by whom and stops, or waits with ``--wait``; the state is replaced in one
 rename, never half-written. A state file that cannot be read is reported and left alone:
 replacing it silently would lose the program it may still hold.
 """
 
 from __future__ import annotations
 
-import fcntl
 import json
 import os
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
@@ -24,6 +24,7 @@ from asictl.board.board import Pc2Board
 from asictl.errors import UserError
 from asictl.files import write_atomic
 from asictl.host.driver import DevPort, EmulatedPort, Pc2Driver
+from asictl.host.locking import exclusive
 from asictl.platform.pc2 import IO_BASES
 
 STATE_DIR_ENV = "ASICTL_STATE_DIR"
@@ -87,24 +88,35 @@ def _load(path: Path) -> Pc2Board:
         ) from None
 
 
+def lock_file(directory: Path, base: int) -> Path:
+    return state_file(directory, base).with_suffix(".lock")
+
+
 @contextmanager
-def emulated_board(base: int, directory: Path) -> Iterator[Pc2Board]:
+def emulated_board(
+    base: int,
+    directory: Path,
+    *,
+    wait: bool = False,
+    notify: Callable[[str], None] | None = None,
+) -> Iterator[Pc2Board]:
     """The board at ``base``, powered up from its saved state (or new) under the lock,
     and saved when done.
 
-    The state is saved however the block ends, an interruption included: what the
-    commands did to the board until then is what a real board would keep.
+    A board another process holds (``gateway serve``, a long download) is a
+    ``LockBusy`` naming the holder, unless ``wait``: then ``notify`` hears why the
+    command waits. The state is saved however the block ends, an interruption included:
+    what the commands did to the board until then is what a real board would keep.
     """
     path = state_file(directory, base)
     try:
         directory.mkdir(parents=True, exist_ok=True)
-        lock = open(path.with_suffix(".lock"), "a")  # noqa: SIM115 - held for the whole block
     except OSError as exc:
         raise UserError(
             f"{directory}: cannot use as state directory: {exc.strerror or exc}"
         ) from None
-    with lock:
-        fcntl.flock(lock, fcntl.LOCK_EX)
+    with exclusive(lock_file(directory, base), f"board {port_name(base)}", wait=wait,
+                   notify=notify):
         board = _load(path)
         board.advance(POWER_UP_MS)
         try:
@@ -115,7 +127,12 @@ def emulated_board(base: int, directory: Path) -> Iterator[Pc2Board]:
 
 @contextmanager
 def connect(
-    port: str, io: str = "emulated", state_dir: str | Path | None = None
+    port: str,
+    io: str = "emulated",
+    state_dir: str | Path | None = None,
+    *,
+    wait: bool = False,
+    notify: Callable[[str], None] | None = None,
 ) -> Iterator[Pc2Driver]:
     """A driver for the board at ``port``: emulated (with its saved state) or real."""
     base = parse_port(port)
@@ -126,5 +143,5 @@ def connect(
         finally:
             device.close()
         return
-    with emulated_board(base, state_directory(state_dir)) as board:
+    with emulated_board(base, state_directory(state_dir), wait=wait, notify=notify) as board:
         yield Pc2Driver(EmulatedPort(board))

@@ -12,7 +12,8 @@ from __future__ import annotations
 
 import os
 import time
-from typing import TYPE_CHECKING, Protocol
+from collections.abc import Iterator
+from typing import TYPE_CHECKING, Protocol, runtime_checkable
 
 from asictl.host.jobs import Job, PortError
 from asictl.platform.pc2 import (
@@ -42,6 +43,13 @@ class PortIO(Protocol):
     def write(self, offset: int, value: int) -> None: ...
 
     def now_ms(self) -> float: ...
+
+
+@runtime_checkable
+class BlockPortIO(PortIO, Protocol):
+    """A port that can read a run of data bytes in one access (a live board's socket)."""
+
+    def read_data(self, count: int) -> bytes: ...
 
 
 class EmulatedPort:
@@ -137,7 +145,7 @@ class Pc2Driver:
         self.port.write(PORT_INDEX, address & 0xFF)
         self.port.write(PORT_PAGE, address >> 8 & PAGE_MASK)
 
-    def _chunks(self, address: int, size: int):
+    def _chunks(self, address: int, size: int) -> Iterator[tuple[int, int]]:
         """(address, length) pieces of a block that each stay within one page."""
         if address < 0 or size < 0 or address + size > DPRAM_SIZE:
             raise ValueError(f"DPRAM block {address:X}h+{size} is outside 000h-3FFh")
@@ -148,10 +156,14 @@ class Pc2Driver:
 
     def read(self, address: int, size: int) -> bytes:
         out = bytearray()
-        read = self.port.read
+        port = self.port
+        block = port.read_data if isinstance(port, BlockPortIO) else None
         for start, length in self._chunks(address, size):
             self._point(start)
-            out += bytes([read(PORT_DATA) for _ in range(length)])
+            if block is not None:
+                out += block(length)
+            else:
+                out += bytes([port.read(PORT_DATA) for _ in range(length)])
         return bytes(out)
 
     def write(self, address: int, data: bytes) -> None:

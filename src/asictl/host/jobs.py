@@ -31,6 +31,8 @@ class JobStatus(IntEnum):
     INTERFACE_ERROR = 0x8383
     #: the master answered FFh: the command is not permitted in its current state
     REFUSED = 0x8384
+    #: a slave with address 0 is present: the master refuses to leave configuration mode
+    SLAVE_ZERO = 0x8385
     #: change address: no slave at the old address
     NO_SLAVE = 0x83A1
     #: change address: a slave with address 0 is present
@@ -61,8 +63,24 @@ _ADDRESS_CHANGE_STATUS: dict[int, JobStatus] = {
     Status.CANNOT_STORE_ADDRESS: JobStatus.CANNOT_STORE_ADDRESS,
 }
 
+#: ASI_CTRL's texts for its address-change codes (manual 001).
+_ADDRESS_CHANGE_TEXT: dict[JobStatus, str] = {
+    JobStatus.NO_SLAVE: "no slave at the old address",
+    JobStatus.SLAVE_ZERO_PRESENT: "a slave with address 0 is present",
+    JobStatus.ADDRESS_OCCUPIED: "a slave with the new address is present",
+    JobStatus.CANNOT_CLEAR_ADDRESS: "the slave's address cannot be cleared",
+    JobStatus.CANNOT_SET_ADDRESS: "the slave's address cannot be set",
+    JobStatus.CANNOT_STORE_ADDRESS: "the slave cannot store the address permanently",
+}
 
 _CODES = frozenset(Command)
+
+
+def address_change_failure(status_byte: int) -> tuple[JobStatus, str]:
+    """The STATUS word and its text for command 20's status byte (manual 10.2.7)."""
+    failure = _ADDRESS_CHANGE_STATUS.get(status_byte, JobStatus.REFUSED)
+    why = _ADDRESS_CHANGE_TEXT.get(failure, "refused by the master")
+    return failure, f"{why} (status byte {status_byte:02X}h)"
 
 
 class JobError(UserError):
@@ -174,7 +192,7 @@ class Job:
                 else:
                     self.status = JobStatus.BUSY
             elif ack == NAK:
-                self._fail(JobStatus.REFUSED, "refused by the master")
+                self._refused()
             elif ack == ACK:
                 self._finish(self.port.result())
             else:
@@ -185,11 +203,29 @@ class Job:
         except PortError as exc:
             self._fail(JobStatus.INTERFACE_ERROR, str(exc))
 
+    def _refused(self) -> None:
+        """FFh; where the PC2 says why (command 20's status byte in ``data``, the one
+        reason command 17 has to refuse protected mode), the ASI_CTRL code that says it."""
+        if self.code == Command.CHANGE_SLAVE_ADDRESS:
+            self._address_change_failed(self.port.result())
+        elif self.code == Command.SET_OPERATION_MODE and self.data == 0:
+            self._fail(
+                JobStatus.SLAVE_ZERO,
+                "refused by the master: a slave with address 0 is present "
+                "(give it an address first)",
+            )
+        else:
+            self._fail(JobStatus.REFUSED, "refused by the master")
+
+    def _address_change_failed(self, result: int) -> None:
+        self.result = result
+        failure, why = address_change_failure(result)
+        self._fail(failure, f"address change {self.address} -> {self.data} failed: {why}")
+
     def _finish(self, result: int) -> None:
         self.result = result
         if self.code == Command.CHANGE_SLAVE_ADDRESS and result != Status.OK:
-            failure = _ADDRESS_CHANGE_STATUS.get(result, JobStatus.REFUSED)
-            self._fail(failure, f"address change failed (status byte {result:02X}h)")
+            self._address_change_failed(result)
             return
         self.state, self.status = JobState.DONE, JobStatus.OK
 

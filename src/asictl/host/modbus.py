@@ -22,6 +22,7 @@ import logging
 import struct
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
+from typing import TypeVar
 
 from pymodbus import FramerType
 from pymodbus.client import ModbusSerialClient, ModbusTcpClient
@@ -36,7 +37,7 @@ from pymodbus.pdu.register_message import (
 )
 
 from asictl.errors import UserError
-from asictl.gateway.pdus import (
+from asictl.host.gateway_pdus import (
     BLOCK_SIZE,
     CLIENT_PDUS,
     INFO_NAME,
@@ -45,20 +46,29 @@ from asictl.gateway.pdus import (
     INFO_VERSION_ID,
     DownloadRequest,
     MasterInfoRequest,
+    MasterInfoResponse,
     UploadRequest,
+    UploadResponse,
 )
 from asictl.host.jobs import JobError, JobStatus
-from asictl.host.status import MasterStatus, program_info, slave_fields, state_fields
+from asictl.host.status import (
+    MasterStatus,
+    derived_control_state,
+    program_info,
+    slave_data,
+    slave_fields,
+    state_fields,
+    state_summary,
+)
 from asictl.host.target import (
     DEFAULT_RETRIES,
     DEFAULT_TIMEOUT_S,
-    PARITIES,
     ModbusTarget,
 )
-from asictl.image import Configuration
+from asictl.image import MAGIC, Configuration
 from asictl.platform import gateway as g
 from asictl.platform.master import SLAVES, ControlFlag
-from asictl.platform.pc2 import ENTRY_TABLE_ADDRESS, ENTRY_TABLE_SIZE, ControlState
+from asictl.platform.pc2 import ENTRY_TABLE_ADDRESS, ENTRY_TABLE_SIZE, ControlState, StopReason
 from asictl.runtime.firmware import FIRMWARE_BLOCKS
 
 # pymodbus logs every time-out it retries; without a handler Python would print them.
@@ -67,7 +77,9 @@ logging.getLogger("pymodbus").addHandler(logging.NullHandler())
 #: Flags a write of 1009 may carry; control_active only reads back.
 _WRITABLE_FLAGS = 0xFF & ~ControlFlag.CONTROL_ACTIVE
 
-_EXCEPTION_NAMES = {code: code.name.lower().replace("_", " ") for code in ExcCodes}
+_Response = TypeVar("_Response", bound=ModbusPDU)
+
+_EXCEPTION_NAMES = {int(code): code.name.lower().replace("_", " ") for code in ExcCodes}
 
 
 def _words(registers: Sequence[int]) -> list[int]:
@@ -87,6 +99,11 @@ def slave_list(registers: Sequence[int]) -> list[int]:
 def pcd_register(pc2_byte: int) -> int:
     """PC2 PCD byte (ID code high, I/O code low) as the gateway's register (the other way)."""
     return (pc2_byte & 0xF) << 4 | pc2_byte >> 4
+
+
+def data_nibbles(registers: Sequence[int]) -> bytes:
+    """Data registers (four slaves a register, slave 4k in bits 12-15) one value a slave."""
+    return bytes(registers[n // 4] >> 4 * (3 - n % 4) & 0xF for n in range(4 * len(registers)))
 
 
 def pc2_profile(register: int) -> int:
@@ -138,6 +155,16 @@ class ModbusTransport:
             )
         return response
 
+    def _answer(self, what: str, request: ModbusPDU, kind: type[_Response]) -> _Response:
+        """``_call`` for one of this project's own responses (65, 67)."""
+        response = self._call(what, request)
+        if not isinstance(response, kind):
+            raise JobError(
+                JobStatus.INTERFACE_ERROR,
+                f"{what}: the gateway answered with function {response.function_code}",
+            )
+        return response
+
     def read_registers(self, address: int, count: int) -> list[int]:
         """Holding registers (function 3), at most 15 per telegram as the gateway allows."""
         values: list[int] = []
@@ -163,17 +190,23 @@ class ModbusTransport:
                 WriteMultipleRegistersRequest(address=start, registers=chunk),
             )
 
-    def execution_control(self, register: int, value: int, what: str) -> None:
+    def execution_result(self, register: int, value: int, what: str) -> int:
         """Write an execution-control register, then Read Exception Status (function 7):
-        Modbus has no result for a write, the gateway keeps it there (manual 6.3.10)."""
+        Modbus has no result for a write, the gateway keeps it there (manual 6.3.10): bit 7
+        set if the master refused, bits 0-3 its answer (a slave's, or command 20's status)."""
         self.write_registers(register, [value])
-        result = self._call(f"{what}: reading its result", ReadExceptionStatusRequest()).status
-        if result & g.EXCEPTION_STATUS_ERROR:
+        status = self._call(f"{what}: reading its result", ReadExceptionStatusRequest()).status
+        return int(status)
+
+    def execution_control(self, register: int, value: int, what: str) -> None:
+        """``execution_result``, a refusal raised as a ``JobError``."""
+        if self.execution_result(register, value, what) & g.EXCEPTION_STATUS_ERROR:
             raise JobError(JobStatus.REFUSED, f"{what}: refused by the master")
 
     def master_info(self, part: int) -> str:
         """Function 65: name, version, installed software or version ID."""
-        return self._call("reading the master's name", MasterInfoRequest(part)).text
+        request = MasterInfoRequest(part)
+        return self._answer("reading the master's name", request, MasterInfoResponse).text
 
     # --- Transport -----------------------------------------------------------------------
 
@@ -196,7 +229,11 @@ class ModbusTransport:
         except JobError as exc:
             if exc.status is not JobStatus.REFUSED:
                 raise
-            raise exc.during("protected mode refused while a slave has address 0") from None
+            # the one reason the master has to refuse it (ASI_CTRL's 8385h)
+            raise JobError(
+                JobStatus.SLAVE_ZERO,
+                "protected mode refused: a slave with address 0 is present",
+            ) from None
         self.write_registers(g.PI, pp)
 
     def write_eeprom(self, address: int, data: bytes) -> None:
@@ -218,8 +255,8 @@ class ModbusTransport:
         return raw[address - first : address - first + size]
 
     def _read_block(self, address: int) -> bytes:
-        response = self._call(
-            f"reading {address:04X}h (function 67)", UploadRequest(address=address)
+        response = self._answer(
+            f"reading {address:04X}h (function 67)", UploadRequest(address=address), UploadResponse
         )
         if response.address != address:
             raise JobError(
@@ -245,7 +282,9 @@ class ModbusTransport:
 # --- opening one --------------------------------------------------------------------------
 
 
-def _client(target: ModbusTarget, timeout: float, retries: int):
+def _client(
+    target: ModbusTarget, timeout: float, retries: int
+) -> ModbusTcpClient | ModbusSerialClient:
     if target.host is not None:
         framer = FramerType.RTU if target.rtu else FramerType.SOCKET
         return ModbusTcpClient(
@@ -254,7 +293,7 @@ def _client(target: ModbusTarget, timeout: float, retries: int):
         )
     return ModbusSerialClient(
         target.device or "", framer=FramerType.RTU, baudrate=target.baud, bytesize=8,
-        parity=PARITIES[target.parity], stopbits=target.stopbits, timeout=timeout,
+        parity=target.parity, stopbits=target.stopbits, timeout=timeout,
         retries=retries, reconnect_delay=0,
     )
 
@@ -265,30 +304,44 @@ def open_modbus(
     retries: int = DEFAULT_RETRIES,
 ) -> Iterator[ModbusTransport]:
     """A connected transport; a gateway that cannot be reached is a plain ``JobError``."""
-    if not 1 <= unit <= 247:
-        raise UserError(f"--unit {unit}: a Modbus slave address is 1..247")
+    if unit not in g.UNITS:
+        raise UserError(
+            f"--unit {unit}: the gateway's Modbus address is {g.UNITS[0]}..{g.UNITS[-1]}"
+        )
     if retries < 0 or timeout <= 0:
         raise UserError("--retries must be 0 or more and --timeout more than 0")
     client = _client(target, timeout, retries)
     try:
         if not client.connect():
             raise JobError(
-                JobStatus.INTERFACE_ERROR, f"cannot open the Modbus connection to {target}"
+                JobStatus.INTERFACE_ERROR,
+                f"cannot open the Modbus connection to {target.described()}",
             )
         yield ModbusTransport(client, unit, str(target), retries)
     finally:
-        client.close()
+        # pymodbus leaves the sync clients' close() unannotated
+        client.close()  # type: ignore[no-untyped-call]
 
 
 # --- status -----------------------------------------------------------------------------
 
 
-def control_summary(transport: ModbusTransport) -> str:
-    """What the gateway can tell of the control program: 1009's control_active bit."""
-    flags = transport.control_flags()
+def _control_state(
+    transport: ModbusTransport, flags: int, ec: int | None = None
+) -> tuple[ControlState, StopReason | None]:
+    """The gateway shows no control state or stop reason: derived as the PC2 reports them
+    from 1009's flags, the ec-flags (608) and the image's magic in the EEPROM."""
     if flags & ControlFlag.CONTROL_ACTIVE:
-        return "control program running"
-    return "control program not running" + ("" if flags & ControlFlag.START else " (stopped)")
+        return ControlState.RUNNING, StopReason.NONE
+    program = transport.read_eeprom(0, len(MAGIC)) == MAGIC
+    if ec is None:
+        ec = transport.read_registers(g.EC_FLAGS, 1)[0] & 0xFF
+    return derived_control_state(program, flags, ec)
+
+
+def control_summary(transport: ModbusTransport) -> str:
+    """What the control program does, and why not, as the PC2 path says it."""
+    return state_summary(*_control_state(transport, transport.control_flags()))
 
 
 def read_status(transport: ModbusTransport) -> MasterStatus:
@@ -308,7 +361,15 @@ def read_status(transport: ModbusTransport) -> MasterStatus:
         text for text in (transport.master_info(INFO_NAME), transport.master_info(INFO_VERSION))
         if text
     )
-    state = ControlState.RUNNING if flags & ControlFlag.CONTROL_ACTIVE else ControlState.IDLE
+    state, reason = _control_state(transport, flags, ec)
+    slaves = slave_data(
+        {"LPS": lps, "LDS": lds, "LAS": las},
+        inputs=data_nibbles(transport.read_registers(g.INPUTS_MIRROR + g.INPUT_DATA, 8)),
+        outputs=data_nibbles(transport.read_registers(g.OUTPUT_DATA, 8)),
+        pcd=bytes(pcd), cdi=bytes(cdi),
+        pp=bytes(r & 0xF for r in transport.read_registers(g.PP, SLAVES)),
+        pi=bytes(r & 0xF for r in transport.read_registers(g.PI, SLAVES)),
+    )
     return MasterStatus(
         port=f"Modbus {transport.name} unit {transport.unit}",
         master_name=name,
@@ -317,9 +378,15 @@ def read_status(transport: ModbusTransport) -> MasterStatus:
         **state_fields(ec, flags),
         **slave_fields(lps, lds, las, bytes(pcd), bytes(cdi), ec=ec),
         control_state=state.name.lower(),
-        stop_reason=None,
+        stop_reason=(
+            "cycle time-out or waiting for the set button" if reason is None
+            else None if reason is StopReason.NONE else reason.name.lower().replace("_", " ")
+        ),
         program_status="not shown by the gateway",
         cycle_time_ms=0.0,
         max_cycle_time_ms=0.0,
         program=program_info(transport),
+        slaves=slaves,
+        hi_flags=transport.read_registers(g.HI_FLAGS, 1)[0] & 0x07,
+        flags=[r & 0xFF for r in transport.read_registers(g.MEMORY_BYTES, 128)],
     )

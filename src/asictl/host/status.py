@@ -1,16 +1,24 @@
-"""``asictl status``: the master at a glance, in the spirit of the ASI_MON screen.
+"""``asictl status``: what ASI_MON's screens showed, as text or JSON (docs/commissioning.md).
 
 Everything comes from the DPRAM after Get Status (51) has refreshed the control flags
 and cycle times, plus the image header in the EEPROM (Upload, 53) for the program's
-identity. Configuration errors are shown by their cause: a projected slave that is not
-detected is missing, a detected one that is not projected is unexpected (slave 0, a new
-slave, is neither), and a detected slave whose configuration (CDI) differs from the
-projected one (PCD) is wrong.
+identity: per slave its input and output data, projected and actual configuration and
+parameters, and the lists it is in; the hi-flags, the flag bytes F0..F127 and the cycle
+times. What the DPRAM does not hold (the LCS and error counters without clearing them,
+the program's timers and counters) an emulated board adds from its ``view`` action; on
+real hardware they are ``None`` (``asictl diag`` reads and clears the diagnostics).
+Configuration errors are shown by their cause: a projected slave that is not detected is
+missing, a detected one that is not projected is unexpected (slave 0, a new slave, is
+neither), and a detected slave whose configuration (CDI) differs from the projected one
+(PCD) is wrong.
 """
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from collections.abc import Callable
+from dataclasses import asdict, dataclass, field
+from enum import IntEnum
+from typing import Any
 
 from asictl.host.driver import Pc2Driver
 from asictl.host.jobs import JobError, JobStatus
@@ -27,15 +35,24 @@ from asictl.platform.pc2 import (
     CYCLE_TIME_PREVIOUS,
     CYCLE_TIME_UNIT_US,
     EC_FLAGS,
+    FLAGS,
+    FLAGS_SIZE,
+    HI_FLAGS,
+    IDI,
+    IMAGE_SIZE,
     INSTALLED_SOFTWARE,
     INSTALLED_SOFTWARE_SIZE,
     LAS,
     LDS,
     LIST_SIZE,
+    LOS,
     LPS,
     MASTER_NAME,
     MASTER_NAME_SIZE,
+    ODI,
     PCD,
+    PI,
+    PP,
     PROGRAM_STATUS,
     STOP_ADDRESS,
     STOP_REASON,
@@ -44,9 +61,16 @@ from asictl.platform.pc2 import (
     Command,
     ControlState,
     EcFlag,
+    HiFlag,
     ProgramStatus,
     StopReason,
+    nibbles,
 )
+
+#: The slave lists a slave can be in, in ASI_MON's order.
+LISTS = ("LPS", "LDS", "LAS", "LCS", "LOS")
+#: What an emulated board's ``view`` action adds (None: not available on this master).
+View = dict[str, Any]
 
 
 @dataclass(frozen=True)
@@ -68,6 +92,36 @@ class WrongSlave:
     #: the slave's PCD/CDI byte (ID code << 4 | I/O code)
     projected: int
     detected: int
+
+
+@dataclass(frozen=True)
+class SlaveData:
+    """One slave as ASI_MON showed it; profiles are PC2 bytes (ID code << 4 | I/O code)."""
+
+    #: input data (IDI) and output data as the slave receives it (the ODI, not inverted)
+    inputs: int
+    outputs: int
+    pcd: int
+    cdi: int
+    pp: int
+    pi: int
+    #: the lists the slave is in, of LISTS
+    lists: list[str]
+    #: its error counter (failed telegrams since the last read), where the master shows it
+    errors: int | None = None
+
+
+@dataclass(frozen=True)
+class Timer:
+    number: int
+    remaining_ms: int
+    running: bool
+
+
+@dataclass(frozen=True)
+class Counter:
+    number: int
+    value: int
 
 
 @dataclass(frozen=True)
@@ -101,10 +155,21 @@ class MasterStatus:
     cycle_time_ms: float
     max_cycle_time_ms: float
     program: ProgramInfo
+    #: per slave, keyed by its decimal address, for every slave in any list
+    slaves: dict[str, SlaveData] = field(default_factory=dict)
+    los: list[int] = field(default_factory=list)
+    #: the list of corrupted slaves, None where it cannot be read without clearing it
+    lcs: list[int] | None = None
+    hi_flags: int = 0
+    #: the control program's flag bytes F0..F127
+    flags: list[int] = field(default_factory=lambda: [0] * FLAGS_SIZE)
+    #: the program's timers and counters, None where the master does not show them
+    timers: list[Timer] | None = None
+    counters: list[Counter] | None = None
     #: after a cycle time-out: the IL line of the endless loop (from the image's line map)
     stop_line: str | None = None
 
-    def to_json(self) -> dict:
+    def to_json(self) -> dict[str, Any]:
         return asdict(self)
 
 
@@ -118,9 +183,9 @@ def _text(raw: bytes) -> str:
     return " ".join(part for part in parts if part)
 
 
-def _name(enum: type, value: int) -> str:
+def _name(enum: type[IntEnum], value: int) -> str:
     try:
-        return enum(value).name.lower().replace("_", " ")
+        return str(enum(value).name).lower().replace("_", " ")
     except ValueError:
         return f"unknown ({value:02X}h)"
 
@@ -167,7 +232,7 @@ def stop_line(driver: Pc2Driver, image: ProgramImage | None) -> str | None:
     return None if line is None else str(line)
 
 
-def state_fields(ec: int, flags: int) -> dict:
+def state_fields(ec: int, flags: int) -> dict[str, Any]:
     """The fields ``MasterStatus`` derives from the ec-flags and the AS-i Control flags."""
     return {
         "ec_flags": ec,
@@ -186,7 +251,7 @@ def state_fields(ec: int, flags: int) -> dict:
 
 def slave_fields(
     lps: list[int], lds: list[int], las: list[int], pcd: bytes, cdi: bytes, *, ec: int
-) -> dict:
+) -> dict[str, Any]:
     """The slave lists, the configuration errors by their cause (PCD/CDI in PC2 layout)
     and the display code they make."""
     phase = {"normal operation": "normal", "offline": "offline"}.get(_phase(ec), "detection")
@@ -207,15 +272,60 @@ def slave_fields(
     }
 
 
-def read_status(driver: Pc2Driver, port: str) -> MasterStatus:
-    """Refresh (51), then read the DPRAM and the EEPROM image header."""
+def slave_data(
+    lists: dict[str, list[int]], *, inputs: bytes, outputs: bytes, pcd: bytes, cdi: bytes,
+    pp: bytes, pi: bytes, errors: bytes | None = None,
+) -> dict[str, SlaveData]:
+    """Per-slave rows for every slave in any list; the images one value per slave."""
+    members = sorted({n for addresses in lists.values() for n in addresses})
+    return {
+        str(n): SlaveData(
+            inputs=inputs[n], outputs=outputs[n], pcd=pcd[n], cdi=cdi[n], pp=pp[n], pi=pi[n],
+            lists=[name for name in LISTS if n in lists.get(name, ())],
+            errors=None if errors is None else errors[n],
+        )
+        for n in members
+    }
+
+
+def view_fields(view: View | None) -> dict[str, Any]:
+    """The ``MasterStatus`` fields an emulated board's view gives."""
+    if view is None:
+        return {}
+    return {
+        "lcs": list(view["lcs"]),
+        "timers": [Timer(t["number"], t["remaining_ms"], t["running"]) for t in view["timers"]],
+        "counters": [Counter(c["number"], c["value"]) for c in view["counters"]],
+    }
+
+
+def read_status(
+    driver: Pc2Driver, port: str, view: Callable[[], View | None] | None = None, *,
+    program: ProgramInfo | None = None,
+) -> MasterStatus:
+    """Refresh (51), then read the DPRAM and the EEPROM image header (unless ``program``
+    is given: a monitor reads the image only when it may have changed)."""
     driver.command(Command.GET_STATUS)
     ec = driver.read_byte(EC_FLAGS)
     lps, lds, las = (_slaves(driver.read(a, LIST_SIZE)) for a in (LPS, LDS, LAS))
     pcd, cdi = driver.read(PCD, CONFIG_SIZE), driver.read(CDI, CONFIG_SIZE)
     flags = driver.read_byte(CONTROL_FLAGS)
     state, reason = driver.read_byte(CONTROL_STATE), driver.read_byte(STOP_REASON)
-    program, image = _program(Pc2Transport(driver))
+    los = _slaves(driver.read(LOS, LIST_SIZE))
+    extra = view() if view is not None else None
+    lcs = list(extra["lcs"]) if extra is not None else []
+    odi = driver.read(ODI, IMAGE_SIZE)
+    slaves = slave_data(
+        {"LPS": lps, "LDS": lds, "LAS": las, "LCS": lcs, "LOS": los},
+        inputs=nibbles(driver.read(IDI, IMAGE_SIZE)),
+        outputs=nibbles(bytes(0xFF - b for b in odi)),
+        pcd=pcd, cdi=cdi,
+        pp=nibbles(driver.read(PP, IMAGE_SIZE)), pi=nibbles(driver.read(PI, IMAGE_SIZE)),
+        errors=None if extra is None else bytes(extra["error_counters"]),
+    )
+    image = None
+    if program is None:  # (a monitor passes the program: it reads the image only on change)
+        program, image = _program(Pc2Transport(driver))
     return MasterStatus(
         port=port,
         master_name=_text(driver.read(MASTER_NAME, MASTER_NAME_SIZE)),
@@ -230,7 +340,43 @@ def read_status(driver: Pc2Driver, port: str) -> MasterStatus:
         max_cycle_time_ms=_cycle_ms(driver.read(CYCLE_TIME_MAXIMUM, 2)),
         program=program,
         stop_line=stop_line(driver, image) if reason == StopReason.CYCLE_TIMEOUT else None,
+        slaves=slaves,
+        los=los,
+        hi_flags=driver.read_byte(HI_FLAGS),
+        flags=list(driver.read(FLAGS, FLAGS_SIZE)),
+        **view_fields(extra),
     )
+
+
+def derived_control_state(
+    program: bool, flags: int, ec: int
+) -> tuple[ControlState, StopReason | None]:
+    """The control state and stop reason as the PC2 reports them (307h, 306h), worked out
+    from what a gateway shows (the flags, the ec-flags, whether the EEPROM holds an
+    image), in the order the master checks them (board/control.py). None: stopped with
+    the start flag set in normal operation and a good configuration, which is a cycle
+    time-out or a wait for the set button, which the gateway does not tell apart."""
+    if flags & ControlFlag.CONTROL_ACTIVE:
+        return ControlState.RUNNING, StopReason.NONE
+    if not program:
+        return ControlState.IDLE, StopReason.NO_PROGRAM
+    if not flags & ControlFlag.START:
+        return ControlState.IDLE, StopReason.NOT_STARTED
+    if not ec & EcFlag.NORMAL_OPERATION_ACTIVE:
+        return ControlState.WAITING, StopReason.NOT_NORMAL_OPERATION
+    if not ec & EcFlag.CONFIG_OK and not flags & ControlFlag.IGNORE_CONFIG_ERRORS:
+        return ControlState.WAITING, StopReason.CONFIG_ERROR
+    return ControlState.HALTED, None
+
+
+def state_summary(state: ControlState, reason: StopReason | None) -> str:
+    """``control program STATE (REASON)``, the one line a command ends with."""
+    text = f"control program {_name(ControlState, state)}"
+    if reason is None:
+        return text + " (a cycle time-out or waiting for the set button)"
+    if reason is StopReason.NONE:
+        return text
+    return f"{text} ({_name(StopReason, reason)})"
 
 
 def control_summary(driver: Pc2Driver) -> str:
@@ -256,6 +402,53 @@ def _slave_row(label: str, slaves: list[int]) -> str:
 
 def _profile(byte: int) -> str:
     return f"IO {byte & 0xF:X}h ID {byte >> 4:X}h"
+
+
+def hi_flag_text(hi: int) -> str:
+    """The host interface flags in words (bits 0 and 2 are inverted on the wire)."""
+    return ", ".join((
+        "data exchange " + ("off" if hi & HiFlag.DATA_EXCHANGE_OFF else "on"),
+        "offline" if hi & HiFlag.OFFLINE else "online",
+        "auto address " + ("off" if hi & HiFlag.AUTO_ADDRESS_OFF else "on"),
+    ))
+
+
+def profile_text(byte: int) -> str:
+    """A PC2 profile byte as I/O code then ID code, as [SETUP] writes them: ``8/0``."""
+    return f"{byte & 0xF:X}/{byte >> 4:X}"
+
+
+def slave_rows(slaves: dict[str, SlaveData]) -> list[str]:
+    rows = ["slave  in    out   PCD  CDI  PP PI  lists               errors"]
+    for key, v in sorted(slaves.items(), key=lambda item: int(item[0])):
+        rows.append(
+            f"{int(key):>5}  {v.inputs:04b}  {v.outputs:04b}  {profile_text(v.pcd):<4} "
+            f"{profile_text(v.cdi):<4} {v.pp:X}  {v.pi:X}   {' '.join(v.lists):<19} "
+            + ("-" if v.errors is None else str(v.errors))
+        )
+    return rows
+
+
+def flag_rows(flags: list[int]) -> list[str]:
+    """F0..F127 as a hex dump, 16 bytes a line."""
+    return [
+        f"F{start:<4}" + " ".join(f"{b:02X}" for b in flags[start : start + 16])
+        for start in range(0, len(flags), 16)
+    ]
+
+
+def timer_text(status: MasterStatus) -> list[str]:
+    if status.timers is None and status.counters is None:
+        return ["timers   not shown by this master (only an emulated board shows them)"]
+    timers = [
+        f"T {t.number}: " + (f"running, {t.remaining_ms} ms left" if t.running else "elapsed")
+        for t in status.timers or []
+    ]
+    counters = [f"C {c.number}: {c.value}" for c in status.counters or []]
+    return [
+        "timers   " + ("; ".join(timers) or "(none)"),
+        "counters " + ("; ".join(counters) or "(none)"),
+    ]
 
 
 def render(status: MasterStatus) -> str:
@@ -296,11 +489,19 @@ def render(status: MasterStatus) -> str:
         "    " + _slave_row("LPS", s.lps),
         "    " + _slave_row("LDS", s.lds),
         "    " + _slave_row("LAS", s.las),
+        *(["    " + _slave_row("LCS", s.lcs)] if s.lcs is not None else []),
+        "    " + _slave_row("LOS", s.los),
         "config   " + ("; ".join(problems) if problems else "no errors"),
         f"display  {s.display}",
         f"control  {control}",
         f"flags    {s.control_flags:02X}h " + (" ".join(set_flags) or "(none)"),
         f"program  {program} ({s.program_status})",
         f"cycle    {s.cycle_time_ms:.1f} ms (max {s.max_cycle_time_ms:.1f} ms)",
+        f"hi-flags {s.hi_flags:02X}h {hi_flag_text(s.hi_flags)}",
+        *timer_text(s),
+        "",
+        *slave_rows(s.slaves),
+        "",
+        *flag_rows(s.flags),
     ]
     return "\n".join(lines) + "\n"

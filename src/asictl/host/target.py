@@ -10,9 +10,13 @@ import re
 from dataclasses import dataclass
 
 from asictl.errors import UserError
+from asictl.platform.gateway import BAUD_RATES, FRAMINGS, serial_setting_code
 
-BAUD_RATES = (1200, 2400, 4800, 9600, 19200, 38400, 57600)
-PARITIES = {"none": "N", "even": "E", "odd": "O"}
+#: The parity as pyserial and the gateway manual write it ("N", "E", "O"), by its long
+#: name; the short form is accepted too. Both spellings are case-insensitive.
+PARITY_NAMES = {"none": "N", "even": "E", "odd": "O"}
+#: What ``--parity`` accepts (in this order in help texts).
+PARITY_SPELLINGS = (*PARITY_NAMES, *PARITY_NAMES.values())
 DEFAULT_TCP_PORT = 502
 DEFAULT_TIMEOUT_S = 1.0
 DEFAULT_RETRIES = 3
@@ -30,22 +34,61 @@ class ModbusTarget:
     rtu: bool = True
     device: str | None = None
     baud: int = 9600
-    parity: str = "none"
+    #: "N", "E" or "O" (``parity_code``)
+    parity: str = "N"
     stopbits: int = 1
+    #: whether the URL named the port (else it is Modbus/TCP's 502)
+    port_given: bool = True
 
     def __str__(self) -> str:
         return self.spec
+
+    def described(self) -> str:
+        """The spec, with the port it means where the user left it out."""
+        if self.host is None or self.port_given:
+            return self.spec
+        return (
+            f"{self.spec} (port {self.port}, the Modbus/TCP default; tcp://HOST:PORT for "
+            "another)"
+        )
+
+
+def parity_code(text: str) -> str:
+    """``none|even|odd`` or ``N|E|O``, in any case, as "N", "E" or "O"."""
+    spelling = text.strip().lower()
+    code = PARITY_NAMES.get(spelling) or spelling.upper()
+    if code not in PARITY_NAMES.values():
+        raise UserError(f"parity '{text}': expected one of {', '.join(PARITY_SPELLINGS)}")
+    return code
+
+
+def check_serial_setting(baud: int, parity: str, stopbits: int) -> None:
+    """Refuse a serial setting the gateway cannot be set to (manual 5.6: codes 10-83)."""
+    if serial_setting_code(baud, parity, stopbits) is not None:
+        return
+    if baud not in BAUD_RATES:
+        raise UserError(
+            f"{baud} baud: the gateway runs at {', '.join(map(str, BAUD_RATES))} baud"
+        )
+    framings = ", ".join(f"{p}{s}" for p, s in FRAMINGS)
+    raise UserError(
+        f"parity {parity} with {stopbits} stop bits: the gateway offers parity and stop "
+        f"bits {framings} (two stop bits only without parity)"
+    )
 
 
 _URL = re.compile(r"(?P<scheme>tcp|rtu\+tcp)://(?P<host>\[[^\]]+\]|[^:/]+)(?::(?P<port>\d+))?/?")
 
 
 def parse_target(
-    spec: str, *, baud: int = 9600, parity: str = "none", stopbits: int = 1
+    spec: str, *, baud: int = 9600, parity: str = "N", stopbits: int = 1
 ) -> ModbusTarget:
-    """``--modbus`` as the user wrote it; a URL with another scheme is refused, not tried."""
+    """``--modbus`` as the user wrote it; a URL with another scheme is refused, not tried.
+    A serial device's settings must be ones the gateway can be set to."""
     if "://" not in spec:
-        return ModbusTarget(spec, device=spec, baud=baud, parity=parity, stopbits=stopbits)
+        code = parity_code(parity)
+        check_serial_setting(baud, code, stopbits)
+        return ModbusTarget(spec, device=spec, baud=baud, parity=code, stopbits=stopbits)
     match = _URL.fullmatch(spec)
     if not match or not 0 < int(match["port"] or DEFAULT_TCP_PORT) < 65536:
         raise UserError(
@@ -54,5 +97,5 @@ def parse_target(
         )
     return ModbusTarget(
         spec, host=match["host"].strip("[]"), port=int(match["port"] or DEFAULT_TCP_PORT),
-        rtu=match["scheme"] == "rtu+tcp",
+        rtu=match["scheme"] == "rtu+tcp", port_given=match["port"] is not None,
     )

@@ -104,9 +104,7 @@ class Pc2Transport:
         try:
             run(Command.SET_OPERATION_MODE, data=0)
         except JobError as exc:
-            if exc.status is not JobStatus.REFUSED:
-                raise
-            raise exc.during("protected mode refused while a slave has address 0") from None
+            raise exc.during("switching to protected mode") from None
         self.driver.write(PI, configuration.pp)
 
     def write_eeprom(self, address: int, data: bytes) -> None:
@@ -226,10 +224,15 @@ def upload(transport: Transport) -> ProgramImage:
     head = transport.read_eeprom(0, max(HEADER_SIZE, transport.block_size))
     length = image_length(head)
     if not HEADER_SIZE <= length <= EEPROM_SIZE:
+        erased = not head.strip(b"\xff") or not head.strip(b"\x00")
         raise JobError(
             JobStatus.EEPROM_ERROR,
             "the master's EEPROM holds no program image"
-            + (f" (its header gives a length of {length} bytes)" if length else ""),
+            + (f" (its header gives a length of {length} bytes)" if length else "")
+            + ("" if length or erased else (
+                f" written by asictl (it starts with {head[:4].hex(' ')}): asictl reads only "
+                "the images it wrote itself, not those of other tools such as the vendor's"
+            )),
         )
     data = head[:length] + transport.read_eeprom(len(head), max(0, length - len(head)))
     try:

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from enum import StrEnum
+from typing import TypeVar
 
 from asictl.diagnostics import Span
 
@@ -602,6 +603,7 @@ Section = (
     OptionsSection | SetupSection | DeclSection | ProgramSection | GatingSection
     | AssemblySection | RawSection
 )
+_SectionT = TypeVar("_SectionT", bound=Section)
 
 
 @dataclass(frozen=True)
@@ -620,5 +622,5 @@ class Module:
         out.append("[END]")
         return "\n".join(out) + "\n"
 
-    def sections_of(self, kind: type) -> list:
+    def sections_of(self, kind: type[_SectionT]) -> list[_SectionT]:
         return [s for s in self.sections if isinstance(s, kind)]

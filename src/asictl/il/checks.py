@@ -8,22 +8,27 @@ manual and ``docs/language.md``; each diagnostic code is listed there.
 
 from __future__ import annotations
 
+import bisect
 import re
-from collections.abc import Iterable, Iterator, Mapping
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass
 from enum import StrEnum
 from pathlib import Path
 
-from asictl.codes import CheckCode
+from asictl.codes import CheckCode, SyntaxCode
 from asictl.diagnostics import Diagnostic, Reporter, Span
 from asictl.il import ast
+from asictl.il.analysis import analyse
 from asictl.il.ast import key
+from asictl.il.foreign import operand_hint
 from asictl.il.language import BUILTIN_TC, MAX_KT_MS, MAX_TC
-from asictl.il.loader import Program, calls, load_program
+from asictl.il.loader import Program, Reader, calls, load_program
+from asictl.il.pragmas import read_directives
 from asictl.mcs51.asm_parser import RESERVED as ASSEMBLER_RESERVED
 from asictl.platform.master import Options
 from asictl.runtime.firmware import FIRMWARE_BLOCKS
-from asictl.source import SourceText
+from asictl.source import SourceText, read_source
+from asictl.suggest import did_you_mean
 
 CONST_RANGES = {
     ast.ConstKind.KT: MAX_KT_MS,
@@ -53,23 +58,68 @@ class _Scope:
     variables: dict[str, ast.VarDecl]
 
 
-def check_program(program: Program, dialect: Dialect = Dialect.CONTROL2) -> list[Diagnostic]:
-    """All semantic diagnostics of a loaded program, in source order."""
+def check_program(
+    program: Program,
+    dialect: Dialect = Dialect.CONTROL2,
+    *,
+    read_errors: Sequence[Diagnostic] = (),
+) -> list[Diagnostic]:
+    """All semantic diagnostics of a loaded program, in source order.
+
+    ``read_errors`` are the errors met loading it: lines the reader skipped leave gaps
+    the checks must not take for mistakes of their own (no cascades), and a program with
+    errors gets no analyses (``il.analysis``). Warnings that ``asictl:`` comments silence
+    are left out (``il.pragmas``).
+    """
     report = Reporter()
+    skipped = _skipped_lines(program, read_errors)
     scope = _declarations(program, report)
     _check_main_only_sections(program, report)
     for module in program.modules():
+        lines = skipped.get(module.file, [])
         _check_options(module, report)
         _check_setup(module, report)
         _check_code(module, scope, report)
-        _check_labels_and_jumps(module, report)
+        _check_labels_and_jumps(module, report, _lost_labels(program, module.file, lines))
         _check_calls(module, program, report)
-        _check_register_flow(module, report)
+        _check_register_flow(module, report, lines)
         if dialect is Dialect.CONTROL1:
             _check_control1(module, scope, report)
     _check_duplicate_slaves(program, report)
     _check_recursion(program, report)
-    return sorted(report.diagnostics, key=Diagnostic.sort_key)
+    directives = read_directives(program.sources)
+    if not report.has_errors and not any(d.is_error for d in read_errors):
+        analyse(program, directives, report)
+    diagnostics = directives.apply([*report.diagnostics, *directives.problems])
+    return sorted(diagnostics, key=Diagnostic.sort_key)
+
+
+def _skipped_lines(program: Program, errors: Sequence[Diagnostic]) -> dict[str, list[int]]:
+    """File -> the lines a syntax error made the reader skip, in order."""
+    skipped: dict[str, set[int]] = {}
+    codes = set(SyntaxCode)
+    for error in errors:
+        if error.code in codes and error.span is not None:
+            skipped.setdefault(error.span.file, set()).add(error.span.line)
+    return {file: sorted(lines) for file, lines in skipped.items()}
+
+
+_LEADING_NAME = re.compile(r"[ \t]*([A-Za-z_][A-Za-z0-9_]*)")
+
+
+def _lost_labels(program: Program, file: str, lines: Sequence[int]) -> set[str]:
+    """Names that may have been labels on skipped lines (``loop A I 1.0`` lacks its ':',
+    ``x: A Z`` lost its label with the line): jumps to them are not reported again."""
+    source = program.sources.get(file)
+    if source is None:
+        return set()
+    text = source.text.split("\n")
+    names = set()
+    for line in lines:
+        match = _LEADING_NAME.match(text[line - 1]) if 0 < line <= len(text) else None
+        if match:
+            names.add(key(match[1]))
+    return names
 
 
 # ----------------------------------------------------------------------- declarations
@@ -111,10 +161,13 @@ def _declarations(program: Program, report: Reporter) -> _Scope:
                         decl.span,
                     )
                 elif name in seen:
-                    where = f" (first declared at {seen[name]})" if seen[name] else ""
+                    first = seen[name]
+                    where = f" (first declared at {first})" if first else ""
                     report.error(
                         CheckCode.DUPLICATE_DECLARATION,
-                        f"'{decl.name}' declared twice{where}", decl.span)
+                        f"'{decl.name}' declared twice{where}", decl.span,
+                        _note(first, "first declared here"),
+                    )
                 seen.setdefault(name, decl.span)
                 if isinstance(decl, ast.VarDecl):
                     if decl.name.upper() in ASSEMBLER_RESERVED:
@@ -153,8 +206,9 @@ def _check_main_only_sections(program: Program, report: Reporter) -> None:
                     section.span,
                 )
     main = program.main
-    if main.sections_of(ast.RawSection) and main.sections_of(
-        ast.ProgramSection | ast.GatingSection | ast.AssemblySection
+    if main.sections_of(ast.RawSection) and any(
+        isinstance(s, ast.ProgramSection | ast.GatingSection | ast.AssemblySection)
+        for s in main.sections
     ):
         raw = main.sections_of(ast.RawSection)[0]
         report.error(
@@ -167,21 +221,30 @@ def _check_main_only_sections(program: Program, report: Reporter) -> None:
 # ---------------------------------------------------------------------- options/setup
 
 
+def _note(span: Span | None, message: str) -> list[tuple[Span, str]]:
+    """A related location for a diagnostic, when the place is known."""
+    return [(span, message)] if span else []
+
+
 def _check_options(module: ast.Module, report: Reporter) -> None:
-    seen: set[str] = set()
+    seen: dict[str, ast.Option] = {}
     for section in module.sections_of(ast.OptionsSection):
         for option in section.options:
             name = key(option.name)
             if name not in Options.NAMES:
                 report.error(
                     CheckCode.UNKNOWN_OPTION,
-                    f"unknown option '{option.name}' (known: {', '.join(Options.NAMES)})",
+                    f"unknown option '{option.name}'{did_you_mean(option.name, Options.NAMES)} "
+                    f"(known: {', '.join(Options.NAMES)})",
                     option.span,
                 )
             elif name in seen:
                 report.warning(
-                    CheckCode.DUPLICATE_OPTION, f"option '{option.name}' given again", option.span)
-            seen.add(name)
+                    CheckCode.DUPLICATE_OPTION,
+                    f"option '{option.name}' given again", option.span,
+                    _note(seen[name].span, "first given here"),
+                )
+            seen.setdefault(name, option)
 
 
 def _check_setup(module: ast.Module, report: Reporter) -> None:
@@ -215,6 +278,7 @@ def _check_duplicate_slaves(program: Program, report: Reporter) -> None:
                     CheckCode.DUPLICATE_SLAVE,
                     f"slave {slave.address} is already set up at {first[slave.address].span}",
                     slave.span,
+                    _note(first[slave.address].span, "first set up here"),
                 )
             else:
                 first[slave.address] = slave
@@ -273,7 +337,9 @@ def _check_code(module: ast.Module, scope: _Scope, report: Reporter) -> None:
                 )
 
 
-def _range(report: Reporter, span: Span | None, what: str, value: int, hi: int, lo: int = 0):
+def _range(
+    report: Reporter, span: Span | None, what: str, value: int, hi: int, lo: int = 0
+) -> None:
     if not lo <= value <= hi:
         report.error(CheckCode.OUT_OF_RANGE, f"{what} {value} out of range {lo}..{hi}", span)
 
@@ -332,17 +398,23 @@ def _check_operand(operand: object, role: str, scope: _Scope, report: Reporter) 
             _range(report, span, "KP parameter", data, 15)
 
 
-def _variable(name: str, span: Span | None, scope: _Scope, report: Reporter):
+def _variable(
+    name: str, span: Span | None, scope: _Scope, report: Reporter
+) -> ast.VarDecl | None:
     decl = scope.variables.get(key(name))
     if decl is None:
-        report.error(CheckCode.UNDECLARED_VARIABLE, f"'{name}' is not a declared variable", span)
+        german = operand_hint(name)
+        hint = (f" ({german})" if german
+                else did_you_mean(name, [d.name for d in scope.variables.values()]))
+        report.error(
+            CheckCode.UNDECLARED_VARIABLE, f"'{name}' is not a declared variable{hint}", span)
     return decl
 
 
 # ------------------------------------------------------------------ labels and calls
 
 
-def _check_labels_and_jumps(module: ast.Module, report: Reporter) -> None:
+def _check_labels_and_jumps(module: ast.Module, report: Reporter, lost: set[str]) -> None:
     labels: dict[str, ast.Label] = {}
     for statement in _statements(module):
         if isinstance(statement, ast.Label):
@@ -352,14 +424,20 @@ def _check_labels_and_jumps(module: ast.Module, report: Reporter) -> None:
                     CheckCode.DUPLICATE_LABEL,
                     f"label '{statement.name}' already defined at {labels[name].span}",
                     statement.span,
+                    _note(labels[name].span, "first defined here"),
                 )
             else:
                 labels[name] = statement
     for statement in _statements(module):
-        if isinstance(statement, ast.Jump) and key(statement.label) not in labels:
+        if (
+            isinstance(statement, ast.Jump)
+            and key(statement.label) not in labels
+            and key(statement.label) not in lost
+        ):
             report.error(
                 CheckCode.UNKNOWN_LABEL,
-                f"jump to undefined label '{statement.label}' "
+                f"jump to undefined label '{statement.label}'"
+                f"{did_you_mean(statement.label, [s.name for s in labels.values()])} "
                 "(labels are local to the main program or one function block)",
                 statement.span,
             )
@@ -369,9 +447,11 @@ def _check_calls(module: ast.Module, program: Program, report: Reporter) -> None
     for call in calls(module):
         name = key(call.name)
         if name not in FIRMWARE_BLOCKS and name not in program.fb_decls:
+            known = [d.name for d in program.fb_decls.values()]
+            known += [b.name for b in FIRMWARE_BLOCKS.values()]
             report.error(
                 CheckCode.UNKNOWN_BLOCK,
-                f"function block '{call.name}' is not declared "
+                f"function block '{call.name}' is not declared{did_you_mean(call.name, known)} "
                 f"(declare it in [DECL] as '{call.name} FB <file>')",
                 call.span,
             )
@@ -426,13 +506,34 @@ def _segments(module: ast.Module) -> list[list[ast.Statement]]:
     return [list(s.statements) for s in module.sections_of(ast.ProgramSection)]
 
 
-def _check_register_flow(module: ast.Module, report: Reporter) -> None:
+def _after_skipped(module: ast.Module, skipped: Sequence[int]) -> set[int]:
+    """Indexes (into the flat statements) of statements with a skipped line just before
+    them in their section: what that line did to the register is unknown."""
+    found: set[int] = set()
+    if not skipped:
+        return found
+    index = 0
+    for section in module.sections_of(ast.ProgramSection):
+        previous = section.span.line if section.span else 0
+        for statement in section.statements:
+            line = statement.span.line if statement.span else previous
+            if bisect.bisect_right(skipped, previous) < bisect.bisect_left(skipped, line):
+                found.add(index)
+            previous = line
+            index += 1
+    return found
+
+
+def _check_register_flow(module: ast.Module, report: Reporter, skipped: Sequence[int]) -> None:
     """Two register rules of il-semantics.md.
 
     A lint: A/AN/O/ON after '=', S or R in the same segment combines with the old result
     instead of starting a new one (STEP5 habit). An error: an instruction that reads the
     register where, on every path that reaches it, the register is undefined. Found by a
     forward data-flow analysis ("may the register be defined here?") over jumps.
+
+    A line skipped for a syntax error may have been an A or O: after one, the register
+    counts as defined and the logic string as begun, so no error follows from the gap.
     """
     sections = _segments(module)
     flat: list[ast.Statement] = [s for section in sections for s in section]
@@ -441,13 +542,18 @@ def _check_register_flow(module: ast.Module, report: Reporter) -> None:
     for section in sections:
         starts.add(index)
         index += len(section)
+    gaps = _after_skipped(module, skipped)
 
     # lexical facts: which A/AN/O/ON are first checks, and the lint
     first_check: set[int] = set()
     first = True
     stored = False
     for i, statement in enumerate(flat):
-        if i in starts or isinstance(statement, ast.SegmentEnd):
+        if i in starts:
+            first, stored = True, False
+        if i in gaps:
+            first, stored = False, False
+        if isinstance(statement, ast.SegmentEnd):
             first, stored = True, False
         if isinstance(statement, ast.Logic):
             if first:
@@ -473,6 +579,7 @@ def _check_register_flow(module: ast.Module, report: Reporter) -> None:
         i, defined = work.pop()
         if i >= len(flat):
             continue
+        defined = defined or i in gaps
         known = may_defined[i]
         if known is not None and (known or not defined):
             continue
@@ -575,13 +682,15 @@ class CheckResult:
 
 
 def check_source(
-    source: SourceText,
-    *,
-    dialect: Dialect = Dialect.CONTROL2,
-    lib: Iterable[str | Path] = (),
-    files: Mapping[str, SourceText] | None = None,
+    source: SourceText, *, dialect: Dialect = Dialect.CONTROL2, lib: Iterable[str | Path] = (),
+    read: Reader = read_source, exists: Callable[[Path], bool] = Path.is_file,
 ) -> CheckResult:
-    """Read a main file and the blocks it calls, and check the whole program."""
-    program, load_diagnostics = load_program(source, lib=lib, files=files)
-    diagnostics = [*load_diagnostics, *check_program(program, dialect)]
+    """Read a main file and the blocks it calls, and check the whole program.
+
+    ``read`` and ``exists`` stand for the file system (an editor's open buffers).
+    """
+    program, load_diagnostics = load_program(source, lib=lib, read=read, exists=exists)
+    diagnostics = [
+        *load_diagnostics, *check_program(program, dialect, read_errors=load_diagnostics)
+    ]
     return CheckResult(program, sorted(diagnostics, key=Diagnostic.sort_key))

@@ -9,7 +9,7 @@ then along the library path (``--lib`` options, then ``ASICTL_LIB``, colon-separ
 from __future__ import annotations
 
 import os
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -60,15 +60,19 @@ def library_path(extra: Iterable[str | Path] = ()) -> list[Path]:
     return paths
 
 
-def find_block_file(name: str, declared_in: str, search: Sequence[Path]) -> Path | None:
+def find_block_file(
+    name: str, declared_in: str, search: Sequence[Path],
+    exists: Callable[[Path], bool] = Path.is_file,
+) -> Path | None:
     """Where a block's source is: next to the declaring file, then on the library path.
 
-    DOS file names are case-insensitive, so ``MEAN.FB`` finds ``mean.fb``.
+    DOS file names are case-insensitive, so ``MEAN.FB`` finds ``mean.fb``. ``exists`` lets
+    an editor count its unsaved buffers as files.
     """
     base = Path(declared_in).parent if declared_in not in ("<stdin>", "<string>") else Path()
     for folder in (base, *search):
         candidate = folder / name
-        if candidate.is_file():
+        if exists(candidate):
             return candidate
         try:
             for entry in folder.iterdir():
@@ -97,18 +101,19 @@ def calls(module: ast.Module) -> list[ast.CallFB]:
     ]
 
 
+#: How the loader reads a block's file; an editor passes one that prefers its open buffers.
+Reader = Callable[[Path], SourceText]
+
+
 def load_program(
-    source: SourceText,
-    *,
-    lib: Iterable[str | Path] = (),
-    files: Mapping[str, SourceText] | None = None,
+    source: SourceText, *, lib: Iterable[str | Path] = (), read: Reader = read_source,
+    exists: Callable[[Path], bool] = Path.is_file,
 ) -> tuple[Program, list[Diagnostic]]:
     """Parse the main file and every block file it reaches; report what cannot be read.
 
-    ``files`` are block files already in memory (an image's own source), found by their
-    base name before the disk is searched. Undeclared blocks and recursion are left to the
-    semantic checks, which see the whole program; here only missing and unreadable files
-    are reported, at the call that needs them.
+    Undeclared blocks and recursion are left to the semantic checks, which see the whole
+    program; here only missing and unreadable files are reported, at the call that needs them.
+    ``read`` and ``exists`` stand for the file system (see ``find_block_file``).
     """
     report = Reporter()
     main, diags = parse(source)
@@ -119,8 +124,8 @@ def load_program(
     pending = [main]
     while pending:
         module = pending.pop()
-        for decl in fb_declarations(module):
-            program.fb_decls.setdefault(ast.key(decl.name), decl)
+        for declared in fb_declarations(module):
+            program.fb_decls.setdefault(ast.key(declared.name), declared)
         for call in calls(module):
             name = ast.key(call.name)
             decl = program.fb_decls.get(name)
@@ -128,11 +133,7 @@ def load_program(
                 continue
             if decl.span is None:  # a declaration always comes from a file
                 continue
-            known = _in_memory(files, decl.file)
-            if known is not None:
-                _add_block(program, name, known, pending, report)
-                continue
-            path = find_block_file(decl.file, decl.span.file, search)
+            path = find_block_file(decl.file, decl.span.file, search, exists)
             if path is None:
                 report.error(
                     CheckCode.BLOCK_FILE_NOT_FOUND,
@@ -145,32 +146,19 @@ def load_program(
                 program.blocks[name] = ast.Module(file=decl.file, sections=())
                 continue
             try:
-                text = read_source(path)
+                text = read(path)
             except UserError as exc:
                 report.error(
                     CheckCode.BLOCK_FILE_NOT_FOUND,
                     f"cannot read function block file: {exc}", decl.span)
                 program.blocks[name] = ast.Module(file=str(path), sections=())
                 continue
-            _add_block(program, name, text, pending, report)
+            block, diags = parse(text)
+            report.extend(diags)
+            program.sources[text.name] = text
+            program.blocks[name] = block
+            pending.append(block)
     return program, report.diagnostics
-
-
-def _in_memory(files: Mapping[str, SourceText] | None, name: str) -> SourceText | None:
-    if not files:
-        return None
-    wanted = Path(name).name.casefold()
-    return next((text for key, text in files.items() if Path(key).name.casefold() == wanted), None)
-
-
-def _add_block(
-    program: Program, name: str, text: SourceText, pending: list[ast.Module], report: Reporter
-) -> None:
-    block, diags = parse(text)
-    report.extend(diags)
-    program.sources[text.name] = text
-    program.blocks[name] = block
-    pending.append(block)
 
 
 def is_firmware_block(name: str) -> bool:

@@ -22,8 +22,10 @@ import os
 import re
 import sys
 import threading
+from collections.abc import Callable
 from functools import cache
 from importlib.resources import files
+from typing import TypedDict
 
 import lark
 from lark import Lark, Token
@@ -33,7 +35,7 @@ from lark.utils import TextSlice
 from asictl.diagnostics import Diagnostic, Span
 from asictl.il import ast
 from asictl.il.syntax_errors import diagnose
-from asictl.il.transformer import AstBuilder
+from asictl.il.transformer import AstBuilder, Piece, SectionItem
 from asictl.source import SourceText, from_string
 
 #: Keywords and operand marks: never names, so that "A FY 1" and "JU = A" fail plainly.
@@ -90,7 +92,14 @@ def grammar_text() -> str:
     return files("asictl").joinpath("grammar/il.lark").read_text(encoding="utf-8")
 
 
-def lark_options() -> dict:
+class LarkOptions(TypedDict):
+    parser: str
+    lexer: str
+    start: list[str]
+    lexer_callbacks: dict[str, Callable[[Token], Token]]
+
+
+def lark_options() -> LarkOptions:
     """The options the grammar is built with (tests add ``strict=True``)."""
     return {
         "parser": "lalr",
@@ -117,7 +126,16 @@ class _Reader:
             + "|".join(f"(?P<{n}>{self.lark.get_terminal(n).pattern.to_regexp()})" for n in titles)
             + ")"
         )
-        self._accepts: dict[tuple, frozenset[str]] = {}
+        self._accepts: dict[tuple[int, ...], frozenset[str]] = {}
+
+    def parse(self, text: str, start: int, end: int, rule: str) -> list[Piece]:
+        """The flat list (see ``AstBuilder.start``) of ``text[start:end]`` read with ``rule``."""
+        # lark types parse() as returning a tree; with transformer= it returns what the
+        # builder's method for the start rule returns, the flat list.
+        pieces: list[Piece] = self.lark.parse(  # type: ignore[assignment]
+            TextSlice(text, start, end), start=rule
+        )
+        return pieces
 
     def expected(self, error: UnexpectedInput) -> frozenset[str]:
         """The terminals the parser could take where it failed.
@@ -129,7 +147,8 @@ class _Reader:
         parser = error.interactive_parser
         key = tuple(parser.parser_state.state_stack)
         if key not in self._accepts:
-            self._accepts[key] = frozenset(parser.accepts())
+            # lark leaves accepts() unannotated; it returns the set of terminal names.
+            self._accepts[key] = frozenset(parser.accepts())  # type: ignore[no-untyped-call]
         return self._accepts[key]
 
     def title_at(self, text: str, line_start: int, line: int) -> Token | None:
@@ -138,6 +157,7 @@ class _Reader:
         if match is None:
             return None
         name = match.lastgroup
+        assert name is not None  # every alternative of the pattern is a named group
         start, end = match.span(name)
         column = start - line_start + 1
         return Token(name, match.group(name), start, line, column, line,
@@ -170,15 +190,15 @@ def parse_text(text: str, name: str = "<string>") -> tuple[ast.Module, list[Diag
     return parse(from_string(name, text))
 
 
-def _read(reader: _Reader, text: str, file: str) -> tuple[list, list[Diagnostic]]:
+def _read(reader: _Reader, text: str, file: str) -> tuple[list[Piece], list[Diagnostic]]:
     """The file as a flat list (title tokens, each followed by its section's nodes)."""
-    pieces: list = []
+    pieces: list[Piece] = []
     diagnostics: list[Diagnostic] = []
     pos, section = 0, None
     while pos < len(text):
         rule = _START_RULES[section]
         try:
-            pieces += reader.lark.parse(TextSlice(text, pos, len(text)), start=rule)
+            pieces += reader.parse(text, pos, len(text), rule)
             break
         except UnexpectedInput as error:
             failure = error
@@ -187,7 +207,7 @@ def _read(reader: _Reader, text: str, file: str) -> tuple[list, list[Diagnostic]
             text.count("\n", 0, where) + 1)
         line_start = text.rfind("\n", 0, where) + 1
         if line_start > pos:
-            done = reader.lark.parse(TextSlice(text, pos, line_start), start=rule)
+            done = reader.parse(text, pos, line_start, rule)
             pieces += done
             section = _last_section(done, section)
         title = reader.title_at(text, line_start, line)
@@ -203,7 +223,7 @@ def _read(reader: _Reader, text: str, file: str) -> tuple[list, list[Diagnostic]
     return pieces, diagnostics
 
 
-def _last_section(pieces: list, section: ast.SectionKind | None) -> ast.SectionKind | None:
+def _last_section(pieces: list[Piece], section: ast.SectionKind | None) -> ast.SectionKind | None:
     """The section open at the end of ``pieces`` (``section`` if they hold no title)."""
     for piece in reversed(pieces):
         if isinstance(piece, Token):
@@ -211,17 +231,19 @@ def _last_section(pieces: list, section: ast.SectionKind | None) -> ast.SectionK
     return section
 
 
-def _sections(pieces: list, file: str) -> list[ast.Section]:
+def _sections(pieces: list[Piece], file: str) -> list[ast.Section]:
     """Group the flat list into sections: the grammar puts a title before any node."""
     sections: list[ast.Section] = []
     title: Token | None = None
-    body: list = []
+    body: list[SectionItem] = []
     for piece in [*pieces, None]:
         if piece is not None and not isinstance(piece, Token):
             body.append(piece)
             continue
         if title is not None and title.type in _TITLES:
-            span = Span(file, title.line, title.column, title.end_column - title.column)
+            line, column, end = title.line, title.column, title.end_column
+            assert line is not None and column is not None and end is not None
+            span = Span(file, line, column, end - column)
             sections.append(_TITLES[title.type][1](tuple(body), span))
         title, body = piece, []
     return sections

@@ -308,7 +308,7 @@ class Interpreter:
         state.accu2 = state.accu1
         state.accu1 = self._read_word(operand)
 
-    def _read_word(self, operand: ast.LoadOperand) -> int:
+    def _read_word(self, operand: ast.Constant | ast.TransferOperand) -> int:
         state = self.state
         match operand:
             case ast.Constant(value=value):

@@ -16,6 +16,9 @@ from dataclasses import dataclass
 from asictl.codes import SyntaxCode
 from asictl.diagnostics import Diagnostic, Severity, Span
 from asictl.il.ast import SectionKind
+from asictl.il.foreign import operand_hint, operator_hint
+from asictl.platform.master import IO_CODE_BITS
+from asictl.suggest import closest, did_you_mean
 
 #: Punctuation the language reads as a blank (3: only some punctuation is significant).
 IGNORED_PUNCTUATION = "\"#$%&',/?@\\^`{|}~"
@@ -37,6 +40,13 @@ _LINE_STARTS = {
 }
 
 _TITLES = "[OPTIONS], [SETUP], [DECL], [PROGRAM], [GATING], [ASSEMBLY], [RAW] or [END]"
+_TITLE_WORDS = ("OPTIONS", "SETUP", "DECL", "PROGRAM", "GATING", "ASSEMBLY", "RAW", "END")
+_IO_CODES = (
+    ", ".join(letters for letters in IO_CODE_BITS if "t" not in letters)
+    + " or a number 0..F (Fh: tristate)"
+)
+#: The first word of the rest of a line, to see whether it is an instruction.
+_FIRST_WORD = re.compile(r"[ \t]*([A-Za-z]+|[=+\-!<>]+|\*\*\*)")
 
 MARK_WORDS = {
     "I_MARK": "I", "I2_MARK": "I2", "Q_MARK": "Q", "F_MARK": "F", "T_MARK": "T",
@@ -160,7 +170,9 @@ def diagnose(
     before = text[line_start:pos]
     said = before.rstrip(_BLANKS + IGNORED_PUNCTUATION)
     rest = text[pos:text.index("\n", pos)].partition(";")[0]
-    found = _FOUND.match(rest).group() if rest.strip(_BLANKS + IGNORED_PUNCTUATION) else ""
+    # _FOUND's last alternative takes any character, so it matches wherever rest has text.
+    found_match = _FOUND.match(rest) if rest.strip(_BLANKS + IGNORED_PUNCTUATION) else None
+    found = found_match.group() if found_match else ""
     char = text[pos]
 
     def report(code: str, message: str, at: int = pos, length: int = len(found)) -> Diagnosis:
@@ -173,31 +185,65 @@ def diagnose(
         shown = f"'{char}'" if char.isprintable() else f"U+{ord(char):04X}"
         return report(SyntaxCode.UNEXPECTED_CHARACTER, f"unexpected character {shown}")
     if not said and found.startswith("["):
-        return report(
-            SyntaxCode.UNKNOWN_SECTION,
-            f"unknown section title {_quote(found)}; expected {_TITLES}")
+        title = closest(found.strip("[] \t"), _TITLE_WORDS)
+        hint = f"; did you mean [{title}]? (the titles: {_TITLES})" if title else (
+            f"; expected {_TITLES}")
+        return report(SyntaxCode.UNKNOWN_SECTION, f"unknown section title {_quote(found)}{hint}")
     if section is None:
         return report(
             SyntaxCode.MISSING_SECTION, "expected a section title such as [PROGRAM], found "
             f"{_quote(found) if found else 'end of line'}")
     if "NUMBER" in expected and _NUMBER_LIKE.fullmatch(found):
         return report(SyntaxCode.NUMBER_TOO_LARGE, f"number {_quote(found)} is too large")
+    operators = [keywords[t] for t in sorted(_OPERATORS) if t in keywords]
     if section is SectionKind.PROGRAM and expected == {"_COLON"}:
-        # A line that starts with a name reads as a label: more often a misspelt operator.
+        # A line that starts with a name where an instruction belongs: a misspelt or
+        # foreign operator, or a label without its ':'.
         name = _NAME.search(before)
+        assert name is not None  # the parser read a name to get here
+        word = name.group()
+        code = text[line_start + name.start():text.index("\n", pos)].partition(";")[0]
         return report(
             SyntaxCode.UNKNOWN_INSTRUCTION,
-            f"unknown instruction {_quote(name.group())} (a label is "
-            f"written '{name.group()}:')", at=line_start + name.start(),
-            length=len(name.group()))
+            f"unknown instruction {_quote(word)}"
+            + _instruction_hint(word, code, text[line_start + name.end():pos] + rest, operators),
+            at=line_start + name.start(), length=len(word))
     if not found:
         return report(
             SyntaxCode.UNEXPECTED_END_OF_LINE, f"expected {describe(expected, keywords)} after "
             f"{_last_word(said)}, found end of line", at=line_start + len(said))
     if section is SectionKind.PROGRAM and (not said or expected >= _OPERATORS):
-        return report(SyntaxCode.UNKNOWN_INSTRUCTION, f"unknown instruction {_quote(found)}")
+        hint = ""
+        if not said and found.upper() in ("I", "I2", "Q", "F") and "=" in rest:
+            hint = " (a gating line belongs in a [GATING] section)"
+        elif not said:
+            foreign = operator_hint(found, rest)
+            hint = f" ({foreign})" if foreign else did_you_mean(found, operators)
+        return report(SyntaxCode.UNKNOWN_INSTRUCTION, f"unknown instruction {_quote(found)}{hint}")
     if not said:
         return report(
             SyntaxCode.UNEXPECTED_WORD, f"expected {_LINE_STARTS[section]}, found {_quote(found)}")
-    return report(SyntaxCode.UNEXPECTED_WORD, f"expected {describe(expected, keywords)} after "
-                  f"{_last_word(said)}, found {_quote(found)}")
+    message = (f"expected {describe(expected, keywords)} after {_last_word(said)}, "
+               f"found {_quote(found)}")
+    if "IO_CODE" in expected:
+        message += f"; the I/O codes are {_IO_CODES}"
+    elif expected & _BIT_MARKS and (german := operand_hint(found)):
+        message += f" ({german})"
+    return report(SyntaxCode.UNEXPECTED_WORD, message)
+
+
+def _instruction_hint(word: str, code: str, rest: str, operators: list[str]) -> str:
+    """Why a line's first word is no instruction: a foreign operator, a misspelt one, or a
+    label without ':' (only when an instruction, or nothing, follows the word)."""
+    foreign = operator_hint(word, code)
+    if foreign:
+        return f" ({foreign})"
+    follows = _FIRST_WORD.match(rest)
+    label_like = follows is None or follows.group(1).upper() in operators
+    if follows is None:  # the word alone on its line: a misspelt BE rather than a label
+        close = closest(word, operators, cutoff=0.6)
+        if close:
+            return f"; did you mean '{close}'?"
+    if label_like:
+        return f" (a label is written '{word}:')"
+    return did_you_mean(word, operators)

@@ -13,23 +13,28 @@ One method per grammar rule or alias; ``tests/frontend`` checks that none is mis
 
 from __future__ import annotations
 
+from typing import Any, Protocol
+
 from lark import Token
 
 from asictl.diagnostics import Span
 from asictl.il import ast
+from asictl.platform.master import IO_CODE_BITS
 
-#: The AS-i I/O codes by their letters, D0 first (``iiio`` = 1); only the codes AS-i defines.
-IO_CODES = {
-    letters: code
-    for code, letters in enumerate(
-        [
-            "iiii", "iiio", "iiib", "iioo", "iibb", "iooo", "ibbb", "bbbb", "oooo",
-            "oooi", "ooob", "ooii", "oobb", "oiii", "obbb",
-        ]
-    )
-}
+#: The AS-i I/O codes by their letters, D0 first (``iiio`` = 1); only the codes AS-i defines
+#: with letters (F, tristate, is written as a number).
+IO_CODES = {letters: code for code, letters in enumerate(IO_CODE_BITS) if "t" not in letters}
 
 TRUE_WORDS = frozenset({"yes", "on", "true"})
+
+#: One item of a section: a node, or a [RAW] record as a plain string.
+SectionItem = (
+    ast.Option | ast.SlaveSetup | ast.Declaration | ast.Statement | ast.GatingLine
+    | ast.AsmLine | str
+)
+#: A file reads as a flat list of these: section titles (tokens, and the END_REST token
+#: after [END]), each followed by the items of its section.
+Piece = Token | SectionItem
 
 _BIT_AREAS = {
     "I_MARK": ast.BitArea.I, "I2_MARK": ast.BitArea.I2,
@@ -57,7 +62,7 @@ def number(token: Token) -> int:
     The grammar admits at most 9 significant decimal digits, so int() never meets its
     limit on digit strings (leading zeros are stripped first, they count towards it).
     """
-    text = token.value
+    text: str = token.value
     suffix = text[-1]
     if suffix in "hH":
         return int(text[:-1], 16)
@@ -66,11 +71,26 @@ def number(token: Token) -> int:
     return int(text.lstrip("0") or "0")
 
 
-def _end(item: Token | object) -> int:
+class _Node(Protocol):
+    """An AST node: every node the builder makes has its span."""
+
+    @property
+    def span(self) -> Span | None: ...
+
+
+#: The children of a rule that mixes tokens and nodes, in grammar order. Which child is a
+#: token and which a node of what type is fixed by the grammar, not by anything mypy sees;
+#: the rules annotate what they take out of them.
+_Mixed = list[Any]
+
+
+def _end(item: Token | _Node) -> int:
     """The column just after a token or a node (all constructs lie on one line)."""
     if isinstance(item, Token):
+        assert item.end_column is not None  # the lexer places every token
         return item.end_column
-    span = item.span  # type: ignore[attr-defined]
+    span = item.span
+    assert span is not None
     return span.column + span.length
 
 
@@ -80,16 +100,22 @@ class AstBuilder:
     def __init__(self) -> None:
         self.file = "<string>"
 
-    def _span(self, first: Token | Span, last: Token | object | None = None) -> Span:
-        """From ``first`` (a token, or the span of a node) to the end of ``last``."""
-        end = _end(first if last is None else last)
-        return Span(self.file, first.line, first.column, end - first.column)
+    def _span(self, first: Token | Span, last: Token | _Node | None = None) -> Span:
+        """From ``first`` (a token, or the span of a node) to the end of ``last`` (of
+        ``first``, a token then, if None)."""
+        if last is None:
+            assert isinstance(first, Token)
+            last = first
+        end = _end(last)
+        line, column = first.line, first.column
+        assert line is not None and column is not None  # the lexer places every token
+        return Span(self.file, line, column, end - column)
 
     # -------------------------------------------------------------- file structure
     # The start rules return the file as a flat list: title tokens, each followed by the
     # nodes of its section; asictl.il.parser groups them into sections.
 
-    def start(self, children: list) -> list:
+    def start(self, children: list[Piece]) -> list[Piece]:
         return children
 
     options_rest = setup_rest = decl_rest = program_rest = start
@@ -97,11 +123,11 @@ class AstBuilder:
 
     # ------------------------------------------------------- [OPTIONS], [SETUP], [DECL]
 
-    def option(self, c: list) -> ast.Option:
+    def option(self, c: list[Token]) -> ast.Option:
         name, value = c
         return ast.Option(name.value, value.lower() in TRUE_WORDS, self._span(name, value))
 
-    def slave_setup(self, c: list) -> ast.SlaveSetup:
+    def slave_setup(self, c: list[Token]) -> ast.SlaveSetup:
         address, io, ident = c[0], c[1], c[2]
         io_code = IO_CODES[io.lower()] if io.type == "IO_CODE" else number(io)
         parameter = number(c[3]) if len(c) == 4 else None
@@ -109,123 +135,137 @@ class AstBuilder:
             number(address), io_code, number(ident), parameter, self._span(address, c[-1])
         )
 
-    def var_decl(self, c: list) -> ast.VarDecl:
+    def var_decl(self, c: list[Token]) -> ast.VarDecl:
         return ast.VarDecl(c[0].value, number(c[2]), self._span(c[0], c[2]))
 
-    def timer_decl(self, c: list) -> ast.TimerDecl:
+    def timer_decl(self, c: list[Token]) -> ast.TimerDecl:
         return ast.TimerDecl(number(c[1]), self._span(c[0], c[2]))
 
-    def counter_decl(self, c: list) -> ast.CounterDecl:
+    def counter_decl(self, c: list[Token]) -> ast.CounterDecl:
         return ast.CounterDecl(number(c[1]), self._span(c[0], c[2]))
 
-    def fb_decl(self, c: list) -> ast.FBDecl:
+    def fb_decl(self, c: list[Token]) -> ast.FBDecl:
         return ast.FBDecl(c[0].value, c[2].value, self._span(c[0], c[2]))
 
     # ------------------------------------------------------------------- operands
 
-    def image_bit(self, c: list) -> ast.ImageBit:
+    def image_bit(self, c: list[Token]) -> ast.ImageBit:
         mark = c[0]
         return ast.ImageBit(
             _BIT_AREAS[mark.type], number(c[-2]), number(c[-1]), self._span(mark, c[-1])
         )
 
-    def timer(self, c: list) -> ast.TimerRef:
+    def timer(self, c: list[Token]) -> ast.TimerRef:
         return ast.TimerRef(number(c[1]), self._span(c[0], c[1]))
 
-    def counter(self, c: list) -> ast.CounterRef:
+    def counter(self, c: list[Token]) -> ast.CounterRef:
         return ast.CounterRef(number(c[1]), self._span(c[0], c[1]))
 
-    def var_bit(self, c: list) -> ast.VarBit:
+    def var_bit(self, c: list[Token]) -> ast.VarBit:
         name, offset, bit = c
         return ast.VarBit(name.value, number(offset), number(bit), self._span(name, bit))
 
-    def image_byte(self, c: list) -> ast.ImageByte:
+    def image_byte(self, c: list[Token]) -> ast.ImageByte:
         return ast.ImageByte(_BYTE_AREAS[c[0].type], number(c[1]), self._span(c[0], c[1]))
 
-    def var_byte(self, c: list) -> ast.VarByte:
+    def var_byte(self, c: list[Token]) -> ast.VarByte:
         return ast.VarByte(c[0].value, number(c[1]), self._span(c[0], c[1]))
 
-    def flag_word(self, c: list) -> ast.FlagWord:
+    def flag_word(self, c: list[Token]) -> ast.FlagWord:
         return ast.FlagWord(number(c[1]), self._span(c[0], c[1]))
 
-    def constant(self, c: list) -> ast.Constant:
+    def constant(self, c: list[Token]) -> ast.Constant:
         return ast.Constant(_CONST_KINDS[c[0].type], number(c[1]), self._span(c[0], c[1]))
 
-    def param_const(self, c: list) -> ast.ParamConst:
+    def param_const(self, c: list[Token]) -> ast.ParamConst:
         return ast.ParamConst(number(c[1]), number(c[2]), self._span(c[0], c[2]))
 
     # --------------------------------------------------------------- instructions
 
-    def label(self, c: list) -> ast.Label:
+    def label(self, c: list[Token]) -> ast.Label:
         return ast.Label(c[0].value, self._span(c[0]))
 
-    def logic(self, c: list) -> ast.Logic:
+    def logic(self, c: _Mixed) -> ast.Logic:
+        op: Token
+        operand: ast.BitOperand
         op, operand = c
         return ast.Logic(ast.LogicOp[op.type], operand, self._span(op, operand))
 
-    def store(self, c: list) -> ast.Store:
+    def store(self, c: _Mixed) -> ast.Store:
+        op: Token
+        operand: ast.BitOperand
         op, operand = c
         return ast.Store(_STORE_OPS[op.type], operand, self._span(op, operand))
 
-    def not_(self, c: list) -> ast.Not:
+    def not_(self, c: list[Token]) -> ast.Not:
         return ast.Not(self._span(c[0]))
 
-    def load(self, c: list) -> ast.Load:
-        return ast.Load(c[1], self._span(c[0], c[1]))
+    def load(self, c: _Mixed) -> ast.Load:
+        op: Token = c[0]
+        operand: ast.LoadOperand = c[1]
+        return ast.Load(operand, self._span(op, operand))
 
-    def transfer(self, c: list) -> ast.Transfer:
-        return ast.Transfer(c[1], self._span(c[0], c[1]))
+    def transfer(self, c: _Mixed) -> ast.Transfer:
+        op: Token = c[0]
+        operand: ast.TransferOperand = c[1]
+        return ast.Transfer(operand, self._span(op, operand))
 
-    def arith(self, c: list) -> ast.Arith:
+    def arith(self, c: list[Token]) -> ast.Arith:
         return ast.Arith(_ARITH_OPS[c[0].type], self._span(c[0], c[1]))
 
-    def compare(self, c: list) -> ast.Compare:
+    def compare(self, c: list[Token]) -> ast.Compare:
         return ast.Compare(_COMPARE_OPS[c[0].type], self._span(c[0], c[1]))
 
-    def count(self, c: list) -> ast.Count:
-        return ast.Count(ast.CountOp[c[0].type], c[1], self._span(c[0], c[1]))
+    def count(self, c: _Mixed) -> ast.Count:
+        op: Token = c[0]
+        counter: ast.CounterRef = c[1]
+        return ast.Count(ast.CountOp[op.type], counter, self._span(op, counter))
 
-    def segment_end(self, c: list) -> ast.SegmentEnd:
+    def segment_end(self, c: list[Token]) -> ast.SegmentEnd:
         return ast.SegmentEnd(self._span(c[0]))
 
-    def block_end(self, c: list) -> ast.BlockEnd:
+    def block_end(self, c: list[Token]) -> ast.BlockEnd:
         return ast.BlockEnd(ast.EndKind[c[0].type], self._span(c[0]))
 
-    def jump(self, c: list) -> ast.Jump:
+    def jump(self, c: list[Token]) -> ast.Jump:
         return ast.Jump(c[0].type == "JC", c[-1].value, self._span(c[0], c[-1]))
 
-    def call_fb(self, c: list) -> ast.CallFB:
+    def call_fb(self, c: list[Token]) -> ast.CallFB:
         return ast.CallFB(c[0].type == "JC", c[2].value, self._span(c[0], c[2]))
 
-    def param(self, c: list) -> ast.Param:
+    def param(self, c: list[Token]) -> ast.Param:
         return ast.Param(self._span(c[0]))
 
-    def asm(self, c: list) -> ast.Asm:
+    def asm(self, c: list[Token]) -> ast.Asm:
         return ast.Asm(c[1].value, self._span(c[0], c[1]))
 
     # ------------------------------------------------------------------- [GATING]
 
-    def gating_line(self, c: list) -> ast.GatingLine:
-        target, terms = c[0], tuple(c[2:])
+    def gating_line(self, c: _Mixed) -> ast.GatingLine:
+        target: ast.BitOperand = c[0]
+        terms: tuple[ast.GatingTerm, ...] = tuple(c[2:])
+        assert target.span is not None
         return ast.GatingLine(target, terms, self._span(target.span, terms[-1]))
 
-    def gating_term(self, c: list) -> ast.GatingTerm:
-        operand = c[-1]
+    def gating_term(self, c: _Mixed) -> ast.GatingTerm:
+        operand: ast.BitOperand = c[-1]
         if len(c) == 1:
             return ast.GatingTerm(None, False, operand, operand.span)
         return ast.GatingTerm(None, True, operand, self._span(c[0], operand))
 
-    def gating_combine(self, c: list) -> ast.GatingTerm:
-        op, operand = c[0], c[-1]
+    def gating_combine(self, c: _Mixed) -> ast.GatingTerm:
+        op: Token = c[0]
+        operand: ast.BitOperand = c[-1]
         negated = len(c) == 3
         gate = ast.GatingOp.AND if op.type == "AND" else ast.GatingOp.OR
         return ast.GatingTerm(gate, negated, operand, self._span(op, operand))
 
     # -------------------------------------------------------------- [ASSEMBLY], [RAW]
 
-    def asm_line(self, c: list) -> ast.AsmLine:
+    def asm_line(self, c: list[Token]) -> ast.AsmLine:
         return ast.AsmLine(c[0].value, self._span(c[0]))
 
-    def raw_record(self, c: list) -> str:
+    def raw_record(self, c: list[Token]) -> str:
         # The plain string, not the token: in the flat list of a file, tokens are titles.
-        return c[0].value
+        record: str = c[0].value
+        return record

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from asictl.codes import AssemblerCode as Code
 
+__all__ = ["AsmError", "Code"]
+
 
 class AsmError(Exception):
     """A problem on one line, located by column and width; becomes a ``Diagnostic``."""

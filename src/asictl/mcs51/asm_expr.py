@@ -201,8 +201,7 @@ class ExprParser:
         left = self._unary()
         while True:
             op = self.peek_punct()
-            precedence = _PRECEDENCE.get(op or "", 0)
-            if precedence <= min_precedence:
+            if op is None or (precedence := _PRECEDENCE.get(op, 0)) <= min_precedence:
                 return left
             op_token = self.tokens[self.pos]
             self.pos += 1

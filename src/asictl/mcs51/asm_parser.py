@@ -216,10 +216,10 @@ class _LineParser:
                 f"unknown directive '{word.lower()}'", column, end - column, Code.UNKNOWN_MNEMONIC
             )
         if canonical == "INCLUDE":
-            name = self.text[end - 1 :].split(";", 1)[0].strip().strip("\"'")
-            if not name:
+            file = self.text[end - 1 :].split(";", 1)[0].strip().strip("\"'")
+            if not file:
                 raise AsmError("include needs a file name", column, end - column)
-            return Directive("INCLUDE", column, text=name)
+            return Directive("INCLUDE", column, text=file)
         if canonical == "END":
             self._expect_end()
             return Directive("END", column)

@@ -501,8 +501,8 @@ class _Assembler:
                     out.append(value & 0xFF)
             except AsmError as exc:
                 problems.append(exc)
-        for exc in problems:
-            self.report(line, exc)
+        for problem in problems:
+            self.report(line, problem)
         if problems:
             raise _Reported
         return bytes([opcode]) + out

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
+from typing import SupportsIndex, cast, overload
 
 #: Size of each of the 8051's external address spaces.
 SPACE = 0x10000
@@ -37,12 +38,24 @@ class CodeMemory(bytearray):
         super().__init__(SPACE)
         self.on_write: Callable[[], None] | None = None
 
-    def __setitem__(self, index, value) -> None:  # type: ignore[override]
+    @overload
+    def __setitem__(self, index: SupportsIndex, value: SupportsIndex, /) -> None: ...
+    @overload
+    def __setitem__(self, index: slice, value: Iterable[SupportsIndex] | bytes, /) -> None: ...
+    def __setitem__(
+        self,
+        index: SupportsIndex | slice,
+        value: SupportsIndex | Iterable[SupportsIndex] | bytes,
+        /,
+    ) -> None:
         if isinstance(index, slice):
-            value = bytes(value)
-            if len(range(*index.indices(SPACE))) != len(value):
+            data = bytes(value)
+            if len(range(*index.indices(SPACE))) != len(data):
                 raise ValueError("code memory is fixed at 64 KB; assign slices of equal length")
-        super().__setitem__(index, value)
+            super().__setitem__(index, data)
+        else:
+            # The overloads pair an index with one byte, which mypy does not carry over here.
+            super().__setitem__(index, cast(SupportsIndex, value))
         if self.on_write is not None:
             self.on_write()
 

@@ -32,6 +32,7 @@ import enum
 import functools
 import re
 from collections.abc import Callable
+from types import CodeType
 from typing import Any
 
 from asictl.errors import ExitCode, UserError
@@ -57,6 +58,12 @@ _INDIRECT = {Operand.AT_R0: 0, Operand.AT_R1: 1}
 # constant (in a block) or as the name of a local (in a handler); None for A, R0, ...
 Operands = tuple[Operand, ...]
 Values = list[int | str | None]
+
+
+def _encoded(value: int | str | None) -> int | str:
+    """The value of an operand the opcode encodes in bytes (address, bit, target, data)."""
+    assert value is not None, "operands without bytes (A, C, R0, ...) have no value"
+    return value
 
 
 class EmulatorError(UserError):
@@ -88,7 +95,7 @@ class StopReason(enum.Enum):
 #: the instruction there executes. It may change any state; if it moves the PC (for
 #: example with :meth:`Emulator.ret`) execution continues there, otherwise the
 #: instruction at the trap address runs. Returning a true value stops the run.
-Trap = Callable[["Emulator"], Any]
+Trap = Callable[["Emulator"], object]
 
 
 class _Writer:
@@ -106,7 +113,8 @@ class _Writer:
     def __init__(self, *, static: bool, bank: int = 0) -> None:
         self.static = static
         self.base = bank  # register bank base address (0, 8, 16, 24) in a block
-        self.lines: list[Any] = []
+        # Lines of code, and exits: (depth, target) where the block or handler ends.
+        self.lines: list[str | tuple[int, int | str]] = []
         self.depth = 1
         self.bank_changes = False  # a block's last instruction may have switched banks
         self.ended = False  # the instruction transfers control; the block ends with it
@@ -217,13 +225,13 @@ class _Writer:
         if kind in _INDIRECT:
             return f"iram[{self.reg(_INDIRECT[kind])}]"
         if kind is Operand.DIRECT:
-            return self.direct(value, rmw=rmw)
+            return self.direct(_encoded(value), rmw=rmw)
         if kind in (Operand.IMM, Operand.IMM16):
             return str(value)
         if kind is Operand.BIT:
-            return self.bit(value)
+            return self.bit(_encoded(value))
         if kind is Operand.NBIT:
-            return f"(1 ^ {self.bit(value)})"
+            return f"(1 ^ {self.bit(_encoded(value))})"
         raise AssertionError(f"no value for operand {kind}")
 
     def put(self, kind: Operand, value: int | str | None, expr: str) -> None:
@@ -236,9 +244,9 @@ class _Writer:
         elif kind in _INDIRECT:
             self.emit(f"iram[{self.reg(_INDIRECT[kind])}] = {expr}")
         elif kind is Operand.DIRECT:
-            self.set_direct(value, expr)
+            self.set_direct(_encoded(value), expr)
         elif kind is Operand.BIT:
-            self.update_bit(value, "assign", expr)
+            self.update_bit(_encoded(value), "assign", expr)
         else:
             raise AssertionError(f"cannot write operand {kind}")
 
@@ -270,12 +278,16 @@ class _Writer:
             kind = info.operands[index]
             if kind is Operand.IMM16 or kind is Operand.ADDR16:
                 hi, lo = byte(offset), byte(offset + 1)
-                values[index] = (hi << 8 | lo) if self.static else f"({hi} << 8 | {lo})"
+                values[index] = (
+                    hi << 8 | lo
+                    if isinstance(hi, int) and isinstance(lo, int)
+                    else f"({hi} << 8 | {lo})"
+                )
             elif kind is Operand.REL:
                 rel = byte(offset)
                 values[index] = (
                     (self.next + (rel ^ 0x80) - 0x80) & 0xFFFF
-                    if self.static
+                    if isinstance(self.next, int) and isinstance(rel, int)
                     else f"np + ({rel} ^ 128) - 128 & 65535"
                 )
             elif kind is Operand.ADDR11:
@@ -283,7 +295,7 @@ class _Writer:
                 low = byte(offset)
                 values[index] = (
                     (self.next & 0xF800) | page | low
-                    if self.static
+                    if isinstance(self.next, int) and isinstance(low, int)
                     else f"np & 63488 | {page} | {low}"
                 )
             else:
@@ -442,13 +454,13 @@ class _Writer:
         elif ops[0] is Operand.C:
             self.emit("psw = psw & 127")
         else:
-            self.update_bit(vals[0], "clear")
+            self.update_bit(_encoded(vals[0]), "clear")
 
     def _setb(self, ops: Operands, vals: Values) -> None:
         if ops[0] is Operand.C:
             self.emit("psw = psw | 128")
         else:
-            self.update_bit(vals[0], "set")
+            self.update_bit(_encoded(vals[0]), "set")
 
     def _cpl(self, ops: Operands, vals: Values) -> None:
         if ops[0] is Operand.A:
@@ -456,7 +468,7 @@ class _Writer:
         elif ops[0] is Operand.C:
             self.emit("psw = psw ^ 128")
         else:
-            self.update_bit(vals[0], "toggle")
+            self.update_bit(_encoded(vals[0]), "toggle")
 
     def _rl(self, ops: Operands, vals: Values) -> None:
         self.emit("a = (a << 1 | a >> 7) & 255")
@@ -524,7 +536,7 @@ class _Writer:
         self.put(ops[0], vals[0], value)
 
     def _ajmp(self, ops: Operands, vals: Values) -> None:
-        self.jump(vals[0])
+        self.jump(_encoded(vals[0]))
 
     _ljmp = _sjmp = _ajmp
 
@@ -533,13 +545,13 @@ class _Writer:
 
     def _acall(self, ops: Operands, vals: Values) -> None:
         ret = self.next
-        if self.static:
+        if isinstance(ret, int):  # in a block
             self.push(str(ret & 0xFF))
             self.push(str(ret >> 8))
         else:
             self.push("np & 255")
             self.push("np >> 8")
-        self.jump(vals[0])
+        self.jump(_encoded(vals[0]))
 
     _lcall = _acall
 
@@ -551,30 +563,31 @@ class _Writer:
     _reti = _ret
 
     def _jc(self, ops: Operands, vals: Values) -> None:
-        self.branch("psw & 128", vals[0])
+        self.branch("psw & 128", _encoded(vals[0]))
 
     def _jnc(self, ops: Operands, vals: Values) -> None:
-        self.branch("not psw & 128", vals[0])
+        self.branch("not psw & 128", _encoded(vals[0]))
 
     def _jz(self, ops: Operands, vals: Values) -> None:
-        self.branch("not a", vals[0])
+        self.branch("not a", _encoded(vals[0]))
 
     def _jnz(self, ops: Operands, vals: Values) -> None:
-        self.branch("a", vals[0])
+        self.branch("a", _encoded(vals[0]))
 
     def _jb(self, ops: Operands, vals: Values) -> None:
-        self.branch(self.bit(vals[0]), vals[1])
+        self.branch(self.bit(_encoded(vals[0])), _encoded(vals[1]))
 
     def _jnb(self, ops: Operands, vals: Values) -> None:
-        self.branch(f"not {self.bit(vals[0])}", vals[1])
+        self.branch(f"not {self.bit(_encoded(vals[0]))}", _encoded(vals[1]))
 
     def _jbc(self, ops: Operands, vals: Values) -> None:
         # JBC reads the latch (it is read-modify-write) and clears the bit if it jumps.
-        byte, n = self.bit_place(vals[0])
+        bit = _encoded(vals[0])
+        byte, n = self.bit_place(bit)
         self.emit(f"if {self.direct(byte, rmw=True)} >> {n} & 1:")
         self.depth += 1
-        self.update_bit(vals[0], "clear")
-        self.exit(vals[1])
+        self.update_bit(bit, "clear")
+        self.exit(_encoded(vals[1]))
         self.depth -= 1
         self.ended = True
 
@@ -582,12 +595,12 @@ class _Writer:
         left = self.temp(self.get(ops[0], vals[0]))
         right = self.temp(self.get(ops[1], vals[1]))
         self.emit(f"psw = psw & 127 | (128 if {left} < {right} else 0)")
-        self.branch(f"{left} != {right}", vals[2])
+        self.branch(f"{left} != {right}", _encoded(vals[2]))
 
     def _djnz(self, ops: Operands, vals: Values) -> None:
         value = self.temp(f"{self.get(ops[0], vals[0], rmw=True)} - 1 & 255")
         self.put(ops[0], vals[0], value)
-        self.branch(value, vals[1])
+        self.branch(value, _encoded(vals[1]))
 
     # -- assembling the function ----------------------------------------------------
 
@@ -654,12 +667,13 @@ _FACTORY_HEADER = "def factory(iram, sfr, code, xram, xrd, xwr, pins, emu, itera
 
 
 @functools.lru_cache(maxsize=8192)
-def _compile(source: str):
+def _compile(source: str) -> CodeType:
     """Compile generated source once per process; emulators share the code objects."""
     return compile(source, "<mcs51-translation>", "exec")
 
 
-def _instantiate(source: str, emu: Emulator):
+def _instantiate(source: str, emu: Emulator) -> Any:
+    """What the generated ``factory`` returns: the handlers' tuple, or a block function."""
     namespace: dict[str, Any] = {"PAR": PARITY}
     exec(_compile(source), namespace)
     bus = emu.xdata
@@ -739,7 +753,7 @@ class Emulator:
         self._blocks: dict[int, Entry] = {}
         self._iterations = [0]  # how often the last self-looping block went round
         self._stops: frozenset[int] = frozenset()
-        self._handlers = _instantiate(_HANDLERS, self)
+        self._handlers: tuple[Callable[[int], int] | None, ...] = _instantiate(_HANDLERS, self)
         self.reset()
 
     # -- state ----------------------------------------------------------------------
@@ -895,7 +909,13 @@ class Emulator:
             self._blocks.clear()
         return stops
 
-    def _run(self, ilimit: int, climit: int, until: int | None, trace) -> StopReason:
+    def _run(
+        self,
+        ilimit: int,
+        climit: int,
+        until: int | None,
+        trace: Callable[[Emulator, int], None] | None,
+    ) -> StopReason:
         stops = self._stop_addresses(until)
         first = True
         interpret = trace is not None or not self.translate
@@ -985,6 +1005,7 @@ class Emulator:
             address, count, cycles = pc, 0, 0
             while True:
                 info = OPCODES[code[address]]
+                assert info is not None  # the block ends before an undefined opcode
                 raw = bytes(code[(address + k) & 0xFFFF] for k in range(info.length))
                 writer.instruction(info, address, raw)
                 count += 1
@@ -1003,7 +1024,8 @@ class Emulator:
                 "block", address if writer.falls_through else None, pc if loops else None
             )
             source = f"{_FACTORY_HEADER}{body}\n    return block\n"
-            entry = (_instantiate(source, self), count, cycles, loops)
+            block: Callable[..., int] = _instantiate(source, self)
+            entry = (block, count, cycles, loops)
         self._blocks[key] = entry
         return entry
 

@@ -1,4 +1,5 @@
-"""The AS-i/Modbus gateway VAG-MOD-KF-R4's Modbus address map (gateway manual chapter 7).
+"""The AS-i/Modbus gateway VAG-MOD-KF-R4: its Modbus address map (gateway manual chapter 7)
+and the serial settings and slave addresses it can be set to (5.6).
 
 Register numbers are Modbus PDU addresses: the manual's "41001" is holding register 1000.
 The emulated gateway (``gateway.addressmap``) serves this map and the Modbus transport
@@ -8,6 +9,25 @@ The emulated gateway (``gateway.addressmap``) serves this map and the Modbus tra
 from __future__ import annotations
 
 from enum import IntEnum
+
+# --- the Modbus interface's settings (manual 5.6, 6.1)
+#: The slave addresses the gateway can be set to ("Busadressen von 1 bis 64").
+UNITS = range(1, 65)
+#: The baud rates of the display codes 10-83, in the order of their first digit 1-8.
+BAUD_RATES = (1200, 2400, 4800, 9600, 19200, 28800, 38400, 57600)
+#: Parity ("N", "O", "E") and stop bits of the display codes' second digit 0-3: parity
+#: comes with one stop bit only; two stop bits only without parity.
+FRAMINGS = (("N", 1), ("O", 1), ("E", 1), ("N", 2))
+#: The factory setting: code 40, 9600 baud, no parity, one stop bit.
+DEFAULT_BAUD = 9600
+
+
+def serial_setting_code(baud: int, parity: str, stopbits: int) -> int | None:
+    """The gateway's display code of a serial setting (10..83), None if it has none."""
+    if baud not in BAUD_RATES or (parity, stopbits) not in FRAMINGS:
+        return None
+    return 10 * (BAUD_RATES.index(baud) + 1) + FRAMINGS.index((parity, stopbits))
+
 
 #: Registers one telegram may carry (manual 6.3.3, 6.3.8).
 MAX_REGISTERS = 15
@@ -67,3 +87,23 @@ class ExecutionRegister(IntEnum):
     KEY_LOCK = 1007
     WATCHDOG = 1008
     START_STOP = 1009  # the AS-i Control flags
+
+
+# --- where a control program's operands appear (the formulas docs/modbus.md tabulates)
+
+
+def data_bit(slave: int, bit: int) -> int:
+    """Coil (output data) or discrete input (input data) of a slave's data bit: 4n + b."""
+    return 4 * slave + bit
+
+
+def data_register(slave: int) -> tuple[int, int]:
+    """(register, lowest bit) of a slave's nibble in the data registers: four slaves a
+    register, slave 4k in bits 12-15 down to slave 4k+3 in bits 0-3."""
+    return slave // 4, 12 - 4 * (slave % 4)
+
+
+def memory_word(flag_byte: int) -> tuple[int, int]:
+    """(holding register, lowest bit) of a flag byte in the two-bytes-a-register user
+    memory: the even byte is the high byte."""
+    return MEMORY_WORDS + flag_byte // 2, 0 if flag_byte % 2 else 8

@@ -19,6 +19,9 @@ class FirmwareBlock:
     inputs: str
     #: what it leaves in PSeg
     outputs: str
+    #: PSeg[0] names a slave the block sends to or reads from as a projected slave
+    #: (parameters, commands): for a slave not in [SETUP] the call cannot do its job
+    for_projected_slave: bool = False
 
 
 _BLOCKS = (
@@ -27,24 +30,28 @@ _BLOCKS = (
         "write power-up parameter (PP)",
         "PSeg[0] slave address, PSeg[1] parameter",
         "PSeg[0] 00h success / 80h error",
+        for_projected_slave=True,
     ),
     FirmwareBlock(
         "GetPP",
         "read power-up parameter (PP)",
         "PSeg[0] slave address",
         "PSeg[0] status, PSeg[1] parameter",
+        for_projected_slave=True,
     ),
     FirmwareBlock(
         "SendPrm",
         "send parameter to a slave (PI); what PARAM calls",
         "PSeg[0] slave address, PSeg[1] parameter",
         "PSeg[0] status, PSeg[1] the slave's response",
+        for_projected_slave=True,
     ),
     FirmwareBlock(
         "GetPI",
         "read the parameter image (PI)",
         "PSeg[0] slave address",
         "PSeg[0] status, PSeg[1] parameter",
+        for_projected_slave=True,
     ),
     FirmwareBlock(
         "GetPCD",
@@ -99,6 +106,7 @@ _BLOCKS = (
         "send an AS-i command to a slave",
         "PSeg[0] slave address, PSeg[1] 5-bit information part",
         "PSeg[0] status, PSeg[1] 4-bit response",
+        for_projected_slave=True,
     ),
     FirmwareBlock(
         "RdEeprom",

@@ -10,6 +10,7 @@ Timers count down in ``tick``, between cycles, as the master's 10 ms clock does.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 from asictl.mcs51.bus import Bus
@@ -106,7 +107,7 @@ class ProgramRunner:
 
     # ------------------------------------------------------------------ the cycle
 
-    def cycle(self, inputs: bytes | None = None) -> None:
+    def cycle(self, inputs: bytes | bytearray | None = None) -> None:
         """One program cycle; raises ``CycleTimeout`` when the budget runs out."""
         cpu = self.cpu
         previous = bytes(self.inputs)
@@ -122,11 +123,7 @@ class ProgramRunner:
         ]
         for _, location, value in flags:
             cpu.iram[location.address] = value
-        cpu.sfr[0x81] = layout.STACK_START  # SP
-        cpu.sfr[0xD0] = 0  # PSW: bank 0
-        cpu.push(layout.CYCLE_END & 0xFF)
-        cpu.push(layout.CYCLE_END >> 8)
-        cpu.pc = self.program.code_base
+        self.enter()
         start = cpu.cycles
         reason = cpu.run(max_cycles=self.budget)
         self.last_cycles = cpu.cycles - start
@@ -146,6 +143,16 @@ class ProgramRunner:
             if value != before:
                 cpu.xdata.write(layout.FLAGS_BASE + n, value)
 
+    def enter(self) -> None:
+        """Call the program as the firmware does: bank 0, the stack set up so that its
+        final RET lands on the cycle-end trap, the PC at its code base."""
+        cpu = self.cpu
+        cpu.sfr[0x81] = layout.STACK_START  # SP
+        cpu.sfr[0xD0] = 0  # PSW: bank 0
+        cpu.push(layout.CYCLE_END & 0xFF)
+        cpu.push(layout.CYCLE_END >> 8)
+        cpu.pc = self.program.code_base
+
     def tick(self, ticks: int = 1) -> None:
         """``ticks`` x 10 ms of master time: running timers count down, status follows."""
         xdata = self.cpu.xdata
@@ -158,7 +165,7 @@ class ProgramRunner:
                 if not remaining:
                     self.write(location, self.read(location) & ~(1 << bit) & 0xFF)
 
-    def _firmware_trap(self, name: str):
+    def _firmware_trap(self, name: str) -> Callable[[Emulator], None]:
         def trap(cpu: Emulator) -> None:
             base = cpu.dptr
             pseg = bytearray(cpu.xdata.read(base + i) for i in range(16))

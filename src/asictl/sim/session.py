@@ -267,6 +267,8 @@ class Outcome:
     markers: list[str] = field(default_factory=list)
     #: failures as (line, text) for test runners that show the scenario line
     failures: list[tuple[int, str]] = field(default_factory=list)
+    #: program stops, ``at 55 ms: program stopped: ...``
+    stops: list[str] = field(default_factory=list)
 
 
 def run_file(path: str, lib: tuple[str, ...] = ()) -> Outcome:
@@ -288,6 +290,7 @@ def run_file(path: str, lib: tuple[str, ...] = ()) -> Outcome:
         path, "PASS" if run.result.passed else "FAIL", summary(run), events(run),
         prepared.notes + run.note, seconds=run.seconds, markers=list(prepared.scenario.markers),
         failures=[(f.line, str(f)) for f in run.result.failures],
+        stops=[f"at {s.at_ms:g} ms: program stopped: {s.text}" for s in run.result.stops],
     )
 
 

@@ -24,9 +24,11 @@ and responses are separate classes and each side registers only the half it rece
 from __future__ import annotations
 
 import struct
+from collections.abc import Callable
 from typing import Protocol
 
 from pymodbus.constants import ExcCodes
+from pymodbus.datastore import ModbusServerContext
 from pymodbus.pdu import ExceptionResponse, ModbusPDU
 
 __all__ = [
@@ -219,7 +221,7 @@ class UploadResponse(_BlockPDU):
 CLIENT_PDUS: tuple[type[ModbusPDU], ...] = (MasterInfoResponse, DownloadResponse, UploadResponse)
 
 
-def _answer(request: ModbusPDU, device_id: int, compute) -> ModbusPDU:
+def _answer(request: ModbusPDU, device_id: int, compute: Callable[[], ModbusPDU]) -> ModbusPDU:
     """Run the handler; a GatewayFunctionError becomes the exception telegram it names."""
     try:
         response = compute()
@@ -241,14 +243,18 @@ def server_pdus(handler: UserFunctionHandler) -> list[type[ModbusPDU]]:
     """
 
     class BoundMasterInfoRequest(MasterInfoRequest):
-        async def datastore_update(self, context, device_id: int) -> ModbusPDU:
+        async def datastore_update(
+            self, context: ModbusServerContext, device_id: int
+        ) -> ModbusPDU:
             return _answer(
                 self, device_id,
                 lambda: MasterInfoResponse(handler.master_info(self.part), self.part),
             )
 
     class BoundDownloadRequest(DownloadRequest):
-        async def datastore_update(self, context, device_id: int) -> ModbusPDU:
+        async def datastore_update(
+            self, context: ModbusServerContext, device_id: int
+        ) -> ModbusPDU:
             def write() -> ModbusPDU:
                 handler.write_program(self.address, self.data)
                 return DownloadResponse(address=self.address)
@@ -256,7 +262,9 @@ def server_pdus(handler: UserFunctionHandler) -> list[type[ModbusPDU]]:
             return _answer(self, device_id, write)
 
     class BoundUploadRequest(UploadRequest):
-        async def datastore_update(self, context, device_id: int) -> ModbusPDU:
+        async def datastore_update(
+            self, context: ModbusServerContext, device_id: int
+        ) -> ModbusPDU:
             def read() -> ModbusPDU:
                 data = handler.read_program(self.address)
                 if len(data) != BLOCK_SIZE:

@@ -1,0 +1,121 @@
+"""Time the live board: a 16 KB download to a served board, the monitor's refresh rate,
+and how soon an input set with ``asictl bus inputs`` shows in a program's output.
+
+``asictl serve`` runs as its own process with a temporary state directory (as a user runs
+it); the client side runs here, as the commands do:
+
+- download: the download procedure over the socket (configuration, 70 blocks through the
+  program buffer, the read-back, the reset), median of several runs;
+- refresh: ``MonitorSource.snapshot`` (what one monitor refresh reads) per second;
+- input to output: setting an input of the board's cable, then polling ``status`` until
+  the program's output follows (the program ``Q 17.3 = I 4.0``), median.
+
+Usage:
+
+    python3 benchmarks/bench_live.py [--runs 5]
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import signal
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+from bench_compile import largest_fitting
+
+from asictl.build import build
+from asictl.host.connection import MasterAddress, connect_master
+from asictl.host.transfer import StartMode, download
+from asictl.monitor.source import MonitorSource
+from asictl.source import from_string
+
+PROGRAM = """[SETUP]
+4: iiii, 0
+17: oooo, 0
+[PROGRAM]
+        A   I 4.0
+        =   Q 17.3
+        BE
+[END]
+"""
+
+
+def serve(state: Path) -> subprocess.Popen[str]:
+    process = subprocess.Popen(
+        [sys.executable, "-m", "asictl", "serve", "--state-dir", str(state)],
+        stderr=subprocess.PIPE, text=True, env=os.environ.copy(),
+    )
+    assert process.stderr is not None and "live at" in process.stderr.readline()
+    return process
+
+
+def time_download(address: MasterAddress, runs: int) -> tuple[float, int]:
+    _, image = largest_fitting()
+    times = []
+    for _ in range(runs):
+        with connect_master(address) as master:
+            started = time.perf_counter()
+            download(master.transport, image, start=StartMode.STOP)
+            times.append(time.perf_counter() - started)
+    return statistics.median(times), len(image.to_bytes())
+
+
+def refresh_rate(address: MasterAddress, seconds: float) -> float:
+    source = MonitorSource(address)
+    source.snapshot()
+    count, started = 0, time.perf_counter()
+    while time.perf_counter() - started < seconds:
+        assert source.snapshot().status is not None
+        count += 1
+    return count / (time.perf_counter() - started)
+
+
+def input_to_output(address: MasterAddress, runs: int) -> float:
+    built = build(from_string("p.asi", PROGRAM))
+    assert built.image is not None
+    with connect_master(address) as master:
+        download(master.transport, built.image, start=StartMode.START)
+        master.emulated("match")
+    times = []
+    for n in range(2 * runs):
+        value = (n + 1) % 2
+        with connect_master(address) as master:
+            started = time.perf_counter()
+            master.emulated("inputs", changes=[[4, 1, value]])
+        while True:
+            with connect_master(address) as master:
+                status = master.status()
+            if status.slaves["17"].outputs == value << 3:
+                break
+        times.append(time.perf_counter() - started)
+    return statistics.median(times)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--runs", type=int, default=5)
+    args = parser.parse_args()
+    with tempfile.TemporaryDirectory() as tmp:
+        state = Path(tmp) / "state"
+        process = serve(state)
+        try:
+            address = MasterAddress(state_dir=state)
+            seconds, size = time_download(address, args.runs)
+            print(f"download of {size} bytes to a served board: {seconds:.2f} s (median)")
+            rate = refresh_rate(address, 3.0)
+            print(f"monitor refresh (status without the image): {rate:.0f} per second")
+            latency = input_to_output(address, args.runs)
+            print(f"input set -> output seen in status: {latency * 1000:.0f} ms (median)")
+        finally:
+            process.send_signal(signal.SIGTERM)
+            process.wait(timeout=20)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,261 @@
+"""ASI_MON's editor mode on the command line: slave addresses, parameters, AS-i commands,
+the operation mode, storing the actual configuration and parameters, the projected
+configuration, diagnostics, flags and outputs (docs/commissioning.md).
+
+Every command goes through the master's host commands (host/commissioning.py), so it
+works on an emulated board, a live one, a real board and, where the gateway offers the
+function, through Modbus. Refusals name the ASI_CTRL STATUS word.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+from dataclasses import asdict
+from typing import Unpack
+
+import click
+
+from asictl.cli.master import _board_options, _BoardOptions, _connect
+from asictl.errors import ExitCode, UserError
+from asictl.host.emulated import parse_address, parse_number
+from asictl.platform.master import SLAVES
+from asictl.platform.pc2 import FLAGS_SIZE
+
+# --------------------------------------------------------------------------- slave
+
+
+@click.group("slave")
+def slave() -> None:
+    """A slave's address, parameter, or an AS-i command to it."""
+
+
+@slave.command("address")
+@click.argument("old")
+@click.argument("new")
+@_board_options
+def address(old: str, new: str, **board: Unpack[_BoardOptions]) -> None:
+    """Give the slave at OLD the address NEW (0 is a new slave's address).
+
+    The master's command 20: the slave must be detected at OLD, NEW must be free, and no
+    other slave may have address 0. A refusal says why: STATUS 83A1h (no slave at OLD),
+    83A2h (a slave 0 is present), 83A3h (NEW is taken), 83A4h..83A6h (the slave could not
+    be re-addressed).
+
+    Exit status: 0 done, 1 refused, 2 bad usage.
+    """
+    before, after = parse_address(old), parse_address(new)
+    with _connect(**board) as master:
+        master.tools().change_address(before, after)
+        click.echo(f"{master.name}: slave {before} now has address {after}", err=True)
+
+
+@slave.command("parameter")
+@click.argument("address_", metavar="ADDRESS")
+@click.argument("value")
+@_board_options
+def parameter(address_: str, value: str, **board: Unpack[_BoardOptions]) -> None:
+    """Write parameter VALUE (0..15) to the slave at ADDRESS (Write_Parameter, command 5);
+    prints the slave's answer. The permanent parameter (PP) stays: 'asictl store
+    parameters' makes the actual ones permanent."""
+    where = parse_address(address_, zero=False)
+    parameter_value = parse_number(value, "parameter", 15)
+    with _connect(**board) as master:
+        answer = master.tools().write_parameter(where, parameter_value)
+    click.echo(f"{answer:X}h")
+    click.echo(
+        f"{master.name}: slave {where} got parameter {parameter_value:X}h, answered {answer:X}h",
+        err=True,
+    )
+
+
+@slave.command("command")
+@click.argument("address_", metavar="ADDRESS")
+@click.argument("information")
+@_board_options
+def command(address_: str, information: str, **board: Unpack[_BoardOptions]) -> None:
+    """Send the AS-i command call INFORMATION (0..1Fh, e.g. 10h read I/O configuration,
+    11h read ID code, 1Ch reset slave, 1Eh read status) to the slave at ADDRESS (Execute
+    Command, 22); prints the slave's answer."""
+    where = parse_address(address_)
+    info = parse_number(information, "AS-i command", 0x1F)
+    with _connect(**board) as master:
+        answer = master.tools().execute_command(where, info)
+    click.echo(f"{answer:X}h")
+
+
+# --------------------------------------------------------------------------- mode, store
+
+
+@click.command("mode")
+@click.argument("mode", required=False, type=click.Choice(["protected", "configuration"]))
+@_board_options
+def mode(mode: str | None, **board: Unpack[_BoardOptions]) -> None:
+    """Show or switch the operation mode (command 17). In configuration mode the master
+    activates every slave it finds; in protected mode only the projected ones. Protected
+    mode is refused while a slave with address 0 is present (STATUS 8385h)."""
+    with _connect(**board) as master:
+        if mode is not None:
+            master.tools().set_mode(configuration=mode == "configuration")
+        now = master.status().mode
+    click.echo(f"{master.name}: {now} mode", err=True)
+
+
+@click.command("store")
+@click.argument("what", type=click.Choice(["configuration", "parameters"]))
+@_board_options
+def store(what: str, **board: Unpack[_BoardOptions]) -> None:
+    """Store the actual configuration (the detected slaves become LPS and PCD; command
+    10, configuration mode only: ASI_MON's F6) or the actual parameters (PI becomes PP;
+    command 7: ASI_MON's F5)."""
+    with _connect(**board) as master:
+        tools = master.tools()
+        if what == "configuration":
+            tools.store_configuration()
+        else:
+            tools.store_parameters()
+    click.echo(f"{master.name}: stored the actual {what}", err=True)
+
+
+@click.command("setup")
+@click.argument("file", metavar="FILE.asi|FILE.hex", type=click.Path(dir_okay=False))
+@_board_options
+@click.option(
+    "--lib", "lib", multiple=True, type=click.Path(file_okay=False),
+    help="Also look for function-block files here (as for download).",
+)
+def setup(file: str, lib: tuple[str, ...], **board: Unpack[_BoardOptions]) -> None:
+    """Write the projected configuration (LPS, PCD, PP, and PI) of FILE's [SETUP] to the
+    master without downloading its program, as a download does first. FILE is built as
+    'asictl download' builds it."""
+    from asictl.build import build_file
+
+    with _connect(**board) as master:
+        built = build_file(file, entry_points=master.transport.entry_points(), lib=lib)
+        click.echo(built.render(), nl=False, err=True)
+        if built.has_errors or built.image is None:
+            raise UserError(f"{file}: not written: the program has errors", ExitCode.FAILED)
+        configuration = built.image.configuration
+        master.tools().set_configuration(configuration)
+        projected = configuration.projected()
+    click.echo(
+        f"{master.name}: projected slaves {', '.join(map(str, projected)) or '(none)'}", err=True
+    )
+
+
+# --------------------------------------------------------------------------- diagnostics
+
+
+def _list(text: str) -> list[int]:
+    if text.strip() in ("", "none"):
+        return []
+    return [parse_address(part) for part in re.split(r"[,\s]+", text.strip()) if part]
+
+
+@click.command("diag")
+@_board_options
+@click.option("--json", "as_json", is_flag=True, help="One JSON object on stdout.")
+@click.option(
+    "--set-los", metavar="LIST",
+    help="First set the list of offline slaves (command 72): addresses such as '3,17', or "
+    "'none'. A configuration error at one of them takes the master offline.",
+)
+def diag(as_json: bool, set_los: str | None, **board: Unpack[_BoardOptions]) -> None:
+    """Read and clear the AS-i diagnostics: the list of corrupted slaves (LCS, command 70),
+    the slaves' error counters (71), the telegram counters (129); and the list of offline
+    slaves (LOS). Reading clears the LCS and the counters, as on the master.
+
+    Exit status: 0 shown, 1 the master lacks them (a gateway) or did not answer.
+    """
+    los = _list(set_los) if set_los is not None else None
+    with _connect(**board) as master:
+        tools = master.tools()
+        if los is not None:
+            tools.set_los(los)
+        result = tools.diagnostics()
+    if as_json:
+        click.echo(json.dumps(asdict(result), indent=2))
+        return
+    errors = [f"{n}: {c}" for n, c in enumerate(result.error_counters) if c]
+    click.echo(f"{master.name}: diagnostics (read and cleared)")
+    click.echo("LCS      " + (", ".join(map(str, result.lcs)) or "(none)"))
+    click.echo("errors   " + (", ".join(errors) or "(none)"))
+    click.echo("LOS      " + (", ".join(map(str, result.los)) or "(none)"))
+    click.echo(
+        f"telegrams {result.telegrams} sent, {result.failed_telegrams} failed"
+    )
+
+
+# --------------------------------------------------------------------------- write
+
+_OPERAND = re.compile(
+    r"\s*(?P<kind>FY|F|Q)\s*(?P<number>\d+)\s*(?:\.\s*(?P<bit>\d+))?\s*=\s*(?P<value>\S+)\s*",
+    re.IGNORECASE,
+)
+
+
+@click.command("write")
+@click.argument("assignments", nargs=-1, required=True)
+@_board_options
+def write(assignments: tuple[str, ...], **board: Unpack[_BoardOptions]) -> None:
+    """Write flags and outputs: 'F 10.0=1' (a flag bit), 'FY 10=0x12' (a flag byte),
+    'Q 17.3=1' (an output bit) or 'Q 17=0b1000' (a slave's four outputs). Outputs only
+    while the control program is stopped: it owns them while it runs.
+
+    Exit status: 0 written, 1 refused, 2 bad usage (nothing is written then).
+    """
+    flag_bytes: dict[int, int] = {}
+    flag_bits: list[tuple[int, int, int]] = []
+    outputs: dict[int, tuple[int, int]] = {}
+    for text in assignments:
+        match = _OPERAND.fullmatch(text)
+        if not match:
+            raise UserError(
+                f"'{text}': expected 'F 10.0=1', 'FY 10=0x12', 'Q 17.3=1' or 'Q 17=0b1000'",
+                ExitCode.USAGE,
+            )
+        kind, number, bit = match["kind"].upper(), int(match["number"]), match["bit"]
+        if kind in ("F", "FY"):
+            if number >= FLAGS_SIZE:
+                raise UserError(f"'{text}': the flags are F0..F127", ExitCode.USAGE)
+            if kind == "FY" or bit is None:
+                if bit is not None:
+                    raise UserError(f"'{text}': FY is a whole byte", ExitCode.USAGE)
+                flag_bytes[number] = parse_number(match["value"], "flag byte", 0xFF)
+            else:
+                if int(bit) > 7:
+                    raise UserError(f"'{text}': a flag byte has bits 0..7", ExitCode.USAGE)
+                flag_bits.append((number, int(bit), parse_number(match["value"], "bit", 1)))
+        else:
+            if not 1 <= number < SLAVES:
+                raise UserError(f"'{text}': slaves 1..31 have outputs", ExitCode.USAGE)
+            mask, value = 0xF, 0
+            if bit is not None:
+                if int(bit) > 3:
+                    raise UserError(f"'{text}': a slave has output bits 0..3", ExitCode.USAGE)
+                mask = 1 << int(bit)
+                value = parse_number(match["value"], "bit", 1) << int(bit)
+            else:
+                value = parse_number(match["value"], "output value", 15)
+            old_mask, old_value = outputs.get(number, (0, 0))
+            outputs[number] = (old_mask | mask, old_value & ~mask | value)
+    with _connect(**board) as master:
+        tools = master.tools()
+        if flag_bytes or flag_bits:
+            flags = bytearray(tools.read_flags())
+            for n, value in flag_bytes.items():
+                flags[n] = value
+            for n, b, value in flag_bits:
+                flags[n] = flags[n] & ~(1 << b) | value << b
+            touched = sorted({*flag_bytes, *(n for n, _, _ in flag_bits)})
+            for n in touched:
+                tools.write_flags(n, bytes([flags[n]]))
+        if outputs:
+            tools.write_outputs(outputs)
+    click.echo(f"{master.name}: wrote {', '.join(assignments)}", err=True)
+    if master.board is not None:
+        click.echo(
+            f"{master.name}: note: this emulated board runs only during a command: flags and "
+            "outputs are lost when it ends ('asictl serve' keeps it running)",
+            err=True,
+        )

@@ -1,0 +1,196 @@
+"""``asictl serve`` and ``asictl bus``: a live emulated board, and the cable behind it.
+
+``serve`` keeps an emulated board running in real time (host/live.py) so that a program
+runs between commands as on a real master, and every other command for that port reaches
+it. ``bus`` is the emulated AS-i cable: which slaves are plugged in, their input data, and
+``bus match`` to re-plug the cable to the downloaded program's [SETUP] (docs/commissioning.md).
+"""
+
+from __future__ import annotations
+
+import json
+from typing import Any, Unpack
+
+import click
+
+from asictl.cli.master import _board_options, _BoardOptions, _connect
+from asictl.errors import ExitCode, UserError
+from asictl.host.boards import parse_port, port_name, state_directory
+from asictl.host.connection import Master
+from asictl.host.emulated import (
+    parse_address,
+    parse_input_bit,
+    parse_number,
+    parse_profile,
+)
+
+
+@click.command("serve")
+@click.option(
+    "--port", default="300h", show_default=True,
+    help="The emulated board (by I/O base) to keep running.",
+)
+@click.option(
+    "--state-dir", type=click.Path(file_okay=False),
+    help="Where emulated boards are kept (as for download/upload).",
+)
+@click.option(
+    "--wait", is_flag=True,
+    help="If another process holds the board, wait for it instead of stopping.",
+)
+def serve(port: str, state_dir: str | None, wait: bool) -> None:
+    """Keep the emulated board running in real time until Ctrl-C or SIGTERM.
+
+    Master time follows the wall clock: the control program runs, its timers run, the
+    slaves' inputs are read, whether or not a command is talking to the board. Every
+    other asictl command for this port (download, status, bus, monitor, ...) reaches the
+    running board through a socket in the state directory (owner-only) instead of its
+    state file. The board's non-volatile state is saved every 10 s and at the end.
+    'asictl gateway serve' is the same live board with Modbus in front.
+
+    Exit status: 0 stopped by a signal, 1 the board is already served or held by another
+    process (it is named; --wait waits for it), 2 bad usage.
+    """
+    from asictl.host.live import run_live
+
+    base = parse_port(port)
+    name = port_name(base)
+
+    def started(path: object) -> None:
+        click.echo(f"asictl: board {name} live at {path} (Ctrl-C stops)", err=True)
+
+    def notify(text: str) -> None:
+        click.echo(f"asictl: {text}", err=True)
+
+    run_live(
+        base, state_directory(state_dir), identity={"command": "asictl serve", "port": name},
+        started=started, wait=wait, notify=notify,
+    )
+    click.echo(f"asictl: board {name} stopped; its state is saved", err=True)
+
+
+# --------------------------------------------------------------------------- bus
+
+
+def _emulated_only(board: _BoardOptions) -> None:
+    if board["modbus"] is not None or board["io"] != "emulated":
+        raise UserError(
+            "'asictl bus' works on emulated boards only: a real master's AS-i cable is "
+            "changed by hand", ExitCode.USAGE,
+        )
+
+
+def _report(master: Master) -> None:
+    """The master's state after a change of the cable, and the fix for a config error."""
+    click.echo(f"{master.name}: {master.summary()}", err=True)
+
+
+@click.group("bus", invoke_without_command=True)
+@_board_options
+@click.option("--json", "as_json", is_flag=True, help="Without a subcommand: JSON on stdout.")
+@click.pass_context
+def bus(ctx: click.Context, as_json: bool, **board: Unpack[_BoardOptions]) -> None:
+    """The emulated AS-i cable: its slaves, their inputs, plugging and unplugging.
+
+    Without a subcommand: 'asictl bus show' (with the options given here). Emulated
+    boards only.
+    """
+    if ctx.invoked_subcommand is None:
+        ctx.invoke(show, as_json=as_json, **board)
+
+
+def _slave_rows(slaves: list[dict[str, Any]]) -> str:
+    if not slaves:
+        return "  (no slaves plugged in)\n"
+    lines = ["  addr  profile  IO  ID  inputs  outputs  param"]
+    for s in slaves:
+        lines.append(
+            f"  {s['address']:>4}  {s['profile']:<7}  {s['io_code']:X}h  {s['id_code']:X}h  "
+            f"{s['inputs']:04b}    {s['outputs']:04b}     {s['parameter']:X}h"
+            + (f"  {s['name']}" if s.get("name") else "")
+        )
+    return "\n".join(lines) + "\n"
+
+
+@bus.command("show")
+@_board_options
+@click.option("--json", "as_json", is_flag=True, help="One JSON object on stdout.")
+def show(as_json: bool = False, **board: Unpack[_BoardOptions]) -> None:
+    """The slaves on the cable: address, profile (I/O and ID code), inputs, outputs."""
+    _emulated_only(board)
+    with _connect(**board) as master:
+        cable = master.emulated("bus")
+    if as_json:
+        click.echo(json.dumps(cable, indent=2))
+        return
+    power = "on" if cable["powered"] else "OFF (AS-i power fail)"
+    click.echo(f"{master.name}: AS-i cable, power {power}")
+    click.echo(_slave_rows(cable["slaves"]), nl=False)
+
+
+@bus.command("plug")
+@click.argument("address")
+@click.argument("profile")
+@_board_options
+def plug(address: str, profile: str, **board: Unpack[_BoardOptions]) -> None:
+    """Plug a slave in at ADDRESS (0 for a new slave) with PROFILE: its I/O code (letters
+    such as iiio, or a hex digit) and ID code, as in [SETUP]: 'iiio,1', 'Bh,0'."""
+    _emulated_only(board)
+    where = parse_address(address)
+    io_code, id_code = parse_profile(profile)
+    with _connect(**board) as master:
+        slave = master.emulated("plug", address=where, io_code=io_code, id_code=id_code)
+        click.echo(f"{master.name}: plugged in slave {where} ({slave['profile']})", err=True)
+        _report(master)
+
+
+@bus.command("unplug")
+@click.argument("address")
+@_board_options
+def unplug(address: str, **board: Unpack[_BoardOptions]) -> None:
+    """Unplug the slave at ADDRESS."""
+    _emulated_only(board)
+    where = parse_address(address)
+    with _connect(**board) as master:
+        master.emulated("unplug", address=where)
+        click.echo(f"{master.name}: unplugged slave {where}", err=True)
+        _report(master)
+
+
+@bus.command("match")
+@_board_options
+def match(**board: Unpack[_BoardOptions]) -> None:
+    """Re-plug the cable to the [SETUP] of the program the master has loaded: slaves
+    that fit stay (with their inputs), others go, missing ones are plugged in."""
+    _emulated_only(board)
+    with _connect(**board) as master:
+        change = master.emulated("match")
+        done = [f"plugged in {s['address']} ({s['profile']})" for s in change["plugged"]]
+        done += [f"unplugged {s['address']} ({s['profile']})" for s in change["unplugged"]]
+        click.echo(
+            f"{master.name}: the cable matches the [SETUP]"
+            + (": " + ", ".join(done) if done else " already"),
+            err=True,
+        )
+        _report(master)
+
+
+@bus.command("inputs")
+@click.argument("settings", nargs=-1, required=True)
+@_board_options
+def inputs(settings: tuple[str, ...], **board: Unpack[_BoardOptions]) -> None:
+    """Set the input data slaves deliver: 'ADDRESS VALUE' (VALUE 0b1011, 0xB, Bh or 11)
+    or input bits such as 'I 4.0=1' (several at once are applied together)."""
+    _emulated_only(board)
+    changes: list[list[int]] = []
+    if len(settings) == 2 and "=" not in settings[0] + settings[1]:
+        changes.append(
+            [parse_address(settings[0]), 0xF, parse_number(settings[1], "input value", 15)]
+        )
+    else:
+        for text in settings:
+            changes.append(list(parse_input_bit(text)))
+    with _connect(**board) as master:
+        now = master.emulated("inputs", changes=changes)
+        shown = ", ".join(f"slave {a} inputs {v:04b}" for a, v in now.items())
+        click.echo(f"{master.name}: {shown}", err=True)

@@ -1,0 +1,31 @@
+"""``asictl lsp``: the IL language server, speaking LSP over stdin and stdout.
+
+pygls is an optional dependency (the ``lsp`` extra), so it is imported only here, when
+the command runs; every other command, and ``asictl --help``, works without it.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+
+import click
+
+from asictl.errors import UserError
+
+
+@click.command()
+@click.option(
+    "--lib", "lib", multiple=True, type=click.Path(file_okay=False),
+    help="Also look for function-block files here (repeatable; also $ASICTL_LIB).",
+)
+def lsp(lib: tuple[str, ...]) -> None:
+    """Run the language server on stdin/stdout (editors start it; see docs/editors.md).
+
+    Diagnostics as 'asictl check' gives them, hover, go to definition, find references,
+    completion, document symbols, folding and formatting for .asi and .fb files.
+    """
+    if importlib.util.find_spec("pygls") is None:
+        raise UserError("the language server needs pygls: pip install 'asictl[lsp]'")
+    from asictl.lsp.server import serve
+
+    serve(lib)

@@ -1,0 +1,63 @@
+"""``asictl monitor``: the live full-screen view (docs/commissioning.md).
+
+Textual is an optional extra (``asictl[monitor]``) and is imported only here, when the
+command runs: the other commands, and ``asictl --help``, never load it.
+"""
+
+from __future__ import annotations
+
+from contextlib import ExitStack
+from typing import Unpack
+
+import click
+
+from asictl.cli.master import _address, _board_options, _BoardOptions
+from asictl.errors import ExitCode, UserError
+
+
+@click.command("monitor")
+@_board_options
+def monitor(**board: Unpack[_BoardOptions]) -> None:
+    """A live full-screen view of the master: ASI_MON and ASI_VIS in one.
+
+    The 31 slaves with their input and output data and list membership, the selected
+    slave's details, the flag bytes, timers and counters, the program's state, cycle
+    times, phase and mode, and an event log. Keys (shown at the bottom): arrows select a
+    slave; 0-3 toggle the selected emulated slave's input bits; o writes its outputs
+    (program stopped); f writes a flag byte or bit; s starts or stops the program; b
+    presses the set button; p/u plug/unplug a slave at the selected address; a changes
+    its address; m switches protected/configuration mode; F5/F6 store the actual
+    parameters/configuration; F9 reads everything again; q quits.
+
+    An emulated board that no 'asictl serve' keeps running is served live by the monitor
+    itself while it runs, so the other commands reach it meanwhile.
+
+    Exit status: 0 quit, 2 bad usage or Textual not installed.
+    """
+    try:
+        from asictl.monitor.app import MonitorApp
+    except ImportError as exc:
+        raise UserError(
+            f"asictl monitor needs Textual ({exc.name or exc}): pip install 'asictl[monitor]'",
+            ExitCode.USAGE,
+        ) from None
+    from asictl.host.boards import parse_port, port_name, state_directory
+    from asictl.host.live import background_live, is_served
+    from asictl.monitor.source import MonitorSource
+
+    address = _address(**board)
+    note = None
+    with ExitStack() as stack:
+        if address.modbus is None and address.io == "emulated":
+            base = parse_port(address.port)
+            directory = state_directory(address.state_dir)
+            if not is_served(directory, base):
+                stack.enter_context(background_live(
+                    base, directory,
+                    identity={"command": "asictl monitor", "port": port_name(base)},
+                ))
+                note = (
+                    f"no live board was running for {port_name(base)}: the monitor keeps it "
+                    "running while it runs"
+                )
+        MonitorApp(MonitorSource(address), note=note).run()

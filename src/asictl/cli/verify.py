@@ -1,0 +1,102 @@
+"""``asictl verify``: does the master run this program? (TIA's online/offline comparison.)
+
+The file is built exactly as ``download`` builds it (asictl.build, against the master's
+own entry points), then compared with the image in the master's EEPROM and with the
+projected configuration the master works with now (docs/commissioning.md).
+"""
+
+from __future__ import annotations
+
+from typing import Unpack
+
+import click
+
+from asictl.cli.master import _board_options, _BoardOptions, _connect
+from asictl.errors import ExitCode
+from asictl.host.jobs import JobError, JobStatus
+from asictl.host.transfer import upload
+from asictl.image import ProgramImage
+
+
+def differences(mine: ProgramImage, theirs: ProgramImage) -> list[str]:
+    """What differs between two images, in the words of the program's sections."""
+    found = []
+    if mine.code != theirs.code or mine.entry_points != theirs.entry_points:
+        found.append("code ([PROGRAM])")
+    if mine.configuration != theirs.configuration:
+        mine_slaves, their_slaves = mine.configuration.slaves(), theirs.configuration.slaves()
+        changed = sorted(
+            {s.address for s in mine_slaves} ^ {s.address for s in their_slaves}
+            | {a.address for a, b in zip(mine_slaves, their_slaves, strict=False) if a != b}
+        )
+        found.append(
+            "configuration ([SETUP]"
+            + (f": slaves {', '.join(map(str, changed))}" if changed else "")
+            + ")"
+        )
+    if mine.flags != theirs.flags:
+        found.append("options ([OPTIONS])")
+    if mine.pmap != theirs.pmap and "code ([PROGRAM])" not in found:
+        found.append("memory layout")
+    if not found and mine.to_bytes() != theirs.to_bytes():
+        found.append("source text or file names only (the program's identity differs)")
+    return found
+
+
+@click.command("verify")
+@click.argument("file", metavar="FILE.asi|FILE.hex", type=click.Path(dir_okay=False))
+@_board_options
+@click.option(
+    "--lib", "lib", multiple=True, type=click.Path(file_okay=False),
+    help="Also look for function-block files here (as for download).",
+)
+def verify(file: str, lib: tuple[str, ...], **board: Unpack[_BoardOptions]) -> None:
+    """Compare FILE with the program in the master: identical, different (code,
+    configuration, options) or no program there. FILE is source, [RAW] records or .hex,
+    built as 'asictl download' would build it.
+
+    Exit status: 0 identical, 1 different, no program in the master or errors in FILE,
+    2 bad usage or an unreadable file.
+    """
+    from asictl.build import build_file
+
+    ctx = click.get_current_context()
+    with _connect(**board) as master:
+        built = build_file(file, entry_points=master.transport.entry_points(), lib=lib)
+        click.echo(built.render(), nl=False, err=True)
+        if built.has_errors or built.image is None:
+            ctx.exit(int(ExitCode.FAILED))
+        mine = built.image
+        try:
+            theirs: ProgramImage | None = upload(master.transport)
+        except JobError as exc:
+            if exc.status is not JobStatus.EEPROM_ERROR:
+                raise
+            theirs = None
+        status = master.status() if theirs is not None else None
+    if theirs is None:
+        click.echo(f"{master.name}: no program in the master (nothing to compare {file} with)")
+        ctx.exit(int(ExitCode.FAILED))
+    found = differences(mine, theirs)
+    if found:
+        click.echo(
+            f"{master.name}: different: {file} ({mine.identity_hex}) and the master's "
+            f"program ({theirs.identity_hex}) differ in " + ", ".join(found)
+        )
+        ctx.exit(int(ExitCode.FAILED))
+    click.echo(f"{master.name}: identical: the master holds {file} ({mine.identity_hex})")
+    assert status is not None
+    now = {n: status.slaves[str(n)].pcd for n in status.lps if str(n) in status.slaves}
+    wanted = {n: mine.configuration.pcd[n] for n in mine.configuration.projected()}
+    if now != wanted:
+        click.echo(
+            f"{master.name}: note: the master's projected configuration (LPS/PCD) has been "
+            "changed since the download; 'asictl setup FILE' writes the program's again",
+            err=True,
+        )
+    if master.driver is not None and status.program_status != "loaded":
+        click.echo(
+            f"{master.name}: note: the program is in the EEPROM but not loaded "
+            f"({status.program_status}); 'asictl reset' loads it",
+            err=True,
+        )

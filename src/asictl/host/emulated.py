@@ -1,0 +1,270 @@
+"""What only an emulated board can do or show: its AS-i cable, its set button, and the
+program's timers and counters (which a real PC2 keeps in memory the host cannot see).
+
+Each operation is a named *action* on a ``Pc2Board`` with JSON arguments and a JSON
+result, so the same code serves a board loaded from its state file and a live board
+behind its socket (``host.live``): the commands send the action's name and arguments,
+whichever board they reach. Arguments come from the command line's parsers below, which
+check them first; an action still refuses anything that does not fit the cable as it is
+(``BusError``: a slave already at an address, no slave there).
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Callable
+from typing import Any
+
+from asictl.board.asi import BusError, Slave
+from asictl.board.board import Pc2Board
+from asictl.errors import ExitCode, UserError
+from asictl.platform.master import IO_CODE_BITS, SLAVES, TICK_MS
+
+JSON = Any
+Action = Callable[[Pc2Board, dict[str, JSON]], JSON]
+
+#: The I/O codes written as letters (the tristate code F has none: write ``Fh``).
+IO_LETTERS = {letters: code for code, letters in enumerate(IO_CODE_BITS) if "t" not in letters}
+
+
+class ActionError(UserError):
+    """An emulated-board action that does not fit the board as it is (exit 1)."""
+
+    exit_code = ExitCode.FAILED
+
+
+# --------------------------------------------------------------------------- parsing
+
+
+def parse_number(text: str, what: str, limit: int) -> int:
+    """``0b1011``, ``0xB``, ``Bh`` or ``11``: a value 0..limit (exit 2 otherwise)."""
+    digits = text.strip().lower().replace("_", "")
+    try:
+        if digits.startswith(("0b", "0x")):
+            value = int(digits, 0)
+        elif digits.endswith("h") and len(digits) > 1:
+            value = int(digits[:-1], 16)
+        else:
+            value = int(digits, 10)
+    except ValueError:
+        raise UserError(
+            f"{what} '{text}': expected a number such as 11, 0xB, Bh or 0b1011",
+            ExitCode.USAGE,
+        ) from None
+    if not 0 <= value <= limit:
+        raise UserError(f"{what} '{text}': must be 0..{limit}", ExitCode.USAGE)
+    return value
+
+
+def parse_address(text: str, *, zero: bool = True) -> int:
+    """A slave address 1..31 (0 too where a new slave is meant)."""
+    value = parse_number(text, "slave address", SLAVES - 1)
+    if value == 0 and not zero:
+        raise UserError(f"slave address '{text}': must be 1..31", ExitCode.USAGE)
+    return value
+
+
+def parse_profile(text: str) -> tuple[int, int]:
+    """``iiio,1`` / ``Bh,0`` / ``7,F``: I/O code (letters or number) and ID code (default F),
+    as a [SETUP] line writes them."""
+    io_text, _, id_text = text.partition(",")
+    io_text = io_text.strip().lower()
+    if io_text in IO_LETTERS:
+        io_code = IO_LETTERS[io_text]
+    elif re.fullmatch(r"[0-9a-f]h?", io_text):
+        io_code = int(io_text.rstrip("h"), 16)
+    else:
+        raise UserError(
+            f"profile '{text}': the I/O code is letters such as iiio or a hex digit such as Bh",
+            ExitCode.USAGE,
+        )
+    id_code = 0xF
+    if id_text.strip():
+        token = id_text.strip().lower()
+        if not re.fullmatch(r"[0-9a-f]h?", token):
+            raise UserError(
+                f"profile '{text}': the ID code is a hex digit such as 1 or Fh", ExitCode.USAGE
+            )
+        id_code = int(token.rstrip("h"), 16)
+    return io_code, id_code
+
+
+_INPUT_BIT = re.compile(r"\s*I\s*(\d+)\s*\.\s*(\d+)\s*=\s*(\S+)\s*", re.IGNORECASE)
+
+
+def parse_input_bit(text: str) -> tuple[int, int, int]:
+    """``I 4.0=1``: (address, mask, bits) for the ``inputs`` action."""
+    match = _INPUT_BIT.fullmatch(text)
+    if not match:
+        raise UserError(
+            f"'{text}': expected an input bit and its value such as 'I 4.0=1'", ExitCode.USAGE
+        )
+    address = parse_address(match[1])
+    bit = int(match[2])
+    if bit > 3:
+        raise UserError(f"'{text}': a slave has input bits 0..3", ExitCode.USAGE)
+    value = parse_number(match[3], "bit value", 1)
+    return address, 1 << bit, value << bit
+
+
+def io_letters(io_code: int) -> str:
+    return IO_CODE_BITS[io_code]
+
+
+# --------------------------------------------------------------------------- actions
+
+
+def _slave_json(slave: Slave) -> dict[str, JSON]:
+    return {
+        "address": slave.address, "io_code": slave.io_code, "id_code": slave.id_code,
+        "profile": f"{io_letters(slave.io_code)},{slave.id_code:X}",
+        "inputs": slave.inputs, "outputs": slave.outputs, "parameter": slave.parameter,
+        "name": slave.name,
+    }
+
+
+def _bus(board: Pc2Board, args: dict[str, JSON]) -> JSON:
+    return {
+        "powered": board.bus.powered,
+        "slaves": [_slave_json(s) for s in sorted(board.bus, key=lambda s: s.address)],
+    }
+
+
+def _plug(board: Pc2Board, args: dict[str, JSON]) -> JSON:
+    address = int(args["address"])
+    if board.bus.at(address):
+        raise ActionError(f"a slave is already plugged in at address {address}; unplug it first")
+    slave = Slave(address, int(args["io_code"]), int(args["id_code"]), int(args.get("inputs", 0)))
+    board.bus.attach(slave)
+    return _slave_json(slave)
+
+
+def _unplug(board: Pc2Board, args: dict[str, JSON]) -> JSON:
+    address = int(args["address"])
+    found = board.bus.at(address)
+    if not found:
+        raise ActionError(f"no slave is plugged in at address {address}")
+    for slave in found:
+        board.bus.remove(slave)
+    return [_slave_json(s) for s in found]
+
+
+def _inputs(board: Pc2Board, args: dict[str, JSON]) -> JSON:
+    """``changes``: [address, mask, bits]: the slave's input bits under ``mask`` become
+    ``bits``; all are checked before any is applied."""
+    changes = [(int(a), int(m), int(b)) for a, m, b in args["changes"]]
+    slaves = []
+    for address, _, _ in changes:
+        found = board.bus.at(address)
+        if len(found) != 1:
+            raise ActionError(
+                f"no slave is plugged in at address {address}" if not found
+                else f"{len(found)} slaves answer at address {address}"
+            )
+        slaves.append(found[0])
+    for slave, (_, mask, bits) in zip(slaves, changes, strict=True):
+        slave.inputs = slave.inputs & ~mask & 0xF | bits & mask
+    return {str(s.address): s.inputs for s in slaves}
+
+
+def _configured(board: Pc2Board) -> list[tuple[int, int, int]]:
+    image = board.loaded_image
+    if image is None:
+        raise ActionError(
+            "the master has no program loaded whose [SETUP] the cable could match "
+            "(download one first)"
+        )
+    return [(s.address, s.io_code, s.id_code) for s in image.configuration.slaves()]
+
+
+def _replug(board: Pc2Board, wanted: list[tuple[int, int, int]]) -> JSON:
+    """Make the cable hold exactly ``wanted``; slaves already right keep their inputs."""
+    keep: list[Slave] = []
+    unplugged: list[JSON] = []
+    plugged: list[JSON] = []
+    wanted_at = {a: (io, ident) for a, io, ident in wanted}
+    for slave in board.bus:
+        if wanted_at.get(slave.address) == (slave.io_code, slave.id_code) and not any(
+            k.address == slave.address for k in keep
+        ):
+            keep.append(slave)
+        else:
+            board.bus.remove(slave)
+            unplugged.append(_slave_json(slave))
+    kept = {s.address for s in keep}
+    for address, io_code, id_code in wanted:
+        if address not in kept:
+            plugged.append(_slave_json(board.bus.attach(Slave(address, io_code, id_code))))
+    return {"plugged": plugged, "unplugged": unplugged, "kept": sorted(kept)}
+
+
+def _match(board: Pc2Board, args: dict[str, JSON]) -> JSON:
+    return _replug(board, _configured(board))
+
+
+def _populate(board: Pc2Board, args: dict[str, JSON]) -> JSON:
+    """An empty cable gets ``slaves`` (a download's [SETUP]); a cable with slaves stays."""
+    if len(board.bus):
+        return {"plugged": [], "unplugged": [], "kept": [s.address for s in board.bus]}
+    return _replug(board, [(int(a), int(io), int(i)) for a, io, i in args["slaves"]])
+
+
+def _set_button(board: Pc2Board, args: dict[str, JSON]) -> JSON:
+    board.press_set_button()
+    return None
+
+
+def _view(board: Pc2Board, args: dict[str, JSON]) -> JSON:
+    """What a monitor shows beyond the DPRAM: LCS and error counters (not cleared), the
+    program's timers (remaining time, running) and counters."""
+    lcs, counters = board.diagnostics()
+    view: dict[str, JSON] = {
+        "lcs": [a for a in range(SLAVES) if lcs >> a & 1],
+        "error_counters": list(counters),
+        "timers": [],
+        "counters": [],
+        "master_ms": board.now_ms,
+        "bus_powered": board.bus.powered,
+    }
+    runner = board.program
+    if runner is not None:
+        xdata = runner.cpu.xdata
+
+        def word(address: int) -> int:
+            return xdata.read(address) | xdata.read(address + 1) << 8
+
+        view["timers"] = [
+            {"number": n, "remaining_ms": word(a) * TICK_MS, "running": word(a) != 0}
+            for n, a in sorted(runner.pmap.timers.items())
+        ]
+        view["counters"] = [
+            {"number": n, "value": word(a)} for n, a in sorted(runner.pmap.counters.items())
+        ]
+    return view
+
+
+ACTIONS: dict[str, Action] = {
+    "bus": _bus,
+    "plug": _plug,
+    "unplug": _unplug,
+    "inputs": _inputs,
+    "match": _match,
+    "populate": _populate,
+    "set_button": _set_button,
+    "view": _view,
+}
+#: Actions that only look: a command running them need not save the board's state.
+VIEWS = frozenset({"bus", "view"})
+
+
+def run_action(board: Pc2Board, name: str, args: dict[str, JSON]) -> JSON:
+    """Run one action; a malformed request (only a buggy client sends one) is a BusError."""
+    action = ACTIONS.get(name)
+    if action is None:
+        raise ActionError(f"the emulated board has no action '{name}'")
+    try:
+        return action(board, args)
+    except BusError as exc:
+        raise ActionError(str(exc)) from None
+    except (KeyError, TypeError, ValueError) as exc:
+        raise ActionError(f"malformed '{name}' request: {exc}") from None

@@ -1,0 +1,209 @@
+"""Hover texts (Markdown): what an instruction does, where an operand is, what declares
+it, the [SETUP] line of its slave, the times a timer is started with."""
+
+from __future__ import annotations
+
+from asictl.il import ast
+from asictl.il.ast import key
+from asictl.il.references import Occurrence, Role, Symbol, SymbolKind
+from asictl.lsp.documents import Analysis
+from asictl.lsp.navigation import covers, node_at, operator_span
+from asictl.lsp.texts import INSTRUCTIONS, OPERANDS, OPTIONS, SECTIONS, io_code_text
+from asictl.runtime.firmware import FIRMWARE_BLOCKS
+from asictl.runtime.layout import FLAGS_BASE
+
+
+def hover(analysis: Analysis, file: str, line: int, column: int) -> str | None:
+    module = analysis.module(file)
+    if module is None:
+        return None
+    section, node = node_at(module, line, column)
+    if node is None:
+        return None
+    if node is section:
+        entry = SECTIONS[section.kind.value]  # type: ignore[union-attr]
+        return f"**{entry.syntax}**: {entry.meaning}"
+    if covers(operator_span(node), line, column):
+        return _instruction(node)
+    found = analysis.index.at(file, line, column)
+    if found:
+        return _symbol(analysis, found[0], found)
+    match node:
+        case ast.Option(name=name):
+            option = OPTIONS.get(key(name))
+            if option:
+                return f"**{name}** (default {option.syntax}): {option.meaning}"
+        case ast.Load(operand=ast.Constant() as constant):
+            return _constant(constant)
+    return None
+
+
+def _instruction(statement: object) -> str:
+    text = statement.to_source() if hasattr(statement, "to_source") else ""
+    operator = text.split(" ")[0].upper()
+    entry = INSTRUCTIONS.get(operator)
+    if entry is None:
+        return f"`{text}`"
+    extra = ""
+    if isinstance(statement, ast.Logic):
+        extra = ("\n\nAt the start of a program, block, section or segment (first check) "
+                 "it loads the operand instead.")
+    return f"**{operator}** `{entry.syntax}`: {entry.meaning}{extra}"
+
+
+def _mark(operand: object) -> str:
+    text = str(operand).split(" ")[0].upper()
+    entry = OPERANDS.get(text)
+    return f"`{entry.syntax}`: {entry.meaning}" if entry else ""
+
+
+def _constant(constant: ast.Constant) -> str:
+    head = f"**{constant}**: {_mark(constant)}"
+    if constant.kind is ast.ConstKind.KT:
+        ticks = (constant.value + 9) // 10
+        return f"{head}\n\n{constant.value} ms = {ticks} ticks of 10 ms"
+    return f"{head}\n\n= {constant.value} = {constant.value:X}h"
+
+
+def _symbol(analysis: Analysis, occurrence: Occurrence, found: list[Occurrence]) -> str:
+    symbol = occurrence.symbol
+    node = occurrence.node
+    parts: list[str] = []
+    operand = _operand_of(node, occurrence)
+    if operand is not None:
+        parts.append(f"**{operand}**: {_mark(operand)}")
+        parts.append(_where(operand))
+    match symbol.kind:
+        case SymbolKind.LABEL:
+            parts.append(_label(analysis, symbol))
+        case SymbolKind.BLOCK:
+            parts.append(_block(analysis, symbol, node))
+        case SymbolKind.VARIABLE:
+            parts.append(_declaration(analysis, symbol, "variable"))
+        case SymbolKind.TIMER | SymbolKind.COUNTER:
+            parts.append(_timer_or_counter(analysis, symbol))
+    for other in found:
+        if other.symbol.kind is SymbolKind.SLAVE:
+            parts.append(_slave(analysis, other.symbol))
+    return "\n\n".join(p for p in parts if p)
+
+
+def _operand_of(node: object, occurrence: Occurrence) -> object | None:
+    """The operand at the occurrence's place, when it is one (not a label, block, decl)."""
+    if occurrence.role in (Role.DEFINE, Role.DECLARE) or occurrence.symbol.kind in (
+            SymbolKind.LABEL, SymbolKind.BLOCK):
+        return None
+    candidates: list[object] = []
+    if isinstance(node, ast.GatingLine):
+        candidates = [node.target, *(t.operand for t in node.terms)]
+    else:
+        candidates = [getattr(node, "operand", None), getattr(node, "counter", None)]
+    return next((c for c in candidates if getattr(c, "span", None) == occurrence.span), None)
+
+
+def _where(operand: object) -> str:
+    """Where an operand lives."""
+    match operand:
+        case ast.ImageBit(area=ast.BitArea.F, address=byte, bit=bit):
+            return (f"flag byte {byte}, bit {bit}: communication memory "
+                    f"{FLAGS_BASE + byte:03X}h (the host can read and write it)")
+        case ast.ImageBit(area=area, address=address, bit=bit):
+            image = {ast.BitArea.I: "input", ast.BitArea.I2: "previous cycle's input",
+                     ast.BitArea.Q: "output"}[area]
+            return f"slave {address}, data bit D{bit} ({image})"
+        case ast.ImageByte(area=ast.ByteArea.FY, number=n):
+            return f"communication memory {FLAGS_BASE + n:03X}h"
+        case ast.FlagWord(number=n):
+            return (f"FY {n} (high byte, {FLAGS_BASE + n:03X}h) and FY {n + 1} "
+                    f"(low byte, {FLAGS_BASE + n + 1:03X}h)")
+        case ast.ImageByte(area=ast.ByteArea.PSEG):
+            return "the firmware blocks' arguments and results"
+        case ast.ImageByte(number=n):
+            return f"slaves {n} (D0-D3 = bits 0-3) and {n + 1} (bits 4-7)"
+        case ast.VarBit(name=name, offset=offset, bit=bit):
+            return f"byte {offset}, bit {bit} of variable `{name}`"
+        case ast.VarByte(name=name, offset=offset):
+            return f"byte {offset} of variable `{name}`"
+    return ""
+
+
+def _line_of(analysis: Analysis, occurrence: Occurrence) -> str:
+    span = occurrence.span
+    text = analysis.text(span.file).split("\n")
+    source = text[span.line - 1].split(";")[0].strip() if 0 < span.line <= len(text) else ""
+    return f"line {span.line}: `{source}`"
+
+
+def _declaration(analysis: Analysis, symbol: Symbol, what: str) -> str:
+    places = analysis.index.definitions(symbol)
+    if not places:
+        return f"not declared {what}"
+    decl = places[0].node
+    size = f" ({decl.size} bytes)" if isinstance(decl, ast.VarDecl) else ""
+    return f"[DECL] {_line_of(analysis, places[0])}{size}"
+
+
+def _label(analysis: Analysis, symbol: Symbol) -> str:
+    places = analysis.index.of(symbol)
+    defined = [o for o in places if o.role is Role.DEFINE]
+    jumps = [str(o.span.line) for o in places if o.role is Role.USE]
+    label = defined[0].node if defined else None
+    head = (f"label **{label.name}**, line {label.span.line}"
+            if isinstance(label, ast.Label) and label.span
+            else f"label **{symbol.name}** is not defined")
+    return head + (f"; jumps to it from line {', '.join(jumps)}" if jumps else "")
+
+
+def _block(analysis: Analysis, symbol: Symbol, node: object) -> str:
+    firmware = FIRMWARE_BLOCKS.get(symbol.name)
+    if firmware is not None:
+        return (f"firmware block **{firmware.name}**: {firmware.description}\n\n"
+                f"PSeg in: {firmware.inputs}\n\nPSeg out: {firmware.outputs}")
+    declared = [o for o in analysis.index.of(symbol) if o.role is Role.DECLARE]
+    if not declared:
+        return f"function block **{symbol.name}** is not declared"
+    decl = declared[0].node
+    assert isinstance(decl, ast.FBDecl)
+    return (f"function block **{decl.name}** in `{decl.file}`; "
+            f"[DECL] {_line_of(analysis, declared[0])}")
+
+
+def _slave(analysis: Analysis, symbol: Symbol) -> str:
+    places = analysis.index.definitions(symbol)
+    if not places:
+        return f"slave {symbol.name} is not in [SETUP]"
+    slave = places[0].node
+    assert isinstance(slave, ast.SlaveSetup)
+    parameter = "F" if slave.parameter is None else f"{slave.parameter:X}"
+    return (f"[SETUP] {_line_of(analysis, places[0])}: I/O code {io_code_text(slave.io_code)}, "
+            f"ID code {slave.id_code:X}h, power-up parameter {parameter}h")
+
+
+def _timer_or_counter(analysis: Analysis, symbol: Symbol) -> str:
+    """Its declaration, if it needs one, and the constants ``S`` starts or loads it with:
+    the last ``L KT``/``KC``/``KP`` before each ``S T n`` (the constant register)."""
+    n = int(symbol.name)
+    is_timer = symbol.kind is SymbolKind.TIMER
+    parts = []
+    if n > 14:
+        parts.append(_declaration(analysis, symbol, "timer" if is_timer else "counter"))
+    presets: list[str] = []
+    for module in analysis.result.program.modules():
+        constant: ast.Constant | ast.ParamConst | None = None
+        for section in module.sections_of(ast.ProgramSection):
+            for statement in section.statements:
+                if isinstance(statement, ast.Load) and isinstance(
+                        statement.operand, ast.Constant | ast.ParamConst) and not (
+                        isinstance(statement.operand, ast.Constant)
+                        and statement.operand.kind in (ast.ConstKind.KB, ast.ConstKind.KW)):
+                    constant = statement.operand
+                elif (isinstance(statement, ast.Store) and statement.op is ast.StoreOp.SET
+                      and isinstance(statement.operand, ast.TimerRef if is_timer
+                                     else ast.CounterRef)
+                      and statement.operand.number == n and statement.span):
+                    value = str(constant) if constant else "no constant loaded before"
+                    presets.append(f"`{value}` (line {statement.span.line})")
+    if presets:
+        verb = "started with" if is_timer else "loaded with"
+        parts.append(f"{verb} " + ", ".join(dict.fromkeys(presets)))
+    return "\n\n".join(parts)

@@ -1,0 +1,459 @@
+"""The monitor's screen (Textual): ASI_MON's monitor and editor modes and ASI_VIS at once.
+
+Top: the master, its phase and mode, the control program and cycle times. Left: the 31
+slaves (and slave 0) with their input and output nibbles and list letters; below them
+the selected slave's details. Right: hi-flags, timers and counters, the flag bytes
+F0..F127. Bottom: the event log and the keys. The screen refreshes ``REFRESH_S`` apart;
+reading the master happens in a worker thread, so a slow or vanished master never
+freezes the screen (it is shown as gone, and found again when it returns).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any, ClassVar
+
+from rich.text import Text
+from textual.app import App, ComposeResult
+from textual.binding import Binding, BindingType
+from textual.containers import Horizontal, Vertical
+from textual.widgets import Footer, Input, RichLog, Static
+
+from asictl.errors import UserError
+from asictl.host.commissioning import check_address
+from asictl.host.connection import Master
+from asictl.host.emulated import parse_address, parse_number, parse_profile
+from asictl.host.status import (
+    MasterStatus,
+    SlaveData,
+    flag_rows,
+    hi_flag_text,
+    profile_text,
+    timer_text,
+)
+from asictl.monitor.source import MonitorSource, Snapshot, toggle_start
+from asictl.platform.master import IO_CODE_BITS, SLAVES
+
+#: Seconds between two refreshes.
+REFRESH_S = 0.25
+#: The grid: slaves 0..31 in rows of this many.
+COLUMNS = 8
+_LIST_LETTERS = {"LPS": "P", "LDS": "D", "LAS": "A", "LCS": "C", "LOS": "O"}
+
+Action = Callable[[Master], str | None]
+
+
+def _lists(slave: SlaveData | None) -> str:
+    if slave is None:
+        return "     "
+    return "".join(
+        _LIST_LETTERS[name] if name in slave.lists else "." for name in _LIST_LETTERS
+    )
+
+
+class MonitorApp(App[None]):
+    """The live view of one master; every key acts through ``MonitorSource``."""
+
+    TITLE = "asictl monitor"
+    CSS = """
+    #top { height: 3; padding: 0 1; background: $boost; }
+    #middle { height: 1fr; }
+    #left { width: 2fr; }
+    #grid { height: 13; padding: 0 1; }
+    #detail { height: 1fr; padding: 0 1; border-top: solid $primary; }
+    #right { width: 1fr; min-width: 58; padding: 0 1; border-left: solid $primary; }
+    #log { height: 8; border-top: solid $primary; }
+    #prompt { dock: bottom; display: none; }
+    #prompt.visible { display: block; }
+    """
+    BINDINGS: ClassVar[list[BindingType]] = [
+        Binding("q", "quit", "Quit"),
+        Binding("left", "move(-1)", "Select", show=False, priority=True),
+        Binding("right", "move(1)", "Select", show=False, priority=True),
+        Binding("up", "move(-8)", "Select", show=False, priority=True),
+        Binding("down", "move(8)", "Select", show=False, priority=True),
+        Binding("0", "toggle_input(0)", "0-3 Input bit"),
+        Binding("1", "toggle_input(1)", "Input bit 1", show=False),
+        Binding("2", "toggle_input(2)", "Input bit 2", show=False),
+        Binding("3", "toggle_input(3)", "Input bit 3", show=False),
+        Binding("o", "prompt('output')", "Outputs"),
+        Binding("f", "prompt('flag')", "Flags"),
+        Binding("s", "start_stop", "Start/stop"),
+        Binding("b", "set_button", "Set button"),
+        Binding("p", "prompt('plug')", "Plug"),
+        Binding("u", "unplug", "Unplug"),
+        Binding("a", "prompt('address')", "Address"),
+        Binding("m", "toggle_mode", "Mode"),
+        Binding("f5", "store_parameters", "Store PP"),
+        Binding("f6", "store_configuration", "Store config"),
+        Binding("f9", "reload", "Reload"),
+        Binding("escape", "cancel_prompt", "Cancel", show=False),
+    ]
+    #: what each prompt asks for, and the text it starts with
+    PROMPTS: ClassVar[dict[str, str]] = {
+        "output": "outputs of the selected slave (program stopped): 0b1000, 8h or 8",
+        "flag": "flag byte or bit: 'FY 10=0x12' or 'F 10.0=1'",
+        "plug": "plug in at the selected address: profile such as iiio,1 or Bh,0",
+        "address": "new address for the selected slave",
+    }
+
+    def __init__(self, source: MonitorSource, *, note: str | None = None) -> None:
+        super().__init__()
+        self.source = source
+        self.note = note
+        self.selected = 1
+        self.status: MasterStatus | None = None
+        self.error: str | None = None
+        self.emulated = False
+        #: refreshes shown so far (tests and the refresh-rate benchmark read it)
+        self.refreshes = 0
+        self._refreshing = False
+        self._prompting: str | None = None
+        self._shown: dict[str, Any] = {}
+
+    # ------------------------------------------------------------------ layout
+
+    def compose(self) -> ComposeResult:
+        yield Static(id="top")
+        with Horizontal(id="middle"):
+            with Vertical(id="left"):
+                yield Static(id="grid")
+                yield Static(id="detail")
+            yield Static(id="right")
+        yield RichLog(id="log", max_lines=500, wrap=True)
+        yield Input(id="prompt", select_on_focus=False)
+        yield Footer()
+
+    def on_mount(self) -> None:
+        self.query_one("#log", RichLog).can_focus = False  # the arrows select slaves
+        if self.note:
+            self.log_event(self.note)
+        self.source.notify = lambda text: self.call_from_thread(self.log_event, text)
+        self.refresh_now()
+        self.set_interval(REFRESH_S, self.refresh_now)
+
+    # ------------------------------------------------------------------ refreshing
+
+    def refresh_now(self) -> None:
+        if self._refreshing:
+            return
+        self._refreshing = True
+        self.run_worker(self._read, thread=True, group="refresh")
+
+    def _read(self) -> None:
+        snapshot = self.source.snapshot()
+        self.call_from_thread(self._show, snapshot)
+
+    def _show(self, snapshot: Snapshot) -> None:
+        self._refreshing = False
+        old, self.status = self.status, snapshot.status
+        was_error, self.error = self.error, snapshot.error
+        self.emulated = snapshot.emulated
+        if snapshot.error and snapshot.error != was_error:
+            self.log_event(f"master gone: {snapshot.error}")
+        elif not snapshot.error and was_error:
+            self.log_event("master found again")
+        if old is not None and self.status is not None:
+            for event in _changes(old, self.status):
+                if self.emulated and event.startswith("configuration error"):
+                    event += " (an emulated cable: 'asictl bus match' plugs in the [SETUP])"
+                self.log_event(event)
+        self.refreshes += 1
+        self._paint()
+
+    def _set(self, widget: str, content: Text | str) -> None:
+        """Update a widget only when its content changed: no flicker, little work."""
+        key = content.plain if isinstance(content, Text) else content
+        if self._shown.get(widget) != key:
+            self._shown[widget] = key
+            self.query_one(f"#{widget}", Static).update(content)
+
+    def _paint(self) -> None:
+        status = self.status
+        if status is None:
+            self._set("top", Text(f"master not reachable: {self.error}", style="bold red"))
+            return
+        self._set("top", _top(status, gone=self.error))
+        self._set("grid", _grid(status, self.selected))
+        self._set("detail", _detail(status, self.selected))
+        self._set("right", _right(status))
+
+    def log_event(self, text: str) -> None:
+        self.query_one("#log", RichLog).write(text)
+
+    # ------------------------------------------------------------------ actions
+
+    def _act(self, what: str, action: Action) -> None:
+        """Run ``action`` in a worker; its outcome goes to the event log."""
+
+        def work() -> None:
+            message = self.source.run(what, action)
+            self.call_from_thread(self._acted, message)
+
+        self.run_worker(work, thread=True, group="actions")
+
+    def _acted(self, message: str) -> None:
+        self.log_event(message)
+        self.refresh_now()
+
+    def action_move(self, step: int) -> None:
+        if self._prompting is not None:
+            return
+        self.selected = (self.selected + step) % SLAVES
+        if self.status is not None:
+            self._paint()
+
+    def _emulated_only(self, what: str) -> bool:
+        if not self.emulated:
+            self.log_event(f"{what}: only an emulated board's cable can be changed from here")
+        return self.emulated
+
+    def action_toggle_input(self, bit: int) -> None:
+        if not self._emulated_only("input bit"):
+            return
+        address = self.selected
+        current = self._slave(address)
+        value = 0 if current is None else current.inputs >> bit & 1
+        self._act(
+            f"I {address}.{bit}={1 - value}",
+            lambda m: _inputs(m, address, 1 << bit, (1 - value) << bit),
+        )
+
+    def action_start_stop(self) -> None:
+        self._act("start/stop", toggle_start)
+
+    def action_set_button(self) -> None:
+        if self._emulated_only("set button"):
+            self._act("set button pressed", lambda m: m.emulated("set_button") and None)
+
+    def action_unplug(self) -> None:
+        if not self._emulated_only("unplug"):
+            return
+        address = self.selected
+        self._act(f"unplugged slave {address}", lambda m: m.emulated("unplug", address=address)
+                  and None)
+
+    def action_toggle_mode(self) -> None:
+        configuration = self.status is not None and self.status.mode == "protected"
+        wanted = "configuration" if configuration else "protected"
+
+        def switch(master: Master) -> str:
+            master.tools().set_mode(configuration=configuration)
+            return f"switched to {wanted} mode"
+
+        self._act(f"mode {wanted}", switch)
+
+    def action_store_parameters(self) -> None:
+        self._act("F5 store actual parameters: done", lambda m: m.tools().store_parameters())
+
+    def action_store_configuration(self) -> None:
+        self._act(
+            "F6 store actual configuration: done", lambda m: m.tools().store_configuration()
+        )
+
+    def action_reload(self) -> None:
+        self.source.reload_program()
+        self.log_event("F9: reading everything again")
+        self.refresh_now()
+
+    # ------------------------------------------------------------------ prompts
+
+    def action_prompt(self, kind: str) -> None:
+        if kind in ("plug",) and not self._emulated_only("plug"):
+            return
+        self._prompting = kind
+        prompt = self.query_one("#prompt", Input)
+        prompt.placeholder = self.PROMPTS[kind]
+        prompt.value = "FY " if kind == "flag" else ""
+        prompt.cursor_position = len(prompt.value)
+        prompt.add_class("visible")
+        prompt.focus()
+
+    def action_cancel_prompt(self) -> None:
+        self._close_prompt()
+
+    def _close_prompt(self) -> None:
+        self._prompting = None
+        prompt = self.query_one("#prompt", Input)
+        prompt.remove_class("visible")
+        prompt.value = ""
+        self.set_focus(None)
+
+    def on_input_submitted(self, event: Input.Submitted) -> None:
+        kind, text = self._prompting, event.value.strip()
+        self._close_prompt()
+        if kind is None or not text:
+            return
+        try:
+            self._submit(kind, text)
+        except UserError as exc:
+            self.log_event(f"{kind}: {exc}")
+
+    def _submit(self, kind: str, text: str) -> None:
+        address = self.selected
+        if kind == "output":
+            check_address(address, zero=False)
+            value = parse_number(text, "output value", 15)
+            self._act(
+                f"Q {address}={value:04b}",
+                lambda m: m.tools().write_outputs({address: (0xF, value)}),
+            )
+        elif kind == "flag":
+            number, mask, bits = _flag(text)
+            self._act(f"{text}: written", lambda m: _write_flag(m, number, mask, bits))
+        elif kind == "plug":
+            io_code, id_code = parse_profile(text)
+            self._act(
+                f"plugged in slave {address} ({IO_CODE_BITS[io_code]},{id_code:X})",
+                lambda m: m.emulated("plug", address=address, io_code=io_code, id_code=id_code)
+                and None,
+            )
+        elif kind == "address":
+            new = parse_address(text)
+            self._act(
+                f"slave {address} now has address {new}",
+                lambda m: m.tools().change_address(address, new),
+            )
+
+    def _slave(self, address: int) -> SlaveData | None:
+        return None if self.status is None else self.status.slaves.get(str(address))
+
+
+# --------------------------------------------------------------------------- helpers
+
+
+def _inputs(master: Master, address: int, mask: int, bits: int) -> None:
+    master.emulated("inputs", changes=[[address, mask, bits]])
+
+
+def _flag(text: str) -> tuple[int, int, int]:
+    """'FY 10=0x12' or 'F 10.0=1': (flag byte, mask, bits)."""
+    import re
+
+    match = re.fullmatch(
+        r"\s*(FY|F)\s*(\d+)\s*(?:\.\s*(\d))?\s*=\s*(\S+)\s*", text, re.IGNORECASE
+    )
+    if not match or int(match[2]) > 127 or (match[1].upper() == "FY") == (match[3] is not None):
+        raise UserError("expected 'FY 10=0x12' or 'F 10.0=1' (flags F0..F127)")
+    if match[3] is None:
+        return int(match[2]), 0xFF, parse_number(match[4], "flag byte", 0xFF)
+    bit = int(match[3])
+    if bit > 7:
+        raise UserError("a flag byte has bits 0..7")
+    return int(match[2]), 1 << bit, parse_number(match[4], "bit", 1) << bit
+
+
+def _write_flag(master: Master, number: int, mask: int, bits: int) -> None:
+    tools = master.tools()
+    old = tools.read_flags()[number]
+    tools.write_flags(number, bytes([old & ~mask | bits]))
+
+
+def _changes(old: MasterStatus, new: MasterStatus) -> list[str]:
+    """What the event log says between two refreshes."""
+    events = []
+    if old.phase != new.phase:
+        events.append(f"phase: {new.phase}")
+    if old.mode != new.mode:
+        events.append(f"{new.mode} mode")
+    if old.config_ok != new.config_ok:
+        if new.config_ok:
+            events.append("config ok")
+        else:
+            why = [f"{n} missing" for n in new.missing]
+            why += [f"{n} not projected" for n in new.unexpected]
+            why += [f"{w.slave} wrong profile" for w in new.wrong_profile]
+            events.append("configuration error" + (f": {', '.join(why)}" if why else ""))
+    if (old.control_state, old.stop_reason) != (new.control_state, new.stop_reason):
+        events.append(
+            f"control program {new.control_state}"
+            + (f" ({new.stop_reason})" if new.stop_reason else "")
+        )
+    joined = sorted(set(new.lds) - set(old.lds))
+    left = sorted(set(old.lds) - set(new.lds))
+    if joined:
+        events.append(f"slaves detected: {', '.join(map(str, joined))}")
+    if left:
+        events.append(f"slaves lost: {', '.join(map(str, left))}")
+    if old.program.identity != new.program.identity and new.program.present:
+        events.append(f"program {new.program.identity or 'invalid'}")
+    return events
+
+
+def _top(status: MasterStatus, *, gone: str | None) -> Text:
+    s = status
+    text = Text()
+    text.append(f"{s.master_name}  at {s.port}\n", style="bold")
+    text.append(f"{s.phase}, {s.mode} mode, ")
+    text.append(
+        "config ok" if s.config_ok else "CONFIGURATION ERROR",
+        style="green" if s.config_ok else "bold red",
+    )
+    text.append(f"   control program {s.control_state}")
+    if s.stop_reason:
+        text.append(f" ({s.stop_reason})", style="yellow")
+    text.append(f"\ncycle {s.cycle_time_ms:.1f} ms (max {s.max_cycle_time_ms:.1f} ms)   ")
+    text.append(f"program {s.program.identity or s.program.problem or 'none'}")
+    if gone:
+        text.append(f"   master gone: {gone}", style="bold red")
+    return text
+
+
+def _grid(status: MasterStatus, selected: int) -> Text:
+    problems = set(status.missing) | set(status.unexpected)
+    problems |= {w.slave for w in status.wrong_profile}
+    text = Text("slave  in   out  PDACO  (P projected D detected A active C corrupted "
+                "O offline)\n", style="dim")
+    for row in range(0, SLAVES, COLUMNS):
+        for address in range(row, row + COLUMNS):
+            slave = status.slaves.get(str(address))
+            style = "dim"
+            if slave is not None:
+                style = "green" if "LAS" in slave.lists else "yellow"
+            if address in problems:
+                style = "bold red"
+            if address == selected:
+                style += " reverse"
+            if slave is None:
+                cell = f"{address:>2} ----/---- "
+            else:
+                cell = f"{address:>2} {slave.inputs:04b}/{slave.outputs:04b} "
+            text.append(cell, style=style)
+        text.append("\n")
+        for address in range(row, row + COLUMNS):
+            text.append(f"   {_lists(status.slaves.get(str(address)))}     ", style="dim")
+        text.append("\n")
+    return text
+
+
+def _detail(status: MasterStatus, selected: int) -> Text:
+    slave = status.slaves.get(str(selected))
+    text = Text(f"slave {selected}", style="bold")
+    if slave is None:
+        text.append("  in no list (not projected, not detected)")
+        return text
+    text.append(f"   lists {' '.join(slave.lists) or '(none)'}\n")
+    text.append(f"inputs  {slave.inputs:04b}   outputs {slave.outputs:04b}\n")
+    text.append(
+        f"PCD {profile_text(slave.pcd)} ({IO_CODE_BITS[slave.pcd & 0xF]})   "
+        f"CDI {profile_text(slave.cdi)} ({IO_CODE_BITS[slave.cdi & 0xF]})\n"
+    )
+    text.append(f"PP {slave.pp:X}h   PI {slave.pi:X}h   errors "
+                + ("-" if slave.errors is None else str(slave.errors)))
+    return text
+
+
+def _right(status: MasterStatus) -> Text:
+    s = status
+    flags = [name for name in ("start_flag", "ignore_config_errors", "wait_for_set_button",
+                               "map_counters", "control_active") if getattr(s, name)]
+    lines = [
+        f"ec-flags {s.ec_flags:02X}h  display {s.display}",
+        f"hi-flags {s.hi_flags:02X}h {hi_flag_text(s.hi_flags)}",
+        f"control flags {s.control_flags:02X}h {' '.join(flags) or '(none)'}",
+        *timer_text(s),
+        "",
+        "flag bytes F0..F127",
+        *flag_rows(s.flags),
+    ]
+    return Text("\n".join(lines))

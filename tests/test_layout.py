@@ -1,0 +1,64 @@
+"""The layout the pipeline asks for: each step in one place, nothing importing upwards."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+PACKAGE = ROOT / "src" / "asictl"
+
+
+def modules_after_import(module: str) -> list[str]:
+    """The asictl modules and lark loaded by importing ``module`` in a fresh interpreter."""
+    code = (
+        f"import json, sys; import {module}; "
+        "print(json.dumps(sorted(m for m in sys.modules "
+        "if m.split('.')[0] in ('asictl', 'lark'))))"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    return list(json.loads(out.stdout))
+
+
+def test_the_design_cards_directories():
+    assert list((PACKAGE / "grammar").glob("*.lark"))
+    assert list((PACKAGE / "codegen8051").glob("*.py"))
+    assert not (PACKAGE / "codegen").exists()
+
+
+def test_the_emulated_board_loads_no_compiler():
+    """Like the real firmware, the board runs images: no lark, no IL, no code generator."""
+    loaded = modules_after_import("asictl.board.board")
+    assert "asictl.board.board" in loaded
+    forbidden = [
+        m for m in loaded
+        if m.split(".")[0] == "lark" or m.startswith(("asictl.il", "asictl.codegen8051"))
+        or m in ("asictl.build", "asictl.mcs51.assembler")
+    ]
+    assert forbidden == []
+
+
+def test_the_image_format_loads_no_compiler():
+    loaded = modules_after_import("asictl.image")
+    assert not [m for m in loaded if m.startswith(("lark", "asictl.il", "asictl.codegen8051"))]
+
+
+def test_the_command_line_starts_without_its_commands():
+    """``asictl --help`` stays fast: commands and their dependencies load when run."""
+    loaded = modules_after_import("asictl.cli")
+    assert not [m for m in loaded if m.startswith(("lark", "asictl.il", "asictl.board"))]
+
+
+def test_only_the_monitor_loads_textual():
+    """Textual is an optional extra: no other command, nor the monitor's data side, loads it."""
+    code = (
+        "import sys; import asictl.cli.master, asictl.cli.live, asictl.cli.commission, "
+        "asictl.cli.verify, asictl.cli.monitor, asictl.monitor.source, asictl.host.live; "
+        "print(any(m.split('.')[0] in ('textual', 'rich') for m in sys.modules))"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "False"
+    loaded = modules_after_import("asictl.monitor.app")
+    assert "asictl.monitor.app" in loaded
