@@ -13,6 +13,12 @@ import shutil
 import pytest
 from click.testing import CliRunner
 
+pytest_plugins = ["pytester"]
+
+# The scenarios here are tested by the tests that name them; asictl's pytest plugin
+# (active wherever asictl is installed) must not collect them a second time.
+collect_ignore_glob = ["scenarios/*.scenario.toml"]
+
 
 def require_tool(name: str, package: str) -> str:
     """Return the path of an oracle program, or skip (locally) / fail (in CI) without it."""

@@ -193,6 +193,9 @@ def build_image(compiled: Compiled, *, with_source: bool = True) -> ProgramImage
         pmap=compiled.pmap,
         entry_points=compiled.used_entry_points(),
     )
+    with_lines = replace(image, line_map=compiled.line_map)
+    if len(with_lines.to_bytes()) <= EEPROM_SIZE:  # the line map goes before the source
+        image = with_lines
     size = len(image.to_bytes())
     if size > EEPROM_SIZE:
         raise ImageError(

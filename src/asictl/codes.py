@@ -6,8 +6,8 @@ in docs/assembler.md); a test holds the documentation and this registry together
 another that no stage reports a code that is not registered here.
 
 The hundreds are the stages: E1xx reading IL (syntax), E2xx checking it (semantics),
-E3xx compiling it, E4xx scenarios, E5xx the 8051 assembler, E6xx program images, W7xx
-analysing a checked program (wiring against [SETUP], data flow, reachability).
+E3xx compiling it, E4xx scenarios and symbol tables, E5xx the 8051 assembler, E6xx program
+images, W7xx analysing a checked program (wiring against [SETUP], data flow, reachability).
 Warnings (W) share their stage's hundred.
 """
 
@@ -88,11 +88,12 @@ class CompileCode(StrEnum):
 
 
 class ScenarioCode(StrEnum):
-    """Reading and running scenarios (``sim``)."""
+    """Reading and running scenarios (``sim``), and the symbol tables they use."""
 
     NOT_TOML = "E400"
     INVALID = "E401"
     NO_SUCH_SLAVE = "E402"
+    SYMBOLS = "E403"
 
 
 class AssemblerCode(StrEnum):
@@ -163,6 +164,7 @@ TITLES: dict[str, str] = {
     "E400": "scenario is not valid TOML",
     "E401": "invalid scenario",
     "E402": "scenario sets a slave that is not on the bus",
+    "E403": "invalid symbol table",
     "E501": "syntax",
     "E502": "unknown mnemonic or directive",
     "E503": "operand not valid for the instruction",

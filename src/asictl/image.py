@@ -41,11 +41,15 @@ from asictl.platform.master import (
 )
 from asictl.runtime import contract, layout
 from asictl.runtime.firmware import FIRMWARE_BLOCKS
+from asictl.runtime.line_map import LineMap, LineMapError
 from asictl.runtime.program_map import CellKind, Location, ProgramMap, Space, Variable
 from asictl.runtime.runner import LoadedProgram
 
 MAGIC = b"ASI2"
-FORMAT_VERSION = 1
+#: Version 2 added the line map; images of version 1 (without it) still read and keep
+#: their version when written again.
+FORMAT_VERSION = 2
+READABLE_VERSIONS = (1, 2)
 
 # Header layout (all little-endian); docs/image-format.md has the table.
 _HEADER = struct.Struct("<4sBBHIB16s4s32s16sHHHH")
@@ -202,6 +206,9 @@ class ProgramImage:
     #: why there is no source, when there is none: it did not fit
     source_left_out: bool = False
     code_base: int = layout.CODE_BASE
+    #: which IL line each code byte implements (empty: not known, as in version 1)
+    line_map: LineMap = field(default_factory=LineMap)
+    format_version: int = FORMAT_VERSION
 
     @property
     def options(self) -> Options:
@@ -213,6 +220,10 @@ class ProgramImage:
 
     def to_bytes(self) -> bytes:
         program_map = _encode_map(self.pmap, self.entry_points)
+        if self.format_version >= 2:
+            program_map += self.line_map.to_bytes(self.code_base)
+        elif self.line_map:
+            raise ImageError("an image of format version 1 cannot carry a line map")
         image_flags = (SOURCE_INCLUDED if self.source else 0) | (
             SOURCE_LEFT_OUT if self.source_left_out else 0
         )
@@ -222,7 +233,7 @@ class ProgramImage:
                 f"image needs {length} bytes, the EEPROM holds {EEPROM_SIZE}", ExitCode.FAILED
             )
         header = _HEADER.pack(
-            MAGIC, FORMAT_VERSION, image_flags, length, 0, self.flags, self.identity,
+            MAGIC, self.format_version, image_flags, length, 0, self.flags, self.identity,
             self.configuration.lps, self.configuration.pcd, self.configuration.pp,
             self.code_base, len(self.code), len(program_map), len(self.source),
         )
@@ -251,9 +262,10 @@ class ProgramImage:
             _, version, image_flags, length, crc, flags, identity, lps, pcd, pp,
             code_base, code_size, map_size, source_size,
         ) = _HEADER.unpack_from(data)
-        if version != FORMAT_VERSION:
+        if version not in READABLE_VERSIONS:
             raise ImageError(
-                f"image format version {version}; this asictl reads version {FORMAT_VERSION}"
+                f"image format version {version}; this asictl reads versions "
+                + ", ".join(map(str, READABLE_VERSIONS))
             )
         if length != len(data):
             raise ImageError(
@@ -281,8 +293,9 @@ class ProgramImage:
         if lps[0] & 1:
             raise ImageError("image projects slave 0, which is reserved for new slaves")
         code_end = HEADER_SIZE + code_size
-        pmap, entry_points = _decode_map(
-            data[code_end : code_end + map_size], bool(flags & ControlFlag.MAP_COUNTERS)
+        pmap, entry_points, line_map = _decode_map(
+            data[code_end : code_end + map_size], bool(flags & ControlFlag.MAP_COUNTERS),
+            code_base=code_base, with_lines=version >= 2,
         )
         image = cls(
             flags=flags,
@@ -294,6 +307,8 @@ class ProgramImage:
             source=data[code_end + map_size :],
             source_left_out=bool(image_flags & SOURCE_LEFT_OUT),
             code_base=code_base,
+            line_map=line_map,
+            format_version=version,
         )
         if image.to_bytes() != data:
             raise ImageError("image is not in the form asictl writes (entries out of order?)")
@@ -362,7 +377,9 @@ def _encode_map(pmap: ProgramMap, entry_points: Mapping[str, int]) -> bytes:
     return bytes(out)
 
 
-def _decode_map(data: bytes, map_counters: bool) -> tuple[ProgramMap, dict[str, int]]:
+def _decode_map(
+    data: bytes, map_counters: bool, *, code_base: int, with_lines: bool
+) -> tuple[ProgramMap, dict[str, int], LineMap]:
     reader = _Reader(data, "program map")
     pmap = ProgramMap(pseg=reader.u16(), data_end=reader.u16(), map_counters=map_counters)
     for _ in range(reader.u16()):
@@ -386,8 +403,14 @@ def _decode_map(data: bytes, map_counters: bool) -> tuple[ProgramMap, dict[str, 
         if name not in FIRMWARE_BLOCKS:
             raise ImageError(f"image calls firmware block '{name}', which this asictl lacks")
         entry_points[name] = address
+    line_map = LineMap()
+    if with_lines:
+        try:
+            line_map = LineMap.from_bytes(reader.rest(), code_base)
+        except LineMapError as exc:
+            raise ImageError(f"image line map: {exc}") from None
     reader.end()
-    return pmap, entry_points
+    return pmap, entry_points, line_map
 
 
 class _Reader:
@@ -410,6 +433,9 @@ class _Reader:
 
     def u8(self) -> int:
         return self.take(1)[0]
+
+    def rest(self) -> bytes:
+        return self.take(len(self.data) - self.offset)
 
     def u16(self) -> int:
         value: int = self.unpack("<H")[0]

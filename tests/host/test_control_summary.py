@@ -87,7 +87,7 @@ def test_a_cycle_time_out_is_one_of_two_reasons_over_the_gateway():
     _cable(board, 31)
     _load(board, StartMode.START, "[SETUP]\n31: 8h, 0\n[PROGRAM]\nloop:   JU  = loop\n")
     board.advance(SETTLE_MS)
-    assert control_summary(_driver(board)) == "control program halted (cycle timeout)"
+    assert control_summary(_driver(board)) == "control program halted (p.asi:4: cycle timeout)"
     with background_gateway(GatewaySlave(board)) as gateway:
         host, port = gateway.server.tcp_address
         with modbus.open_modbus(parse_target(f"tcp://{host}:{port}")) as transport:

@@ -196,3 +196,19 @@ def test_help_names_the_acf_switches():
     result = CliRunner().invoke(main, ["download", "--help"])
     for switch in ("/d+", "/s+", "/s-", "/s0"):
         assert switch in result.output
+
+
+LOOP = "[SETUP]\n31: 0h, 0\n[PROGRAM]\n    A I 31.0\nspin:\n    L KB 1\n    JU = spin\n"
+
+
+def test_a_cycle_time_out_names_its_il_line_in_download_and_status(run, tmp_path: Path):
+    program = tmp_path / "loop.asi"
+    program.write_text(LOOP)
+    result = run("download", str(program), "--start")
+    assert result.exit_code == 0, result.output
+    assert result.stderr.splitlines()[-1].endswith(
+        "control program halted (loop.asi:7: cycle timeout)")
+    status = run("status")
+    assert "control  halted (loop.asi:7: cycle timeout)" in status.stdout
+    fields = json.loads(run("status", "--json").stdout)
+    assert (fields["stop_reason"], fields["stop_line"]) == ("cycle timeout", "loop.asi:7")

@@ -7,6 +7,7 @@ import random
 import re
 import struct
 import zlib
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
@@ -16,6 +17,7 @@ from manual_examples import EXAMPLES
 
 from asictl.build import Origin, build, build_image, image_from_raw
 from asictl.codegen8051.compiler import Compiled, compile_program
+from asictl.diagnostics import Span
 from asictl.host.program_files import uploaded_source
 from asictl.il import ast
 from asictl.il.checks import check_source
@@ -30,6 +32,7 @@ from asictl.image import (
 )
 from asictl.platform.master import EEPROM_SIZE, Options
 from asictl.runtime import layout
+from asictl.runtime.line_map import LineMap
 from asictl.runtime.runner import LoadedProgram, ProgramRunner
 from asictl.source import from_string, read_source
 
@@ -73,7 +76,7 @@ def test_header_fields_at_their_documented_offsets(blink: Compiled, blink_bytes:
     data = blink_bytes
     image = ProgramImage.from_bytes(data)
     assert data[0:4] == MAGIC == b"ASI2"
-    assert data[4] == 1  # format version
+    assert data[4] == 2  # format version
     assert data[5] == 0x01  # source included
     assert struct.unpack_from("<H", data, 6)[0] == len(data)
     crc = struct.unpack_from("<I", data, 8)[0]
@@ -288,8 +291,8 @@ def test_hex_garbage_is_an_image_error(text: str):
 
 def test_other_version_and_foreign_data_messages(blink_bytes: bytes):
     newer = bytearray(blink_bytes)
-    newer[4] = 2
-    with pytest.raises(ImageError, match="format version 2; this asictl reads version 1"):
+    newer[4] = 3
+    with pytest.raises(ImageError, match="format version 3; this asictl reads versions 1, 2"):
         ProgramImage.from_bytes(with_fixed_crc(newer))
     with pytest.raises(ImageError, match=r"starts with 3a 31 30 30; asictl's images start with"):
         ProgramImage.from_bytes(b":10000000")
@@ -406,3 +409,45 @@ def test_program_too_big_for_the_eeprom_names_the_sizes():
     )
     assert match and int(match[1]) > EEPROM_SIZE, message
     assert caught.value.exit_code == 1
+
+
+# ----------------------------------------------------------------------- line map
+
+
+def test_the_line_map_names_every_il_line_with_code(blink: Compiled, blink_bytes: bytes):
+    image = ProgramImage.from_bytes(blink_bytes)
+    assert image.line_map == blink.line_map
+    assert image.line_map.files == ("blink.asi",)
+    listing = {entry.address: entry for entry in blink.assembly.listing if entry.data}
+    for address in sorted(listing):
+        span = blink.lines[listing[address].span.line - 1].span
+        found = image.line_map.line_at(address)
+        assert (found.line if found else None) == (span.line if span else None)
+
+
+def test_a_version_1_image_still_reads_and_keeps_its_bytes(blink_bytes: bytes):
+    image = ProgramImage.from_bytes(blink_bytes)
+    old = replace(image, line_map=LineMap(), format_version=1)
+    data = old.to_bytes()
+    assert data[4] == 1 and len(data) < len(blink_bytes)
+    again = ProgramImage.from_bytes(data)
+    assert again.to_bytes() == data and not again.line_map
+    assert again.loaded_program().code == image.code
+    with pytest.raises(ImageError, match="version 1 cannot carry a line map"):
+        replace(image, format_version=1).to_bytes()
+
+
+@given(st.lists(st.tuples(st.integers(1, 40), st.none() | st.tuples(
+    st.sampled_from(["a.asi", "b.fb"]), st.integers(1, 5000))), max_size=60))  # [] included
+def test_line_maps_round_trip(pieces):
+    address, spans = layout.CODE_BASE, []
+    for length, where in pieces:
+        spans.append((address, length, Span(where[0], where[1], 1) if where else None))
+        address += length
+    line_map = LineMap.build(spans)
+    assert bool(line_map) == any(length for length, _ in pieces)
+    data = line_map.to_bytes(layout.CODE_BASE)
+    assert LineMap.from_bytes(data, layout.CODE_BASE) == line_map
+    for start, length, span in spans:
+        found = line_map.line_at(start + length - 1)
+        assert (str(found) if found else None) == (f"{span.file}:{span.line}" if span else None)

@@ -94,7 +94,7 @@ def test_missing_time_unknown_keys_and_bad_slaves():
         "[[step]]\nset = {}\n[[step]]\nat_ms = 5\nwhen = 3\n"
     )
     found = errors(text)
-    assert (2, 1, "cycle_ms is a number of milliseconds above 0") in found
+    assert (2, 1, "cycle_ms is a time in milliseconds from 0.1 to 10000, not 0") in found
     assert any(line == 3 and "slave 40" in m for line, _, m in found)
     assert any(line == 3 and "slave 3" in m for line, _, m in found)
     assert (4, 1, "each step needs at_ms = <milliseconds, 0 or more>") in found

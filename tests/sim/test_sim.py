@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import importlib.util
 import json
+import re
 from pathlib import Path
 from xml.etree import ElementTree
 
@@ -132,3 +133,30 @@ def test_plot(tmp_path: Path):
     else:
         assert result.exit_code == 0, result.output
         assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def _normal(text: str) -> str:
+    """Output without wall-clock times (they differ from run to run)."""
+    text = re.sub(r"in \d+\.\d+ s", "in T s", text)
+    return re.sub(r'time="\d+\.\d+"', 'time="T"', text)
+
+
+def test_parallel_test_runs_give_the_same_output_and_junit(tmp_path: Path):
+    for scenario in SCENARIOS.glob("*"):
+        (tmp_path / scenario.name).write_bytes(scenario.read_bytes())
+    (tmp_path / "blink_fails.scenario.toml").write_text(
+        f'program = "{tmp_path / "blink.asi"}"\n[master]\ncycle_ms = 5\n'
+        '[[step]]\nat_ms = 750\nexpect = { "Q 31.0" = 1 }\n')
+    (tmp_path / "broken.scenario.toml").write_text(
+        f'program = "{tmp_path / "blink.asi"}"\n[[step]]\nat_ms = nan\n')
+    outputs = []
+    for jobs in ("1", "2", "3"):
+        junit = tmp_path / f"junit{jobs}.xml"
+        result = run("test", str(tmp_path), "-j", jobs, "--junit", str(junit))
+        assert result.exit_code == 2
+        outputs.append((_normal(result.stdout), result.stderr, _normal(junit.read_text())))
+    assert outputs[0] == outputs[1] == outputs[2]
+    lines = outputs[0][0].splitlines()
+    assert lines[-1] == "5 passed, 2 failed"
+    assert [line.split()[0] for line in lines if not line.startswith(" ")][:-1] == [
+        "PASS", "FAIL", "ERROR", "PASS", "PASS", "PASS", "PASS"]

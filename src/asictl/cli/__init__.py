@@ -70,6 +70,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "write": ("asictl.cli.commission:write", "Write flags (F 10.0=1, FY 10=0x12) and outputs."),
     "verify": ("asictl.cli.verify:verify", "Compare a program with the one the master runs."),
     "monitor": ("asictl.cli.monitor:monitor", "A live full-screen view of the master (ASI_MON)."),
+    "debug": ("asictl.cli.debug:debug", "Debug a program at the IL level on an emulated master."),
 }
 
 

@@ -23,6 +23,7 @@ from asictl.mcs51.assembler import assemble
 from asictl.mcs51.assembly import Assembly
 from asictl.platform.master import Options
 from asictl.runtime import layout
+from asictl.runtime.line_map import LineMap
 from asictl.runtime.program_map import ProgramMap
 from asictl.source import SourceText, from_string
 
@@ -53,6 +54,15 @@ class Compiled:
         for start, data in self.assembly.segments:
             image[start - layout.CODE_BASE : start - layout.CODE_BASE + len(data)] = data
         return bytes(image)
+
+    @property
+    def line_map(self) -> LineMap:
+        """Which IL line each code byte implements (from the listing of the generated code)."""
+        return LineMap.build(
+            (entry.address, len(entry.data), self.lines[entry.span.line - 1].span)
+            for entry in self.assembly.listing
+            if entry.data and entry.address is not None and entry.span.file == GENERATED
+        )
 
     @property
     def assembly_text(self) -> str:

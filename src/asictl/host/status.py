@@ -23,7 +23,7 @@ from typing import Any
 from asictl.host.driver import Pc2Driver
 from asictl.host.jobs import JobError, JobStatus
 from asictl.host.transfer import Pc2Transport, Transport, upload
-from asictl.image import HEADER_SIZE, MAGIC
+from asictl.image import HEADER_SIZE, MAGIC, ProgramImage
 from asictl.platform.display import display_code, display_text
 from asictl.platform.master import SLAVES, ControlFlag
 from asictl.platform.pc2 import (
@@ -54,6 +54,7 @@ from asictl.platform.pc2 import (
     PI,
     PP,
     PROGRAM_STATUS,
+    STOP_ADDRESS,
     STOP_REASON,
     VERSION_ID,
     VERSION_ID_SIZE,
@@ -165,6 +166,8 @@ class MasterStatus:
     #: the program's timers and counters, None where the master does not show them
     timers: list[Timer] | None = None
     counters: list[Counter] | None = None
+    #: after a cycle time-out: the IL line of the endless loop (from the image's line map)
+    stop_line: str | None = None
 
     def to_json(self) -> dict[str, Any]:
         return asdict(self)
@@ -200,19 +203,33 @@ def _cycle_ms(raw: bytes) -> float:
 
 
 def program_info(transport: Transport) -> ProgramInfo:
+    return _program(transport)[0]
+
+
+def _program(transport: Transport) -> tuple[ProgramInfo, ProgramImage | None]:
     head = transport.read_eeprom(0, HEADER_SIZE)
     if head[: len(MAGIC)] != MAGIC:
-        return ProgramInfo(present=False, valid=False, problem="no program image")
+        return ProgramInfo(present=False, valid=False, problem="no program image"), None
     try:
         image = upload(transport)
     except JobError as exc:
         if exc.status is not JobStatus.EEPROM_ERROR:
             raise
-        return ProgramInfo(present=True, valid=False, problem=str(exc))
+        return ProgramInfo(present=True, valid=False, problem=str(exc)), None
     return ProgramInfo(
         present=True, valid=True, identity=image.identity_hex, size=len(image.to_bytes()),
         code_size=len(image.code), source_included=bool(image.source),
-    )
+    ), image
+
+
+def stop_line(driver: Pc2Driver, image: ProgramImage | None) -> str | None:
+    """The IL line of the loop a cycle time-out cut off (``loop.asi:12``): the master's
+    stop address through the image's line map; None when the image has none."""
+    if image is None:
+        return None
+    address = int.from_bytes(driver.read(STOP_ADDRESS, 2), "little")
+    line = image.line_map.line_at(address)
+    return None if line is None else str(line)
 
 
 def state_fields(ec: int, flags: int) -> dict[str, Any]:
@@ -306,6 +323,9 @@ def read_status(
         pp=nibbles(driver.read(PP, IMAGE_SIZE)), pi=nibbles(driver.read(PI, IMAGE_SIZE)),
         errors=None if extra is None else bytes(extra["error_counters"]),
     )
+    image = None
+    if program is None:  # (a monitor passes the program: it reads the image only on change)
+        program, image = _program(Pc2Transport(driver))
     return MasterStatus(
         port=port,
         master_name=_text(driver.read(MASTER_NAME, MASTER_NAME_SIZE)),
@@ -318,7 +338,8 @@ def read_status(
         program_status=_name(ProgramStatus, driver.read_byte(PROGRAM_STATUS)),
         cycle_time_ms=_cycle_ms(driver.read(CYCLE_TIME_PREVIOUS, 2)),
         max_cycle_time_ms=_cycle_ms(driver.read(CYCLE_TIME_MAXIMUM, 2)),
-        program=program if program is not None else program_info(Pc2Transport(driver)),
+        program=program,
+        stop_line=stop_line(driver, image) if reason == StopReason.CYCLE_TIMEOUT else None,
         slaves=slaves,
         los=los,
         hi_flags=driver.read_byte(HI_FLAGS),
@@ -365,7 +386,15 @@ def control_summary(driver: Pc2Driver) -> str:
     reason = driver.read_byte(STOP_REASON)
     if reason == StopReason.NONE:
         return f"control program {state}"
-    return f"control program {state} ({_name(StopReason, reason)})"
+    where = None
+    if reason == StopReason.CYCLE_TIMEOUT:
+        where = stop_line(driver, _program(Pc2Transport(driver))[1])
+    return f"control program {state} ({_stopped(_name(StopReason, reason), where)})"
+
+
+def _stopped(reason: str, where: str | None) -> str:
+    """``loop.asi:12: cycle time-out``, or the reason alone."""
+    return f"{where}: {reason}" if where else reason
 
 
 def _slave_row(label: str, slaves: list[int]) -> str:
@@ -438,7 +467,9 @@ def render(status: MasterStatus) -> str:
         name for name in ("start_flag", "ignore_config_errors", "wait_for_set_button",
                           "map_counters", "control_active") if getattr(s, name)
     ]
-    control = s.control_state + (f" ({s.stop_reason})" if s.stop_reason else "")
+    control = s.control_state + (
+        f" ({_stopped(s.stop_reason, s.stop_line)})" if s.stop_reason else ""
+    )
     p = s.program
     if p.valid:
         program = (

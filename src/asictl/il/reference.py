@@ -121,6 +121,8 @@ class Interpreter:
             if isinstance(d, ast.VarDecl)
         }
         self.state = PlcState()
+        #: called before each statement runs (per-line traces compare against this)
+        self.on_statement: Callable[[ast.Statement | ast.GatingLine], None] | None = None
         self.reset()
 
     def reset(self) -> None:
@@ -161,6 +163,8 @@ class Interpreter:
                 raise CycleTimeout(f"more than {self.budget} instructions in one cycle")
             statement = statements[pc]
             pc += 1
+            if self.on_statement is not None:
+                self.on_statement(statement)
             match statement:
                 case ast.Logic(op=op, operand=operand):
                     value = self._read_bit(operand)

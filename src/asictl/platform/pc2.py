@@ -3,7 +3,7 @@
 Both sides of the three-register port import this module: the emulated board lays its
 state out by these addresses, the host driver reads and writes them. The addresses follow
 the reconstructed map in the reading guide (the manual's extracted table is shifted by one
-row; the sample drivers' constants fix it). Bytes 305h/306h are this board's own status
+row; the sample drivers' constants fix it). Bytes 305h-309h are this board's own status
 bytes in the manual's reserved range 305h-30Fh (see docs/master.md).
 """
 
@@ -81,6 +81,9 @@ CONTROL_FLAGS = 0x304
 PROGRAM_STATUS = 0x305
 STOP_REASON = 0x306
 CONTROL_STATE = 0x307
+#: After a cycle time-out: the code address of the jump that closes the endless loop
+#: (16-bit little-endian); the host names its IL line through the image's line map.
+STOP_ADDRESS = 0x308
 PROGRAM_BUFFER = 0x310
 PROGRAM_BUFFER_SIZE = 240
 

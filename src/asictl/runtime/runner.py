@@ -15,6 +15,8 @@ from dataclasses import dataclass
 
 from asictl.mcs51.bus import Bus
 from asictl.mcs51.emulator import Emulator, StopReason
+from asictl.mcs51.loops import looping_jumps
+from asictl.platform import pc2
 from asictl.runtime import layout
 from asictl.runtime.firmware import FIRMWARE_BLOCKS, FirmwareServices
 from asictl.runtime.program_map import CellKind, Location, ProgramMap, Space, timer_status
@@ -23,7 +25,12 @@ _RET = 0x22
 
 
 class CycleTimeout(Exception):
-    """The program ran past the cycle budget (an endless loop); the master stops it."""
+    """The program ran past the cycle budget (an endless loop); the master stops it.
+    ``address`` is the jump that closes the loop (else where the program was)."""
+
+    def __init__(self, message: str, address: int) -> None:
+        super().__init__(message)
+        self.address = address
 
 
 @dataclass(frozen=True)
@@ -121,8 +128,13 @@ class ProgramRunner:
         reason = cpu.run(max_cycles=self.budget)
         self.last_cycles = cpu.cycles - start
         if reason is not StopReason.TRAP:
+            jumps = looping_jumps(cpu)
+            address = jumps[-1] if jumps else cpu.pc
+            cpu.xdata.write(pc2.STOP_ADDRESS, address & 0xFF)  # for the host: which loop
+            cpu.xdata.write(pc2.STOP_ADDRESS + 1, address >> 8)
             raise CycleTimeout(
-                f"program cycle longer than {self.budget} machine cycles (pc {cpu.pc:04X}h)"
+                f"program cycle longer than {self.budget} machine cycles (loop at "
+                f"{address:04X}h)", address,
             )
         for k, location in self._cells[CellKind.Q]:
             self.outputs[k] = self.read(location)

@@ -1,39 +1,63 @@
 """Running a scenario: a program on a fresh emulated master, in virtual time.
 
 The program's image (built by ``asictl.build`` from source, an uploaded [RAW] file or a
-.hex image) is downloaded through the same driver and commands as
-``asictl download`` (so the simulation exercises what the plant would get), then the
-scenario's steps are applied at their times. Master time 0 is the moment the download
-has set the start flag. Timing rules (docs/simulation.md): a ``set`` at T takes effect for
-every program cycle that starts at or after T; an ``expect`` at T checks the state left
-by the cycles that ran before T; at equal times sets come before checks.
+.hex image) is downloaded through the same driver and commands as ``asictl download``
+(so the simulation exercises what the plant would get), then the scenario's steps are
+applied at their times.
+
+The timing contract (docs/simulation.md): **time 0 is the master time of the first
+program cycle**. The download leaves the program loaded but stopped; the steps at time 0
+are applied (and its expectations checked, against the state before any cycle) while
+nothing runs; then the host sets the start flag and the master runs the first cycle in
+the AS-i cycle that executes the command. From then on a ``set`` at T takes effect for
+every program cycle that starts at or after T, and an ``expect`` at T checks the state
+left by the cycles that started before T; at equal times sets come before checks.
 """
 
 from __future__ import annotations
 
+import fnmatch
+import functools
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from pathlib import PurePath
 
 from asictl.board.asi import AsiBus, Slave
 from asictl.board.board import Pc2Board
 from asictl.build import Build
 from asictl.codes import ScenarioCode
+from asictl.debug.iltrace import ILTracer, LineRow, line_operands
+from asictl.debug.locate import current_line, describe
+from asictl.debug.view import ProgramView
 from asictl.diagnostics import Diagnostic, DiagnosticError, Severity, Span
 from asictl.host.driver import EmulatedPort, Pc2Driver
 from asictl.host.transfer import Pc2Transport, StartMode, download
 from asictl.il import ast
 from asictl.il.loader import Program
 from asictl.image import ProgramImage
+from asictl.mcs51.emulator import Emulator
 from asictl.platform import pc2 as d
+from asictl.platform.master import ControlFlag
+from asictl.runtime.firmware import FIRMWARE_BLOCKS
+from asictl.runtime.line_map import LineMap
 from asictl.runtime.program_map import CellKind, ProgramMap
+from asictl.runtime.runner import ProgramRunner
 from asictl.sim.operands import Operand, parse_operand
 from asictl.sim.scenario import Scenario, SlaveSpec, Step
-from asictl.sim.trace import Signal, Trace
+from asictl.sim.trace import Mark, Signal, Trace
+from asictl.symbols import SymbolTable
 
 #: Sets happen this long before their time, so that no cycle at exactly T has run yet.
-_BEFORE_US = 0.001
-#: How long the master may take after the download to start the program.
+_BEFORE_MS = 0.001
+#: The master's power-up: it finds its slaves before the host downloads.
+_POWER_UP_MS = 100.0
+#: How long the master may take after the start command to run the first cycle.
 _START_WAIT_MS = 1000.0
+#: Firmware blocks whose PSeg 0 reports success (00h) or a refusal (80h and up).
+_STATUS_BLOCKS = frozenset({"setpp", "getpp", "sendprm", "getpi", "getpcd", "getcdi",
+                            "dataex", "address", "autoaddr", "command"})
+#: The name of the lane that shows whether the program runs.
+RUNNING = "program running"
 
 
 @dataclass
@@ -43,15 +67,47 @@ class Failure:
     operand: Operand
     expected: int
     got: int
+    #: the operand as the scenario wrote it (a symbol, say)
+    written: str = ""
+
+    @property
+    def at_ms(self) -> float:
+        return self.step.at_ms
 
     def __str__(self) -> str:
-        return f"at {self.step.at_ms:g} ms: {self.operand} expected {self.expected}, got {self.got}"
+        name = self.written or str(self.operand)
+        return f"at {self.step.at_ms:g} ms: {name} expected {self.expected}, got {self.got}"
 
 
 @dataclass
 class Stop:
     at_ms: float
     reason: str
+    #: the IL line, ``loop.asi:12`` (with its callers inside a block), when it is known
+    where: str = ""
+
+    @property
+    def text(self) -> str:
+        return f"{self.where}: {self.reason}" if self.where else self.reason
+
+
+@dataclass
+class Refusal:
+    """A firmware block that answered with an error status (a note, not a failure)."""
+
+    at_ms: float
+    where: str
+    block: str
+    status: int
+    count: int = 1
+    last_ms: float = 0.0
+
+    @property
+    def text(self) -> str:
+        more = (f" (and {self.count - 1} more time{'s' if self.count > 2 else ''} "
+                f"until {self.last_ms:g} ms)" if self.count > 1 else "")
+        where = f"{self.where}: " if self.where else ""
+        return f"{where}firmware block {self.block} refused (status {self.status:02X}h){more}"
 
 
 @dataclass
@@ -60,9 +116,10 @@ class SimResult:
     checked: int = 0
     failures: list[Failure] = field(default_factory=list)
     stops: list[Stop] = field(default_factory=list)
+    refusals: list[Refusal] = field(default_factory=list)
     trace: Trace | None = None
+    il_rows: list[LineRow] = field(default_factory=list)
     end_ms: float = 0.0
-    cycles: int = 0
 
     @property
     def passed(self) -> bool:
@@ -85,6 +142,24 @@ def variables_of(pmap: ProgramMap) -> dict[str, int]:
     return {name: variable.size for name, variable in pmap.variables.items()}
 
 
+def line_map_of(build: Build) -> LineMap:
+    """Which IL line each code address implements: the compiler's own knowledge for a
+    source file, else what the image carries (nothing for images of format version 1)."""
+    if build.compiled is not None:
+        return build.compiled.line_map
+    return build.image.line_map if build.image is not None else LineMap()
+
+
+def source_texts(build: Build) -> dict[str, str]:
+    """Source file base name -> text, for showing IL lines (from the image when it
+    carries its source)."""
+    texts = {PurePath(name).name: text for name, text in build.texts.items()}
+    if not texts and build.image is not None:
+        for name, raw in build.image.sources().items():
+            texts[name] = raw.decode("latin-1").replace("\r\n", "\n")
+    return texts
+
+
 class Simulation:
     """One scenario on one fresh master, running the image of one build."""
 
@@ -95,40 +170,72 @@ class Simulation:
         *,
         duration_ms: float | None = None,
         trace: bool = False,
+        signals: list[str] | None = None,
+        symbols: SymbolTable | None = None,
+        il_trace: bool = False,
+        window: tuple[float, float | None] = (0.0, None),
     ) -> None:
         if build.image is None:
             raise ValueError("a simulation needs a build with an image")
         self.build = build
         self.image = build.image
         self.scenario = scenario
+        self.symbols = symbols or SymbolTable()
         self.end_ms = duration_ms if duration_ms is not None else scenario.end_ms
         specs = scenario.slaves if scenario.slaves is not None else _setup_slaves(self.image)
         self.board = Pc2Board(bus=AsiBus([_slave(s) for s in specs]))
-        if scenario.cycle_ms is not None:
-            self.board.cycle_period_us = round(scenario.cycle_ms * 1000)
         self.result = SimResult(scenario)
+        self.line_map = line_map_of(build)
+        self.program: Program | None = build.source_program()
+        self.window = window
         #: what a trace cannot show, in words (an image without its source)
         self.untraced = ""
         self._signals: list[tuple[Signal, Callable[[Simulation], int]]] = []
         if trace:
-            program = build.source_program()
-            if program is not None:
-                self._signals = _trace_signals(program)
+            if self.program is not None:
+                names = _trace_names(self.program)
             else:
-                self._signals = _image_signals(self.image)
+                names = _image_names(self.image)
                 self.untraced = (
                     "the image carries no source: the trace shows the operands its program "
                     "map names (inputs and outputs of its slaves, the flag bytes it keeps "
-                    "in internal RAM, its timers), not the flags it keeps in the "
-                    "communication memory"
+                    "in internal RAM, its timers and counters), not the flags it keeps in "
+                    "the communication memory"
                 )
+            self._signals = _select(self._make_signals(names), signals)
+        self._il_trace = il_trace
+        self._tracer: ILTracer | None = None
         self._t0: float | None = 0.0
         self._running = True
+        self._refusals: dict[tuple[str, str, int], Refusal] = {}
+        self._by_time: dict[float, list[Step]] = {}
+        for step in scenario.ordered():
+            if step.at_ms <= self.end_ms:
+                self._by_time.setdefault(step.at_ms, []).append(step)
+        start, end = window  # the trace goes on at its start, off after the cycles at its end
+        marks = {t for t in (start, None if end is None else end + _BEFORE_MS)
+                 if t is not None and 0 < t <= self.end_ms}
+        self._marks = marks
+        #: step times and trace window edges, in order; the next one to come
+        self._events = sorted({*self._by_time, *marks})
+        self._next_event = 0
+        self._done_ms = -1.0
 
     # ------------------------------------------------------------------ reading
 
     def now_ms(self) -> float:
-        return self.board.now_ms - (self._t0 or 0.0)
+        """Master time since time 0 (whole microseconds, so the sum is exact)."""
+        return (round(self.board.now_ms * 1000) - round((self._t0 or 0.0) * 1000)) / 1000
+
+    @property
+    def runner(self) -> ProgramRunner | None:
+        return self.board.program
+
+    def view(self) -> ProgramView:
+        """Operands as the program sees them (its cells inside a cycle)."""
+        runner = self.runner
+        assert runner is not None
+        return ProgramView(runner, self.read)
 
     def read(self, operand: Operand) -> int:
         """An operand's value now: inputs as the slaves deliver them, outputs as the slaves
@@ -161,31 +268,17 @@ class Simulation:
             case ast.ImageByte(area=ast.ByteArea.I2B, number=n):
                 cell = pmap.cells.get((CellKind.I2, n >> 1))
                 return runner.read(cell) if cell else 0
-            case ast.TimerRef(number=n):
-                address = pmap.timers.get(n)
-                return int(address is not None and self._word(runner, address) != 0)
-            case ast.CounterRef(number=n):
-                address = pmap.counters.get(n)
-                return int(address is not None and self._word(runner, address) & 0xFFF != 0)
-            case ast.ImageByte(area=ast.ByteArea.PSEG, number=n):
-                return runner.cpu.xdata.read(pmap.pseg + n)
-            case ast.VarBit(name=name, offset=o, bit=b):
-                return runner.cpu.xdata.read(pmap.variables[name.casefold()].address + o) >> b & 1
-            case ast.VarByte(name=name, offset=o):
-                return runner.cpu.xdata.read(pmap.variables[name.casefold()].address + o)
-        raise AssertionError(node)
+        return ProgramView(runner, lambda _: 0).read(operand)
 
     def _slave_inputs(self, address: int) -> int:
         slaves = self.board.bus.at(address)
         return slaves[0].inputs if slaves else 0
 
-    @staticmethod
-    def _word(runner, address: int) -> int:
-        return runner.cpu.xdata.read(address) | runner.cpu.xdata.read(address + 1) << 8
-
     # ------------------------------------------------------------------ writing
 
-    def _set(self, step: Step, operand: Operand, value: int, line: int) -> None:
+    def set(self, operand: Operand, value: int, *, step: Step | None = None,
+            line: int = 1) -> None:
+        """Set an input (as the slave delivers it) or a flag (as a host writes it)."""
         node = operand.node
         match node:
             case ast.ImageBit(area=ast.BitArea.I, address=a, bit=b):
@@ -200,13 +293,18 @@ class Simulation:
                 self._host_write(d.FLAGS + a, old & ~(1 << b) | value << b)
             case ast.ImageByte(area=ast.ByteArea.FY, number=n):
                 self._host_write(d.FLAGS + n, value)
+            case _:
+                raise ValueError(f"'{operand}' cannot be set: only inputs and flags can")
 
-    def _need_slave(self, address: int, step: Step, line: int, what: str) -> Slave:
+    def _need_slave(self, address: int, step: Step | None, line: int, what: str) -> Slave:
         slaves = self.board.bus.at(address)
         if not slaves:
+            when = f"at {step.at_ms:g} ms: " if step is not None else ""
+            message = f"{when}'{what}' sets slave {address}, which is not on the bus"
+            if step is None:
+                raise ValueError(message)
             raise DiagnosticError([Diagnostic(
-                Severity.ERROR, ScenarioCode.NO_SUCH_SLAVE,
-                f"at {step.at_ms:g} ms: '{what}' sets slave {address}, which is not on the bus",
+                Severity.ERROR, ScenarioCode.NO_SUCH_SLAVE, message,
                 Span(self.scenario.file, line, 1),
             )])
         return slaves[0]
@@ -214,47 +312,119 @@ class Simulation:
     def _host_write(self, address: int, value: int) -> None:
         """As a host writes the communication memory: through the board's I/O registers."""
         board = self.board
-        board.io_write(2, address >> 8)
-        board.io_write(1, address & 0xFF)
-        board.io_write(0, value)
+        board.io_write(d.PORT_PAGE, address >> 8)
+        board.io_write(d.PORT_INDEX, address & 0xFF)
+        board.io_write(d.PORT_DATA, value)
 
     # ------------------------------------------------------------------ running
 
     def start(self) -> None:
-        """Download the program as ``asictl download --start`` does; time 0 is the master
-        time of the first program cycle (or, if the program cannot start, one second after
-        the download, the stop then being reported at time 0)."""
+        """Power up, download, apply the steps at time 0 and start the program: time 0 is
+        the master time of its first cycle."""
+        self.load()
+        self.begin()
+
+    def load(self) -> None:
+        """Power up and download the program stopped; wait until the master has its
+        slaves in normal operation (at most a second)."""
         board = self.board
-        board.advance(100)  # power-up: the master finds its slaves
-        download(Pc2Transport(Pc2Driver(EmulatedPort(board))), self.image, start=StartMode.START)
-        self._t0 = None
-        board.observer = self._observe  # notes the first program cycle as time 0
+        board.advance(_POWER_UP_MS)
+        download(Pc2Transport(Pc2Driver(EmulatedPort(board))), self.image, start=StartMode.STOP)
+        settled = d.EcFlag.CONFIG_OK | d.EcFlag.NORMAL_OPERATION_ACTIVE
         deadline = board.now_ms + _START_WAIT_MS
+        while board.dpram[d.EC_FLAGS] & settled != settled and board.now_ms < deadline:
+            board.advance(1.0)  # the master activates the slaves of the new configuration
+        if self.scenario.cycle_ms is not None:  # only now: download and start-up need cycles
+            board.cycle_period_us = round(self.scenario.cycle_ms * 1000)
+        self._watch_firmware()
+        self._t0 = None
+
+    def begin(self) -> None:
+        """Apply the steps at time 0 (and check its expectations against the state before
+        any cycle), then set the start flag: time 0 is the master time of the first
+        program cycle (or, if the program cannot start within a second, the moment the
+        start was given, the stop then being reported at time 0)."""
+        board = self.board
+        self._run_steps(0.0)
+        if self._il_trace and self.window[0] <= 0:
+            self._trace_lines(True)
+        board.observer = self._observe  # notes the first program cycle as time 0
+        flags = int(board.control_flags) & ~(ControlFlag.CONTROL_ACTIVE | ControlFlag.RESET)
+        self._host_write(d.CONTROL_FLAGS, flags | ControlFlag.START)
+        self._host_write(d.COMMAND, d.Command.WRITE_CONTROL_FLAGS)
+        deadline = board.now_ms + _START_WAIT_MS + 2 * (self.scenario.cycle_ms or 0.0)
         while self._t0 is None and board.now_ms < deadline:
-            board.advance(0.1)
+            board.advance(_BEFORE_MS)  # to the microsecond: time 0 is exact
         if self._t0 is None:
             self._t0 = board.now_ms
             self._running = False
-            self.result.stops.append(Stop(0.0, board.stop_message or board.stop_reason.name))
+            self._stop(0.0)
+        end = self.window[1]
+        if end is not None and end <= 0:  # a window of time 0 alone: its cycle has run
+            self._trace_lines(False)
+
+    @property
+    def started(self) -> bool:
+        return self._t0 is not None
+
+    def _run_steps(self, at: float) -> None:
+        """The steps at one time: all sets (and bus changes) first, then all checks."""
+        steps = self._by_time.get(at, [])
+        for step in steps:
+            self._apply(step)
+        for step in steps:
+            self._check(step)
+        self._done_ms = max(self._done_ms, at)
 
     def run(self) -> SimResult:
         self.start()
-        by_time: dict[float, list[Step]] = {}
-        for step in self.scenario.ordered():
-            by_time.setdefault(step.at_ms, []).append(step)
-        for at in sorted(by_time):
-            if at > self.end_ms:
-                break
-            self._advance_to(at - _BEFORE_US)
-            for step in by_time[at]:
-                self._apply(step)
-            for step in by_time[at]:
-                self._check(step)
-        self._advance_to(self.end_ms)
-        self.result.end_ms = self.end_ms
+        self.run_to(self.end_ms)
+        self._trace_lines(False)
+        return self.finish()
+
+    def run_to(self, t_ms: float) -> None:
+        """Let master time pass up to ``t_ms``, applying the steps (and trace window
+        edges) on the way; the steps at ``t_ms`` are applied and its cycles run."""
+        events = self._events
+        while self._next_event < len(events) and events[self._next_event] <= t_ms:
+            at = events[self._next_event]
+            self._next_event += 1
+            if at <= self._done_ms:
+                continue
+            step = at in self._by_time
+            self._advance_to(at - _BEFORE_MS if step else at)
+            self._window_edge(at)
+            if step:
+                self._run_steps(at)
+            self._done_ms = at
+        self._advance_to(t_ms)
+
+    def finish(self) -> SimResult:
+        result = self.result
+        result.end_ms = self.end_ms
+        result.refusals = sorted(self._refusals.values(), key=lambda r: r.at_ms)
         if self._signals:
-            self.result.trace = Trace([s for s, _ in self._signals], end_ms=self.end_ms)
-        return self.result
+            marks = [Mark(f.at_ms, f"{f.written or f.operand} expected {f.expected}, got {f.got}",
+                          str(f.operand)) for f in result.failures]
+            marks += [Mark(s.at_ms, f"stopped: {s.text}", RUNNING) for s in result.stops]
+            result.trace = Trace([s for s, _ in self._signals], end_ms=self.end_ms,
+                                 marks=sorted(marks, key=lambda m: m.at_ms))
+        if self._tracer is not None:
+            result.il_rows = self._tracer.rows
+        return result
+
+    def _window_edge(self, at: float) -> None:
+        if not self._il_trace:
+            return
+        start, end = self.window
+        if at == start:
+            self._trace_lines(True)
+        if end is not None and at == end + _BEFORE_MS:
+            self._trace_lines(False)
+
+    def advance(self, ms: float) -> None:
+        """Let master time pass (for the debugger: no steps are applied)."""
+        self.board.advance(ms)
 
     def _advance_to(self, t_ms: float) -> None:
         delta = t_ms - self.now_ms()
@@ -275,14 +445,17 @@ class Simulation:
         if step.press_set_button:
             self.board.press_set_button()
         for operand, value, line in step.set:
-            self._set(step, operand, value, line)
+            self.set(operand, value, step=step, line=line)
 
     def _check(self, step: Step) -> None:
+        written = step.written
         for operand, expected, line in step.expect:
             self.result.checked += 1
             got = self.read(operand)
             if got != expected:
-                self.result.failures.append(Failure(step, line, operand, expected, got))
+                self.result.failures.append(Failure(
+                    step, line, operand, expected, got, written.get((line, str(operand)), "")
+                ))
 
     def _observe(self) -> None:
         """Called by the board after each AS-i cycle that ran: stops and trace samples."""
@@ -296,53 +469,194 @@ class Simulation:
         if running != self._running:
             self._running = running
             if not running:
-                self.result.stops.append(Stop(now, board.stop_message or board.stop_reason.name))
+                self._stop(now)
         for signal, read in self._signals:
             signal.record(now, read(self))
 
+    def _stop(self, now: float) -> None:
+        board = self.board
+        reason = board.stop_message or board.stop_reason.name
+        where = ""
+        runner = board.program
+        if board.stop_reason is d.StopReason.CYCLE_TIMEOUT and runner is not None:
+            cpu = runner.cpu
+            stop = board.dpram[d.STOP_ADDRESS : d.STOP_ADDRESS + 2]  # the loop's jump
+            line = self.line_map.line_at(int.from_bytes(stop, "little"))
+            where = describe(line or current_line(cpu, self.line_map), cpu, self.line_map)
+        elif board.stop_reason is d.StopReason.CONFIG_ERROR:
+            problems = config_problems(board.dpram)
+            if problems:
+                reason += f" ({problems})"
+        self.result.stops.append(Stop(now, reason, where))
 
-def _trace_signals(program: Program) -> list[tuple[Signal, Callable[[Simulation], int]]]:
-    """Every I and Q bit the program uses, the flags it writes, its timers' status."""
+    # ------------------------------------------------------------------ watching the program
 
-    inputs, outputs, flags, timers = set(), set(), set(), set()
+    def _watch_firmware(self) -> None:
+        """Note firmware blocks that refuse, at the IL line that called them."""
+        runner = self.runner
+        if runner is None:
+            return
+        cpu = runner.cpu
+        for name, address in runner.program.entry_points.items():
+            original = cpu.traps.get(address)
+            if original is None or name not in _STATUS_BLOCKS:
+                continue
+            cpu.add_trap(address, self._refusal_trap(name, original))
+
+    def _refusal_trap(
+        self, name: str, original: Callable[[Emulator], object]
+    ) -> Callable[[Emulator], None]:
+        block = name
+
+        def trap(cpu: Emulator) -> None:
+            pseg = cpu.dptr
+            original(cpu)  # the firmware's work; it returns to the caller
+            status = cpu.xdata.read(pseg)
+            if status & 0x80:
+                line = self.line_map.line_at(cpu.pc - 1)
+                self._refused(block, status, describe(line, cpu, self.line_map) if line else "")
+
+        return trap
+
+    def _refused(self, block: str, status: int, where: str) -> None:
+        now = self.now_ms() if self._t0 is not None else 0.0
+        key = (where, block, status)
+        found = self._refusals.get(key)
+        if found is None:
+            self._refusals[key] = Refusal(now, where, FIRMWARE_BLOCKS[block].name, status,
+                                          last_ms=now)
+        else:
+            found.count += 1
+            found.last_ms = now
+
+    def _trace_lines(self, on: bool) -> None:
+        """Switch the per-line trace on or off (it slows the program down while on)."""
+        runner = self.runner
+        if runner is None or not self._il_trace:
+            return
+        if self._tracer is None:
+            self._tracer = ILTracer(
+                runner, self.line_map, texts=source_texts(self.build),
+                clock=lambda: self.now_ms() if self._t0 is not None else 0.0,
+                view=ProgramView(runner, self.read), operands=line_operands(self.program),
+                window=self.window,
+            )
+        if on:
+            self._tracer.hooks.install()
+            self.wake()
+        else:
+            self._tracer.hooks.remove()
+
+    def wake(self) -> None:
+        """Make the master run the next cycle even if the program looked idle (it skips
+        cycles that would repeat the last one): a host access, rewriting a byte of the
+        download buffer with what it holds, counts as news and changes nothing."""
+        self._host_write(d.PROGRAM_BUFFER, self.board.dpram[d.PROGRAM_BUFFER])
+
+    # ------------------------------------------------------------------ trace signals
+
+    def _make_signals(self, names: list[str]) -> list[tuple[Signal, Callable[[Simulation], int]]]:
+        signals: list[tuple[Signal, Callable[[Simulation], int]]] = []
+        for name in names:
+            if name == RUNNING:
+                signals.append((Signal(RUNNING, 1, operand=RUNNING), _running))
+                continue
+            operand = parse_operand(name)
+            signal = Signal(self.symbols.label(name), operand.width, operand=name)
+            signals.append((signal, functools.partial(_read, operand)))
+        return signals
+
+
+def _running(sim: Simulation) -> int:
+    return int(sim._running)
+
+
+def _read(operand: Operand, sim: Simulation) -> int:
+    return sim.read(operand)
+
+
+def config_problems(dpram: bytes) -> str:
+    """Which slaves make the configuration wrong, from the master's lists (the host's view):
+    ``slave 16 missing; slave 5 not projected; slave 3 is IO 7h ID 0h, projected IO Bh ID 0h``."""
+    lps = d.slave_list(dpram[d.LPS : d.LPS + d.LIST_SIZE])
+    lds = d.slave_list(dpram[d.LDS : d.LDS + d.LIST_SIZE])
+    pcd, cdi = dpram[d.PCD : d.PCD + d.CONFIG_SIZE], dpram[d.CDI : d.CDI + d.CONFIG_SIZE]
+    problems = [f"slave {n} missing" for n in sorted(lps - lds)]
+    problems += [f"slave {n} not projected" for n in sorted(lds - lps) if n]
+    problems += [
+        f"slave {n} is IO {cdi[n] & 0xF:X}h ID {cdi[n] >> 4:X}h, projected IO "
+        f"{pcd[n] & 0xF:X}h ID {pcd[n] >> 4:X}h"
+        for n in sorted(lps & lds) if pcd[n] != cdi[n]
+    ]
+    return "; ".join(problems)
+
+
+def _select(
+    signals: list[tuple[Signal, Callable[[Simulation], int]]], patterns: list[str] | None
+) -> list[tuple[Signal, Callable[[Simulation], int]]]:
+    """The signals ``--signals`` asks for (shell patterns on lane or operand names), in
+    the order of the patterns."""
+    if not patterns:
+        return signals
+    chosen: list[tuple[Signal, Callable[[Simulation], int]]] = []
+    for pattern in patterns:
+        for item in signals:
+            signal = item[0]
+            names = (signal.name.casefold(), signal.operand.casefold())
+            if item not in chosen and any(fnmatch.fnmatchcase(n, pattern.casefold())
+                                          for n in names):
+                chosen.append(item)
+    return chosen
+
+
+def _trace_names(program: Program) -> list[str]:
+    """Every I and Q bit the program uses, the flags it reads or writes, its timers' and
+    counters' status and value, and whether it runs."""
+    inputs, outputs, flags = set(), set(), set()
+    timers, counters = set(), set()
     for module in program.modules():
         for section in module.sections:
-            items: list[tuple[object, bool]] = []
+            operands: list[object] = []
             if isinstance(section, ast.ProgramSection):
                 for s in section.statements:
                     if isinstance(s, ast.Param):  # PARAM answers in flag byte 127
                         flags.add("FY 127")
-                    operand = getattr(s, "operand", None)
-                    writes = isinstance(s, ast.Store | ast.Transfer)
-                    items.append((operand, writes))
+                    if isinstance(s, ast.Count):
+                        counters.add(s.counter.number)
+                    operands.append(getattr(s, "operand", None))
             elif isinstance(section, ast.GatingSection):
                 for line in section.lines:
-                    items.append((line.target, True))
-                    items.extend((t.operand, False) for t in line.terms)
-            for operand, writes in items:
+                    operands.append(line.target)
+                    operands.extend(t.operand for t in line.terms)
+            for operand in operands:
                 match operand:
                     case ast.ImageBit(area=ast.BitArea.I | ast.BitArea.I2, address=a, bit=b):
                         inputs.add((a, b))
                     case ast.ImageBit(area=ast.BitArea.Q, address=a, bit=b):
                         outputs.add((a, b))
-                    case ast.ImageBit(area=ast.BitArea.F, address=a, bit=b) if writes:
+                    case ast.ImageBit(area=ast.BitArea.F, address=a, bit=b):
                         flags.add(f"F {a}.{b}")
-                    case ast.ImageByte(area=ast.ByteArea.FY, number=n) if writes:
+                    case ast.ImageByte(area=ast.ByteArea.FY, number=n):
                         flags.add(f"FY {n}")
+                    case ast.FlagWord(number=n):
+                        flags.update((f"FY {n}", f"FY {n + 1}"))
                     case ast.TimerRef(number=n):
                         timers.add(n)
-    names = (
+                    case ast.CounterRef(number=n):
+                        counters.add(n)
+    return (
         [f"I {a}.{b}" for a, b in sorted(inputs)]
         + [f"Q {a}.{b}" for a, b in sorted(outputs)]
         + sorted(flags, key=_flag_order)
-        + [f"T {n}" for n in sorted(timers)]
+        + [name for n in sorted(timers) for name in (f"T {n}", f"TV {n}")]
+        + [name for n in sorted(counters) for name in (f"C {n}", f"CV {n}")]
+        + [RUNNING]
     )
-    return _signals(names)
 
 
-def _image_signals(image: ProgramImage) -> list[tuple[Signal, Callable[[Simulation], int]]]:
+def _image_names(image: ProgramImage) -> list[str]:
     """What an image's program map names: the I/O bits of the projected slaves its cells
-    hold, the flag bytes in cells, the timers."""
+    hold, the flag bytes in cells, the timers and counters."""
     pmap = image.pmap
     projected = set(image.configuration.projected())
 
@@ -354,23 +668,16 @@ def _image_signals(image: ProgramImage) -> list[tuple[Signal, Callable[[Simulati
         }
         return [(a, b) for a in sorted(slaves) for b in range(4)]
 
-    names = (
+    return (
         [f"I {a}.{b}" for a, b in bits((CellKind.I, CellKind.I2))]
         + [f"Q {a}.{b}" for a, b in bits((CellKind.Q,))]
         + [f"FY {n}" for kind, n in sorted(pmap.cells) if kind is CellKind.F]
-        + [f"T {n}" for n in sorted(pmap.timers)]
+        + [name for n in sorted(pmap.timers) for name in (f"T {n}", f"TV {n}")]
+        + [name for n in sorted(pmap.counters) for name in (f"C {n}", f"CV {n}")]
+        + [RUNNING]
     )
-    return _signals(names)
-
-
-def _signals(names: list[str]) -> list[tuple[Signal, Callable[[Simulation], int]]]:
-    signals = []
-    for name in names:
-        operand = parse_operand(name)
-        width = 1 if operand.is_bit else 8
-        signals.append((Signal(name, width), lambda sim, op=operand: sim.read(op)))
-    return signals
 
 
 def _flag_order(name: str) -> tuple[bool, list[int]]:
     return name.startswith("FY"), [int(x) for x in name.split()[1].split(".")]
+

@@ -1,12 +1,16 @@
 """Scenario files: inputs over time, expected outputs, bus changes (TOML).
 
 The schema is a contract (docs/simulation.md). Every problem in a scenario is reported
-as a diagnostic at its line in the file: tomllib does not keep positions, so steps are
-found by their ``[[step]]`` headers and keys by their text within the step.
+as a diagnostic at its line in the file: tomllib does not keep positions, so one pass
+over the text finds where each step starts (its ``[[step]]`` header, or its ``{`` in an
+inline ``step = [...]`` array) and keys are found by their text within their step.
+Numbers are checked against the documented ranges before anything is simulated: a
+simulation of a billion years, a cycle of no time or a NaN never starts.
 """
 
 from __future__ import annotations
 
+import math
 import re
 import tomllib
 from collections.abc import Mapping
@@ -19,18 +23,40 @@ from asictl.il import ast
 from asictl.il.parser import parse_text
 from asictl.sim.operands import Operand, parse_operand
 from asictl.source import SourceText, read_source
+from asictl.symbols import SymbolTable
 
 _DURATION = re.compile(r"^\s*(\d+(?:\.\d+)?)\s*(ms|s|m|min|h)?\s*$", re.IGNORECASE)
 _UNIT_MS = {"ms": 1, "s": 1000, "m": 60_000, "min": 60_000, "h": 3_600_000, None: 1000}
 
+#: The longest stretch of master time a simulation covers: one day.
+MAX_TIME_MS = 24 * 3_600_000.0
+#: The program cycle period a scenario may set, in milliseconds.
+MIN_CYCLE_MS, MAX_CYCLE_MS = 0.1, 10_000.0
+#: Arrays and inline tables nested deeper than this are refused (a scenario needs 3).
+MAX_NESTING = 32
+
 
 def parse_duration(text: str) -> float:
-    """'250ms', '10s', '2m', '1h' (a bare number is seconds) -> milliseconds."""
-    match = _DURATION.match(text)
+    """'250ms', '10s', '2m', '1h' (a bare number is seconds) -> milliseconds, at most
+    ``MAX_TIME_MS``."""
+    match = _DURATION.match(text) if len(text) < 100 else None
     if not match:
-        raise ValueError(f"'{text}' is not a duration (examples: 250ms, 10s, 2m, 1h)")
+        raise ValueError(f"'{text[:40]}' is not a duration (examples: 250ms, 10s, 2m, 1h)")
     unit = match[2].lower() if match[2] else None
-    return float(match[1]) * _UNIT_MS[unit]
+    ms = float(match[1]) * _UNIT_MS[unit]
+    if not ms <= MAX_TIME_MS:
+        raise ValueError(f"'{text}' is longer than the longest simulation, 24h")
+    return ms
+
+
+def check_time(value: object) -> float | None:
+    """A step time in milliseconds from TOML (0..MAX_TIME_MS, finite), else None."""
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        return None
+    if isinstance(value, int) and not 0 <= value <= MAX_TIME_MS:
+        return None
+    ms = float(value)
+    return ms if math.isfinite(ms) and 0 <= ms <= MAX_TIME_MS else None
 
 
 @dataclass(frozen=True)
@@ -49,6 +75,8 @@ class Step:
     line: int
     set: list[tuple[Operand, int, int]] = field(default_factory=list)  # operand, value, line
     expect: list[tuple[Operand, int, int]] = field(default_factory=list)
+    #: (line, operand) -> the name the scenario wrote, where it was a symbol
+    written: dict[tuple[int, str], str] = field(default_factory=dict)
     add_slaves: list[SlaveSpec] = field(default_factory=list)
     remove_slaves: list[int] = field(default_factory=list)
     power_fail: bool | None = None
@@ -62,6 +90,8 @@ class Scenario:
     cycle_ms: float | None
     slaves: list[SlaveSpec] | None
     steps: list[Step]
+    #: test markers (``markers = ["slow"]``) for test runners
+    markers: list[str] = field(default_factory=list)
 
     @property
     def end_ms(self) -> float:
@@ -78,14 +108,17 @@ _STEP_KEYS = {"at_ms", "at", "set", "expect", "add_slaves", "remove_slaves", "po
 
 
 class _Reader:
-    def __init__(self, source: SourceText, variables: Mapping[str, int] | None) -> None:
+    def __init__(
+        self, source: SourceText, variables: Mapping[str, int] | None, symbols: SymbolTable
+    ) -> None:
         self.source = source
         self.lines = source.text.split("\n")
         self.report = Reporter()
         self.variables = variables
-        self.step_lines = [
-            i + 1 for i, line in enumerate(self.lines) if re.match(r"\s*\[\[\s*step\s*\]\]", line)
-        ]
+        self.symbols = symbols
+        layout = _scan(source.text)
+        self.too_deep = layout.too_deep
+        self.step_lines = layout.step_lines
 
     def span(self, line: int, column: int = 1) -> Span:
         return Span(self.source.name, line, column)
@@ -115,7 +148,7 @@ class _Reader:
 
 def _slave(reader: _Reader, address: object, spec: object, line: int) -> SlaveSpec | None:
     try:
-        number = int(address)  # TOML keys are strings
+        number = int(str(address))  # TOML keys are strings
     except ValueError:
         reader.error(f"slave address '{address}' is not a number", line)
         return None
@@ -154,7 +187,8 @@ def _slaves(reader: _Reader, table: object, line: int, end: int) -> list[SlaveSp
 
 
 def _operands(
-    reader: _Reader, table: object, what: str, line: int, end: int, *, settable: bool
+    reader: _Reader, table: object, what: str, line: int, end: int, *, settable: bool,
+    written: dict[tuple[int, str], str],
 ) -> list[tuple[Operand, int, int]]:
     if not isinstance(table, dict):
         reader.error(f"'{what}' is a table of operands: {{ \"I 4.0\" = 1 }}", line)
@@ -163,7 +197,7 @@ def _operands(
     for key, value in table.items():
         at, column = reader.key_at(key, line, end)
         try:
-            operand = parse_operand(key, reader.variables)
+            operand = parse_operand(key, reader.variables, reader.symbols)
         except ValueError as exc:
             reader.error(str(exc), at, column)
             continue
@@ -180,6 +214,8 @@ def _operands(
             )
             continue
         found.append((operand, value, at))
+        if key.strip() != str(operand):
+            written[(at, str(operand))] = key
     return found
 
 
@@ -194,23 +230,32 @@ def _step(reader: _Reader, index: int, data: object) -> Step | None:
     for unknown in sorted(set(data) - _STEP_KEYS):
         reader.error(f"unknown key '{unknown}' in a step (known: {', '.join(sorted(_STEP_KEYS))})",
                      reader.key_line(unknown, line, end))
-    at = data.get("at_ms", data.get("at"))
-    if isinstance(at, str):
-        try:
-            at = parse_duration(at)
-        except ValueError as exc:
-            reader.error(str(exc), reader.key_line("at", line, end))
-            return None
-    if isinstance(at, bool) or not isinstance(at, int | float) or at < 0:
+    if "at_ms" not in data and "at" not in data:
         reader.error("each step needs at_ms = <milliseconds, 0 or more>", line)
         return None
-    step = Step(float(at), line)
+    name = "at_ms" if "at_ms" in data else "at"
+    raw = data[name]
+    at: float | None
+    if isinstance(raw, str):
+        try:
+            at = parse_duration(raw)
+        except ValueError as exc:
+            reader.error(str(exc), reader.key_line(name, line, end))
+            return None
+    else:
+        at = check_time(raw)
+    if at is None:
+        reader.error(f"{name} is a time in milliseconds from 0 to {MAX_TIME_MS:.0f} (24 h), "
+                     f"not {_show(raw)}", reader.key_line(name, line, end))
+        return None
+    step = Step(at, line)
     if "set" in data:
         step.set = _operands(reader, data["set"], "set", reader.key_line("set", line, end), end,
-                             settable=True)
+                             settable=True, written=step.written)
     if "expect" in data:
         step.expect = _operands(reader, data["expect"], "expect",
-                                reader.key_line("expect", line, end), end, settable=False)
+                                reader.key_line("expect", line, end), end, settable=False,
+                                written=step.written)
     if "add_slaves" in data:
         step.add_slaves = _slaves(reader, data["add_slaves"],
                                   reader.key_line("add_slaves", line, end), end)
@@ -234,16 +279,21 @@ def _step(reader: _Reader, index: int, data: object) -> Step | None:
     return step
 
 
-def read_scenario(source: SourceText, variables: Mapping[str, int] | None = None) -> Scenario:
-    """Parse and validate a scenario; ``variables`` (the program's: key name -> size in
-    bytes) resolve variable operands.
-
-    Raises ``DiagnosticError`` with every problem found.
-    """
-    reader = _Reader(source, variables)
+def _toml(reader: _Reader) -> dict[str, object]:
+    """The scenario's TOML, or a ``DiagnosticError`` at the line where it is not TOML."""
+    if reader.too_deep:
+        raise DiagnosticError([Diagnostic(
+            Severity.ERROR, ScenarioCode.NOT_TOML,
+            f"arrays or tables nested more than {MAX_NESTING} deep", reader.span(reader.too_deep),
+        )])
     try:
-        data = tomllib.loads(source.text)
-    except tomllib.TOMLDecodeError as exc:
+        return tomllib.loads(reader.source.text)
+    except ValueError as exc:  # TOMLDecodeError, or a number Python will not convert
+        if not isinstance(exc, tomllib.TOMLDecodeError):
+            raise DiagnosticError([Diagnostic(
+                Severity.ERROR, ScenarioCode.NOT_TOML, f"not valid TOML: {exc}",
+                reader.span(1),
+            )]) from None
         where = re.search(r"line (\d+), column (\d+)", str(exc))
         line, column = (int(where[1]), int(where[2])) if where else (1, 1)
         message = re.sub(r"\s*\(at line \d+, column \d+\)", "", str(exc))
@@ -251,9 +301,46 @@ def read_scenario(source: SourceText, variables: Mapping[str, int] | None = None
             Diagnostic(Severity.ERROR, ScenarioCode.NOT_TOML, f"not valid TOML: {message}",
                        reader.span(line, column))
         ]) from None
-    for unknown in sorted(set(data) - {"program", "master", "step"}):
-        reader.error(f"unknown key '{unknown}' (known: program, master, step)",
+
+
+def scenario_program(source: SourceText) -> Path | None:
+    """The program a scenario names (``program = "..."``, relative to the scenario), read
+    before the program's variables and symbols are known. Raises ``DiagnosticError`` for
+    a file that is not TOML or names it wrongly."""
+    reader = _Reader(source, None, SymbolTable())
+    program = _toml(reader).get("program")
+    if program is None:
+        return None
+    if not isinstance(program, str):
+        raise DiagnosticError([Diagnostic(
+            Severity.ERROR, ScenarioCode.INVALID, "program is a file name",
+            reader.span(reader.key_line("program", 1, len(reader.lines))),
+        )])
+    return Path(source.name).parent / program
+
+
+def read_scenario(
+    source: SourceText,
+    variables: Mapping[str, int] | None = None,
+    symbols: SymbolTable | None = None,
+) -> Scenario:
+    """Parse and validate a scenario; ``variables`` (the program's: key name -> size in
+    bytes) resolve variable operands, ``symbols`` the names of its symbol table.
+
+    Raises ``DiagnosticError`` with every problem found.
+    """
+    reader = _Reader(source, variables, symbols or SymbolTable())
+    data = _toml(reader)
+    for unknown in sorted(set(data) - {"program", "master", "step", "markers"}):
+        reader.error(f"unknown key '{unknown}' (known: program, master, step, markers)",
                      reader.key_line(unknown, 1, len(reader.lines)))
+    markers = data.get("markers", [])
+    if not isinstance(markers, list) or not all(
+        isinstance(m, str) and re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", m) for m in markers
+    ):
+        reader.error('markers is a list of names: markers = ["slow"]',
+                     reader.key_line("markers", 1, len(reader.lines)))
+        markers = []
     program_path = None
     if "program" in data:
         if isinstance(data["program"], str):
@@ -271,11 +358,11 @@ def read_scenario(source: SourceText, variables: Mapping[str, int] | None = None
                      reader.key_line(unknown, master_line, len(reader.lines)))
     if "cycle_ms" in master:
         value = master["cycle_ms"]
-        if isinstance(value, bool) or not isinstance(value, int | float) or value <= 0:
-            reader.error("cycle_ms is a number of milliseconds above 0",
+        cycle_ms = _cycle(value)
+        if cycle_ms is None:
+            reader.error(f"cycle_ms is a time in milliseconds from {MIN_CYCLE_MS:g} to "
+                         f"{MAX_CYCLE_MS:g}, not {_show(value)}",
                          reader.key_line("cycle_ms", master_line, len(reader.lines)))
-        else:
-            cycle_ms = float(value)
     if "slaves" in master:
         end = reader.step_lines[0] - 1 if reader.step_lines else len(reader.lines)
         slaves = _slaves(reader, master["slaves"],
@@ -287,8 +374,117 @@ def read_scenario(source: SourceText, variables: Mapping[str, int] | None = None
     steps = [s for i, d in enumerate(raw_steps) if (s := _step(reader, i, d))]
     if reader.report.has_errors:
         raise DiagnosticError(reader.report.diagnostics)
-    return Scenario(source.name, program_path, cycle_ms, slaves, steps)
+    return Scenario(source.name, program_path, cycle_ms, slaves, steps, list(markers))
 
 
-def load_scenario(path: str | Path, variables: Mapping[str, int] | None = None) -> Scenario:
-    return read_scenario(read_source(path), variables)
+def load_scenario(
+    path: str | Path,
+    variables: Mapping[str, int] | None = None,
+    symbols: SymbolTable | None = None,
+) -> Scenario:
+    return read_scenario(read_source(path), variables, symbols)
+
+
+def _cycle(value: object) -> float | None:
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        return None
+    if isinstance(value, int) and not MIN_CYCLE_MS <= value <= MAX_CYCLE_MS:
+        return None
+    ms = float(value)
+    return ms if MIN_CYCLE_MS <= ms <= MAX_CYCLE_MS else None  # NaN fails both
+
+
+def _show(value: object) -> str:
+    """A value for a message, however long it is."""
+    text = value if isinstance(value, str) else repr(value)
+    try:
+        shown = str(text)
+    except ValueError:  # an int too long to print
+        return "a number far out of range"
+    return shown if len(shown) <= 30 else shown[:27] + "..."
+
+
+@dataclass
+class _Layout:
+    """What one pass over the text finds: each step's first line, and the first line
+    where brackets nest too deep (0: nowhere)."""
+
+    step_lines: list[int]
+    too_deep: int = 0
+
+
+_STEP_HEADER = re.compile(r"\s*\[\[\s*step\s*\]\]")
+_STEP_ARRAY = re.compile(r"\s*step\s*=\s*\[")
+
+
+def _scan(text: str) -> _Layout:
+    """Walk the text once, skipping strings and comments, counting brackets.
+
+    Steps are ``[[step]]`` headers at the start of a line, or the ``{`` of each element
+    of a top-level ``step = [...]`` array; both forms give the step's line in time linear
+    in the file's length, whatever the number of steps.
+    """
+    layout = _Layout([])
+    depth = 0
+    array_depth = -1  # the bracket depth inside an inline step array, while in one
+    line = 1
+    i, n = 0, len(text)
+    at_line_start = True
+    while i < n:
+        c = text[i]
+        if at_line_start and depth == 0:
+            end = text.find("\n", i)
+            rest = text[i : n if end < 0 else end]
+            if _STEP_HEADER.match(rest):
+                layout.step_lines.append(line)
+            elif _STEP_ARRAY.match(rest):
+                array_depth = 1
+        at_line_start = False
+        if c == "\n":
+            line += 1
+            at_line_start = True
+        elif c == "#":
+            end = text.find("\n", i)
+            i = n if end < 0 else end
+            continue
+        elif c in "\"'":
+            i, line = _skip_string(text, i, line)
+            continue
+        elif c in "[{":
+            depth += 1
+            if depth > MAX_NESTING and not layout.too_deep:
+                layout.too_deep = line
+            if c == "{" and array_depth >= 0 and depth == array_depth + 1:
+                layout.step_lines.append(line)
+        elif c in "]}":
+            depth = max(0, depth - 1)
+            if array_depth >= 0 and depth < array_depth:
+                array_depth = -1
+        i += 1
+    return layout
+
+
+def _skip_string(text: str, i: int, line: int) -> tuple[int, int]:
+    """Past the string starting at ``i`` (basic, literal or multi-line); its newlines
+    counted."""
+    quote = text[i]
+    if text.startswith(quote * 3, i):
+        end = text.find(quote * 3, i + 3)
+        while quote == '"' and end > 0 and _escaped(text, end):
+            end = text.find(quote * 3, end + 1)
+        stop = len(text) if end < 0 else end + 3
+        while stop < len(text) and text[stop] == quote:  # """a"""" ends at the last quote
+            stop += 1
+    else:
+        j = i + 1
+        while j < len(text) and text[j] not in (quote, "\n"):
+            j += 2 if quote == '"' and text[j] == "\\" else 1
+        stop = min(j + 1, len(text))
+    return stop, line + text.count("\n", i, stop)
+
+
+def _escaped(text: str, at: int) -> bool:
+    backslashes = 0
+    while at - backslashes - 1 >= 0 and text[at - backslashes - 1] == "\\":
+        backslashes += 1
+    return backslashes % 2 == 1

@@ -1,0 +1,114 @@
+"""``asictl debug``: the IL debugger, interactive (with readline history) or scripted."""
+
+from __future__ import annotations
+
+import contextlib
+import os
+from pathlib import Path
+
+import click
+
+from asictl.debug.debugger import DebugError, Debugger
+from asictl.errors import ExitCode, UserError
+from asictl.sim.scenario import parse_duration
+from asictl.sim.session import Invalid, prepare, scenario_for
+from asictl.source import read_source
+
+PROMPT = "(asictl) "
+
+
+def _history_file() -> Path:
+    state = os.environ.get("XDG_STATE_HOME") or os.path.join(os.path.expanduser("~"), ".local",
+                                                             "state")
+    return Path(os.environ.get("ASICTL_HISTORY", os.path.join(state, "asictl", "debug_history")))
+
+
+@click.command()
+@click.argument("program", type=click.Path(dir_okay=False, path_type=Path))
+@click.option("--scenario", "scenario_path", type=click.Path(dir_okay=False, path_type=Path),
+              help="Scenario to apply (default: PROGRAM's NAME.scenario.toml beside it).")
+@click.option("--no-scenario", is_flag=True, help="Do not use the scenario beside the program.")
+@click.option("--set", "sets", multiple=True, metavar='"OPERAND=VALUE"',
+              help='Set an input or flag at time 0 (repeatable).')
+@click.option("--duration", help="Master time the session may run (default: the scenario's "
+              "last step; 10s without a scenario).")
+@click.option("--batch", type=click.Path(dir_okay=False, path_type=Path),
+              help="Read the commands from this file ('-': standard input) instead of a "
+              "terminal; each is echoed after the prompt.")
+@click.option("--lib", multiple=True, type=click.Path(file_okay=False),
+              help="Also look for function-block files here.")
+def debug(program: Path, scenario_path: Path | None, no_scenario: bool, sets: tuple[str, ...],
+          duration: str | None, batch: Path | None, lib: tuple[str, ...]) -> None:
+    """Debug PROGRAM at the IL level on an emulated master in virtual time.
+
+    Breakpoints on IL lines (break 12, break blink.asi:12 if RLO=1), step, next,
+    continue, cycle, time 100ms, print I 1.0 / FY 10 / T 0 / C 0 / RLO, set I 1.0=1.
+    'help' lists the commands.
+
+    Exit status: 0; with --batch, 1 if a command was refused; 2 bad input.
+    """
+    ctx = click.get_current_context()
+    try:
+        duration_ms = parse_duration(duration) if duration else None
+    except ValueError as exc:
+        raise click.BadParameter(str(exc), param_hint="--duration") from None
+    if scenario_path is None and not no_scenario and scenario_for(program).is_file():
+        scenario_path = scenario_for(program)
+    try:
+        prepared = prepare(program, scenario_path, lib=lib, sets=sets, duration_ms=duration_ms,
+                           allow_partial=True)
+    except Invalid as exc:
+        click.echo(exc.text, nl=False, err=True)
+        ctx.exit(int(ExitCode.USAGE))
+    click.echo(prepared.notes, nl=False, err=True)
+    if scenario_path is not None:
+        click.echo(f"scenario {scenario_path}")
+    try:
+        debugger = Debugger(prepared, click.echo)
+    except DebugError as exc:
+        raise UserError(str(exc)) from None
+    if batch is not None:
+        _batch(debugger, batch)
+        ctx.exit(int(ExitCode.FAILED if debugger.failed else ExitCode.OK))
+    _interactive(debugger)
+
+
+def _batch(debugger: Debugger, path: Path) -> None:
+    for line in read_source(path).text.splitlines():
+        command = line.partition("#")[0].strip()
+        if not command:
+            continue
+        click.echo(f"{PROMPT}{command}")
+        if not debugger.execute(command):
+            return
+    debugger.close()
+
+
+def _interactive(debugger: Debugger) -> None:
+    history = _history_file()
+    try:
+        import readline
+    except ImportError:  # pragma: no cover - every supported platform has it
+        readline = None  # type: ignore[assignment]
+    if readline is not None:
+        with contextlib.suppress(OSError):
+            readline.read_history_file(history)
+        readline.set_history_length(1000)
+    try:
+        while True:
+            try:
+                command = input(PROMPT)
+            except EOFError:
+                click.echo()
+                break
+            except KeyboardInterrupt:
+                click.echo()
+                continue
+            if not debugger.execute(command):
+                break
+    finally:
+        debugger.close()
+        if readline is not None:
+            with contextlib.suppress(OSError):
+                history.parent.mkdir(parents=True, exist_ok=True)
+                readline.write_history_file(history)

@@ -1,0 +1,464 @@
+"""The IL debugger: breakpoints on IL lines, stepping, and the program's values, on the
+emulated master in virtual time (docs/debugging.md).
+
+The program runs exactly as in ``asictl sim`` (same board, same download, same scenario
+steps); the debugger watches it through traps at the line map's boundaries
+(``debug.hooks``). A pause happens inside a trap, deep inside the emulator's run, so the
+simulation runs in a worker thread: at a pause the worker reports to the debugger and
+waits for the next command; the debugger reads the machine while the worker waits. Only
+one of the two threads ever runs at a time.
+"""
+
+from __future__ import annotations
+
+import queue
+import re
+import threading
+from collections.abc import Callable
+from dataclasses import dataclass
+from enum import Enum
+from pathlib import PurePath
+
+from asictl.debug.hooks import LineHooks
+from asictl.debug.locate import call_chain
+from asictl.debug.view import ProgramView
+from asictl.il import ast
+from asictl.runtime.line_map import SourceLine
+from asictl.sim.engine import Simulation, line_map_of, source_texts
+from asictl.sim.operands import CounterValue, Operand, TimerValue, parse_operand
+from asictl.sim.scenario import parse_duration
+from asictl.sim.session import Prepared
+
+_SP = 0x81
+#: Master time the worker runs at a time between looks at its target.
+_SLICE_MS = 1.0
+_COMPARE: dict[str, Callable[[int, int], bool]] = {
+    "=": lambda a, b: a == b, "==": lambda a, b: a == b, "!=": lambda a, b: a != b,
+    "<": lambda a, b: a < b, ">": lambda a, b: a > b, "<=": lambda a, b: a <= b,
+    ">=": lambda a, b: a >= b,
+}
+_CONDITION = re.compile(r"^(.+?)\s*(==|!=|<=|>=|=|<|>)\s*(\w+)\s*$")
+_REGISTERS = ("RLO", "ACCU1", "ACCU2")
+
+HELP = """\
+break LINE | FILE:LINE [if OPERAND=VALUE]   stop before an IL line (b)
+delete [N]                  remove breakpoint N (all without N)
+breaks                      list the breakpoints
+step                        run one IL line, into function blocks (s)
+next                        run one IL line, over function block calls (n)
+continue                    run to a breakpoint or the end (c)
+cycle                       run to the start of the next program cycle
+time DURATION               let master time pass (e.g. time 100ms, time 2s)
+print X[, Y...]             I 1.0, FY 10, T 0, C 0, CV 0, TV 1, RLO, ACCU1, a symbol (p)
+set OPERAND=VALUE           set an input or a flag (e.g. set I 1.0=1)
+where                       the current line and its callers (w)
+list                        the source around the current line (l)
+quit                        end (q)"""
+
+
+class Mode(Enum):
+    CONTINUE = "continue"
+    STEP = "step"
+    NEXT = "next"
+    CYCLE = "cycle"
+    TIME = "time"
+
+
+@dataclass
+class Breakpoint:
+    number: int
+    line: SourceLine
+    condition: str = ""
+    hits: int = 0
+
+
+class _Quit(Exception):
+    """Unwinds the worker when the debugger ends while the program is paused."""
+
+
+@dataclass
+class _Pause:
+    """Why the worker stopped: at a line, at a cycle start, at a time, or at the end."""
+
+    kind: str  # line, cycle, time, end, error
+    line: SourceLine | None = None
+    breakpoint: Breakpoint | None = None
+    text: str = ""
+
+
+class DebugError(ValueError):
+    """A command the debugger cannot do, in words for the user."""
+
+
+class Debugger:
+    """One debugging session; ``execute(command)`` returns False once it has ended."""
+
+    def __init__(self, prepared: Prepared, out: Callable[[str], None]) -> None:
+        self.prepared = prepared
+        self.out = out
+        self.sim = Simulation(prepared.build, prepared.scenario, duration_ms=prepared.end_ms,
+                              symbols=prepared.symbols)
+        self.symbols = prepared.symbols
+        self.line_map = line_map_of(prepared.build)
+        self.texts = {name: text.split("\n") for name, text in
+                      source_texts(prepared.build).items()}
+        self.main_file = PurePath(prepared.program).name
+        self.breakpoints: list[Breakpoint] = []
+        self._next_number = 1
+        self.sim.load()
+        runner = self.sim.runner
+        if runner is None:
+            raise DebugError("the master did not load the program")
+        self.runner = runner
+        self.hooks = LineHooks(runner, self.line_map, on_line=self._on_line,
+                               on_cycle_start=self._on_cycle_start)
+        self.hooks.install()
+        self.cycle = 0
+        self.line: SourceLine | None = None  # where the program is paused
+        self.ended = False
+        self._mode = Mode.CONTINUE
+        self._target = 0.0
+        self._next_sp = 0
+        self._interrupt = False
+        self._commands: queue.Queue[tuple[Mode, float] | None] = queue.Queue()
+        self._pauses: queue.Queue[_Pause] = queue.Queue()
+        self._worker: threading.Thread | None = None
+        self._reported = (0, 0)
+        #: a command was refused (for --batch's exit status)
+        self.failed = False
+        self.out(f"{self.main_file}: loaded at master time 0, before the first cycle; "
+                 f"{len(self.line_map.lines())} IL lines with code. 'help' lists the commands.")
+
+    # ------------------------------------------------------------------ commands
+
+    def execute(self, text: str) -> bool:
+        """Run one command; False when the session has ended (quit)."""
+        command, _, rest = text.strip().partition(" ")
+        rest = rest.strip()
+        verb = command.lower()
+        try:
+            if not verb:
+                return True
+            if verb in ("q", "quit", "exit"):
+                self.close()
+                return False
+            handler = {
+                "b": self._break, "break": self._break, "delete": self._delete,
+                "d": self._delete, "breaks": self._list_breaks, "info": self._list_breaks,
+                "s": self._step, "step": self._step, "n": self._next, "next": self._next,
+                "c": self._continue, "continue": self._continue, "cycle": self._cycle,
+                "time": self._time, "p": self._print, "print": self._print,
+                "set": self._set, "w": self._where, "where": self._where,
+                "l": self._list, "list": self._list, "help": self._help, "h": self._help,
+            }.get(verb)
+            if handler is None:
+                raise DebugError(f"unknown command '{command}' ('help' lists them)")
+            handler(rest)
+        except DebugError as exc:
+            self.out(f"error: {exc}")
+            self.failed = True
+        return True
+
+    def _help(self, _: str) -> None:
+        self.out(HELP)
+
+    def _break(self, rest: str) -> None:
+        where, _, condition = rest.partition(" if ")
+        if not where.strip():
+            raise DebugError("break LINE or break FILE:LINE [if OPERAND=VALUE]")
+        line = self._resolve_line(where.strip())
+        if condition:
+            self._condition(condition.strip())  # check it now, not at the first hit
+        point = Breakpoint(self._next_number, line, condition.strip())
+        self._next_number += 1
+        self.breakpoints.append(point)
+        self.out(f"breakpoint {point.number} at {line}"
+                 + (f" if {point.condition}" if point.condition else "")
+                 + f": {self._source(line)}")
+
+    def _resolve_line(self, text: str) -> SourceLine:
+        file, _, number = text.rpartition(":")
+        file = PurePath(file).name if file else self.main_file
+        if not number.isdigit():
+            raise DebugError(f"'{text}' is not a line: 12 or {self.main_file}:12")
+        wanted = int(number)
+        lines = [line for line in self.line_map.lines() if line.file.casefold() == file.casefold()]
+        if not lines:
+            known = ", ".join(self.line_map.files) or "none"
+            raise DebugError(f"no code from '{file}' (files with code: {known})")
+        later = [line for line in lines if line.line >= wanted]
+        if not later:
+            raise DebugError(f"{file} has no code at or after line {wanted}")
+        return later[0]  # a line without code (label, comment): the next one with code
+
+    def _delete(self, rest: str) -> None:
+        if not rest:
+            self.breakpoints.clear()
+            self.out("all breakpoints deleted")
+            return
+        if not rest.isdigit() or not any(b.number == int(rest) for b in self.breakpoints):
+            raise DebugError(f"no breakpoint {rest}")
+        self.breakpoints = [b for b in self.breakpoints if b.number != int(rest)]
+        self.out(f"breakpoint {rest} deleted")
+
+    def _list_breaks(self, _: str) -> None:
+        if not self.breakpoints:
+            self.out("no breakpoints")
+        for b in self.breakpoints:
+            condition = f" if {b.condition}" if b.condition else ""
+            self.out(f"{b.number}: {b.line}{condition} (hit {b.hits} times)")
+
+    def _step(self, _: str) -> None:
+        self._resume(Mode.STEP)
+
+    def _next(self, _: str) -> None:
+        self._next_sp = self.runner.cpu.sfr[_SP] if self.line is not None else 0xFF
+        self._resume(Mode.NEXT)
+
+    def _continue(self, _: str) -> None:
+        self._resume(Mode.CONTINUE)
+
+    def _cycle(self, _: str) -> None:
+        self._resume(Mode.CYCLE)
+
+    def _time(self, rest: str) -> None:
+        text = rest.strip()
+        try:
+            ms = float(text) if re.fullmatch(r"\d+(\.\d+)?", text) else parse_duration(text)
+        except ValueError as exc:
+            raise DebugError(f"{exc}; a bare number is milliseconds") from None
+        self._resume(Mode.TIME, self.now() + ms)
+
+    def _print(self, rest: str) -> None:
+        if not rest:
+            raise DebugError("print what? e.g. print I 1.0, FY 10, C 0, RLO")
+        for item in (part.strip() for part in rest.split(",")):
+            self.out(f"{item} = {self._show(item)}")
+
+    def _set(self, rest: str) -> None:
+        name, equals, value = rest.rpartition("=")
+        if not equals or not name.strip():
+            raise DebugError("set OPERAND=VALUE, e.g. set I 1.0=1")
+        operand = self._operand(name.strip())
+        try:
+            number = int(value.strip(), 0)
+        except ValueError:
+            raise DebugError(f"'{value.strip()}' is not a number") from None
+        if not operand.settable:
+            raise DebugError(f"'{operand}' cannot be set: only inputs (I, IB) and flags (F, FY)")
+        if not 0 <= number <= operand.maximum:
+            raise DebugError(f"value {number} out of range 0..{operand.maximum}")
+        try:
+            self.sim.set(operand, number)
+        except ValueError as exc:
+            raise DebugError(str(exc)) from None
+        self.out(f"{name.strip()} = {number} (the program sees it from its next cycle)")
+
+    def _where(self, _: str) -> None:
+        self.out(self._position())
+
+    def _list(self, _: str) -> None:
+        line = self.line
+        if line is None:
+            raise DebugError("not at a line (the program is between cycles)")
+        lines = self.texts.get(line.file, [])
+        for number in range(max(1, line.line - 4), min(len(lines), line.line + 4) + 1):
+            marker = "=>" if number == line.line else "  "
+            self.out(f"{marker}{number:5} | {lines[number - 1].rstrip()}")
+
+    # ------------------------------------------------------------------ values
+
+    def now(self) -> float:
+        return self.sim.now_ms() if self.sim.started else 0.0
+
+    def _operand(self, text: str) -> Operand:
+        try:
+            return parse_operand(text, {n: v.size for n, v in self.runner.pmap.variables.items()},
+                                 self.symbols)
+        except ValueError as exc:
+            raise DebugError(str(exc)) from None
+
+    def value(self, text: str) -> int:
+        """A register (RLO, ACCU1, ACCU2) or an operand, as the program sees it now."""
+        view = self._view()
+        upper = text.strip().upper()
+        if upper in _REGISTERS:
+            return int(getattr(view, upper.lower()))
+        return view.read(self._operand(text))
+
+    def _show(self, text: str) -> str:
+        """A value as people read it: bytes also in hex, timers and counters with their
+        remaining time and count."""
+        view = self._view()
+        upper = text.strip().upper()
+        if upper == "RLO":
+            return str(view.rlo)
+        if upper in ("ACCU1", "ACCU2"):
+            word = self.value(upper)
+            return f"{word} ({word:04X}h)"
+        operand = self._operand(text)
+        value = view.read(operand)
+        node = operand.node
+        if isinstance(node, ast.TimerRef):
+            return f"{value} (remaining {view.timer_ms(node.number) or 0} ms)"
+        if isinstance(node, ast.CounterRef):
+            return f"{value} (value {view.counter(node.number) or 0})"
+        if operand.is_bit or isinstance(node, CounterValue | TimerValue):
+            return str(value)
+        return f"{value} ({value:02X}h)"
+
+    def _view(self) -> ProgramView:
+        return ProgramView(self.runner, self.sim.read)
+
+    def _condition(self, text: str) -> bool:
+        match = _CONDITION.match(text)
+        if not match:
+            raise DebugError(f"condition '{text}': OPERAND=VALUE, e.g. RLO=1 or CV 0>=3")
+        left, op, right = match.groups()
+        try:
+            number = int(right, 0)
+        except ValueError:
+            raise DebugError(f"condition '{text}': '{right}' is not a number") from None
+        return _COMPARE[op](self.value(left), number)
+
+    # ------------------------------------------------------------------ running
+
+    def _resume(self, mode: Mode, target: float | None = None) -> None:
+        if self.ended:
+            raise DebugError("the simulation has ended (at "
+                             f"{self.sim.end_ms:g} ms); quit, or start again")
+        end = self.sim.end_ms
+        goal = end if target is None else min(target, end)
+        if self._worker is None:
+            self._worker = threading.Thread(target=self._work, daemon=True)
+            self._worker.start()
+        self._commands.put((mode, goal))
+        self._wait()
+
+    def _wait(self) -> None:
+        while True:
+            try:
+                pause = self._pauses.get(timeout=0.2)
+            except queue.Empty:
+                continue
+            except KeyboardInterrupt:
+                self._interrupt = True
+                continue
+            break
+        self._report_events()
+        self._report(pause)
+
+    def interrupt(self) -> None:
+        """Pause at the next line (Ctrl-C while the program runs)."""
+        self._interrupt = True
+
+    def _work(self) -> None:
+        """The worker thread: runs the simulation, pausing inside traps."""
+        sim = self.sim
+        try:
+            first = self._commands.get()
+            if first is None:
+                return
+            self._mode, self._target = first
+            sim.begin()
+            while True:
+                while not self.ended and sim.now_ms() < self._target:
+                    # in slices, so that a pause may set a nearer target (time 5ms)
+                    slice_end = (sim.now_ms() // _SLICE_MS + 1) * _SLICE_MS
+                    sim.run_to(min(self._target, slice_end))
+                if sim.now_ms() >= sim.end_ms:
+                    self.ended = True
+                    self.line = None
+                    self._pauses.put(_Pause("end"))
+                    return
+                self.line = None
+                self._pause(_Pause("time"))
+        except _Quit:
+            return
+        except Exception as exc:
+            self.ended = True
+            self._pauses.put(_Pause("error", text=f"{type(exc).__name__}: {exc}"))
+
+    def _pause(self, pause: _Pause) -> None:
+        """In the worker: report, then wait for the next command."""
+        self._interrupt = False
+        self._pauses.put(pause)
+        command = self._commands.get()
+        if command is None:
+            raise _Quit
+        self._mode, target = command
+        self._target = max(target, self.sim.now_ms())
+
+    def _on_cycle_start(self) -> None:
+        self.cycle += 1
+        self.line = None
+        if self._mode is Mode.CYCLE or self._interrupt:
+            self._pause(_Pause("cycle"))
+
+    def _on_line(self, line: SourceLine, address: int) -> None:
+        self.line = line
+        hit = None
+        for point in self.breakpoints:
+            if point.line == line and (not point.condition or self._condition(point.condition)):
+                point.hits += 1
+                hit = point
+                break
+        mode = self._mode
+        if (
+            hit is not None
+            or self._interrupt
+            or mode is Mode.STEP
+            or (mode is Mode.NEXT and self.runner.cpu.sfr[_SP] <= self._next_sp)
+        ):
+            self._pause(_Pause("line", line, hit))
+
+    def close(self) -> None:
+        """End the session; a paused worker unwinds."""
+        self.ended = True
+        if self._worker is not None and self._worker.is_alive():
+            self._commands.put(None)
+            self._worker.join(timeout=5)
+        self.hooks.remove()
+
+    # ------------------------------------------------------------------ reports
+
+    def _source(self, line: SourceLine) -> str:
+        lines = self.texts.get(line.file, [])
+        return lines[line.line - 1].strip() if 0 < line.line <= len(lines) else ""
+
+    def _position(self) -> str:
+        time = f"{self.now():g} ms"
+        if self.line is None:
+            state = "before the first cycle" if not self.sim.started else "between cycles"
+            return f"{state}, master time {time}, cycle {self.cycle}"
+        callers = [c for c in call_chain(self.runner.cpu, self.line_map) if c != self.line]
+        called = (f" (called from {', '.join(str(c) for c in reversed(callers))})"
+                  if callers else "")
+        return f"{self.line}{called}, master time {time}, cycle {self.cycle}"
+
+    def _report(self, pause: _Pause) -> None:
+        if pause.kind == "error":
+            self.out(f"error: the simulation failed: {pause.text}")
+        elif pause.kind == "end":
+            self.out(f"end of the simulation at {self.sim.end_ms:g} ms "
+                     f"({self.sim.result.checked} expectations checked, "
+                     f"{len(self.sim.result.failures)} failed)")
+        elif pause.kind == "time":
+            self.out(f"master time {self.now():g} ms (cycle {self.cycle})")
+        elif pause.kind == "cycle":
+            self.out(f"cycle {self.cycle} starts at {self.now():g} ms")
+        else:
+            assert pause.line is not None
+            why = f"breakpoint {pause.breakpoint.number}, " if pause.breakpoint else ""
+            self.out(f"{why}{self._position()}")
+            self.out(f"{pause.line.line:6} | {self._source(pause.line)}")
+
+    def _report_events(self) -> None:
+        result = self.sim.result
+        failures, stops = self._reported
+        file = self.prepared.scenario.file
+        for f in result.failures[failures:]:
+            self.out(f"{file}:{f.line}: {f}")
+        for s in result.stops[stops:]:
+            self.out(f"at {s.at_ms:g} ms: program stopped: {s.text}")
+        self._reported = (len(result.failures), len(result.stops))

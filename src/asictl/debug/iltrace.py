@@ -1,0 +1,153 @@
+"""The per-line trace: one row for every IL line the program executes.
+
+A row is written when the line's code is done, that is when the next line starts (or
+the cycle ends), and holds the IL registers at that moment: the single-bit register,
+ACCU1 and ACCU2, and the value of the line's operand. A line that calls a function block
+is done when the block's first line starts; the block's lines follow it. Lines without
+code (labels, ``***``) have no rows.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from pathlib import PurePath
+
+from asictl.debug.hooks import LineHooks
+from asictl.debug.view import ProgramView
+from asictl.il import ast
+from asictl.il.loader import Program
+from asictl.runtime.line_map import LineMap, SourceLine
+from asictl.runtime.runner import ProgramRunner
+from asictl.sim.operands import CounterValue, Operand, TimerValue
+
+COLUMNS = ("time_ms", "file", "line", "rlo", "accu1", "accu2", "source", "cycle", "operand")
+
+
+@dataclass(frozen=True)
+class LineRow:
+    time_ms: float
+    cycle: int
+    line: SourceLine
+    rlo: int
+    accu1: int
+    accu2: int
+    #: the value of the line's operand after it ran (None: the line has none to show)
+    operand: int | None
+    source: str
+
+
+def line_operands(program: Program | None) -> dict[SourceLine, Operand]:
+    """The operand each IL line works on, as a scenario would name it."""
+    found: dict[SourceLine, Operand] = {}
+    if program is None:
+        return found
+    for module in program.modules():
+        for section in module.sections:
+            items: list[tuple[object, object]] = []
+            if isinstance(section, ast.ProgramSection):
+                items = [(s, _operand_of(s)) for s in section.statements]
+            elif isinstance(section, ast.GatingSection):
+                items = [(g, g.target) for g in section.lines]
+            for statement, node in items:
+                span = getattr(statement, "span", None)
+                operand = _as_operand(node)
+                if span is not None and operand is not None:
+                    found[SourceLine(PurePath(span.file).name, span.line)] = operand
+    return found
+
+
+def _operand_of(statement: ast.Statement) -> object:
+    match statement:
+        case ast.Count(counter=counter):
+            return CounterValue(counter.number)
+        case ast.Load(operand=ast.TimerRef(number=n)) | ast.Transfer(
+            operand=ast.TimerRef(number=n)
+        ):
+            return TimerValue(n)
+        case ast.Load(operand=ast.CounterRef(number=n)) | ast.Transfer(
+            operand=ast.CounterRef(number=n)
+        ):
+            return CounterValue(n)
+    return getattr(statement, "operand", None)
+
+
+def _as_operand(node: object) -> Operand | None:
+    if isinstance(node, ast.ImageBit | ast.ImageByte | ast.TimerRef | ast.CounterRef
+                  | ast.VarBit | ast.VarByte | CounterValue | TimerValue):
+        return Operand(node)
+    return None
+
+
+class ILTracer:
+    """Records ``LineRow``s of a runner's cycles while ``active()`` says so."""
+
+    def __init__(
+        self,
+        runner: ProgramRunner,
+        line_map: LineMap,
+        *,
+        texts: Mapping[str, str],
+        clock: Callable[[], float],
+        view: ProgramView,
+        operands: Mapping[SourceLine, Operand] | None = None,
+        window: tuple[float, float | None] = (0.0, None),
+    ) -> None:
+        self.line_map = line_map
+        self.clock = clock
+        self.view = view
+        self.operands = operands or {}
+        self.window = window
+        self._lines = {PurePath(name).name: text.split("\n") for name, text in texts.items()}
+        self.rows: list[LineRow] = []
+        self.cycle = 0
+        self._pending: SourceLine | None = None
+        self.hooks = LineHooks(
+            runner, line_map, on_line=self._line, on_cycle_start=self._cycle_start,
+            on_cycle_end=self._flush,
+        )
+
+    def source(self, line: SourceLine) -> str:
+        lines = self._lines.get(line.file)
+        if lines is None or not 0 < line.line <= len(lines):
+            return ""
+        return lines[line.line - 1].partition(";")[0].strip()
+
+    def _cycle_start(self) -> None:
+        self.cycle += 1
+        self._pending = None
+
+    def _line(self, line: SourceLine, address: int) -> None:
+        self._flush()
+        self._pending = line
+
+    def _flush(self) -> None:
+        line = self._pending
+        if line is None:
+            return
+        self._pending = None
+        now = self.clock()
+        start, end = self.window
+        if now < start or (end is not None and now > end):
+            return
+        view = self.view
+        operand = self.operands.get(line)
+        self.rows.append(LineRow(
+            now, self.cycle, line, view.rlo, view.accu1, view.accu2,
+            None if operand is None else view.read(operand), self.source(line),
+        ))
+
+
+def to_csv(rows: list[LineRow]) -> str:
+    """``time_ms,file,line,rlo,accu1,accu2,source,cycle,operand``, one row a line."""
+    buffer = io.StringIO()
+    writer = csv.writer(buffer, lineterminator="\n")
+    writer.writerow(COLUMNS)
+    for row in rows:
+        writer.writerow([
+            f"{row.time_ms:g}", row.line.file, row.line.line, row.rlo, row.accu1, row.accu2,
+            row.source, row.cycle, "" if row.operand is None else row.operand,
+        ])
+    return buffer.getvalue()

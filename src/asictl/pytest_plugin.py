@@ -1,0 +1,86 @@
+"""A pytest plugin: every ``*.scenario.toml`` is a test (docs/simulation.md).
+
+Installed with asictl (the ``pytest11`` entry point ``asictl``), so ``pytest DIR``
+collects the scenarios under DIR next to any Python tests, with pytest's selection
+(``-k``), markers (a scenario's ``markers = ["slow"]``), reports and plug-ins such as
+pytest-xdist (``-n auto``). A failed scenario shows its lines as ``asictl test`` does:
+``blink.scenario.toml:8: at 250 ms: Q 31.0 expected 1, got 0``.
+
+Turning it off: ``-p no:asictl`` for one run, ``asictl_scenarios = false`` in the ini
+file for a project, or ``collect_ignore_glob`` in a conftest.py for some folders.
+"""
+
+from __future__ import annotations
+
+import tomllib
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from asictl.sim.session import SUFFIX, Outcome, run_file
+
+
+def pytest_addoption(parser: pytest.Parser) -> None:
+    parser.addini("asictl_scenarios", type="bool", default=True,
+                  help="collect *.scenario.toml files as tests (asictl)")
+    parser.addini("asictl_lib", type="paths", default=[],
+                  help="folders where asictl looks for function-block files")
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    config.addinivalue_line("markers", 'slow: a scenario marked slow (markers = ["slow"])')
+
+
+def pytest_collect_file(file_path: Path, parent: pytest.Collector) -> ScenarioFile | None:
+    if file_path.name.endswith(SUFFIX) and parent.config.getini("asictl_scenarios"):
+        return ScenarioFile.from_parent(parent, path=file_path)
+    return None
+
+
+class ScenarioFailed(Exception):
+    """A scenario that failed or could not run; carries its outcome."""
+
+    def __init__(self, outcome: Outcome) -> None:
+        super().__init__(outcome.message or outcome.summary)
+        self.outcome = outcome
+
+
+class ScenarioFile(pytest.File):
+    def collect(self) -> Iterator[ScenarioItem]:
+        item = ScenarioItem.from_parent(self, name=self.path.name[: -len(SUFFIX)])
+        for marker in _markers(self.path):
+            item.add_marker(marker)
+        yield item
+
+
+def _markers(path: Path) -> list[str]:
+    """The scenario's ``markers``, read without simulating (a broken file has none here;
+    running it reports what is wrong)."""
+    try:
+        markers = tomllib.loads(path.read_text(encoding="utf-8")).get("markers", [])
+    except (OSError, ValueError, RecursionError):
+        return []
+    return [m for m in markers if isinstance(m, str) and m.isidentifier()] \
+        if isinstance(markers, list) else []
+
+
+class ScenarioItem(pytest.Item):
+    def runtest(self) -> None:
+        lib = tuple(str(p) for p in self.config.getini("asictl_lib"))
+        outcome = run_file(str(self.path), lib)
+        if outcome.status != "PASS":
+            raise ScenarioFailed(outcome)
+
+    def repr_failure(self, excinfo: pytest.ExceptionInfo[BaseException],
+                     style: Any = None) -> str:
+        if isinstance(excinfo.value, ScenarioFailed):
+            outcome = excinfo.value.outcome
+            if outcome.status == "ERROR":
+                return "\n".join(filter(None, [outcome.stderr.rstrip(), outcome.message]))
+            return "\n".join([*outcome.events, outcome.summary])
+        return str(super().repr_failure(excinfo))
+
+    def reportinfo(self) -> tuple[Path, int | None, str]:
+        return self.path, None, f"scenario {self.path.name}"

@@ -1,0 +1,303 @@
+"""One simulation from files to report: what ``sim``, ``test``, the pytest plugin and the
+debugger share.
+
+``prepare`` reads and checks everything (program, symbol table, scenario, command-line
+sets) and raises ``Invalid`` with the rendered diagnostics when something is wrong;
+``simulate`` runs it; ``events``, ``summary`` and ``as_json`` report it. ``run_file``
+does all of it for one scenario file and never raises, so that one bad scenario is one
+ERROR row of ``asictl test`` and the other scenarios still run (in worker processes, as
+``test -j`` does).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import time
+from collections.abc import Iterable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from asictl import __version__
+from asictl.build import Build, build_file
+from asictl.diagnostics import DiagnosticError, render_text
+from asictl.errors import UserError
+from asictl.sim.engine import SimResult, Simulation, variables_of
+from asictl.sim.operands import parse_operand
+from asictl.sim.scenario import (
+    Scenario,
+    Step,
+    load_scenario,
+    scenario_program,
+)
+from asictl.source import read_source
+from asictl.symbols import SymbolTable, symbols_for
+
+SUFFIX = ".scenario.toml"
+#: How long a program runs when no scenario says.
+DEFAULT_DURATION_MS = 10_000.0
+
+
+class Invalid(Exception):
+    """Bad input: ``text`` holds the rendered diagnostics, ``message`` one line."""
+
+    def __init__(self, text: str, message: str = "invalid scenario or program") -> None:
+        super().__init__(message)
+        self.text = text
+        self.message = message
+
+
+def program_for(scenario: Path) -> Path:
+    """A scenario without ``program`` belongs to the program of the same name beside it."""
+    return scenario.with_name(scenario.name[: -len(SUFFIX)] + ".asi")
+
+
+def scenario_for(program: Path) -> Path:
+    """The scenario beside a program: ``blink.asi`` -> ``blink.scenario.toml``."""
+    return program.with_name(program.stem + SUFFIX)
+
+
+def _texts(*paths: Path | None) -> dict[str, str]:
+    texts = {}
+    for path in paths:
+        if path is not None:
+            with contextlib.suppress(UserError):
+                texts[str(path)] = read_source(path).text
+    return texts
+
+
+def _invalid(exc: DiagnosticError, texts: dict[str, str]) -> Invalid:
+    return Invalid(render_text(exc.diagnostics, texts))
+
+
+@dataclass
+class Prepared:
+    program: Path
+    build: Build
+    scenario: Scenario
+    symbols: SymbolTable
+    #: the build's warnings, rendered
+    notes: str = ""
+    #: how long to run
+    end_ms: float = 0.0
+    #: steps after ``end_ms`` that will not run (with --allow-partial)
+    cut_steps: int = 0
+
+
+def prepare(
+    program: Path | None,
+    scenario_path: Path | None,
+    *,
+    lib: Iterable[str] = (),
+    sets: Iterable[str] = (),
+    duration_ms: float | None = None,
+    allow_partial: bool = False,
+) -> Prepared:
+    """Load, check and compile everything a simulation needs; raises ``Invalid`` or
+    ``UserError``."""
+    if scenario_path is not None:
+        try:
+            named = scenario_program(read_source(scenario_path))
+        except DiagnosticError as exc:
+            raise _invalid(exc, _texts(scenario_path)) from None
+        program = program or named
+        if program is None and scenario_path.name.endswith(SUFFIX):
+            program = program_for(scenario_path)
+    if program is None:
+        raise UserError("no program: name one, or give the scenario a 'program = \"...\"' line")
+    built = build_file(program, lib=lib)
+    if built.has_errors or built.image is None:
+        raise Invalid(built.render(), "the program has errors")
+    variables = variables_of(built.image.pmap)
+
+    def check(text: str) -> str:
+        return str(parse_operand(text, variables))
+
+    try:
+        symbols = symbols_for(program, check)
+    except DiagnosticError as exc:
+        raise _invalid(exc, _texts(program.with_name(program.stem + ".symbols.toml"))) from None
+    if scenario_path is not None:
+        try:
+            scenario = load_scenario(scenario_path, variables, symbols)
+        except DiagnosticError as exc:
+            raise _invalid(exc, _texts(scenario_path)) from None
+    else:
+        scenario = Scenario("<command line>", program, None, None, [])
+    extra = _command_line_sets(sets, variables, symbols)
+    if extra.set:
+        scenario.steps.append(extra)
+    last = scenario.end_ms
+    if duration_ms is None:
+        end = last if scenario_path is not None else max(last, DEFAULT_DURATION_MS)
+    else:
+        end = duration_ms
+    cut = sum(1 for s in scenario.steps if s.at_ms > end)
+    if cut and not allow_partial:
+        raise UserError(
+            f"--duration {end:g} ms ends before the scenario's last step at {last:g} ms "
+            f"({cut} step{'s' if cut != 1 else ''} would not run); run longer, or pass "
+            "--allow-partial"
+        )
+    return Prepared(Path(program), built, scenario, symbols, built.render(), end, cut)
+
+
+def _command_line_sets(
+    sets: Iterable[str], variables: dict[str, int], symbols: SymbolTable
+) -> Step:
+    """``--set "I 1.0=1"``: one step at time 0."""
+    step = Step(0.0, 0)
+    for text in sets:
+        name, equals, value = text.rpartition("=")
+        try:
+            if not equals:
+                raise ValueError("expected OPERAND=VALUE, e.g. \"I 1.0=1\"")
+            operand = parse_operand(name.strip(), variables, symbols)
+            number = int(value.strip(), 0)
+            if not operand.settable:
+                raise ValueError(f"'{operand}' cannot be set: only inputs (I, IB) and flags "
+                                 "(F, FY)")
+            if not 0 <= number <= operand.maximum:
+                raise ValueError(f"value {number} out of range 0..{operand.maximum}")
+        except ValueError as exc:
+            raise UserError(f"--set '{text}': {exc}") from None
+        step.set.append((operand, number, 0))
+        if name.strip() != str(operand):
+            step.written[(0, str(operand))] = name.strip()
+    return step
+
+
+@dataclass
+class Run:
+    prepared: Prepared
+    result: SimResult
+    seconds: float
+    #: what the trace could not show, for standard error
+    note: str = ""
+
+    @property
+    def scenario(self) -> Scenario:
+        return self.prepared.scenario
+
+
+def simulate(
+    prepared: Prepared,
+    *,
+    trace: bool = False,
+    signals: list[str] | None = None,
+    il_trace: bool = False,
+    window: tuple[float, float | None] = (0.0, None),
+) -> Run:
+    start = time.perf_counter()
+    try:
+        simulation = Simulation(
+            prepared.build, prepared.scenario, duration_ms=prepared.end_ms, trace=trace,
+            signals=signals, symbols=prepared.symbols, il_trace=il_trace, window=window,
+        )
+        result = simulation.run()
+    except DiagnosticError as exc:
+        raise _invalid(exc, {**prepared.build.texts, **_texts(Path(prepared.scenario.file))}) \
+            from None
+    note = f"asictl: note: {prepared.program}: {simulation.untraced}\n" if simulation.untraced \
+        else ""
+    return Run(prepared, result, time.perf_counter() - start, note)
+
+
+def events(run: Run) -> list[str]:
+    """Failures, stops and firmware refusals, in the order they happened."""
+    file = run.scenario.file
+    timed: list[tuple[float, int, str]] = []
+    for f in run.result.failures:
+        timed.append((f.at_ms, 0, f"{file}:{f.line}: {f}"))
+    for s in run.result.stops:
+        timed.append((s.at_ms, 1, f"{file}: at {s.at_ms:g} ms: program stopped: {s.text}"))
+    for r in run.result.refusals:
+        timed.append((r.at_ms, 2, f"{file}: at {r.at_ms:g} ms: note: {r.text}"))
+    return [text for _, _, text in sorted(timed, key=lambda item: item[:2])]
+
+
+def summary(run: Run) -> str:
+    r = run.result
+    failed = len(r.failures)
+    cut = run.prepared.cut_steps
+    partial = f" ({cut} step{'s' if cut != 1 else ''} after the end not run)" if cut else ""
+    return (
+        f"{r.checked} expectation{'s' if r.checked != 1 else ''}, {failed} failed; "
+        f"{r.end_ms / 1000:g} s of master time in {run.seconds:.2f} s{partial}"
+    )
+
+
+def as_json(run: Run) -> dict[str, Any]:
+    r = run.result
+    return {
+        "scenario": run.scenario.file,
+        "passed": r.passed,
+        "checked": r.checked,
+        "failures": [
+            {"line": f.line, "at_ms": f.at_ms, "operand": f.written or str(f.operand),
+             "expected": f.expected, "got": f.got}
+            for f in r.failures
+        ],
+        "stops": [{"at_ms": s.at_ms, "reason": s.reason, "where": s.where} for s in r.stops],
+        "notes": [{"at_ms": n.at_ms, "text": n.text} for n in r.refusals],
+        "end_ms": r.end_ms,
+        "wall_s": round(run.seconds, 3),
+    }
+
+
+# ---------------------------------------------------------------------- asictl test
+
+
+@dataclass
+class Outcome:
+    """What ``asictl test`` shows of one scenario file; plain data for worker processes."""
+
+    path: str
+    status: str  # PASS, FAIL, ERROR
+    summary: str = ""
+    events: list[str] = field(default_factory=list)
+    #: diagnostics and notes for standard error
+    stderr: str = ""
+    #: the ERROR row's reason
+    message: str = ""
+    seconds: float = 0.0
+    #: an internal error (a bug), not bad input
+    bug: bool = False
+    markers: list[str] = field(default_factory=list)
+    #: failures as (line, text) for test runners that show the scenario line
+    failures: list[tuple[int, str]] = field(default_factory=list)
+    #: program stops, ``at 55 ms: program stopped: ...``
+    stops: list[str] = field(default_factory=list)
+    #: the program file the scenario ran (none for an ERROR row)
+    program: str = ""
+
+
+def run_file(path: str, lib: tuple[str, ...] = ()) -> Outcome:
+    """Run one scenario file; whatever goes wrong is in the outcome, nothing is raised."""
+    try:
+        prepared = prepare(None, Path(path), lib=lib)
+        run = simulate(prepared)
+    except Invalid as exc:
+        return Outcome(path, "ERROR", stderr=exc.text, message=exc.message)
+    except UserError as exc:
+        return Outcome(path, "ERROR", message=str(exc))
+    except Exception as exc:  # one bug must not end a whole test run: an ERROR row
+        return Outcome(
+            path, "ERROR", bug=True,
+            message=f"internal error (this is a bug in asictl {__version__}): "
+                    f"{type(exc).__name__}: {exc}",
+        )
+    return Outcome(
+        path, "PASS" if run.result.passed else "FAIL", summary(run), events(run),
+        prepared.notes + run.note, seconds=run.seconds, markers=list(prepared.scenario.markers),
+        failures=[(f.line, str(f)) for f in run.result.failures],
+        stops=[f"at {s.at_ms:g} ms: program stopped: {s.text}" for s in run.result.stops],
+        program=str(prepared.program),
+    )
+
+
+def default_jobs() -> int:
+    return max(1, len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity")
+               else os.cpu_count() or 1)
+

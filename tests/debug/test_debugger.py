@@ -1,0 +1,227 @@
+"""The IL debugger: driven as an object, through ``--batch``, and once in a real terminal."""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import sys
+import time
+import uuid
+from pathlib import Path
+
+import pytest
+from click.testing import CliRunner
+
+from asictl.cli import main
+from asictl.debug.debugger import Debugger
+from asictl.sim.session import prepare
+
+ROOT = Path(__file__).resolve().parents[2]
+DEMOS = ROOT / "demos"
+
+COUNTER = """\
+[SETUP]
+1: iiii, 0
+2: oooo, 0
+[PROGRAM]
+    A   I 1.0
+    L   KC 4095
+    S   C 0
+***
+    A   I 1.1
+    CD  C 0
+***
+    A   I 1.2
+    L   KT 500
+    S   T 1
+"""
+SCENARIO = """\
+[master]
+cycle_ms = 5
+[[step]]
+at_ms = 0
+set = { "I 1.0" = 1, "I 1.2" = 1 }
+[[step]]
+at_ms = 10
+set = { "I 1.0" = 0, "I 1.1" = 1 }
+[[step]]
+at_ms = 100
+expect = { "CV 0" = 1 }
+"""
+
+
+class Session:
+    """A debugger whose output is kept; ``do`` runs a command and returns its output."""
+
+    def __init__(self, program: Path, scenario: Path | None = None) -> None:
+        self.lines: list[str] = []
+        self.debugger = Debugger(prepare(program, scenario), self.lines.append)
+
+    def do(self, command: str) -> list[str]:
+        start = len(self.lines)
+        assert self.debugger.execute(command)
+        return self.lines[start:]
+
+
+@pytest.fixture
+def counter(tmp_path: Path) -> Session:
+    program = tmp_path / "count.asi"
+    program.write_text(COUNTER)
+    scenario = tmp_path / "count.scenario.toml"
+    scenario.write_text(SCENARIO)
+    session = Session(program, scenario)
+    yield session
+    session.debugger.close()
+
+
+def test_break_continue_and_print(counter: Session):
+    assert counter.do("break 6") == ["breakpoint 1 at count.asi:6: L   KC 4095"]
+    out = counter.do("continue")
+    assert out[0] == "breakpoint 1, count.asi:6, master time 0 ms, cycle 1"
+    # I 1.0 was set at time 0: the first cycle sees it (the timing contract)
+    assert counter.do("print RLO, I 1.0, CV 0") == ["RLO = 1", "I 1.0 = 1", "CV 0 = 0"]
+    assert counter.do("step")[0] == "count.asi:7, master time 0 ms, cycle 1"
+    assert counter.do("step")[0] == "count.asi:9, master time 0 ms, cycle 1"
+    assert counter.do("print CV 0, C 0") == ["CV 0 = 4095", "C 0 = 1 (value 4095)"]
+    assert counter.do("continue")[0] == "breakpoint 1, count.asi:6, master time 5 ms, cycle 2"
+
+
+def test_conditional_breakpoints_cycles_and_time(counter: Session):
+    counter.do("break 10 if RLO=1")  # CD C 0 with the register 1: from 10 ms on
+    assert counter.do("continue")[0] == "breakpoint 1, count.asi:10, master time 10 ms, cycle 3"
+    assert counter.do("print CV 0") == ["CV 0 = 4095"]
+    assert counter.do("next")[0].startswith("count.asi:12,")
+    assert counter.do("print CV 0") == ["CV 0 = 4094"]
+    counter.do("delete")
+    assert counter.do("cycle") == ["cycle 4 starts at 15 ms"]
+    counter.do("set I 1.2=0")  # the timer is loaded for the last time at 15 ms
+    assert counter.do("time 20ms") == ["master time 35 ms (cycle 8)"]
+    remaining = counter.debugger.value("TV 1")
+    assert 470 <= remaining <= 490  # about two 10 ms ticks since 15 ms (the clock has its phase)
+    assert counter.do("print T 1") == [f"T 1 = 1 (remaining {remaining} ms)"]
+    counter.do("set I 1.1=0")
+    out = counter.do("continue")
+    assert out[0] == f"{counter.debugger.prepared.scenario.file}:11: at 100 ms: CV 0 expected " \
+        "1, got 4089"
+    assert out[1] == "end of the simulation at 100 ms (1 expectations checked, 1 failed)"
+    assert counter.do("continue") == [
+        "error: the simulation has ended (at 100 ms); quit, or start again"]
+
+
+def test_next_steps_over_a_block_call_and_step_goes_into_it():
+    session = Session(DEMOS / "fb.asi", DEMOS / "fb.scenario.toml")
+    try:
+        session.do("break 31")
+        session.do("continue")
+        assert session.do("next")[0].startswith("fb.asi:33,")
+        session.do("continue")
+        out = session.do("step")
+        assert out[0].startswith("latch.fb:8 (called from fb.asi:31),"), out
+        assert session.do("where")[0].startswith("latch.fb:8 (called from fb.asi:31)")
+        session.do("break latch.fb:17")
+        assert session.do("continue")[0].startswith("breakpoint 2, latch.fb:17")
+        assert session.do("step")[0].startswith("fb.asi:33,")
+    finally:
+        session.debugger.close()
+
+
+def test_mistakes_are_refused_with_a_reason(counter: Session):
+    assert counter.do("break 99") == ["error: count.asi has no code at or after line 99"]
+    assert counter.do("break x.fb:1")[0].startswith("error: no code from 'x.fb'")
+    assert counter.do("break 6 if Q 99.0=1")[0].startswith("error: 'Q 99.0'")
+    assert counter.do("print Q 2.0, X 1")[1].startswith("error: 'X 1'")
+    assert counter.do("set Q 2.0=1")[0].startswith("error: 'Q 2.0' cannot be set")
+    assert counter.do("frobnicate") == ["error: unknown command 'frobnicate' ('help' lists them)"]
+    assert counter.debugger.failed
+
+
+def test_symbols_in_print_and_set(tmp_path: Path):
+    program = tmp_path / "count.asi"
+    program.write_text(COUNTER)
+    (tmp_path / "count.symbols.toml").write_text('Load = "I 1.0"\nParts = "C 0"\n')
+    session = Session(program)
+    try:
+        session.do("set Load=1")
+        session.do("time 1ms")
+        assert session.do("print Parts, CV Parts") == ["Parts = 1 (value 4095)",
+                                                      "CV Parts = 4095"]
+    finally:
+        session.debugger.close()
+
+
+def test_batch_mode(tmp_path: Path):
+    program = tmp_path / "count.asi"
+    program.write_text(COUNTER)
+    commands = tmp_path / "cmds.txt"
+    commands.write_text("break 6   # the load\ncontinue\nprint RLO\nquit\nprint RLO\n")
+    result = CliRunner().invoke(main, ["debug", str(program), "--set", "I 1.0=1",
+                                       "--batch", str(commands)])
+    assert result.exit_code == 0, result.output
+    lines = result.stdout.splitlines()
+    assert "(asictl) break 6" in lines
+    assert lines[lines.index("(asictl) print RLO") + 1] == "RLO = 1"
+    assert lines[-1] == "(asictl) quit"  # nothing after quit runs
+    commands.write_text("break 99\n")
+    assert CliRunner().invoke(main, ["debug", str(program), "--batch", str(commands)]
+                              ).exit_code == 1
+
+
+# ------------------------------------------------------------------ a real terminal
+
+
+def _tmux() -> str:
+    path = shutil.which("tmux")
+    if path:
+        return path
+    message = "tmux is missing (apt-get install -y tmux): the terminal test of asictl debug"
+    if os.environ.get("CI"):
+        pytest.fail(message)
+    pytest.skip(message)
+
+
+def test_the_debugger_in_a_real_terminal_with_history(tmp_path: Path):
+    tmux = _tmux()
+    program = tmp_path / "count.asi"
+    program.write_text(COUNTER)
+    (tmp_path / "count.scenario.toml").write_text(SCENARIO)
+    history = tmp_path / "history"
+    socket = f"asictl-test-{uuid.uuid4().hex[:8]}"
+    env = {**os.environ, "PYTHONPATH": str(ROOT / "src"), "ASICTL_HISTORY": str(history),
+           "HOME": str(tmp_path), "TERM": "xterm"}
+    command = f"{sys.executable} -m asictl debug {program}"
+    subprocess.run([tmux, "-L", socket, "new-session", "-d", "-s", "t", "-x", "120", "-y", "50",
+                    command], env=env, check=True)
+
+    def keys(*sent: str) -> None:
+        subprocess.run([tmux, "-L", socket, "send-keys", "-t", "t", *sent], check=True)
+
+    def screen_until(text: str) -> str:
+        deadline = time.monotonic() + 30
+        while True:
+            screen = subprocess.run([tmux, "-L", socket, "capture-pane", "-p", "-t", "t"],
+                                    capture_output=True, text=True).stdout
+            if text in screen or time.monotonic() > deadline:
+                return screen
+            time.sleep(0.1)
+
+    try:
+        assert "(asictl)" in screen_until("(asictl)")
+        keys("break 6", "Enter")
+        keys("continue", "Enter")
+        screen = screen_until("breakpoint 1, count.asi:6")
+        assert "breakpoint 1, count.asi:6, master time 0 ms, cycle 1" in screen
+        keys("print CV 0", "Enter")
+        assert "CV 0 = 0" in screen_until("CV 0 = 0")
+        keys("continue", "Enter")
+        screen_until("master time 5 ms, cycle 2")
+        keys("Up", "Up", "Enter")  # readline history: 'print CV 0' again
+        screen = screen_until("CV 0 = 4095")
+        assert "CV 0 = 4095" in screen, screen
+        keys("quit", "Enter")
+        deadline = time.monotonic() + 10
+        while not history.exists() and time.monotonic() < deadline:
+            time.sleep(0.1)
+        assert "print CV 0" in history.read_text()
+    finally:
+        subprocess.run([tmux, "-L", socket, "kill-server"], capture_output=True)
