@@ -20,6 +20,7 @@ from asictl.build import build, build_file
 from asictl.image import ProgramImage
 from asictl.platform.master import ControlFlag
 from asictl.runtime import layout
+from asictl.runtime.line_map import LineMap
 from asictl.runtime.program_map import CellKind, Location, ProgramMap, Space
 from asictl.source import from_string
 
@@ -227,7 +228,7 @@ CRAFTED: dict[str, tuple[Callable[[], bytes], str]] = {
         "both entered at 0100h",
     ),
     "code linked elsewhere": (
-        lambda: crafted(lambda m: None, code_base=0x4100),
+        lambda: crafted(lambda m: None, code_base=0x4100, line_map=LineMap()),
         "code linked at 4100h",
     ),
     "no code": (

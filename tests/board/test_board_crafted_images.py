@@ -32,6 +32,7 @@ from asictl.host.driver import EmulatedPort, Pc2Driver
 from asictl.host.jobs import JobError, JobStatus
 from asictl.host.transfer import Pc2Transport, StartMode, download
 from asictl.image import HEADER_SIZE, ImageError, ProgramImage
+from asictl.platform import pc2 as d
 from asictl.platform.master import ControlFlag
 from asictl.platform.pc2 import ControlState, ProgramStatus, StopReason
 from asictl.runtime.layout import default_entry_points
@@ -150,6 +151,7 @@ def test_an_undefined_opcode_stops_the_program_with_a_reason():
         "new start"
     )
     assert board.outputs == bytes(16)
+    assert board.dpram[d.STOP_ADDRESS : d.STOP_ADDRESS + 2] == b"\x01\x40"  # for the host
     board.press_set_button()
     board.advance(100)
     assert board.stop_reason is StopReason.PROGRAM_FAULT, "it faults again"

@@ -12,7 +12,6 @@ Modbus client writing the crafted image again.
 
 from __future__ import annotations
 
-import dataclasses
 import io
 import json
 import os
@@ -99,16 +98,31 @@ def test_every_command_works_on_a_board_holding_a_crafted_image(tmp_path: Path, 
     assert (tmp_path / "blink.asi").read_bytes() == BLINK.read_bytes()
 
 
-def test_a_program_fault_shows_in_status_and_the_board_goes_on(tmp_path: Path):
-    """A sound map over code with an undefined opcode: downloaded, run, stopped."""
-    image = rich()
-    faulty = dataclasses.replace(image, code=b"\xa5" + image.code[1:]).to_bytes()
+FAULT = """\
+[SETUP]
+1: iiii, 0
+2: oooo, 0
+
+[PROGRAM]
+        A   I 1.0
+        =   Q 2.0
+        ASM DB 0A5h
+        BE
+"""
+
+
+def test_a_program_fault_names_its_line_and_the_board_goes_on(tmp_path: Path):
+    """Code the 8051 cannot run (the undefined opcode A5h) stops the program, not the
+    board: status and the commands' summary name the IL line."""
+    source = tmp_path / "fault.asi"
+    source.write_text(FAULT)
     state = tmp_path / "state"
-    download_faulty = cli(state, "download", str(hex_file(tmp_path / "a5.hex", faulty)), "--start")
+    download_faulty = cli(state, "download", str(source), "--start")
     assert download_faulty.exit_code == 0, download_faulty.output
     assert cli(state, "bus", "match").exit_code == 0
     status = cli(state, "status")
-    assert status.exit_code == 0 and "halted (program fault)" in status.stdout
+    assert status.exit_code == 0
+    assert "control  halted (fault.asi:8: program fault)" in status.stdout
     assert cli(state, "download", str(BLINK), "--start").exit_code == 0
     assert cli(state, "bus", "match").exit_code == 0
     assert "control  running" in cli(state, "status").stdout

@@ -30,7 +30,7 @@ from asictl.board.images import VERSION_ID, MasterImages
 from asictl.board.nonvolatile import Nonvolatile
 from asictl.board.services import MasterFirmware
 from asictl.image import ProgramImage
-from asictl.mcs51.emulator import EmulatorError
+from asictl.mcs51.emulator import EmulatorError, UndefinedOpcode
 from asictl.platform import pc2 as d
 from asictl.platform.master import SLAVES, TICK_MS, ControlFlag
 from asictl.platform.pc2 import ControlState, HiFlag, InterruptSource, StopReason, nibbles
@@ -375,6 +375,10 @@ class Pc2Board:
             runner.cycle(self._ec.idi)
         except CycleTimeout as exc:
             self._halt(StopReason.CYCLE_TIMEOUT, str(exc))
+            return
+        except UndefinedOpcode as exc:
+            self._dpram.put(d.STOP_ADDRESS, exc.pc.to_bytes(2, "little"))  # the host's line
+            self._halt(StopReason.PROGRAM_FAULT, _fault(exc))
             return
         except Exception as exc:  # whatever the program did, the master carries on
             self._halt(StopReason.PROGRAM_FAULT, _fault(exc))

@@ -166,7 +166,8 @@ class MasterStatus:
     #: the program's timers and counters, None where the master does not show them
     timers: list[Timer] | None = None
     counters: list[Counter] | None = None
-    #: after a cycle time-out: the IL line of the endless loop (from the image's line map)
+    #: after a cycle time-out or a program fault: the IL line of the endless loop or of the
+    #: fault (from the image's line map)
     stop_line: str | None = None
 
     def to_json(self) -> dict[str, Any]:
@@ -222,9 +223,15 @@ def _program(transport: Transport) -> tuple[ProgramInfo, ProgramImage | None]:
     ), image
 
 
+#: The stops whose code address the master leaves in 308h: the loop a cycle time-out cut
+#: off, the undefined opcode of a program fault.
+_AT_AN_ADDRESS = (StopReason.CYCLE_TIMEOUT, StopReason.PROGRAM_FAULT)
+
+
 def stop_line(driver: Pc2Driver, image: ProgramImage | None) -> str | None:
-    """The IL line of the loop a cycle time-out cut off (``loop.asi:12``): the master's
-    stop address through the image's line map; None when the image has none."""
+    """The IL line where the program stopped (``loop.asi:12``): the loop a cycle time-out
+    cut off, the fault: the master's stop address through the image's line map; None when
+    the image has none."""
     if image is None:
         return None
     address = int.from_bytes(driver.read(STOP_ADDRESS, 2), "little")
@@ -339,7 +346,7 @@ def read_status(
         cycle_time_ms=_cycle_ms(driver.read(CYCLE_TIME_PREVIOUS, 2)),
         max_cycle_time_ms=_cycle_ms(driver.read(CYCLE_TIME_MAXIMUM, 2)),
         program=program,
-        stop_line=stop_line(driver, image) if reason == StopReason.CYCLE_TIMEOUT else None,
+        stop_line=stop_line(driver, image) if reason in _AT_AN_ADDRESS else None,
         slaves=slaves,
         los=los,
         hi_flags=driver.read_byte(HI_FLAGS),
@@ -387,7 +394,7 @@ def control_summary(driver: Pc2Driver) -> str:
     if reason == StopReason.NONE:
         return f"control program {state}"
     where = None
-    if reason == StopReason.CYCLE_TIMEOUT:
+    if reason in _AT_AN_ADDRESS:
         where = stop_line(driver, _program(Pc2Transport(driver))[1])
     return f"control program {state} ({_stopped(_name(StopReason, reason), where)})"
 
