@@ -9,10 +9,12 @@ to the runtime contract (``runtime.contract``) when it is read, a board whose EE
 holds a bad one powers up with program status "bad image" and stays usable, and whatever
 a running program does wrong stops it with a reason instead of escaping ``advance``.
 
-The property test mutates the header, program map and code of every demo's image (with
-the CRC fixed, so that the mutation reaches the checks behind it) and stores it in a
-board as any Modbus client could: the board refuses it or runs it, and always accepts
-the next good download. ``-m slow`` runs it long.
+The property tests mutate the header and program map of every demo's image (with the
+CRC fixed, so that the mutation reaches the checks behind it) and store it in a board as
+any Modbus client could: the board refuses it or runs it, and always accepts the next
+good download, which runs. With the code mutated too, the program may do anything a
+program can (write into the DPRAM, fault, loop): the board still never fails, and after
+a stop the next good download loads. ``-m slow`` runs them long.
 """
 
 from __future__ import annotations
@@ -30,7 +32,7 @@ from asictl.board.asi import AsiBus, Slave
 from asictl.board.board import Pc2Board
 from asictl.host.driver import EmulatedPort, Pc2Driver
 from asictl.host.jobs import JobError, JobStatus
-from asictl.host.transfer import Pc2Transport, StartMode, download
+from asictl.host.transfer import Pc2Transport, StartMode, download, set_start
 from asictl.image import HEADER_SIZE, ImageError, ProgramImage
 from asictl.platform import pc2 as d
 from asictl.platform.master import ControlFlag
@@ -194,30 +196,37 @@ def test_a_firmware_call_with_pseg_at_the_top_of_xdata_wraps():
 
 
 MUTATIONS = int(os.environ.get("ASICTL_IMAGE_MUTATIONS", "300"))
+#: Mutated code runs as it is: a program whose DPTR went astray writes into the DPRAM as
+#: any program may (it can take the master offline, or overwrite the program buffer
+#: while a download fills it), so after code mutations the host stops it first.
+HEADER_AND_MAP = ("header", "map", "map")
+CODE_TOO = ("header", "map", "map", "code")
 
 
 @st.composite
-def mutated_images(draw: st.DrawFn) -> tuple[ProgramImage, bytes]:
-    """A demo's image with 1-3 bytes of its header, map or code changed, CRC fixed."""
+def mutated_images(
+    draw: st.DrawFn, regions: tuple[str, ...] = HEADER_AND_MAP
+) -> tuple[ProgramImage, bytes, bool]:
+    """A demo's image with 1-3 bytes of the regions changed, CRC fixed; whether its code
+    was changed."""
     image = demo_image(draw(st.sampled_from(DEMOS)))
     data = bytearray(image.to_bytes())
     code_end = HEADER_SIZE + len(image.code)
     map_end = code_end + struct.unpack_from("<H", data, 85)[0]
-    regions = {
+    offsets = {
         "header": [*range(0, CRC.start), *range(CRC.stop, HEADER_SIZE)],
         "map": range(code_end, map_end),
         "code": range(HEADER_SIZE, code_end),
     }
-    where = draw(st.lists(st.sampled_from(["header", "map", "map", "code"]), min_size=1,
-                          max_size=3))
+    where = draw(st.lists(st.sampled_from(regions), min_size=1, max_size=3))
     for region in where:
-        offset = draw(st.sampled_from(regions[region]))
+        offset = draw(st.sampled_from(offsets[region]))
         data[offset] ^= draw(st.integers(1, 255))
-    return image, with_crc(data)
+    return image, with_crc(data), "code" in where
 
 
-def _mutation_run(case: tuple[ProgramImage, bytes]) -> None:
-    image, data = case
+def _mutation_run(case: tuple[ProgramImage, bytes, bool]) -> None:
+    image, data, code_changed = case
     try:
         ProgramImage.from_bytes(data)
     except ImageError:
@@ -240,7 +249,13 @@ def _mutation_run(case: tuple[ProgramImage, bytes]) -> None:
         ), board.stop_message
     else:
         assert board.program is None
-    assert_usable(board, image)
+    if not code_changed:
+        assert_usable(board, image)
+        return
+    set_start(transport(board), start=False)
+    download(transport(board), image, start=StartMode.START)
+    board.advance(300)
+    assert board.program_status is ProgramStatus.LOADED and board.loaded_image == image
 
 
 @settings(max_examples=MUTATIONS, deadline=None, suppress_health_check=[HealthCheck.too_slow])
@@ -249,9 +264,17 @@ def test_a_mutated_image_is_refused_or_runs_and_a_good_download_follows(case):
     _mutation_run(case)
 
 
+@settings(max_examples=MUTATIONS // 3, deadline=None,
+          suppress_health_check=[HealthCheck.too_slow])
+@given(mutated_images(CODE_TOO))
+def test_mutated_code_only_ever_stops_the_program(case):
+    """Whatever the code does, the board goes on: stopped, a good download loads."""
+    _mutation_run(case)
+
+
 @pytest.mark.slow
 @settings(max_examples=20 * MUTATIONS, deadline=None,
           suppress_health_check=[HealthCheck.too_slow])
-@given(mutated_images())
+@given(mutated_images(CODE_TOO))
 def test_many_mutated_images(case):
     _mutation_run(case)
