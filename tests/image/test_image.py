@@ -32,7 +32,7 @@ from asictl.image import (
 )
 from asictl.platform.master import EEPROM_SIZE, Options
 from asictl.runtime import layout
-from asictl.runtime.line_map import LineMap
+from asictl.runtime.line_map import LineMap, LineMapError
 from asictl.runtime.runner import LoadedProgram, ProgramRunner
 from asictl.source import from_string, read_source
 
@@ -451,3 +451,13 @@ def test_line_maps_round_trip(pieces):
     for start, length, span in spans:
         found = line_map.line_at(start + length - 1)
         assert (str(found) if found else None) == (f"{span.file}:{span.line}" if span else None)
+
+
+def test_line_map_file_names_must_be_plain_and_printable():
+    good = LineMap.build([(0x4000, 2, Span("main.asi", 3, 1))])
+    data = good.to_bytes(0x4000)
+    assert LineMap.from_bytes(data, 0x4000).files == ("main.asi",)
+    for bad in ("m\x1b[2Jx.asi", "../etc.asi"):
+        crafted = data.replace(b"\x08main.asi", bytes([len(bad.encode())]) + bad.encode())
+        with pytest.raises(LineMapError, match="not a plain printable name"):
+            LineMap.from_bytes(crafted, 0x4000)

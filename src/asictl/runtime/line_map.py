@@ -136,9 +136,13 @@ class LineMap:
         for _ in range(reader.byte()):
             raw = reader.take(reader.byte())
             try:
-                files.append(raw.decode("utf-8"))
+                name = raw.decode("utf-8")
             except UnicodeDecodeError:
                 raise LineMapError("a file name is not UTF-8 text") from None
+            if not name.isprintable() or "/" in name or "\\" in name:
+                # it is printed in stop messages: no control sequences, no paths
+                raise LineMapError(f"the file name {name!r} is not a plain printable name")
+            files.append(name)
         ranges: list[tuple[int, int | None, int]] = []
         start, line, file_code = code_base, 0, _NO_FILE
         for _ in range(reader.uleb()):
