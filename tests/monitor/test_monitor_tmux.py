@@ -7,6 +7,7 @@ hiding that the monitor was never seen in a terminal.
 from __future__ import annotations
 
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -66,6 +67,24 @@ def test_the_monitor_shows_the_slaves_in_tmux_and_q_quits(tmp_path: Path):
              if "31 0000/" in line}
         ) or len(seen) > 1, timeout=10)
         assert seen >= {"0000", "0001"}, seen
+        # the program view: the source with each line's values from the latest cycle
+        subprocess.run(["tmux", "send-keys", "-t", session, "v"], check=True)
+
+        def program_view() -> bool:
+            screen = capture(session)
+            rows = [line for line in screen.splitlines() if "A   T 0" in line]
+            return (
+                "program view  blink.asi" in screen and "v Slave view" in screen
+                and "ACCU1" in screen
+                and any(re.search(r"still running\?\s+[01]\s+\d+\s+\d+\s+[01]$", line)
+                        for line in rows)
+                and any(re.search(r"=   Q 31.0\s+(-\s+){3}not run$", line)
+                        for line in screen.splitlines())
+            )
+
+        assert wait_for(program_view), capture(session)
+        subprocess.run(["tmux", "send-keys", "-t", session, "v"], check=True)
+        assert wait_for(lambda: "v Program view" in capture(session)), capture(session)
         subprocess.run(["tmux", "send-keys", "-t", session, "q"], check=True)
         assert wait_for(done.exists), capture(session)
         assert done.read_text().strip() == "0"
