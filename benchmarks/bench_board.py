@@ -73,13 +73,16 @@ def main() -> None:
         board = running_board(text, slaves)
         runner = board.program
         start_cycles, start = runner.cpu.cycles, time.perf_counter()
+        cpu_start = time.process_time()
         board.advance(args.minutes * 60_000)
         wall = time.perf_counter() - start
+        cpu = time.process_time() - cpu_start
         scale = 60 / args.minutes
         ran = (runner.cpu.cycles - start_cycles) // max(runner.last_cycles, 1)
         print(
             f"{name:42s} {wall * scale:7.1f} s per hour, "
-            f"{ran * scale:11,.0f} program cycles run per hour, {ran / wall:9,.0f} per second"
+            f"{ran * scale:11,.0f} program cycles run per hour, {ran / wall:9,.0f} per second, "
+            f"{ran / max(cpu, 1e-9):9,.0f} per CPU second"
         )
 
 

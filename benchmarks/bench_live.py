@@ -8,11 +8,17 @@ it); the client side runs here, as the commands do:
   program buffer, the read-back, the reset), median of several runs;
 - refresh: ``MonitorSource.snapshot`` (what one monitor refresh reads) per second;
 - input to output: setting an input of the board's cable, then polling ``status`` until
-  the program's output follows (the program ``Q 17.3 = I 4.0``), median.
+  the program's output follows (the program ``Q 17.3 = I 4.0``), median;
+- the program view: the server process's CPU time per second of wall time with no
+  monitor, with a monitor refreshing its slave view 4 times a second, with its program
+  view open (each refresh also asks for the latest cycle's lines, for which the board
+  runs one cycle under line hooks), and with no monitor again (the hooks are gone: the
+  figure must be the first one's); and how long one ``lines`` request takes. The program
+  toggles a flag every cycle, so the board runs every program cycle throughout.
 
 Usage:
 
-    python3 benchmarks/bench_live.py [--runs 5]
+    python3 benchmarks/bench_live.py [--runs 5] [--seconds 10]
 """
 
 from __future__ import annotations
@@ -25,6 +31,7 @@ import subprocess
 import sys
 import tempfile
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 from bench_compile import largest_fitting
@@ -97,9 +104,72 @@ def input_to_output(address: MasterAddress, runs: int) -> float:
     return statistics.median(times)
 
 
+BUSY = """[SETUP]
+4: iiii, 0
+17: oooo, 0
+[PROGRAM]
+        AN  F 0.0
+        =   F 0.0
+***
+        A   I 4.0
+        A   F 0.0
+        =   Q 17.3
+        BE
+[END]
+"""
+
+
+def cpu_seconds(pid: int) -> float:
+    """User and system time of a process so far (/proc/PID/stat, fields 14 and 15)."""
+    fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+def server_share(pid: int, seconds: float, work: Callable[[], None] | None) -> float:
+    """The server's CPU seconds per wall second while ``work`` runs 4 times a second."""
+    cpu, started = cpu_seconds(pid), time.perf_counter()
+    while (now := time.perf_counter()) - started < seconds:
+        if work is not None:
+            work()
+        time.sleep(max(0.0, 0.25 - (time.perf_counter() - now)))
+    return (cpu_seconds(pid) - cpu) / (time.perf_counter() - started)
+
+
+def program_view(address: MasterAddress, pid: int, seconds: float) -> None:
+    built = build(from_string("busy.asi", BUSY))
+    assert built.image is not None
+    with connect_master(address) as master:
+        download(master.transport, built.image, start=StartMode.START)
+        master.emulated("match")
+    monitor = MonitorSource(address)
+    shares = {"no monitor": server_share(pid, seconds, None)}
+    shares["monitor, slave view"] = server_share(pid, seconds, monitor.snapshot)
+    monitor.watch_lines = True
+    times: list[float] = []
+
+    def refresh() -> None:
+        started = time.perf_counter()
+        assert monitor.snapshot().lines is not None
+        times.append(time.perf_counter() - started)
+
+    shares["monitor, program view"] = server_share(pid, seconds, refresh)
+    shares["no monitor again"] = server_share(pid, seconds, None)
+    for name, share in shares.items():
+        print(f"server CPU, {name}: {share * 100:.1f} %")
+    with connect_master(address) as master:
+        started = time.perf_counter()
+        for _ in range(20):
+            master.emulated("lines")
+        each = (time.perf_counter() - started) / 20
+    print(f"one 'lines' request: {each * 1000:.1f} ms; a program-view refresh "
+          f"{statistics.median(times) * 1000:.1f} ms (median)")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--runs", type=int, default=5)
+    parser.add_argument("--seconds", type=float, default=10.0,
+                        help="how long each CPU share is measured")
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         state = Path(tmp) / "state"
@@ -112,6 +182,7 @@ def main() -> None:
             print(f"monitor refresh (status without the image): {rate:.0f} per second")
             latency = input_to_output(address, args.runs)
             print(f"input set -> output seen in status: {latency * 1000:.0f} ms (median)")
+            program_view(address, process.pid, args.seconds)
         finally:
             process.send_signal(signal.SIGTERM)
             process.wait(timeout=20)

@@ -289,3 +289,43 @@ def modules(draw: st.DrawFn, file: str = "<string>") -> ast.Module:
         body.append(draw(programs(scope)) if kind == 0 else draw(gatings(scope)) if kind == 1
                     else draw(assembly_sections) if kind == 2 else draw(raw_sections))
     return ast.Module(file, (*head, *body))
+
+
+# ------------------------------------------------------------------ traceable programs
+
+
+def runnable(section: ast.ProgramSection) -> ast.ProgramSection:
+    """No ASM (the interpreter has no 8051), no backward jumps (endless loops)."""
+    seen: set[str] = set()
+    kept = []
+    for statement in section.statements:
+        if isinstance(statement, ast.Label):
+            seen.add(statement.name.casefold())
+        if isinstance(statement, ast.Asm):
+            continue
+        if isinstance(statement, ast.Jump) and statement.label.casefold() in seen:
+            continue
+        kept.append(statement)
+    return ast.ProgramSection(tuple(kept))
+
+
+@st.composite
+def traceable_sources(draw: st.DrawFn) -> dict[str, str]:
+    """A main file and perhaps one block file, as text (the trace needs real lines)."""
+    scope, decl = draw(scopes())
+    decl_items = [d for d in decl.declarations if not isinstance(d, ast.FBDecl)]
+    files: dict[str, str] = {}
+    block = draw(st.booleans())
+    if block:
+        decl_items.append(ast.FBDecl("Blk", "blk.fb"))
+        files["blk.fb"] = ast.Module("blk.fb", (runnable(draw(programs(scope))),)).to_source()
+    body = []
+    for _ in range(draw(st.integers(1, 2))):
+        statements = list(runnable(draw(programs(scope))).statements)
+        if block:
+            statements.insert(draw(st.integers(1, max(1, len(statements)))),
+                              ast.CallFB(draw(st.booleans()), "Blk"))
+        body.append(ast.ProgramSection(tuple(statements)))
+    main_module = ast.Module("main.asi", (ast.DeclSection(tuple(decl_items)), *body))
+    files["main.asi"] = main_module.to_source()
+    return files

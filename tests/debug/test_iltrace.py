@@ -15,13 +15,12 @@ from pathlib import Path, PurePath
 from click.testing import CliRunner
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
-from il_strategies import programs, scopes
+from il_strategies import traceable_sources
 
 from asictl.build import build_file
 from asictl.cli import main
 from asictl.debug.iltrace import ILTracer
 from asictl.debug.view import ProgramView
-from asictl.il import ast
 from asictl.il.reference import CycleTimeout as ReferenceTimeout
 from asictl.il.reference import Interpreter
 from asictl.runtime.line_map import SourceLine
@@ -39,43 +38,6 @@ class ModelFirmware:
         pseg[1] = (pseg[1] ^ h) & 0xFF
 
 
-def _runnable(section: ast.ProgramSection) -> ast.ProgramSection:
-    """No ASM (the interpreter has no 8051), no backward jumps (endless loops)."""
-    seen: set[str] = set()
-    kept = []
-    for statement in section.statements:
-        if isinstance(statement, ast.Label):
-            seen.add(statement.name.casefold())
-        if isinstance(statement, ast.Asm):
-            continue
-        if isinstance(statement, ast.Jump) and statement.label.casefold() in seen:
-            continue
-        kept.append(statement)
-    return ast.ProgramSection(tuple(kept))
-
-
-@st.composite
-def sources(draw: st.DrawFn) -> dict[str, str]:
-    """A main file and perhaps one block file, as text (the trace needs real lines)."""
-    scope, decl = draw(scopes())
-    decl_items = [d for d in decl.declarations if not isinstance(d, ast.FBDecl)]
-    files: dict[str, str] = {}
-    block = draw(st.booleans())
-    if block:
-        decl_items.append(ast.FBDecl("Blk", "blk.fb"))
-        files["blk.fb"] = ast.Module("blk.fb", (_runnable(draw(programs(scope))),)).to_source()
-    body = []
-    for _ in range(draw(st.integers(1, 2))):
-        statements = list(_runnable(draw(programs(scope))).statements)
-        if block:
-            statements.insert(draw(st.integers(1, max(1, len(statements)))),
-                              ast.CallFB(draw(st.booleans()), "Blk"))
-        body.append(ast.ProgramSection(tuple(statements)))
-    main_module = ast.Module("main.asi", (ast.DeclSection(tuple(decl_items)), *body))
-    files["main.asi"] = main_module.to_source()
-    return files
-
-
 inputs_runs = st.lists(st.binary(min_size=16, max_size=16), min_size=1, max_size=4)
 
 
@@ -86,7 +48,7 @@ def _line(statement: object) -> SourceLine | None:
 
 @settings(max_examples=EXAMPLES, deadline=None,
           suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
-@given(sources(), inputs_runs)
+@given(traceable_sources(), inputs_runs)
 def test_trace_rows_agree_with_the_reference_interpreter(files: dict[str, str], runs) -> None:
     with tempfile.TemporaryDirectory() as tmp:
         for name, text in files.items():

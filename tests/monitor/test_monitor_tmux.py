@@ -7,6 +7,7 @@ hiding that the monitor was never seen in a terminal.
 from __future__ import annotations
 
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -22,10 +23,16 @@ ROOT = Path(__file__).resolve().parents[2]
 BLINK = ROOT / "demos" / "blink.asi"
 
 
-def capture(session: str) -> str:
+def tmux(server: str, *args: str, check: bool = True) -> str:
+    """One tmux command on the test's own server (``-L``): no other tmux session, the
+    user's or a parallel test's, can resize or share its window."""
     return subprocess.run(
-        ["tmux", "capture-pane", "-p", "-t", session], capture_output=True, text=True
+        ["tmux", "-L", server, *args], capture_output=True, text=True, check=check
     ).stdout
+
+
+def capture(server: str) -> str:
+    return tmux(server, "capture-pane", "-p", "-t", "monitor", check=False)
 
 
 def wait_for(predicate, timeout: float = 20.0) -> bool:
@@ -44,31 +51,50 @@ def test_the_monitor_shows_the_slaves_in_tmux_and_q_quits(tmp_path: Path):
                                        str(state)])
     assert result.exit_code == 0, result.output
     done = tmp_path / "exit-status"
-    session = f"asictl-test-{uuid.uuid4().hex[:8]}"
+    server = f"asictl-test-{uuid.uuid4().hex[:8]}"
     command = (
         f"PYTHONPATH={ROOT / 'src'} {sys.executable} -m asictl monitor --state-dir {state}; "
         f"echo $? > {done}"
     )
     env = {**os.environ, "TERM": "xterm-256color"}
     subprocess.run(
-        ["tmux", "new-session", "-d", "-s", session, "-x", "170", "-y", "45", command],
+        ["tmux", "-L", server, "new-session", "-d", "-s", "monitor", "-x", "170", "-y", "45",
+         command],
         check=True, env=env,
     )
     try:
         shown = ("31 0000/000", "normal operation", "control program running", "PDA", "q Quit")
-        assert wait_for(lambda: all(text in capture(session) for text in shown)), capture(
-            session
+        assert wait_for(lambda: all(text in capture(server) for text in shown)), capture(
+            server
         )
         # the blinker blinks on the screen: both values of Q 31.0 show up
         seen = set()
         wait_for(lambda: seen.update(
-            {line.split("31 0000/")[1][:4] for line in capture(session).splitlines()
+            {line.split("31 0000/")[1][:4] for line in capture(server).splitlines()
              if "31 0000/" in line}
-        ) or len(seen) > 1, timeout=10)
+        ) or len(seen) > 1, timeout=30)
         assert seen >= {"0000", "0001"}, seen
-        subprocess.run(["tmux", "send-keys", "-t", session, "q"], check=True)
-        assert wait_for(done.exists), capture(session)
+        # the program view: the source with each line's values from the latest cycle
+        tmux(server, "send-keys", "-t", "monitor", "v")
+
+        def program_view() -> bool:
+            screen = capture(server)
+            rows = [line for line in screen.splitlines() if "A   T 0" in line]
+            return (
+                "program view  blink.asi" in screen and "v Slave view" in screen
+                and "ACCU1" in screen
+                and any(re.search(r"still running\?\s+[01]\s+\d+\s+\d+\s+[01]$", line)
+                        for line in rows)
+                and any(re.search(r"=   Q 31.0\s+(-\s+){3}not run$", line)
+                        for line in screen.splitlines())
+            )
+
+        assert wait_for(program_view), capture(server)
+        tmux(server, "send-keys", "-t", "monitor", "v")
+        assert wait_for(lambda: "v Program view" in capture(server)), capture(server)
+        tmux(server, "send-keys", "-t", "monitor", "q")
+        assert wait_for(done.exists), capture(server)
         assert done.read_text().strip() == "0"
     finally:
-        subprocess.run(["tmux", "kill-session", "-t", session], capture_output=True)
+        tmux(server, "kill-server", check=False)
     assert not (state / "pc2-300h.sock").exists(), "the monitor's own live board stopped"

@@ -29,6 +29,11 @@ def monitor(**board: Unpack[_BoardOptions]) -> None:
     its address; m switches protected/configuration mode; F5/F6 store the actual
     parameters/configuration; F9 reads everything again; q quits.
 
+    v shows the program view instead of the slaves: the program's source with each IL
+    line's RLO, ACCU1, ACCU2 and operand value from the latest cycle (an emulated board
+    only), lines that did not run grey; arrows and PgUp/PgDn scroll, n goes to the next
+    file (the function blocks follow the main file); v again returns.
+
     An emulated board that no 'asictl serve' keeps running is served live by the monitor
     itself while it runs, so the other commands reach it meanwhile.
 

@@ -103,10 +103,12 @@ class ILTracer:
         self._lines = {PurePath(name).name: text.split("\n") for name, text in texts.items()}
         self.rows: list[LineRow] = []
         self.cycle = 0
+        #: the last cycle whose end was seen (its rows are complete)
+        self.completed = 0
         self._pending: SourceLine | None = None
         self.hooks = LineHooks(
             runner, line_map, on_line=self._line, on_cycle_start=self._cycle_start,
-            on_cycle_end=self._flush,
+            on_cycle_end=self._cycle_end,
         )
 
     def source(self, line: SourceLine) -> str:
@@ -118,6 +120,10 @@ class ILTracer:
     def _cycle_start(self) -> None:
         self.cycle += 1
         self._pending = None
+
+    def _cycle_end(self) -> None:
+        self._flush()
+        self.completed = self.cycle
 
     def _line(self, line: SourceLine, address: int) -> None:
         self._flush()

@@ -11,7 +11,9 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
+from asictl.board.board import Pc2Board
 from asictl.il import ast
+from asictl.platform import pc2
 from asictl.platform.master import TICK_MS
 from asictl.runtime import layout
 from asictl.runtime.program_map import CellKind
@@ -90,3 +92,41 @@ class ProgramView:
             case ast.VarByte(name=name, offset=o):
                 return xdata.read(pmap.variables[name.casefold()].address + o)
         raise AssertionError(operand)
+
+
+def read_on_board(board: Pc2Board, operand: Operand) -> int:
+    """An operand's value on a board now, as the plant sees it: inputs as the slaves
+    deliver them, outputs as the slaves receive them (0 while the program is stopped),
+    flags from the communication memory, the rest from the program's memory."""
+    node = operand.node
+    match node:
+        case ast.ImageBit(area=ast.BitArea.I, address=a, bit=b):
+            return _slave_inputs(board, a) >> b & 1
+        case ast.ImageByte(area=ast.ByteArea.IB, number=n):
+            return _slave_inputs(board, n) | _slave_inputs(board, n + 1) << 4
+        case ast.ImageBit(area=ast.BitArea.Q, address=a, bit=b):
+            return board.outputs[a >> 1] >> ((a & 1) * 4 + b) & 1
+        case ast.ImageByte(area=ast.ByteArea.QB, number=n):
+            return board.outputs[n >> 1]
+        case ast.ImageBit(area=ast.BitArea.F, address=a, bit=b):
+            return board.dpram[pc2.FLAGS + a] >> b & 1
+        case ast.ImageByte(area=ast.ByteArea.FY, number=n):
+            return board.dpram[pc2.FLAGS + n]
+    runner = board.program
+    if runner is None:
+        return 0
+    pmap = runner.pmap
+    match node:
+        case ast.ImageBit(area=ast.BitArea.I2, address=a, bit=b):
+            cell = pmap.cells.get((CellKind.I2, a >> 1))
+            value = runner.read(cell) if cell else 0
+            return value >> ((a & 1) * 4 + b) & 1
+        case ast.ImageByte(area=ast.ByteArea.I2B, number=n):
+            cell = pmap.cells.get((CellKind.I2, n >> 1))
+            return runner.read(cell) if cell else 0
+    return ProgramView(runner, lambda _: 0).read(operand)
+
+
+def _slave_inputs(board: Pc2Board, address: int) -> int:
+    slaves = board.bus.at(address)
+    return slaves[0].inputs if slaves else 0

@@ -23,7 +23,7 @@ from asictl.errors import ExitCode, UserError
 from asictl.host.boards import connect, parse_port, port_name, state_directory, state_file
 from asictl.host.commissioning import Commissioning, ModbusCommissioning, Pc2Commissioning
 from asictl.host.driver import EmulatedPort, Pc2Driver
-from asictl.host.status import MasterStatus, ProgramInfo, control_summary, read_status
+from asictl.host.status import MasterStatus, StoredProgram, control_summary, read_status
 from asictl.host.target import DEFAULT_RETRIES, DEFAULT_TIMEOUT_S, parse_target
 from asictl.host.transfer import Pc2Transport, Transport
 from asictl.image import ProgramImage
@@ -75,8 +75,8 @@ class Master:
     created: bool = False
     #: ASI_MON's editor-mode functions on this master
     commissioning: Commissioning | None = None
-    #: the status with the program image's description given, not read again (a monitor)
-    quick_status: Callable[[ProgramInfo], MasterStatus] | None = None
+    #: the status with the program image given, not read again (a monitor)
+    quick_status: Callable[[StoredProgram], MasterStatus] | None = None
 
     def tools(self) -> Commissioning:
         assert self.commissioning is not None, "every way to a master has them"

@@ -7,6 +7,10 @@ behind its socket (``host.live``): the commands send the action's name and argum
 whichever board they reach. Arguments come from the command line's parsers below, which
 check them first; an action still refuses anything that does not fit the cable as it is
 (``BusError``: a slave already at an address, no slave there).
+
+``lines`` is the monitor's program view: each IL line with the register and operand
+values of the latest program cycle, recorded on the board for that one cycle
+(``debug.online``).
 """
 
 from __future__ import annotations
@@ -243,6 +247,13 @@ def _view(board: Pc2Board, args: dict[str, JSON]) -> JSON:
     return view
 
 
+def _lines(board: Pc2Board, args: dict[str, JSON]) -> JSON:
+    """The program's IL lines with their values in the latest cycle (debug.online)."""
+    from asictl.debug.online import latest_cycle
+
+    return latest_cycle(board)
+
+
 ACTIONS: dict[str, Action] = {
     "bus": _bus,
     "plug": _plug,
@@ -252,9 +263,10 @@ ACTIONS: dict[str, Action] = {
     "populate": _populate,
     "set_button": _set_button,
     "view": _view,
+    "lines": _lines,
 }
 #: Actions that only look: a command running them need not save the board's state.
-VIEWS = frozenset({"bus", "view"})
+VIEWS = frozenset({"bus", "view", "lines"})
 
 
 def run_action(board: Pc2Board, name: str, args: dict[str, JSON]) -> JSON:

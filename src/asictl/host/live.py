@@ -14,8 +14,10 @@ session: the client has the board to itself until it ends or disconnects; a clie
 waiting first gets ``{"waiting": HOLDER}``); ``{"op": "io", "ops": [...]}`` with
 ``["w", OFFSET, [BYTE, ...]]`` and ``["r", OFFSET, COUNT]``, answered by ``{"ok": true,
 "reads": [[BYTE, ...], ...]}``; ``{"op": "action", "name": NAME, "args": {...}}`` for the
-emulated-only actions of ``host.emulated``. A failure is ``{"ok": false, "error": TEXT,
-"exit": CODE}``.
+emulated-only actions of ``host.emulated`` (the cable, the set button, the program's
+timers and counters, and ``lines``: the program's IL lines with their values in the
+latest cycle, for which the board runs one cycle under line hooks and removes them
+again). A failure is ``{"ok": false, "error": TEXT, "exit": CODE}``.
 
 Each connection has its own INDEX/PAGE pointer, restored before its accesses, and a
 command written to the command byte runs to its acknowledge before the request returns

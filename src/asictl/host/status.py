@@ -203,24 +203,35 @@ def _cycle_ms(raw: bytes) -> float:
     return int.from_bytes(raw, "little") * CYCLE_TIME_UNIT_US / 1000
 
 
+@dataclass(frozen=True)
+class StoredProgram:
+    """The EEPROM's program as read once: its description, and the image itself (None
+    when there is none or it does not read) for what only the image knows: the IL line
+    of an address, the source. A monitor keeps it between refreshes."""
+
+    info: ProgramInfo
+    image: ProgramImage | None = None
+
+
 def program_info(transport: Transport) -> ProgramInfo:
-    return _program(transport)[0]
+    return read_program(transport).info
 
 
-def _program(transport: Transport) -> tuple[ProgramInfo, ProgramImage | None]:
+def read_program(transport: Transport) -> StoredProgram:
+    """Upload (53) the image in the EEPROM and describe it."""
     head = transport.read_eeprom(0, HEADER_SIZE)
     if head[: len(MAGIC)] != MAGIC:
-        return ProgramInfo(present=False, valid=False, problem="no program image"), None
+        return StoredProgram(ProgramInfo(present=False, valid=False, problem="no program image"))
     try:
         image = upload(transport)
     except JobError as exc:
         if exc.status is not JobStatus.EEPROM_ERROR:
             raise
-        return ProgramInfo(present=True, valid=False, problem=str(exc)), None
-    return ProgramInfo(
+        return StoredProgram(ProgramInfo(present=True, valid=False, problem=str(exc)))
+    return StoredProgram(ProgramInfo(
         present=True, valid=True, identity=image.identity_hex, size=len(image.to_bytes()),
         code_size=len(image.code), source_included=bool(image.source),
-    ), image
+    ), image)
 
 
 #: The stops whose code address the master leaves in 308h: the loop a cycle time-out cut
@@ -308,10 +319,11 @@ def view_fields(view: View | None) -> dict[str, Any]:
 
 def read_status(
     driver: Pc2Driver, port: str, view: Callable[[], View | None] | None = None, *,
-    program: ProgramInfo | None = None,
+    program: StoredProgram | None = None,
 ) -> MasterStatus:
-    """Refresh (51), then read the DPRAM and the EEPROM image header (unless ``program``
-    is given: a monitor reads the image only when it may have changed)."""
+    """Refresh (51), then read the DPRAM and the EEPROM's image (unless ``program`` is
+    given: a monitor reads the image only when it may have changed, and keeps it, so
+    that a cycle time-out is still named by its IL line)."""
     driver.command(Command.GET_STATUS)
     ec = driver.read_byte(EC_FLAGS)
     lps, lds, las = (_slaves(driver.read(a, LIST_SIZE)) for a in (LPS, LDS, LAS))
@@ -330,9 +342,8 @@ def read_status(
         pp=nibbles(driver.read(PP, IMAGE_SIZE)), pi=nibbles(driver.read(PI, IMAGE_SIZE)),
         errors=None if extra is None else bytes(extra["error_counters"]),
     )
-    image = None
-    if program is None:  # (a monitor passes the program: it reads the image only on change)
-        program, image = _program(Pc2Transport(driver))
+    if program is None:
+        program = read_program(Pc2Transport(driver))
     return MasterStatus(
         port=port,
         master_name=_text(driver.read(MASTER_NAME, MASTER_NAME_SIZE)),
@@ -345,8 +356,8 @@ def read_status(
         program_status=_name(ProgramStatus, driver.read_byte(PROGRAM_STATUS)),
         cycle_time_ms=_cycle_ms(driver.read(CYCLE_TIME_PREVIOUS, 2)),
         max_cycle_time_ms=_cycle_ms(driver.read(CYCLE_TIME_MAXIMUM, 2)),
-        program=program,
-        stop_line=stop_line(driver, image) if reason in _AT_AN_ADDRESS else None,
+        program=program.info,
+        stop_line=stop_line(driver, program.image) if reason in _AT_AN_ADDRESS else None,
         slaves=slaves,
         los=los,
         hi_flags=driver.read_byte(HI_FLAGS),
@@ -395,13 +406,19 @@ def control_summary(driver: Pc2Driver) -> str:
         return f"control program {state}"
     where = None
     if reason in _AT_AN_ADDRESS:
-        where = stop_line(driver, _program(Pc2Transport(driver))[1])
+        where = stop_line(driver, read_program(Pc2Transport(driver)).image)
     return f"control program {state} ({_stopped(_name(StopReason, reason), where)})"
 
 
 def _stopped(reason: str, where: str | None) -> str:
     """``loop.asi:12: cycle time-out``, or the reason alone."""
     return f"{where}: {reason}" if where else reason
+
+
+def stop_text(status: MasterStatus) -> str | None:
+    """Why the program does not run, with the IL line where it stopped if known:
+    ``loop.asi:9: cycle timeout``; None while it runs."""
+    return None if status.stop_reason is None else _stopped(status.stop_reason, status.stop_line)
 
 
 def _slave_row(label: str, slaves: list[int]) -> str:
@@ -474,9 +491,8 @@ def render(status: MasterStatus) -> str:
         name for name in ("start_flag", "ignore_config_errors", "wait_for_set_button",
                           "map_counters", "control_active") if getattr(s, name)
     ]
-    control = s.control_state + (
-        f" ({_stopped(s.stop_reason, s.stop_line)})" if s.stop_reason else ""
-    )
+    stopped = stop_text(s)
+    control = s.control_state + (f" ({stopped})" if stopped else "")
     p = s.program
     if p.valid:
         program = (

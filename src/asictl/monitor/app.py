@@ -6,6 +6,10 @@ the selected slave's details. Right: hi-flags, timers and counters, the flag byt
 F0..F127. Bottom: the event log and the keys. The screen refreshes ``REFRESH_S`` apart;
 reading the master happens in a worker thread, so a slow or vanished master never
 freezes the screen (it is shown as gone, and found again when it returns).
+
+``v`` swaps the middle for the program view (``monitor.program``): the program's
+source with each line's values from the latest cycle, scrolled with the arrows and
+PgUp/PgDn, ``n`` jumping to the next file (the function blocks follow the main file).
 """
 
 from __future__ import annotations
@@ -19,6 +23,7 @@ from textual.binding import Binding, BindingType
 from textual.containers import Horizontal, Vertical
 from textual.widgets import Footer, Input, RichLog, Static
 
+from asictl.debug.online import CycleLines
 from asictl.errors import UserError
 from asictl.host.commissioning import check_address
 from asictl.host.connection import Master
@@ -26,11 +31,14 @@ from asictl.host.emulated import parse_address, parse_number, parse_profile
 from asictl.host.status import (
     MasterStatus,
     SlaveData,
+    StoredProgram,
     flag_rows,
     hi_flag_text,
     profile_text,
+    stop_text,
     timer_text,
 )
+from asictl.monitor.program import Listing, heading, listing_of, render_rows
 from asictl.monitor.source import MonitorSource, Snapshot, toggle_start
 from asictl.platform.master import IO_CODE_BITS, SLAVES
 
@@ -41,6 +49,11 @@ COLUMNS = 8
 _LIST_LETTERS = {"LPS": "P", "LDS": "D", "LAS": "A", "LCS": "C", "LOS": "O"}
 
 Action = Callable[[Master], str | None]
+#: Keys of the slave view only: the program view keeps those that change what the
+#: program sees (inputs, outputs, flags, start and stop, the set button).
+_SLAVE_VIEW_ONLY = frozenset({
+    "move", "unplug", "toggle_mode", "store_parameters", "store_configuration",
+})
 
 
 def _lists(slave: SlaveData | None) -> str:
@@ -62,16 +75,26 @@ class MonitorApp(App[None]):
     #grid { height: 13; padding: 0 1; }
     #detail { height: 1fr; padding: 0 1; border-top: solid $primary; }
     #right { width: 1fr; min-width: 58; padding: 0 1; border-left: solid $primary; }
+    #program { height: 1fr; padding: 0 1; display: none; }
+    #middle.program #left, #middle.program #right { display: none; }
+    #middle.program #program { display: block; }
     #log { height: 8; border-top: solid $primary; }
     #prompt { dock: bottom; display: none; }
     #prompt.visible { display: block; }
     """
     BINDINGS: ClassVar[list[BindingType]] = [
         Binding("q", "quit", "Quit"),
+        Binding("v", "show('program')", "Program view"),
+        Binding("v", "show('slaves')", "Slave view"),
         Binding("left", "move(-1)", "Select", show=False, priority=True),
         Binding("right", "move(1)", "Select", show=False, priority=True),
         Binding("up", "move(-8)", "Select", show=False, priority=True),
         Binding("down", "move(8)", "Select", show=False, priority=True),
+        Binding("up", "scroll(-1)", "Scroll", show=False, priority=True),
+        Binding("down", "scroll(1)", "Scroll", show=False, priority=True),
+        Binding("pageup", "page(-1)", "Scroll", show=False, priority=True),
+        Binding("pagedown", "page(1)", "Scroll", key_display="↑↓ PgUp PgDn", priority=True),
+        Binding("n", "next_file", "Next file"),
         Binding("0", "toggle_input(0)", "0-3 Input bit"),
         Binding("1", "toggle_input(1)", "Input bit 1", show=False),
         Binding("2", "toggle_input(2)", "Input bit 2", show=False),
@@ -107,7 +130,16 @@ class MonitorApp(App[None]):
         self.emulated = False
         #: refreshes shown so far (tests and the refresh-rate benchmark read it)
         self.refreshes = 0
+        #: "slaves" or "program": what the middle of the screen shows
+        self.view = "slaves"
+        #: the program view: the stored image, its listing, the first row shown
+        self.program: StoredProgram | None = None
+        self.listing = Listing()
+        self.program_top = 0
+        self.lines: CycleLines | None = None
+        self.lines_note: str | None = None
         self._refreshing = False
+        self._program_rows = 1
         self._prompting: str | None = None
         self._shown: dict[str, Any] = {}
 
@@ -120,6 +152,7 @@ class MonitorApp(App[None]):
                 yield Static(id="grid")
                 yield Static(id="detail")
             yield Static(id="right")
+            yield Static(id="program")
         yield RichLog(id="log", max_lines=500, wrap=True)
         yield Input(id="prompt", select_on_focus=False)
         yield Footer()
@@ -146,9 +179,15 @@ class MonitorApp(App[None]):
 
     def _show(self, snapshot: Snapshot) -> None:
         self._refreshing = False
+        if not self.is_running:  # a refresh that ends while the screen closes
+            return
         old, self.status = self.status, snapshot.status
         was_error, self.error = self.error, snapshot.error
         self.emulated = snapshot.emulated
+        if snapshot.program is not None and snapshot.program is not self.program:
+            self.program = snapshot.program
+            self.listing = listing_of(snapshot.program)
+        self.lines, self.lines_note = snapshot.lines, snapshot.lines_note
         if snapshot.error and snapshot.error != was_error:
             self.log_event(f"master gone: {snapshot.error}")
         elif not snapshot.error and was_error:
@@ -174,9 +213,93 @@ class MonitorApp(App[None]):
             self._set("top", Text(f"master not reachable: {self.error}", style="bold red"))
             return
         self._set("top", _top(status, gone=self.error))
+        if self.view == "program":
+            self._set("program", self._program_view(status))
+            return
         self._set("grid", _grid(status, self.selected))
         self._set("detail", _detail(status, self.selected))
         self._set("right", _right(status))
+
+    # ------------------------------------------------------------------ program view
+
+    def _program_view(self, status: MasterStatus) -> Text:
+        """Title and notes, the column titles, and the rows that fit, from ``program_top``."""
+        size = self.query_one("#program", Static).content_size
+        width = max(size.width, 60)
+        text = Text()
+        files = self.listing.files
+        text.append("program view", style="bold")
+        if files:
+            text.append(f"  {files[0]}" + (f" (+ {', '.join(files[1:])})" if files[1:] else ""))
+        lines = self.lines
+        if lines is not None and lines.master_ms is not None:
+            text.append(f"   latest cycle at master time {lines.master_ms:.1f} ms")
+        slave = self._slave(self.selected)
+        if slave is not None:
+            text.append(
+                f"   slave {self.selected}: in {slave.inputs:04b} out {slave.outputs:04b}",
+                style="dim",
+            )
+        notes = [self.listing.note, self.lines_note or ""]
+        stopped = stop_text(status)
+        if stopped:
+            notes.append(f"control program {status.control_state} ({stopped})")
+        elif lines is not None:
+            notes.append(lines.note)
+        for note in filter(None, notes):
+            text.append("\n" + note, style="yellow")
+        text.append("\n")
+        text.append_text(heading(self.listing, width))
+        visible = max(1, size.height - text.plain.count("\n") - 1)
+        self._program_rows = visible
+        self.program_top = max(0, min(self.program_top, len(self.listing.lines) - visible))
+        rows = render_rows(
+            self.listing, lines, top=self.program_top, height=visible, width=width,
+            stop_line=status.stop_line,
+        )
+        if rows:
+            text.append("\n")
+            text.append_text(rows)
+        return text
+
+    def check_action(self, action: str, parameters: tuple[object, ...]) -> bool | None:
+        """Keys by view: arrows select a slave or scroll the program; ``v`` says where it
+        goes."""
+        program = self.view == "program"
+        if action == "show":
+            return parameters[0] != self.view
+        if action in ("scroll", "page", "next_file"):
+            return program
+        if action in _SLAVE_VIEW_ONLY or parameters in (("plug",), ("address",)):
+            return not program
+        return True
+
+    def action_show(self, view: str) -> None:
+        self.view = view
+        middle = self.query_one("#middle")
+        middle.set_class(view == "program", "program")
+        self.source.watch_lines = view == "program"
+        self.refresh_bindings()
+        if self.status is not None:
+            self._paint()
+        self.refresh_now()
+
+    def _scroll_to(self, top: int) -> None:
+        self.program_top = max(0, top)
+        if self.status is not None:
+            self._paint()
+
+    def action_scroll(self, step: int) -> None:
+        self._scroll_to(self.program_top + step)
+
+    def action_page(self, pages: int) -> None:
+        self._scroll_to(self.program_top + pages * max(1, self._program_rows - 1))
+
+    def action_next_file(self) -> None:
+        """The next file's header at the top (after the last, the first again)."""
+        later = [row for row in self.listing.headers() if row > self.program_top]
+        last_page = self.program_top >= len(self.listing.lines) - self._program_rows
+        self._scroll_to(later[0] if later and not last_page else 0)
 
     def log_event(self, text: str) -> None:
         self.query_one("#log", RichLog).write(text)
@@ -364,11 +487,9 @@ def _changes(old: MasterStatus, new: MasterStatus) -> list[str]:
             why += [f"{n} not projected" for n in new.unexpected]
             why += [f"{w.slave} wrong profile" for w in new.wrong_profile]
             events.append("configuration error" + (f": {', '.join(why)}" if why else ""))
-    if (old.control_state, old.stop_reason) != (new.control_state, new.stop_reason):
-        events.append(
-            f"control program {new.control_state}"
-            + (f" ({new.stop_reason})" if new.stop_reason else "")
-        )
+    if (old.control_state, stop_text(old)) != (new.control_state, stop_text(new)):
+        stopped = stop_text(new)
+        events.append(f"control program {new.control_state}" + (f" ({stopped})" if stopped else ""))
     joined = sorted(set(new.lds) - set(old.lds))
     left = sorted(set(old.lds) - set(new.lds))
     if joined:
@@ -390,8 +511,9 @@ def _top(status: MasterStatus, *, gone: str | None) -> Text:
         style="green" if s.config_ok else "bold red",
     )
     text.append(f"   control program {s.control_state}")
-    if s.stop_reason:
-        text.append(f" ({s.stop_reason})", style="yellow")
+    stopped = stop_text(s)
+    if stopped:
+        text.append(f" ({stopped})", style="yellow")
     text.append(f"\ncycle {s.cycle_time_ms:.1f} ms (max {s.max_cycle_time_ms:.1f} ms)   ")
     text.append(f"program {s.program.identity or s.program.problem or 'none'}")
     if gone:

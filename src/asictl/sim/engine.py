@@ -28,7 +28,7 @@ from asictl.build import Build
 from asictl.codes import ScenarioCode
 from asictl.debug.iltrace import ILTracer, LineRow, line_operands
 from asictl.debug.locate import current_line, describe
-from asictl.debug.view import ProgramView
+from asictl.debug.view import ProgramView, read_on_board
 from asictl.diagnostics import Diagnostic, DiagnosticError, Severity, Span
 from asictl.host.driver import EmulatedPort, Pc2Driver
 from asictl.host.transfer import Pc2Transport, StartMode, download
@@ -241,38 +241,7 @@ class Simulation:
         """An operand's value now: inputs as the slaves deliver them, outputs as the slaves
         receive them (0 while the program is stopped), flags from the communication memory,
         the rest from the program's memory."""
-        board = self.board
-        node = operand.node
-        match node:
-            case ast.ImageBit(area=ast.BitArea.I, address=a, bit=b):
-                return self._slave_inputs(a) >> b & 1
-            case ast.ImageByte(area=ast.ByteArea.IB, number=n):
-                return self._slave_inputs(n) | self._slave_inputs(n + 1) << 4
-            case ast.ImageBit(area=ast.BitArea.Q, address=a, bit=b):
-                return board.outputs[a >> 1] >> ((a & 1) * 4 + b) & 1
-            case ast.ImageByte(area=ast.ByteArea.QB, number=n):
-                return board.outputs[n >> 1]
-            case ast.ImageBit(area=ast.BitArea.F, address=a, bit=b):
-                return board.dpram[d.FLAGS + a] >> b & 1
-            case ast.ImageByte(area=ast.ByteArea.FY, number=n):
-                return board.dpram[d.FLAGS + n]
-        runner = board.program
-        if runner is None:
-            return 0
-        pmap = runner.pmap
-        match node:
-            case ast.ImageBit(area=ast.BitArea.I2, address=a, bit=b):
-                cell = pmap.cells.get((CellKind.I2, a >> 1))
-                value = runner.read(cell) if cell else 0
-                return value >> ((a & 1) * 4 + b) & 1
-            case ast.ImageByte(area=ast.ByteArea.I2B, number=n):
-                cell = pmap.cells.get((CellKind.I2, n >> 1))
-                return runner.read(cell) if cell else 0
-        return ProgramView(runner, lambda _: 0).read(operand)
-
-    def _slave_inputs(self, address: int) -> int:
-        slaves = self.board.bus.at(address)
-        return slaves[0].inputs if slaves else 0
+        return read_on_board(self.board, operand)
 
     # ------------------------------------------------------------------ writing
 

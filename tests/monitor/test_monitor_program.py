@@ -1,0 +1,321 @@
+"""The monitor's program view under Textual's harness, against a live emulated board.
+
+``v`` swaps the slave view for the program's source with each line's values from the
+latest cycle; the arrows and PgUp/PgDn scroll, ``n`` jumps to the next file. The values
+come from the board the monitor watches (``debug.online``), so each test makes the board
+do something and looks for it on the screen.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import dataclasses
+import re
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+
+import pytest
+from click.testing import CliRunner
+
+from asictl.cli import main
+from asictl.host import connection
+from asictl.host.connection import MasterAddress
+from asictl.host.live import background_live
+from asictl.monitor import source as monitor_source
+from asictl.monitor.app import MonitorApp
+from asictl.monitor.program import NO_SOURCE
+from asictl.monitor.source import NO_LINES_GATEWAY, NO_LINES_REAL, MonitorSource
+from asictl.runtime.line_map import SourceLine
+
+ROOT = Path(__file__).resolve().parents[2]
+DEMOS = ROOT / "demos"
+BLINKER = """\
+[SETUP]
+4: iiii, 0
+17: oooo, 0
+
+[PROGRAM]
+        A   T 0             ; timer 0 running: keep the flag
+        JC  = show
+        N
+        L   KT 200
+        S   T 0
+***
+        AN  F 0.0           ; the flag blinks
+        =   F 0.0
+***
+show:   A   F 0.0
+        =   Q 17.0
+***
+        AN  I 4.0
+        JC  = done
+        A   F 0.0           ; only while I 4.0 is on
+        =   Q 17.1
+done:   BE
+[END]
+"""
+LOOP = """\
+[SETUP]
+4: iiii, 0
+
+[PROGRAM]
+        A   I 4.0
+        JC  = spin
+        BE
+spin:   A   I 4.1
+        JU  = spin
+[END]
+"""
+
+
+def cli(state: Path, *args: str) -> str:
+    result = CliRunner().invoke(main, [*args, "--state-dir", str(state)])
+    assert result.exit_code == 0, result.output
+    return result.stdout
+
+
+@contextmanager
+def live(tmp_path: Path, program: Path | str, name: str = "blinker.asi") -> Iterator[Path]:
+    """A live board running ``program`` (a file, or source text to write as ``name``)."""
+    if isinstance(program, str):
+        path = tmp_path / name
+        path.write_text(program)
+        program = path
+    state = tmp_path / "state"
+    with background_live(0x300, state, identity={"command": "test"}):
+        cli(state, "download", str(program), "--start")
+        cli(state, "bus", "match")
+        yield state
+
+
+async def settle(app: MonitorApp, pilot, refreshes: int = 2) -> None:
+    await app.workers.wait_for_complete()
+    target = app.refreshes + refreshes
+    for _ in range(200):
+        if app.refreshes >= target:
+            break
+        app.refresh_now()
+        await pilot.pause(0.02)
+    await app.workers.wait_for_complete()
+
+
+def run(state: Path, keys_and_checks, size: tuple[int, int] = (170, 45)) -> None:
+    app = MonitorApp(MonitorSource(MasterAddress(state_dir=state)))
+
+    async def main_() -> None:
+        async with app.run_test(size=size) as pilot:
+            await settle(app, pilot)
+            await keys_and_checks(app, pilot)
+
+    asyncio.run(main_())
+
+
+def program_text(app: MonitorApp) -> str:
+    return str(app.query_one("#program").render())
+
+
+def row(app: MonitorApp, number: int) -> str:
+    """The program view's row of line ``number`` (the first file that has it shown)."""
+    for text in program_text(app).splitlines():
+        if re.match(rf"(>>|  )\s*{number} ", text):
+            return text
+    raise AssertionError(f"line {number} not shown:\n{program_text(app)}")
+
+
+def first_row(app: MonitorApp) -> str:
+    """The first row under the column titles."""
+    lines = program_text(app).splitlines()
+    return lines[next(i for i, text in enumerate(lines) if "ACCU1" in text) + 1]
+
+
+def values(text: str) -> list[str]:
+    """RLO, ACCU1, ACCU2 (and the operand) at the end of a row."""
+    return text.split()[-4:]
+
+
+def log_text(app: MonitorApp) -> str:
+    return "\n".join(line.text for line in app.query_one("#log").lines)
+
+
+def test_v_toggles_the_program_view_and_the_footer_says_so(tmp_path):
+    async def check(app, pilot):
+        bindings = app.screen.active_bindings
+        assert bindings["v"].binding.description == "Program view"
+        assert not app.source.watch_lines
+        await pilot.press("v")
+        await settle(app, pilot)
+        assert app.view == "program" and app.source.watch_lines
+        assert app.query_one("#program").display and not app.query_one("#left").display
+        assert app.screen.active_bindings["v"].binding.description == "Slave view"
+        assert "Next file" in [b.binding.description for b in app.screen.active_bindings.values()]
+        text = program_text(app)
+        assert "program view  blinker.asi" in text and "latest cycle at master time" in text
+        assert "A   T 0             ; timer 0 running: keep the flag" in row(app, 6)
+        await pilot.press("v")
+        await settle(app, pilot)
+        assert app.view == "slaves" and not app.source.watch_lines
+        assert app.query_one("#left").display and not app.query_one("#program").display
+        assert app.screen.active_bindings["v"].binding.description == "Program view"
+
+    with live(tmp_path, BLINKER) as state:
+        run(state, check)
+
+
+def test_a_blinking_flag_shows_its_rlo_flip_between_refreshes(tmp_path):
+    async def check(app, pilot):
+        await pilot.press("v")
+        seen_rlo, seen_operand = set(), set()
+        for _ in range(60):
+            await settle(app, pilot, 1)
+            rlo, accu1, accu2, operand = values(row(app, 15))  # show: A F 0.0
+            seen_rlo.add(rlo)
+            seen_operand.add(operand)
+            assert app.lines is not None
+            assert app.lines.lines[SourceLine("blinker.asi", 15)].rlo == int(rlo)
+            if len(seen_rlo) == 2:
+                break
+        assert seen_rlo == {"0", "1"}, seen_rlo
+        assert seen_operand == {"0", "1"}
+        assert (accu1, accu2) == ("0", "0") or int(accu1) >= 0
+
+    with live(tmp_path, BLINKER) as state:
+        run(state, check)
+
+
+def test_lines_that_did_not_run_are_marked_and_run_after_an_input_key(tmp_path):
+    async def check(app, pilot):
+        await pilot.press("right", "right", "right")  # slave 1 -> 4, in the slave view
+        await pilot.press("v")
+        await settle(app, pilot)
+        assert "not run" in row(app, 20) and "not run" in row(app, 21)
+        assert "not run" not in row(app, 18)
+        assert values(row(app, 18))[-1] == "0", "I 4.0 is 0"
+        assert "slave 4: in 0000" in program_text(app)
+        await pilot.press("right")  # no slave selection in the program view
+        assert app.selected == 4
+        await pilot.press("0")  # I 4.0 = 1
+        await settle(app, pilot, 4)
+        assert "not run" not in row(app, 20)
+        assert values(row(app, 18))[-1] == "1"
+        assert "slave 4: in 0001" in program_text(app)
+
+    with live(tmp_path, BLINKER) as state:
+        run(state, check)
+
+
+def test_arrows_and_pages_scroll_and_n_goes_to_the_function_blocks(tmp_path):
+    async def check(app, pilot):
+        await pilot.press("v")
+        await settle(app, pilot)
+        rows = len(app.listing.lines)
+        assert app.listing.files == ["fb.asi", "latch.fb", "count3.fb"]
+        assert first_row(app).startswith("── fb.asi")
+        await pilot.press("down")
+        assert app.program_top == 1 and re.match(r"\s+1 ; fb.asi", first_row(app))
+        await pilot.press("up", "up")
+        assert app.program_top == 0
+        await pilot.press("pagedown")
+        page = app.program_top
+        assert page > 10, "a page is the rows shown, less one"
+        assert re.match(rf"\s+{page} ", first_row(app))
+        await pilot.press("pagedown", "pagedown", "pagedown", "pagedown")
+        shown = len(program_text(app).splitlines()) - 2
+        assert app.program_top == rows - shown, "the last page stays full"
+        await pilot.press("pageup", "pageup", "pageup", "pageup", "pageup", "pageup")
+        assert app.program_top == 0
+        await pilot.press("n")
+        await settle(app, pilot)
+        assert first_row(app).startswith("── latch.fb")
+        assert values(row(app, 9))[0] in ("0", "1"), "the block's lines have values"
+        await pilot.press("n")
+        await settle(app, pilot)
+        assert "── count3.fb" in program_text(app)
+        assert "not run" in row(app, 4), "Count3 runs only on an edge of I 1.2"
+        await pilot.press("n")
+        assert app.program_top == 0, "after the last file, the first again"
+
+    with live(tmp_path, DEMOS / "fb.asi") as state:
+        run(state, check, size=(170, 40))
+
+
+def test_an_image_without_source_shows_line_numbers_values_and_a_note(tmp_path):
+    (tmp_path / "p.asi").write_text(BLINKER)
+    hex_file = tmp_path / "p.hex"
+    result = CliRunner().invoke(main, ["compile", str(tmp_path / "p.asi"), "--no-source",
+                                       "-o", str(hex_file)])
+    assert result.exit_code == 0, result.output
+
+    async def check(app, pilot):
+        await pilot.press("v")
+        await settle(app, pilot)
+        text = program_text(app)
+        assert NO_SOURCE[:40] in text.replace("\n", "")
+        assert "A   T 0" not in text
+        assert re.fullmatch(r"\s+15\s+[01]\s+0\s+0", row(app, 15)), "no operand"
+        assert "not run" in row(app, 20)
+        assert not any(re.match(r"\s+(5|11|14) ", line) for line in text.splitlines()), (
+            "only lines with code"
+        )
+
+    with live(tmp_path, hex_file) as state:
+        run(state, check)
+
+
+@pytest.mark.parametrize(("shape", "note"), [("real", NO_LINES_REAL),
+                                             ("gateway", NO_LINES_GATEWAY)])
+def test_a_real_board_or_a_gateway_says_per_line_values_need_an_emulated_board(
+    tmp_path, monkeypatch, shape, note
+):
+    """The master as a real PC2 (no emulated actions) or a gateway (no PC2 driver either)
+    looks to the monitor: the source from the uploaded image, no values."""
+
+    @contextmanager
+    def as_hardware(address, notify=None):
+        with connection.connect_master(address, notify=notify) as master:
+            if shape == "real":
+                yield dataclasses.replace(master, action=None)
+            else:
+                yield dataclasses.replace(master, action=None, driver=None, quick_status=None)
+
+    monkeypatch.setattr(monitor_source, "connect_master", as_hardware)
+
+    async def check(app, pilot):
+        await pilot.press("v")
+        await settle(app, pilot)
+        text = program_text(app)
+        assert note[:50] in text.replace("\n", "")
+        assert "A   T 0             ; timer 0" in row(app, 6)
+        assert "not run" not in text and "latest cycle" not in text
+        assert app.lines is None
+
+    with live(tmp_path, BLINKER) as state:
+        run(state, check)
+
+
+def test_a_cycle_time_out_names_its_line_on_top_in_the_log_and_in_the_view(tmp_path):
+    async def check(app, pilot):
+        await pilot.press("right", "right", "right", "0")  # I 4.0 = 1: into the loop
+        await settle(app, pilot, 4)
+        top = str(app.query_one("#top").render())
+        assert "control program halted (loop.asi:9: cycle timeout)" in top
+        assert "control program halted (loop.asi:9: cycle timeout)" in log_text(app)
+        for _ in range(25):  # every refresh keeps the line (the image is kept, not re-read)
+            await settle(app, pilot, 1)
+            assert "loop.asi:9" in str(app.query_one("#top").render())
+        await pilot.press("v")
+        await settle(app, pilot)
+        assert row(app, 9).startswith(">>")
+        assert not row(app, 8).startswith(">>")
+        assert "control program halted (loop.asi:9: cycle timeout)" in program_text(app)
+
+    with live(tmp_path, LOOP, "loop.asi") as state:
+        run(state, check)
+
+
+def test_the_source_keeps_the_stop_line_between_image_reads(tmp_path):
+    with live(tmp_path, LOOP, "loop.asi") as state:
+        cli(state, "bus", "inputs", "I 4.0=1")
+        source = MonitorSource(MasterAddress(state_dir=state))
+        lines = [source.snapshot().status.stop_line for _ in range(3)]
+    assert lines == ["loop.asi:9"] * 3
