@@ -19,7 +19,9 @@ Three invariants the generated code relies on:
 
 * During a run, bit 0 of ``sfr[PSW]`` (the parity flag) is kept 0 and parity is
   computed from ACC when PSW is read; :meth:`Emulator.run` stores the true parity when
-  it returns, and the ``psw`` property always computes it.
+  it returns, and the ``psw`` property always computes it. Generated code keeps the
+  carry apart from the rest of PSW, in a local of its own (0 or 1): bit logic, which
+  is most of a PLC program, then works on a plain local.
 * A block never contains a breakpoint, trap or ``until`` address except as its first
   instruction, so stopping is only ever decided between blocks.
 * A block never changes the register bank except in its last instruction, so register
@@ -105,9 +107,10 @@ class _Writer:
     instruction and its successor are known; in a handler they are read at run time. The
     semantic methods (``_add``, ``_mov``, ...) are shared and see only expressions.
 
-    The generated code uses the locals ``a`` and ``psw`` for ACC and PSW (without its
-    parity bit); every assignment to them starts a line with ``a = `` or ``psw = ``,
-    which ``finish`` relies on to decide what to load and store.
+    The generated code uses the locals ``a`` for ACC, ``c`` for the carry (0 or 1) and
+    ``psw`` for the rest of PSW (without carry and parity bits); every assignment to
+    them starts a line with ``a = ``, ``c = `` or ``psw = ``, which ``finish`` relies on
+    to decide what to load and store.
     """
 
     def __init__(self, *, static: bool, bank: int = 0) -> None:
@@ -155,14 +158,14 @@ class _Writer:
             if d == ACC:
                 return "a"
             if d == PSW:
-                return "(psw | PAR[a])"
+                return "(psw | c << 7 | PAR[a])"
             if d in PORTS and not rmw:
                 return f"(sfr[{d}] & pins[{PORTS.index(d)}])"
             return f"sfr[{d}]"
         port = "" if rmw else f"sfr[{d}] & pins[{d} >> 4 & 3] if {d} & 207 == 128 else "
         return (
             f"(iram[{d}] if {d} < 128 else a if {d} == 224 else "
-            f"(psw | PAR[a]) if {d} == 208 else {port}sfr[{d}])"
+            f"(psw | c << 7 | PAR[a]) if {d} == 208 else {port}sfr[{d}])"
         )
 
     def set_direct(self, d: int | str, value: str, *, bits: int = 0xFF) -> None:
@@ -173,21 +176,24 @@ class _Writer:
             elif d == ACC:
                 self.emit(f"a = {value}")
             elif d == PSW:
-                self.emit(f"psw = ({value}) & 254")
+                value = self.temp(value)
+                self.emit(f"c = {value} >> 7")
+                self.emit(f"psw = {value} & 126")
                 self.bank_changes |= bool(bits & 0x18)
             else:
                 self.emit(f"sfr[{d}] = {value}")
             return
         value = self.temp(value)
-        for test, store in (
-            (f"if {d} < 128:", f"iram[{d}] = {value}"),
-            (f"elif {d} == 224:", f"a = {value}"),
-            (f"elif {d} == 208:", f"psw = {value} & 254"),
-            ("else:", f"sfr[{d}] = {value}"),
+        for test, stores in (
+            (f"if {d} < 128:", [f"iram[{d}] = {value}"]),
+            (f"elif {d} == 224:", [f"a = {value}"]),
+            (f"elif {d} == 208:", [f"c = {value} >> 7", f"psw = {value} & 126"]),
+            ("else:", [f"sfr[{d}] = {value}"]),
         ):
             self.emit(test)
             self.depth += 1
-            self.emit(store)
+            for store in stores:
+                self.emit(store)
             self.depth -= 1
 
     def bit_place(self, b: int | str) -> tuple[int | str, int | str]:
@@ -197,14 +203,27 @@ class _Writer:
         return self.temp(f"({b} >> 3) + 32 if {b} < 128 else {b} & 248"), self.temp(f"{b} & 7")
 
     def bit(self, b: int | str) -> str:
+        """The value (0 or 1) of bit address ``b``."""
         byte, n = self.bit_place(b)
-        if byte == PSW and n != 0:
-            return f"(psw >> {n} & 1)"
+        if byte == PSW and isinstance(n, int):
+            return "c" if n == 7 else "PAR[a]" if n == 0 else f"(psw >> {n} & 1)"
         return f"({self.direct(byte)} >> {n} & 1)"
+
+    def bit_test(self, b: int | str, *, rmw: bool = False) -> str:
+        """An expression that is true when bit ``b`` is set (cheaper than its value)."""
+        byte, n = self.bit_place(b)
+        if isinstance(byte, int) and isinstance(n, int):
+            if byte == PSW:
+                return self.bit(b)
+            return f"{self.direct(byte, rmw=rmw)} & {1 << n}"
+        return f"{self.direct(byte, rmw=rmw)} >> {n} & 1"
 
     def update_bit(self, b: int | str, op: str, value: str = "") -> None:
         """Read-modify-write one bit: ``op`` is 'set', 'clear', 'toggle' or 'assign'."""
         byte, n = self.bit_place(b)
+        if isinstance(byte, int) and isinstance(n, int) and byte != ACC:
+            self._update_known_bit(byte, n, op, value)
+            return
         old = self.direct(byte, rmw=True)
         mask = f"{1 << n}" if isinstance(n, int) else f"(1 << {n})"
         new = {
@@ -215,11 +234,34 @@ class _Writer:
         }[op]
         self.set_direct(byte, new, bits=1 << n if isinstance(n, int) else 0xFF)
 
+    def _update_known_bit(self, byte: int, n: int, op: str, value: str) -> None:
+        """``update_bit`` of a bit whose address a block knows: in place, no shifts."""
+        mask = 1 << n
+        if byte == PSW:
+            if n == 7:
+                self.emit({"set": "c = 1", "clear": "c = 0", "toggle": "c = c ^ 1",
+                           "assign": f"c = {value}"}[op])
+            elif n != 0:  # the parity bit is computed, never stored
+                self.emit({"set": f"psw = psw | {mask}", "clear": f"psw = psw & {255 ^ mask}",
+                           "toggle": f"psw = psw ^ {mask}",
+                           "assign": f"psw = psw & {255 ^ mask} | {value} << {n}"}[op])
+                self.bank_changes |= bool(mask & 0x18)
+            return
+        place = f"iram[{byte}]" if byte < 0x80 else f"sfr[{byte}]"
+        if op == "assign":
+            self.emit(f"if {value}:")
+            self.emit(f"    {place} |= {mask}")
+            self.emit("else:")
+            self.emit(f"    {place} &= {255 ^ mask}")
+        else:
+            self.emit({"set": f"{place} |= {mask}", "clear": f"{place} &= {255 ^ mask}",
+                       "toggle": f"{place} ^= {mask}"}[op])
+
     def get(self, kind: Operand, value: int | str | None, *, rmw: bool = False) -> str:
         if kind is Operand.A:
             return "a"
         if kind is Operand.C:
-            return "(psw >> 7)"
+            return "c"
         if kind in _REGISTER_NUMBER:
             return self.reg(_REGISTER_NUMBER[kind])
         if kind in _INDIRECT:
@@ -238,7 +280,7 @@ class _Writer:
         if kind is Operand.A:
             self.emit(f"a = {expr}")
         elif kind is Operand.C:
-            self.emit(f"psw = psw & 127 | {expr} << 7")
+            self.emit(f"c = {expr}")
         elif kind in _REGISTER_NUMBER:
             self.emit(f"{self.reg(_REGISTER_NUMBER[kind])} = {expr}")
         elif kind in _INDIRECT:
@@ -328,7 +370,7 @@ class _Writer:
     def call_device(self, call: str) -> None:
         """Call a bus device with the CPU state it may inspect brought up to date."""
         self.emit("sfr[224] = a")
-        self.emit("sfr[208] = psw")
+        self.emit("sfr[208] = psw | c << 7")
         if self.static:
             self.emit(f"emu.pc = {self.here}")
         self.emit(call)
@@ -345,19 +387,21 @@ class _Writer:
         else:
             v = self.temp(source)
             low = f"({v} & 15)"
-        c = f" {'-' if subtract else '+'} {self.temp('psw >> 7')}" if carry else ""
+        c = f" {'-' if subtract else '+'} c" if carry else ""
         if subtract:
             self.emit(f"t = a - {v}{c}")
             self.emit(
-                f"psw = psw & 59 | t >> 1 & 128 | ((a & 15) - {low}{c}) << 2 & 64"
+                f"psw = psw & 59 | ((a & 15) - {low}{c}) << 2 & 64"
                 f" | ((a ^ {v}) & (a ^ t)) >> 5 & 4"
             )
+            self.emit("c = t >> 8 & 1")  # a borrow makes t negative
         else:
             self.emit(f"t = a + {v}{c}")
             self.emit(
-                f"psw = psw & 59 | t >> 1 & 128 | ((a & 15) + {low}{c}) << 2 & 64"
+                f"psw = psw & 59 | ((a & 15) + {low}{c}) << 2 & 64"
                 f" | ((a ^ t) & ({v} ^ t)) >> 5 & 4"
             )
+            self.emit("c = t >> 8")
         self.emit("a = t & 255")
 
     def _add(self, ops: Operands, vals: Values) -> None:
@@ -372,13 +416,12 @@ class _Writer:
     def _logic(self, ops: Operands, vals: Values, op: str) -> None:
         dst, src = ops
         if dst is Operand.C:
-            bit = self.get(src, vals[1])
-            if op == "&":
-                self.emit(f"if not {bit}:")
-                self.emit("    psw = psw & 127")
+            test = self.bit_test(_encoded(vals[1]))
+            if (op == "&") == (src is Operand.NBIT):  # ANL C,/bit and ORL C,bit
+                self.emit(f"if {test}:")
             else:
-                self.emit(f"if {bit}:")
-                self.emit("    psw = psw | 128")
+                self.emit(f"if not {test}:")
+            self.emit(f"    c = {0 if op == '&' else 1}")
             return
         source = self.get(src, vals[1])
         self.put(dst, vals[0], f"{self.get(dst, vals[0], rmw=True)} {op} {source}")
@@ -417,6 +460,9 @@ class _Writer:
                 self.emit(f"sfr[131] = {imm} >> 8")
                 self.emit(f"sfr[130] = {imm} & 255")
             return
+        if dst is Operand.C and self.static:  # MOV C,bit: the commonest PLC instruction
+            self.emit(f"c = 1 if {self.bit_test(_encoded(vals[1]))} else 0")
+            return
         self.put(dst, vals[0], self.get(src, vals[1]))
 
     def _movc(self, ops: Operands, vals: Values) -> None:
@@ -452,13 +498,13 @@ class _Writer:
         if ops[0] is Operand.A:
             self.emit("a = 0")
         elif ops[0] is Operand.C:
-            self.emit("psw = psw & 127")
+            self.emit("c = 0")
         else:
             self.update_bit(_encoded(vals[0]), "clear")
 
     def _setb(self, ops: Operands, vals: Values) -> None:
         if ops[0] is Operand.C:
-            self.emit("psw = psw | 128")
+            self.emit("c = 1")
         else:
             self.update_bit(_encoded(vals[0]), "set")
 
@@ -466,7 +512,7 @@ class _Writer:
         if ops[0] is Operand.A:
             self.emit("a = a ^ 255")
         elif ops[0] is Operand.C:
-            self.emit("psw = psw ^ 128")
+            self.emit("c = c ^ 1")
         else:
             self.update_bit(_encoded(vals[0]), "toggle")
 
@@ -477,13 +523,13 @@ class _Writer:
         self.emit("a = (a >> 1 | a << 7) & 255")
 
     def _rlc(self, ops: Operands, vals: Values) -> None:
-        self.emit("t = a << 1 | psw >> 7")
-        self.emit("psw = psw & 127 | t >> 1 & 128")
+        self.emit("t = a << 1 | c")
+        self.emit("c = t >> 8")
         self.emit("a = t & 255")
 
     def _rrc(self, ops: Operands, vals: Values) -> None:
-        self.emit("t = a | (psw & 128) << 1")
-        self.emit("psw = psw & 127 | (a & 1) << 7")
+        self.emit("t = a | c << 8")
+        self.emit("c = a & 1")
         self.emit("a = t >> 1")
 
     def _swap(self, ops: Operands, vals: Values) -> None:
@@ -494,26 +540,28 @@ class _Writer:
         self.emit("t = a")
         self.emit("if t & 15 > 9 or psw & 64:")
         self.emit("    t = t + 6")
-        self.emit("if t > 255 or psw & 128 or t & 240 > 144:")
+        self.emit("if t > 255 or c or t & 240 > 144:")
         self.emit("    t = t + 96")
         self.emit("if t > 255:")
-        self.emit("    psw = psw | 128")
+        self.emit("    c = 1")
         self.emit("a = t & 255")
 
     def _mul(self, ops: Operands, vals: Values) -> None:
         self.emit("t = a * sfr[240]")
         self.emit("sfr[240] = t >> 8")
         self.emit("a = t & 255")
-        self.emit("psw = psw & 123 | (4 if t > 255 else 0)")
+        self.emit("c = 0")
+        self.emit("psw = psw & 251 | (4 if t > 255 else 0)")
 
     def _div(self, ops: Operands, vals: Values) -> None:
         self.emit("t = sfr[240]")
+        self.emit("c = 0")
         self.emit("if t:")
         self.emit("    sfr[240] = a % t")
         self.emit("    a = a // t")
-        self.emit("    psw = psw & 123")
+        self.emit("    psw = psw & 251")
         self.emit("else:")
-        self.emit("    psw = psw & 123 | 4")
+        self.emit("    psw = psw | 4")
 
     def _xch(self, ops: Operands, vals: Values) -> None:
         old = self.temp(self.get(ops[1], vals[1]))
@@ -563,10 +611,10 @@ class _Writer:
     _reti = _ret
 
     def _jc(self, ops: Operands, vals: Values) -> None:
-        self.branch("psw & 128", _encoded(vals[0]))
+        self.branch("c", _encoded(vals[0]))
 
     def _jnc(self, ops: Operands, vals: Values) -> None:
-        self.branch("not psw & 128", _encoded(vals[0]))
+        self.branch("not c", _encoded(vals[0]))
 
     def _jz(self, ops: Operands, vals: Values) -> None:
         self.branch("not a", _encoded(vals[0]))
@@ -575,16 +623,15 @@ class _Writer:
         self.branch("a", _encoded(vals[0]))
 
     def _jb(self, ops: Operands, vals: Values) -> None:
-        self.branch(self.bit(_encoded(vals[0])), _encoded(vals[1]))
+        self.branch(self.bit_test(_encoded(vals[0])), _encoded(vals[1]))
 
     def _jnb(self, ops: Operands, vals: Values) -> None:
-        self.branch(f"not {self.bit(_encoded(vals[0]))}", _encoded(vals[1]))
+        self.branch(f"not {self.bit_test(_encoded(vals[0]))}", _encoded(vals[1]))
 
     def _jbc(self, ops: Operands, vals: Values) -> None:
         # JBC reads the latch (it is read-modify-write) and clears the bit if it jumps.
         bit = _encoded(vals[0])
-        byte, n = self.bit_place(bit)
-        self.emit(f"if {self.direct(byte, rmw=True)} >> {n} & 1:")
+        self.emit(f"if {self.bit_test(bit, rmw=True)}:")
         self.depth += 1
         self.update_bit(bit, "clear")
         self.exit(_encoded(vals[1]))
@@ -594,7 +641,7 @@ class _Writer:
     def _cjne(self, ops: Operands, vals: Values) -> None:
         left = self.temp(self.get(ops[0], vals[0]))
         right = self.temp(self.get(ops[1], vals[1]))
-        self.emit(f"psw = psw & 127 | (128 if {left} < {right} else 0)")
+        self.emit(f"c = 1 if {left} < {right} else 0")
         self.branch(f"{left} != {right}", _encoded(vals[2]))
 
     def _djnz(self, ops: Operands, vals: Values) -> None:
@@ -620,16 +667,21 @@ class _Writer:
         stores = []
         if re.search(r"^\s*a = ", text, re.M):
             stores.append("sfr[224] = a")
-        if re.search(r"^\s*psw = ", text, re.M):
-            stores.append("sfr[208] = psw")
+        uses_psw = bool(re.search(r"\bpsw\b", text)) or (self.static and self.bank_changes)
+        uses_c = bool(re.search(r"\bc\b", text))
+        if re.search(r"^\s*(psw|c) = ", text, re.M):
+            merged = "psw" if uses_psw else "sfr[208] & 127"
+            stores.append(f"sfr[208] = {merged} | c << 7")
         if loop_start is not None:
             stores.append("iterations[0] = i")
         signature = "pc" if not self.static else "k" if loop_start is not None else ""
         out = [f"    def {name}({signature}):"]
         if re.search(r"\ba\b", text):
             out.append("        a = sfr[224]")
-        if re.search(r"\bpsw\b", text) or (self.static and self.bank_changes):
-            out.append("        psw = sfr[208]")
+        if uses_psw:
+            out += ["        psw = sfr[208]", "        c = psw >> 7", "        psw = psw & 127"]
+        elif uses_c:
+            out.append("        c = sfr[208] >> 7")
         indent = "    "
         if loop_start is not None:
             out += ["        i = 1", "        while True:"]
