@@ -41,8 +41,14 @@ from asictl.platform.master import (
 )
 from asictl.runtime import layout
 from asictl.runtime.firmware import FIRMWARE_BLOCKS
-from asictl.runtime.program_map import CellKind, Location, ProgramMap, Space, Variable
-from asictl.runtime.runner import LoadedProgram
+from asictl.runtime.program_map import (
+    CellKind,
+    LoadedProgram,
+    Location,
+    ProgramMap,
+    Space,
+    Variable,
+)
 
 MAGIC = b"ASI2"
 FORMAT_VERSION = 1

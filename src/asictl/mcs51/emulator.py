@@ -191,6 +191,9 @@ class Emulator:
         # how often the last self-looping block went round; what the last region ran
         self._iterations = [0, 0]
         self._stops: frozenset[int] = frozenset()
+        # the ``until`` the stop addresses include; False when they may have changed
+        self._stops_until: int | None = None
+        self._stops_current = False
         self._handlers: tuple[Callable[[int], int] | None, ...] = _instantiate(_HANDLERS, self)
         self.reset()
 
@@ -289,9 +292,11 @@ class Emulator:
     def add_breakpoint(self, address: int) -> None:
         """Stop a run before the instruction at ``address`` (not the run's first one)."""
         self._breakpoints.add(address & 0xFFFF)
+        self._stops_current = False
 
     def remove_breakpoint(self, address: int) -> None:
         self._breakpoints.discard(address & 0xFFFF)
+        self._stops_current = False
 
     @property
     def traps(self) -> dict[int, Trap]:
@@ -300,9 +305,11 @@ class Emulator:
     def add_trap(self, address: int, trap: Trap) -> None:
         """Call ``trap(emulator)`` whenever the PC reaches ``address`` (see ``Trap``)."""
         self._traps[address & 0xFFFF] = trap
+        self._stops_current = False
 
     def remove_trap(self, address: int) -> None:
         self._traps.pop(address & 0xFFFF, None)
+        self._stops_current = False
 
     # -- execution ------------------------------------------------------------------
 
@@ -339,12 +346,16 @@ class Emulator:
             self.sfr[PSW] = self.sfr[PSW] & 0xFE | PARITY[self.sfr[ACC]]
 
     def _stop_addresses(self, until: int | None) -> frozenset[int]:
+        # Breakpoints and traps change rarely; a cycle's run and a trap's return ask often.
+        if self._stops_current and until == self._stops_until:
+            return self._stops
         stops = frozenset(self._breakpoints | self._traps.keys())
         if until is not None:
             stops |= {until}
         if stops != self._stops:
             self._stops = stops
             self._invalidate()
+        self._stops_until, self._stops_current = until, True
         return stops
 
     def _run(
