@@ -242,11 +242,11 @@ class Pc2Board:
     def _idle(self) -> bool:
         """Would the next AS-i cycle change nothing? Then so would all until the next tick."""
         return not (
-            self._host_dirty
+            (self._control.running and (not self._quiet or self._dpram.stirred))
+            or self._host_dirty
             or self._command_pending
             or not self._ec.settled
             or not self._ec.in_step(self._outputs())
-            or (self._control.running and (not self._quiet or self._dpram.stirred))
         )
 
     def _idle_cycles(self, now: int, period: int, end: int) -> int:
@@ -366,7 +366,7 @@ class Pc2Board:
         dpram.stirred = False
         probe = self._probe_wait == 0
         calls = self._firmware.calls
-        before = self._snapshot(runner) if probe else b""
+        before = self._snapshot(runner) if probe else None
         try:
             runner.cycle(self._ec.idi)
         except CycleTimeout as exc:
@@ -376,8 +376,8 @@ class Pc2Board:
             return
         duration = control.record_cycle(runner.last_cycles)
         self._program_ready_us = self._now_us + math.ceil(duration)
-        if probe:
-            self._quiet = calls == self._firmware.calls and before == self._snapshot(runner)
+        if before is not None:
+            self._quiet = calls == self._firmware.calls and self._unchanged(runner, before)
             self._probe_wait = 0 if self._quiet else 16
         else:
             self._probe_wait -= 1
@@ -392,6 +392,16 @@ class Pc2Board:
     def _snapshot(runner: ProgramRunner) -> bytes:
         cpu = runner.cpu
         return bytes(cpu.iram) + bytes(cpu.sfr) + bytes(cpu.xdata.ram[: layout.DATA_LIMIT])
+
+    @staticmethod
+    def _unchanged(runner: ProgramRunner, snapshot: bytes) -> bool:
+        """Is the machine as ``_snapshot`` found it? (Compared in place: no copy of XDATA.)"""
+        cpu = runner.cpu
+        return (
+            snapshot.startswith(cpu.iram)
+            and snapshot.startswith(cpu.sfr, 256)
+            and cpu.xdata.ram.startswith(memoryview(snapshot)[512:])
+        )
 
     def safe_outputs(self) -> None:
         """Program stopped: outputs 0 until the host writes the ODI (stored inverted)."""
