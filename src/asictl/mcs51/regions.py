@@ -19,6 +19,11 @@ What makes a region faster than its blocks, besides saving the dispatches:
   every exit. An instruction that reaches internal RAM through a computed address
   (``@R0``, the stack) first stores them and afterwards loads them again, and so does
   a call to a device on the XDATA bus.
+* The carry's bit logic (``MOV C,bit``, ``ANL``/``ORL C,[/]bit``, ``CLR``/``SETB``/``CPL
+  C``) is folded into one Python condition, evaluated where the carry is next needed:
+  a network ``MOV C,a / ANL C,/b / ORL C,c / MOV d,C`` becomes
+  ``if (a) and not (b) or (c): d |= m else: d &= ~m``. Only bit reads are folded, and
+  the condition is evaluated before anything that could change what they read.
 * Instructions and machine cycles are counted per basic block and handed back in
   ``iterations[0]`` and ``iterations[1]``. The emulator calls a region only when the
   sum over all its instructions fits the run's budget, so budgets stay exact.
@@ -45,6 +50,20 @@ MAX_SYNC_LINES = 2048
 _DIRECT_IRAM = re.compile(r"iram\[(\d+)\]")
 _COMPUTED_IRAM = re.compile(r"iram\[(?!\d+\])")
 _CELL_WRITE = re.compile(r"^\s*r(\d+) [|&^]?= ", re.M)
+#: What a line of generated code assigns to (a local, or the array it stores into).
+_ASSIGNED = re.compile(r"^\s*(\w+)(?:\[[^\n]*?\])?\s*[|&^+-]?=(?!=)", re.M)
+#: What a folded carry condition reads.
+_READS = re.compile(r"\b(r\d+|a|c|sfr|pins)\b")
+_CARRY = re.compile(r"\bc\b")
+
+#: The carry instructions a region folds: opcode -> operation.
+_FOLDS = {0xA2: "mov", 0x82: "and", 0xB0: "and not", 0x72: "or", 0xA0: "or not",
+          0xC3: "clr", 0xD3: "setb", 0xB3: "cpl", 0x92: "store"}
+#: Instructions that set the carry without reading it.
+_CARRY_SETTERS = frozenset({0xA2, 0xC3, 0xD3})
+_PSW, _ACC = 0xD0, 0xE0
+#: Longest chain of folded operations before the carry is computed anyway.
+_MAX_FOLD = 12
 
 Line = str | tuple[int, int | str]
 
@@ -67,6 +86,8 @@ class _Node:
     bank_changes: bool
     #: reaches internal RAM at a computed address, so the cached bytes must be in memory
     computed_iram: bool
+    #: a foldable carry instruction: its opcode and bit address (-1 without a bit)
+    fold: tuple[int, int] | None = None
     predecessors: set[int] = field(default_factory=set)
 
 
@@ -131,6 +152,7 @@ def _walk(code: Sequence[int], entry: int, bank: int, stops: Collection[int]) ->
             conditional=writer.ended and writer.falls_through,
             bank_changes=writer.bank_changes,
             computed_iram=bool(_COMPUTED_IRAM.search(text)),
+            fold=_fold(code[address], raw),
         )
         nodes[address] = node
         if not node.bank_changes:
@@ -138,6 +160,19 @@ def _walk(code: Sequence[int], entry: int, bank: int, stops: Collection[int]) ->
                 if successor > address and successor not in nodes:
                     heapq.heappush(pending, successor)
     return nodes
+
+
+def _fold(opcode: int, raw: bytes) -> tuple[int, int] | None:
+    """The opcode and bit of a carry instruction the emitter may fold, else None."""
+    if opcode not in _FOLDS:
+        return None
+    if len(raw) == 1:
+        return opcode, -1
+    bit = raw[1]
+    byte = 0x20 + (bit >> 3) if bit < 0x80 else bit & 0xF8
+    if byte == _PSW or (opcode == 0x92 and byte == _ACC):
+        return None  # the carry itself and its neighbours: left to the templates
+    return opcode, bit
 
 
 def _successors(node: _Node) -> list[int]:
@@ -196,6 +231,10 @@ class _Emitter:
         self.bank_changes = any(n.bank_changes for n in nodes.values())
         self.loads, self.stores = register_locals(every, self.bank_changes)
         self.out: list[str] = []
+        #: the carry's folded condition not yet computed into ``c`` (None: ``c`` is current)
+        self.carry: str | None = None
+        self.folded = 0
+        self.bits = Writer(static=True)  # writes bit tests
 
     def source(self) -> str:
         out = self.out
@@ -213,17 +252,29 @@ class _Emitter:
                 depth = 3
                 out += [f"        if nxt == {first.address}:",
                         f"            n += {count}", f"            k += {cycles}"]
-            for address in block:
-                self._instruction(self.nodes[address], depth, address == block[-1])
+            for index, address in enumerate(block):
+                following = self.nodes[block[index + 1]] if index + 1 < len(block) else None
+                self._instruction(self.nodes[address], depth, following)
         return "\n".join(out)
 
-    def _instruction(self, node: _Node, depth: int, last: bool) -> None:
-        """One instruction at ``depth``; the last of its basic block passes control on.
+    def _instruction(self, node: _Node, depth: int, following: _Node | None) -> None:
+        """One instruction at ``depth``; the last of its basic block (no ``following``)
+        passes control on.
 
         An instruction that reaches internal RAM through a computed address runs on
         memory: the cached bytes are stored before it and loaded again on every path
         that stays in the region.
         """
+        last = following is None
+        if node.fold is not None:
+            self._fold(node.fold, depth, following)
+            if last:
+                self._compute_carry(depth)
+                assert node.fallthrough is not None  # carry instructions fall through
+                self._transfer(node, node.fallthrough, depth, False)
+            return
+        if self.carry is not None and (last or node.ends or self._disturbs(node)):
+            self._compute_carry(depth)
         pad = "    " * (depth - 1)  # the templates indent their own lines by one level
         computed = node.computed_iram
         if computed:
@@ -255,6 +306,68 @@ class _Emitter:
                 self._put(self._load_cells(), depth)
             if last:
                 self._transfer(node, node.fallthrough, depth, False)
+
+    def _code(self, node: _Node) -> str:
+        """The node's lines as they run here (cached bytes as locals)."""
+        text = "\n".join(line for line in node.lines if isinstance(line, str))
+        return _DIRECT_IRAM.sub(r"r\1", text) if self.cache else text
+
+    def _disturbs(self, node: _Node) -> bool:
+        """Would ``node`` read the carry or change what its folded condition reads?"""
+        if node.computed_iram:
+            return True
+        text = self._code(node)
+        if FLUSH in text or _CARRY.search(text):
+            return True
+        assert self.carry is not None
+        return not set(_ASSIGNED.findall(text)).isdisjoint(_READS.findall(self.carry))
+
+    def _fold(self, fold: tuple[int, int], depth: int, following: _Node | None) -> None:
+        opcode, bit = fold
+        operation = _FOLDS[opcode]
+        current = "c" if self.carry is None else self.carry
+        if operation in ("clr", "setb"):
+            self.carry = "0" if operation == "clr" else "1"
+        elif operation == "cpl":
+            self.carry = f"not ({current})"
+        elif operation == "store":
+            self._store_carry(bit, depth, following)
+            return
+        else:
+            test = self.bits.bit_test(bit)
+            if self.cache:
+                test = _DIRECT_IRAM.sub(r"r\1", test)
+            self.carry = test if operation == "mov" else f"({current}) {operation} ({test})"
+        self.folded += 1
+        if self.folded > _MAX_FOLD:
+            self._compute_carry(depth)
+
+    def _store_carry(self, bit: int, depth: int, following: _Node | None) -> None:
+        """MOV bit,C: the condition decides the bit; the carry is computed only if a later
+        instruction of the basic block (or the next block) needs it."""
+        byte = 0x20 + (bit >> 3) if bit < 0x80 else bit & 0xF8
+        place = f"iram[{byte}]" if byte < 0x80 else f"sfr[{byte}]"
+        if self.cache:
+            place = _DIRECT_IRAM.sub(r"r\1", place)
+        mask = 1 << (bit & 7)
+        condition = self.carry
+        needed = condition is not None and (
+            following is None or following.fold is None or following.fold[0] not in _CARRY_SETTERS
+        )
+        self._put([f"if {condition or 'c'}:", f"    {place} |= {mask}"], depth)
+        if needed:
+            self._put(["    c = 1"], depth)
+        self._put(["else:", f"    {place} &= {255 ^ mask}"], depth)
+        if needed:
+            self._put(["    c = 0"], depth)
+        self.carry, self.folded = None, 0
+
+    def _compute_carry(self, depth: int) -> None:
+        carry = self.carry
+        if carry is not None:
+            self._put([f"c = {carry}" if carry in ("0", "1") else f"c = 1 if {carry} else 0"],
+                      depth)
+            self.carry, self.folded = None, 0
 
     def _put(self, lines: list[str], depth: int) -> None:
         self.out += ["    " * depth + line for line in lines]
