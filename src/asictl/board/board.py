@@ -43,6 +43,10 @@ TICK_US = TICK_MS * 1000
 _INVERT = bytes(255 - b for b in range(256))
 _ASI_CYCLE = int(InterruptSource.ASI_CYCLE)
 _NO_OUTPUTS = bytes(16)
+# Looked up every AS-i cycle: plain module constants.
+_WATCHDOG_ENABLE = d.WATCHDOG_ENABLE
+_INTERRUPT_ENABLE = d.INTERRUPT_ENABLE
+_NORMAL = Phase.NORMAL
 
 
 class Pc2Board:
@@ -204,7 +208,7 @@ class Pc2Board:
             return
         while True:
             tick, cycle = self._next_tick_us, self._next_cycle_us
-            now = min(tick, cycle)
+            now = tick if tick < cycle else cycle
             if now > end:
                 break
             self._now_us = now
@@ -213,9 +217,10 @@ class Pc2Board:
                 self._next_tick_us = tick + TICK_US
             if now == cycle:
                 self._cycle()
-                if self.observer is not None:
-                    self.observer()
-                period = self._period()
+                observer = self.observer
+                if observer is not None:
+                    observer()
+                period = self._cycle_period_us or self._period()
                 skip = self._idle_cycles(now, period, end) if self._idle() else 0
                 if skip:
                     self._ec.count_idle_cycles(skip)
@@ -269,7 +274,7 @@ class Pc2Board:
     def _tick(self) -> None:
         """The 10 ms clock: watchdog, program timers."""
         ram = self._ram
-        if ram[d.WATCHDOG_ENABLE]:
+        if ram[_WATCHDOG_ENABLE]:
             count = ram[d.WATCHDOG_COUNTER]
             if count:
                 count -= 1
@@ -286,7 +291,8 @@ class Pc2Board:
             self._dpram.stirred = True
 
     def _timers_running(self) -> bool:
-        return any(self._ram[a] or self._ram[a + 1] for a in self._timer_addresses)
+        ram = self._ram
+        return any(ram[address] or ram[address + 1] for address in self._timer_addresses)
 
     # ------------------------------------------------------------------ the AS-i cycle
 
@@ -307,7 +313,7 @@ class Pc2Board:
             self._dpram.interrupt(InterruptSource.IDI_CHANGE)
         if self._control.running and self._now_us >= self._program_ready_us:
             self._program_cycle()
-        if self._ram[d.INTERRUPT_ENABLE] & _ASI_CYCLE and ec.phase is Phase.NORMAL:
+        if self._ram[_INTERRUPT_ENABLE] & _ASI_CYCLE and ec.phase is _NORMAL:
             self._dpram.interrupt(InterruptSource.ASI_CYCLE)
 
     def _outputs(self) -> bytes | bytearray:

@@ -167,7 +167,10 @@ class ProgramRunner:
     def tick(self, ticks: int = 1) -> None:
         """``ticks`` x 10 ms of master time: running timers count down, status follows."""
         xdata = self.cpu.xdata
+        ram = xdata.ram if xdata.plain else None
         for address, location, bit in self._timers:
+            if ram is not None and not (ram[address] or ram[address + 1]):
+                continue  # stopped: the common case, read without a call
             remaining = xdata.read(address) | xdata.read(address + 1) << 8
             if remaining:
                 remaining = max(0, remaining - ticks)
