@@ -17,7 +17,8 @@ from pathlib import Path
 from asictl.codegen8051.compiler import compile_program
 from asictl.il import ast
 from asictl.il.checks import check_source
-from asictl.runtime.runner import LoadedProgram, ProgramRunner
+from asictl.runtime.program_map import LoadedProgram
+from asictl.runtime.runner import ProgramRunner
 from asictl.source import from_string, read_source
 
 ROOT = Path(__file__).resolve().parent.parent

@@ -42,8 +42,14 @@ from asictl.platform.master import (
 from asictl.runtime import contract, layout
 from asictl.runtime.firmware import FIRMWARE_BLOCKS
 from asictl.runtime.line_map import LineMap, LineMapError
-from asictl.runtime.program_map import CellKind, Location, ProgramMap, Space, Variable
-from asictl.runtime.runner import LoadedProgram
+from asictl.runtime.program_map import (
+    CellKind,
+    LoadedProgram,
+    Location,
+    ProgramMap,
+    Space,
+    Variable,
+)
 
 MAGIC = b"ASI2"
 #: Version 2 added the line map; images of version 1 (without it) still read and keep

@@ -22,8 +22,8 @@ from asictl.il.checks import check_program
 from asictl.il.loader import Program
 from asictl.il.reference import CycleTimeout as InterpreterTimeout
 from asictl.il.reference import Interpreter
-from asictl.runtime.program_map import Location, Space
-from asictl.runtime.runner import CycleTimeout, LoadedProgram, ProgramRunner
+from asictl.runtime.program_map import LoadedProgram, Location, Space
+from asictl.runtime.runner import CycleTimeout, ProgramRunner
 
 EXAMPLES = int(os.environ.get("ASICTL_DIFF_EXAMPLES", "2000"))
 

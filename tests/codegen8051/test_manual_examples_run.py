@@ -9,7 +9,8 @@ from manual_examples import EXAMPLES
 from asictl.codegen8051.compiler import compile_program
 from asictl.diagnostics import DiagnosticError
 from asictl.il.checks import check_source
-from asictl.runtime.runner import LoadedProgram, ProgramRunner
+from asictl.runtime.program_map import LoadedProgram
+from asictl.runtime.runner import ProgramRunner
 from asictl.source import from_string
 
 

@@ -187,8 +187,9 @@ def test_the_debugger_in_a_real_terminal_with_history(tmp_path: Path):
     (tmp_path / "count.scenario.toml").write_text(SCENARIO)
     history = tmp_path / "history"
     socket = f"asictl-test-{uuid.uuid4().hex[:8]}"
-    env = {**os.environ, "PYTHONPATH": str(ROOT / "src"), "ASICTL_HISTORY": str(history),
-           "HOME": str(tmp_path), "TERM": "xterm"}
+    env = {key: value for key, value in os.environ.items() if key not in ("COLUMNS", "LINES")}
+    env.update(PYTHONPATH=str(ROOT / "src"), ASICTL_HISTORY=str(history), HOME=str(tmp_path),
+               TERM="xterm")
     command = f"{sys.executable} -m asictl debug {program}"
     subprocess.run([tmux, "-L", socket, "new-session", "-d", "-s", "t", "-x", "120", "-y", "50",
                     command], env=env, check=True)

@@ -24,7 +24,8 @@ from asictl.debug.view import ProgramView
 from asictl.il.reference import CycleTimeout as ReferenceTimeout
 from asictl.il.reference import Interpreter
 from asictl.runtime.line_map import SourceLine
-from asictl.runtime.runner import LoadedProgram, ProgramRunner
+from asictl.runtime.program_map import LoadedProgram
+from asictl.runtime.runner import ProgramRunner
 
 EXAMPLES = int(os.environ.get("ASICTL_TRACE_EXAMPLES", "150"))
 

@@ -24,8 +24,7 @@ from asictl.il.checks import check_program
 from asictl.il.loader import Program
 from asictl.image import ProgramImage
 from asictl.runtime import contract, layout
-from asictl.runtime.program_map import CellKind, Space
-from asictl.runtime.runner import LoadedProgram
+from asictl.runtime.program_map import CellKind, LoadedProgram, Space
 from asictl.source import from_string
 
 ROOT = Path(__file__).resolve().parents[2]

@@ -33,7 +33,8 @@ from asictl.image import (
 from asictl.platform.master import EEPROM_SIZE, Options
 from asictl.runtime import layout
 from asictl.runtime.line_map import LineMap, LineMapError
-from asictl.runtime.runner import LoadedProgram, ProgramRunner
+from asictl.runtime.program_map import LoadedProgram
+from asictl.runtime.runner import ProgramRunner
 from asictl.source import from_string, read_source
 
 BLINK = Path(__file__).resolve().parents[2] / "demos" / "blink.asi"

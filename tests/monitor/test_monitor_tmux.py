@@ -56,7 +56,10 @@ def test_the_monitor_shows_the_slaves_in_tmux_and_q_quits(tmp_path: Path):
         f"PYTHONPATH={ROOT / 'src'} {sys.executable} -m asictl monitor --state-dir {state}; "
         f"echo $? > {done}"
     )
-    env = {**os.environ, "TERM": "xterm-256color"}
+    # The terminal's size is tmux's: COLUMNS/LINES (which pytest-xdist's workers inherit
+    # as 80x24) would override it for Textual.
+    env = {key: value for key, value in os.environ.items() if key not in ("COLUMNS", "LINES")}
+    env["TERM"] = "xterm-256color"
     subprocess.run(
         ["tmux", "-L", server, "new-session", "-d", "-s", "monitor", "-x", "170", "-y", "45",
          command],

@@ -44,6 +44,10 @@ TICK_US = TICK_MS * 1000
 _INVERT = bytes(255 - b for b in range(256))
 _ASI_CYCLE = int(InterruptSource.ASI_CYCLE)
 _NO_OUTPUTS = bytes(16)
+# Looked up every AS-i cycle: plain module constants.
+_WATCHDOG_ENABLE = d.WATCHDOG_ENABLE
+_INTERRUPT_ENABLE = d.INTERRUPT_ENABLE
+_NORMAL = Phase.NORMAL
 
 
 class Pc2Board:
@@ -205,7 +209,7 @@ class Pc2Board:
             return
         while True:
             tick, cycle = self._next_tick_us, self._next_cycle_us
-            now = min(tick, cycle)
+            now = tick if tick < cycle else cycle
             if now > end:
                 break
             self._now_us = now
@@ -214,9 +218,10 @@ class Pc2Board:
                 self._next_tick_us = tick + TICK_US
             if now == cycle:
                 self._cycle()
-                if self.observer is not None:
-                    self.observer()
-                period = self._period()
+                observer = self.observer
+                if observer is not None:
+                    observer()
+                period = self._cycle_period_us or self._period()
                 skip = self._idle_cycles(now, period, end) if self._idle() else 0
                 if skip:
                     self._ec.count_idle_cycles(skip)
@@ -243,11 +248,11 @@ class Pc2Board:
     def _idle(self) -> bool:
         """Would the next AS-i cycle change nothing? Then so would all until the next tick."""
         return not (
-            self._host_dirty
+            (self._control.running and (not self._quiet or self._dpram.stirred))
+            or self._host_dirty
             or self._command_pending
             or not self._ec.settled
             or not self._ec.in_step(self._outputs())
-            or (self._control.running and (not self._quiet or self._dpram.stirred))
         )
 
     def _idle_cycles(self, now: int, period: int, end: int) -> int:
@@ -270,7 +275,7 @@ class Pc2Board:
     def _tick(self) -> None:
         """The 10 ms clock: watchdog, program timers."""
         ram = self._ram
-        if ram[d.WATCHDOG_ENABLE]:
+        if ram[_WATCHDOG_ENABLE]:
             count = ram[d.WATCHDOG_COUNTER]
             if count:
                 count -= 1
@@ -290,7 +295,8 @@ class Pc2Board:
             self._dpram.stirred = True
 
     def _timers_running(self) -> bool:
-        return any(self._ram[a] or self._ram[a + 1] for a in self._timer_addresses)
+        ram = self._ram
+        return any(ram[address] or ram[address + 1] for address in self._timer_addresses)
 
     # ------------------------------------------------------------------ the AS-i cycle
 
@@ -311,7 +317,7 @@ class Pc2Board:
             self._dpram.interrupt(InterruptSource.IDI_CHANGE)
         if self._control.running and self._now_us >= self._program_ready_us:
             self._program_cycle()
-        if self._ram[d.INTERRUPT_ENABLE] & _ASI_CYCLE and ec.phase is Phase.NORMAL:
+        if self._ram[_INTERRUPT_ENABLE] & _ASI_CYCLE and ec.phase is _NORMAL:
             self._dpram.interrupt(InterruptSource.ASI_CYCLE)
 
     def _outputs(self) -> bytes | bytearray:
@@ -370,7 +376,7 @@ class Pc2Board:
         dpram.stirred = False
         probe = self._probe_wait == 0
         calls = self._firmware.calls
-        before = self._snapshot(runner) if probe else b""
+        before = self._snapshot(runner) if probe else None
         try:
             runner.cycle(self._ec.idi)
         except CycleTimeout as exc:
@@ -385,8 +391,8 @@ class Pc2Board:
             return
         duration = control.record_cycle(runner.last_cycles)
         self._program_ready_us = self._now_us + math.ceil(duration)
-        if probe:
-            self._quiet = calls == self._firmware.calls and before == self._snapshot(runner)
+        if before is not None:
+            self._quiet = calls == self._firmware.calls and self._unchanged(runner, before)
             self._probe_wait = 0 if self._quiet else 16
         else:
             self._probe_wait -= 1
@@ -407,6 +413,16 @@ class Pc2Board:
     def _snapshot(runner: ProgramRunner) -> bytes:
         cpu = runner.cpu
         return bytes(cpu.iram) + bytes(cpu.sfr) + bytes(cpu.xdata.ram[: layout.DATA_LIMIT])
+
+    @staticmethod
+    def _unchanged(runner: ProgramRunner, snapshot: bytes) -> bool:
+        """Is the machine as ``_snapshot`` found it? (Compared in place: no copy of XDATA.)"""
+        cpu = runner.cpu
+        return (
+            snapshot.startswith(cpu.iram)
+            and snapshot.startswith(cpu.sfr, 256)
+            and cpu.xdata.ram.startswith(memoryview(snapshot)[512:])
+        )
 
     def safe_outputs(self) -> None:
         """Program stopped: outputs 0 until the host writes the ODI (stored inverted)."""

@@ -46,7 +46,7 @@ class AsiControl:
     def __init__(self, xdata: Bus, firmware: FirmwareServices, flags: int) -> None:
         self._xdata = xdata
         self._firmware = firmware
-        self.flags = flags & CONTROL_FLAGS_NONVOLATILE
+        self.flags = int(flags & CONTROL_FLAGS_NONVOLATILE)
         self.runner: ProgramRunner | None = None
         self.image: ProgramImage | None = None
         self.program_status = ProgramStatus.NOT_LOADED
@@ -133,7 +133,7 @@ class AsiControl:
 
     def write_flags(self, value: int) -> None:
         """Command 50's flags (reset is the caller's); setting start is a new start."""
-        self.flags = value & CONTROL_FLAGS_NONVOLATILE
+        self.flags = int(value & CONTROL_FLAGS_NONVOLATILE)
         if value & ControlFlag.START:
             self.halted = False
 

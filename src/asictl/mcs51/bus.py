@@ -101,6 +101,11 @@ class Bus:
         self._mappings: list[Mapping] = []
 
     @property
+    def plain(self) -> bool:
+        """No device is mapped: every address is RAM (code may then use ``ram`` directly)."""
+        return not self._mappings
+
+    @property
     def mappings(self) -> tuple[Mapping, ...]:
         """The mapped devices, in address order."""
         return tuple(sorted(self._mappings, key=lambda m: m.start))

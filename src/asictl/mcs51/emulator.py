@@ -1,7 +1,7 @@
 """An MCS-51 (8051) emulator fast enough to run AS-i master firmware in pure Python.
 
-Every instruction's behaviour is written once, as Python source templates in
-``_Writer``. The templates are turned into code two ways:
+Every instruction's behaviour is written once, as Python source templates
+(:mod:`asictl.mcs51.templates`). The templates are turned into code two ways:
 
 * **Handlers** (the interpreter): one function per opcode, fetching its operand bytes
   and the register bank at run time. Single-stepping and tracing use these.
@@ -19,7 +19,9 @@ Three invariants the generated code relies on:
 
 * During a run, bit 0 of ``sfr[PSW]`` (the parity flag) is kept 0 and parity is
   computed from ACC when PSW is read; :meth:`Emulator.run` stores the true parity when
-  it returns, and the ``psw`` property always computes it.
+  it returns, and the ``psw`` property always computes it. Generated code keeps the
+  carry apart from the rest of PSW, in a local of its own (0 or 1): bit logic, which
+  is most of a PLC program, then works on a plain local.
 * A block never contains a breakpoint, trap or ``until`` address except as its first
   instruction, so stopping is only ever decided between blocks.
 * A block never changes the register bank except in its last instruction, so register
@@ -30,40 +32,21 @@ from __future__ import annotations
 
 import enum
 import functools
-import re
 from collections.abc import Callable
 from types import CodeType
 from typing import Any
 
 from asictl.errors import ExitCode, UserError
 from asictl.mcs51.bus import Bus, CodeMemory
-from asictl.mcs51.isa import OPCODES, UNDEFINED_OPCODE, OpcodeInfo, Operand
-
-# SFR addresses the core itself uses.
-ACC, B, PSW = 0xE0, 0xF0, 0xD0
-SP, DPL, DPH = 0x81, 0x82, 0x83
-PORTS = (0x80, 0x90, 0xA0, 0xB0)  # P0-P3
-
-#: Parity of every byte value: 1 if it has an odd number of one bits.
-PARITY = bytes(bin(v).count("1") & 1 for v in range(256))
+from asictl.mcs51.isa import OPCODES, UNDEFINED_OPCODE
+from asictl.mcs51.regions import build_region
+from asictl.mcs51.templates import ACC, DPH, DPL, PARITY, PORTS, PSW, SP, B, Writer
 
 #: Longest block, in instructions. Longer blocks save dispatches but a run whose
 #: remaining budget is smaller than the block finishes in the interpreter.
 MAX_BLOCK = 48
 
 _CYCLES = tuple(info.cycles if info else 0 for info in OPCODES)
-_REGISTER_NUMBER = {Operand[f"R{n}"]: n for n in range(8)}
-_INDIRECT = {Operand.AT_R0: 0, Operand.AT_R1: 1}
-# What the semantic methods of _Writer get: operand kinds, and per operand its value as a
-# constant (in a block) or as the name of a local (in a handler); None for A, R0, ...
-Operands = tuple[Operand, ...]
-Values = list[int | str | None]
-
-
-def _encoded(value: int | str | None) -> int | str:
-    """The value of an operand the opcode encodes in bytes (address, bit, target, data)."""
-    assert value is not None, "operands without bytes (A, C, R0, ...) have no value"
-    return value
 
 
 class EmulatorError(UserError):
@@ -97,570 +80,6 @@ class StopReason(enum.Enum):
 #: instruction at the trap address runs. Returning a true value stops the run.
 Trap = Callable[["Emulator"], object]
 
-
-class _Writer:
-    """Writes the Python source of instructions, for a block or for an opcode handler.
-
-    In a block (``static``) operand bytes, the register bank and the addresses of the
-    instruction and its successor are known; in a handler they are read at run time. The
-    semantic methods (``_add``, ``_mov``, ...) are shared and see only expressions.
-
-    The generated code uses the locals ``a`` and ``psw`` for ACC and PSW (without its
-    parity bit); every assignment to them starts a line with ``a = `` or ``psw = ``,
-    which ``finish`` relies on to decide what to load and store.
-    """
-
-    def __init__(self, *, static: bool, bank: int = 0) -> None:
-        self.static = static
-        self.base = bank  # register bank base address (0, 8, 16, 24) in a block
-        # Lines of code, and exits: (depth, target) where the block or handler ends.
-        self.lines: list[str | tuple[int, int | str]] = []
-        self.depth = 1
-        self.bank_changes = False  # a block's last instruction may have switched banks
-        self.ended = False  # the instruction transfers control; the block ends with it
-        self.falls_through = True  # ... unless it is unconditional
-        self.here: int | str = "pc"  # address of the instruction being written
-        self.next: int | str = "np"  # address of the one after it
-        self._temps = 0
-
-    # -- output ---------------------------------------------------------------------
-
-    def emit(self, line: str) -> None:
-        self.lines.append("    " * self.depth + line)
-
-    def temp(self, expr: str) -> str:
-        """Evaluate ``expr`` once into a fresh local and return its name."""
-        name = f"t{self._temps}"
-        self._temps += 1
-        self.emit(f"{name} = {expr}")
-        return name
-
-    def exit(self, target: int | str) -> None:
-        self.lines.append((self.depth, target))
-
-    # -- operand access -------------------------------------------------------------
-
-    def reg(self, n: int) -> str:
-        return f"iram[{self.base + n}]" if self.static else f"iram[(psw & 24) + {n}]"
-
-    def direct(self, d: int | str, *, rmw: bool = False) -> str:
-        """Read a direct address: RAM below 80h, an SFR above.
-
-        Port reads see the pins (latch AND external input) unless ``rmw``: the
-        read-modify-write instructions read the latch, as on the real chip.
-        """
-        if isinstance(d, int):
-            if d < 0x80:
-                return f"iram[{d}]"
-            if d == ACC:
-                return "a"
-            if d == PSW:
-                return "(psw | PAR[a])"
-            if d in PORTS and not rmw:
-                return f"(sfr[{d}] & pins[{PORTS.index(d)}])"
-            return f"sfr[{d}]"
-        port = "" if rmw else f"sfr[{d}] & pins[{d} >> 4 & 3] if {d} & 207 == 128 else "
-        return (
-            f"(iram[{d}] if {d} < 128 else a if {d} == 224 else "
-            f"(psw | PAR[a]) if {d} == 208 else {port}sfr[{d}])"
-        )
-
-    def set_direct(self, d: int | str, value: str, *, bits: int = 0xFF) -> None:
-        """Write a direct address; ``bits`` says which bits may change (for PSW)."""
-        if isinstance(d, int):
-            if d < 0x80:
-                self.emit(f"iram[{d}] = {value}")
-            elif d == ACC:
-                self.emit(f"a = {value}")
-            elif d == PSW:
-                self.emit(f"psw = ({value}) & 254")
-                self.bank_changes |= bool(bits & 0x18)
-            else:
-                self.emit(f"sfr[{d}] = {value}")
-            return
-        value = self.temp(value)
-        for test, store in (
-            (f"if {d} < 128:", f"iram[{d}] = {value}"),
-            (f"elif {d} == 224:", f"a = {value}"),
-            (f"elif {d} == 208:", f"psw = {value} & 254"),
-            ("else:", f"sfr[{d}] = {value}"),
-        ):
-            self.emit(test)
-            self.depth += 1
-            self.emit(store)
-            self.depth -= 1
-
-    def bit_place(self, b: int | str) -> tuple[int | str, int | str]:
-        """The byte address and bit number of bit address ``b``."""
-        if isinstance(b, int):
-            return (0x20 + (b >> 3) if b < 0x80 else b & 0xF8), b & 7
-        return self.temp(f"({b} >> 3) + 32 if {b} < 128 else {b} & 248"), self.temp(f"{b} & 7")
-
-    def bit(self, b: int | str) -> str:
-        byte, n = self.bit_place(b)
-        if byte == PSW and n != 0:
-            return f"(psw >> {n} & 1)"
-        return f"({self.direct(byte)} >> {n} & 1)"
-
-    def update_bit(self, b: int | str, op: str, value: str = "") -> None:
-        """Read-modify-write one bit: ``op`` is 'set', 'clear', 'toggle' or 'assign'."""
-        byte, n = self.bit_place(b)
-        old = self.direct(byte, rmw=True)
-        mask = f"{1 << n}" if isinstance(n, int) else f"(1 << {n})"
-        new = {
-            "set": f"{old} | {mask}",
-            "clear": f"{old} & (255 ^ {mask})",
-            "toggle": f"{old} ^ {mask}",
-            "assign": f"{old} & (255 ^ {mask}) | {value} << {n}",
-        }[op]
-        self.set_direct(byte, new, bits=1 << n if isinstance(n, int) else 0xFF)
-
-    def get(self, kind: Operand, value: int | str | None, *, rmw: bool = False) -> str:
-        if kind is Operand.A:
-            return "a"
-        if kind is Operand.C:
-            return "(psw >> 7)"
-        if kind in _REGISTER_NUMBER:
-            return self.reg(_REGISTER_NUMBER[kind])
-        if kind in _INDIRECT:
-            return f"iram[{self.reg(_INDIRECT[kind])}]"
-        if kind is Operand.DIRECT:
-            return self.direct(_encoded(value), rmw=rmw)
-        if kind in (Operand.IMM, Operand.IMM16):
-            return str(value)
-        if kind is Operand.BIT:
-            return self.bit(_encoded(value))
-        if kind is Operand.NBIT:
-            return f"(1 ^ {self.bit(_encoded(value))})"
-        raise AssertionError(f"no value for operand {kind}")
-
-    def put(self, kind: Operand, value: int | str | None, expr: str) -> None:
-        if kind is Operand.A:
-            self.emit(f"a = {expr}")
-        elif kind is Operand.C:
-            self.emit(f"psw = psw & 127 | {expr} << 7")
-        elif kind in _REGISTER_NUMBER:
-            self.emit(f"{self.reg(_REGISTER_NUMBER[kind])} = {expr}")
-        elif kind in _INDIRECT:
-            self.emit(f"iram[{self.reg(_INDIRECT[kind])}] = {expr}")
-        elif kind is Operand.DIRECT:
-            self.set_direct(_encoded(value), expr)
-        elif kind is Operand.BIT:
-            self.update_bit(_encoded(value), "assign", expr)
-        else:
-            raise AssertionError(f"cannot write operand {kind}")
-
-    # -- one instruction ------------------------------------------------------------
-
-    def instruction(self, info: OpcodeInfo, address: int | None, raw: bytes | None) -> None:
-        """Emit one instruction; ``address`` and ``raw`` are None in a handler."""
-        self._temps = 0
-        if self.static:
-            assert address is not None and raw is not None
-            self.here = address
-            self.next = (address + info.length) & 0xFFFF
-
-            def byte(k: int) -> int | str:
-                return raw[k]
-        else:
-            self.here = "pc"
-            self.next = "np"
-            self.emit(f"np = pc + {info.length} & 65535")
-
-            def byte(k: int) -> int | str:
-                name = f"o{k}"
-                self.emit(f"{name} = code[pc + {k} & 65535]")
-                return name
-
-        values: list[int | str | None] = [None] * len(info.operands)
-        offset = 1
-        for index in info.encoding:
-            kind = info.operands[index]
-            if kind is Operand.IMM16 or kind is Operand.ADDR16:
-                hi, lo = byte(offset), byte(offset + 1)
-                values[index] = (
-                    hi << 8 | lo
-                    if isinstance(hi, int) and isinstance(lo, int)
-                    else f"({hi} << 8 | {lo})"
-                )
-            elif kind is Operand.REL:
-                rel = byte(offset)
-                values[index] = (
-                    (self.next + (rel ^ 0x80) - 0x80) & 0xFFFF
-                    if isinstance(self.next, int) and isinstance(rel, int)
-                    else f"np + ({rel} ^ 128) - 128 & 65535"
-                )
-            elif kind is Operand.ADDR11:
-                page = (info.opcode >> 5) << 8
-                low = byte(offset)
-                values[index] = (
-                    (self.next & 0xF800) | page | low
-                    if isinstance(self.next, int) and isinstance(low, int)
-                    else f"np & 63488 | {page} | {low}"
-                )
-            else:
-                values[index] = byte(offset)
-            offset += kind.size
-        getattr(self, "_" + info.mnemonic.lower())(info.operands, values)
-
-    # -- control flow helpers -------------------------------------------------------
-
-    def jump(self, target: int | str) -> None:
-        self.exit(target)
-        self.ended = True
-        self.falls_through = False
-
-    def branch(self, condition: str, target: int | str) -> None:
-        self.emit(f"if {condition}:")
-        self.depth += 1
-        self.exit(target)
-        self.depth -= 1
-        self.ended = True
-
-    def push(self, expr: str) -> None:
-        self.emit("t = sfr[129] + 1 & 255")
-        self.emit("sfr[129] = t")
-        self.emit(f"iram[t] = {expr}")
-
-    def dptr(self) -> str:
-        return "(sfr[131] << 8 | sfr[130])"
-
-    def call_device(self, call: str) -> None:
-        """Call a bus device with the CPU state it may inspect brought up to date."""
-        self.emit("sfr[224] = a")
-        self.emit("sfr[208] = psw")
-        if self.static:
-            self.emit(f"emu.pc = {self.here}")
-        self.emit(call)
-
-    # -- the instruction set (one method per mnemonic) ------------------------------
-
-    def _nop(self, ops: Operands, vals: Values) -> None:
-        pass
-
-    def _arith(self, ops: Operands, vals: Values, carry: bool, subtract: bool) -> None:
-        source = self.get(ops[1], vals[1])
-        if source.isdigit():  # an immediate in a block: fold what can be folded
-            v, low = source, str(int(source) & 15)
-        else:
-            v = self.temp(source)
-            low = f"({v} & 15)"
-        c = f" {'-' if subtract else '+'} {self.temp('psw >> 7')}" if carry else ""
-        if subtract:
-            self.emit(f"t = a - {v}{c}")
-            self.emit(
-                f"psw = psw & 59 | t >> 1 & 128 | ((a & 15) - {low}{c}) << 2 & 64"
-                f" | ((a ^ {v}) & (a ^ t)) >> 5 & 4"
-            )
-        else:
-            self.emit(f"t = a + {v}{c}")
-            self.emit(
-                f"psw = psw & 59 | t >> 1 & 128 | ((a & 15) + {low}{c}) << 2 & 64"
-                f" | ((a ^ t) & ({v} ^ t)) >> 5 & 4"
-            )
-        self.emit("a = t & 255")
-
-    def _add(self, ops: Operands, vals: Values) -> None:
-        self._arith(ops, vals, carry=False, subtract=False)
-
-    def _addc(self, ops: Operands, vals: Values) -> None:
-        self._arith(ops, vals, carry=True, subtract=False)
-
-    def _subb(self, ops: Operands, vals: Values) -> None:
-        self._arith(ops, vals, carry=True, subtract=True)
-
-    def _logic(self, ops: Operands, vals: Values, op: str) -> None:
-        dst, src = ops
-        if dst is Operand.C:
-            bit = self.get(src, vals[1])
-            if op == "&":
-                self.emit(f"if not {bit}:")
-                self.emit("    psw = psw & 127")
-            else:
-                self.emit(f"if {bit}:")
-                self.emit("    psw = psw | 128")
-            return
-        source = self.get(src, vals[1])
-        self.put(dst, vals[0], f"{self.get(dst, vals[0], rmw=True)} {op} {source}")
-
-    def _anl(self, ops: Operands, vals: Values) -> None:
-        self._logic(ops, vals, "&")
-
-    def _orl(self, ops: Operands, vals: Values) -> None:
-        self._logic(ops, vals, "|")
-
-    def _xrl(self, ops: Operands, vals: Values) -> None:
-        self._logic(ops, vals, "^")
-
-    def _inc(self, ops: Operands, vals: Values) -> None:
-        if ops[0] is Operand.DPTR:
-            self.emit("t = sfr[130] + 1")
-            self.emit("if t == 256:")
-            self.emit("    sfr[130] = 0")
-            self.emit("    sfr[131] = sfr[131] + 1 & 255")
-            self.emit("else:")
-            self.emit("    sfr[130] = t")
-            return
-        self.put(ops[0], vals[0], f"{self.get(ops[0], vals[0], rmw=True)} + 1 & 255")
-
-    def _dec(self, ops: Operands, vals: Values) -> None:
-        self.put(ops[0], vals[0], f"{self.get(ops[0], vals[0], rmw=True)} - 1 & 255")
-
-    def _mov(self, ops: Operands, vals: Values) -> None:
-        dst, src = ops
-        if dst is Operand.DPTR:
-            imm = vals[1]
-            if isinstance(imm, int):
-                self.emit(f"sfr[131] = {imm >> 8}")
-                self.emit(f"sfr[130] = {imm & 0xFF}")
-            else:
-                self.emit(f"sfr[131] = {imm} >> 8")
-                self.emit(f"sfr[130] = {imm} & 255")
-            return
-        self.put(dst, vals[0], self.get(src, vals[1]))
-
-    def _movc(self, ops: Operands, vals: Values) -> None:
-        base = self.next if ops[1] is Operand.AT_A_PC else self.dptr()
-        self.emit(f"a = code[a + {base} & 65535]")
-
-    def _movx_address(self, operand: Operand) -> str:
-        if operand is Operand.AT_DPTR:
-            return self.temp(self.dptr())
-        return self.temp(f"sfr[160] << 8 | {self.reg(_INDIRECT[operand])}")
-
-    def _movx(self, ops: Operands, vals: Values) -> None:
-        if ops[0] is Operand.A:
-            address = self._movx_address(ops[1])
-            self.emit(f"h = xrd[{address}]")
-            self.emit("if h is None:")
-            self.emit(f"    a = xram[{address}]")
-            self.emit("else:")
-            self.depth += 1
-            self.call_device(f"a = h({address}) & 255")
-            self.depth -= 1
-        else:
-            address = self._movx_address(ops[0])
-            self.emit(f"h = xwr[{address}]")
-            self.emit("if h is None:")
-            self.emit(f"    xram[{address}] = a")
-            self.emit("else:")
-            self.depth += 1
-            self.call_device(f"h({address}, a)")
-            self.depth -= 1
-
-    def _clr(self, ops: Operands, vals: Values) -> None:
-        if ops[0] is Operand.A:
-            self.emit("a = 0")
-        elif ops[0] is Operand.C:
-            self.emit("psw = psw & 127")
-        else:
-            self.update_bit(_encoded(vals[0]), "clear")
-
-    def _setb(self, ops: Operands, vals: Values) -> None:
-        if ops[0] is Operand.C:
-            self.emit("psw = psw | 128")
-        else:
-            self.update_bit(_encoded(vals[0]), "set")
-
-    def _cpl(self, ops: Operands, vals: Values) -> None:
-        if ops[0] is Operand.A:
-            self.emit("a = a ^ 255")
-        elif ops[0] is Operand.C:
-            self.emit("psw = psw ^ 128")
-        else:
-            self.update_bit(_encoded(vals[0]), "toggle")
-
-    def _rl(self, ops: Operands, vals: Values) -> None:
-        self.emit("a = (a << 1 | a >> 7) & 255")
-
-    def _rr(self, ops: Operands, vals: Values) -> None:
-        self.emit("a = (a >> 1 | a << 7) & 255")
-
-    def _rlc(self, ops: Operands, vals: Values) -> None:
-        self.emit("t = a << 1 | psw >> 7")
-        self.emit("psw = psw & 127 | t >> 1 & 128")
-        self.emit("a = t & 255")
-
-    def _rrc(self, ops: Operands, vals: Values) -> None:
-        self.emit("t = a | (psw & 128) << 1")
-        self.emit("psw = psw & 127 | (a & 1) << 7")
-        self.emit("a = t >> 1")
-
-    def _swap(self, ops: Operands, vals: Values) -> None:
-        self.emit("a = (a << 4 | a >> 4) & 255")
-
-    def _da(self, ops: Operands, vals: Values) -> None:
-        # Intel's rule: each nibble correction can set CY but never clears it.
-        self.emit("t = a")
-        self.emit("if t & 15 > 9 or psw & 64:")
-        self.emit("    t = t + 6")
-        self.emit("if t > 255 or psw & 128 or t & 240 > 144:")
-        self.emit("    t = t + 96")
-        self.emit("if t > 255:")
-        self.emit("    psw = psw | 128")
-        self.emit("a = t & 255")
-
-    def _mul(self, ops: Operands, vals: Values) -> None:
-        self.emit("t = a * sfr[240]")
-        self.emit("sfr[240] = t >> 8")
-        self.emit("a = t & 255")
-        self.emit("psw = psw & 123 | (4 if t > 255 else 0)")
-
-    def _div(self, ops: Operands, vals: Values) -> None:
-        self.emit("t = sfr[240]")
-        self.emit("if t:")
-        self.emit("    sfr[240] = a % t")
-        self.emit("    a = a // t")
-        self.emit("    psw = psw & 123")
-        self.emit("else:")
-        self.emit("    psw = psw & 123 | 4")
-
-    def _xch(self, ops: Operands, vals: Values) -> None:
-        old = self.temp(self.get(ops[1], vals[1]))
-        self.put(ops[1], vals[1], "a")
-        self.emit(f"a = {old}")
-
-    def _xchd(self, ops: Operands, vals: Values) -> None:
-        place = self.temp(self.reg(_INDIRECT[ops[1]]))
-        self.emit(f"t = iram[{place}]")
-        self.emit(f"iram[{place}] = t & 240 | a & 15")
-        self.emit("a = a & 240 | t & 15")
-
-    def _push(self, ops: Operands, vals: Values) -> None:
-        self.push(self.get(ops[0], vals[0]))
-
-    def _pop(self, ops: Operands, vals: Values) -> None:
-        self.emit("t = sfr[129]")
-        value = self.temp("iram[t]")
-        self.emit("sfr[129] = t - 1 & 255")
-        self.put(ops[0], vals[0], value)
-
-    def _ajmp(self, ops: Operands, vals: Values) -> None:
-        self.jump(_encoded(vals[0]))
-
-    _ljmp = _sjmp = _ajmp
-
-    def _jmp(self, ops: Operands, vals: Values) -> None:
-        self.jump(self.temp(f"a + {self.dptr()} & 65535"))
-
-    def _acall(self, ops: Operands, vals: Values) -> None:
-        ret = self.next
-        if isinstance(ret, int):  # in a block
-            self.push(str(ret & 0xFF))
-            self.push(str(ret >> 8))
-        else:
-            self.push("np & 255")
-            self.push("np >> 8")
-        self.jump(_encoded(vals[0]))
-
-    _lcall = _acall
-
-    def _ret(self, ops: Operands, vals: Values) -> None:
-        self.emit("t = sfr[129]")
-        self.emit("sfr[129] = t - 2 & 255")
-        self.jump(self.temp("iram[t] << 8 | iram[t - 1 & 255]"))
-
-    _reti = _ret
-
-    def _jc(self, ops: Operands, vals: Values) -> None:
-        self.branch("psw & 128", _encoded(vals[0]))
-
-    def _jnc(self, ops: Operands, vals: Values) -> None:
-        self.branch("not psw & 128", _encoded(vals[0]))
-
-    def _jz(self, ops: Operands, vals: Values) -> None:
-        self.branch("not a", _encoded(vals[0]))
-
-    def _jnz(self, ops: Operands, vals: Values) -> None:
-        self.branch("a", _encoded(vals[0]))
-
-    def _jb(self, ops: Operands, vals: Values) -> None:
-        self.branch(self.bit(_encoded(vals[0])), _encoded(vals[1]))
-
-    def _jnb(self, ops: Operands, vals: Values) -> None:
-        self.branch(f"not {self.bit(_encoded(vals[0]))}", _encoded(vals[1]))
-
-    def _jbc(self, ops: Operands, vals: Values) -> None:
-        # JBC reads the latch (it is read-modify-write) and clears the bit if it jumps.
-        bit = _encoded(vals[0])
-        byte, n = self.bit_place(bit)
-        self.emit(f"if {self.direct(byte, rmw=True)} >> {n} & 1:")
-        self.depth += 1
-        self.update_bit(bit, "clear")
-        self.exit(_encoded(vals[1]))
-        self.depth -= 1
-        self.ended = True
-
-    def _cjne(self, ops: Operands, vals: Values) -> None:
-        left = self.temp(self.get(ops[0], vals[0]))
-        right = self.temp(self.get(ops[1], vals[1]))
-        self.emit(f"psw = psw & 127 | (128 if {left} < {right} else 0)")
-        self.branch(f"{left} != {right}", _encoded(vals[2]))
-
-    def _djnz(self, ops: Operands, vals: Values) -> None:
-        value = self.temp(f"{self.get(ops[0], vals[0], rmw=True)} - 1 & 255")
-        self.put(ops[0], vals[0], value)
-        self.branch(value, _encoded(vals[1]))
-
-    # -- assembling the function ----------------------------------------------------
-
-    def finish(
-        self, name: str, fallthrough: int | str | None, loop_start: int | None = None
-    ) -> str:
-        """The complete ``def`` with loads, stores and exits filled in.
-
-        With ``loop_start`` (a block that branches back to its own first instruction), the
-        body becomes a loop run up to ``k`` times, the count the budget allows; the
-        iterations done are left in ``iterations[0]``. The branch back then costs no
-        function call and no dispatch, which is what polling and delay loops need.
-        """
-        if fallthrough is not None:
-            self.exit(fallthrough)
-        text = "\n".join(line for line in self.lines if isinstance(line, str))
-        stores = []
-        if re.search(r"^\s*a = ", text, re.M):
-            stores.append("sfr[224] = a")
-        if re.search(r"^\s*psw = ", text, re.M):
-            stores.append("sfr[208] = psw")
-        if loop_start is not None:
-            stores.append("iterations[0] = i")
-        signature = "pc" if not self.static else "k" if loop_start is not None else ""
-        out = [f"    def {name}({signature}):"]
-        if re.search(r"\ba\b", text):
-            out.append("        a = sfr[224]")
-        if re.search(r"\bpsw\b", text) or (self.static and self.bank_changes):
-            out.append("        psw = sfr[208]")
-        indent = "    "
-        if loop_start is not None:
-            out += ["        i = 1", "        while True:"]
-            indent = "        "
-        for line in self.lines:
-            if isinstance(line, str):
-                out.append(indent + line)
-                continue
-            depth, target = line
-            pad = indent + "    " * depth
-            if target == loop_start:
-                out += [pad + "if i < k:", pad + "    i += 1", pad + "    continue"]
-            out.extend(pad + store for store in stores)
-            out.append(pad + f"return {self._key(target)}")
-        return "\n".join(out)
-
-    def loops_to(self, start: int) -> bool:
-        """True if this block can branch back to ``start`` in the same register bank."""
-        return not self.bank_changes and any(
-            not isinstance(line, str) and line[1] == start for line in self.lines
-        )
-
-    def _key(self, target: int | str) -> str:
-        """A block returns its successor's cache key: address plus register bank bits."""
-        if not self.static:
-            return str(target)
-        if self.bank_changes:
-            return f"{target} | (psw & 24) << 13"
-        if isinstance(target, int):
-            return str(target | self.base << 13)
-        return f"{target} | {self.base << 13}"
 
 
 _FACTORY_HEADER = "def factory(iram, sfr, code, xram, xrd, xwr, pins, emu, iterations):\n"
@@ -698,7 +117,7 @@ def _handler_source() -> str:
         if info is None:
             names.append("None")
             continue
-        writer = _Writer(static=False)
+        writer = Writer(static=False)
         writer.instruction(info, None, None)
         name = f"op_{info.opcode:02x}"
         parts.append(writer.finish(name, "np" if writer.falls_through else None) + "\n")
@@ -717,11 +136,21 @@ def _undefined_block(pc: int) -> Callable[[], int]:
     return undefined
 
 
-#: A translation cache entry: the block function (None to hand control back to the run
-#: loop: a stop address or trap), its instructions and machine cycles, and whether it is a
-#: self-loop (called with the iterations the budget allows, see ``_Writer.finish``).
-Entry = tuple[Callable[..., int] | None, int, int, bool]
-_STOP_ENTRY: Entry = (None, 0, 0, False)
+#: Kinds of translated code: a block, a block that loops to its own start (called with the
+#: iterations the budget allows, see ``Writer.finish``), a region (regions.py: called
+#: when its most instructions and cycles fit the budget; it leaves the ones it ran in
+#: ``iterations``), and a block standing in for a region until its address is hot.
+_BLOCK, _LOOP, _REGION, _WARM = 0, 1, 2, 3
+#: How often a block runs before a region replaces it. Translating a region costs some
+#: 30 us per instruction; a program cycle repeats thousands of times, code run once
+#: (a test's random program, a start-up routine) is not worth it.
+HOT = 8
+#: A translation cache entry: the function (None to hand control back to the run loop: a
+#: stop address or trap), its instructions and machine cycles (a region's most), its kind.
+Entry = tuple[Callable[..., int] | None, int, int, int]
+#: An entry with code to run.
+Translated = tuple[Callable[..., int], int, int, int]
+_STOP_ENTRY: Entry = (None, 0, 0, _BLOCK)
 _UNLIMITED = 1 << 62
 
 
@@ -737,7 +166,12 @@ class Emulator:
     state one instruction at a time (for device callbacks that need exact counters).
     """
 
-    def __init__(self, *, xdata: Bus | None = None, translate: bool = True) -> None:
+    #: runs of a block before a region replaces it (HOT; tests use 1 to test regions)
+    hot = HOT
+
+    def __init__(
+        self, *, xdata: Bus | None = None, translate: bool = True, regions: bool = True
+    ) -> None:
         self.code = CodeMemory()
         self.code.on_write = self._invalidate
         self.xdata = xdata if xdata is not None else Bus()
@@ -745,14 +179,21 @@ class Emulator:
         self.sfr = bytearray(256)
         self.pins = bytearray(b"\xff" * 4)
         self.translate = translate
+        self._regions = regions
         self.pc = 0
         self.instructions = 0
         self.cycles = 0
         self._breakpoints: set[int] = set()
         self._traps: dict[int, Trap] = {}
         self._blocks: dict[int, Entry] = {}
-        self._iterations = [0]  # how often the last self-looping block went round
+        self._plain: dict[int, Translated] = {}  # blocks where a region does not fit the budget
+        self._heat: dict[int, int] = {}  # how often each warm block ran
+        # how often the last self-looping block went round; what the last region ran
+        self._iterations = [0, 0]
         self._stops: frozenset[int] = frozenset()
+        # the ``until`` the stop addresses include; False when they may have changed
+        self._stops_until: int | None = None
+        self._stops_current = False
         self._handlers: tuple[Callable[[int], int] | None, ...] = _instantiate(_HANDLERS, self)
         self.reset()
 
@@ -851,9 +292,11 @@ class Emulator:
     def add_breakpoint(self, address: int) -> None:
         """Stop a run before the instruction at ``address`` (not the run's first one)."""
         self._breakpoints.add(address & 0xFFFF)
+        self._stops_current = False
 
     def remove_breakpoint(self, address: int) -> None:
         self._breakpoints.discard(address & 0xFFFF)
+        self._stops_current = False
 
     @property
     def traps(self) -> dict[int, Trap]:
@@ -862,9 +305,11 @@ class Emulator:
     def add_trap(self, address: int, trap: Trap) -> None:
         """Call ``trap(emulator)`` whenever the PC reaches ``address`` (see ``Trap``)."""
         self._traps[address & 0xFFFF] = trap
+        self._stops_current = False
 
     def remove_trap(self, address: int) -> None:
         self._traps.pop(address & 0xFFFF, None)
+        self._stops_current = False
 
     # -- execution ------------------------------------------------------------------
 
@@ -901,12 +346,16 @@ class Emulator:
             self.sfr[PSW] = self.sfr[PSW] & 0xFE | PARITY[self.sfr[ACC]]
 
     def _stop_addresses(self, until: int | None) -> frozenset[int]:
+        # Breakpoints and traps change rarely; a cycle's run and a trap's return ask often.
+        if self._stops_current and until == self._stops_until:
+            return self._stops
         stops = frozenset(self._breakpoints | self._traps.keys())
         if until is not None:
             stops |= {until}
         if stops != self._stops:
             self._stops = stops
-            self._blocks.clear()
+            self._invalidate()
+        self._stops_until, self._stops_current = until, True
         return stops
 
     def _run(
@@ -970,10 +419,19 @@ class Emulator:
                 entry = blocks.get(key)
                 if entry is None:
                     entry = self._translate(key)
-                block, n, cycles, loops = entry
+                block, n, cycles, kind = entry
                 if block is None:
                     return False
-                if loops:
+                if kind == _WARM:
+                    block, n, cycles, kind = self._warm(key)
+                if kind == _REGION:
+                    if icount + n <= ilimit and ccount + cycles <= climit:
+                        key = block()
+                        icount += iterations[0]
+                        ccount += iterations[1]
+                        continue
+                    block, n, cycles, kind = self._plain.get(key) or self._translate_block(key)
+                if kind == _LOOP:
                     allowed = min((ilimit - icount) // n, (climit - ccount) // cycles)
                     if allowed < 1:
                         return True
@@ -990,43 +448,79 @@ class Emulator:
             self.pc = key & 0xFFFF
             self.instructions, self.cycles = icount, ccount
 
+    @property
+    def regions(self) -> bool:
+        """Translate whole regions (regions.py), not only blocks: the fast path."""
+        return self._regions
+
+    @regions.setter
+    def regions(self, value: bool) -> None:
+        self._regions = value
+        self._invalidate()
+
     def _invalidate(self) -> None:
         self._blocks.clear()
+        self._plain.clear()
+        self._heat.clear()
 
     def _translate(self, key: int) -> Entry:
-        pc, bank = key & 0xFFFF, key >> 13 & 24
-        code = self.code
+        pc = key & 0xFFFF
         if pc in self._stops:
             entry = _STOP_ENTRY
-        elif code[pc] == UNDEFINED_OPCODE:
-            entry = (_undefined_block(pc), 1, 0, False)
+        elif self.code[pc] == UNDEFINED_OPCODE:
+            entry = (_undefined_block(pc), 1, 0, _BLOCK)
         else:
-            writer = _Writer(static=True, bank=bank)
-            address, count, cycles = pc, 0, 0
-            while True:
-                info = OPCODES[code[address]]
-                assert info is not None  # the block ends before an undefined opcode
-                raw = bytes(code[(address + k) & 0xFFFF] for k in range(info.length))
-                writer.instruction(info, address, raw)
-                count += 1
-                cycles += info.cycles
-                address = (address + info.length) & 0xFFFF
-                if (
-                    writer.ended
-                    or writer.bank_changes
-                    or count == MAX_BLOCK
-                    or address in self._stops
-                    or OPCODES[code[address]] is None
-                ):
-                    break
-            loops = writer.loops_to(pc)
-            body = writer.finish(
-                "block", address if writer.falls_through else None, pc if loops else None
-            )
-            source = f"{_FACTORY_HEADER}{body}\n    return block\n"
-            block: Callable[..., int] = _instantiate(source, self)
-            entry = (block, count, cycles, loops)
+            entry = self._translate_block(key)
+            if self._regions:
+                entry = (entry[0], entry[1], entry[2], _WARM)
         self._blocks[key] = entry
+        return entry
+
+    def _warm(self, key: int) -> Translated:
+        """The code to run for a warm block: the block, or its region once it is hot."""
+        heat = self._heat[key] = self._heat.get(key, 0) + 1
+        plain = self._plain[key]
+        if heat < self.hot:
+            return plain
+        region = build_region(self.code, key & 0xFFFF, key >> 13 & 24, self._stops)
+        if region is None:
+            entry = plain
+        else:
+            source = f"{_FACTORY_HEADER}{region.source}\n    return region\n"
+            entry = (_instantiate(source, self), region.instructions, region.cycles, _REGION)
+        self._blocks[key] = entry
+        return entry
+
+    def _translate_block(self, key: int) -> Translated:
+        """The block at ``key`` (neither a stop nor an undefined opcode)."""
+        pc, bank = key & 0xFFFF, key >> 13 & 24
+        code = self.code
+        writer = Writer(static=True, bank=bank)
+        address, count, cycles = pc, 0, 0
+        while True:
+            info = OPCODES[code[address]]
+            assert info is not None  # the block ends before an undefined opcode
+            raw = bytes(code[(address + k) & 0xFFFF] for k in range(info.length))
+            writer.instruction(info, address, raw)
+            count += 1
+            cycles += info.cycles
+            address = (address + info.length) & 0xFFFF
+            if (
+                writer.ended
+                or writer.bank_changes
+                or count == MAX_BLOCK
+                or address in self._stops
+                or OPCODES[code[address]] is None
+            ):
+                break
+        loops = writer.loops_to(pc)
+        body = writer.finish(
+            "block", address if writer.falls_through else None, pc if loops else None
+        )
+        source = f"{_FACTORY_HEADER}{body}\n    return block\n"
+        block: Callable[..., int] = _instantiate(source, self)
+        entry = (block, count, cycles, _LOOP if loops else _BLOCK)
+        self._plain[key] = entry
         return entry
 
 

@@ -23,8 +23,14 @@ from asictl.platform import pc2
 from asictl.platform.master import COUNTER_FLAG_BASE, MAPPED_COUNTERS, MAX_TC
 from asictl.runtime import layout
 from asictl.runtime.firmware import FIRMWARE_BLOCKS
-from asictl.runtime.program_map import Cell, CellKind, ProgramMap, Space, timer_status
-from asictl.runtime.runner import LoadedProgram
+from asictl.runtime.program_map import (
+    Cell,
+    CellKind,
+    LoadedProgram,
+    ProgramMap,
+    Space,
+    timer_status,
+)
 
 #: Internal RAM the program's cells may use: between register bank 0 and the stack.
 _IRAM_CELLS = frozenset((*layout.DIRECT_POOL, *layout.BIT_POOL))

@@ -73,3 +73,13 @@ class ProgramMap:
     def flag(self, n: int) -> Location:
         """Flag byte n: its cell if allocated, else its home in the communication memory."""
         return self.cells.get((CellKind.F, n), Location(Space.XDATA, layout.FLAGS_BASE + n))
+
+
+@dataclass(frozen=True)
+class LoadedProgram:
+    """What the firmware needs of a program: its code, where it goes, and its map."""
+
+    code: bytes
+    pmap: ProgramMap
+    entry_points: dict[str, int]
+    code_base: int = layout.CODE_BASE

@@ -6,22 +6,34 @@ Per cycle it copies the inputs (and the previous inputs) into the program's cell
 the flags it keeps in internal RAM, calls the program with the stack set up so that its
 final RET lands on the cycle-end trap, and copies outputs and changed flags back.
 Timers count down in ``tick``, between cycles, as the master's 10 ms clock does.
+
+Speed: the copies are generated per program (``cycle_io``) as straight Python code with
+every address a constant, and the emulator runs the program's hot code as regions. Both
+are the fast path; ``fast=False`` gives the general one (the copies walk the program
+map, the emulator translates blocks only), which tests hold the fast one against.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
-from dataclasses import dataclass
+from collections.abc import Callable, Sequence
 
 from asictl.mcs51.bus import Bus
 from asictl.mcs51.emulator import Emulator, StopReason
 from asictl.mcs51.loops import looping_jumps
 from asictl.platform import pc2
 from asictl.runtime import layout
+from asictl.runtime.cycle_io import CycleIo
 from asictl.runtime.firmware import FIRMWARE_BLOCKS, FirmwareServices
-from asictl.runtime.program_map import CellKind, Location, ProgramMap, Space, timer_status
+from asictl.runtime.program_map import (
+    CellKind,
+    LoadedProgram,
+    Location,
+    Space,
+    timer_status,
+)
 
 _RET = 0x22
+_SP, _PSW = 0x81, 0xD0
 
 
 class CycleTimeout(Exception):
@@ -31,16 +43,6 @@ class CycleTimeout(Exception):
     def __init__(self, message: str, address: int) -> None:
         super().__init__(message)
         self.address = address
-
-
-@dataclass(frozen=True)
-class LoadedProgram:
-    """What the firmware needs of a program: its code, where it goes, and its map."""
-
-    code: bytes
-    pmap: ProgramMap
-    entry_points: dict[str, int]
-    code_base: int = layout.CODE_BASE
 
 
 class ProgramRunner:
@@ -53,12 +55,14 @@ class ProgramRunner:
         firmware: FirmwareServices | None = None,
         xdata: Bus | None = None,
         budget: int = layout.CYCLE_BUDGET,
+        fast: bool = True,
     ) -> None:
         self.program = program
         self.pmap = program.pmap
         self.firmware = firmware
         self.budget = budget
-        self.cpu = Emulator(xdata=xdata)
+        self.cpu = Emulator(xdata=xdata, regions=fast)
+        self._io = CycleIo(program.pmap) if fast else None
         self.cpu.code.load(program.code_base, program.code)
         self.cpu.code[layout.CYCLE_END] = _RET
         self.cpu.add_trap(layout.CYCLE_END, lambda cpu: True)
@@ -110,19 +114,12 @@ class ProgramRunner:
     def cycle(self, inputs: bytes | bytearray | None = None) -> None:
         """One program cycle; raises ``CycleTimeout`` when the budget runs out."""
         cpu = self.cpu
-        previous = bytes(self.inputs)
-        if inputs is not None:
-            self.inputs[:] = inputs
-        for k, location in self._cells[CellKind.I]:
-            self.write(location, self.inputs[k])
-        for k, location in self._cells[CellKind.I2]:
-            self.write(location, previous[k])
-        flags = [
-            (n, location, cpu.xdata.read(layout.FLAGS_BASE + n))
-            for n, location in self._cells[CellKind.F]
-        ]
-        for _, location, value in flags:
-            cpu.iram[location.address] = value
+        io = self._io if cpu.xdata.plain else None  # the copies assume plain XDATA RAM
+        flags: Sequence[int]
+        if io is not None:
+            flags = io.copy_in(cpu.iram, cpu.xdata.ram, self.inputs, inputs)
+        else:
+            flags = self._copy_in(inputs)
         self.enter()
         start = cpu.cycles
         reason = cpu.run(max_cycles=self.budget)
@@ -136,9 +133,33 @@ class ProgramRunner:
                 f"program cycle longer than {self.budget} machine cycles (loop at "
                 f"{address:04X}h)", address,
             )
+        if io is not None:
+            io.copy_out(cpu.iram, cpu.xdata.ram, self.outputs, flags)
+        else:
+            self._copy_out(flags)
+
+    def _copy_in(self, inputs: bytes | bytearray | None) -> list[int]:
+        """Inputs, previous inputs and flags into the program's cells (the general path);
+        returns the flags' values, so that only the ones the program changed go back."""
+        cpu = self.cpu
+        previous = bytes(self.inputs)
+        if inputs is not None:
+            self.inputs[:] = inputs
+        for k, location in self._cells[CellKind.I]:
+            self.write(location, self.inputs[k])
+        for k, location in self._cells[CellKind.I2]:
+            self.write(location, previous[k])
+        flags = [cpu.xdata.read(layout.FLAGS_BASE + n) for n, _ in self._cells[CellKind.F]]
+        for (_, location), value in zip(self._cells[CellKind.F], flags, strict=True):
+            cpu.iram[location.address] = value
+        return flags
+
+    def _copy_out(self, flags: Sequence[int]) -> None:
+        """Outputs and the flags the program changed back (the general path)."""
+        cpu = self.cpu
         for k, location in self._cells[CellKind.Q]:
             self.outputs[k] = self.read(location)
-        for n, location, before in flags:
+        for (n, location), before in zip(self._cells[CellKind.F], flags, strict=True):
             value = cpu.iram[location.address]
             if value != before:
                 cpu.xdata.write(layout.FLAGS_BASE + n, value)
@@ -147,16 +168,21 @@ class ProgramRunner:
         """Call the program as the firmware does: bank 0, the stack set up so that its
         final RET lands on the cycle-end trap, the PC at its code base."""
         cpu = self.cpu
-        cpu.sfr[0x81] = layout.STACK_START  # SP
-        cpu.sfr[0xD0] = 0  # PSW: bank 0
-        cpu.push(layout.CYCLE_END & 0xFF)
-        cpu.push(layout.CYCLE_END >> 8)
+        sfr, iram = cpu.sfr, cpu.iram
+        sfr[_PSW] = 0  # bank 0
+        sp = layout.STACK_START
+        iram[sp + 1 & 0xFF] = layout.CYCLE_END & 0xFF  # pushed as PUSH does: low byte first
+        iram[sp + 2 & 0xFF] = layout.CYCLE_END >> 8
+        sfr[_SP] = sp + 2 & 0xFF
         cpu.pc = self.program.code_base
 
     def tick(self, ticks: int = 1) -> None:
         """``ticks`` x 10 ms of master time: running timers count down, status follows."""
         xdata = self.cpu.xdata
+        ram = xdata.ram if xdata.plain else None
         for address, location, bit in self._timers:
+            if ram is not None and not (ram[address] or ram[address + 1]):
+                continue  # stopped: the common case, read without a call
             remaining = xdata.read(address) | xdata.read(address + 1) << 8
             if remaining:
                 remaining = max(0, remaining - ticks)
