@@ -30,7 +30,7 @@ from asictl.il.language import (
 )
 from asictl.il.loader import Program, Reader, calls, load_program
 from asictl.il.pragmas import read_directives
-from asictl.mcs51.asm_parser import RESERVED as ASSEMBLER_RESERVED
+from asictl.mcs51.words import RESERVED as ASSEMBLER_RESERVED
 from asictl.platform.master import Options
 from asictl.runtime.firmware import FIRMWARE_BLOCKS
 from asictl.source import SourceText, read_source
