@@ -10,12 +10,15 @@ on what else the machine runs, so it shows a change in asictl's own cost.
 
 The console script installed beside the running Python is timed, not whatever ``asictl``
 the PATH finds first: a version manager's shim there (pyenv's is a bash script that runs
-``pyenv exec``) would add tens of milliseconds that are no part of asictl.
+``pyenv exec``) would add tens of milliseconds that are no part of asictl. The runs may
+write Python's bytecode cache even where PYTHONDONTWRITEBYTECODE is set, as an installed
+package has it: compiling every module anew would double the time of the imports.
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import resource
 import shutil
 import statistics
@@ -78,12 +81,15 @@ def timed_with_cpu(command: list[str], runs: int) -> tuple[float, float]:
     The CPU time hardly depends on what else the machine runs, so it tells a change of
     asictl's own cost apart from a busy machine.
     """
-    subprocess.run(command, check=False, capture_output=True)  # warm the file cache
+    env = {name: value for name, value in os.environ.items()
+           if name != "PYTHONDONTWRITEBYTECODE"}
+    # warm the file cache and write the bytecode cache
+    subprocess.run(command, check=False, capture_output=True, env=env)
     walls, cpus = [], []
     for _ in range(runs):
         before = resource.getrusage(resource.RUSAGE_CHILDREN)
         start = time.perf_counter()
-        result = subprocess.run(command, check=False, capture_output=True)
+        result = subprocess.run(command, check=False, capture_output=True, env=env)
         walls.append(time.perf_counter() - start)
         after = resource.getrusage(resource.RUSAGE_CHILDREN)
         cpus.append(after.ru_utime - before.ru_utime + after.ru_stime - before.ru_stime)

@@ -38,6 +38,8 @@ from lark.utils import TextSlice
 
 from asictl.diagnostics import Diagnostic, Span
 from asictl.il import ast
+from asictl.il.lalr import LeanParseConf, LeanParserState, lean_actions
+from asictl.il.lexer import LeanContextualLexer
 from asictl.il.syntax_errors import diagnose
 from asictl.il.transformer import AstBuilder, Piece, SectionItem
 from asictl.source import SourceText, from_string
@@ -131,6 +133,10 @@ class _Reader:
             + ")"
         )
         self._accepts: dict[tuple[int, ...], frozenset[str]] = {}
+        # lark's lexer and parser loop, with less work per token (same tokens and errors)
+        self.lexer = LeanContextualLexer(self.lark.parser.lexer)
+        self.parser = self.lark.parser.parser.parser
+        self.actions = lean_actions(self.parser.parse_table, self.parser.callbacks)
 
     def parse(
         self, text: str, start: int, end: int, rule: str, lines: LineCounter
@@ -139,12 +145,13 @@ class _Reader:
         ``rule``; ``lines`` is the line count at ``start``.
 
         (What ``Lark.parse`` does with a ``TextSlice``, except that it counts the lines
-        from the beginning of ``text`` again. With transformer= the parser returns what
-        the builder's method for the start rule returns, the flat list.)
+        from the beginning of ``text`` again, and that it reads with the lean lexer and
+        parser state. With transformer= the parser returns what the builder's method for
+        the start rule returns, the flat list.)
         """
-        frontend = self.lark.parser
-        state = LexerState(TextSlice(text, start, end), copy(lines))
-        pieces: list[Piece] = frontend.parser.parse(LexerThread(frontend.lexer, state), rule)
+        lexer = LexerThread(self.lexer, LexerState(TextSlice(text, start, end), copy(lines)))
+        conf = LeanParseConf(self.parser.parse_table, self.parser.callbacks, rule, self.actions)
+        pieces: list[Piece] = self.parser.parse_from_state(LeanParserState(conf, lexer))
         return pieces
 
     def expected(self, error: UnexpectedInput) -> frozenset[str]:
