@@ -1,9 +1,9 @@
-"""The lean lexer and parser loop read exactly what lark's own would.
+"""The lean parser reads exactly what lark's own lexer and parser loop would.
 
-``asictl.il.parser`` reads with ``LeanContextualLexer`` and ``LeanParserState``; the oracle
-here is lark's ``ContextualLexer`` and ``ParserState`` on the same parse table. Both must
-give the same tokens (type, text and every position), the same AST and the same syntax
-errors, on valid programs, on broken ones and on noise.
+``asictl.il.parser`` reads with ``LeanParser``; the oracle here is lark's
+``ContextualLexer`` and ``ParserState`` driven by lark's ``parse_from_state`` on the same
+parse table. Both must make the same tokens (type, text and every position), the same AST
+and the same syntax errors, on valid programs, on broken ones and on noise.
 """
 
 from __future__ import annotations
@@ -13,6 +13,7 @@ from copy import copy
 from pathlib import Path
 from typing import Any
 
+import lark.lexer
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
@@ -22,51 +23,54 @@ from lark.lexer import LexerState, LexerThread, LineCounter
 from lark.parsers.lalr_parser_state import ParseConf, ParserState
 from lark.utils import TextSlice
 
-from asictl.il import parser
-from asictl.il.lalr import LeanParseConf, LeanParserState, lean_actions
-from asictl.il.lexer import LeanContextualLexer
+from asictl.il import lean_parser, parser
+from asictl.il.lean_parser import lean_actions
 
 ROOT = Path(__file__).resolve().parents[2]
 SAME = settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 
-TokenFacts = tuple[Any, ...]
-
-
-class _Recording:
-    """A lexer that passes on another's tokens and keeps their facts."""
-
-    def __init__(self, lexer: Any) -> None:
-        self.lexer = lexer
-        self.tokens: list[TokenFacts] = []
-
-    def lex(self, lexer_state: LexerState, parser_state: Any) -> Iterator[Token]:
-        for token in self.lexer.lex(lexer_state, parser_state):
-            self.tokens.append((token.type, token.value, token.start_pos, token.line,
-                                token.column, token.end_line, token.end_column, token.end_pos))
-            yield token
-
 
 def read(text: str, lean: bool, monkeypatch: pytest.MonkeyPatch) -> tuple[Any, ...]:
-    """Tokens, AST and diagnostics of ``text``, read the lean way or lark's way."""
-    reader = parser._reader()
-    lark_lexer = reader.lark.parser.lexer
-    recording = _Recording(LeanContextualLexer(lark_lexer) if lean else lark_lexer)
+    """Tokens, AST and diagnostics of ``text``, read the lean way or lark's way.
+
+    The tokens are every token the lean parser makes, or lark's lexer passes to lark's
+    parser, in order (their facts read after the parse, as a callback may change them).
+    """
+    made: list[Token] = []
+
+    def recorded(*args: Any) -> Token:
+        token = Token(*args)
+        made.append(token)
+        return token
+
+    class Recording(lark.lexer.Lexer):
+        def __init__(self, lexer: lark.lexer.Lexer) -> None:
+            self.lexer = lexer
+
+        def lex(self, lexer_state: LexerState, parser_state: Any) -> Iterator[Token]:
+            for token in self.lexer.lex(lexer_state, parser_state):
+                made.append(token)
+                yield token
 
     def parse(self: Any, text: str, start: int, end: int, rule: str,
               lines: LineCounter) -> list[Any]:
-        thread = LexerThread(recording, LexerState(TextSlice(text, start, end), copy(lines)))
-        conf: ParseConf[int]
+        state = LexerState(TextSlice(text, start, end), copy(lines))
         if lean:
-            conf = LeanParseConf(self.parser.parse_table, self.parser.callbacks, rule,
-                                 self.actions)
-            return list(self.parser.parse_from_state(LeanParserState(conf, thread)))
-        conf = ParseConf(self.parser.parse_table, self.parser.callbacks, rule)
-        return list(self.parser.parse_from_state(ParserState(conf, thread)))
+            return list(self.parser.parse(state, rule))
+        frontend = self.lark.parser
+        conf = ParseConf(frontend.parser.parser.parse_table, frontend.parser.parser.callbacks,
+                         rule)
+        thread = LexerThread(Recording(frontend.lexer), state)
+        return list(frontend.parser.parser.parse_from_state(ParserState(conf, thread)))
 
     with monkeypatch.context() as patch:
         patch.setattr(parser._Reader, "parse", parse)
+        if lean:
+            patch.setattr(lean_parser, "Token", recorded)
         module, diagnostics = parser.parse_text(text, "t.asi")
-    return recording.tokens, module, diagnostics
+    tokens = [(t.type, t.value, t.start_pos, t.line, t.column, t.end_line, t.end_column,
+               t.end_pos) for t in made]
+    return tokens, module, diagnostics
 
 
 def assert_same(text: str, monkeypatch: pytest.MonkeyPatch) -> None:
@@ -141,6 +145,6 @@ def test_programs_and_their_mutations(module: Any, data: st.DataObject) -> None:
 
 
 def test_lean_actions_refuse_terminal_callbacks() -> None:
-    table = parser._reader().parser.parse_table
+    table = parser._reader().parser.parser.parse_table
     with pytest.raises(ValueError, match="terminal callbacks"):
         lean_actions(table, {"NAME": lambda children: children})  # type: ignore[dict-item]
