@@ -16,6 +16,7 @@ from enum import StrEnum
 from pathlib import Path
 
 from asictl.codes import CheckCode, SyntaxCode
+from asictl.collector import collector_paused
 from asictl.diagnostics import Diagnostic, Reporter, Span
 from asictl.il import ast
 from asictl.il.analysis import analyse
@@ -735,8 +736,9 @@ def check_source(
 
     ``read`` and ``exists`` stand for the file system (an editor's open buffers).
     """
-    program, load_diagnostics = load_program(source, lib=lib, read=read, exists=exists)
-    diagnostics = [
-        *load_diagnostics, *check_program(program, dialect, read_errors=load_diagnostics)
-    ]
+    with collector_paused():  # see asictl.collector
+        program, load_diagnostics = load_program(source, lib=lib, read=read, exists=exists)
+        diagnostics = [
+            *load_diagnostics, *check_program(program, dialect, read_errors=load_diagnostics)
+        ]
     return CheckResult(program, sorted(diagnostics, key=Diagnostic.sort_key))
