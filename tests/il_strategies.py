@@ -17,9 +17,12 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from hypothesis import assume
 from hypothesis import strategies as st
 
 from asictl.il import ast
+from asictl.il.checks import check_program
+from asictl.il.loader import Program
 from asictl.il.parser import RESERVED
 
 FIRMWARE_BLOCKS = (
@@ -294,14 +297,16 @@ def modules(draw: st.DrawFn, file: str = "<string>") -> ast.Module:
 # ------------------------------------------------------------------ traceable programs
 
 
-def runnable(section: ast.ProgramSection) -> ast.ProgramSection:
-    """No ASM (the interpreter has no 8051), no backward jumps (endless loops)."""
+def forward_only(section: ast.ProgramSection, *, asm: bool) -> ast.ProgramSection:
+    """Without backward jumps: they make endless loops, which run into the cycle budget
+    but take long. Without ``asm`` also without ASM lines: the reference interpreter has
+    no 8051."""
     seen: set[str] = set()
     kept = []
     for statement in section.statements:
         if isinstance(statement, ast.Label):
             seen.add(statement.name.casefold())
-        if isinstance(statement, ast.Asm):
+        if isinstance(statement, ast.Asm) and not asm:
             continue
         if isinstance(statement, ast.Jump) and statement.label.casefold() in seen:
             continue
@@ -318,10 +323,11 @@ def traceable_sources(draw: st.DrawFn) -> dict[str, str]:
     block = draw(st.booleans())
     if block:
         decl_items.append(ast.FBDecl("Blk", "blk.fb"))
-        files["blk.fb"] = ast.Module("blk.fb", (runnable(draw(programs(scope))),)).to_source()
+        block_body = forward_only(draw(programs(scope)), asm=False)
+        files["blk.fb"] = ast.Module("blk.fb", (block_body,)).to_source()
     body = []
     for _ in range(draw(st.integers(1, 2))):
-        statements = list(runnable(draw(programs(scope))).statements)
+        statements = list(forward_only(draw(programs(scope)), asm=False).statements)
         if block:
             statements.insert(draw(st.integers(1, max(1, len(statements)))),
                               ast.CallFB(draw(st.booleans()), "Blk"))
@@ -329,3 +335,73 @@ def traceable_sources(draw: st.DrawFn) -> dict[str, str]:
     main_module = ast.Module("main.asi", (ast.DeclSection(tuple(decl_items)), *body))
     files["main.asi"] = main_module.to_source()
     return files
+
+
+# ------------------------------------------------------------------ programs that run
+
+
+@st.composite
+def checked_programs(draw: st.DrawFn, *, asm: bool, options: bool) -> Program:
+    """A whole program that checks clean and ends every cycle: a main file with program
+    and gating sections, and up to two function-block files it calls; ``asm`` keeps ASM
+    lines, ``options`` may add ``map_counters``."""
+    scope, decl = draw(scopes())
+    decl = ast.DeclSection(tuple(d for d in decl.declarations if not isinstance(d, ast.FBDecl)))
+    names = draw(st.lists(st.sampled_from(["BlkA", "BlkB"]), unique=True, max_size=2))
+    blocks = {
+        name.casefold(): ast.Module(
+            f"{name}.fb", (forward_only(draw(programs(scope)), asm=asm),)
+        )
+        for name in names
+    }
+    sections: list[ast.Section] = []
+    if options and draw(st.booleans()):
+        sections.append(ast.OptionsSection((ast.Option("map_counters", draw(st.booleans())),)))
+    sections.append(ast.DeclSection(
+        (*decl.declarations, *(ast.FBDecl(n, f"{n}.fb") for n in names))
+    ))
+    for _ in range(draw(st.integers(1, 3))):
+        if draw(st.integers(0, 3)):
+            statements = list(forward_only(draw(programs(scope)), asm=asm).statements)
+            for name in names:
+                call = ast.CallFB(draw(st.booleans()), name)
+                statements.insert(draw(st.integers(1, max(1, len(statements)))), call)
+            sections.append(ast.ProgramSection(tuple(statements)))
+        else:
+            sections.append(draw(gatings(scope)))
+    program = Program(main=ast.Module("main.asi", tuple(sections)), blocks=blocks)
+    for name in names:
+        program.fb_decls[name.casefold()] = ast.FBDecl(name, f"{name}.fb")
+    assume(not any(d.is_error for d in check_program(program)))
+    return program
+
+
+#: One program cycle: its inputs, the 10 ms ticks before it, perhaps a host's flag write.
+CycleStep = tuple[bytes, int, tuple[int, int] | None]
+
+
+def cycle_steps(max_size: int) -> st.SearchStrategy[list[CycleStep]]:
+    """Up to ``max_size`` program cycles to run."""
+    return st.lists(
+        st.tuples(
+            st.binary(min_size=16, max_size=16),
+            st.sampled_from([0, 0, 1, 2, 5, 60]),
+            st.none() | st.tuples(st.integers(0, 127), st.integers(0, 255)),
+        ),
+        min_size=1,
+        max_size=max_size,
+    )
+
+
+class ModelFirmware:
+    """A deterministic stand-in for the master's firmware blocks that notes every call."""
+
+    def __init__(self) -> None:
+        self.log: list[tuple[str, bytes]] = []
+
+    def call(self, name: str, pseg: bytearray) -> None:
+        self.log.append((name, bytes(pseg)))
+        h = (sum(pseg[:4]) * 7 + len(name)) & 0xFF
+        pseg[0] = 0 if h % 3 else 0x80
+        pseg[1] = (pseg[1] ^ h) & 0xFF
+        pseg[2] = h

@@ -12,13 +12,10 @@ from __future__ import annotations
 
 import os
 
-from hypothesis import HealthCheck, assume, given, settings
-from hypothesis import strategies as st
-from il_strategies import gatings, programs, scopes
+from hypothesis import HealthCheck, given, settings
+from il_strategies import ModelFirmware, checked_programs, cycle_steps
 
 from asictl.codegen8051.compiler import compile_program
-from asictl.il import ast
-from asictl.il.checks import check_program
 from asictl.il.loader import Program
 from asictl.il.reference import CycleTimeout as InterpreterTimeout
 from asictl.il.reference import Interpreter
@@ -28,73 +25,9 @@ from asictl.runtime.runner import CycleTimeout, ProgramRunner
 EXAMPLES = int(os.environ.get("ASICTL_DIFF_EXAMPLES", "2000"))
 
 
-class ModelFirmware:
-    """A deterministic stand-in for the master's firmware blocks."""
+runnable_programs = checked_programs(asm=False, options=True)
 
-    def call(self, name: str, pseg: bytearray) -> None:
-        h = (sum(pseg[:4]) * 7 + len(name)) & 0xFF
-        pseg[0] = 0 if h % 3 else 0x80
-        pseg[1] = (pseg[1] ^ h) & 0xFF
-        pseg[2] = h
-
-
-def _runnable(section: ast.ProgramSection) -> ast.ProgramSection:
-    """Drop ASM lines (the interpreter has no 8051) and backward jumps (endless loops)."""
-    seen: set[str] = set()
-    kept = []
-    for statement in section.statements:
-        if isinstance(statement, ast.Label):
-            seen.add(statement.name.casefold())
-        if isinstance(statement, ast.Asm):
-            continue
-        if isinstance(statement, ast.Jump) and statement.label.casefold() in seen:
-            continue
-        kept.append(statement)
-    return ast.ProgramSection(tuple(kept))
-
-
-@st.composite
-def runnable_programs(draw: st.DrawFn) -> Program:
-    scope, decl = draw(scopes())
-    decl = ast.DeclSection(tuple(d for d in decl.declarations if not isinstance(d, ast.FBDecl)))
-    blocks = {}
-    names = draw(st.lists(st.sampled_from(["BlkA", "BlkB"]), unique=True, max_size=2))
-    for name in names:
-        body = [_runnable(draw(programs(scope)))]
-        blocks[name.casefold()] = ast.Module(f"{name}.fb", tuple(body))
-    sections: list = []
-    if draw(st.booleans()):
-        sections.append(ast.OptionsSection((ast.Option("map_counters", draw(st.booleans())),)))
-    sections.append(ast.DeclSection(
-        (*decl.declarations, *(ast.FBDecl(n, f"{n}.fb") for n in names))
-    ))
-    for _ in range(draw(st.integers(1, 3))):
-        if draw(st.integers(0, 3)):
-            section = _runnable(draw(programs(scope)))
-            statements = list(section.statements)
-            for name in names:
-                call = ast.CallFB(draw(st.booleans()), name)
-                statements.insert(draw(st.integers(1, max(1, len(statements)))), call)
-            sections.append(ast.ProgramSection(tuple(statements)))
-        else:
-            sections.append(draw(gatings(scope)))
-    main = ast.Module("main.asi", tuple(sections))
-    program = Program(main=main, blocks=blocks)
-    for name in names:
-        program.fb_decls[name.casefold()] = ast.FBDecl(name, f"{name}.fb")
-    assume(not any(d.is_error for d in check_program(program)))
-    return program
-
-
-steps = st.lists(
-    st.tuples(
-        st.binary(min_size=16, max_size=16),  # inputs of the cycle
-        st.sampled_from([0, 0, 1, 2, 5, 60]),  # 10 ms ticks before it
-        st.none() | st.tuples(st.integers(0, 127), st.integers(0, 255)),  # a host flag write
-    ),
-    min_size=1,
-    max_size=8,
-)
+steps = cycle_steps(max_size=8)
 
 
 def _word(runner: ProgramRunner, address: int) -> int:
@@ -127,7 +60,7 @@ def _assert_same(interp: Interpreter, runner: ProgramRunner, compiled, cycle: in
     deadline=None,
     suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much],
 )
-@given(runnable_programs(), steps)
+@given(runnable_programs, steps)
 def test_compiled_code_agrees_with_the_interpreter(program: Program, run) -> None:
     compiled = compile_program(program)
     firmware = ModelFirmware()

@@ -12,11 +12,9 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
-from click.testing import CliRunner
+from monitor_harness import cli, live, settle
 
-from asictl.cli import main
 from asictl.host.connection import MasterAddress
-from asictl.host.live import background_live
 from asictl.monitor.app import MonitorApp
 from asictl.monitor.source import MonitorSource
 
@@ -35,37 +33,15 @@ PROGRAM = """\
 """
 
 
-def cli(state: Path, *args: str) -> str:
-    result = CliRunner().invoke(main, [*args, "--state-dir", str(state)])
-    assert result.exit_code == 0, result.output
-    return result.stdout
-
-
 def status(state: Path) -> dict:
     return json.loads(cli(state, "status", "--json"))
 
 
 @pytest.fixture
 def board(tmp_path: Path) -> Iterator[Path]:
-    state = tmp_path / "state"
-    program = tmp_path / "p.asi"
-    program.write_text(PROGRAM)
-    with background_live(0x300, state, identity={"command": "test"}):
-        cli(state, "download", str(program), "--start")
-        cli(state, "bus", "match")
+    with live(tmp_path, PROGRAM) as state:
         yield state
 
-
-async def settle(app: MonitorApp, pilot, refreshes: int = 2) -> None:
-    """Let running actions finish and the screen refresh a few times."""
-    await app.workers.wait_for_complete()
-    target = app.refreshes + refreshes
-    for _ in range(200):
-        if app.refreshes >= target:
-            break
-        app.refresh_now()
-        await pilot.pause(0.02)
-    await app.workers.wait_for_complete()
 
 
 def run(state: Path, keys_and_checks) -> None:

@@ -11,17 +11,16 @@ from __future__ import annotations
 import asyncio
 import dataclasses
 import re
-from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
 import pytest
 from click.testing import CliRunner
+from monitor_harness import cli, live, settle
 
 from asictl.cli import main
 from asictl.host import connection
 from asictl.host.connection import MasterAddress
-from asictl.host.live import background_live
 from asictl.monitor import source as monitor_source
 from asictl.monitor.app import MonitorApp
 from asictl.monitor.program import NO_SOURCE
@@ -67,37 +66,6 @@ spin:   A   I 4.1
         JU  = spin
 [END]
 """
-
-
-def cli(state: Path, *args: str) -> str:
-    result = CliRunner().invoke(main, [*args, "--state-dir", str(state)])
-    assert result.exit_code == 0, result.output
-    return result.stdout
-
-
-@contextmanager
-def live(tmp_path: Path, program: Path | str, name: str = "blinker.asi") -> Iterator[Path]:
-    """A live board running ``program`` (a file, or source text to write as ``name``)."""
-    if isinstance(program, str):
-        path = tmp_path / name
-        path.write_text(program)
-        program = path
-    state = tmp_path / "state"
-    with background_live(0x300, state, identity={"command": "test"}):
-        cli(state, "download", str(program), "--start")
-        cli(state, "bus", "match")
-        yield state
-
-
-async def settle(app: MonitorApp, pilot, refreshes: int = 2) -> None:
-    await app.workers.wait_for_complete()
-    target = app.refreshes + refreshes
-    for _ in range(200):
-        if app.refreshes >= target:
-            break
-        app.refresh_now()
-        await pilot.pause(0.02)
-    await app.workers.wait_for_complete()
 
 
 def run(state: Path, keys_and_checks, size: tuple[int, int] = (170, 45)) -> None:
@@ -158,7 +126,7 @@ def test_v_toggles_the_program_view_and_the_footer_says_so(tmp_path):
         assert app.query_one("#left").display and not app.query_one("#program").display
         assert app.screen.active_bindings["v"].binding.description == "Program view"
 
-    with live(tmp_path, BLINKER) as state:
+    with live(tmp_path, BLINKER, "blinker.asi") as state:
         run(state, check)
 
 
@@ -179,7 +147,7 @@ def test_a_blinking_flag_shows_its_rlo_flip_between_refreshes(tmp_path):
         assert seen_operand == {"0", "1"}
         assert (accu1, accu2) == ("0", "0") or int(accu1) >= 0
 
-    with live(tmp_path, BLINKER) as state:
+    with live(tmp_path, BLINKER, "blinker.asi") as state:
         run(state, check)
 
 
@@ -200,7 +168,7 @@ def test_lines_that_did_not_run_are_marked_and_run_after_an_input_key(tmp_path):
         assert values(row(app, 18))[-1] == "1"
         assert "slave 4: in 0001" in program_text(app)
 
-    with live(tmp_path, BLINKER) as state:
+    with live(tmp_path, BLINKER, "blinker.asi") as state:
         run(state, check)
 
 
@@ -289,7 +257,7 @@ def test_a_real_board_or_a_gateway_says_per_line_values_need_an_emulated_board(
         assert "not run" not in text and "latest cycle" not in text
         assert app.lines is None
 
-    with live(tmp_path, BLINKER) as state:
+    with live(tmp_path, BLINKER, "blinker.asi") as state:
         run(state, check)
 
 

@@ -21,12 +21,12 @@ import asyncio
 import contextlib
 import os
 import struct
-import threading
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Awaitable, Callable, Iterator
 from dataclasses import dataclass, field
 from typing import Any
 
+from asictl.background import NotStarted, in_thread
 from asictl.condition_log import ConditionLog
 from asictl.gateway.slave import GatewaySlave
 
@@ -305,30 +305,13 @@ def background_gateway(
 ) -> Iterator[BackgroundGateway]:
     """Serve ``slave`` from a thread until the block ends (TCP port 0: any free port);
     ``options`` go to ``GatewayServer``."""
-    ready = threading.Event()
-    errors: list[BaseException] = []
-    holder: dict[str, object] = {}
+    def serve(server: GatewayServer, ready: Callable[[], None]) -> Awaitable[None]:
+        return server.serve(tcp, rtu, started=ready)
 
-    def main() -> None:
-        async def run() -> None:
-            server = GatewayServer(slave, **options)
-            holder["server"], holder["loop"] = server, asyncio.get_running_loop()
-            await server.serve(tcp, rtu, started=ready.set)
-
-        try:
-            asyncio.run(run())
-        except BaseException as exc:  # reported to the caller's thread
-            errors.append(exc)
-            ready.set()
-
-    thread = threading.Thread(target=main, name="asictl-gateway", daemon=True)
-    thread.start()
-    if not ready.wait(timeout) or errors:
-        raise RuntimeError(f"the gateway did not start: {errors[0] if errors else 'time-out'}")
-    server, loop = holder["server"], holder["loop"]
-    assert isinstance(server, GatewayServer) and isinstance(loop, asyncio.AbstractEventLoop)
     try:
-        yield BackgroundGateway(server, loop)
-    finally:
-        loop.call_soon_threadsafe(server.stop)
-        thread.join(timeout)
+        with in_thread("asictl-gateway", lambda: contextlib.nullcontext(
+            GatewayServer(slave, **options)
+        ), serve, timeout) as (server, loop):
+            yield BackgroundGateway(server, loop)
+    except NotStarted as exc:
+        raise RuntimeError(f"the gateway did not start: {exc}") from None

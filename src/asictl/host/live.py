@@ -41,6 +41,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from asictl.background import NotStarted, in_thread
 from asictl.board.board import Pc2Board
 from asictl.condition_log import ConditionLog
 from asictl.errors import ExitCode, UserError
@@ -408,41 +409,25 @@ def background_live(
 ) -> Iterator[Path]:
     """The board at ``base`` served live from a thread of this process until the block
     ends (the monitor does this when no ``asictl serve`` runs); its socket path."""
-    import threading
-
     refuse_if_served(directory, base)
     path = socket_path(directory, base)
-    ready = threading.Event()
-    errors: list[BaseException] = []
-    holder: dict[str, Any] = {}
 
-    def main() -> None:
-        try:
-            with emulated_board(base, directory) as board:
-                server = LiveServer(
-                    LiveBoard(board), path, identity={**identity, "pid": os.getpid()},
-                    on_tick=_saver(board, state_file(directory, base)),
-                )
+    @contextmanager
+    def make() -> Iterator[LiveServer]:
+        with emulated_board(base, directory) as board:
+            yield LiveServer(
+                LiveBoard(board), path, identity={**identity, "pid": os.getpid()},
+                on_tick=_saver(board, state_file(directory, base)),
+            )
 
-                async def run() -> None:
-                    holder["server"], holder["loop"] = server, asyncio.get_running_loop()
-                    await server.serve(ready.set)
+    def serve(server: LiveServer, ready: Callable[[], None]) -> Awaitable[None]:
+        return server.serve(ready)
 
-                asyncio.run(run())
-        except BaseException as exc:  # reported to the caller's thread
-            errors.append(exc)
-            ready.set()
-
-    thread = threading.Thread(target=main, name="asictl-live", daemon=True)
-    thread.start()
-    if not ready.wait(timeout) or errors:
-        why = errors[0] if errors else "time-out"
-        raise UserError(f"cannot serve board {port_name(base)}: {why}")
     try:
-        yield path
-    finally:
-        holder["loop"].call_soon_threadsafe(holder["server"].stop)
-        thread.join(timeout)
+        with in_thread("asictl-live", make, serve, timeout):
+            yield path
+    except NotStarted as exc:
+        raise UserError(f"cannot serve board {port_name(base)}: {exc}") from None
 
 
 # --------------------------------------------------------------------------- the client
