@@ -45,6 +45,29 @@ def test_the_image_format_loads_no_compiler():
     assert not [m for m in loaded if m.startswith(("lark", "asictl.il", "asictl.codegen8051"))]
 
 
+def test_checking_loads_no_assembler_image_or_compiler():
+    """``asictl check`` reads and checks source: the back end stays unloaded (the
+    assembler's reserved words, which the checks need, are a module of their own)."""
+    program = "[DECL]\\nx BYTE 1\\n[PROGRAM]\\n    A I 1.0\\n    = Q 1.0\\n    BE\\n"
+    code = (
+        "import json, sys; from asictl.build import check; "
+        "from asictl.source import from_string; "
+        f"built = check(from_string('p.asi', '{program}')); "
+        "assert built.program is not None and not built.diagnostics, built.render(); "
+        "print(json.dumps(sorted(m for m in sys.modules if m.startswith('asictl'))))"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    loaded = json.loads(out.stdout)
+    assert {"asictl.il.checks", "asictl.mcs51.words"} <= set(loaded)
+    back_end = [
+        m for m in loaded
+        if m.startswith(("asictl.codegen8051", "asictl.image", "asictl.runtime.contract"))
+        or (m.startswith("asictl.mcs51.") and m != "asictl.mcs51.words")
+    ]
+    assert back_end == []
+    assert "asictl.image" not in modules_after_import("asictl.cli.check")
+
+
 def test_the_command_line_starts_without_its_commands():
     """``asictl --help`` stays fast: commands and their dependencies load when run."""
     loaded = modules_after_import("asictl.cli")

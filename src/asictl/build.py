@@ -30,21 +30,15 @@ from asictl.errors import ExitCode
 from asictl.il import ast
 from asictl.il.checks import Dialect, check_source
 from asictl.il.loader import Program
-from asictl.image import (
-    HEADER_SIZE,
-    Configuration,
-    ImageError,
-    ProgramImage,
-    SlaveConfig,
-    pack_sources,
-    program_identity,
-    source_files,
-)
 from asictl.platform.master import EEPROM_SIZE, Options
 from asictl.source import SourceText, from_bytes, read_source
 
+# The image format (and the runtime contract it describes) and the compiler are imported
+# by the functions that use them: checking a source file, what ``asictl check`` does most,
+# needs neither, and loading them would add some 20 ms to every check.
 if TYPE_CHECKING:
     from asictl.codegen8051.compiler import Compiled
+    from asictl.image import ProgramImage, SlaveConfig
 
 #: An Intel HEX record: colon, count, address, type, data, checksum.
 _HEX_RECORD = re.compile(r":(?:[0-9A-Fa-f]{2}){5,}")
@@ -109,6 +103,8 @@ def check(
     """What ``asictl check`` reports: the front end's diagnostics, and for an uploaded file
     whether its [RAW] image is sound. Nothing is compiled."""
     if is_hex(source.text):
+        from asictl.image import ProgramImage
+
         return Build(source.name, Origin.HEX, image=ProgramImage.from_hex(source.text))
     result = check_source(source, dialect=dialect, lib=lib)
     program = result.program
@@ -136,8 +132,8 @@ def build(
     Raises ``ImageError`` for an Intel HEX file that holds no valid image (unreadable
     input); everything else wrong with the program is in the diagnostics.
     """
-    # imported here, not above: ``check`` (what ``asictl check`` runs) needs no compiler
     from asictl.codegen8051.compiler import GENERATED, compile_program
+    from asictl.image import ImageError
 
     report = on_stage or (lambda stage, built: None)
     built = check(source, lib=lib)
@@ -183,6 +179,16 @@ def build_image(compiled: Compiled, *, with_source: bool = True) -> ProgramImage
 
     Raises ``ImageError`` when even the code and map exceed the EEPROM.
     """
+    from asictl.image import (
+        HEADER_SIZE,
+        Configuration,
+        ImageError,
+        ProgramImage,
+        pack_sources,
+        program_identity,
+        source_files,
+    )
+
     program = compiled.program
     files = source_files({name: s.raw for name, s in program.sources.items()})
     image = ProgramImage(
@@ -233,6 +239,8 @@ def program_of_image(image: ProgramImage) -> Program | None:
 
 def image_from_raw(records: Iterable[str]) -> ProgramImage:
     """The image an upload wrote as [RAW] records; ``to_bytes`` gives it back unchanged."""
+    from asictl.image import ProgramImage
+
     return ProgramImage.from_hex("\n".join(records) + "\n")
 
 
@@ -242,6 +250,8 @@ def _raw_image(module: ast.Module) -> tuple[ProgramImage | None, list[Diagnostic
     The [RAW] records are what gets downloaded; a file whose other sections were edited
     would silently download something other than it says, so a mismatch is an error.
     """
+    from asictl.image import Configuration, ImageError
+
     sections = module.sections_of(ast.RawSection)
     where = sections[0].span or Span(module.file, 1, 1)
     records = [r for section in sections for r in section.records]

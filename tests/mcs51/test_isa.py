@@ -5,7 +5,6 @@ from __future__ import annotations
 import pytest
 
 from asictl.mcs51.isa import (
-    MNEMONICS,
     OPCODES,
     SFR_BITS,
     SFRS,
@@ -13,6 +12,7 @@ from asictl.mcs51.isa import (
     bit_address,
     is_bit_addressable_byte,
 )
+from asictl.mcs51.words import MNEMONICS
 
 # Instruction lengths as printed in the Intel opcode map, one row per high nibble
 # (0 = undefined). Written out independently of the table's generator.
@@ -121,6 +121,10 @@ def test_there_are_44_mnemonics():
     # the 111 instruction types of the Intel manual, counted by mnemonic
     assert len(MNEMONICS) == 44
     assert {"MOVC", "MOVX", "XCHD", "DA", "JBC", "RETI"} <= MNEMONICS
+
+
+def test_the_word_list_has_the_mnemonics_of_the_table():
+    assert {info.mnemonic for info in OPCODES if info is not None} == MNEMONICS
 
 
 def test_sfr_spot_values():

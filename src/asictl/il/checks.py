@@ -16,6 +16,7 @@ from enum import StrEnum
 from pathlib import Path
 
 from asictl.codes import CheckCode, SyntaxCode
+from asictl.collector import collector_paused
 from asictl.diagnostics import Diagnostic, Reporter, Span
 from asictl.il import ast
 from asictl.il.analysis import analyse
@@ -30,7 +31,7 @@ from asictl.il.language import (
 )
 from asictl.il.loader import Program, Reader, calls, load_program
 from asictl.il.pragmas import read_directives
-from asictl.mcs51.asm_parser import RESERVED as ASSEMBLER_RESERVED
+from asictl.mcs51.words import RESERVED as ASSEMBLER_RESERVED
 from asictl.platform.master import Options
 from asictl.runtime.firmware import FIRMWARE_BLOCKS
 from asictl.source import SourceText, read_source
@@ -735,8 +736,9 @@ def check_source(
 
     ``read`` and ``exists`` stand for the file system (an editor's open buffers).
     """
-    program, load_diagnostics = load_program(source, lib=lib, read=read, exists=exists)
-    diagnostics = [
-        *load_diagnostics, *check_program(program, dialect, read_errors=load_diagnostics)
-    ]
+    with collector_paused():  # see asictl.collector
+        program, load_diagnostics = load_program(source, lib=lib, read=read, exists=exists)
+        diagnostics = [
+            *load_diagnostics, *check_program(program, dialect, read_errors=load_diagnostics)
+        ]
     return CheckResult(program, sorted(diagnostics, key=Diagnostic.sort_key))

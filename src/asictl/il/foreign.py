@@ -8,7 +8,7 @@ diagnostic that meets one of these words says what the master's IL calls it (and
 
 from __future__ import annotations
 
-from asictl.mcs51.isa import MNEMONICS
+from asictl.mcs51.words import MNEMONICS
 
 #: STEP 5's German operators whose English form differs (O, ON, S, R, L, T, BE are equal).
 STEP5_OPERATORS = {

@@ -21,6 +21,7 @@ from dataclasses import dataclass
 from asictl.mcs51.asm_errors import AsmError, Code
 from asictl.mcs51.asm_lexer import Token, TokenKind, parse_number
 from asictl.mcs51.isa import bit_address, is_bit_addressable_byte
+from asictl.mcs51.words import REGISTER_NAMES, UNARY_WORDS
 
 #: Every value, final or intermediate, lies strictly between -VALUE_LIMIT and VALUE_LIMIT:
 #: 32 bits, signed or unsigned, more than any 8051 operand needs.
@@ -210,9 +211,6 @@ _AS31_PRECEDENCE = {
     "<<": 4,
     ">>": 4,
 }
-_UNARY_WORDS = frozenset({"HIGH", "LOW"})
-#: Names of registers; they are operands, never values.
-REGISTER_NAMES = frozenset({"A", "AB", "C", "DPTR", "PC", *(f"R{i}" for i in range(8))})
 
 
 class ExprParser:
@@ -277,7 +275,7 @@ class ExprParser:
         tok = self.peek()
         if tok is not None and (
             (tok.kind is TokenKind.PUNCT and tok.text in "-+~")
-            or (tok.kind is TokenKind.IDENT and tok.text.upper() in _UNARY_WORDS)
+            or (tok.kind is TokenKind.IDENT and tok.text.upper() in UNARY_WORDS)
         ):
             self._count_operator(tok)
             self.pos += 1

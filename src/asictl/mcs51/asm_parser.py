@@ -12,9 +12,10 @@ from dataclasses import dataclass
 from enum import Enum
 
 from asictl.mcs51.asm_errors import AsmError, Code
-from asictl.mcs51.asm_expr import REGISTER_NAMES, Expr, ExprParser
+from asictl.mcs51.asm_expr import Expr, ExprParser
 from asictl.mcs51.asm_lexer import Token, TokenKind, tokenize
-from asictl.mcs51.isa import MNEMONICS, Operand
+from asictl.mcs51.isa import Operand
+from asictl.mcs51.words import DEFINITION_WORDS, DIRECTIVES, MNEMONICS, RESERVED
 
 
 class Shape(Enum):
@@ -89,32 +90,8 @@ class ParsedLine:
     error: AsmError | None = None
 
 
-#: Words introducing an ASM51 symbol definition (NAME word value).
-DEFINITION_WORDS = frozenset({"EQU", "SET", "BIT", "DATA", "IDATA", "XDATA", "CODE"})
-
-_DIRECTIVES = {
-    "ORG": "ORG",
-    "DB": "DB",
-    "DW": "DW",
-    "DS": "DS",
-    "END": "END",
-    ".ORG": "ORG",
-    ".DB": "DB",
-    ".BYTE": "DB",
-    ".DW": "DW",
-    ".WORD": "DW",
-    ".SKIP": "DS",
-    ".END": "END",
-    ".INC": "INCLUDE",
-    ".INCLUDE": "INCLUDE",
-}
 #: as31's definition directives: .equ NAME, value and .flag NAME, bit.
 _AS31_DEFINITIONS = {".EQU": "EQU", ".FLAG": "BIT"}
-
-#: Words that can never name a symbol.
-RESERVED = frozenset(
-    {*MNEMONICS, "CALL", *REGISTER_NAMES, *DEFINITION_WORDS, *_DIRECTIVES, "HIGH", "LOW"}
-)
 
 _REGISTERS = {
     "A": Operand.A,
@@ -192,7 +169,7 @@ class _LineParser:
         self.pos += 1
         if word in MNEMONICS or word == "CALL":
             return Instruction(word, tok.column, self._operands())
-        if word in _DIRECTIVES:
+        if word in DIRECTIVES:
             return self._directive(word, tok.column, tok.column + len(tok.text))
         if nxt is not None and nxt.kind is TokenKind.IDENT and nxt.text.upper() in DEFINITION_WORDS:
             self._check_name(tok)
@@ -210,7 +187,7 @@ class _LineParser:
             self._check_name(name)
             self._take_punct(",", f"expected ',' after '{name.text}'")
             return Definition(name.text, name.column, _AS31_DEFINITIONS[word], self._expr_to_end())
-        canonical = _DIRECTIVES.get(word)
+        canonical = DIRECTIVES.get(word)
         if canonical is None:
             raise AsmError(
                 f"unknown directive '{word.lower()}'", column, end - column, Code.UNKNOWN_MNEMONIC

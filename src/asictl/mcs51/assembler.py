@@ -29,7 +29,6 @@ from asictl.mcs51.asm_expr import (
     operator_count,
 )
 from asictl.mcs51.asm_parser import (
-    RESERVED,
     DataString,
     Definition,
     Directive,
@@ -41,6 +40,7 @@ from asictl.mcs51.asm_parser import (
 )
 from asictl.mcs51.assembly import Assembly, ListingEntry, Symbol
 from asictl.mcs51.isa import OPCODES, REGISTERS, SFR_BITS, SFRS, OpcodeInfo, Operand
+from asictl.mcs51.words import RESERVED
 from asictl.source import SourceText, from_string, read_source
 
 __all__ = ["Assembly", "ListingEntry", "Symbol", "assemble", "assemble_text"]

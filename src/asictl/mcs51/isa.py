@@ -238,8 +238,6 @@ _DEFINED = {info.opcode: info for info in _build()}
 #: Index = opcode; ``None`` only for the undefined A5h.
 OPCODES: tuple[OpcodeInfo | None, ...] = tuple(_DEFINED.get(op) for op in range(256))
 
-#: Every mnemonic of the instruction set.
-MNEMONICS: frozenset[str] = frozenset(info.mnemonic for info in _DEFINED.values())
 
 
 # Special function registers of the 8051 and 8052 under the names as31 predefines.
