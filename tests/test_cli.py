@@ -54,3 +54,19 @@ def test_internal_errors_are_labelled_as_bugs_without_traceback(monkeypatch):
     assert result.exit_code == 3
     assert "internal error (this is a bug in asictl" in result.stderr
     assert "Traceback" not in result.output
+
+
+def test_the_console_script_freezes_the_collector_at_exit(monkeypatch) -> None:
+    """``run`` (the console script) exits as ``main`` does and freezes the collector's
+    view first, so that the interpreter's last collection skips what the command left."""
+    import gc
+
+    from asictl import cli
+
+    frozen = []
+    monkeypatch.setattr(gc, "freeze", lambda: frozen.append(True))
+    monkeypatch.setattr(sys, "argv", ["asictl", "check", "--help"])
+    with pytest.raises(SystemExit) as exit_info:
+        cli.run()
+    assert exit_info.value.code == 0
+    assert frozen == [True]

@@ -1,5 +1,5 @@
 """Allow ``python -m asictl``."""
 
-from asictl.cli import main
+from asictl.cli import run
 
-main()
+run()
