@@ -55,14 +55,15 @@ def test_the_plugin_can_be_turned_off(folder: pytest.Pytester):
 
 
 def test_with_xdist_workers(folder: pytest.Pytester):
+    """A folder of 30 scenario files over two workers: 30 passed."""
     for name in ("wrong", "broken"):
         folder.path.joinpath(f"{name}.scenario.toml").unlink()
-    for i in range(6):
+    for i in range(28):
         folder.path.joinpath(f"copy{i}.scenario.toml").write_text(
             folder.path.joinpath("blink.scenario.toml").read_text()
             .replace("[master]", 'program = "blink.asi"\n[master]'))
     result = folder.runpytest_subprocess(*PLUGIN, "-p", "xdist.plugin", "-n", "2")
-    result.assert_outcomes(passed=8)
+    result.assert_outcomes(passed=30)
 
 
 def test_the_entry_point_is_declared():
