@@ -5,7 +5,11 @@ from __future__ import annotations
 
 import importlib.util
 import json
+import os
+import pty
 import re
+import subprocess
+import sys
 from pathlib import Path
 from xml.etree import ElementTree
 
@@ -160,3 +164,37 @@ def test_parallel_test_runs_give_the_same_output_and_junit(tmp_path: Path):
     assert lines[-1] == "5 passed, 2 failed"
     assert [line.split()[0] for line in lines if not line.startswith(" ")][:-1] == [
         "PASS", "FAIL", "ERROR", "PASS", "PASS", "PASS", "PASS"]
+
+
+def test_test_shows_its_progress_on_a_terminal_and_not_in_a_pipe(tmp_path: Path):
+    """On a terminal, standard error carries one line rewritten per scenario (done of
+    all, failures so far), cleared at the end; in a pipe nothing of it."""
+    for scenario in SCENARIOS.glob("*"):
+        (tmp_path / scenario.name).write_bytes(scenario.read_bytes())
+    (tmp_path / "blink_fails.scenario.toml").write_text(
+        f'program = "{tmp_path / "blink.asi"}"\n[master]\ncycle_ms = 5\n'
+        '[[step]]\nat_ms = 750\nexpect = { "Q 31.0" = 1 }\n')
+    total = len(list(tmp_path.glob("*.scenario.toml")))
+    command = [sys.executable, "-m", "asictl", "test", str(tmp_path), "-j", "2"]
+    leader, follower = pty.openpty()
+    try:
+        done = subprocess.run(command, stdout=subprocess.PIPE, stderr=follower, timeout=120)
+        os.close(follower)
+        seen = b""
+        while True:
+            try:
+                chunk = os.read(leader, 4096)
+            except OSError:  # the terminal's other end is closed: all read
+                break
+            if not chunk:
+                break
+            seen += chunk
+    finally:
+        os.close(leader)
+    assert done.returncode == 1
+    shown = seen.decode()
+    assert f"[{total}/{total}] 1 failed" in shown
+    assert shown.endswith("\r\x1b[K")  # the line is gone when the summary prints
+    piped = subprocess.run(command, capture_output=True, text=True, timeout=120)
+    assert "failed\r" not in piped.stderr and "\x1b[K" not in piped.stderr
+    assert piped.stdout.splitlines()[-1] == done.stdout.decode().splitlines()[-1]
