@@ -431,10 +431,11 @@ def random_operands(rng: random.Random, opcode: int) -> bytes:
 
 
 @st.composite
-def programs(draw) -> tuple[bytes, bytes, bytes, int, int | None]:
-    """Random code tiled over all 64 KB, so every jump lands in more random code."""
+def programs(draw, max_opcodes: int = 40) -> tuple[bytes, bytes, bytes, int, int | None]:
+    """Random code tiled over all 64 KB, so every jump lands in more random code; a
+    random state and budgets."""
     rng = random.Random(draw(st.integers(0, 2**32 - 1)))
-    opcodes = draw(st.lists(st.sampled_from(DEFINED), min_size=4, max_size=40))
+    opcodes = draw(st.lists(st.sampled_from(DEFINED), min_size=4, max_size=max_opcodes))
     code = b"".join(bytes([opcode]) + random_operands(rng, opcode) for opcode in opcodes)
     image = (code * (0x10000 // len(code) + 1))[:0x10000]
     iram = bytes(rng.randrange(256) for _ in range(256))

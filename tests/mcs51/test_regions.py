@@ -11,13 +11,14 @@ from __future__ import annotations
 import random
 
 import pytest
+import test_emulator as emulator_tests
 import test_ucsim_oracle as oracle
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from asictl.mcs51 import regions
 from asictl.mcs51.emulator import Emulator, StopReason
-from asictl.mcs51.isa import OPCODES, Operand
+from asictl.mcs51.isa import OPCODES
 
 REGION = 2  # the translation cache's kind of a region entry
 
@@ -78,44 +79,13 @@ def test_random_sequences_with_forward_branches_match_s51(s51_path: str, cases) 
 
 # -- against the interpreter, with devices, breakpoints and budgets ----------------------
 
-DEFINED = [info.opcode for info in OPCODES if info is not None]
-SPECIAL_DIRECT = (0xE0, 0xD0, 0xF0, 0x81, 0x82, 0x83, 0x80, 0x90, 0xA0, 0x00, 0x07, 0x08, 0x20)
-SPECIAL_BITS = (*range(0xD0, 0xD8), 0xE0, 0xE7, 0xF0, 0x90, 0x00, 0x7F)
-NOT_A5 = [v for v in range(256) if v != 0xA5]
+def programs() -> st.SearchStrategy[tuple[bytes, bytes, bytes, int, int | None]]:
+    """The emulator tests' random programs (every opcode, computed RAM addresses, MOVX to
+    devices, calls and returns), longer: regions grow over many instructions."""
+    return emulator_tests.programs(max_opcodes=60)
 
 
-def random_operands(rng: random.Random, opcode: int) -> bytes:
-    info = OPCODES[opcode]
-    out = []
-    for index in info.encoding:
-        kind = info.operands[index]
-        special = {Operand.DIRECT: SPECIAL_DIRECT, Operand.BIT: SPECIAL_BITS}.get(kind)
-        for _ in range(kind.size):
-            pick = special if special and rng.random() < 0.5 else NOT_A5
-            out.append(rng.choice(pick))
-    return bytes(out)
-
-
-@st.composite
-def programs(draw):
-    """Random code (every opcode, computed RAM addresses, MOVX to devices, calls and
-    returns) tiled over 64 KB, a random state, budgets."""
-    rng = random.Random(draw(st.integers(0, 2**32 - 1)))
-    opcodes = draw(st.lists(st.sampled_from(DEFINED), min_size=4, max_size=60))
-    code = b"".join(bytes([opcode]) + random_operands(rng, opcode) for opcode in opcodes)
-    image = (code * (0x10000 // len(code) + 1))[:0x10000]
-    iram = bytes(rng.randrange(256) for _ in range(256))
-    sfr = bytes(rng.randrange(256) for _ in range(256))
-    budget = draw(st.integers(1, 3000))
-    cycles = draw(st.one_of(st.none(), st.integers(0, 6000)))
-    return image, iram, sfr, budget, cycles
-
-
-def snapshot(emu: Emulator, log: list) -> tuple:
-    return (
-        emu.pc, emu.instructions, emu.cycles, emu.psw, bytes(emu.iram), bytes(emu.sfr),
-        bytes(emu.xdata.ram), tuple(log),
-    )  # fmt: skip
+snapshot = emulator_tests.snapshot
 
 
 @settings(
