@@ -2,10 +2,13 @@
 
 from __future__ import annotations
 
+import ast
 import json
 import subprocess
 import sys
 from pathlib import Path
+
+import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 PACKAGE = ROOT / "src" / "asictl"
@@ -85,3 +88,42 @@ def test_only_the_monitor_loads_textual():
     assert out.stdout.strip() == "False"
     loaded = modules_after_import("asictl.monitor.app")
     assert "asictl.monitor.app" in loaded
+
+
+#: Who looks at a running program stands above what it looks at: the simulation, the
+#: debugger and the monitor look through ``observe``; the host and the board know none of
+#: them. (Function-local imports count too.)
+NOT_IMPORTED_BY = {
+    "observe": ("host", "gateway", "sim", "debug", "monitor", "cli", "lsp"),
+    "sim": ("debug", "monitor", "cli", "lsp"),
+    "host": ("sim", "debug", "monitor", "cli", "lsp"),
+    "board": ("host", "observe", "sim", "debug", "monitor", "cli", "lsp", "gateway"),
+    "gateway": ("sim", "observe", "debug", "monitor", "cli", "lsp"),
+}
+
+
+def imported_packages(package: str) -> dict[str, set[str]]:
+    """The asictl packages each file of ``package`` imports, anywhere in the file."""
+    found: dict[str, set[str]] = {}
+    for path in (PACKAGE / package).rglob("*.py"):
+        names: set[str] = set()
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.ImportFrom) and node.module:
+                names.add(node.module)
+            elif isinstance(node, ast.Import):
+                names.update(alias.name for alias in node.names)
+        found[path.relative_to(PACKAGE).as_posix()] = {
+            name.split(".")[1] for name in names
+            if name.startswith("asictl.") and name.count(".") >= 1
+        }
+    return found
+
+
+@pytest.mark.parametrize("package", sorted(NOT_IMPORTED_BY))
+def test_nothing_imports_upwards(package: str):
+    upward = {
+        file: sorted(imported & set(NOT_IMPORTED_BY[package]))
+        for file, imported in imported_packages(package).items()
+        if imported & set(NOT_IMPORTED_BY[package])
+    }
+    assert upward == {}

@@ -2,7 +2,7 @@
 
 ``v`` swaps the slave view for the program's source with each line's values from the
 latest cycle; the arrows and PgUp/PgDn scroll, ``n`` jumps to the next file. The values
-come from the board the monitor watches (``debug.online``), so each test makes the board
+come from the board the monitor watches (``observe.online``), so each test makes the board
 do something and looks for it on the screen.
 """
 

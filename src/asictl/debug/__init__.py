@@ -1,3 +1,2 @@
-"""Seeing what an IL program does on the emulated master: where in the IL source the 8051
-is (``locate``), operands as the program sees them (``view``), per-line traces
-(``iltrace``) and the interactive debugger (``debugger``)."""
+"""The interactive IL debugger (``asictl debug``): breakpoints, steps and prints at the IL
+line, on a simulation (it looks through ``asictl.observe``)."""

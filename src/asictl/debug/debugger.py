@@ -3,7 +3,7 @@ emulated master in virtual time (docs/debugging.md).
 
 The program runs exactly as in ``asictl sim`` (same board, same download, same scenario
 steps); the debugger watches it through traps at the line map's boundaries
-(``debug.hooks``). A pause happens inside a trap, deep inside the emulator's run, so the
+(``observe.hooks``). A pause happens inside a trap, deep inside the emulator's run, so the
 simulation runs in a worker thread: at a pause the worker reports to the debugger and
 waits for the next command; the debugger reads the machine while the worker waits. Only
 one of the two threads ever runs at a time.
@@ -19,13 +19,13 @@ from dataclasses import dataclass
 from enum import Enum
 from pathlib import PurePath
 
-from asictl.debug.hooks import LineHooks
-from asictl.debug.locate import call_chain
-from asictl.debug.view import ProgramView
 from asictl.il import ast
+from asictl.observe.hooks import LineHooks
+from asictl.observe.locate import call_chain
+from asictl.observe.operands import CounterValue, Operand, TimerValue, parse_operand
+from asictl.observe.view import ProgramView
 from asictl.runtime.line_map import SourceLine
 from asictl.sim.engine import Simulation, line_map_of, source_texts
-from asictl.sim.operands import CounterValue, Operand, TimerValue, parse_operand
 from asictl.sim.scenario import parse_duration
 from asictl.sim.session import Prepared
 

@@ -10,7 +10,7 @@ check them first; an action still refuses anything that does not fit the cable a
 
 ``lines`` is the monitor's program view: each IL line with the register and operand
 values of the latest program cycle, recorded on the board for that one cycle
-(``debug.online``).
+(``observe.online``).
 """
 
 from __future__ import annotations
@@ -248,8 +248,8 @@ def _view(board: Pc2Board, args: dict[str, JSON]) -> JSON:
 
 
 def _lines(board: Pc2Board, args: dict[str, JSON]) -> JSON:
-    """The program's IL lines with their values in the latest cycle (debug.online)."""
-    from asictl.debug.online import latest_cycle
+    """The program's IL lines with their values in the latest cycle (observe.online)."""
+    from asictl.observe.online import latest_cycle
 
     return latest_cycle(board)
 

@@ -23,7 +23,6 @@ from textual.binding import Binding, BindingType
 from textual.containers import Horizontal, Vertical
 from textual.widgets import Footer, Input, RichLog, Static
 
-from asictl.debug.online import CycleLines
 from asictl.errors import UserError
 from asictl.host.commissioning import check_address
 from asictl.host.connection import Master
@@ -40,6 +39,7 @@ from asictl.host.status import (
 )
 from asictl.monitor.program import Listing, heading, listing_of, render_rows
 from asictl.monitor.source import MonitorSource, Snapshot, toggle_start
+from asictl.observe.online import CycleLines
 from asictl.platform.master import IO_CODE_BITS, SLAVES
 
 #: Seconds between two refreshes.

@@ -16,9 +16,9 @@ from pathlib import PurePath
 
 from rich.text import Text
 
-from asictl.debug.online import CycleLines, LineValues
 from asictl.host.status import StoredProgram
 from asictl.image import ImageError
+from asictl.observe.online import CycleLines, LineValues
 from asictl.runtime.line_map import SourceLine
 from asictl.source import decode
 

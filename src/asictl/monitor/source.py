@@ -9,7 +9,7 @@ reported, not fatal: the next refresh tries again.
 The program image is read now and then and kept (``StoredProgram``): it names the IL
 line of a cycle time-out, and the program view shows its source. While the program view
 is open (``watch_lines``) each refresh also asks an emulated board for the IL lines of
-its latest program cycle (``debug.online``); a real board or a gateway has none to give.
+its latest program cycle (``observe.online``); a real board or a gateway has none to give.
 """
 
 from __future__ import annotations
@@ -18,11 +18,11 @@ import threading
 from collections.abc import Callable
 from dataclasses import dataclass
 
-from asictl.debug.online import CycleLines
 from asictl.errors import UserError
 from asictl.host.connection import Master, MasterAddress, connect_master
 from asictl.host.status import MasterStatus, StoredProgram, read_program
 from asictl.host.transfer import set_start
+from asictl.observe.online import CycleLines
 from asictl.platform.master import ControlFlag
 
 #: The program image is read again every this many refreshes (it changes only by a

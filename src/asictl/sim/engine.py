@@ -26,9 +26,6 @@ from asictl.board.asi import AsiBus, Slave
 from asictl.board.board import Pc2Board
 from asictl.build import Build
 from asictl.codes import ScenarioCode
-from asictl.debug.iltrace import ILTracer, LineRow, line_operands
-from asictl.debug.locate import current_line, describe
-from asictl.debug.view import ProgramView, read_on_board
 from asictl.diagnostics import Diagnostic, DiagnosticError, Severity, Span
 from asictl.host.driver import EmulatedPort, Pc2Driver
 from asictl.host.transfer import Pc2Transport, StartMode, download
@@ -36,13 +33,16 @@ from asictl.il import ast
 from asictl.il.loader import Program
 from asictl.image import ProgramImage
 from asictl.mcs51.emulator import Emulator
+from asictl.observe.iltrace import ILTracer, LineRow, line_operands
+from asictl.observe.locate import current_line, describe
+from asictl.observe.operands import Operand, parse_operand
+from asictl.observe.view import ProgramView, read_on_board
 from asictl.platform import pc2 as d
 from asictl.platform.master import ControlFlag
 from asictl.runtime.firmware import FIRMWARE_BLOCKS
 from asictl.runtime.line_map import LineMap
 from asictl.runtime.program_map import CellKind, ProgramMap
 from asictl.runtime.runner import ProgramRunner
-from asictl.sim.operands import Operand, parse_operand
 from asictl.sim.scenario import Scenario, SlaveSpec, Step
 from asictl.sim.trace import Mark, Signal, Trace
 from asictl.symbols import SymbolTable

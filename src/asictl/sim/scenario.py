@@ -21,7 +21,7 @@ from asictl.codes import ScenarioCode
 from asictl.diagnostics import Diagnostic, DiagnosticError, Reporter, Severity, Span
 from asictl.il import ast
 from asictl.il.parser import parse_text
-from asictl.sim.operands import Operand, parse_operand
+from asictl.observe.operands import Operand, parse_operand
 from asictl.source import SourceText, read_source
 from asictl.symbols import SymbolTable
 

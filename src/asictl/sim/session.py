@@ -23,8 +23,8 @@ from asictl import __version__
 from asictl.build import Build, build_file
 from asictl.diagnostics import DiagnosticError, render_text
 from asictl.errors import UserError
+from asictl.observe.operands import parse_operand
 from asictl.sim.engine import SimResult, Simulation, variables_of
-from asictl.sim.operands import parse_operand
 from asictl.sim.scenario import (
     Scenario,
     Step,

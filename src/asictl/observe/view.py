@@ -13,12 +13,12 @@ from collections.abc import Callable
 
 from asictl.board.board import Pc2Board
 from asictl.il import ast
+from asictl.observe.operands import CounterValue, Operand, TimerValue
 from asictl.platform import pc2
 from asictl.platform.master import TICK_MS
 from asictl.runtime import layout
 from asictl.runtime.program_map import CellKind
 from asictl.runtime.runner import ProgramRunner
-from asictl.sim.operands import CounterValue, Operand, TimerValue
 
 _PSW = 0xD0
 _CARRY = 0x80

@@ -15,13 +15,13 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import PurePath
 
-from asictl.debug.hooks import LineHooks
-from asictl.debug.view import ProgramView
 from asictl.il import ast
 from asictl.il.loader import Program
+from asictl.observe.hooks import LineHooks
+from asictl.observe.operands import CounterValue, Operand, TimerValue
+from asictl.observe.view import ProgramView
 from asictl.runtime.line_map import LineMap, SourceLine
 from asictl.runtime.runner import ProgramRunner
-from asictl.sim.operands import CounterValue, Operand, TimerValue
 
 COLUMNS = ("time_ms", "file", "line", "rlo", "accu1", "accu2", "source", "cycle", "operand")
 

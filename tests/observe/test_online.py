@@ -1,4 +1,4 @@
-"""Online values (``debug.online``): the IL lines of a running board's latest cycle.
+"""Online values (``observe.online``): the IL lines of a running board's latest cycle.
 
 The oracle is the per-line trace of ``asictl sim --trace-il``: the board's latest cycle
 must have exactly the rows the trace has for the same program, inputs and cycle. Two
@@ -29,13 +29,13 @@ from asictl.board.board import Pc2Board
 from asictl.build import build, build_file, build_image
 from asictl.cli import main
 from asictl.codegen8051.compiler import compile_program
-from asictl.debug.online import CycleLines, latest_cycle
 from asictl.errors import UserError
 from asictl.host.connection import MasterAddress, connect_master
 from asictl.host.driver import EmulatedPort, Pc2Driver
 from asictl.host.live import background_live
 from asictl.host.transfer import Pc2Transport, set_start
 from asictl.il.checks import check_source
+from asictl.observe.online import CycleLines, latest_cycle
 from asictl.platform.master import ControlFlag
 from asictl.platform.pc2 import ControlState
 from asictl.runtime.line_map import LineMap, SourceLine

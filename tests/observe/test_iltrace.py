@@ -19,10 +19,10 @@ from il_strategies import traceable_sources
 
 from asictl.build import build_file
 from asictl.cli import main
-from asictl.debug.iltrace import ILTracer
-from asictl.debug.view import ProgramView
 from asictl.il.reference import CycleTimeout as ReferenceTimeout
 from asictl.il.reference import Interpreter
+from asictl.observe.iltrace import ILTracer
+from asictl.observe.view import ProgramView
 from asictl.runtime.line_map import SourceLine
 from asictl.runtime.program_map import LoadedProgram
 from asictl.runtime.runner import ProgramRunner

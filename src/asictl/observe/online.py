@@ -4,7 +4,7 @@ This is STEP 7's "monitor block" for the emulated master: for each line with cod
 single-bit register, ACCU1, ACCU2 and the line's operand as the line left them in the
 latest program cycle, or that the line did not run in it. The values come from the board
 itself, not from a second simulation: ``latest_cycle`` installs the line hooks
-(``debug.hooks``) for one program cycle, records its rows exactly as ``--trace-il`` does
+(``observe.hooks``) for one program cycle, records its rows exactly as ``--trace-il`` does
 (``ILTracer``), and removes the hooks again, so the board runs at full speed between
 two requests. A real PC2's firmware reports nothing of the kind.
 
@@ -28,14 +28,14 @@ from typing import Any
 
 from asictl.board.board import Pc2Board
 from asictl.build import program_of_image
-from asictl.debug.iltrace import ILTracer, LineRow, line_operands
-from asictl.debug.view import ProgramView, read_on_board
 from asictl.errors import ExitCode, UserError
 from asictl.image import ImageError, ProgramImage
+from asictl.observe.iltrace import ILTracer, LineRow, line_operands
+from asictl.observe.operands import Operand
+from asictl.observe.view import ProgramView, read_on_board
 from asictl.platform import pc2
 from asictl.platform.master import CYCLE_TIMEOUT_MS
 from asictl.runtime.line_map import SourceLine
-from asictl.sim.operands import Operand
 
 JSON = Any
 
