@@ -115,16 +115,7 @@ def read_on_board(board: Pc2Board, operand: Operand) -> int:
     runner = board.program
     if runner is None:
         return 0
-    pmap = runner.pmap
-    match node:
-        case ast.ImageBit(area=ast.BitArea.I2, address=a, bit=b):
-            cell = pmap.cells.get((CellKind.I2, a >> 1))
-            value = runner.read(cell) if cell else 0
-            return value >> ((a & 1) * 4 + b) & 1
-        case ast.ImageByte(area=ast.ByteArea.I2B, number=n):
-            cell = pmap.cells.get((CellKind.I2, n >> 1))
-            return runner.read(cell) if cell else 0
-    return ProgramView(runner, lambda _: 0).read(operand)
+    return ProgramView(runner, lambda _: 0).read(operand)  # I2 without a cell reads 0
 
 
 def _slave_inputs(board: Pc2Board, address: int) -> int:
