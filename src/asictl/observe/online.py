@@ -32,7 +32,7 @@ from asictl.errors import ExitCode, UserError
 from asictl.image import ImageError, ProgramImage
 from asictl.observe.iltrace import ILTracer, LineRow, line_operands
 from asictl.observe.operands import Operand
-from asictl.observe.view import ProgramView, read_on_board
+from asictl.observe.view import ProgramView, read_on_board, wake
 from asictl.platform import pc2
 from asictl.platform.master import CYCLE_TIMEOUT_MS
 from asictl.runtime.line_map import SourceLine
@@ -128,7 +128,7 @@ def latest_cycle(board: Pc2Board) -> JSON:
         )
         tracer.hooks.install()
         try:
-            _wake(board)
+            wake(board)
             waited = 0.0
             while not tracer.completed and waited < WAIT_MS and board.control_state is \
                     pc2.ControlState.RUNNING:
@@ -181,11 +181,3 @@ def _operands(image: ProgramImage) -> dict[SourceLine, Operand]:
     _operands_of[:] = [(image, operands)]
     return operands
 
-
-def _wake(board: Pc2Board) -> None:
-    """A host access, rewriting a byte of the download buffer with what it holds: the
-    master then runs its next cycle even if the program looked settled."""
-    address = pc2.PROGRAM_BUFFER
-    board.io_write(pc2.PORT_PAGE, address >> 8)
-    board.io_write(pc2.PORT_INDEX, address & 0xFF)
-    board.io_write(pc2.PORT_DATA, board.dpram[address])

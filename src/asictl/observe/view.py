@@ -118,6 +118,20 @@ def read_on_board(board: Pc2Board, operand: Operand) -> int:
     return ProgramView(runner, lambda _: 0).read(operand)  # I2 without a cell reads 0
 
 
+def host_write(board: Pc2Board, address: int, value: int) -> None:
+    """As a host writes the communication memory: through the board's I/O registers."""
+    board.io_write(pc2.PORT_PAGE, address >> 8)
+    board.io_write(pc2.PORT_INDEX, address & 0xFF)
+    board.io_write(pc2.PORT_DATA, value)
+
+
+def wake(board: Pc2Board) -> None:
+    """Make the master run its next cycle even if the program looked idle (it skips
+    cycles that would repeat the last one): a host access, rewriting a byte of the
+    download buffer with what it holds, counts as news and changes nothing."""
+    host_write(board, pc2.PROGRAM_BUFFER, board.dpram[pc2.PROGRAM_BUFFER])
+
+
 def _slave_inputs(board: Pc2Board, address: int) -> int:
     slaves = board.bus.at(address)
     return slaves[0].inputs if slaves else 0
