@@ -23,9 +23,8 @@ from asictl.il import ast
 from asictl.observe.hooks import LineHooks
 from asictl.observe.locate import call_chain
 from asictl.observe.operands import CounterValue, Operand, TimerValue, parse_operand
-from asictl.observe.view import ProgramView
 from asictl.runtime.line_map import SourceLine
-from asictl.sim.engine import Simulation, line_map_of, source_texts
+from asictl.sim.engine import Simulation, source_texts, variables_of
 from asictl.sim.scenario import parse_duration
 from asictl.sim.session import Prepared
 
@@ -99,7 +98,7 @@ class Debugger:
         self.sim = Simulation(prepared.build, prepared.scenario, duration_ms=prepared.end_ms,
                               symbols=prepared.symbols)
         self.symbols = prepared.symbols
-        self.line_map = line_map_of(prepared.build)
+        self.line_map = self.sim.line_map
         self.texts = {name: text.split("\n") for name, text in
                       source_texts(prepared.build).items()}
         self.main_file = PurePath(prepared.program).name
@@ -273,14 +272,13 @@ class Debugger:
 
     def _operand(self, text: str) -> Operand:
         try:
-            return parse_operand(text, {n: v.size for n, v in self.runner.pmap.variables.items()},
-                                 self.symbols)
+            return parse_operand(text, variables_of(self.runner.pmap), self.symbols)
         except ValueError as exc:
             raise DebugError(str(exc)) from None
 
     def value(self, text: str) -> int:
         """A register (RLO, ACCU1, ACCU2) or an operand, as the program sees it now."""
-        view = self._view()
+        view = self.sim.view()
         upper = text.strip().upper()
         if upper in _REGISTERS:
             return int(getattr(view, upper.lower()))
@@ -289,7 +287,7 @@ class Debugger:
     def _show(self, text: str) -> str:
         """A value as people read it: bytes also in hex, timers and counters with their
         remaining time and count."""
-        view = self._view()
+        view = self.sim.view()
         upper = text.strip().upper()
         if upper == "RLO":
             return str(view.rlo)
@@ -306,9 +304,6 @@ class Debugger:
         if operand.is_bit or isinstance(node, CounterValue | TimerValue):
             return str(value)
         return f"{value} ({value:02X}h)"
-
-    def _view(self) -> ProgramView:
-        return ProgramView(self.runner, self.sim.read)
 
     def _condition(self, text: str) -> bool:
         match = _CONDITION.match(text)
