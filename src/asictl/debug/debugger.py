@@ -21,7 +21,7 @@ from pathlib import PurePath
 
 from asictl.il import ast
 from asictl.observe.hooks import LineHooks
-from asictl.observe.locate import call_chain
+from asictl.observe.locate import describe
 from asictl.observe.operands import CounterValue, Operand, TimerValue, parse_operand
 from asictl.runtime.line_map import SourceLine
 from asictl.sim.engine import Simulation, source_texts, variables_of
@@ -426,10 +426,8 @@ class Debugger:
         if self.line is None:
             state = "before the first cycle" if not self.sim.started else "between cycles"
             return f"{state}, master time {time}, cycle {self.cycle}"
-        callers = [c for c in call_chain(self.runner.cpu, self.line_map) if c != self.line]
-        called = (f" (called from {', '.join(str(c) for c in reversed(callers))})"
-                  if callers else "")
-        return f"{self.line}{called}, master time {time}, cycle {self.cycle}"
+        where = describe(self.line, self.runner.cpu, self.line_map)
+        return f"{where}, master time {time}, cycle {self.cycle}"
 
     def _report(self, pause: _Pause) -> None:
         if pause.kind == "error":
