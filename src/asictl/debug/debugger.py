@@ -20,6 +20,7 @@ from enum import Enum
 from pathlib import PurePath
 
 from asictl.il import ast
+from asictl.mcs51.isa import SFRS
 from asictl.observe.hooks import LineHooks
 from asictl.observe.locate import describe
 from asictl.observe.operands import CounterValue, Operand, TimerValue, parse_operand
@@ -28,7 +29,7 @@ from asictl.sim.engine import Simulation, source_texts, variables_of
 from asictl.sim.scenario import parse_duration
 from asictl.sim.session import Prepared
 
-_SP = 0x81
+_SP = SFRS["SP"]
 #: Master time the worker runs at a time between looks at its target.
 _SLICE_MS = 1.0
 _COMPARE: dict[str, Callable[[int, int], bool]] = {

@@ -13,6 +13,7 @@ from collections.abc import Callable
 
 from asictl.board.board import Pc2Board
 from asictl.il import ast
+from asictl.mcs51.isa import SFRS
 from asictl.observe.operands import CounterValue, Operand, TimerValue
 from asictl.platform import pc2
 from asictl.platform.master import TICK_MS
@@ -20,7 +21,7 @@ from asictl.runtime import layout
 from asictl.runtime.program_map import CellKind
 from asictl.runtime.runner import ProgramRunner
 
-_PSW = 0xD0
+_PSW = SFRS["PSW"]
 _CARRY = 0x80
 _CELL = {ast.BitArea.I: CellKind.I, ast.BitArea.I2: CellKind.I2, ast.BitArea.Q: CellKind.Q}
 _BYTE_CELL = {ast.ByteArea.IB: CellKind.I, ast.ByteArea.I2B: CellKind.I2,
