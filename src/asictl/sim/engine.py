@@ -503,7 +503,7 @@ class Simulation:
             self._tracer = ILTracer(
                 runner, self.line_map, texts=source_texts(self.build),
                 clock=lambda: self.now_ms() if self._t0 is not None else 0.0,
-                view=ProgramView(runner, self.read), operands=line_operands(self.program),
+                view=self.view(), operands=line_operands(self.program),
                 window=self.window,
             )
         if on:
