@@ -39,6 +39,8 @@ from asictl.runtime.line_map import SourceLine
 
 JSON = Any
 
+#: Why an image gives no per-line values.
+NO_LINE_MAP = "the image has no line map (format version 1): no per-line values"
 #: Master time a request lets pass at most for one program cycle to run: a cycle that
 #: may last up to the time-out, after one that did.
 WAIT_MS = 2.0 * CYCLE_TIMEOUT_MS + 10.0
@@ -115,7 +117,7 @@ def latest_cycle(board: Pc2Board) -> JSON:
         return answer
     line_map = image.line_map
     if not line_map:
-        answer["note"] = "the image has no line map (format version 1): no per-line values"
+        answer["note"] = NO_LINE_MAP
         return answer
     rows: list[LineRow] = []
     if board.control_state is not pc2.ControlState.RUNNING or board.in_reset:
