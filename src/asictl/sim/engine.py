@@ -387,10 +387,6 @@ class Simulation:
         if end is not None and at == end + _BEFORE_MS:
             self._trace_lines(False)
 
-    def advance(self, ms: float) -> None:
-        """Let master time pass (for the debugger: no steps are applied)."""
-        self.board.advance(ms)
-
     def _advance_to(self, t_ms: float) -> None:
         delta = t_ms - self.now_ms()
         if delta > 0:
