@@ -426,13 +426,14 @@ class Simulation:
             if not running:
                 return
             self._t0 = board.now_ms
-        now = self.now_ms()
         if running != self._running:
             self._running = running
             if not running:
-                self._stop(now)
-        for signal, read in self._signals:
-            signal.record(now, read(self))
+                self._stop(self.now_ms())
+        if self._signals:
+            now = self.now_ms()
+            for signal, read in self._signals:
+                signal.record(now, read(self))
 
     def _stop(self, now: float) -> None:
         board = self.board
