@@ -85,8 +85,6 @@ def programs() -> st.SearchStrategy[tuple[bytes, bytes, bytes, int, int | None]]
     return emulator_tests.programs(max_opcodes=60)
 
 
-
-
 @settings(
     max_examples=150,
     deadline=None,
