@@ -353,15 +353,14 @@ def open_modbus(
 
 
 def _control_state(
-    transport: ModbusTransport, flags: int, ec: int | None = None
+    transport: ModbusTransport, flags: int
 ) -> tuple[ControlState, StopReason | None]:
     """The gateway shows no control state or stop reason: derived as the PC2 reports them
     from 1009's flags, the ec-flags (608) and the image's magic in the EEPROM."""
     if flags & ControlFlag.CONTROL_ACTIVE:
         return ControlState.RUNNING, StopReason.NONE
     program = transport.read_eeprom(0, len(MAGIC)) == MAGIC
-    if ec is None:
-        ec = transport.read_registers(g.EC_FLAGS, 1)[0] & 0xFF
+    ec = transport.read_registers(g.EC_FLAGS, 1)[0] & 0xFF
     return derived_control_state(program, flags, ec)
 
 
@@ -387,7 +386,8 @@ def read_status(transport: ModbusTransport) -> MasterStatus:
         text for text in (transport.master_info(INFO_NAME), transport.master_info(INFO_VERSION))
         if text
     )
-    state, reason = _control_state(transport, flags, ec)
+    program = program_info(transport)
+    state, reason = derived_control_state(program.present, flags, ec)
     slaves = slave_data(
         {"LPS": lps, "LDS": lds, "LAS": las},
         inputs=data_nibbles(transport.read_registers(g.INPUTS_MIRROR + g.INPUT_DATA, 8)),
@@ -411,7 +411,7 @@ def read_status(transport: ModbusTransport) -> MasterStatus:
         program_status="not shown by the gateway",
         cycle_time_ms=0.0,
         max_cycle_time_ms=0.0,
-        program=program_info(transport),
+        program=program,
         slaves=slaves,
         hi_flags=transport.read_registers(g.HI_FLAGS, 1)[0] & 0x07,
         flags=[r & 0xFF for r in transport.read_registers(g.MEMORY_BYTES, 128)],
