@@ -186,12 +186,13 @@ class HostCommands:
 
     def _upload(self) -> bool:
         start = self._ram[d.ADDRESS] | self._ram[d.ADDRESS_EXT] << 8
+        source: bytes | bytearray
         if start >= d.ENTRY_TABLE_ADDRESS:
             block = self._block(d.ENTRY_TABLE_ADDRESS + d.ENTRY_TABLE_SIZE)
             source, offset = ENTRY_TABLE, d.ENTRY_TABLE_ADDRESS
-        else:
+        else:  # sliced in place: no copy of the 16 KB EEPROM for each 240-byte block
             block = self._block(EEPROM_SIZE)
-            source, offset = bytes(self._eeprom), 0
+            source, offset = self._eeprom, 0
         if block is None:
             return False
         self._dpram.put(d.PROGRAM_BUFFER, source[block.start - offset : block.stop - offset])
