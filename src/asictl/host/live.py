@@ -29,7 +29,6 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
-import fcntl
 import json
 import os
 import socket
@@ -48,7 +47,7 @@ from asictl.errors import ExitCode, UserError
 from asictl.files import write_atomic
 from asictl.host.boards import emulated_board, lock_file, port_name, state_file
 from asictl.host.emulated import VIEWS, run_action
-from asictl.host.locking import note_holder
+from asictl.host.locking import is_free, note_holder
 from asictl.platform.pc2 import (
     ACK,
     COMMAND,
@@ -546,20 +545,6 @@ class LivePort:
         return time.monotonic() * 1000.0
 
 
-def _lock_is_free(directory: Path, base: int) -> bool:
-    """Nobody holds the board's lock (so no live board can be serving it)."""
-    try:
-        with open(lock_file(directory, base), "a") as lock:
-            try:
-                fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
-            except BlockingIOError:
-                return False
-            fcntl.flock(lock, fcntl.LOCK_UN)
-            return True
-    except OSError:
-        return False
-
-
 def open_live(directory: Path, base: int) -> LiveClient | None:
     """The live board at ``base`` if one serves it; a socket left behind by a server that
     died is removed (only when the board's lock is free: a starting server keeps its)."""
@@ -571,7 +556,7 @@ def open_live(directory: Path, base: int) -> LiveClient | None:
         sock.connect(str(path))
     except (ConnectionRefusedError, FileNotFoundError):
         sock.close()
-        if _lock_is_free(directory, base):
+        if is_free(lock_file(directory, base)):  # so no live board can be serving it
             with contextlib.suppress(FileNotFoundError):
                 path.unlink()
         return None
