@@ -124,12 +124,11 @@ class Pc2Board:
             slave.outputs = 0
         images.write_identity()
         self._ram[d.ODI : d.ODI + d.IMAGE_SIZE] = b"\xff" * d.IMAGE_SIZE
-        self._ram[d.CONFIG_OK_DELAY] = self._ec.config_ok_delay
+        images.write_config_ok_delay()
         self.reload_program()
         images.write_settings()
-        images.write_lists()
+        images.write_lists()  # and the status bytes with them
         images.write_control_flags()
-        images.write_status()
         self._next_cycle_us = now_us + self._period()
         self._next_tick_us = now_us + TICK_US
 
