@@ -17,13 +17,13 @@ from asictl.board.control import AsiControl
 from asictl.board.dpram import Dpram
 from asictl.board.execution import ExecutionControl
 from asictl.board.images import MasterImages
+from asictl.board.services import ENTRY_POINTS
 from asictl.platform import pc2 as d
 from asictl.platform.master import EEPROM_SIZE, ControlFlag
 from asictl.platform.pc2 import Command, Status, nibbles
-from asictl.runtime.layout import default_entry_points
 
 #: Command 53 from FF00h: the firmware's function-block entry points, 2 bytes each, LE.
-ENTRY_TABLE = b"".join(a.to_bytes(2, "little") for a in default_entry_points().values())
+ENTRY_TABLE = b"".join(a.to_bytes(2, "little") for a in ENTRY_POINTS.values())
 
 
 class Board(Protocol):
