@@ -32,14 +32,13 @@ from asictl.board.services import MasterFirmware
 from asictl.image import ProgramImage
 from asictl.mcs51.emulator import EmulatorError, UndefinedOpcode
 from asictl.platform import pc2 as d
-from asictl.platform.master import SLAVES, TICK_MS, ControlFlag
+from asictl.platform.master import SLAVES, TICK_US, ControlFlag
 from asictl.platform.pc2 import ControlState, HiFlag, InterruptSource, StopReason, nibbles
 from asictl.runtime import layout
 from asictl.runtime.runner import CycleTimeout, ProgramRunner
 
 #: One AS-i transaction (master call, pauses, slave answer) and the cycle's management call.
 TRANSACTION_US = 150
-TICK_US = TICK_MS * 1000
 #: The ODI is stored inverted (manual 7.3).
 _INVERT = bytes(255 - b for b in range(256))
 _ASI_CYCLE = int(InterruptSource.ASI_CYCLE)
