@@ -337,6 +337,19 @@ def _saver(
     return save_now_and_then
 
 
+def _server(
+    board: Pc2Board, directory: Path, base: int, identity: dict[str, JSON], *,
+    interval: float = SAVE_INTERVAL_S, notify: Callable[[str], None] | None = None,
+) -> LiveServer:
+    """The live server of ``board``: at its socket, naming this process, saving the
+    board's state every ``interval`` seconds."""
+    return LiveServer(
+        LiveBoard(board), socket_path(directory, base),
+        identity={**identity, "pid": os.getpid()},
+        on_tick=_saver(board, state_file(directory, base), interval=interval, notify=notify),
+    )
+
+
 def run_live(
     base: int, directory: Path, *, identity: dict[str, JSON],
     started: Callable[[Path], None] | None = None, attach: Attachment | None = None,
@@ -360,13 +373,10 @@ def run_live(
             lock_file(directory, base),
             f"it keeps the board running live: commands reach it through {path}",
         )
-        live = LiveBoard(board)
-        server = LiveServer(
-            live, path, identity={**identity, "pid": os.getpid()},
-            on_tick=_saver(
-                board, state_file(directory, base), interval=save_interval, notify=notify
-            ),
+        server = _server(
+            board, directory, base, identity, interval=save_interval, notify=notify
         )
+        live = server.live
 
         async def main() -> None:
             stops = [server.stop]
@@ -414,10 +424,7 @@ def background_live(
     @contextmanager
     def make() -> Iterator[LiveServer]:
         with emulated_board(base, directory) as board:
-            yield LiveServer(
-                LiveBoard(board), path, identity={**identity, "pid": os.getpid()},
-                on_tick=_saver(board, state_file(directory, base)),
-            )
+            yield _server(board, directory, base, identity)
 
     def serve(server: LiveServer, ready: Callable[[], None]) -> Awaitable[None]:
         return server.serve(ready)
