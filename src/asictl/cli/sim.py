@@ -15,10 +15,10 @@ from asictl.diagnostics import github_command
 from asictl.errors import ExitCode, UserError
 from asictl.files import refuse_inputs, write_output
 from asictl.observe.iltrace import to_csv as rows_csv
+from asictl.sim import SUFFIX
 from asictl.sim.engine import line_map_of
 from asictl.sim.scenario import parse_duration
 from asictl.sim.session import (
-    SUFFIX,
     Invalid,
     Outcome,
     as_json,
