@@ -152,7 +152,7 @@ class AddressMap:
         """Modbus PCD: ID code in bits 0-3, I/O code in 4-7; the DPRAM byte is the other way."""
         pcd = bytearray(self._ram(d.PCD, d.CONFIG_SIZE))
         for slave, value in values.items():
-            pcd[slave] = (value & 0xF) << 4 | value >> 4
+            pcd[slave] = g.swap_profile(value)
         self.driver.write(d.PCD, bytes(pcd))
         self._record(self.command(Command.SET_PERMANENT_CONFIGURATION)[0])
 
@@ -242,8 +242,7 @@ class AddressMap:
 
     def _pcd_register(self, image: int, slave: int) -> int:
         """DPRAM byte (I/O low, ID high) as Modbus shows it (ID low, I/O next)."""
-        value = self._byte(image + slave)
-        return (value & 0xF) << 4 | value >> 4
+        return g.swap_profile(self._byte(image + slave))
 
     def _flags_word(self) -> int:
         return self._byte(d.EC_FLAGS) | (self._byte(d.HI_FLAGS) & 0x07) << 8

@@ -56,6 +56,7 @@ from asictl.platform.pc2 import (
     PROGRAM_STATUS,
     STOP_ADDRESS,
     STOP_REASON,
+    STOPS_AT_AN_ADDRESS,
     VERSION_ID,
     VERSION_ID_SIZE,
     Command,
@@ -234,11 +235,6 @@ def read_program(transport: Transport) -> StoredProgram:
     ), image)
 
 
-#: The stops whose code address the master leaves in 308h: the loop a cycle time-out cut
-#: off, the undefined opcode of a program fault.
-_AT_AN_ADDRESS = (StopReason.CYCLE_TIMEOUT, StopReason.PROGRAM_FAULT)
-
-
 def stop_line(driver: Pc2Driver, image: ProgramImage | None) -> str | None:
     """The IL line where the program stopped (``loop.asi:12``): the loop a cycle time-out
     cut off, the fault: the master's stop address through the image's line map; None when
@@ -357,7 +353,7 @@ def read_status(
         cycle_time_ms=_cycle_ms(driver.read(CYCLE_TIME_PREVIOUS, 2)),
         max_cycle_time_ms=_cycle_ms(driver.read(CYCLE_TIME_MAXIMUM, 2)),
         program=program.info,
-        stop_line=stop_line(driver, program.image) if reason in _AT_AN_ADDRESS else None,
+        stop_line=stop_line(driver, program.image) if reason in STOPS_AT_AN_ADDRESS else None,
         slaves=slaves,
         los=los,
         hi_flags=driver.read_byte(HI_FLAGS),
@@ -405,7 +401,7 @@ def control_summary(driver: Pc2Driver) -> str:
     if reason == StopReason.NONE:
         return f"control program {state}"
     where = None
-    if reason in _AT_AN_ADDRESS:
+    if reason in STOPS_AT_AN_ADDRESS:
         where = stop_line(driver, read_program(Pc2Transport(driver)).image)
     return f"control program {state} ({_stopped(_name(StopReason, reason), where)})"
 

@@ -201,6 +201,11 @@ class StopReason(IntEnum):
     PROGRAM_FAULT = 0x06  # the program did what no 8051 can run (an undefined opcode)
 
 
+#: The stops that leave the program's code address in 308h (``STOP_ADDRESS``): the loop a
+#: cycle time-out cut off, the undefined opcode of a program fault.
+STOPS_AT_AN_ADDRESS = (StopReason.CYCLE_TIMEOUT, StopReason.PROGRAM_FAULT)
+
+
 class ControlState(IntEnum):
     """307h: what the control program does next."""
 
