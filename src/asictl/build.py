@@ -200,9 +200,11 @@ def build_image(compiled: Compiled, *, with_source: bool = True) -> ProgramImage
         entry_points=compiled.used_entry_points(),
     )
     with_lines = replace(image, line_map=compiled.line_map)
-    if len(with_lines.to_bytes()) <= EEPROM_SIZE:  # the line map goes before the source
+    size = len(with_lines.to_bytes())
+    if size <= EEPROM_SIZE:  # the line map goes before the source
         image = with_lines
-    size = len(image.to_bytes())
+    else:
+        size = len(image.to_bytes())
     if size > EEPROM_SIZE:
         raise ImageError(
             f"image needs {size} bytes, the EEPROM holds {EEPROM_SIZE} "
