@@ -7,25 +7,12 @@ import json
 from pathlib import Path
 
 import pytest
-from click.testing import CliRunner, Result
+from click.testing import CliRunner
 
 from asictl.cli import main
 
 ROOT = Path(__file__).resolve().parents[2]
 BLINK = ROOT / "demos" / "blink.asi"
-
-
-@pytest.fixture
-def run(tmp_path: Path, monkeypatch: pytest.MonkeyPatch):
-    monkeypatch.chdir(tmp_path)
-    state_dir = tmp_path / "state"
-
-    def invoke(*args: str) -> Result:
-        result = CliRunner().invoke(main, [*args, "--state-dir", str(state_dir)])
-        assert "Traceback" not in result.output
-        return result
-
-    return invoke
 
 
 def status(run) -> dict:

@@ -6,8 +6,7 @@ import json
 import shutil
 from pathlib import Path
 
-import pytest
-from click.testing import CliRunner, Result
+from click.testing import CliRunner
 
 from asictl.board.asi import Slave
 from asictl.board.images import VERSION_ID
@@ -17,20 +16,6 @@ from asictl.host.boards import emulated_board
 
 ROOT = Path(__file__).resolve().parents[2]
 BLINK = ROOT / "demos" / "blink.asi"
-
-
-@pytest.fixture
-def run(tmp_path: Path, monkeypatch: pytest.MonkeyPatch):
-    monkeypatch.chdir(tmp_path)
-    state_dir = tmp_path / "state"
-
-    def invoke(*args: str) -> Result:
-        result = CliRunner().invoke(main, [*args, "--state-dir", str(state_dir)])
-        assert "Traceback" not in result.output
-        return result
-
-    invoke.state_dir = state_dir  # type: ignore[attr-defined]
-    return invoke
 
 
 def test_download_then_status(run):

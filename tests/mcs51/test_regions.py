@@ -85,9 +85,6 @@ def programs() -> st.SearchStrategy[tuple[bytes, bytes, bytes, int, int | None]]
     return emulator_tests.programs(max_opcodes=60)
 
 
-snapshot = emulator_tests.snapshot
-
-
 @settings(
     max_examples=150,
     deadline=None,
@@ -98,20 +95,8 @@ def test_regions_and_interpreter_agree(monkeypatch: pytest.MonkeyPatch, case) ->
     """Small regions (so that they fit the budgets), every address hot: the same stops,
     state, and device accesses in the same order as the interpreter."""
     monkeypatch.setattr(regions, "MAX_REGION", 24)
-    image, iram, sfr, budget, cycles = case
-    results = []
-    for emu in (region_emulator(), Emulator(translate=False)):
-        emu.code[:] = image
-        emu.iram[:] = iram
-        emu.sfr[:] = sfr
-        log: list = []
-        emu.xdata.map(0x0000, 0x00FF, read=lambda a, log=log: log.append(a) or a ^ 0x5A)
-        emu.xdata.map(0x0100, 0x01FF, write=lambda a, v, log=log: log.append((a, v)))
-        emu.add_breakpoint(0x8000)
-        stops = [emu.run(max_instructions=budget, max_cycles=cycles)]
-        stops.append(emu.run(max_instructions=budget // 2 + 1))  # resume after any stop
-        results.append((stops, snapshot(emu, log)))
-    assert results[0] == results[1]
+    in_regions = emulator_tests.run_case(region_emulator(), case)
+    assert in_regions == emulator_tests.run_case(Emulator(translate=False), case)
 
 
 def test_a_device_sees_the_bytes_a_region_keeps_in_locals() -> None:

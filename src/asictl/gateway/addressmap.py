@@ -17,6 +17,7 @@ from collections.abc import Callable, Container
 from dataclasses import dataclass
 from enum import IntEnum
 from functools import partial
+from typing import TypeVar
 
 from asictl.board.board import Pc2Board
 from asictl.host.driver import EmulatedPort, Pc2Driver
@@ -32,6 +33,9 @@ from asictl.platform.gateway import (
 )
 from asictl.platform.master import SLAVES, ControlFlag
 from asictl.platform.pc2 import Command, Status
+
+#: What a Modbus address holds: a coil, an input bit, a register address.
+Item = TypeVar("Item")
 
 
 class ExceptionCode(IntEnum):
@@ -201,14 +205,7 @@ class AddressMap:
     def _coils(
         self, address: int, count: int
     ) -> list[tuple[Callable[[], bool], Callable[[bool], None]]]:
-        _check_count(count, MAX_BITS)
-        found = []
-        for a in range(address, address + count):
-            coil = self._coil(a)
-            if coil is None:
-                raise ModbusError(ExceptionCode.ILLEGAL_DATA_ADDRESS, f"no coil at {a}")
-            found.append(coil)
-        return found
+        return _every(address, count, MAX_BITS, self._coil, "coil")
 
     def read_coils(self, address: int, count: int) -> list[bool]:
         return [read() for read, _ in self._coils(address, count)]
@@ -232,14 +229,7 @@ class AddressMap:
         return None
 
     def read_discrete_inputs(self, address: int, count: int) -> list[bool]:
-        _check_count(count, MAX_BITS)
-        values = []
-        for a in range(address, address + count):
-            value = self._input_bit(a)
-            if value is None:
-                raise ModbusError(ExceptionCode.ILLEGAL_DATA_ADDRESS, f"no discrete input at {a}")
-            values.append(value)
-        return values
+        return _every(address, count, MAX_BITS, self._input_bit, "discrete input")
 
     # ------------------------------------------------------------------ register layouts
 
@@ -438,13 +428,10 @@ class AddressMap:
 
     def _check_registers(
         self, table: Container[int], address: int, count: int, what: str
-    ) -> range:
-        _check_count(count, MAX_REGISTERS)
-        span = range(address, address + count)
-        for a in span:
-            if a not in table:
-                raise ModbusError(ExceptionCode.ILLEGAL_DATA_ADDRESS, f"no {what} at {a}")
-        return span
+    ) -> list[int]:
+        return _every(
+            address, count, MAX_REGISTERS, lambda a: a if a in table else None, what
+        )
 
     def read_holding_registers(self, address: int, count: int) -> list[int]:
         span = self._check_registers(self._holding_readers, address, count, "holding register")
@@ -487,6 +474,21 @@ class AddressMap:
             + ("W" if self.settings.watchdog else "w")
             + ("t" if self.settings.key_lock else "T")
         )
+
+
+def _every(
+    address: int, count: int, limit: int, find: Callable[[int], Item | None], what: str
+) -> list[Item]:
+    """What ``find`` gives for each of ``count`` addresses from ``address``. A telegram
+    with too many items, or with one address that has nothing, is refused whole."""
+    _check_count(count, limit)
+    found = []
+    for a in range(address, address + count):
+        item = find(a)
+        if item is None:
+            raise ModbusError(ExceptionCode.ILLEGAL_DATA_ADDRESS, f"no {what} at {a}")
+        found.append(item)
+    return found
 
 
 def _check_count(count: int, limit: int) -> None:

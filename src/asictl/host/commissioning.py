@@ -124,30 +124,30 @@ class Pc2Commissioning:
     def write_parameter(self, address: int, value: int) -> int:
         """Command 5: the parameter goes to PI and to the slave; its answer."""
         check_address(address, zero=False)
-        try:
-            return self.driver.command(Command.WRITE_PARAMETER, data=value & 0xF, address=address)
-        except JobError as exc:
-            if exc.status is not JobStatus.REFUSED:
-                raise
-            raise JobError(
-                exc.status, f"writing parameter {value:X}h to slave {address}: the slave is not "
-                "active and did not answer (the PI keeps the value)",
-            ) from None
+        return self._answer(
+            Command.WRITE_PARAMETER, value & 0xF, address,
+            refused=f"writing parameter {value:X}h to slave {address}: the slave is not "
+            "active and did not answer (the PI keeps the value)",
+        )
 
     def execute_command(self, address: int, information: int) -> int:
         """Command 22: an AS-i command call to an active slave; its answer."""
         check_address(address)
+        return self._answer(
+            Command.EXECUTE_COMMAND, information & 0x1F, address,
+            refused=f"AS-i command {information:02X}h to slave {address}: no answer "
+            "(no such slave, or it does not know the call)",
+        )
+
+    def _answer(self, command: Command, data: int, address: int, *, refused: str) -> int:
+        """A slave's answer to ``command``; a refusal (the slave did not answer) says
+        ``refused`` instead of the master's bare status."""
         try:
-            return self.driver.command(
-                Command.EXECUTE_COMMAND, data=information & 0x1F, address=address
-            )
+            return self.driver.command(command, data=data, address=address)
         except JobError as exc:
             if exc.status is not JobStatus.REFUSED:
                 raise
-            raise JobError(
-                exc.status, f"AS-i command {information:02X}h to slave {address}: no answer "
-                "(no such slave, or it does not know the call)",
-            ) from None
+            raise JobError(exc.status, refused) from None
 
     def set_mode(self, *, configuration: bool) -> None:
         """Command 17; protected mode with a slave 0 present is 8385h."""
