@@ -127,3 +127,9 @@ def test_nothing_imports_upwards(package: str):
         if imported & set(NOT_IMPORTED_BY[package])
     }
     assert upward == {}
+
+
+def test_the_pytest_plugin_loads_the_simulation_only_to_run_a_scenario():
+    """It loads in every pytest run where asictl is installed, scenarios or not."""
+    loaded = modules_after_import("asictl.pytest_plugin")
+    assert "asictl.sim.session" not in loaded and "lark" not in loaded

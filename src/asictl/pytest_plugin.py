@@ -15,11 +15,14 @@ from __future__ import annotations
 import tomllib
 from collections.abc import Iterator
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import pytest
 
-from asictl.sim.session import SUFFIX, Outcome, run_file
+from asictl.sim import SUFFIX
+
+if TYPE_CHECKING:
+    from asictl.sim.session import Outcome
 
 
 def pytest_addoption(parser: pytest.Parser) -> None:
@@ -69,6 +72,8 @@ def _markers(path: Path) -> list[str]:
 class ScenarioItem(pytest.Item):
     def runtest(self) -> None:
         lib = tuple(str(p) for p in self.config.getini("asictl_lib"))
+        from asictl.sim.session import run_file  # the simulation loads only to run one
+
         outcome = run_file(str(self.path), lib)
         if outcome.status != "PASS":
             raise ScenarioFailed(outcome)

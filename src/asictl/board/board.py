@@ -32,14 +32,13 @@ from asictl.board.services import MasterFirmware
 from asictl.image import ProgramImage
 from asictl.mcs51.emulator import EmulatorError, UndefinedOpcode
 from asictl.platform import pc2 as d
-from asictl.platform.master import SLAVES, TICK_MS, ControlFlag
+from asictl.platform.master import SLAVES, TICK_US, ControlFlag
 from asictl.platform.pc2 import ControlState, HiFlag, InterruptSource, StopReason, nibbles
 from asictl.runtime import layout
 from asictl.runtime.runner import CycleTimeout, ProgramRunner
 
 #: One AS-i transaction (master call, pauses, slave answer) and the cycle's management call.
 TRANSACTION_US = 150
-TICK_US = TICK_MS * 1000
 #: The ODI is stored inverted (manual 7.3).
 _INVERT = bytes(255 - b for b in range(256))
 _ASI_CYCLE = int(InterruptSource.ASI_CYCLE)
@@ -124,12 +123,11 @@ class Pc2Board:
             slave.outputs = 0
         images.write_identity()
         self._ram[d.ODI : d.ODI + d.IMAGE_SIZE] = b"\xff" * d.IMAGE_SIZE
-        self._ram[d.CONFIG_OK_DELAY] = self._ec.config_ok_delay
+        images.write_config_ok_delay()
         self.reload_program()
         images.write_settings()
-        images.write_lists()
+        images.write_lists()  # and the status bytes with them
         images.write_control_flags()
-        images.write_status()
         self._next_cycle_us = now_us + self._period()
         self._next_tick_us = now_us + TICK_US
 

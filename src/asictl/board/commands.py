@@ -17,13 +17,13 @@ from asictl.board.control import AsiControl
 from asictl.board.dpram import Dpram
 from asictl.board.execution import ExecutionControl
 from asictl.board.images import MasterImages
+from asictl.board.services import ENTRY_POINTS
 from asictl.platform import pc2 as d
 from asictl.platform.master import EEPROM_SIZE, ControlFlag
 from asictl.platform.pc2 import Command, Status, nibbles
-from asictl.runtime.layout import default_entry_points
 
 #: Command 53 from FF00h: the firmware's function-block entry points, 2 bytes each, LE.
-ENTRY_TABLE = b"".join(a.to_bytes(2, "little") for a in default_entry_points().values())
+ENTRY_TABLE = b"".join(a.to_bytes(2, "little") for a in ENTRY_POINTS.values())
 
 
 class Board(Protocol):
@@ -186,12 +186,13 @@ class HostCommands:
 
     def _upload(self) -> bool:
         start = self._ram[d.ADDRESS] | self._ram[d.ADDRESS_EXT] << 8
+        source: bytes | bytearray
         if start >= d.ENTRY_TABLE_ADDRESS:
             block = self._block(d.ENTRY_TABLE_ADDRESS + d.ENTRY_TABLE_SIZE)
             source, offset = ENTRY_TABLE, d.ENTRY_TABLE_ADDRESS
-        else:
+        else:  # sliced in place: no copy of the 16 KB EEPROM for each 240-byte block
             block = self._block(EEPROM_SIZE)
-            source, offset = bytes(self._eeprom), 0
+            source, offset = self._eeprom, 0
         if block is None:
             return False
         self._dpram.put(d.PROGRAM_BUFFER, source[block.start - offset : block.stop - offset])

@@ -11,20 +11,18 @@ would only loop again. docs/master.md has the table of states and reasons.
 
 from __future__ import annotations
 
+from asictl.board.services import ENTRY_POINTS
 from asictl.image import ImageError, ProgramImage, image_length
 from asictl.mcs51.bus import Bus
 from asictl.platform.master import CONTROL_FLAGS_NONVOLATILE, MACHINE_CYCLE_US, ControlFlag
 from asictl.platform.pc2 import FLAGS, FLAGS_SIZE, ControlState, ProgramStatus, StopReason
 from asictl.runtime import contract
 from asictl.runtime.firmware import FirmwareServices
-from asictl.runtime.layout import default_entry_points
 from asictl.runtime.runner import ProgramRunner
 
 # Plain ints: the run/stop check happens every AS-i cycle, IntFlag arithmetic is slow.
 _START = int(ControlFlag.START)
 _IGNORE_CONFIG_ERRORS = int(ControlFlag.IGNORE_CONFIG_ERRORS)
-#: Where this firmware's function blocks are: what command 53 reports from FF00h.
-_FIRMWARE_TABLE = default_entry_points()
 
 _MESSAGES = {
     StopReason.NONE: "running",
@@ -122,7 +120,7 @@ class AsiControl:
         image = ProgramImage.from_bytes(data)
         program = image.loaded_program()
         try:
-            contract.check(program, _FIRMWARE_TABLE)
+            contract.check(program, ENTRY_POINTS)
         except contract.ContractError as exc:
             raise ImageError(f"image not linked for this master: {exc}") from None
         try:

@@ -18,7 +18,7 @@ from collections.abc import Iterator
 from enum import Enum
 
 from asictl.board.asi import AsiBus, Slave
-from asictl.platform.master import NO_PROFILE, SLAVES, TICK_MS
+from asictl.platform.master import NO_PROFILE, SLAVES, TICK_US
 from asictl.platform.pc2 import EcFlag, Status
 
 #: Addresses 1..31: slave 0 (a new slave) is never projected, activated or counted
@@ -270,7 +270,7 @@ class ExecutionControl:
         elif not self.config_ok:
             if self._ok_since is None:
                 self._ok_since = now_us
-            if now_us - self._ok_since >= self.config_ok_delay * TICK_MS * 1000:
+            if now_us - self._ok_since >= self.config_ok_delay * TICK_US:
                 self.config_ok, self._ok_since = True, None
 
     def _go_offline(self) -> None:

@@ -14,7 +14,11 @@ from collections.abc import Callable
 from asictl.board.execution import ExecutionControl
 from asictl.platform.master import EEPROM_SIZE
 from asictl.platform.pc2 import Status
+from asictl.runtime.layout import default_entry_points
 
+#: Where this firmware's function blocks are: what command 53 reports from FF00h and
+#: what a program's image must be linked against.
+ENTRY_POINTS = default_entry_points()
 OK = 0x00
 ERROR = 0x80
 

@@ -10,6 +10,7 @@ import click
 from asictl.build import Build
 from asictl.build import check as check_program_file
 from asictl.cli.discovery import BLOCK_SUFFIX, PROGRAM_SUFFIX, expand
+from asictl.cli.options import lib_option
 from asictl.cli.terminal import stderr_colour
 from asictl.diagnostics import (
     TEXT_LIMIT,
@@ -117,10 +118,7 @@ def _summary(files: int, diagnostics: list[Diagnostic], unreadable: int) -> str:
     "--dialect", type=click.Choice([d.value for d in Dialect]), default=Dialect.CONTROL2.value,
     show_default=True, help="control1 reports every AS-i Control II-only feature as an error.",
 )
-@click.option(
-    "--lib", "lib", multiple=True, type=click.Path(file_okay=False),
-    help="Also look for function-block files here (repeatable; also $ASICTL_LIB).",
-)
+@lib_option
 @click.option(
     "--exclude", multiple=True, metavar="GLOB",
     help="Leave out files and folders matching GLOB (by path or name; repeatable), e.g. "

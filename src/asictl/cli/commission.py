@@ -17,6 +17,7 @@ from typing import Unpack
 import click
 
 from asictl.cli.master import _board_options, _BoardOptions, _connect
+from asictl.cli.options import lib_option
 from asictl.errors import ExitCode, UserError
 from asictl.host.emulated import parse_address, parse_number
 from asictl.platform.master import SLAVES
@@ -120,10 +121,7 @@ def store(what: str, **board: Unpack[_BoardOptions]) -> None:
 @click.command("setup")
 @click.argument("file", metavar="FILE.asi|FILE.hex", type=click.Path(dir_okay=False))
 @_board_options
-@click.option(
-    "--lib", "lib", multiple=True, type=click.Path(file_okay=False),
-    help="Also look for function-block files here (as for download).",
-)
+@lib_option
 def setup(file: str, lib: tuple[str, ...], **board: Unpack[_BoardOptions]) -> None:
     """Write the projected configuration (LPS, PCD, PP, and PI) of FILE's [SETUP] to the
     master without downloading its program, as a download does first. FILE is built as

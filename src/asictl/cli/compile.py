@@ -14,6 +14,7 @@ from pathlib import Path
 import click
 
 from asictl.build import Build, Origin, Stage, build_file
+from asictl.cli.options import lib_option
 from asictl.cli.terminal import stderr_colour
 from asictl.diagnostics import Diagnostic, Severity
 from asictl.errors import ExitCode, UserError
@@ -101,10 +102,7 @@ def _summary_counts(diagnostics: Sequence[Diagnostic]) -> tuple[int, int]:
     help="Also write a listing: each IL line with its assembly, then the memory map.",
 )
 @click.option("-v", "--verbose", is_flag=True, help="Log every step on stderr.")
-@click.option(
-    "--lib", "lib", multiple=True, type=click.Path(file_okay=False),
-    help="Also look for function-block files here (repeatable; also $ASICTL_LIB).",
-)
+@lib_option
 @click.option("--no-source", is_flag=True, help="Leave the source text out of the image.")
 @click.option(
     "--force", is_flag=True, help="Overwrite output files that are not asictl images or listings.",

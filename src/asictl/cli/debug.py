@@ -8,6 +8,7 @@ from pathlib import Path
 
 import click
 
+from asictl.cli.options import lib_option
 from asictl.debug.debugger import DebugError, Debugger
 from asictl.errors import ExitCode, UserError
 from asictl.sim.scenario import parse_duration
@@ -35,8 +36,7 @@ def _history_file() -> Path:
 @click.option("--batch", type=click.Path(dir_okay=False, path_type=Path),
               help="Read the commands from this file ('-': standard input) instead of a "
               "terminal; each is echoed after the prompt.")
-@click.option("--lib", multiple=True, type=click.Path(file_okay=False),
-              help="Also look for function-block files here.")
+@lib_option
 def debug(program: Path, scenario_path: Path | None, no_scenario: bool, sets: tuple[str, ...],
           duration: str | None, batch: Path | None, lib: tuple[str, ...]) -> None:
     """Debug PROGRAM at the IL level on an emulated master in virtual time.

@@ -10,14 +10,12 @@ import importlib.util
 
 import click
 
+from asictl.cli.options import lib_option
 from asictl.errors import UserError
 
 
 @click.command()
-@click.option(
-    "--lib", "lib", multiple=True, type=click.Path(file_okay=False),
-    help="Also look for function-block files here (repeatable; also $ASICTL_LIB).",
-)
+@lib_option
 def lsp(lib: tuple[str, ...]) -> None:
     """Run the language server on stdin/stdout (editors start it; see docs/editors.md).
 

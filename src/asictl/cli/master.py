@@ -21,6 +21,7 @@ import click
 from click.core import ParameterSource
 
 from asictl.build import build_file
+from asictl.cli.options import lib_option
 from asictl.cli.serial_options import serial_options, unit_option
 from asictl.errors import ExitCode, UserError
 from asictl.files import STDOUT, shown_name, write_output
@@ -157,10 +158,7 @@ def _progress(label: str, blocks: int) -> Iterator[Callable[[int], None]]:
     "--keep", "start", flag_value="keep", default=True,
     help="Leave the start flag as it is (ACF /s0) [default].",
 )
-@click.option(
-    "--lib", "lib", multiple=True, type=click.Path(file_okay=False),
-    help="Also look for function-block files here (repeatable; also $ASICTL_LIB).",
-)
+@lib_option
 def download_command(
     file: str, start: str, lib: tuple[str, ...], **board: Unpack[_BoardOptions]
 ) -> None:

@@ -11,14 +11,15 @@ from xml.etree import ElementTree
 
 import click
 
+from asictl.cli.options import lib_option
 from asictl.diagnostics import github_command
 from asictl.errors import ExitCode, UserError
 from asictl.files import refuse_inputs, write_output
 from asictl.observe.iltrace import to_csv as rows_csv
+from asictl.sim import SUFFIX
 from asictl.sim.engine import line_map_of
 from asictl.sim.scenario import parse_duration
 from asictl.sim.session import (
-    SUFFIX,
     Invalid,
     Outcome,
     as_json,
@@ -69,8 +70,7 @@ def _duration(text: str | None, option: str) -> float | None:
               help="Traces start here (e.g. 250ms, 2s; default 0).")
 @click.option("--to", metavar="TIME", help="Traces end here (default: the end of the run).")
 @click.option("--json", "as_json_", is_flag=True, help="Print the result as JSON.")
-@click.option("--lib", multiple=True, type=click.Path(file_okay=False),
-              help="Also look for function-block files here.")
+@lib_option
 def sim(
     program: Path | None, scenario_path: Path | None, no_scenario: bool, sets: tuple[str, ...],
     duration: str | None, allow_partial: bool, vcd: Path | None, csv_path: Path | None,
@@ -247,8 +247,7 @@ def _outcomes(paths: list[str], lib: tuple[str, ...], jobs: int) -> Iterator[Out
 @click.option("-j", "--jobs", type=click.IntRange(min=1), default=None,
               help="Scenarios run at once, in worker processes (default: the number of "
               "cores; 1 runs them one after the other here).")
-@click.option("--lib", multiple=True, type=click.Path(file_okay=False),
-              help="Also look for function-block files here.")
+@lib_option
 @click.option("--format", "fmt", type=click.Choice(["text", "github"]), default="text",
               show_default=True, help="github: also a GitHub Actions annotation at the "
               "scenario line of each failed expectation.")

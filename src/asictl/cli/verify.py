@@ -12,6 +12,7 @@ from typing import Unpack
 import click
 
 from asictl.cli.master import _board_options, _BoardOptions, _connect
+from asictl.cli.options import lib_option
 from asictl.errors import ExitCode
 from asictl.host.jobs import JobError, JobStatus
 from asictl.host.transfer import upload
@@ -46,10 +47,7 @@ def differences(mine: ProgramImage, theirs: ProgramImage) -> list[str]:
 @click.command("verify")
 @click.argument("file", metavar="FILE.asi|FILE.hex", type=click.Path(dir_okay=False))
 @_board_options
-@click.option(
-    "--lib", "lib", multiple=True, type=click.Path(file_okay=False),
-    help="Also look for function-block files here (as for download).",
-)
+@lib_option
 def verify(file: str, lib: tuple[str, ...], **board: Unpack[_BoardOptions]) -> None:
     """Compare FILE with the program in the master: identical, different (code,
     configuration, options) or no program there. FILE is source, [RAW] records or .hex,

@@ -7,6 +7,7 @@ import json
 import click
 
 from asictl.build import check as check_program_file
+from asictl.cli.options import lib_option
 from asictl.cli.terminal import stderr_colour
 from asictl.codegen8051.allocate import allocate
 from asictl.crossref import (
@@ -33,10 +34,7 @@ from asictl.source import read_source
     "--modbus", is_flag=True,
     help="Show where the Modbus gateway has each operand (coil, discrete input, register).",
 )
-@click.option(
-    "--lib", "lib", multiple=True, type=click.Path(file_okay=False),
-    help="Also look for function-block files here (repeatable; also $ASICTL_LIB).",
-)
+@lib_option
 def xref(files: tuple[str, ...], fmt: str, modbus: bool, lib: tuple[str, ...]) -> None:
     """Cross-reference of each program FILE (- for stdin): per operand (I, I2, Q, F, T, C,
     bytes, words, variables, labels, blocks), the lines that read it and those that write

@@ -20,16 +20,16 @@ from enum import Enum
 from pathlib import PurePath
 
 from asictl.il import ast
+from asictl.mcs51.isa import SFRS
 from asictl.observe.hooks import LineHooks
-from asictl.observe.locate import call_chain
+from asictl.observe.locate import describe
 from asictl.observe.operands import CounterValue, Operand, TimerValue, parse_operand
-from asictl.observe.view import ProgramView
 from asictl.runtime.line_map import SourceLine
-from asictl.sim.engine import Simulation, line_map_of, source_texts
+from asictl.sim.engine import Simulation, source_texts, variables_of
 from asictl.sim.scenario import parse_duration
 from asictl.sim.session import Prepared
 
-_SP = 0x81
+_SP = SFRS["SP"]
 #: Master time the worker runs at a time between looks at its target.
 _SLICE_MS = 1.0
 _COMPARE: dict[str, Callable[[int, int], bool]] = {
@@ -99,7 +99,7 @@ class Debugger:
         self.sim = Simulation(prepared.build, prepared.scenario, duration_ms=prepared.end_ms,
                               symbols=prepared.symbols)
         self.symbols = prepared.symbols
-        self.line_map = line_map_of(prepared.build)
+        self.line_map = self.sim.line_map
         self.texts = {name: text.split("\n") for name, text in
                       source_texts(prepared.build).items()}
         self.main_file = PurePath(prepared.program).name
@@ -273,14 +273,13 @@ class Debugger:
 
     def _operand(self, text: str) -> Operand:
         try:
-            return parse_operand(text, {n: v.size for n, v in self.runner.pmap.variables.items()},
-                                 self.symbols)
+            return parse_operand(text, variables_of(self.runner.pmap), self.symbols)
         except ValueError as exc:
             raise DebugError(str(exc)) from None
 
     def value(self, text: str) -> int:
         """A register (RLO, ACCU1, ACCU2) or an operand, as the program sees it now."""
-        view = self._view()
+        view = self.sim.view()
         upper = text.strip().upper()
         if upper in _REGISTERS:
             return int(getattr(view, upper.lower()))
@@ -289,7 +288,7 @@ class Debugger:
     def _show(self, text: str) -> str:
         """A value as people read it: bytes also in hex, timers and counters with their
         remaining time and count."""
-        view = self._view()
+        view = self.sim.view()
         upper = text.strip().upper()
         if upper == "RLO":
             return str(view.rlo)
@@ -306,9 +305,6 @@ class Debugger:
         if operand.is_bit or isinstance(node, CounterValue | TimerValue):
             return str(value)
         return f"{value} ({value:02X}h)"
-
-    def _view(self) -> ProgramView:
-        return ProgramView(self.runner, self.sim.read)
 
     def _condition(self, text: str) -> bool:
         match = _CONDITION.match(text)
@@ -431,10 +427,8 @@ class Debugger:
         if self.line is None:
             state = "before the first cycle" if not self.sim.started else "between cycles"
             return f"{state}, master time {time}, cycle {self.cycle}"
-        callers = [c for c in call_chain(self.runner.cpu, self.line_map) if c != self.line]
-        called = (f" (called from {', '.join(str(c) for c in reversed(callers))})"
-                  if callers else "")
-        return f"{self.line}{called}, master time {time}, cycle {self.cycle}"
+        where = describe(self.line, self.runner.cpu, self.line_map)
+        return f"{where}, master time {time}, cycle {self.cycle}"
 
     def _report(self, pause: _Pause) -> None:
         if pause.kind == "error":

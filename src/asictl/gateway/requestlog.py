@@ -80,9 +80,9 @@ def request_line(
     listen_only: bool = False, now: float | None = None,
 ) -> str:
     """The log line of one frame: time, unit, function and its fields, outcome."""
-    stamp = time.strftime("%H:%M:%S", time.localtime(now)) + (
-        f".{int((now if now is not None else time.time()) * 1000) % 1000:03d}"
-    )
+    if now is None:  # one reading: seconds and milliseconds of the same instant
+        now = time.time()
+    stamp = time.strftime("%H:%M:%S", time.localtime(now)) + f".{int(now * 1000) % 1000:03d}"
     head = f"{stamp} unit {unit}"
     if not pdu:
         return f"{head} empty frame -> " + ("no answer (CRC error)" if not crc_ok else "ignored")

@@ -95,7 +95,7 @@ class GatewaySlave:
         *, sync: Callable[[], None] | None = None,
     ) -> None:
         if unit not in UNITS:
-            raise ValueError(f"the gateway's Modbus address is 1..64, not {unit}")
+            raise ValueError(f"the gateway's Modbus address is {UNITS[0]}..{UNITS[-1]}, not {unit}")
         self.board = board
         self.map = AddressMap(board)
         self.unit = unit

@@ -111,17 +111,13 @@ def parse_input_bit(text: str) -> tuple[int, int, int]:
     return address, 1 << bit, value << bit
 
 
-def io_letters(io_code: int) -> str:
-    return IO_CODE_BITS[io_code]
-
-
 # --------------------------------------------------------------------------- actions
 
 
 def _slave_json(slave: Slave) -> dict[str, JSON]:
     return {
         "address": slave.address, "io_code": slave.io_code, "id_code": slave.id_code,
-        "profile": f"{io_letters(slave.io_code)},{slave.id_code:X}",
+        "profile": f"{IO_CODE_BITS[slave.io_code]},{slave.id_code:X}",
         "inputs": slave.inputs, "outputs": slave.outputs, "parameter": slave.parameter,
         "name": slave.name,
     }

@@ -29,7 +29,6 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
-import fcntl
 import json
 import os
 import socket
@@ -48,7 +47,7 @@ from asictl.errors import ExitCode, UserError
 from asictl.files import write_atomic
 from asictl.host.boards import emulated_board, lock_file, port_name, state_file
 from asictl.host.emulated import VIEWS, run_action
-from asictl.host.locking import note_holder
+from asictl.host.locking import is_free, note_holder
 from asictl.platform.pc2 import (
     ACK,
     COMMAND,
@@ -338,6 +337,19 @@ def _saver(
     return save_now_and_then
 
 
+def _server(
+    board: Pc2Board, directory: Path, base: int, identity: dict[str, JSON], *,
+    interval: float = SAVE_INTERVAL_S, notify: Callable[[str], None] | None = None,
+) -> LiveServer:
+    """The live server of ``board``: at its socket, naming this process, saving the
+    board's state every ``interval`` seconds."""
+    return LiveServer(
+        LiveBoard(board), socket_path(directory, base),
+        identity={**identity, "pid": os.getpid()},
+        on_tick=_saver(board, state_file(directory, base), interval=interval, notify=notify),
+    )
+
+
 def run_live(
     base: int, directory: Path, *, identity: dict[str, JSON],
     started: Callable[[Path], None] | None = None, attach: Attachment | None = None,
@@ -361,13 +373,10 @@ def run_live(
             lock_file(directory, base),
             f"it keeps the board running live: commands reach it through {path}",
         )
-        live = LiveBoard(board)
-        server = LiveServer(
-            live, path, identity={**identity, "pid": os.getpid()},
-            on_tick=_saver(
-                board, state_file(directory, base), interval=save_interval, notify=notify
-            ),
+        server = _server(
+            board, directory, base, identity, interval=save_interval, notify=notify
         )
+        live = server.live
 
         async def main() -> None:
             stops = [server.stop]
@@ -415,10 +424,7 @@ def background_live(
     @contextmanager
     def make() -> Iterator[LiveServer]:
         with emulated_board(base, directory) as board:
-            yield LiveServer(
-                LiveBoard(board), path, identity={**identity, "pid": os.getpid()},
-                on_tick=_saver(board, state_file(directory, base)),
-            )
+            yield _server(board, directory, base, identity)
 
     def serve(server: LiveServer, ready: Callable[[], None]) -> Awaitable[None]:
         return server.serve(ready)
@@ -546,20 +552,6 @@ class LivePort:
         return time.monotonic() * 1000.0
 
 
-def _lock_is_free(directory: Path, base: int) -> bool:
-    """Nobody holds the board's lock (so no live board can be serving it)."""
-    try:
-        with open(lock_file(directory, base), "a") as lock:
-            try:
-                fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
-            except BlockingIOError:
-                return False
-            fcntl.flock(lock, fcntl.LOCK_UN)
-            return True
-    except OSError:
-        return False
-
-
 def open_live(directory: Path, base: int) -> LiveClient | None:
     """The live board at ``base`` if one serves it; a socket left behind by a server that
     died is removed (only when the board's lock is free: a starting server keeps its)."""
@@ -571,7 +563,7 @@ def open_live(directory: Path, base: int) -> LiveClient | None:
         sock.connect(str(path))
     except (ConnectionRefusedError, FileNotFoundError):
         sock.close()
-        if _lock_is_free(directory, base):
+        if is_free(lock_file(directory, base)):  # so no live board can be serving it
             with contextlib.suppress(FileNotFoundError):
                 path.unlink()
         return None

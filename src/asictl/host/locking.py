@@ -88,6 +88,20 @@ def note_holder(lock_path: Path, note: str) -> None:
         _write_holder(lock_path, replace(holder, note=note))
 
 
+def is_free(lock_path: Path) -> bool:
+    """Nobody holds the lock now (False too if its file cannot be opened)."""
+    try:
+        with open(lock_path, "a") as lock:
+            try:
+                fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except BlockingIOError:
+                return False
+            fcntl.flock(lock, fcntl.LOCK_UN)
+            return True
+    except OSError:
+        return False
+
+
 @contextmanager
 def exclusive(
     lock_path: Path,

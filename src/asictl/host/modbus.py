@@ -96,19 +96,9 @@ def slave_list(registers: Sequence[int]) -> list[int]:
     return [n for n in range(SLAVES) if registers[n // 16] >> n % 16 & 1]
 
 
-def pcd_register(pc2_byte: int) -> int:
-    """PC2 PCD byte (ID code high, I/O code low) as the gateway's register (the other way)."""
-    return (pc2_byte & 0xF) << 4 | pc2_byte >> 4
-
-
 def data_nibbles(registers: Sequence[int]) -> bytes:
     """Data registers (four slaves a register, slave 4k in bits 12-15) one value a slave."""
     return bytes(registers[n // 4] >> 4 * (3 - n % 4) & 0xF for n in range(4 * len(registers)))
-
-
-def pc2_profile(register: int) -> int:
-    """The gateway's PCD/CDI register as the PC2's byte, the layout ``MasterStatus`` uses."""
-    return (register & 0xF) << 4 | register >> 4 & 0xF
 
 
 def _malformed(what: str, detail: str) -> JobError:
@@ -247,7 +237,7 @@ class ModbusTransport:
         pp = [configuration.parameter(n) for n in range(SLAVES)]
         self.execution_control(g.ExecutionRegister.SET_OPERATION_MODE, 1, "configuration mode")
         self.write_registers(g.LPS, lps_registers(configuration.lps))
-        self.write_registers(g.PCD, [pcd_register(b) for b in configuration.pcd])
+        self.write_registers(g.PCD, [g.swap_profile(b) for b in configuration.pcd])
         self.write_registers(g.PP, pp)
         try:
             self.execution_control(g.ExecutionRegister.SET_OPERATION_MODE, 0, "protected mode")
@@ -353,15 +343,14 @@ def open_modbus(
 
 
 def _control_state(
-    transport: ModbusTransport, flags: int, ec: int | None = None
+    transport: ModbusTransport, flags: int
 ) -> tuple[ControlState, StopReason | None]:
     """The gateway shows no control state or stop reason: derived as the PC2 reports them
     from 1009's flags, the ec-flags (608) and the image's magic in the EEPROM."""
     if flags & ControlFlag.CONTROL_ACTIVE:
         return ControlState.RUNNING, StopReason.NONE
     program = transport.read_eeprom(0, len(MAGIC)) == MAGIC
-    if ec is None:
-        ec = transport.read_registers(g.EC_FLAGS, 1)[0] & 0xFF
+    ec = transport.read_registers(g.EC_FLAGS, 1)[0] & 0xFF
     return derived_control_state(program, flags, ec)
 
 
@@ -380,14 +369,15 @@ def read_status(transport: ModbusTransport) -> MasterStatus:
     lps = slave_list(transport.read_registers(g.LPS, 2))
     las = slave_list(transport.read_registers(g.LAS, 2))
     lds = slave_list(transport.read_registers(g.LDS, 2))
-    pcd = [pc2_profile(r) for r in transport.read_registers(g.PCD, SLAVES)]
-    cdi = [pc2_profile(r) for r in transport.read_registers(g.CDI, SLAVES)]
+    pcd = [g.swap_profile(r) for r in transport.read_registers(g.PCD, SLAVES)]
+    cdi = [g.swap_profile(r) for r in transport.read_registers(g.CDI, SLAVES)]
     flags = transport.control_flags()
     name = " ".join(
         text for text in (transport.master_info(INFO_NAME), transport.master_info(INFO_VERSION))
         if text
     )
-    state, reason = _control_state(transport, flags, ec)
+    program = program_info(transport)
+    state, reason = derived_control_state(program.present, flags, ec)
     slaves = slave_data(
         {"LPS": lps, "LDS": lds, "LAS": las},
         inputs=data_nibbles(transport.read_registers(g.INPUTS_MIRROR + g.INPUT_DATA, 8)),
@@ -411,7 +401,7 @@ def read_status(transport: ModbusTransport) -> MasterStatus:
         program_status="not shown by the gateway",
         cycle_time_ms=0.0,
         max_cycle_time_ms=0.0,
-        program=program_info(transport),
+        program=program,
         slaves=slaves,
         hi_flags=transport.read_registers(g.HI_FLAGS, 1)[0] & 0x07,
         flags=[r & 0xFF for r in transport.read_registers(g.MEMORY_BYTES, 128)],

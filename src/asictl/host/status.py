@@ -22,8 +22,8 @@ from typing import Any
 
 from asictl.host.driver import Pc2Driver
 from asictl.host.jobs import JobError, JobStatus
-from asictl.host.transfer import Pc2Transport, Transport, upload
-from asictl.image import HEADER_SIZE, MAGIC, ProgramImage
+from asictl.host.transfer import Pc2Transport, Transport, upload, upload_head
+from asictl.image import MAGIC, ProgramImage
 from asictl.platform.display import display_code, display_text
 from asictl.platform.master import SLAVES, ControlFlag
 from asictl.platform.pc2 import (
@@ -219,11 +219,11 @@ def program_info(transport: Transport) -> ProgramInfo:
 
 def read_program(transport: Transport) -> StoredProgram:
     """Upload (53) the image in the EEPROM and describe it."""
-    head = transport.read_eeprom(0, HEADER_SIZE)
+    head = upload_head(transport)  # read once: the check here, and the upload's start
     if head[: len(MAGIC)] != MAGIC:
         return StoredProgram(ProgramInfo(present=False, valid=False, problem="no program image"))
     try:
-        image = upload(transport)
+        image = upload(transport, head)
     except JobError as exc:
         if exc.status is not JobStatus.EEPROM_ERROR:
             raise

@@ -218,10 +218,17 @@ def _start_flag(transport: Transport, start: StartMode) -> int:
 # --------------------------------------------------------------------------- upload
 
 
-def upload(transport: Transport) -> ProgramImage:
-    """Read the image from the EEPROM and check it (magic, length, CRC, structure)."""
-    # at least the whole header, however small the transport's blocks (16 on a gateway)
-    head = transport.read_eeprom(0, max(HEADER_SIZE, transport.block_size))
+def upload_head(transport: Transport) -> bytes:
+    """The EEPROM's first bytes: at least the whole header, however small the
+    transport's blocks (16 on a gateway), and a whole block if it is larger."""
+    return transport.read_eeprom(0, max(HEADER_SIZE, transport.block_size))
+
+
+def upload(transport: Transport, head: bytes | None = None) -> ProgramImage:
+    """Read the image from the EEPROM and check it (magic, length, CRC, structure);
+    ``head`` is what ``upload_head`` read, if the caller has looked at it already."""
+    if head is None:
+        head = upload_head(transport)
     length = image_length(head)
     if not HEADER_SIZE <= length <= EEPROM_SIZE:
         erased = not head.strip(b"\xff") or not head.strip(b"\x00")

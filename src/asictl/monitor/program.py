@@ -18,7 +18,7 @@ from rich.text import Text
 
 from asictl.host.status import StoredProgram
 from asictl.image import ImageError
-from asictl.observe.online import CycleLines, LineValues
+from asictl.observe.online import NO_LINE_MAP, CycleLines, LineValues
 from asictl.runtime.line_map import SourceLine
 from asictl.source import decode
 
@@ -26,7 +26,6 @@ NO_SOURCE = (
     "the source is not in the image (compiled with --no-source, or uploaded as [RAW]): "
     "the lines with code by number, without their operands"
 )
-NO_LINE_MAP = "the image has no line map (format version 1): no per-line values"
 #: Columns of the values, right of the source.
 VALUES_WIDTH = 30
 MIN_SOURCE_WIDTH = 20

@@ -47,10 +47,6 @@ class LineHooks:
         self._installed: list[int] = []
         self._cycle_end: Any = None
 
-    @property
-    def installed(self) -> bool:
-        return bool(self._installed)
-
     def install(self) -> None:
         if self._installed:
             return

@@ -12,10 +12,11 @@ the communication memory for the host.
 from __future__ import annotations
 
 from asictl.mcs51.emulator import Emulator
+from asictl.mcs51.isa import SFRS
 from asictl.runtime import layout
 from asictl.runtime.line_map import LineMap, SourceLine
 
-_SP = 0x81
+_SP = SFRS["SP"]
 
 
 def call_chain(cpu: Emulator, line_map: LineMap) -> list[SourceLine]:

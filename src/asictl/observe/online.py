@@ -32,13 +32,15 @@ from asictl.errors import ExitCode, UserError
 from asictl.image import ImageError, ProgramImage
 from asictl.observe.iltrace import ILTracer, LineRow, line_operands
 from asictl.observe.operands import Operand
-from asictl.observe.view import ProgramView, read_on_board
+from asictl.observe.view import ProgramView, read_on_board, wake
 from asictl.platform import pc2
 from asictl.platform.master import CYCLE_TIMEOUT_MS
 from asictl.runtime.line_map import SourceLine
 
 JSON = Any
 
+#: Why an image gives no per-line values.
+NO_LINE_MAP = "the image has no line map (format version 1): no per-line values"
 #: Master time a request lets pass at most for one program cycle to run: a cycle that
 #: may last up to the time-out, after one that did.
 WAIT_MS = 2.0 * CYCLE_TIMEOUT_MS + 10.0
@@ -115,7 +117,7 @@ def latest_cycle(board: Pc2Board) -> JSON:
         return answer
     line_map = image.line_map
     if not line_map:
-        answer["note"] = "the image has no line map (format version 1): no per-line values"
+        answer["note"] = NO_LINE_MAP
         return answer
     rows: list[LineRow] = []
     if board.control_state is not pc2.ControlState.RUNNING or board.in_reset:
@@ -128,7 +130,7 @@ def latest_cycle(board: Pc2Board) -> JSON:
         )
         tracer.hooks.install()
         try:
-            _wake(board)
+            wake(board)
             waited = 0.0
             while not tracer.completed and waited < WAIT_MS and board.control_state is \
                     pc2.ControlState.RUNNING:
@@ -181,11 +183,3 @@ def _operands(image: ProgramImage) -> dict[SourceLine, Operand]:
     _operands_of[:] = [(image, operands)]
     return operands
 
-
-def _wake(board: Pc2Board) -> None:
-    """A host access, rewriting a byte of the download buffer with what it holds: the
-    master then runs its next cycle even if the program looked settled."""
-    address = pc2.PROGRAM_BUFFER
-    board.io_write(pc2.PORT_PAGE, address >> 8)
-    board.io_write(pc2.PORT_INDEX, address & 0xFF)
-    board.io_write(pc2.PORT_DATA, board.dpram[address])

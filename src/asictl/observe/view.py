@@ -13,6 +13,7 @@ from collections.abc import Callable
 
 from asictl.board.board import Pc2Board
 from asictl.il import ast
+from asictl.mcs51.isa import SFRS
 from asictl.observe.operands import CounterValue, Operand, TimerValue
 from asictl.platform import pc2
 from asictl.platform.master import TICK_MS
@@ -20,7 +21,7 @@ from asictl.runtime import layout
 from asictl.runtime.program_map import CellKind
 from asictl.runtime.runner import ProgramRunner
 
-_PSW = 0xD0
+_PSW = SFRS["PSW"]
 _CARRY = 0x80
 _CELL = {ast.BitArea.I: CellKind.I, ast.BitArea.I2: CellKind.I2, ast.BitArea.Q: CellKind.Q}
 _BYTE_CELL = {ast.ByteArea.IB: CellKind.I, ast.ByteArea.I2B: CellKind.I2,
@@ -115,16 +116,21 @@ def read_on_board(board: Pc2Board, operand: Operand) -> int:
     runner = board.program
     if runner is None:
         return 0
-    pmap = runner.pmap
-    match node:
-        case ast.ImageBit(area=ast.BitArea.I2, address=a, bit=b):
-            cell = pmap.cells.get((CellKind.I2, a >> 1))
-            value = runner.read(cell) if cell else 0
-            return value >> ((a & 1) * 4 + b) & 1
-        case ast.ImageByte(area=ast.ByteArea.I2B, number=n):
-            cell = pmap.cells.get((CellKind.I2, n >> 1))
-            return runner.read(cell) if cell else 0
-    return ProgramView(runner, lambda _: 0).read(operand)
+    return ProgramView(runner, lambda _: 0).read(operand)  # I2 without a cell reads 0
+
+
+def host_write(board: Pc2Board, address: int, value: int) -> None:
+    """As a host writes the communication memory: through the board's I/O registers."""
+    board.io_write(pc2.PORT_PAGE, address >> 8)
+    board.io_write(pc2.PORT_INDEX, address & 0xFF)
+    board.io_write(pc2.PORT_DATA, value)
+
+
+def wake(board: Pc2Board) -> None:
+    """Make the master run its next cycle even if the program looked idle (it skips
+    cycles that would repeat the last one): a host access, rewriting a byte of the
+    download buffer with what it holds, counts as news and changes nothing."""
+    host_write(board, pc2.PROGRAM_BUFFER, board.dpram[pc2.PROGRAM_BUFFER])
 
 
 def _slave_inputs(board: Pc2Board, address: int) -> int:

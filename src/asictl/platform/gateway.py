@@ -107,3 +107,9 @@ def memory_word(flag_byte: int) -> tuple[int, int]:
     """(holding register, lowest bit) of a flag byte in the two-bytes-a-register user
     memory: the even byte is the high byte."""
     return MEMORY_WORDS + flag_byte // 2, 0 if flag_byte % 2 else 8
+
+
+def swap_profile(value: int) -> int:
+    """A PCD/CDI register (bits 0-3 ID code, bits 4-7 I/O code) from the PC2's profile
+    byte (ID code high, I/O code low), and the other way: the swap is its own inverse."""
+    return (value & 0xF) << 4 | value >> 4 & 0xF

@@ -26,6 +26,7 @@ CRYSTAL_HZ = 11_059_200
 MACHINE_CYCLE_US = 12 * 1_000_000 / CRYSTAL_HZ
 #: The master's clock for timers and the watchdog.
 TICK_MS = 10
+TICK_US = TICK_MS * 1000
 #: A program cycle longer than this is an endless loop: the master stops the program.
 CYCLE_TIMEOUT_MS = 200
 

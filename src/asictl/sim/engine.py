@@ -36,7 +36,7 @@ from asictl.mcs51.emulator import Emulator
 from asictl.observe.iltrace import ILTracer, LineRow, line_operands
 from asictl.observe.locate import current_line, describe
 from asictl.observe.operands import Operand, parse_operand
-from asictl.observe.view import ProgramView, read_on_board
+from asictl.observe.view import ProgramView, host_write, read_on_board, wake
 from asictl.platform import pc2 as d
 from asictl.platform.master import ControlFlag
 from asictl.runtime.firmware import FIRMWARE_BLOCKS
@@ -279,11 +279,7 @@ class Simulation:
         return slaves[0]
 
     def _host_write(self, address: int, value: int) -> None:
-        """As a host writes the communication memory: through the board's I/O registers."""
-        board = self.board
-        board.io_write(d.PORT_PAGE, address >> 8)
-        board.io_write(d.PORT_INDEX, address & 0xFF)
-        board.io_write(d.PORT_DATA, value)
+        host_write(self.board, address, value)
 
     # ------------------------------------------------------------------ running
 
@@ -391,10 +387,6 @@ class Simulation:
         if end is not None and at == end + _BEFORE_MS:
             self._trace_lines(False)
 
-    def advance(self, ms: float) -> None:
-        """Let master time pass (for the debugger: no steps are applied)."""
-        self.board.advance(ms)
-
     def _advance_to(self, t_ms: float) -> None:
         delta = t_ms - self.now_ms()
         if delta > 0:
@@ -434,13 +426,14 @@ class Simulation:
             if not running:
                 return
             self._t0 = board.now_ms
-        now = self.now_ms()
         if running != self._running:
             self._running = running
             if not running:
-                self._stop(now)
-        for signal, read in self._signals:
-            signal.record(now, read(self))
+                self._stop(self.now_ms())
+        if self._signals:
+            now = self.now_ms()
+            for signal, read in self._signals:
+                signal.record(now, read(self))
 
     def _stop(self, now: float) -> None:
         board = self.board
@@ -507,20 +500,15 @@ class Simulation:
             self._tracer = ILTracer(
                 runner, self.line_map, texts=source_texts(self.build),
                 clock=lambda: self.now_ms() if self._t0 is not None else 0.0,
-                view=ProgramView(runner, self.read), operands=line_operands(self.program),
+                view=self.view(), operands=line_operands(self.program),
                 window=self.window,
             )
         if on:
             self._tracer.hooks.install()
-            self.wake()
+            wake(self.board)
         else:
             self._tracer.hooks.remove()
 
-    def wake(self) -> None:
-        """Make the master run the next cycle even if the program looked idle (it skips
-        cycles that would repeat the last one): a host access, rewriting a byte of the
-        download buffer with what it holds, counts as news and changes nothing."""
-        self._host_write(d.PROGRAM_BUFFER, self.board.dpram[d.PROGRAM_BUFFER])
 
     # ------------------------------------------------------------------ trace signals
 
