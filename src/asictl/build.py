@@ -113,7 +113,7 @@ def check(
     if program.main.sections_of(ast.RawSection):
         built.origin = Origin.RAW
         if not result.has_errors:
-            built.image, raw_diagnostics = _raw_image(program.main)
+            built.image, raw_diagnostics = _raw_image(program)
             built.diagnostics.extend(raw_diagnostics)
     return built
 
@@ -200,9 +200,11 @@ def build_image(compiled: Compiled, *, with_source: bool = True) -> ProgramImage
         entry_points=compiled.used_entry_points(),
     )
     with_lines = replace(image, line_map=compiled.line_map)
-    if len(with_lines.to_bytes()) <= EEPROM_SIZE:  # the line map goes before the source
+    size = len(with_lines.to_bytes())
+    if size <= EEPROM_SIZE:  # the line map goes before the source
         image = with_lines
-    size = len(image.to_bytes())
+    else:
+        size = len(image.to_bytes())
     if size > EEPROM_SIZE:
         raise ImageError(
             f"image needs {size} bytes, the EEPROM holds {EEPROM_SIZE} "
@@ -244,7 +246,7 @@ def image_from_raw(records: Iterable[str]) -> ProgramImage:
     return ProgramImage.from_hex("\n".join(records) + "\n")
 
 
-def _raw_image(module: ast.Module) -> tuple[ProgramImage | None, list[Diagnostic]]:
+def _raw_image(program: Program) -> tuple[ProgramImage | None, list[Diagnostic]]:
     """The image of an uploaded file, whose [OPTIONS] and [SETUP] must describe its [RAW].
 
     The [RAW] records are what gets downloaded; a file whose other sections were edited
@@ -252,6 +254,7 @@ def _raw_image(module: ast.Module) -> tuple[ProgramImage | None, list[Diagnostic
     """
     from asictl.image import Configuration, ImageError
 
+    module = program.main
     sections = module.sections_of(ast.RawSection)
     where = sections[0].span or Span(module.file, 1, 1)
     records = [r for section in sections for r in section.records]
@@ -262,11 +265,7 @@ def _raw_image(module: ast.Module) -> tuple[ProgramImage | None, list[Diagnostic
         return None, [problem]
     problems = []
     if module.sections_of(ast.OptionsSection):
-        wanted = Options.from_values({
-            ast.key(o.name): o.value
-            for section in module.sections_of(ast.OptionsSection)
-            for o in section.options
-        })
+        wanted = program.options
         problems += [
             f"[OPTIONS] {name}: {_yes(getattr(wanted, name))}, "
             f"the image has {_yes(getattr(image.options, name))}"
@@ -274,8 +273,7 @@ def _raw_image(module: ast.Module) -> tuple[ProgramImage | None, list[Diagnostic
             if getattr(wanted, name) != getattr(image.options, name)
         ]
     if module.sections_of(ast.SetupSection):
-        slaves = [s for section in module.sections_of(ast.SetupSection) for s in section.slaves]
-        wanted_slaves = {s.address: s for s in Configuration.of(slaves).slaves()}
+        wanted_slaves = {s.address: s for s in Configuration.of(program.slaves).slaves()}
         image_slaves = {s.address: s for s in image.configuration.slaves()}
         for n in sorted(wanted_slaves.keys() | image_slaves.keys()):
             if wanted_slaves.get(n) != image_slaves.get(n):

@@ -76,11 +76,10 @@ def entries(
     index = index if index is not None else build_index(program)
     table = {s: list(o) for s, o in index.by_symbol.items() if s.kind is not SymbolKind.SLAVE}
     for module in program.modules():  # PARAM leaves the slave's answer in FY 127
-        for section in module.sections_of(ast.ProgramSection):
-            for statement in section.statements:
-                if isinstance(statement, ast.Param) and statement.span is not None:
-                    table.setdefault(_PARAM_ANSWER, []).append(
-                        Occurrence(_PARAM_ANSWER, statement.span, Role.WRITE, statement))
+        for statement in module.statements():
+            if isinstance(statement, ast.Param) and statement.span is not None:
+                table.setdefault(_PARAM_ANSWER, []).append(
+                    Occurrence(_PARAM_ANSWER, statement.span, Role.WRITE, statement))
     order = {file: n for n, file in enumerate(dict.fromkeys(m.file for m in program.modules()))}
 
     def place(occurrence: Occurrence) -> tuple[int, int, int]:

@@ -92,9 +92,8 @@ class DiagnosticError(Exception):
         super().__init__(format_line(first) if first else "failed")
 
 
-def format_line(d: Diagnostic) -> str:
-    where = f"{d.span}: " if d.span else ""
-    return f"{where}{d.severity.value}: {d.message} [{d.code}]"
+def format_line(d: Diagnostic, *, colour: bool = False) -> str:
+    return _headline(d.span, d.severity, f"{d.message} [{d.code}]", colour)
 
 
 #: ANSI colours of a terminal, as compilers use them: severity coloured, location bold.
@@ -143,7 +142,7 @@ def render_text(
             left_out[file] = left_out.get(file, 0) + 1
             continue
         shown[file] = shown.get(file, 0) + 1
-        out.append(_headline(d.span, d.severity, f"{d.message} [{d.code}]", colour))
+        out.append(format_line(d, colour=colour))
         out += _excerpt(d.span, sources, lines_of, colour)
         for span, note in d.related:
             out.append(_headline(span, Severity.NOTE, note, colour))

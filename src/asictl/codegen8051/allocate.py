@@ -90,26 +90,25 @@ def _usage(program: Program) -> _Usage:
                     usage.timers.add(n)
                 case ast.CounterRef(number=n):
                     usage.counters.add(n)
-        for section in module.sections_of(ast.ProgramSection):
-            for statement in section.statements:
-                used: object = getattr(statement, "operand", None) or getattr(
-                    statement, "counter", None
-                )
-                match used:
-                    case ast.ImageByte(area=ast.ByteArea.PSEG):
-                        pass
-                    case ast.ImageByte():
-                        usage.byte(byte_cell(used))
-                    case ast.FlagWord(number=n):
-                        usage.byte((CellKind.F, n))
-                        usage.byte((CellKind.F, n + 1))
-                    case ast.TimerRef(number=n):
-                        usage.timers.add(n)
-                        usage.byte(timer_status(n)[0])
-                    case ast.CounterRef(number=n):
-                        usage.counters.add(n)
-                if isinstance(statement, ast.Param):
-                    usage.byte((CellKind.F, 127))
+        for statement in module.statements():
+            used: object = getattr(statement, "operand", None) or getattr(
+                statement, "counter", None
+            )
+            match used:
+                case ast.ImageByte(area=ast.ByteArea.PSEG):
+                    pass
+                case ast.ImageByte():
+                    usage.byte(byte_cell(used))
+                case ast.FlagWord(number=n):
+                    usage.byte((CellKind.F, n))
+                    usage.byte((CellKind.F, n + 1))
+                case ast.TimerRef(number=n):
+                    usage.timers.add(n)
+                    usage.byte(timer_status(n)[0])
+                case ast.CounterRef(number=n):
+                    usage.counters.add(n)
+            if isinstance(statement, ast.Param):
+                usage.byte((CellKind.F, 127))
     return usage
 
 

@@ -10,6 +10,7 @@ from __future__ import annotations
 import re
 from collections.abc import Mapping
 from dataclasses import dataclass
+from functools import cached_property
 
 from asictl.codegen8051.allocate import allocate
 from asictl.codegen8051.emitter import Emitter, Line, firmware_symbol
@@ -46,7 +47,7 @@ class Compiled:
     #: assembler warnings, reported at the IL lines whose code they concern
     diagnostics: tuple[Diagnostic, ...] = ()
 
-    @property
+    @cached_property
     def code(self) -> bytes:
         """The code bytes from CODE_BASE up to the last one."""
         end = max((start + len(data) for start, data in self.assembly.segments), default=0)
@@ -55,7 +56,7 @@ class Compiled:
             image[start - layout.CODE_BASE : start - layout.CODE_BASE + len(data)] = data
         return bytes(image)
 
-    @property
+    @cached_property
     def line_map(self) -> LineMap:
         """Which IL line each code byte implements (from the listing of the generated code)."""
         return LineMap.build(

@@ -9,6 +9,7 @@ case, so comparisons go through ``key()``.
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from enum import StrEnum
 from typing import TypeVar
@@ -624,3 +625,8 @@ class Module:
 
     def sections_of(self, kind: type[_SectionT]) -> list[_SectionT]:
         return [s for s in self.sections if isinstance(s, kind)]
+
+    def statements(self) -> Iterator[Statement]:
+        """The statements of all its program sections, in order."""
+        for section in self.sections_of(ProgramSection):
+            yield from section.statements

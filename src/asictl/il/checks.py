@@ -334,14 +334,9 @@ def _check_duplicate_slaves(program: Program, report: Reporter) -> None:
 # --------------------------------------------------------------------------- operands
 
 
-def _statements(module: ast.Module) -> Iterator[ast.Statement]:
-    for section in module.sections_of(ast.ProgramSection):
-        yield from section.statements
-
-
 def _operands_of(module: ast.Module) -> Iterator[tuple[object, str]]:
     """Every operand with its role: 'bit', 'assign', 'set' (S/R), 'load', 'transfer', 'counter'."""
-    for statement in _statements(module):
+    for statement in module.statements():
         match statement:
             case ast.Logic(operand=op):
                 yield op, "bit"
@@ -372,7 +367,7 @@ def _check_code(module: ast.Module, scope: _Scope, report: Reporter) -> None:
                 f"R {operand} clears it",
                 operand.span,
             )
-    for statement in _statements(module):
+    for statement in module.statements():
         if isinstance(statement, ast.Load) and isinstance(statement.operand, ast.Constant):
             const = statement.operand
             if const.kind is ast.ConstKind.KT and const.value % 10 and const.value <= MAX_KT_MS:
@@ -463,7 +458,7 @@ def _variable(
 
 def _check_labels_and_jumps(module: ast.Module, report: Reporter, lost: set[str]) -> None:
     labels: dict[str, ast.Label] = {}
-    for statement in _statements(module):
+    for statement in module.statements():
         if isinstance(statement, ast.Label):
             name = key(statement.name)
             if name in labels:
@@ -475,7 +470,7 @@ def _check_labels_and_jumps(module: ast.Module, report: Reporter, lost: set[str]
                 )
             else:
                 labels[name] = statement
-    for statement in _statements(module):
+    for statement in module.statements():
         if (
             isinstance(statement, ast.Jump)
             and key(statement.label) not in labels
@@ -682,7 +677,7 @@ def _check_control1(module: ast.Module, scope: _Scope, report: Reporter) -> None
             only2("an [ASSEMBLY] section", section.span)
         elif isinstance(section, ast.RawSection):
             only2("a [RAW] section", section.span)
-    for statement in _statements(module):
+    for statement in module.statements():
         match statement:
             case ast.CallFB(span=span):
                 only2("calling a function block", span)

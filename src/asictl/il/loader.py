@@ -93,12 +93,7 @@ def fb_declarations(module: ast.Module) -> list[ast.FBDecl]:
 
 
 def calls(module: ast.Module) -> list[ast.CallFB]:
-    return [
-        s
-        for section in module.sections_of(ast.ProgramSection)
-        for s in section.statements
-        if isinstance(s, ast.CallFB)
-    ]
+    return [s for s in module.statements() if isinstance(s, ast.CallFB)]
 
 
 #: How the loader reads a block's file; an editor passes one that prefers its open buffers.

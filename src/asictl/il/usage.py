@@ -1,7 +1,7 @@
 """How a program uses each operand: the facts the analyses (``il.wiring``, ``il.logic``)
 judge, gathered in one walk over the checked program.
 
-An editor's use index (``il.uses``) answers "where is this name?" with
+An editor's reference index (``il.references``) answers "where is this name?" with
 names as text and places as spans. The analyses ask other questions, of every check of
 every program: which slave and data bit does this operand address, which bytes of the
 flags does it cover, does this instruction start the timer or stop it, does PARAM write

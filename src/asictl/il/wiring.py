@@ -186,31 +186,30 @@ def _check_slave_commands(module: ast.Module, wiring: Wiring, report: Reporter) 
     straight run of statements (a label starts a new one: another path may lead there).
     """
     known = _Known()
-    for section in module.sections_of(ast.ProgramSection):
-        for statement in section.statements:
-            match statement:
-                case ast.Label() | ast.Asm():
+    for statement in module.statements():
+        match statement:
+            case ast.Label() | ast.Asm():
+                known = _Known()
+            case ast.Load(operand=ast.ParamConst() as kp, span=span) if span:
+                known.parameter = (kp, span)
+            case ast.Load(operand=ast.Constant(kind=kind, value=value), span=span) if span:
+                if kind in (ast.ConstKind.KB, ast.ConstKind.KW):
+                    known.accu = (value & 0xFF, span)
+                else:  # KT and KC load the constant register, as KP does
+                    known.parameter = None
+            case ast.Load() | ast.Arith():
+                known.accu = None
+            case ast.Transfer(operand=ast.ImageByte(area=ast.ByteArea.PSEG, number=0)):
+                known.pseg0 = known.accu
+            case ast.Param(span=span) if known.parameter is not None and span:
+                _param(known.parameter, span, wiring, report)
+            case ast.CallFB(name=name, span=span):
+                block = FIRMWARE_BLOCKS.get(key(name))
+                if block is not None and block.for_projected_slave and known.pseg0 and span:
+                    _firmware(block.name, known.pseg0, span, wiring, report)
+                known.pseg0 = None
+                if block is None:  # a user block may load anything
                     known = _Known()
-                case ast.Load(operand=ast.ParamConst() as kp, span=span) if span:
-                    known.parameter = (kp, span)
-                case ast.Load(operand=ast.Constant(kind=kind, value=value), span=span) if span:
-                    if kind in (ast.ConstKind.KB, ast.ConstKind.KW):
-                        known.accu = (value & 0xFF, span)
-                    else:  # KT and KC load the constant register, as KP does
-                        known.parameter = None
-                case ast.Load() | ast.Arith():
-                    known.accu = None
-                case ast.Transfer(operand=ast.ImageByte(area=ast.ByteArea.PSEG, number=0)):
-                    known.pseg0 = known.accu
-                case ast.Param(span=span) if known.parameter is not None and span:
-                    _param(known.parameter, span, wiring, report)
-                case ast.CallFB(name=name, span=span):
-                    block = FIRMWARE_BLOCKS.get(key(name))
-                    if block is not None and block.for_projected_slave and known.pseg0 and span:
-                        _firmware(block.name, known.pseg0, span, wiring, report)
-                    known.pseg0 = None
-                    if block is None:  # a user block may load anything
-                        known = _Known()
 
 
 def _param(kp: tuple[ast.ParamConst, Span], at: Span, wiring: Wiring, report: Reporter) -> None:

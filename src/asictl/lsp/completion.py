@@ -178,8 +178,7 @@ def _labels(analysis: Analysis | None, file: str) -> list[Item]:
     if module is None:
         return []
     return [Item(s.name, "label", f"line {s.span.line}" if s.span else "")
-            for section in module.sections_of(ast.ProgramSection)
-            for s in section.statements if isinstance(s, ast.Label)]
+            for s in module.statements() if isinstance(s, ast.Label)]
 
 
 def _blocks(analysis: Analysis | None) -> list[Item]:

@@ -190,19 +190,18 @@ def _timer_or_counter(analysis: Analysis, symbol: Symbol) -> str:
     presets: list[str] = []
     for module in analysis.result.program.modules():
         constant: ast.Constant | ast.ParamConst | None = None
-        for section in module.sections_of(ast.ProgramSection):
-            for statement in section.statements:
-                if isinstance(statement, ast.Load) and isinstance(
-                        statement.operand, ast.Constant | ast.ParamConst) and not (
-                        isinstance(statement.operand, ast.Constant)
-                        and statement.operand.kind in (ast.ConstKind.KB, ast.ConstKind.KW)):
-                    constant = statement.operand
-                elif (isinstance(statement, ast.Store) and statement.op is ast.StoreOp.SET
-                      and isinstance(statement.operand, ast.TimerRef if is_timer
-                                     else ast.CounterRef)
-                      and statement.operand.number == n and statement.span):
-                    value = str(constant) if constant else "no constant loaded before"
-                    presets.append(f"`{value}` (line {statement.span.line})")
+        for statement in module.statements():
+            if isinstance(statement, ast.Load) and isinstance(
+                    statement.operand, ast.Constant | ast.ParamConst) and not (
+                    isinstance(statement.operand, ast.Constant)
+                    and statement.operand.kind in (ast.ConstKind.KB, ast.ConstKind.KW)):
+                constant = statement.operand
+            elif (isinstance(statement, ast.Store) and statement.op is ast.StoreOp.SET
+                  and isinstance(statement.operand, ast.TimerRef if is_timer
+                                 else ast.CounterRef)
+                  and statement.operand.number == n and statement.span):
+                value = str(constant) if constant else "no constant loaded before"
+                presets.append(f"`{value}` (line {statement.span.line})")
     if presets:
         verb = "started with" if is_timer else "loaded with"
         parts.append(f"{verb} " + ", ".join(dict.fromkeys(presets)))

@@ -100,10 +100,6 @@ class LineMap:
             if index is not None
         }
 
-    def starts_of(self, where: SourceLine) -> list[int]:
-        """The start addresses of a line's code (usually one; none for a line without code)."""
-        return [address for address, line in self.line_starts().items() if line == where]
-
     def lines(self) -> list[SourceLine]:
         """Every line that has code, in file and line order."""
         return sorted(set(self.line_starts().values()))
