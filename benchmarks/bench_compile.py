@@ -23,7 +23,7 @@ from asictl.build import build_image
 from asictl.codegen8051.compiler import compile_program
 from asictl.diagnostics import DiagnosticError
 from asictl.il.checks import check_source
-from asictl.image import ImageError, ProgramImage
+from asictl.image.eeprom import ImageError, ProgramImage
 from asictl.platform.master import EEPROM_SIZE
 from asictl.source import from_string
 

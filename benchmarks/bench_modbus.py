@@ -25,7 +25,7 @@ from asictl.gateway.slave import GatewaySlave
 from asictl.host.modbus import open_modbus
 from asictl.host.target import parse_target
 from asictl.host.transfer import StartMode, download
-from asictl.image import ProgramImage
+from asictl.image.eeprom import ProgramImage
 from asictl.platform.master import EEPROM_SIZE
 
 

@@ -17,7 +17,7 @@ from functools import cache
 from pathlib import Path
 
 from asictl.build import build, build_file
-from asictl.image import ProgramImage
+from asictl.image.eeprom import ProgramImage
 from asictl.platform.master import ControlFlag
 from asictl.runtime import layout
 from asictl.runtime.line_map import LineMap

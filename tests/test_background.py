@@ -1,4 +1,4 @@
-"""asictl.background: a server on a thread of the calling process."""
+"""asictl.host.background: a server on a thread of the calling process."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ from collections.abc import Callable, Iterator
 
 import pytest
 
-from asictl.background import NotStarted, in_thread
+from asictl.host.background import NotStarted, in_thread
 
 
 class Server:

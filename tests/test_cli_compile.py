@@ -15,7 +15,7 @@ from asictl.cli import main
 from asictl.codegen8051.compiler import Compiled, compile_program
 from asictl.host.program_files import uploaded_source
 from asictl.il.checks import check_source
-from asictl.image import ProgramImage
+from asictl.image.eeprom import ProgramImage
 from asictl.source import read_source
 
 DEMO = Path(__file__).resolve().parent.parent / "demos" / "blink.asi"

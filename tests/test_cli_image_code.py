@@ -11,7 +11,7 @@ from click.testing import CliRunner
 from intelhex import IntelHex
 
 from asictl.cli import main
-from asictl.image import ProgramImage
+from asictl.image.eeprom import ProgramImage
 from asictl.runtime import layout
 from asictl.runtime.program_map import CellKind
 

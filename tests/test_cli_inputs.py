@@ -21,7 +21,7 @@ from time_limit import no_hang
 
 from asictl.cli import main
 from asictl.errors import UserError
-from asictl.hexfile import MAX_HEX_BYTES, read_hex
+from asictl.mcs51.hexfile import MAX_HEX_BYTES, read_hex
 from asictl.source import MAX_SOURCE_BYTES, read_bounded
 
 PROGRAM = b":0300000002003BC0\n:00000001FF\n"

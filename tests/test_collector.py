@@ -6,9 +6,9 @@ import gc
 
 import pytest
 
-from asictl.collector import collector_paused
 from asictl.il import checks
 from asictl.il.checks import check_source
+from asictl.il.collector import collector_paused
 from asictl.source import from_string
 
 

@@ -8,7 +8,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-import pytest
+from asictl import LAYERS
 
 ROOT = Path(__file__).resolve().parents[1]
 PACKAGE = ROOT / "src" / "asictl"
@@ -44,7 +44,7 @@ def test_the_emulated_board_loads_no_compiler():
 
 
 def test_the_image_format_loads_no_compiler():
-    loaded = modules_after_import("asictl.image")
+    loaded = modules_after_import("asictl.image.eeprom")
     assert not [m for m in loaded if m.startswith(("lark", "asictl.il", "asictl.codegen8051"))]
 
 
@@ -64,11 +64,11 @@ def test_checking_loads_no_assembler_image_or_compiler():
     assert {"asictl.il.checks", "asictl.mcs51.words"} <= set(loaded)
     back_end = [
         m for m in loaded
-        if m.startswith(("asictl.codegen8051", "asictl.image", "asictl.runtime.contract"))
+        if m.startswith(("asictl.codegen8051", "asictl.image.eeprom", "asictl.runtime.contract"))
         or (m.startswith("asictl.mcs51.") and m != "asictl.mcs51.words")
     ]
     assert back_end == []
-    assert "asictl.image" not in modules_after_import("asictl.cli.check")
+    assert "asictl.image.eeprom" not in modules_after_import("asictl.cli.check")
 
 
 def test_the_command_line_starts_without_its_commands():
@@ -90,43 +90,78 @@ def test_only_the_monitor_loads_textual():
     assert "asictl.monitor.app" in loaded
 
 
-#: Who looks at a running program stands above what it looks at: the simulation, the
-#: debugger and the monitor look through ``observe``; the host and the board know none of
-#: them. (Function-local imports count too.)
-NOT_IMPORTED_BY = {
-    "observe": ("host", "gateway", "sim", "debug", "monitor", "cli", "lsp"),
-    "sim": ("debug", "monitor", "cli", "lsp"),
-    "host": ("sim", "debug", "monitor", "cli", "lsp"),
-    "board": ("host", "observe", "sim", "debug", "monitor", "cli", "lsp", "gateway"),
-    "gateway": ("sim", "observe", "debug", "monitor", "cli", "lsp"),
-}
+def _rank() -> dict[str, int]:
+    return {name: level for level, layer in enumerate(LAYERS) for name, _ in layer}
 
 
-def imported_packages(package: str) -> dict[str, set[str]]:
-    """The asictl packages each file of ``package`` imports, anywhere in the file."""
-    found: dict[str, set[str]] = {}
-    for path in (PACKAGE / package).rglob("*.py"):
-        names: set[str] = set()
-        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
-            if isinstance(node, ast.ImportFrom) and node.module:
-                names.add(node.module)
-            elif isinstance(node, ast.Import):
-                names.update(alias.name for alias in node.names)
-        found[path.relative_to(PACKAGE).as_posix()] = {
-            name.split(".")[1] for name in names
-            if name.startswith("asictl.") and name.count(".") >= 1
-        }
+def _unit(path: Path) -> str:
+    """The package (folder) or top-level module a file of ``src/asictl`` belongs to."""
+    first = path.relative_to(PACKAGE).parts[0]
+    return first.removesuffix(".py")
+
+
+def imported_units(path: Path) -> set[str]:
+    """The asictl packages and top-level modules ``path`` imports, anywhere in the file
+    (function-local imports count too); the package face itself is not counted."""
+    found: set[str] = set()
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        if isinstance(node, ast.ImportFrom) and node.module:
+            if node.module == "asictl":
+                found.update(a.name for a in node.names if a.name not in ("__version__", "LAYERS"))
+            elif node.module.startswith("asictl."):
+                found.add(node.module.split(".")[1])
+        elif isinstance(node, ast.Import):
+            found.update(a.name.split(".")[1] for a in node.names if a.name.startswith("asictl."))
     return found
 
 
-@pytest.mark.parametrize("package", sorted(NOT_IMPORTED_BY))
-def test_nothing_imports_upwards(package: str):
-    upward = {
-        file: sorted(imported & set(NOT_IMPORTED_BY[package]))
-        for file, imported in imported_packages(package).items()
-        if imported & set(NOT_IMPORTED_BY[package])
+def test_every_package_and_module_has_a_layer():
+    """A new package or top-level module must be placed in ``asictl.LAYERS`` (once)."""
+    names = [name for layer in LAYERS for name, _ in layer]
+    assert len(names) == len(set(names))
+    on_disk = {
+        p.name.removesuffix(".py") for p in PACKAGE.iterdir()
+        if (p.is_dir() and p.name != "__pycache__") or (p.suffix == ".py" and p.stem != "__init__")
     }
-    assert upward == {}
+    assert on_disk == set(names)
+
+
+def test_the_top_level_holds_only_the_face_and_what_every_layer_uses():
+    loose = sorted(
+        p.name for p in PACKAGE.glob("*.py") if p.name not in ("__init__.py", "__main__.py")
+    )
+    assert len(loose) <= 8, loose
+    assert not (PACKAGE / "il" / "reference.py").exists()
+
+
+def test_nothing_imports_upwards_or_sideways():
+    """Every file imports only from lower layers (or its own package)."""
+    rank = _rank()
+    wrong = {}
+    for path in sorted(PACKAGE.rglob("*.py")):
+        unit = _unit(path)
+        bad = sorted(
+            other for other in imported_units(path)
+            if other != unit and rank[other] >= rank[unit]
+        )
+        if bad:
+            wrong[path.relative_to(PACKAGE).as_posix()] = bad
+    assert wrong == {}
+
+
+def test_the_layer_check_sees_an_upward_import(tmp_path: Path):
+    """The rule above would pass vacuously if it read no imports: it must see this one."""
+    sample = tmp_path / "x.py"
+    sample.write_text("def f():\n    from asictl.cli.check import check\n", encoding="utf-8")
+    assert imported_units(sample) == {"cli"}
+
+
+def test_the_architecture_doc_is_drawn_from_the_layer_table():
+    out = subprocess.run(
+        [sys.executable, str(ROOT / "tools" / "architecture.py"), "--check"],
+        capture_output=True, text=True,
+    )
+    assert out.returncode == 0, out.stdout + out.stderr
 
 
 def test_the_pytest_plugin_loads_the_simulation_only_to_run_a_scenario():

@@ -14,7 +14,7 @@ from asictl.cli import main
 from asictl.codes import ImageCode
 from asictl.host.boards import emulated_board
 from asictl.host.program_files import uploaded_source
-from asictl.image import ProgramImage
+from asictl.image.eeprom import ProgramImage
 
 ROOT = Path(__file__).resolve().parent.parent
 NOT_OURS = "not a program image written by asictl"

@@ -38,7 +38,7 @@ from asictl.source import SourceText, from_bytes, read_source
 # needs neither, and loading them would add some 20 ms to every check.
 if TYPE_CHECKING:
     from asictl.codegen8051.compiler import Compiled
-    from asictl.image import ProgramImage, SlaveConfig
+    from asictl.image.eeprom import ProgramImage, SlaveConfig
 
 #: An Intel HEX record: colon, count, address, type, data, checksum.
 _HEX_RECORD = re.compile(r":(?:[0-9A-Fa-f]{2}){5,}")
@@ -103,7 +103,7 @@ def check(
     """What ``asictl check`` reports: the front end's diagnostics, and for an uploaded file
     whether its [RAW] image is sound. Nothing is compiled."""
     if is_hex(source.text):
-        from asictl.image import ProgramImage
+        from asictl.image.eeprom import ProgramImage
 
         return Build(source.name, Origin.HEX, image=ProgramImage.from_hex(source.text))
     result = check_source(source, dialect=dialect, lib=lib)
@@ -133,7 +133,7 @@ def build(
     input); everything else wrong with the program is in the diagnostics.
     """
     from asictl.codegen8051.compiler import GENERATED, compile_program
-    from asictl.image import ImageError
+    from asictl.image.eeprom import ImageError
 
     report = on_stage or (lambda stage, built: None)
     built = check(source, lib=lib)
@@ -179,7 +179,7 @@ def build_image(compiled: Compiled, *, with_source: bool = True) -> ProgramImage
 
     Raises ``ImageError`` when even the code and map exceed the EEPROM.
     """
-    from asictl.image import (
+    from asictl.image.eeprom import (
         HEADER_SIZE,
         Configuration,
         ImageError,
@@ -241,7 +241,7 @@ def program_of_image(image: ProgramImage) -> Program | None:
 
 def image_from_raw(records: Iterable[str]) -> ProgramImage:
     """The image an upload wrote as [RAW] records; ``to_bytes`` gives it back unchanged."""
-    from asictl.image import ProgramImage
+    from asictl.image.eeprom import ProgramImage
 
     return ProgramImage.from_hex("\n".join(records) + "\n")
 
@@ -252,7 +252,7 @@ def _raw_image(program: Program) -> tuple[ProgramImage | None, list[Diagnostic]]
     The [RAW] records are what gets downloaded; a file whose other sections were edited
     would silently download something other than it says, so a mismatch is an error.
     """
-    from asictl.image import Configuration, ImageError
+    from asictl.image.eeprom import Configuration, ImageError
 
     module = program.main
     sections = module.sections_of(ast.RawSection)

@@ -12,7 +12,7 @@ from asictl.board.board import Pc2Board
 from asictl.build import build_image
 from asictl.codegen8051.compiler import compile_program
 from asictl.il.checks import check_source
-from asictl.image import ProgramImage
+from asictl.image.eeprom import ProgramImage
 from asictl.platform import pc2 as d
 from asictl.platform.master import ControlFlag
 from asictl.source import from_string

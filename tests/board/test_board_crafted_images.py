@@ -33,7 +33,7 @@ from asictl.board.board import Pc2Board
 from asictl.host.driver import EmulatedPort, Pc2Driver
 from asictl.host.jobs import JobError, JobStatus
 from asictl.host.transfer import Pc2Transport, StartMode, download, set_start
-from asictl.image import HEADER_SIZE, ImageError, ProgramImage
+from asictl.image.eeprom import HEADER_SIZE, ImageError, ProgramImage
 from asictl.platform import pc2 as d
 from asictl.platform.master import ControlFlag
 from asictl.platform.pc2 import ControlState, ProgramStatus, StopReason

@@ -17,8 +17,8 @@ from il_strategies import ModelFirmware, checked_programs, cycle_steps
 
 from asictl.codegen8051.compiler import compile_program
 from asictl.il.loader import Program
-from asictl.il.reference import CycleTimeout as InterpreterTimeout
-from asictl.il.reference import Interpreter
+from asictl.il.oracle import CycleTimeout as InterpreterTimeout
+from asictl.il.oracle import Interpreter
 from asictl.runtime.program_map import LoadedProgram, Location, Space
 from asictl.runtime.runner import CycleTimeout, ProgramRunner
 

@@ -10,8 +10,8 @@ import re
 from modbus_helpers import bits, read_holding, read_input
 
 from asictl.board.board import Pc2Board
-from asictl.crossref import modbus_places
 from asictl.gateway.slave import GatewaySlave
+from asictl.il.crossref import modbus_places
 from asictl.platform import pc2 as d
 
 _PLACE = re.compile(r"(coil|discrete input|input register|holding register) (\d+)(?: bits? (\d+))?")

@@ -26,7 +26,7 @@ from asictl.host.driver import EmulatedPort, Pc2Driver
 from asictl.host.jobs import JobError
 from asictl.host.modbus import open_modbus
 from asictl.host.target import parse_target
-from asictl.image import Configuration, SlaveConfig
+from asictl.image.eeprom import Configuration, SlaveConfig
 from asictl.platform.master import ControlFlag
 
 

@@ -21,7 +21,7 @@ from asictl.build import build_file
 from asictl.host.driver import EmulatedPort, Pc2Driver
 from asictl.host.jobs import JobError, JobStatus
 from asictl.host.transfer import Pc2Transport, StartMode, download, reset
-from asictl.image import ProgramImage
+from asictl.image.eeprom import ProgramImage
 from asictl.platform.master import ControlFlag
 from asictl.platform.pc2 import Command, ProgramStatus
 

@@ -26,7 +26,7 @@ from asictl.host.transfer import (
     upload,
 )
 from asictl.il.checks import check_source
-from asictl.image import ProgramImage
+from asictl.image.eeprom import ProgramImage
 from asictl.platform.master import ControlFlag
 from asictl.platform.pc2 import IDI, INSTALLED_SOFTWARE, ODI, ControlState, ProgramStatus
 from asictl.source import read_source

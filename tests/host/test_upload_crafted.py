@@ -27,7 +27,7 @@ from asictl.host.boards import emulated_board
 from asictl.host.driver import EmulatedPort, Pc2Driver
 from asictl.host.program_files import uploaded_files, write_files
 from asictl.host.transfer import Pc2Transport, StartMode, download
-from asictl.image import ProgramImage, pack_sources
+from asictl.image.eeprom import ProgramImage, pack_sources
 
 DEMO = Path(__file__).resolve().parents[2] / "demos" / "blink.asi"
 MAIN = b"[PROGRAM]\n  BE\n"

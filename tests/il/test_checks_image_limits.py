@@ -4,7 +4,7 @@ that ``check`` passed.
 Once, a program with 255 function-block files passed ``check`` and crashed ``compile``
 (exit 3), and a variable name over 255 bytes passed ``check`` and failed ``compile``
 without a location. The oracle of the property test is the image encoder itself
-(``asictl.image``): check reports E220/E221/E222 exactly when it would refuse.
+(``asictl.image.eeprom``): check reports E220/E221/E222 exactly when it would refuse.
 """
 
 from __future__ import annotations
@@ -17,12 +17,12 @@ from click.testing import CliRunner
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from asictl import image
 from asictl.cli import main
 from asictl.il import ast
 from asictl.il.checks import check_source
 from asictl.il.language import MAX_IMAGE_NAME_BYTES, MAX_SOURCE_FILES
 from asictl.il.loader import Program
+from asictl.image import eeprom as image
 from asictl.source import read_source
 
 

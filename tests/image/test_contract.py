@@ -22,7 +22,7 @@ from asictl.codegen8051.compiler import compile_program
 from asictl.il import ast
 from asictl.il.checks import check_program
 from asictl.il.loader import Program
-from asictl.image import ProgramImage
+from asictl.image.eeprom import ProgramImage
 from asictl.runtime import contract, layout
 from asictl.runtime.program_map import CellKind, LoadedProgram, Space
 from asictl.source import from_string

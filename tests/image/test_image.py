@@ -21,7 +21,7 @@ from asictl.diagnostics import Span
 from asictl.host.program_files import uploaded_source
 from asictl.il import ast
 from asictl.il.checks import check_source
-from asictl.image import (
+from asictl.image.eeprom import (
     HEADER_SIZE,
     MAGIC,
     Configuration,

@@ -19,8 +19,8 @@ from il_strategies import traceable_sources
 
 from asictl.build import build_file
 from asictl.cli import main
-from asictl.il.reference import CycleTimeout as ReferenceTimeout
-from asictl.il.reference import Interpreter
+from asictl.il.oracle import CycleTimeout as ReferenceTimeout
+from asictl.il.oracle import Interpreter
 from asictl.observe.iltrace import ILTracer
 from asictl.observe.view import ProgramView
 from asictl.runtime.line_map import SourceLine

@@ -29,7 +29,7 @@ from asictl.board.execution import ExecutionControl, Phase
 from asictl.board.images import VERSION_ID, MasterImages
 from asictl.board.nonvolatile import Nonvolatile
 from asictl.board.services import MasterFirmware
-from asictl.image import ProgramImage
+from asictl.image.eeprom import ProgramImage
 from asictl.mcs51.emulator import EmulatorError, UndefinedOpcode
 from asictl.platform import pc2 as d
 from asictl.platform.master import SLAVES, TICK_US, ControlFlag

@@ -12,7 +12,7 @@ would only loop again. docs/master.md has the table of states and reasons.
 from __future__ import annotations
 
 from asictl.board.services import ENTRY_POINTS
-from asictl.image import ImageError, ProgramImage, image_length
+from asictl.image.eeprom import ImageError, ProgramImage, image_length
 from asictl.mcs51.bus import Bus
 from asictl.platform.master import CONTROL_FLAGS_NONVOLATILE, MACHINE_CYCLE_US, ControlFlag
 from asictl.platform.pc2 import FLAGS, FLAGS_SIZE, ControlState, ProgramStatus, StopReason

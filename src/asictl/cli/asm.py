@@ -10,9 +10,9 @@ from asictl.cli.hex_images import code_hex, describe, program_image
 from asictl.diagnostics import DiagnosticError, render_text
 from asictl.errors import ExitCode, UserError
 from asictl.files import write_output
-from asictl.hexfile import read_hex
 from asictl.mcs51.assembler import assemble, load_relative
 from asictl.mcs51.disassembler import disassemble
+from asictl.mcs51.hexfile import read_hex
 from asictl.source import SourceText, read_source
 
 _OUTPUT = click.Path(dir_okay=False, writable=True)

@@ -16,11 +16,7 @@ import click
 from asictl.build import Build, Origin, Stage, build_file
 from asictl.cli.options import lib_option
 from asictl.cli.terminal import stderr_colour
-from asictl.diagnostics import Diagnostic, Severity
-from asictl.errors import ExitCode, UserError
-from asictl.files import write_output
-from asictl.image import MAGIC, pack_sources, source_files
-from asictl.listing import (
+from asictl.codegen8051.listing import (
     LISTING_MARK,
     cells_summary,
     code_summary,
@@ -29,6 +25,10 @@ from asictl.listing import (
     listing_text,
     raw_listing_text,
 )
+from asictl.diagnostics import Diagnostic, Severity
+from asictl.errors import ExitCode, UserError
+from asictl.files import write_output
+from asictl.image.eeprom import MAGIC, pack_sources, source_files
 
 _OUTPUT = click.Path(dir_okay=False)
 #: The first record of every image asictl writes: 16 bytes at address 0, starting with MAGIC.

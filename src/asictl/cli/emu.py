@@ -8,10 +8,10 @@ import click
 
 from asictl.cli.hex_images import describe, program_image
 from asictl.errors import ExitCode, UserError
-from asictl.hexfile import read_hex
-from asictl.image import ProgramImage
+from asictl.image.eeprom import ProgramImage
 from asictl.mcs51.disassembler import decode, format_instruction
 from asictl.mcs51.emulator import Emulator, StopReason
+from asictl.mcs51.hexfile import read_hex
 from asictl.runtime import layout
 from asictl.runtime.runner import ProgramRunner
 

@@ -11,9 +11,9 @@ from __future__ import annotations
 
 from intelhex import IntelHex
 
+from asictl.codegen8051.listing import code_summary, image_summary
 from asictl.errors import UserError
-from asictl.image import MAGIC, ImageError, ProgramImage
-from asictl.listing import code_summary, image_summary
+from asictl.image.eeprom import MAGIC, ImageError, ProgramImage
 
 
 def program_image(hex_image: IntelHex, name: str) -> ProgramImage | None:

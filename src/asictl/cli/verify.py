@@ -16,7 +16,7 @@ from asictl.cli.options import lib_option
 from asictl.errors import ExitCode
 from asictl.host.jobs import JobError, JobStatus
 from asictl.host.transfer import upload
-from asictl.image import ProgramImage
+from asictl.image.eeprom import ProgramImage
 
 
 def differences(mine: ProgramImage, theirs: ProgramImage) -> list[str]:

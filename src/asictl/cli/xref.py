@@ -10,7 +10,8 @@ from asictl.build import check as check_program_file
 from asictl.cli.options import lib_option
 from asictl.cli.terminal import stderr_colour
 from asictl.codegen8051.allocate import allocate
-from asictl.crossref import (
+from asictl.errors import ExitCode, UserError
+from asictl.il.crossref import (
     LEGEND,
     entries,
     modbus_json,
@@ -19,7 +20,6 @@ from asictl.crossref import (
     xref_json,
     xref_text,
 )
-from asictl.errors import ExitCode, UserError
 from asictl.il.loader import Program
 from asictl.source import read_source
 

@@ -26,9 +26,9 @@ from collections.abc import Awaitable, Callable, Iterator
 from dataclasses import dataclass, field
 from typing import Any
 
-from asictl.background import NotStarted, in_thread
-from asictl.condition_log import ConditionLog
 from asictl.gateway.slave import GatewaySlave
+from asictl.host.background import NotStarted, in_thread
+from asictl.host.condition_log import ConditionLog
 
 #: How often master time catches up with the wall clock while nobody asks.
 PACING_S = 0.02

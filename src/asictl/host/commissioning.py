@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING, Protocol
 from asictl.errors import ExitCode, UserError
 from asictl.host.driver import Pc2Driver
 from asictl.host.jobs import JobError, JobStatus, address_change_failure
-from asictl.image import Configuration
+from asictl.image.eeprom import Configuration
 from asictl.platform.gateway import (
     EXCEPTION_STATUS_ERROR,
     MEMORY_BYTES,

@@ -26,7 +26,7 @@ from asictl.host.driver import EmulatedPort, Pc2Driver
 from asictl.host.status import MasterStatus, StoredProgram, control_summary, read_status
 from asictl.host.target import DEFAULT_RETRIES, DEFAULT_TIMEOUT_S, parse_target
 from asictl.host.transfer import Pc2Transport, Transport
-from asictl.image import ProgramImage
+from asictl.image.eeprom import ProgramImage
 
 #: Master time an emulated board runs after a download: config_ok's delay after the
 #: configuration was written, so the command's summary shows the program's state.

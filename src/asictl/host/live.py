@@ -40,12 +40,12 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from asictl.background import NotStarted, in_thread
 from asictl.board.board import Pc2Board
-from asictl.condition_log import ConditionLog
 from asictl.errors import ExitCode, UserError
 from asictl.files import write_atomic
+from asictl.host.background import NotStarted, in_thread
 from asictl.host.boards import emulated_board, lock_file, port_name, state_file
+from asictl.host.condition_log import ConditionLog
 from asictl.host.emulated import VIEWS, run_action
 from asictl.host.locking import is_free, note_holder
 from asictl.platform.pc2 import (

@@ -65,7 +65,7 @@ from asictl.host.target import (
     DEFAULT_TIMEOUT_S,
     ModbusTarget,
 )
-from asictl.image import MAGIC, Configuration
+from asictl.image.eeprom import MAGIC, Configuration
 from asictl.platform import gateway as g
 from asictl.platform.master import SLAVES, ControlFlag
 from asictl.platform.pc2 import ENTRY_TABLE_ADDRESS, ENTRY_TABLE_SIZE, ControlState, StopReason

@@ -12,7 +12,7 @@ from pathlib import Path, PurePath
 from asictl.errors import ExitCode, UserError
 from asictl.files import shown_name, write_together
 from asictl.il import ast
-from asictl.image import ImageError, ProgramImage
+from asictl.image.eeprom import ImageError, ProgramImage
 
 
 def uploaded_files(image: ProgramImage, output: str | Path) -> list[tuple[Path, bytes]]:

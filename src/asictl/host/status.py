@@ -23,7 +23,7 @@ from typing import Any
 from asictl.host.driver import Pc2Driver
 from asictl.host.jobs import JobError, JobStatus
 from asictl.host.transfer import Pc2Transport, Transport, upload, upload_head
-from asictl.image import MAGIC, ProgramImage
+from asictl.image.eeprom import MAGIC, ProgramImage
 from asictl.platform.display import display_code, display_text
 from asictl.platform.master import SLAVES, ControlFlag
 from asictl.platform.pc2 import (

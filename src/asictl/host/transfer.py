@@ -21,7 +21,14 @@ from typing import Protocol
 from asictl.errors import ExitCode, UserError
 from asictl.host.driver import Pc2Driver
 from asictl.host.jobs import JobError, JobStatus
-from asictl.image import HEADER_SIZE, MAGIC, Configuration, ImageError, ProgramImage, image_length
+from asictl.image.eeprom import (
+    HEADER_SIZE,
+    MAGIC,
+    Configuration,
+    ImageError,
+    ProgramImage,
+    image_length,
+)
 from asictl.platform.master import EEPROM_SIZE, ControlFlag
 from asictl.platform.pc2 import (
     CONTROL_FLAGS,

@@ -16,11 +16,11 @@ from enum import StrEnum
 from pathlib import Path
 
 from asictl.codes import CheckCode, SyntaxCode
-from asictl.collector import collector_paused
 from asictl.diagnostics import Diagnostic, Reporter, Span
 from asictl.il import ast
 from asictl.il.analysis import analyse
 from asictl.il.ast import key
+from asictl.il.collector import collector_paused
 from asictl.il.foreign import operand_hint
 from asictl.il.language import (
     BUILTIN_TC,
@@ -31,11 +31,11 @@ from asictl.il.language import (
 )
 from asictl.il.loader import Program, Reader, calls, load_program
 from asictl.il.pragmas import read_directives
+from asictl.il.suggest import did_you_mean
 from asictl.mcs51.words import RESERVED as ASSEMBLER_RESERVED
 from asictl.platform.master import Options
 from asictl.runtime.firmware import FIRMWARE_BLOCKS
 from asictl.source import SourceText, read_source
-from asictl.suggest import did_you_mean
 
 CONST_RANGES = {
     ast.ConstKind.KT: MAX_KT_MS,
@@ -731,7 +731,7 @@ def check_source(
 
     ``read`` and ``exists`` stand for the file system (an editor's open buffers).
     """
-    with collector_paused():  # see asictl.collector
+    with collector_paused():  # see asictl.il.collector
         program, load_diagnostics = load_program(source, lib=lib, read=read, exists=exists)
         diagnostics = [
             *load_diagnostics, *check_program(program, dialect, read_errors=load_diagnostics)

@@ -17,7 +17,7 @@ from pathlib import PurePath
 from rich.text import Text
 
 from asictl.host.status import StoredProgram
-from asictl.image import ImageError
+from asictl.image.eeprom import ImageError
 from asictl.observe.online import NO_LINE_MAP, CycleLines, LineValues
 from asictl.runtime.line_map import SourceLine
 from asictl.source import decode

@@ -29,7 +29,7 @@ from typing import Any
 from asictl.board.board import Pc2Board
 from asictl.build import program_of_image
 from asictl.errors import ExitCode, UserError
-from asictl.image import ImageError, ProgramImage
+from asictl.image.eeprom import ImageError, ProgramImage
 from asictl.observe.iltrace import ILTracer, LineRow, line_operands
 from asictl.observe.operands import Operand
 from asictl.observe.view import ProgramView, read_on_board, wake

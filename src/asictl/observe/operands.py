@@ -3,7 +3,7 @@ the IL reader reads them, so a scenario speaks the program's own language.
 
 Two operands are the simulator's own, for what people check when they debug: ``CV n``, a
 counter's value (0..4095), and ``TV n``, a timer's remaining time in milliseconds. A
-symbol table (``asictl.symbols``) may name any of them.
+symbol table (``asictl.observe.symbols``) may name any of them.
 """
 
 from __future__ import annotations
@@ -17,8 +17,8 @@ from asictl.il import ast
 from asictl.il.ast import key
 from asictl.il.language import TC_MAX_VALUE
 from asictl.il.parser import parse_text
+from asictl.observe.symbols import SymbolTable
 from asictl.platform.master import TICK_MS
-from asictl.symbols import SymbolTable
 
 
 @dataclass(frozen=True)

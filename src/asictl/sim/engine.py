@@ -31,11 +31,12 @@ from asictl.host.driver import EmulatedPort, Pc2Driver
 from asictl.host.transfer import Pc2Transport, StartMode, download
 from asictl.il import ast
 from asictl.il.loader import Program
-from asictl.image import ProgramImage
+from asictl.image.eeprom import ProgramImage
 from asictl.mcs51.emulator import Emulator
 from asictl.observe.iltrace import ILTracer, LineRow, line_operands
 from asictl.observe.locate import current_line, describe
 from asictl.observe.operands import Operand, parse_operand
+from asictl.observe.symbols import SymbolTable
 from asictl.observe.view import ProgramView, host_write, read_on_board, wake
 from asictl.platform import pc2 as d
 from asictl.platform.master import ControlFlag
@@ -45,7 +46,6 @@ from asictl.runtime.program_map import CellKind, ProgramMap
 from asictl.runtime.runner import ProgramRunner
 from asictl.sim.scenario import Scenario, SlaveSpec, Step
 from asictl.sim.trace import Mark, Signal, Trace
-from asictl.symbols import SymbolTable
 
 #: Sets happen this long before their time, so that no cycle at exactly T has run yet.
 _BEFORE_MS = 0.001

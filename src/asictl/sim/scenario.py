@@ -22,8 +22,8 @@ from asictl.diagnostics import Diagnostic, DiagnosticError, Reporter, Severity, 
 from asictl.il import ast
 from asictl.il.parser import parse_text
 from asictl.observe.operands import Operand, parse_operand
+from asictl.observe.symbols import SymbolTable
 from asictl.source import SourceText, read_source
-from asictl.symbols import SymbolTable
 
 _DURATION = re.compile(r"^\s*(\d+(?:\.\d+)?)\s*(ms|s|m|min|h)?\s*$", re.IGNORECASE)
 _UNIT_MS = {"ms": 1, "s": 1000, "m": 60_000, "min": 60_000, "h": 3_600_000, None: 1000}

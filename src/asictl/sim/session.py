@@ -24,6 +24,7 @@ from asictl.build import Build, build_file
 from asictl.diagnostics import DiagnosticError, render_text
 from asictl.errors import UserError
 from asictl.observe.operands import parse_operand
+from asictl.observe.symbols import SymbolTable, symbols_for
 from asictl.sim import SUFFIX
 from asictl.sim.engine import SimResult, Simulation, variables_of
 from asictl.sim.scenario import (
@@ -33,7 +34,6 @@ from asictl.sim.scenario import (
     scenario_program,
 )
 from asictl.source import read_source
-from asictl.symbols import SymbolTable, symbols_for
 
 #: How long a program runs when no scenario says.
 DEFAULT_DURATION_MS = 10_000.0

@@ -14,8 +14,8 @@ from collections.abc import Iterator, Sequence
 
 from asictl import __version__
 from asictl.codegen8051.compiler import GENERATED, Compiled
-from asictl.crossref import LEGEND, entries, xref_text
-from asictl.image import HEADER_SIZE, ProgramImage
+from asictl.il.crossref import LEGEND, entries, xref_text
+from asictl.image.eeprom import HEADER_SIZE, ProgramImage
 from asictl.mcs51.assembly import ListingEntry
 from asictl.platform.master import EEPROM_SIZE
 from asictl.runtime import layout

@@ -1,0 +1,1 @@
+"""The program image: what a compiled program is on the master's EEPROM (``eeprom``)."""
