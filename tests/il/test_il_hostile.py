@@ -6,6 +6,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from il_strategies import modules
 
+from asictl.build import check as check_program
 from asictl.codes import SyntaxCode
 from asictl.il.parser import parse
 from asictl.source import SourceText, from_bytes, from_string
@@ -86,3 +87,35 @@ def mutated_programs(draw: st.DrawFn) -> str:
 @given(mutated_programs())
 def test_mutated_programs(text: str) -> None:
     check(text)
+
+
+def assert_inside(source: SourceText, diagnostics: list) -> None:
+    """Every diagnostic, of any stage, at a line and column the file has."""
+    lines = source.text.split("\n")
+    for d in diagnostics:
+        if d.span is None or d.span.file != source.name:
+            continue
+        assert 1 <= d.span.line <= len(lines), d
+        assert 1 <= d.span.column <= len(lines[d.span.line - 1]) + 1, d
+
+
+def test_lines_after_two_failing_lines_keep_their_columns() -> None:
+    """Two lines in a row that fail to parse once put later places at column -15."""
+    source = from_string("m5.asi", "[PROGRAM]\nU I 1.1\nLD KT 100\nA M 1.0\n")
+    diagnostics = check_program(source).diagnostics
+    assert_inside(source, diagnostics)
+    assert [(d.span.line, d.span.column) for d in diagnostics if d.span.line == 4] == [(4, 3)]
+
+
+#: Whole lines of a program, good and bad, so that failures follow failures.
+PROGRAM_LINES = st.sampled_from([
+    "A I 1.0", "= Q 2.0", "U I 1.1", "LD KT 100", "A M 1.0", "L KT 500", "S T 1", "x y z",
+    "AN F 10.7", "JC = end", "end: BE", "   ", "; comment", "A I 99.9", "O Reading 3.2", "***",
+])
+
+
+@HOSTILE
+@given(st.lists(PROGRAM_LINES, max_size=12))
+def test_every_diagnostic_of_a_check_lies_inside_the_file(lines: list[str]) -> None:
+    source = from_string("p.asi", "[PROGRAM]\n" + "\n".join(lines) + "\n")
+    assert_inside(source, check_program(source).diagnostics)

@@ -234,7 +234,10 @@ def _read(reader: _Reader, text: str, file: str) -> tuple[list[Piece], list[Diag
         next_pos = text.index("\n", where) + 1
         if diagnosis.skip_to_title:
             next_pos, section = reader.next_title(text, next_pos), None
-        lines.feed(TextSlice(text, pos, next_pos))
+        # A plain string, not a TextSlice: lark's LineCounter adds a slice's ``rindex``
+        # (an index into the whole text) to its own position, which put every line after
+        # the second failing one at a negative column.
+        lines.feed(text[pos:next_pos])
         pos = next_pos
     return pieces, diagnostics
 
