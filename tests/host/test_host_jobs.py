@@ -6,7 +6,7 @@ import pytest
 from host_helpers import ScriptedBoard
 
 from asictl.host.driver import EmulatedPort, Pc2Driver
-from asictl.host.jobs import Job, JobError, JobStatus, PortError
+from asictl.host.jobs import REINITIALISE, Job, JobError, JobStatus, PortError
 from asictl.platform.pc2 import ACK, DATA, NAK, Command, Status
 
 
@@ -31,7 +31,8 @@ def test_busy_then_done_with_the_result():
     job.poll()
     job.poll()
     assert job.done and not job.busy and not job.error
-    assert job.status is JobStatus.OK and job.result == 0x0A
+    # DONE with response data: STATUS is its length in bytes (ASI_CTRL), one byte here
+    assert job.status == 1 and job.result == 0x0A
     job.poll()  # polling a finished job changes nothing
     assert job.done
 
@@ -164,3 +165,39 @@ def test_protected_mode_refused_for_slave_zero_is_8385():
     with pytest.raises(JobError) as caught:
         driver.command(Command.SET_OPERATION_MODE, data=0)
     assert caught.value.status == JobStatus.SLAVE_ZERO == 0x8385
+
+
+@pytest.mark.parametrize(
+    ("code", "data", "length"),
+    [
+        (Command.SET_LPS, 0, 0),  # no response data: 0000h
+        (Command.WRITE_PARAMETER, 3, 1),  # the slave's answer
+        (Command.READ_CLEAR_LCS, 0, 4),
+        (Command.READ_CLEAR_ERROR_COUNTERS, 0, 32),
+        (Command.UPLOAD, 240, 240),  # the block the job asked for
+        (Command.READ_COMM_MEMORY, 16, 16),
+    ],
+)
+def test_done_reports_the_length_of_the_response_data(code: int, data: int, length: int):
+    job = Job(driver_for(ScriptedBoard({code: lambda b: ACK})), code, data=data)
+    job.run()
+    assert job.done and job.status == length
+
+
+def test_command_77h_ends_every_busy_job_and_the_interface_works_again():
+    board = ScriptedBoard({Command.SET_LPS: lambda b: ACK})
+    driver = driver_for(board)
+    stuck = Job(driver, Command.GET_STATUS)  # never acknowledged by this board
+    stuck.request()
+    stuck.poll()
+    assert stuck.busy
+    accesses = board.accesses
+    reinit = Job(driver, REINITIALISE)
+    reinit.run()
+    assert reinit.done and reinit.status == JobStatus.OK
+    assert board.accesses == accesses  # the job layer's own: nothing reached the board
+    assert stuck.error and stuck.status == JobStatus.INTERFACE_ERROR
+    assert "re-initialised" in stuck.message
+    stuck.poll()  # an ended job stays ended
+    assert stuck.error
+    assert Job(driver, Command.SET_LPS).run() == board.dpram[DATA]

@@ -10,17 +10,26 @@ engineer who knows the Siemens codes reads ours; docs/host.md has the table.
 
 from __future__ import annotations
 
+import weakref
 from enum import Enum, IntEnum
 from typing import Protocol
 
 from asictl.errors import ExitCode, UserError
-from asictl.platform.pc2 import ACK, COMMAND_TIMEOUT_MS, NAK, Command, Status
+from asictl.platform.pc2 import (
+    ACK,
+    COMMAND_TIMEOUT_MS,
+    NAK,
+    RESPONSE_BYTES,
+    Command,
+    Status,
+)
 
 
 class JobStatus(IntEnum):
     """STATUS words (ASI_CTRL shows them in the two middle bytes of its STATUS DWORD)."""
 
-    #: DONE without response data (with response data STATUS is its length in bytes)
+    #: DONE without response data (with response data STATUS is its length in bytes:
+    #: ``Job.status`` is then a plain number, see ``response_length``)
     OK = 0x0000
     #: BUSY: the request was issued by this call
     BUSY_FIRST_CALL = 0x7001
@@ -75,6 +84,21 @@ _ADDRESS_CHANGE_TEXT: dict[JobStatus, str] = {
 
 _CODES = frozenset(Command)
 
+#: ASI_CTRL's command 77H, "re-initialise the command interface": not a PC2 command but
+#: the job layer's own, so it never reaches the board. It ends every job still busy on
+#: the same port (as ASI_CTRL ends every command the master is executing) and leaves the
+#: interface ready for a new job.
+REINITIALISE = 0x77
+
+
+def response_length(code: int, data: int) -> int:
+    """The STATUS of a job that ended DONE: how many bytes of response data it has."""
+    try:
+        size = RESPONSE_BYTES.get(Command(code), 0)
+    except ValueError:
+        return 0
+    return data if size is None else size
+
 
 def address_change_failure(status_byte: int) -> tuple[JobStatus, str]:
     """The STATUS word and its text for command 20's status byte (manual 10.2.7)."""
@@ -121,7 +145,14 @@ class JobState(Enum):
     ERROR = "error"
 
 
+#: The jobs each port has busy, for command 77H (weakly held: a port that is gone
+#: takes its jobs with it).
+_busy: weakref.WeakKeyDictionary[CommandPort, set[Job]] = weakref.WeakKeyDictionary()
+
+
 def command_name(code: int) -> str:
+    if code == REINITIALISE:
+        return "command 77h (re-initialise the command interface)"
     try:
         return f"command {code} ({Command(code).name.lower().replace('_', ' ')})"
     except ValueError:
@@ -144,7 +175,8 @@ class Job:
         self.code, self.data, self.address, self.ext = code, data, address, ext
         self.timeout_ms = timeout_ms
         self.state = JobState.IDLE
-        self.status = JobStatus.OK
+        #: a ``JobStatus``, or on DONE the number of response bytes (``response_length``)
+        self.status: int = JobStatus.OK
         self.result: int | None = None
         self.message = ""
         self._deadline = 0.0
@@ -166,6 +198,9 @@ class Job:
         if self.busy:
             return
         self.result, self.message = None, ""
+        if self.code == REINITIALISE:
+            self._reinitialise()
+            return
         if self.code not in _CODES:
             self._fail(JobStatus.UNKNOWN_COMMAND, "the PC2 has no such command")
             return
@@ -176,6 +211,17 @@ class Job:
             return
         self._deadline = self.port.now_ms() + self.timeout_ms
         self.state, self.status = JobState.BUSY, JobStatus.BUSY_FIRST_CALL
+        _busy.setdefault(self.port, set()).add(self)
+
+    def _reinitialise(self) -> None:
+        """Command 77H: end every job busy on this port; each reports why."""
+        for job in list(_busy.pop(self.port, ())):
+            job._fail(
+                JobStatus.INTERFACE_ERROR,
+                "ended by command 77h (the command interface was re-initialised)",
+            )
+        self.result = 0  # no response data
+        self.state, self.status = JobState.DONE, JobStatus.OK
 
     def poll(self) -> None:
         """Look at the command byte once and move to DONE or ERROR if it has changed."""
@@ -227,11 +273,19 @@ class Job:
         if self.code == Command.CHANGE_SLAVE_ADDRESS and result != Status.OK:
             self._address_change_failed(result)
             return
-        self.state, self.status = JobState.DONE, JobStatus.OK
+        self.state = JobState.DONE
+        self.status = response_length(self.code, self.data)
+        self._unlist()
 
     def _fail(self, status: JobStatus, message: str) -> None:
         self.state, self.status = JobState.ERROR, status
         self.message = f"{command_name(self.code)}: {message}"
+        self._unlist()
+
+    def _unlist(self) -> None:
+        busy = _busy.get(self.port)
+        if busy is not None:
+            busy.discard(self)
 
     def run(self) -> int:
         """Request, poll to the end, and return ``result``; an ERROR raises ``JobError``."""
@@ -239,6 +293,6 @@ class Job:
         while self.busy:
             self.poll()
         if self.error:
-            raise JobError(self.status, self.message)
+            raise JobError(JobStatus(self.status), self.message)
         assert self.result is not None
         return self.result

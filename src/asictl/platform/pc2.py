@@ -116,6 +116,20 @@ class Command(IntEnum):
 
 
 #: The command byte after execution.
+#: How many bytes of response data each command leaves for the host (in ``data`` or at
+#: the start of the program buffer; manual 10.2.6), beyond the status byte every command
+#: returns. ``None``: as many as the command's ``data`` parameter asks for (a block).
+#: ASI_CTRL reports this count in the STATUS of a job that ended DONE.
+RESPONSE_BYTES: dict[Command, int | None] = {
+    Command.WRITE_PARAMETER: 1,  # the slave's answer, in data
+    Command.EXECUTE_COMMAND: 1,  # the slave's response, in data
+    Command.UPLOAD: None,  # the block, in the program buffer
+    Command.READ_COMM_MEMORY: None,
+    Command.READ_CLEAR_LCS: 4,  # program buffer bytes 0-3
+    Command.READ_CLEAR_ERROR_COUNTERS: 32,  # one byte per slave address
+    Command.READ_TELEGRAM_COUNTERS: 4,
+}
+
 ACK = 0x00
 NAK = 0xFF
 
