@@ -409,17 +409,28 @@ class Pc2Board:
 
     @staticmethod
     def _snapshot(runner: ProgramRunner) -> bytes:
+        """The program's state: the 8051's memories, and the input image the next cycle
+        copies into I2 when the program reads I2 (an input change reaches I2 one cycle
+        after I, so a cycle that changed only that image still changes the next one)."""
         cpu = runner.cpu
-        return bytes(cpu.iram) + bytes(cpu.sfr) + bytes(cpu.xdata.ram[: layout.DATA_LIMIT])
+        inputs = bytes(runner.inputs) if runner.reads_previous_inputs else b""
+        return (
+            bytes(cpu.iram) + bytes(cpu.sfr) + inputs + bytes(cpu.xdata.ram[: layout.DATA_LIMIT])
+        )
 
     @staticmethod
     def _unchanged(runner: ProgramRunner, snapshot: bytes) -> bool:
         """Is the machine as ``_snapshot`` found it? (Compared in place: no copy of XDATA.)"""
         cpu = runner.cpu
+        start = 512
+        if runner.reads_previous_inputs:
+            if not snapshot.startswith(runner.inputs, start):
+                return False
+            start += len(runner.inputs)
         return (
             snapshot.startswith(cpu.iram)
             and snapshot.startswith(cpu.sfr, 256)
-            and cpu.xdata.ram.startswith(memoryview(snapshot)[512:])
+            and cpu.xdata.ram.startswith(memoryview(snapshot)[start:])
         )
 
     def safe_outputs(self) -> None:

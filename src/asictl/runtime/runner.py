@@ -72,6 +72,9 @@ class ProgramRunner:
         self.inputs = bytearray(16)
         self.outputs = bytearray(16)
         self._cells = {kind: self._cells_of(kind) for kind in CellKind}
+        #: whether the program reads the previous-cycle inputs (I2): then the input image
+        #: it keeps between cycles is part of its state
+        self.reads_previous_inputs = bool(self._cells[CellKind.I2])
         self._timers = [
             (self.pmap.timers[n], self.pmap.cells[timer_status(n)[0]], timer_status(n)[1])
             for n in sorted(self.pmap.timers)
