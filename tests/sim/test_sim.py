@@ -164,7 +164,7 @@ def test_parallel_test_runs_give_the_same_output_and_junit(tmp_path: Path):
     passing = len(list(SCENARIOS.glob("*.scenario.toml")))
     assert lines[-1] == f"{passing} passed, 2 failed"
     assert [line.split()[0] for line in lines if not line.startswith(" ")][:-1] == [
-        "PASS", "FAIL", "ERROR", "PASS", "PASS", "PASS", "PASS"]
+        "PASS", "FAIL", "ERROR", *["PASS"] * (passing - 1)]
 
 
 def test_test_shows_its_progress_on_a_terminal_and_not_in_a_pipe(tmp_path: Path):
