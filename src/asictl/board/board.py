@@ -32,7 +32,7 @@ from asictl.board.services import MasterFirmware
 from asictl.image.eeprom import ProgramImage
 from asictl.mcs51.emulator import EmulatorError, UndefinedOpcode
 from asictl.platform import pc2 as d
-from asictl.platform.master import SLAVES, TICK_US, ControlFlag
+from asictl.platform.master import COUNTER_HIGH_FLAGS, SLAVES, TICK_US, ControlFlag
 from asictl.platform.pc2 import ControlState, HiFlag, InterruptSource, StopReason, nibbles
 from asictl.runtime import layout
 from asictl.runtime.runner import CycleTimeout, ProgramRunner
@@ -43,6 +43,8 @@ TRANSACTION_US = 150
 _INVERT = bytes(255 - b for b in range(256))
 _ASI_CYCLE = int(InterruptSource.ASI_CYCLE)
 _NO_OUTPUTS = bytes(16)
+#: The DPRAM addresses of the mapped counters' high bytes (map_counters).
+_COUNTER_HIGH_BYTES = frozenset(d.FLAGS + n for n in COUNTER_HIGH_FLAGS)
 # Looked up every AS-i cycle: plain module constants.
 _WATCHDOG_ENABLE = d.WATCHDOG_ENABLE
 _INTERRUPT_ENABLE = d.INTERRUPT_ENABLE
@@ -156,7 +158,10 @@ class Pc2Board:
         if not 0 <= value <= 0xFF:
             raise ValueError(f"an I/O write carries one byte, not {value}")
         if offset == d.PORT_DATA:
-            kind = self._dpram.host_write(self._page << 8 | self._index, value)
+            address = self._page << 8 | self._index
+            kind = self._dpram.host_write(address, value)
+            if address in _COUNTER_HIGH_BYTES and self._counters_mapped():
+                self._ram[address] &= 0x0F
             self._host_dirty = True
             if kind == COMMAND:
                 self._command_pending = value not in (d.ACK, d.NAK)
@@ -387,6 +392,10 @@ class Pc2Board:
         except Exception as exc:  # whatever the program did, the master carries on
             self._halt(StopReason.PROGRAM_FAULT, _fault(exc))
             return
+        if self._counters_mapped():
+            ram = self._ram
+            for address in _COUNTER_HIGH_BYTES:
+                ram[address] &= 0x0F
         duration = control.record_cycle(runner.last_cycles)
         self._program_ready_us = self._now_us + math.ceil(duration)
         if before is not None:
@@ -487,6 +496,9 @@ class Pc2Board:
     @property
     def control_flags(self) -> ControlFlag:
         return ControlFlag(self._control.flags_byte())
+
+    def _counters_mapped(self) -> bool:
+        return bool(self._control.flags & ControlFlag.MAP_COUNTERS)
 
     @property
     def program_status(self) -> d.ProgramStatus:

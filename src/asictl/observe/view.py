@@ -16,7 +16,7 @@ from asictl.il import ast
 from asictl.mcs51.isa import SFRS
 from asictl.observe.operands import CounterValue, Operand, TimerValue
 from asictl.platform import pc2
-from asictl.platform.master import TICK_MS
+from asictl.platform.master import COUNTER_FLAG_BASE, MAPPED_COUNTERS, TICK_MS
 from asictl.runtime import layout
 from asictl.runtime.program_map import CellKind
 from asictl.runtime.runner import ProgramRunner
@@ -55,7 +55,12 @@ class ProgramView:
         return xdata.read(address) | xdata.read(address + 1) << 8
 
     def counter(self, number: int) -> int | None:
-        address = self.runner.pmap.counters.get(number)
+        """Counter ``number``'s value; with map_counters, counters 0..14 are their flag
+        bytes whether or not the program names them (the host may write them)."""
+        pmap = self.runner.pmap
+        address = pmap.counters.get(number)
+        if address is None and pmap.map_counters and number < MAPPED_COUNTERS:
+            address = layout.FLAGS_BASE + COUNTER_FLAG_BASE + 2 * number
         return None if address is None else self.word(address) & 0xFFF
 
     def timer_ms(self, number: int) -> int | None:

@@ -35,6 +35,9 @@ MAX_TC = 1023
 #: map_counters: counter n (0..14) is flag bytes 96+2n (low) and 97+2n (high nibble).
 COUNTER_FLAG_BASE = 96
 MAPPED_COUNTERS = 15
+#: Their high bytes, F97, F99 .. F125: only bits 0-3 hold the count, the upper four are
+#: always 0 (whatever the program or the host writes there).
+COUNTER_HIGH_FLAGS = range(COUNTER_FLAG_BASE + 1, COUNTER_FLAG_BASE + 2 * MAPPED_COUNTERS, 2)
 
 #: The AS-i I/O codes by their data bits D0..D3 (I input, O output, B both, T tristate).
 IO_CODE_BITS = (
