@@ -58,6 +58,20 @@ def test_hover_on_a_variable_and_a_constant():
     assert "505 ms = 51 ticks of 10 ms" in hover.hover(analysis, "/v.asi", 4, 4)
 
 
+def test_hover_on_l_tells_the_constant_register_from_the_accumulators():
+    """``L KT``/``L KC``/``L KP`` leave both accumulators alone; ``L KB`` and ``L FY`` push."""
+    documents = Documents()
+    text = "[PROGRAM]\n L KT 500\n L KC 3\n L KP 13.9\n L KB 7\n L FY 1\n"
+    documents.open("/l.asi", text)
+    analysis = documents.analyse("/l.asi")
+    texts = [hover.hover(analysis, "/l.asi", line, 2) or "" for line in range(2, 7)]
+    for constant in texts[:3]:
+        assert "constant register :=" in constant and "ACCU1 and ACCU2 keep" in constant
+        assert "ACCU2 := ACCU1" not in constant
+    for push in texts[3:]:
+        assert "ACCU2 := ACCU1, ACCU1 := operand" in push
+
+
 def test_definition_and_references_across_files():
     documents, path, lines = demo("fb.asi")
     analysis = documents.analyse(path)

@@ -8,7 +8,14 @@ from asictl.il.ast import key
 from asictl.il.references import Occurrence, Role, Symbol, SymbolKind
 from asictl.lsp.documents import Analysis
 from asictl.lsp.navigation import covers, node_at, operator_span
-from asictl.lsp.texts import INSTRUCTIONS, OPERANDS, OPTIONS, SECTIONS, io_code_text
+from asictl.lsp.texts import (
+    CONSTANT_LOADS,
+    INSTRUCTIONS,
+    OPERANDS,
+    OPTIONS,
+    SECTIONS,
+    io_code_text,
+)
 from asictl.runtime.firmware import FIRMWARE_BLOCKS
 from asictl.runtime.layout import FLAGS_BASE
 
@@ -40,8 +47,11 @@ def hover(analysis: Analysis, file: str, line: int, column: int) -> str | None:
 
 def _instruction(statement: object) -> str:
     text = statement.to_source() if hasattr(statement, "to_source") else ""
-    operator = text.split(" ")[0].upper()
+    words = text.upper().split(" ")
+    operator = words[0]
     entry = INSTRUCTIONS.get(operator)
+    if operator == "L" and len(words) > 1:
+        entry = CONSTANT_LOADS.get(words[1], entry)
     if entry is None:
         return f"`{text}`"
     extra = ""

@@ -30,7 +30,7 @@ INSTRUCTIONS: dict[str, Entry] = {
     "S": Entry("S <bit>", "operand := 1 when the register is 1"),
     "R": Entry("R <bit>", "operand := 0 when the register is 1"),
     "N": Entry("N", "register := not register"),
-    "L": Entry("L <constant, byte or word>", "ACCU2 := ACCU1, ACCU1 := operand"),
+    "L": Entry("L <byte, word, KB or KW>", "ACCU2 := ACCU1, ACCU1 := operand"),
     "T": Entry("T <byte or word>", "operand := ACCU1"),
     "+": Entry("+ F", "ACCU1 := ACCU2 + ACCU1 (bytes, unsigned, modulo 256)"),
     "-": Entry("- F", "ACCU1 := ACCU2 - ACCU1 (bytes, unsigned, modulo 256)"),
@@ -58,6 +58,17 @@ INSTRUCTIONS: dict[str, Entry] = {
                    "to slave a"),
     "ASM": Entry("ASM <8051 instruction>", "passes the rest of the line, up to its comment "
                  "and without surrounding blanks, to the assembler unexamined"),
+}
+
+#: ``L`` of a KT, KC or KP constant loads the constant register (il-semantics: "a
+#: register independent of previous operations"), not the accumulators.
+CONSTANT_LOADS: dict[str, Entry] = {
+    "KT": Entry("L KT <ms>", "constant register := the time (for S T); ACCU1 and ACCU2 "
+                "keep their values"),
+    "KC": Entry("L KC <n>", "constant register := the count (for S C); ACCU1 and ACCU2 "
+                "keep their values"),
+    "KP": Entry("L KP <slave>.<data>", "constant register := slave and parameter (for "
+                "PARAM); ACCU1 and ACCU2 keep their values"),
 }
 
 #: Operand marks (§3.4.1-3.4.3), keyed by their canonical spelling.
