@@ -70,6 +70,21 @@ def test_bus_commands(run):
     assert status(run)["missing"] == [31]
 
 
+def test_board_options_before_a_bus_subcommand_count(run):
+    """``asictl bus --port 328h inputs ...`` acts on board 328h, as after the subcommand."""
+    def slaves(port: str) -> dict[int, int]:
+        cable = json.loads(run("bus", "--port", port, "show", "--json").stdout)
+        return {s["address"]: s["inputs"] for s in cable["slaves"]}
+
+    assert run("bus", "--port", "328h", "plug", "1", "iiii,0").exit_code == 0
+    assert run("bus", "--port", "328h", "inputs", "1", "0b0001").exit_code == 0
+    assert slaves("328h")[1] == 0b0001
+    assert 1 not in slaves("300h")
+    # the subcommand's own option still wins over the group's
+    assert run("bus", "--port", "300h", "inputs", "--port", "328h", "1", "0").exit_code == 0
+    assert slaves("328h")[1] == 0
+
+
 @pytest.mark.parametrize(
     ("args", "code", "message"),
     [

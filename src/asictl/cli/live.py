@@ -12,6 +12,7 @@ import json
 from typing import Any, Unpack
 
 import click
+from click.core import ParameterSource
 
 from asictl.cli.master import _board_options, _BoardOptions, _connect
 from asictl.errors import ExitCode, UserError
@@ -73,11 +74,28 @@ def serve(port: str, state_dir: str | None, wait: bool) -> None:
 
 
 def _emulated_only(board: _BoardOptions) -> None:
+    _inherit_group_options(board)
     if board["modbus"] is not None or board["io"] != "emulated":
         raise UserError(
             "'asictl bus' works on emulated boards only: a real master's AS-i cable is "
             "changed by hand", ExitCode.USAGE,
         )
+
+
+def _inherit_group_options(board: _BoardOptions) -> None:
+    """Board options given before the subcommand (``asictl bus --port 328h inputs ...``)
+    count where the subcommand's own were left at their defaults: both places take them,
+    and the group's used to be dropped, so the subcommand acted on board 300h."""
+    ctx = click.get_current_context()
+    group = ctx.parent
+    if group is None or group.command is not bus:
+        return
+    for name in board:
+        if (
+            ctx.get_parameter_source(name) is ParameterSource.DEFAULT
+            and group.get_parameter_source(name) not in (None, ParameterSource.DEFAULT)
+        ):
+            board[name] = group.params[name]  # type: ignore[literal-required]
 
 
 def _report(master: Master) -> None:
