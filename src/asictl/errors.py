@@ -31,3 +31,26 @@ class UserError(Exception):
         super().__init__(message)
         if exit_code is not None:
             self.exit_code = exit_code
+
+
+#: The optional extras and what each installs, as pyproject.toml declares them (a test
+#: holds the two equal), so that an install hint names exactly what the extra would add.
+EXTRAS: dict[str, tuple[str, ...]] = {
+    "plot": ("matplotlib>=3.7",),
+    "modbus": ("pymodbus==3.16.*", "pyserial>=3.5"),
+    "lsp": ("pygls>=2.0,<3",),
+    "monitor": ("textual>=8,<9",),
+}
+
+
+def missing_extra(what: str, extra: str, cause: str = "") -> UserError:
+    """The error for a command whose optional extra is not installed. asictl is not on
+    PyPI, so installing ``asictl[x]`` by name would fail: the hint names the packages
+    themselves, and the extra for a checkout."""
+    packages = " ".join(f"'{p}'" for p in EXTRAS[extra])
+    because = f" ({cause})" if cause else ""
+    return UserError(
+        f"{what} needs the '{extra}' extra{because}: pip install {packages} "
+        f"(or, in an asictl checkout, pip install '.[{extra}]')",
+        ExitCode.USAGE,
+    )

@@ -181,7 +181,8 @@ def test_lsp_without_pygls_says_how_to_install_it(monkeypatch: pytest.MonkeyPatc
     result = CliRunner().invoke(main, ["lsp"])
     assert result.exit_code == 2
     assert result.stderr == (
-        "asictl: error: the language server needs pygls: pip install 'asictl[lsp]'\n")
+        "asictl: error: the language server needs the 'lsp' extra (no pygls): pip install "
+        "'pygls>=2.0,<3' (or, in an asictl checkout, pip install '.[lsp]')\n")
 
 
 def test_the_command_line_does_not_load_pygls():

@@ -133,7 +133,7 @@ def test_plot(tmp_path: Path):
     result = run("sim", "--scenario", str(SCENARIOS / "blink.scenario.toml"), "--plot", str(png))
     if importlib.util.find_spec("matplotlib") is None:
         assert result.exit_code == 2
-        assert "pip install 'asictl[plot]'" in result.stderr
+        assert "pip install '.[plot]'" in result.stderr
     else:
         assert result.exit_code == 0, result.output
         assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

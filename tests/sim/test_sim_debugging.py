@@ -208,7 +208,7 @@ def test_plot_marks_failures_in_red(counter: Path, tmp_path: Path):
     png = tmp_path / "t.png"
     result = run("sim", counter, "--plot", png, "--from", "5ms", "--to", "30ms")
     if importlib.util.find_spec("matplotlib") is None:
-        assert result.exit_code == 2 and "pip install 'asictl[plot]'" in result.stderr
+        assert result.exit_code == 2 and "pip install '.[plot]'" in result.stderr
         return
     assert result.exit_code == 1
     from matplotlib import image

@@ -14,7 +14,7 @@ from collections.abc import Awaitable, Callable
 import click
 
 from asictl.cli.serial_options import serial_options, unit_option
-from asictl.errors import UserError
+from asictl.errors import UserError, missing_extra
 from asictl.host.boards import lock_file, parse_port, state_directory
 from asictl.host.live import SAVE_INTERVAL_S, LiveBoard, run_live, socket_path
 from asictl.host.locking import note_holder
@@ -83,9 +83,7 @@ def serve(
         from asictl.gateway.server import GatewayServer, SerialSettings
         from asictl.gateway.slave import GatewaySlave
     except ImportError as exc:
-        raise UserError(
-            f"the gateway needs pymodbus and pyserial ({exc}): pip install 'asictl[modbus]'"
-        ) from None
+        raise missing_extra("the gateway", "modbus", str(exc)) from None
 
     base = parse_port(port)
     directory = state_directory(state_dir)

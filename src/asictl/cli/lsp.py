@@ -11,7 +11,7 @@ import importlib.util
 import click
 
 from asictl.cli.options import lib_option
-from asictl.errors import UserError
+from asictl.errors import missing_extra
 
 
 @click.command()
@@ -23,7 +23,7 @@ def lsp(lib: tuple[str, ...]) -> None:
     completion, document symbols, folding and formatting for .asi and .fb files.
     """
     if importlib.util.find_spec("pygls") is None:
-        raise UserError("the language server needs pygls: pip install 'asictl[lsp]'")
+        raise missing_extra("the language server", "lsp", "no pygls")
     from asictl.lsp.server import serve
 
     serve(lib)

@@ -1,6 +1,6 @@
 """``asictl monitor``: the live full-screen view (docs/commissioning.md).
 
-Textual is an optional extra (``asictl[monitor]``) and is imported only here, when the
+Textual is an optional extra (``monitor``) and is imported only here, when the
 command runs: the other commands, and ``asictl --help``, never load it.
 """
 
@@ -12,7 +12,7 @@ from typing import Unpack
 import click
 
 from asictl.cli.master import _address, _board_options, _BoardOptions
-from asictl.errors import ExitCode, UserError
+from asictl.errors import missing_extra
 
 
 @click.command("monitor")
@@ -42,10 +42,7 @@ def monitor(**board: Unpack[_BoardOptions]) -> None:
     try:
         from asictl.monitor.app import MonitorApp
     except ImportError as exc:
-        raise UserError(
-            f"asictl monitor needs Textual ({exc.name or exc}): pip install 'asictl[monitor]'",
-            ExitCode.USAGE,
-        ) from None
+        raise missing_extra("asictl monitor", "monitor", f"no {exc.name or exc}") from None
     from asictl.host.boards import parse_port, port_name, state_directory
     from asictl.host.live import background_live, is_served
     from asictl.monitor.source import MonitorSource

@@ -19,7 +19,7 @@ from pathlib import Path
 from typing import Any
 
 from asictl.board.board import Pc2Board
-from asictl.errors import ExitCode, UserError
+from asictl.errors import ExitCode, UserError, missing_extra
 from asictl.host.boards import connect, parse_port, port_name, state_directory, state_file
 from asictl.host.commissioning import Commissioning, ModbusCommissioning, Pc2Commissioning
 from asictl.host.driver import EmulatedPort, Pc2Driver
@@ -170,9 +170,7 @@ def connect_master(
     try:
         from asictl.host import modbus as gateway
     except ImportError as exc:
-        raise UserError(
-            f"--modbus needs pymodbus and pyserial ({exc}): pip install 'asictl[modbus]'"
-        ) from None
+        raise missing_extra("--modbus", "modbus", str(exc)) from None
     with gateway.open_modbus(
         target, address.unit, timeout=address.timeout, retries=address.retries
     ) as transport:

@@ -1,6 +1,6 @@
 """``--modbus URL|DEVICE``: where a gateway is, parsed without importing pymodbus.
 
-pymodbus is an optional extra (``asictl[modbus]``); the CLI builds its options and checks
+pymodbus is an optional extra (``modbus``); the CLI builds its options and checks
 what the user wrote from this module, and loads the transport only for a --modbus command.
 """
 

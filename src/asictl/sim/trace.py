@@ -15,7 +15,7 @@ import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from asictl.errors import UserError
+from asictl.errors import missing_extra
 from asictl.files import write_atomic
 
 
@@ -129,9 +129,7 @@ def write_plot(trace: Trace, path: Path, *, title: str) -> None:
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
     except ImportError:
-        raise UserError(
-            "--plot needs matplotlib: pip install 'asictl[plot]' (or pip install matplotlib)"
-        ) from None
+        raise missing_extra("--plot", "plot") from None
     signals = trace.signals
     start = trace.start_ms
     end = trace.end_ms if trace.end_ms > start else max(
