@@ -160,3 +160,12 @@ def test_verify(run, tmp_path):
     hex_file = tmp_path / "blink.hex"
     assert CliRunner().invoke(main, ["compile", str(BLINK), "-o", str(hex_file)]).exit_code == 0
     assert run("verify", str(hex_file)).exit_code == 0
+
+
+@pytest.mark.parametrize("modes", [("--start", "--stop"), ("--stop", "--keep"),
+                                   ("--start", "--keep")])
+def test_download_refuses_two_start_modes(run, modes: tuple[str, str]):
+    result = run("download", str(BLINK), *modes)
+    assert result.exit_code == 2 and "contradict each other" in result.output
+    assert run("status").exit_code == 0
+    assert "no valid program" in run("start").stderr, "nothing was downloaded"

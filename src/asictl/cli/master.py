@@ -152,15 +152,15 @@ def _progress(label: str, blocks: int) -> Iterator[Callable[[int], None]]:
 @click.command("download")
 @click.argument("file", metavar="FILE.asi|FILE.hex", type=click.Path(dir_okay=False))
 @_board_options
-@click.option("--start", "start", flag_value="start", help="Start the program (ACF /s+).")
-@click.option("--stop", "start", flag_value="stop", help="Stop the program (ACF /s-).")
+@click.option("--start", "start", is_flag=True, help="Start the program (ACF /s+).")
+@click.option("--stop", "stop", is_flag=True, help="Stop the program (ACF /s-).")
 @click.option(
-    "--keep", "start", flag_value="keep", default=True,
-    help="Leave the start flag as it is (ACF /s0) [default].",
+    "--keep", "keep", is_flag=True, help="Leave the start flag as it is (ACF /s0) [default].",
 )
 @lib_option
 def download_command(
-    file: str, start: str, lib: tuple[str, ...], **board: Unpack[_BoardOptions]
+    file: str, start: bool, stop: bool, keep: bool, lib: tuple[str, ...],
+    **board: Unpack[_BoardOptions],
 ) -> None:
     """Store a program in the master's EEPROM and load it (ACF /d+).
 
@@ -175,6 +175,12 @@ def download_command(
     2 bad usage, an unreadable file or a corrupt board state.
     """
     ctx = click.get_current_context()
+    chosen = [name for name, on in (("start", start), ("stop", stop), ("keep", keep)) if on]
+    if len(chosen) > 1:
+        raise click.UsageError(
+            " and ".join(f"--{name}" for name in chosen) + " contradict each other: give one"
+        )
+    mode = StartMode(chosen[0] if chosen else "keep")
     with _connect(**board) as master:
         transport = master.transport
         entry_points = transport.entry_points()
@@ -194,13 +200,13 @@ def download_command(
         size = len(image.to_bytes())
         steps = download_steps(size, transport.block_size)
         with _progress(f"download {size} bytes", steps) as bar:
-            download(transport, image, start=StartMode(start), progress=bar)
+            download(transport, image, start=mode, progress=bar)
         settle(master)
         state = master.summary()
         flags = transport.control_flags()
     click.echo(f"{master.name}: downloaded {file} ({size} bytes, identity "
                f"{image.identity_hex}); {state}", err=True)
-    if StartMode(start) is StartMode.KEEP and not flags & (
+    if mode is StartMode.KEEP and not flags & (
         ControlFlag.START | ControlFlag.CONTROL_ACTIVE
     ):
         click.echo(
