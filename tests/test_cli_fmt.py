@@ -63,3 +63,19 @@ def test_stdin_to_stdout_and_unreadable_files(runner: CliRunner, tmp_path: Path)
     assert result.exit_code == 0 and result.stdout == "[PROGRAM]\n        A   I 1.0\n"
     missing = runner.invoke(main, ["fmt", str(tmp_path / "none.asi")])
     assert missing.exit_code == 2 and "cannot read" in missing.stderr
+
+
+def test_without_arguments_the_current_folder_as_check_finds_it(
+    runner: CliRunner, tmp_path: Path, monkeypatch
+):
+    write(tmp_path, "u.asi", UGLY)
+    (tmp_path / "sub").mkdir()
+    write(tmp_path / "sub", "b.fb", UGLY)
+    (tmp_path / ".hidden").mkdir()
+    hidden = write(tmp_path / ".hidden", "h.asi", UGLY)
+    monkeypatch.chdir(tmp_path)
+    result = runner.invoke(main, ["fmt", "--check"])
+    assert result.exit_code == 1
+    assert "would reformat u.asi" in result.stderr
+    assert f"would reformat {Path('sub') / 'b.fb'}" in result.stderr
+    assert "h.asi" not in result.stderr and hidden.read_bytes() == UGLY.encode("latin-1")

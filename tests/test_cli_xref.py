@@ -164,3 +164,33 @@ def test_check_and_compile_colour_their_diagnostics_on_a_terminal(
         coloured = runner.invoke(main, command, color=True).stderr
         assert "\x1b[1;31merror:\x1b[0m" in coloured
     assert "\x1b[" not in runner.invoke(main, ["check", path]).stderr  # not a terminal
+
+
+def test_a_folder_or_no_argument_means_the_programs_below_it(
+    runner: CliRunner, tmp_path: Path, monkeypatch
+):
+    write(tmp_path, "one.asi", PROGRAM)
+    (tmp_path / "more").mkdir()
+    write(tmp_path / "more", "two.asi", PROGRAM.replace("Q 2.0", "Q 2.1"))
+    by_folder = runner.invoke(main, ["xref", str(tmp_path), "--format", "json"])
+    assert by_folder.exit_code == 0, by_folder.stderr
+    names = [Path(d["program"]).name for d in json.loads(by_folder.stdout)]
+    assert names == ["one.asi", "two.asi"]
+    monkeypatch.chdir(tmp_path)
+    here = runner.invoke(main, ["xref"])
+    assert here.exit_code == 0 and "; one.asi" in here.stdout
+    assert f"; {Path('more') / 'two.asi'}" in here.stdout
+
+
+def test_a_closed_pipe_is_no_internal_error(tmp_path: Path):
+    """``asictl xref | head -1``: the reader goes away, asictl stops quietly."""
+    import subprocess
+    import sys
+
+    for n in range(30):
+        write(tmp_path, f"p{n:02}.asi", PROGRAM)
+    shell = f"{sys.executable} -m asictl xref {tmp_path} | head -1; exit ${{PIPESTATUS[0]}}"
+    done = subprocess.run(["bash", "-c", shell], capture_output=True, text=True)
+    assert "internal error" not in done.stderr and "Traceback" not in done.stderr
+    assert done.returncode in (0, 1)
+    assert done.stdout.startswith("; ")

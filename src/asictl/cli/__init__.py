@@ -117,6 +117,12 @@ class LazyGroup(click.Group):
         except KeyboardInterrupt:
             click.echo("asictl: interrupted", err=True)
             ctx.exit(130)
+        except BrokenPipeError:
+            # The reader of standard output went away ('asictl xref | head'): nothing to
+            # report to it, and no traceback when the interpreter flushes at exit.
+            devnull = os.open(os.devnull, os.O_WRONLY)
+            os.dup2(devnull, sys.stdout.fileno())
+            ctx.exit(int(ExitCode.FAILED))
         except Exception as exc:
             if os.environ.get("ASICTL_DEBUG"):
                 raise

@@ -53,14 +53,15 @@ def _summary(files: int, changed: int, failed: int, dry: bool) -> str:
 
 
 @click.command()
-@click.argument("files", nargs=-1, required=True, metavar="FILE...")
+@click.argument("files", nargs=-1, metavar="[FILE|DIR]...")
 @click.option("--check", is_flag=True,
               help="Change nothing; list the files that would change and exit 1 if any.")
 @click.option("--diff", "show_diff", is_flag=True,
               help="Change nothing; print what would change as a unified diff.")
 def fmt(files: tuple[str, ...], check: bool, show_diff: bool) -> None:
     """Lay out IL files canonically (FILE... or - for stdin to stdout; a directory means
-    its *.asi and *.fb files).
+    its *.asi and *.fb files; without arguments, those in and below the current folder, as
+    'asictl check' finds them).
 
     Labels, operators, operands and comments go into columns; words, comments, blank
     lines, the encoding and the line ends stay as they are. A file with syntax errors is
@@ -72,7 +73,7 @@ def fmt(files: tuple[str, ...], check: bool, show_diff: bool) -> None:
     ctx = click.get_current_context()
     changed: list[str] = []
     failed = unreadable = 0
-    paths = _expand(files)
+    paths = _expand(files or (".",))
     for path in paths:
         try:
             source = read_source(path)

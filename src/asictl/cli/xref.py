@@ -7,6 +7,7 @@ import json
 import click
 
 from asictl.build import check as check_program_file
+from asictl.cli.discovery import expand
 from asictl.cli.options import lib_option
 from asictl.cli.terminal import stderr_colour
 from asictl.codegen8051.allocate import allocate
@@ -25,7 +26,7 @@ from asictl.source import read_source
 
 
 @click.command()
-@click.argument("files", nargs=-1, required=True, metavar="FILE...")
+@click.argument("files", nargs=-1, metavar="[FILE|DIR]...")
 @click.option(
     "--format", "fmt", type=click.Choice(["text", "json"]), default="text", show_default=True,
     help="text: a table per program; json: a list of operands per program.",
@@ -36,7 +37,9 @@ from asictl.source import read_source
 )
 @lib_option
 def xref(files: tuple[str, ...], fmt: str, modbus: bool, lib: tuple[str, ...]) -> None:
-    """Cross-reference of each program FILE (- for stdin): per operand (I, I2, Q, F, T, C,
+    """Cross-reference of each program FILE (- for stdin; a folder means the *.asi files in
+    and below it, and no argument the current folder, as 'asictl check' finds them): per
+    operand (I, I2, Q, F, T, C,
     bytes, words, variables, labels, blocks), the lines that read it and those that write
     it, as file:line and the instruction. With --modbus: each operand's Modbus address
     on the AS-i/Modbus gateway instead.
@@ -48,6 +51,7 @@ def xref(files: tuple[str, ...], fmt: str, modbus: bool, lib: tuple[str, ...]) -
     ctx = click.get_current_context()
     failed = False
     documents: list[object] = []
+    files = tuple(expand(files or (".",)))
     for n, path in enumerate(files):
         built = check_program_file(read_source(path), lib=lib)
         program = built.source_program()
