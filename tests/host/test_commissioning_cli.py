@@ -43,6 +43,13 @@ def test_status_of_a_board_that_does_not_exist_says_so(run):
     assert "new, empty" not in run("status").stderr
 
 
+@pytest.mark.parametrize("command", [("start",), ("download", str(BLINK)), ("bus",)])
+def test_every_board_command_says_when_it_made_a_new_board(run, command: tuple[str, ...]):
+    first = run(*command)
+    assert "a new, empty one was created" in first.stderr
+    assert "a new, empty one was created" not in run(*command).stderr
+
+
 def test_start_without_a_program_exits_1(run):
     result = run("start")
     assert result.exit_code == 1 and "no valid program" in result.stderr

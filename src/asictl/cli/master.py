@@ -13,7 +13,7 @@ from __future__ import annotations
 import json
 import sys
 from collections.abc import Callable, Iterator
-from contextlib import AbstractContextManager, contextmanager
+from contextlib import contextmanager
 from pathlib import Path
 from typing import TypedDict, TypeVar, Unpack
 
@@ -134,10 +134,21 @@ def _address(
     )
 
 
-def _connect(**board: Unpack[_BoardOptions]) -> AbstractContextManager[Master]:
-    return connect_master(
+@contextmanager
+def _connect(**board: Unpack[_BoardOptions]) -> Iterator[Master]:
+    """The master the options name. A board that did not exist yet is said so, whatever
+    the command: a mistyped --state-dir or --port would otherwise go unnoticed."""
+    with connect_master(
         _address(**board), notify=lambda message: click.echo(f"asictl: {message}", err=True)
-    )
+    ) as master:
+        if master.created:
+            click.echo(
+                f"asictl: note: there was no emulated board at {master.name} in the state "
+                "directory: a new, empty one was created (is ASICTL_STATE_DIR or --state-dir "
+                "the one you meant?)",
+                err=True,
+            )
+        yield master
 
 
 @contextmanager
@@ -350,13 +361,6 @@ def status_command(as_json: bool, **board: Unpack[_BoardOptions]) -> None:
     """
     with _connect(**board) as master:
         status = master.status()
-    if master.created:
-        click.echo(
-            f"asictl: note: there was no emulated board at {master.name} in the state "
-            "directory: a new, empty one was created (is ASICTL_STATE_DIR or --state-dir "
-            "the one you meant?)",
-            err=True,
-        )
     if as_json:
         click.echo(json.dumps(status.to_json(), indent=2))
     else:
