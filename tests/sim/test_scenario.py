@@ -101,5 +101,14 @@ def test_missing_time_unknown_keys_and_bad_slaves():
     assert any(line == 8 and "unknown key 'when'" in m for line, _, m in found)
 
 
+def test_an_unknown_key_names_the_closest_known_one():
+    text = "progam = \"p.asi\"\n[master]\ncycle_m = 5\n[[step]]\nat_ms = 1\nexpct = {}\n"
+    found = {line: m for line, _, m in errors(text)}
+    assert "unknown key 'progam'; did you mean 'program'?" in found[1]
+    assert "unknown key 'cycle_m' in [master]; did you mean 'cycle_ms'?" in found[3]
+    assert "unknown key 'expct' in a step; did you mean 'expect'?" in found[6]
+    assert "did you mean" not in errors("[[step]]\nat_ms = 1\nzzz = 1\n")[0][2]
+
+
 def test_invalid_toml_gives_its_line():
     assert errors("[[step]]\nat_ms = = 3\n")[0][:1] == (2,)

@@ -13,7 +13,7 @@ from __future__ import annotations
 import math
 import re
 import tomllib
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -21,6 +21,7 @@ from asictl.codes import ScenarioCode
 from asictl.diagnostics import Diagnostic, DiagnosticError, Reporter, Severity, Span
 from asictl.il import ast
 from asictl.il.parser import parse_text
+from asictl.il.suggest import did_you_mean
 from asictl.observe.operands import Operand, parse_operand
 from asictl.observe.symbols import SymbolTable
 from asictl.source import SourceText, read_source
@@ -103,6 +104,8 @@ class Scenario:
         return sorted(self.steps, key=lambda s: s.at_ms)
 
 
+_TOP_KEYS = ("program", "master", "step", "markers")
+_MASTER_KEYS = ("cycle_ms", "slaves")
 _STEP_KEYS = {"at_ms", "at", "set", "expect", "add_slaves", "remove_slaves", "power_fail",
               "press_set_button"}
 
@@ -227,9 +230,7 @@ def _step(reader: _Reader, index: int, data: object) -> Step | None:
     if not isinstance(data, dict):
         reader.error("a step is a table", line)
         return None
-    for unknown in sorted(set(data) - _STEP_KEYS):
-        reader.error(f"unknown key '{unknown}' in a step (known: {', '.join(sorted(_STEP_KEYS))})",
-                     reader.key_line(unknown, line, end))
+    _unknown_keys(reader, data, _STEP_KEYS, "in a step", line, end)
     if "at_ms" not in data and "at" not in data:
         reader.error("each step needs at_ms = <milliseconds, 0 or more>", line)
         return None
@@ -277,6 +278,22 @@ def _step(reader: _Reader, index: int, data: object) -> Step | None:
             else:
                 step.press_set_button = data[flag]
     return step
+
+
+def _unknown_keys(
+    reader: _Reader, table: dict[str, object], known: Iterable[str], where: str,
+    first: int, last: int,
+) -> None:
+    """Each key of ``table`` that is not ``known``, at its line, with the closest known one
+    (``cycle_m`` -> ``cycle_ms``)."""
+    names = sorted(known)
+    place = f" {where}" if where else ""
+    for unknown in sorted(set(table) - set(names)):
+        reader.error(
+            f"unknown key '{unknown}'{place}{did_you_mean(unknown, names)} "
+            f"(known: {', '.join(names)})",
+            reader.key_line(unknown, first, last),
+        )
 
 
 def _toml(reader: _Reader) -> dict[str, object]:
@@ -331,9 +348,7 @@ def read_scenario(
     """
     reader = _Reader(source, variables, symbols or SymbolTable())
     data = _toml(reader)
-    for unknown in sorted(set(data) - {"program", "master", "step", "markers"}):
-        reader.error(f"unknown key '{unknown}' (known: program, master, step, markers)",
-                     reader.key_line(unknown, 1, len(reader.lines)))
+    _unknown_keys(reader, data, _TOP_KEYS, "", 1, len(reader.lines))
     markers = data.get("markers", [])
     if not isinstance(markers, list) or not all(
         isinstance(m, str) and re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", m) for m in markers
@@ -353,9 +368,7 @@ def read_scenario(
     if not isinstance(master, dict):
         reader.error("[master] is a table", master_line)
         master = {}
-    for unknown in sorted(set(master) - {"cycle_ms", "slaves"}):
-        reader.error(f"unknown key '{unknown}' in [master] (known: cycle_ms, slaves)",
-                     reader.key_line(unknown, master_line, len(reader.lines)))
+    _unknown_keys(reader, master, _MASTER_KEYS, "in [master]", master_line, len(reader.lines))
     if "cycle_ms" in master:
         value = master["cycle_ms"]
         cycle_ms = _cycle(value)
