@@ -110,5 +110,13 @@ def test_an_unknown_key_names_the_closest_known_one():
     assert "did you mean" not in errors("[[step]]\nat_ms = 1\nzzz = 1\n")[0][2]
 
 
+def test_a_time_given_twice_and_a_slave_given_twice_are_errors():
+    text = ('[master]\nslaves = { 31 = "oooo,0", "031" = "iiii,0" }\n'
+            '[[step]]\nat_ms = 10\nat = "20ms"\n')
+    found = errors(text)
+    assert (2, 1, "slave 31 is given twice ('031')") in found
+    assert (5, 1, "a step has one time: at_ms or at, not both") in found
+
+
 def test_invalid_toml_gives_its_line():
     assert errors("[[step]]\nat_ms = = 3\n")[0][:1] == (2,)

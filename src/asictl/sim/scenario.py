@@ -141,11 +141,16 @@ class _Reader:
 
     def key_at(self, key: str, start: int, end: int) -> tuple[int, int]:
         """Line and column of a key in the lines ``start``..``end`` (its quoted form first)."""
-        for form in (f'"{key}"', f"'{key}'", key):
+        for form in (f'"{key}"', f"'{key}'"):
             line = self.find(form, start, end)
             text = self.lines[line - 1] if 0 < line <= len(self.lines) else ""
             if form in text:
                 return line, text.index(form) + 1
+        bare = re.compile(rf"(?:^|[\s{{,])(?P<key>{re.escape(key)})\s*=")  # not at in at_ms =
+        for number in range(start, min(end, len(self.lines)) + 1):
+            found = bare.search(self.lines[number - 1])
+            if found:
+                return number, found.start("key") + 1
         return start, 1
 
 
@@ -181,12 +186,17 @@ def _slaves(reader: _Reader, table: object, line: int, end: int) -> list[SlaveSp
     if not isinstance(table, dict):
         reader.error("slaves are a table: { 16 = \"iiio,1\" }", line)
         return []
-    found = []
+    found: dict[int, SlaveSpec] = {}
     for address, spec in table.items():
-        slave = _slave(reader, address, spec, reader.key_line(str(address), line, end))
-        if slave:
-            found.append(slave)
-    return found
+        where = reader.key_line(str(address), line, end)
+        slave = _slave(reader, address, spec, where)
+        if slave is None:
+            continue
+        if slave.address in found:  # "031" and "31" are one address
+            reader.error(f"slave {slave.address} is given twice ('{address}')", where)
+            continue
+        found[slave.address] = slave
+    return list(found.values())
 
 
 def _operands(
@@ -233,6 +243,9 @@ def _step(reader: _Reader, index: int, data: object) -> Step | None:
     _unknown_keys(reader, data, _STEP_KEYS, "in a step", line, end)
     if "at_ms" not in data and "at" not in data:
         reader.error("each step needs at_ms = <milliseconds, 0 or more>", line)
+        return None
+    if "at_ms" in data and "at" in data:
+        reader.error("a step has one time: at_ms or at, not both", reader.key_line("at", line, end))
         return None
     name = "at_ms" if "at_ms" in data else "at"
     raw = data[name]
