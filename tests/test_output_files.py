@@ -216,3 +216,16 @@ def test_write_output_replaces_only_regular_files_that_are_not_inputs(tmp_path, 
     assert source.read_bytes() == b"input"
     assert target.is_symlink() == kind.startswith("symlink")
     assert sorted(p.name for p in work.iterdir() if p.name.endswith(".tmp")) == []
+
+
+@pytest.mark.parametrize("redirect", [">&-", ">/dev/full"])
+def test_an_output_to_a_closed_or_full_standard_output_is_an_error(tmp_path: Path, redirect):
+    """``compile -o -`` with nowhere to write exits non-zero and says so (it exited 0)."""
+    import subprocess
+    import sys
+
+    demo = Path(__file__).resolve().parents[1] / "demos" / "blink.asi"
+    shell = f"{sys.executable} -m asictl compile {demo} -o - {redirect}"
+    done = subprocess.run(["bash", "-c", shell], capture_output=True, text=True)
+    assert done.returncode == 2, done.stderr
+    assert "standard output: cannot write" in done.stderr and "internal error" not in done.stderr

@@ -35,16 +35,29 @@ def write_output(
     """Write a command's output: '-' to standard output, otherwise as ``write_atomic``
     does, after ``refuse_inputs``."""
     if str(path) == STDOUT:
-        if isinstance(data, bytes):
-            sys.stdout.flush()
-            sys.stdout.buffer.write(data)
-            sys.stdout.buffer.flush()
-        else:
-            sys.stdout.write(data)
-            sys.stdout.flush()
+        write_stdout(data)
         return
     refuse_inputs(path, inputs)
     write_atomic(path, data)
+
+
+def write_stdout(data: str | bytes) -> None:
+    """An output to standard output, all of it or a ``UserError``: a closed standard
+    output (``>&-``: Python then has no ``sys.stdout``), a full disk or a reader that went
+    away must not pass for a written file."""
+    out = sys.stdout
+    if out is None:
+        raise UserError("standard output: cannot write: it is closed")
+    try:
+        if isinstance(data, bytes):
+            out.flush()
+            out.buffer.write(data)
+            out.buffer.flush()
+        else:
+            out.write(data)
+            out.flush()
+    except OSError as exc:
+        raise UserError(f"standard output: cannot write: {exc.strerror or exc}") from None
 
 
 def refuse_inputs(path: str | Path, inputs: Iterable[str | Path]) -> None:

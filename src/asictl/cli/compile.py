@@ -170,10 +170,8 @@ def compile_(
         )
 
     inputs = [source, *sources]
-    if hex_path == "-":
-        click.echo(image.to_hex(), nl=False)
-    else:
-        write_output(hex_path, image.to_hex(), inputs=inputs)
+    write_output(hex_path, image.to_hex(), inputs=inputs)
+    if hex_path != "-":
         log(f"wrote {hex_path}")
     if listing:
         write_output(
