@@ -60,6 +60,13 @@ def write_stdout(data: str | bytes) -> None:
         raise UserError(f"standard output: cannot write: {exc.strerror or exc}") from None
 
 
+def real_path(path: str | Path) -> Path:
+    """Where ``path`` leads, as far as it leads: a symbolic-link loop ends the walk there
+    (``Path.resolve`` raises a RuntimeError on one), so that the write that follows
+    reports it plainly ("Too many levels of symbolic links")."""
+    return Path(os.path.realpath(path))
+
+
 def refuse_inputs(path: str | Path, inputs: Iterable[str | Path]) -> None:
     """A ``UserError`` if ``path`` is one of ``inputs`` (by name, link or hard link)."""
     target = Path(path)
@@ -106,7 +113,7 @@ def write_together(items: Sequence[tuple[str | Path, str | bytes]]) -> None:
             if mode is not None and not stat.S_ISREG(mode):
                 streams.append((target, raw))
                 continue
-            real = Path(os.path.realpath(target))
+            real = real_path(target)
             staged.append((_stage(real, raw, shown=target), real, target))
         for temp, real, shown in staged:
             try:

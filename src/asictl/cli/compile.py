@@ -27,7 +27,7 @@ from asictl.codegen8051.listing import (
 )
 from asictl.diagnostics import Diagnostic, Severity
 from asictl.errors import ExitCode, UserError
-from asictl.files import write_output
+from asictl.files import real_path, write_output
 from asictl.image.eeprom import MAGIC, pack_sources, source_files
 
 _OUTPUT = click.Path(dir_okay=False)
@@ -70,8 +70,8 @@ def _check_target(
     A source file of the program is never replaced, not even with --force.
     """
     target = Path(path)
-    inputs = {Path(name).resolve() for name in sources if name != "<stdin>"}
-    if target.resolve() in inputs:
+    inputs = {real_path(name) for name in sources if name != "<stdin>"}
+    if real_path(target) in inputs:
         raise UserError(f"{path}: is a source file of this program; not overwritten")
     if force or not target.is_file():
         return  # nothing there, or a device or FIFO, which is written to as a stream
@@ -127,7 +127,7 @@ def compile_(
     if source == "-" and output is None:
         raise click.UsageError("reading standard input needs -o FILE.hex")
     hex_path = output or str(Path(source).with_suffix(".hex"))
-    if listing and hex_path != "-" and Path(listing).resolve() == Path(hex_path).resolve():
+    if listing and hex_path != "-" and real_path(listing) == real_path(hex_path):
         raise click.UsageError("the listing and the image cannot be the same file")
     ctx = click.get_current_context()
     log = _Log(verbose)

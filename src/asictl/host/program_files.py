@@ -10,7 +10,7 @@ from __future__ import annotations
 from pathlib import Path, PurePath
 
 from asictl.errors import ExitCode, UserError
-from asictl.files import shown_name, write_together
+from asictl.files import real_path, shown_name, write_together
 from asictl.il import ast
 from asictl.image.eeprom import ImageError, ProgramImage
 
@@ -37,7 +37,7 @@ def uploaded_files(image: ProgramImage, output: str | Path) -> list[tuple[Path, 
                 ExitCode.FAILED,
             )
         files.append((output.parent / name, raw))
-    targets = [path.resolve() for path, _ in files]
+    targets = [real_path(path) for path, _ in files]
     if len(set(targets)) != len(targets):
         raise UserError(
             f"{output}: the image has a function-block file of this name; choose another name",

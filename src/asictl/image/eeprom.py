@@ -186,7 +186,14 @@ def program_identity(files: list[tuple[str, bytes]], version: str = __version__)
 
 
 def _name_bytes(name: str) -> bytes:
-    encoded = name.encode("utf-8")
+    try:
+        encoded = name.encode("utf-8")
+    except UnicodeEncodeError:  # a file name the system gave as bytes that are not UTF-8
+        shown = name.encode("utf-8", "surrogateescape").decode("ascii", "backslashreplace")
+        raise ImageError(
+            f"{shown}: the file name is not UTF-8, and the image keeps file names as "
+            "UTF-8 (an upload gives them back): rename the file"
+        ) from None
     if len(encoded) > 255:
         raise ImageError(f"name too long for the image (at most 255 bytes): {name[:40]}...")
     return bytes([len(encoded)]) + encoded

@@ -341,12 +341,19 @@ def scenario_program(source: SourceText) -> Path | None:
     program = _toml(reader).get("program")
     if program is None:
         return None
-    if not isinstance(program, str):
+    if not _is_file_name(program):
         raise DiagnosticError([Diagnostic(
-            Severity.ERROR, ScenarioCode.INVALID, "program is a file name",
+            Severity.ERROR, ScenarioCode.INVALID, _PROGRAM_NAME,
             reader.span(reader.key_line("program", 1, len(reader.lines))),
         )])
-    return Path(source.name).parent / program
+    return Path(source.name).parent / str(program)
+
+
+_PROGRAM_NAME = "program is a file name (not empty, no NUL characters)"
+
+
+def _is_file_name(value: object) -> bool:
+    return isinstance(value, str) and value != "" and "\0" not in value
 
 
 def read_scenario(
@@ -371,10 +378,10 @@ def read_scenario(
         markers = []
     program_path = None
     if "program" in data:
-        if isinstance(data["program"], str):
-            program_path = Path(source.name).parent / data["program"]
+        if _is_file_name(data["program"]):
+            program_path = Path(source.name).parent / str(data["program"])
         else:
-            reader.error("program is a file name", reader.key_line("program", 1, len(reader.lines)))
+            reader.error(_PROGRAM_NAME, reader.key_line("program", 1, len(reader.lines)))
     master = data.get("master", {})
     cycle_ms = slaves = None
     master_line = reader.find("[master]", 1, len(reader.lines))
