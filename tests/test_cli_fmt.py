@@ -79,3 +79,14 @@ def test_without_arguments_the_current_folder_as_check_finds_it(
     assert "would reformat u.asi" in result.stderr
     assert f"would reformat {Path('sub') / 'b.fb'}" in result.stderr
     assert "h.asi" not in result.stderr and hidden.read_bytes() == UGLY.encode("latin-1")
+
+
+def test_mixed_line_ends_are_kept_line_by_line(runner: CliRunner, tmp_path: Path):
+    """A file edited on DOS, Unix and an old Mac keeps each line's own end."""
+    path = write(tmp_path, "m.asi", "[PROGRAM]\r\n A I 1.0\n = Q 2.0\r ***\r\n")
+    result = runner.invoke(main, ["fmt", str(path)])
+    assert result.exit_code == 0, result.stderr
+    import re
+
+    assert re.findall(rb"\r\n|\r|\n", path.read_bytes()) == [b"\r\n", b"\n", b"\r", b"\r\n"]
+    assert b"        A   I 1.0" in path.read_bytes()

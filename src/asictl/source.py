@@ -9,8 +9,10 @@ source back to the engineer on upload.
 from __future__ import annotations
 
 import os
+import re
 import stat
 import sys
+from collections import Counter
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -78,21 +80,27 @@ class TextForm:
     newline: str
     #: a DOS end-of-file mark and whatever follows it, kept byte for byte
     tail: bytes
+    #: each line's own end, in order: a file with mixed line ends keeps them line by line
+    ends: tuple[str, ...] = ()
 
     def encode(self, text: str) -> bytes:
-        """``text`` (with LF line ends, as ``decode`` gives it) in this form."""
-        body = (UTF8_BOM if self.bom else "") + text.replace("\n", self.newline)
-        return body.encode(self.codec) + self.tail
+        """``text`` (with LF line ends, as ``decode`` gives it) in this form: line n ends
+        as line n of the file did (lines beyond those the file had end with ``newline``)."""
+        lines = text.split("\n")
+        ends = list(self.ends[: len(lines) - 1])
+        ends += [self.newline] * (len(lines) - 1 - len(ends))
+        body = "".join(line + end for line, end in zip(lines, [*ends, ""], strict=True))
+        return ((UTF8_BOM if self.bom else "") + body).encode(self.codec) + self.tail
 
 
 def text_form(raw: bytes) -> TextForm:
     body = _body(raw)
     codec = _codec(body)
-    crlf = body.count(b"\r\n")
-    counts = {"\r\n": crlf, "\n": body.count(b"\n") - crlf, "\r": body.count(b"\r") - crlf}
-    newline = max(counts, key=lambda end: (counts[end], end == "\n"))
+    ends = tuple(end.decode("ascii") for end in re.findall(rb"\r\n|\r|\n", body))
+    counts = Counter(ends)
+    newline = max(("\r\n", "\n", "\r"), key=lambda end: (counts[end], end == "\n"))
     return TextForm(codec, codec == "utf-8" and body.startswith(UTF8_BOM.encode()), newline,
-                    raw[len(body):])
+                    raw[len(body):], ends)
 
 
 def from_bytes(name: str, raw: bytes) -> SourceText:
