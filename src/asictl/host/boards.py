@@ -22,9 +22,9 @@ from pathlib import Path
 
 from asictl.board.board import Pc2Board
 from asictl.errors import UserError
-from asictl.files import write_atomic
 from asictl.host.driver import DevPort, EmulatedPort, Pc2Driver
 from asictl.host.locking import exclusive
+from asictl.host.state_files import prepare_folder, read_private, write_private
 from asictl.platform.pc2 import IO_BASES
 
 STATE_DIR_ENV = "ASICTL_STATE_DIR"
@@ -73,16 +73,13 @@ def state_file(directory: Path, base: int) -> Path:
 
 
 def _load(path: Path) -> Pc2Board:
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
+    raw = read_private(path)
+    if raw is None:
         return Pc2Board()
-    except (OSError, UnicodeDecodeError) as exc:
-        raise UserError(f"{path}: cannot read the emulated board's state: {exc}") from None
     try:
-        return Pc2Board.from_nonvolatile(json.loads(text))
-    except (ValueError, RecursionError) as exc:  # JSONDecodeError is a ValueError; deep
-        # nesting ([[[[...) exhausts the decoder's stack
+        return Pc2Board.from_nonvolatile(json.loads(raw.decode("utf-8")))
+    except (ValueError, RecursionError) as exc:  # JSONDecodeError and UnicodeDecodeError
+        # are ValueErrors; deep nesting ([[[[...) exhausts the decoder's stack
         raise UserError(
             f"{path}: the emulated board's state is corrupt ({exc}); it is left as it is. "
             "Move it away to start again with a new, empty board."
@@ -110,12 +107,7 @@ def emulated_board(
     what the commands did to the board until then is what a real board would keep.
     """
     path = state_file(directory, base)
-    try:
-        directory.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise UserError(
-            f"{directory}: cannot use as state directory: {exc.strerror or exc}"
-        ) from None
+    prepare_folder(directory, warn=(lambda text: notify(f"warning: {text}")) if notify else None)
     with exclusive(lock_file(directory, base), f"board {port_name(base)}", wait=wait,
                    notify=notify):
         board = _load(path)
@@ -123,7 +115,13 @@ def emulated_board(
         try:
             yield board
         finally:
-            write_atomic(path, json.dumps(board.nonvolatile(), indent=1, sort_keys=True) + "\n")
+            save_board(board, path)
+
+
+def save_board(board: Pc2Board, path: Path) -> None:
+    """The board's non-volatile state, private and on disk before this returns."""
+    text = json.dumps(board.nonvolatile(), indent=1, sort_keys=True) + "\n"
+    write_private(path, text.encode("utf-8"))
 
 
 @contextmanager

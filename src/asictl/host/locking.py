@@ -23,7 +23,7 @@ from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 
 from asictl.errors import ExitCode, UserError
-from asictl.files import write_atomic
+from asictl.host.state_files import open_private, read_private, write_private
 
 
 @dataclass(frozen=True)
@@ -60,12 +60,15 @@ def holder_file(lock_path: Path) -> Path:
 def read_holder(lock_path: Path) -> Holder | None:
     """The holder the file beside ``lock_path`` names (None if it names none)."""
     try:
-        fields = json.loads(holder_file(lock_path).read_text(encoding="utf-8"))
+        raw = read_private(holder_file(lock_path))
+        if raw is None:
+            return None
+        fields = json.loads(raw.decode("utf-8"))
         return Holder(
             int(fields["pid"]), str(fields["command"]), float(fields["since"]),
             str(fields.get("note", "")),
         )
-    except (OSError, ValueError, KeyError, TypeError):
+    except (UserError, ValueError, KeyError, TypeError):
         return None
 
 
@@ -77,7 +80,7 @@ def _command_line() -> str:
 
 
 def _write_holder(lock_path: Path, holder: Holder) -> None:
-    write_atomic(holder_file(lock_path), json.dumps(asdict(holder)) + "\n")
+    write_private(holder_file(lock_path), (json.dumps(asdict(holder)) + "\n").encode())
 
 
 def note_holder(lock_path: Path, note: str) -> None:
@@ -91,15 +94,16 @@ def note_holder(lock_path: Path, note: str) -> None:
 def is_free(lock_path: Path) -> bool:
     """Nobody holds the lock now (False too if its file cannot be opened)."""
     try:
-        with open(lock_path, "a") as lock:
-            try:
-                fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
-            except BlockingIOError:
-                return False
-            fcntl.flock(lock, fcntl.LOCK_UN)
-            return True
-    except OSError:
+        fd = open_private(lock_path)
+    except UserError:
         return False
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except BlockingIOError:
+        return False
+    finally:
+        os.close(fd)  # closing releases a lock taken here
+    return True
 
 
 @contextmanager
@@ -115,10 +119,7 @@ def exclusive(
     Held elsewhere: without ``wait`` a ``LockBusy`` (exit status 1) says by whom; with
     ``wait``, ``notify`` is told so and the call blocks until the holder lets go.
     """
-    try:
-        lock = open(lock_path, "a")  # noqa: SIM115 - held for the whole block
-    except OSError as exc:
-        raise UserError(f"{lock_path}: cannot open the lock: {exc.strerror or exc}") from None
+    lock = os.fdopen(open_private(lock_path), "r+b")  # held for the whole block
     with lock:
         try:
             fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
