@@ -25,14 +25,9 @@ from click.testing import CliRunner, Result
 from asictl.board.board import Pc2Board
 from asictl.cli import main
 from asictl.host.driver import EmulatedPort, Pc2Driver
-from asictl.host.live import (
-    LiveClient,
-    LivePort,
-    background_live,
-    encode,
-    open_live,
-    socket_path,
-)
+from asictl.host.live.client import LiveClient, LivePort, open_live
+from asictl.host.live.protocol import encode, socket_path
+from asictl.host.live.server import background_live
 from asictl.platform.pc2 import PROGRAM_BUFFER, Command
 
 ROOT = Path(__file__).resolve().parents[2]

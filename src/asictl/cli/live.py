@@ -1,6 +1,6 @@
 """``asictl serve`` and ``asictl bus``: a live emulated board, and the cable behind it.
 
-``serve`` keeps an emulated board running in real time (host/live.py) so that a program
+``serve`` keeps an emulated board running in real time (host/live/) so that a program
 runs between commands as on a real master, and every other command for that port reaches
 it. ``bus`` is the emulated AS-i cable: which slaves are plugged in, their input data, and
 ``bus match`` to re-plug the cable to the downloaded program's [SETUP] (docs/commissioning.md).
@@ -51,7 +51,7 @@ def serve(port: str, state_dir: str | None, wait: bool) -> None:
     Exit status: 0 stopped by a signal, 1 the board is already served or held by another
     process (it is named; --wait waits for it), 2 bad usage.
     """
-    from asictl.host.live import run_live
+    from asictl.host.live.server import run_live
 
     base = parse_port(port)
     name = port_name(base)

@@ -23,6 +23,7 @@ from asictl.errors import ExitCode, UserError
 from asictl.host.boards import connect, parse_port, port_name, state_directory, state_file
 from asictl.host.commissioning import Commissioning, ModbusCommissioning, Pc2Commissioning
 from asictl.host.driver import EmulatedPort, Pc2Driver
+from asictl.host.emulated import local_action
 from asictl.host.status import MasterStatus, StoredProgram, control_summary, read_status
 from asictl.host.target import DEFAULT_RETRIES, DEFAULT_TIMEOUT_S, parse_target
 from asictl.host.transfer import Pc2Transport, Transport
@@ -126,7 +127,7 @@ def connect_master(
     loaded from its state file under its lock, and saved afterwards.
     """
     if address.modbus is None:
-        from asictl.host import live
+        from asictl.host.live import client as live
 
         base = parse_port(address.port)
         name = port_name(base)
@@ -161,7 +162,7 @@ def connect_master(
             board = port.board if isinstance(port, EmulatedPort) else None
             yield _pc2_master(
                 driver, name, board=board, created=created,
-                action=None if board is None else live.local_action(board, SETTLE_MS),
+                action=None if board is None else local_action(board, SETTLE_MS),
             )
         return
     target = parse_target(

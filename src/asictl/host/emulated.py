@@ -276,3 +276,16 @@ def run_action(board: Pc2Board, name: str, args: dict[str, JSON]) -> JSON:
         raise ActionError(str(exc)) from None
     except (KeyError, TypeError, ValueError) as exc:
         raise ActionError(f"malformed '{name}' request: {exc}") from None
+
+
+def local_action(board: Pc2Board, settle_ms: float) -> Callable[[str, dict[str, JSON]], JSON]:
+    """Actions on a board loaded from its state file: the board runs on a little after a
+    change, as it would meanwhile, so the command's own report shows the effect."""
+
+    def action(name: str, args: dict[str, JSON]) -> JSON:
+        result = run_action(board, name, args)
+        if name not in VIEWS:
+            board.advance(settle_ms)
+        return result
+
+    return action
