@@ -297,7 +297,7 @@ class Simulation:
         download(Pc2Transport(Pc2Driver(EmulatedPort(board))), self.image, start=StartMode.STOP)
         settled = d.EcFlag.CONFIG_OK | d.EcFlag.NORMAL_OPERATION_ACTIVE
         deadline = board.now_ms + _START_WAIT_MS
-        while board.dpram[d.EC_FLAGS] & settled != settled and board.now_ms < deadline:
+        while board.dpram_byte(d.EC_FLAGS) & settled != settled and board.now_ms < deadline:
             board.advance(1.0)  # the master activates the slaves of the new configuration
         if self.scenario.cycle_ms is not None:  # only now: download and start-up need cycles
             board.cycle_period_us = round(self.scenario.cycle_ms * 1000)

@@ -37,6 +37,6 @@ class LiveBoard:
     def run_command(self) -> None:
         """Run the board until the command just written is acknowledged (or times out)."""
         board, waited = self.board, 0.0
-        while board.dpram[COMMAND] not in (ACK, NAK) and waited < COMMAND_TIMEOUT_MS:
+        while board.dpram_byte(COMMAND) not in (ACK, NAK) and waited < COMMAND_TIMEOUT_MS:
             board.advance(COMMAND_STEP_MS)
             waited += COMMAND_STEP_MS
