@@ -252,6 +252,23 @@ def test_each_connection_keeps_its_own_pointer(live):
     b.close()
 
 
+def test_a_connections_pointer_moves_as_the_boards_own_across_requests(live):
+    """Reading on past byte 255 of a page continues at 000h (manual 7.2), also when the
+    reads come in two requests with another client's between."""
+    a, b = open_live(live, 0x300), open_live(live, 0x300)
+    assert a is not None and b is not None
+    first = Pc2Driver(LivePort(b)).read(0x000, 2)
+    port = LivePort(a)
+    port.write(1, 0xFE)  # a points at 2FEh
+    port.write(2, 0x02)
+    port.read(0)
+    port.read(0)  # 2FFh: the board's pointer wraps to 000h
+    Pc2Driver(LivePort(b)).read(0x1F0, 4)
+    assert [port.read(0), port.read(0)] == list(first)
+    a.close()
+    b.close()
+
+
 def test_a_waiting_session_is_announced(live):
     a, b = open_live(live, 0x300), open_live(live, 0x300)
     assert a is not None and b is not None

@@ -17,9 +17,7 @@ from asictl.platform.pc2 import (
     ACK,
     COMMAND,
     NAK,
-    PAGE_MASK,
     PAGE_RESET_BIT,
-    PAGE_SIZE,
     PORT_DATA,
     PORT_INDEX,
     PORT_PAGE,
@@ -32,19 +30,25 @@ class Pointer:
 
     address: int = 0
 
-    def step(self) -> None:
-        index = (self.address & 0xFF) + 1
-        self.address = self.address + 1 if index < PAGE_SIZE else 0
-
 
 def io(live: LiveBoard, pointer: Pointer, ops: JSON) -> list[list[int]]:
-    """Register accesses in order, with this client's pointer."""
+    """Register accesses in order, from this client's pointer; the board's own
+    auto-increment moves it, and it is kept for the client's next request (also after a
+    malformed access, as far as the accesses before it went)."""
     if not isinstance(ops, list):
         raise ProtocolError("'io' needs a list of accesses")
     board = live.board
     page_bits = PAGE_RESET_BIT if board.in_reset else 0
     board.io_write(PORT_INDEX, pointer.address & 0xFF)
     board.io_write(PORT_PAGE, pointer.address >> 8 | page_bits)
+    try:
+        return _accesses(live, ops)
+    finally:
+        pointer.address = board.pointer
+
+
+def _accesses(live: LiveBoard, ops: list[JSON]) -> list[list[int]]:
+    board = live.board
     reads: list[list[int]] = []
     for op in ops:
         if not (isinstance(op, list) and len(op) == 3 and op[1] in (0, 1, 2)):
@@ -52,33 +56,22 @@ def io(live: LiveBoard, pointer: Pointer, ops: JSON) -> list[list[int]]:
         kind, offset, arg = op
         if kind == "w" and isinstance(arg, list):
             for value in arg:
-                _write(live, pointer, offset, value)
+                _write(live, offset, value)
         elif kind == "r" and isinstance(arg, int) and 0 < arg <= MAX_MESSAGE // 4:
-            out = []
-            for _ in range(arg):
-                out.append(board.io_read(offset))
-                if offset == PORT_DATA:
-                    pointer.step()
-            reads.append(out)
+            reads.append([board.io_read(offset) for _ in range(arg)])
         else:
             raise ProtocolError(f"malformed access {op!r}")
     return reads
 
 
-def _write(live: LiveBoard, pointer: Pointer, offset: int, value: JSON) -> None:
+def _write(live: LiveBoard, offset: int, value: JSON) -> None:
     if not isinstance(value, int) or not 0 <= value <= 0xFF:
         raise ProtocolError(f"a register takes a byte, not {value!r}")
     board = live.board
+    command = offset == PORT_DATA and board.pointer == COMMAND and value not in (ACK, NAK)
     board.io_write(offset, value)
-    if offset == PORT_DATA:
-        address = pointer.address
-        pointer.step()
-        if address == COMMAND and value not in (ACK, NAK):
-            live.run_command()
-    elif offset == PORT_INDEX:
-        pointer.address = pointer.address & ~0xFF | value
-    else:
-        pointer.address = (value & PAGE_MASK) << 8 | pointer.address & 0xFF
+    if command:
+        live.run_command()
 
 
 def action(live: LiveBoard, request: dict[str, JSON]) -> JSON:
