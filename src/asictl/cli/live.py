@@ -16,13 +16,13 @@ import click
 from asictl.cli.master import _board_options, _BoardOptions, _connect
 from asictl.errors import ExitCode, UserError
 from asictl.host.boards import parse_port, port_name, state_directory
-from asictl.host.connection import Master
 from asictl.host.emulated import (
     parse_address,
     parse_input_bit,
     parse_number,
     parse_profile,
 )
+from asictl.host.master import Master
 
 
 @click.command("serve")

@@ -12,11 +12,12 @@ import socket
 import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
+from dataclasses import dataclass
 from pathlib import Path
 
 from asictl.errors import ExitCode, UserError
 from asictl.host.boards import lock_file, port_name
-from asictl.host.emulated import VIEWS
+from asictl.host.emulated import SETTLE_MS, VIEWS
 from asictl.host.live.protocol import JSON, LENGTH, ProtocolError, decode, encode, socket_path
 from asictl.host.locking import is_free
 from asictl.platform.pc2 import PORT_DATA
@@ -193,16 +194,23 @@ def served_by(client: LiveClient) -> str:
     return f"{server.get('command', 'a live board')} (pid {server.get('pid', '?')})"
 
 
-def live_action(
-    client: LiveClient, settle_ms: float
-) -> Callable[[str, dict[str, JSON]], JSON]:
-    """Actions on a live board; after a change the command waits as long as a board
-    loaded from its state file would run on, so its report shows the effect too."""
+@dataclass(frozen=True)
+class LiveActions:
+    """``EmulatedBoard`` for a live board, through its socket. It runs on by itself:
+    after a change the command waits as long as a board loaded from its state file would
+    run on (``SETTLE_MS``), so its report shows the effect too."""
 
-    def action(name: str, args: dict[str, JSON]) -> JSON:
-        result = client.action(name, **args)
+    client: LiveClient
+
+    @property
+    def live(self) -> str:
+        return served_by(self.client)
+
+    def run(self, name: str, args: dict[str, JSON]) -> JSON:
+        result = self.client.action(name, **args)
         if name not in VIEWS:
-            time.sleep(settle_ms / 1000)
+            self.settle()
         return result
 
-    return action
+    def settle(self) -> None:
+        time.sleep(SETTLE_MS / 1000)
