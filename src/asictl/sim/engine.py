@@ -155,11 +155,10 @@ class Simulation:
             traced = Signals(self.program, self.image, self.symbols, signals, self.read,
                              lambda: int(self._running))
             self._signals, self.untraced = traced.sampled, traced.untraced
-        self._il_trace = il_trace
-        self._tracer = LineTrace(
-            self.board, source_texts(build), self.program, self.line_map, window,
-            self._since_start,
-        ) if il_trace else None
+        self._tracer: LineTrace | None = None
+        if il_trace:
+            self._tracer = LineTrace(self.board, source_texts(build), self.program,
+                                     self.line_map, window, self._since_start)
         self._t0: float | None = 0.0
         self._running = True
         self.observation = Observation(
@@ -272,7 +271,7 @@ class Simulation:
         start was given, the stop then being reported at time 0)."""
         board = self.board
         self._run_steps(0.0)
-        if self._il_trace and self.window[0] <= 0:
+        if self._tracer is not None and self.window[0] <= 0:
             self._trace_lines(True)
         board.observer = self._observe  # notes the first program cycle as time 0
         flags = int(board.control_flags) & ~(ControlFlag.CONTROL_ACTIVE | ControlFlag.RESET)
@@ -340,7 +339,7 @@ class Simulation:
         return result
 
     def _window_edge(self, at: float) -> None:
-        if not self._il_trace:
+        if self._tracer is None:
             return
         start, end = self.window
         if at == start:
