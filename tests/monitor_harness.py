@@ -10,7 +10,7 @@ from pathlib import Path
 from click.testing import CliRunner
 
 from asictl.cli import main
-from asictl.host.live import background_live
+from asictl.host.live.server import background_live
 from asictl.monitor.app import MonitorApp
 
 

@@ -81,7 +81,8 @@ def test_only_the_monitor_loads_textual():
     """Textual is an optional extra: no other command, nor the monitor's data side, loads it."""
     code = (
         "import sys; import asictl.cli.master, asictl.cli.live, asictl.cli.commission, "
-        "asictl.cli.verify, asictl.cli.monitor, asictl.monitor.source, asictl.host.live; "
+        "asictl.cli.verify, asictl.cli.monitor, asictl.monitor.source, "
+        "asictl.host.live.server, asictl.host.live.client; "
         "print(any(m.split('.')[0] in ('textual', 'rich') for m in sys.modules))"
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)

@@ -48,6 +48,18 @@ def test_index_and_page_read_as_ffh(board: Pc2Board):
     assert board.io_read(d.PORT_DATA) == board.dpram[0x112]  # registers unchanged
 
 
+def test_one_dpram_byte_is_the_byte_the_whole_copy_has(board: Pc2Board, host: Host):
+    host.seek(d.FLAGS)
+    for value in (0x5A, 0xA5):
+        board.io_write(d.PORT_DATA, value)
+    board.advance(20.0)  # the master writes its images and answers meanwhile
+    whole = board.dpram
+    assert [board.dpram_byte(a) for a in range(d.DPRAM_SIZE)] == list(whole)
+    for outside in (-1, d.DPRAM_SIZE):
+        with pytest.raises(IndexError, match="outside 000h-3FFh"):
+            board.dpram_byte(outside)
+
+
 @pytest.mark.parametrize("offset", [-1, 3, 7])
 def test_other_offsets_are_not_decoded(board: Pc2Board, offset: int):
     with pytest.raises(ValueError, match=r"offsets 0\.\.2"):

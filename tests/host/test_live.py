@@ -25,14 +25,9 @@ from click.testing import CliRunner, Result
 from asictl.board.board import Pc2Board
 from asictl.cli import main
 from asictl.host.driver import EmulatedPort, Pc2Driver
-from asictl.host.live import (
-    LiveClient,
-    LivePort,
-    background_live,
-    encode,
-    open_live,
-    socket_path,
-)
+from asictl.host.live.client import LiveClient, LivePort, open_live
+from asictl.host.live.protocol import encode, socket_path
+from asictl.host.live.server import background_live
 from asictl.platform.pc2 import PROGRAM_BUFFER, Command
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -253,6 +248,23 @@ def test_each_connection_keeps_its_own_pointer(live):
     port_a.flush()
     Pc2Driver(port_b).read(0x0F0, 8)  # ... b moves the board's pointer elsewhere
     assert port_a.read(0) == 0x11 and port_a.read(0) == 0x22
+    a.close()
+    b.close()
+
+
+def test_a_connections_pointer_moves_as_the_boards_own_across_requests(live):
+    """Reading on past byte 255 of a page continues at 000h (manual 7.2), also when the
+    reads come in two requests with another client's between."""
+    a, b = open_live(live, 0x300), open_live(live, 0x300)
+    assert a is not None and b is not None
+    first = Pc2Driver(LivePort(b)).read(0x000, 2)
+    port = LivePort(a)
+    port.write(1, 0xFE)  # a points at 2FEh
+    port.write(2, 0x02)
+    port.read(0)
+    port.read(0)  # 2FFh: the board's pointer wraps to 000h
+    Pc2Driver(LivePort(b)).read(0x1F0, 4)
+    assert [port.read(0), port.read(0)] == list(first)
     a.close()
     b.close()
 

@@ -32,7 +32,7 @@ from asictl.codegen8051.compiler import compile_program
 from asictl.errors import UserError
 from asictl.host.connection import MasterAddress, connect_master
 from asictl.host.driver import EmulatedPort, Pc2Driver
-from asictl.host.live import background_live
+from asictl.host.live.server import background_live
 from asictl.host.transfer import Pc2Transport, set_start
 from asictl.il.checks import check_source
 from asictl.observe.online import CycleLines, latest_cycle

@@ -463,6 +463,20 @@ class Pc2Board:
     def dpram(self) -> bytes:
         return self._dpram.snapshot()
 
+    def dpram_byte(self, address: int) -> int:
+        """One byte of the DPRAM, without the copy of all 1 KB that ``dpram`` makes (for
+        those who look at one byte often: a command's acknowledge, a flag)."""
+        if not 0 <= address < d.DPRAM_SIZE:
+            raise IndexError(f"DPRAM address {address:X}h is outside 000h-3FFh")
+        return self._ram[address]
+
+    @property
+    def pointer(self) -> int:
+        """The DPRAM address INDEX and PAGE point at: where the next data access goes.
+        The host cannot read the registers back, but whoever shares one board between
+        several hosts (the live board's clients) keeps each one's pointer by it."""
+        return self._page << 8 | self._index
+
     @property
     def eeprom(self) -> bytes:
         return bytes(self._eeprom)

@@ -251,7 +251,7 @@ def write(assignments: tuple[str, ...], **board: Unpack[_BoardOptions]) -> None:
         if outputs:
             tools.write_outputs(outputs)
     click.echo(f"{master.name}: wrote {', '.join(assignments)}", err=True)
-    if master.board is not None:
+    if master.action is not None and master.action.live is None:
         click.echo(
             f"{master.name}: note: this emulated board runs only during a command: flags and "
             "outputs are lost when it ends ('asictl serve' keeps it running)",

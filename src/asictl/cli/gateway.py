@@ -1,6 +1,6 @@
 """``asictl gateway serve``: the emulated AS-i/Modbus gateway in front of a PC2 board.
 
-The gateway is a live board (``asictl serve``, host/live.py) with Modbus in front: the board
+The gateway is a live board (``asictl serve``, host/live/) with Modbus in front: the board
 runs in real time, holding its lock, and the other commands for its port reach it through
 the live board's socket meanwhile, so a program downloaded over Modbus is the one a PC2-port
 upload reads back, and ``asictl monitor --port`` watches what the Modbus client does
@@ -16,7 +16,10 @@ import click
 from asictl.cli.serial_options import serial_options, unit_option
 from asictl.errors import UserError, missing_extra
 from asictl.host.boards import lock_file, parse_port, state_directory
-from asictl.host.live import SAVE_INTERVAL_S, LiveBoard, run_live, socket_path
+from asictl.host.live.board import LiveBoard
+from asictl.host.live.protocol import socket_path
+from asictl.host.live.saver import SAVE_INTERVAL_S
+from asictl.host.live.server import run_live
 from asictl.host.locking import note_holder
 from asictl.host.target import check_serial_setting, port_number
 

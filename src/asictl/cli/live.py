@@ -1,6 +1,6 @@
 """``asictl serve`` and ``asictl bus``: a live emulated board, and the cable behind it.
 
-``serve`` keeps an emulated board running in real time (host/live.py) so that a program
+``serve`` keeps an emulated board running in real time (host/live/) so that a program
 runs between commands as on a real master, and every other command for that port reaches
 it. ``bus`` is the emulated AS-i cable: which slaves are plugged in, their input data, and
 ``bus match`` to re-plug the cable to the downloaded program's [SETUP] (docs/commissioning.md).
@@ -17,13 +17,13 @@ from click.core import ParameterSource
 from asictl.cli.master import _board_options, _BoardOptions, _connect
 from asictl.errors import ExitCode, UserError
 from asictl.host.boards import parse_port, port_name, state_directory
-from asictl.host.connection import Master
 from asictl.host.emulated import (
     parse_address,
     parse_input_bit,
     parse_number,
     parse_profile,
 )
+from asictl.host.master import Master
 
 
 @click.command("serve")
@@ -52,7 +52,7 @@ def serve(port: str, state_dir: str | None, wait: bool) -> None:
     Exit status: 0 stopped by a signal, 1 the board is already served or held by another
     process (it is named; --wait waits for it), 2 bad usage.
     """
-    from asictl.host.live import run_live
+    from asictl.host.live.server import run_live
 
     base = parse_port(port)
     name = port_name(base)

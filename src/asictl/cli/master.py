@@ -26,13 +26,8 @@ from asictl.cli.serial_options import serial_options, unit_option
 from asictl.errors import ExitCode, UserError
 from asictl.files import STDOUT, shown_name, write_output
 from asictl.host.boards import IO_BACKENDS
-from asictl.host.connection import (
-    Master,
-    MasterAddress,
-    cable_setup_slaves,
-    connect_master,
-    settle,
-)
+from asictl.host.connection import MasterAddress, cable_setup_slaves, connect_master
+from asictl.host.master import Master
 from asictl.host.program_files import uploaded_files, write_files
 from asictl.host.status import program_info, render
 from asictl.host.target import DEFAULT_RETRIES, DEFAULT_TIMEOUT_S
@@ -212,7 +207,7 @@ def download_command(
         steps = download_steps(size, transport.block_size)
         with _progress(f"download {size} bytes", steps) as bar:
             download(transport, image, start=mode, progress=bar)
-        settle(master)
+        master.settle()
         state = master.summary()
         flags = transport.control_flags()
     click.echo(f"{master.name}: downloaded {file} ({size} bytes, identity "
@@ -307,7 +302,7 @@ def _control_command(
                     "(download one first)", ExitCode.FAILED,
                 )
             action(master.transport)
-            settle(master)
+            master.settle()
             state = master.summary()
         click.echo(f"{master.name}: {state}", err=True)
         _cable_hint(master, state)

@@ -44,7 +44,8 @@ def monitor(**board: Unpack[_BoardOptions]) -> None:
     except ImportError as exc:
         raise missing_extra("asictl monitor", "monitor", f"no {exc.name or exc}") from None
     from asictl.host.boards import parse_port, port_name, state_directory
-    from asictl.host.live import background_live, is_served
+    from asictl.host.live.client import is_served
+    from asictl.host.live.server import background_live
     from asictl.monitor.source import MonitorSource
 
     address = _address(**board)

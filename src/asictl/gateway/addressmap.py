@@ -92,7 +92,7 @@ class AddressMap:
         return self.board.dpram[address : address + size]
 
     def _byte(self, address: int) -> int:
-        return self.board.dpram[address]
+        return self.board.dpram_byte(address)
 
     def _nibble(self, image: int, slave: int) -> int:
         return self._byte(image + slave // 2) >> (slave & 1) * 4 & 0xF

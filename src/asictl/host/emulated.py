@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import re
 from collections.abc import Callable
+from dataclasses import dataclass
 from typing import Any
 
 from asictl.board.asi import BusError, Slave
@@ -26,6 +27,11 @@ from asictl.platform.master import IO_CODE_BITS, SLAVES, TICK_MS
 
 JSON = Any
 Action = Callable[[Pc2Board, dict[str, JSON]], JSON]
+
+#: Master time an emulated board runs after a download or a change of its cable:
+#: config_ok's delay after the configuration was written, so the command's report shows
+#: the program's state.
+SETTLE_MS = 100.0
 
 #: The I/O codes written as letters (the tristate code F has none: write ``Fh``).
 IO_LETTERS = {letters: code for code, letters in enumerate(IO_CODE_BITS) if "t" not in letters}
@@ -276,3 +282,25 @@ def run_action(board: Pc2Board, name: str, args: dict[str, JSON]) -> JSON:
         raise ActionError(str(exc)) from None
     except (KeyError, TypeError, ValueError) as exc:
         raise ActionError(f"malformed '{name}' request: {exc}") from None
+
+
+@dataclass(frozen=True)
+class LoadedBoard:
+    """``EmulatedBoard`` for a board loaded from its state file for one command: it runs
+    only while the command has it, so after a change it runs on ``SETTLE_MS`` of master
+    time, as it would meanwhile."""
+
+    board: Pc2Board
+
+    @property
+    def live(self) -> None:
+        return None
+
+    def run(self, name: str, args: dict[str, JSON]) -> JSON:
+        result = run_action(self.board, name, args)
+        if name not in VIEWS:
+            self.board.advance(SETTLE_MS)
+        return result
+
+    def settle(self) -> None:
+        self.board.advance(SETTLE_MS)

@@ -22,6 +22,7 @@ import logging
 import struct
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
+from dataclasses import dataclass
 from typing import TypeVar
 
 from pymodbus import FramerType
@@ -37,6 +38,7 @@ from pymodbus.pdu.register_message import (
 )
 
 from asictl.errors import UserError
+from asictl.host.commissioning import Commissioning, ModbusCommissioning
 from asictl.host.gateway_pdus import (
     BLOCK_SIZE,
     CLIENT_PDUS,
@@ -51,6 +53,7 @@ from asictl.host.gateway_pdus import (
     UploadResponse,
 )
 from asictl.host.jobs import JobError, JobStatus
+from asictl.host.master import JSON, emulated_board
 from asictl.host.status import (
     MasterStatus,
     derived_control_state,
@@ -293,6 +296,41 @@ class ModbusTransport:
             "writing the AS-i Control flags",
         )
         return self.control_flags()
+
+
+# --- the master as the commands see it ---------------------------------------------------
+
+
+@dataclass(frozen=True)
+class ModbusMaster:
+    """``Master`` through a gateway: no DPRAM, and no emulated-only actions (an emulated
+    gateway's board has them through its PC2 port, ``--port``)."""
+
+    transport: ModbusTransport
+
+    driver = None
+    action = None
+    quick_status = None
+    created = False
+
+    @property
+    def name(self) -> str:
+        return f"{self.transport.name} unit {self.transport.unit}"
+
+    def summary(self) -> str:
+        return control_summary(self.transport)
+
+    def status(self) -> MasterStatus:
+        return read_status(self.transport)
+
+    def tools(self) -> Commissioning:
+        return ModbusCommissioning(self.transport)
+
+    def emulated(self, name: str, **args: JSON) -> JSON:
+        return emulated_board(self).run(name, args)
+
+    def settle(self) -> None:
+        """The gateway's master runs on by itself."""
 
 
 # --- opening one --------------------------------------------------------------------------

@@ -25,8 +25,8 @@ from textual.widgets import Footer, Input, RichLog, Static
 
 from asictl.errors import UserError
 from asictl.host.commissioning import check_address
-from asictl.host.connection import Master
 from asictl.host.emulated import parse_address, parse_number, parse_profile
+from asictl.host.master import Master
 from asictl.host.status import (
     MasterStatus,
     SlaveData,

@@ -19,7 +19,8 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 from asictl.errors import UserError
-from asictl.host.connection import Master, MasterAddress, connect_master
+from asictl.host.connection import MasterAddress, connect_master
+from asictl.host.master import Master
 from asictl.host.status import MasterStatus, StoredProgram, read_program
 from asictl.host.transfer import set_start
 from asictl.observe.online import CycleLines

@@ -115,9 +115,9 @@ def read_on_board(board: Pc2Board, operand: Operand) -> int:
         case ast.ImageByte(area=ast.ByteArea.QB, number=n):
             return board.outputs[n >> 1]
         case ast.ImageBit(area=ast.BitArea.F, address=a, bit=b):
-            return board.dpram[pc2.FLAGS + a] >> b & 1
+            return board.dpram_byte(pc2.FLAGS + a) >> b & 1
         case ast.ImageByte(area=ast.ByteArea.FY, number=n):
-            return board.dpram[pc2.FLAGS + n]
+            return board.dpram_byte(pc2.FLAGS + n)
     runner = board.program
     if runner is None:
         return 0
@@ -135,7 +135,7 @@ def wake(board: Pc2Board) -> None:
     """Make the master run its next cycle even if the program looked idle (it skips
     cycles that would repeat the last one): a host access, rewriting a byte of the
     download buffer with what it holds, counts as news and changes nothing."""
-    host_write(board, pc2.PROGRAM_BUFFER, board.dpram[pc2.PROGRAM_BUFFER])
+    host_write(board, pc2.PROGRAM_BUFFER, board.dpram_byte(pc2.PROGRAM_BUFFER))
 
 
 def _slave_inputs(board: Pc2Board, address: int) -> int:

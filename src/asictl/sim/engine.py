@@ -16,9 +16,6 @@ left by the cycles that started before T; at equal times sets come before checks
 
 from __future__ import annotations
 
-import fnmatch
-import functools
-from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import PurePath
 
@@ -32,20 +29,19 @@ from asictl.host.transfer import Pc2Transport, StartMode, download
 from asictl.il import ast
 from asictl.il.loader import Program
 from asictl.image.eeprom import ProgramImage
-from asictl.mcs51.emulator import Emulator
-from asictl.observe.iltrace import ILTracer, LineRow, line_operands
-from asictl.observe.locate import current_line, describe
-from asictl.observe.operands import Operand, parse_operand
+from asictl.observe.iltrace import LineRow
+from asictl.observe.operands import Operand
 from asictl.observe.symbols import SymbolTable
-from asictl.observe.view import ProgramView, host_write, read_on_board, wake
+from asictl.observe.view import ProgramView, host_write, read_on_board
 from asictl.platform import pc2 as d
 from asictl.platform.master import ControlFlag
-from asictl.runtime.firmware import FIRMWARE_BLOCKS
 from asictl.runtime.line_map import LineMap
-from asictl.runtime.program_map import CellKind, ProgramMap
+from asictl.runtime.program_map import ProgramMap
 from asictl.runtime.runner import ProgramRunner
+from asictl.sim.observation import Observation, Refusal, Stop
 from asictl.sim.scenario import Scenario, SlaveSpec, Step
 from asictl.sim.trace import Mark, Signal, Trace
+from asictl.sim.tracing import RUNNING, LineTrace, Sample, Signals
 
 #: Sets happen this long before their time, so that no cycle at exactly T has run yet.
 _BEFORE_MS = 0.001
@@ -53,11 +49,6 @@ _BEFORE_MS = 0.001
 _POWER_UP_MS = 100.0
 #: How long the master may take after the start command to run the first cycle.
 _START_WAIT_MS = 1000.0
-#: Firmware blocks whose PSeg 0 reports success (00h) or a refusal (80h and up).
-_STATUS_BLOCKS = frozenset({"setpp", "getpp", "sendprm", "getpi", "getpcd", "getcdi",
-                            "dataex", "address", "autoaddr", "command"})
-#: The name of the lane that shows whether the program runs.
-RUNNING = "program running"
 
 
 @dataclass
@@ -77,37 +68,6 @@ class Failure:
     def __str__(self) -> str:
         name = self.written or str(self.operand)
         return f"at {self.step.at_ms:g} ms: {name} expected {self.expected}, got {self.got}"
-
-
-@dataclass
-class Stop:
-    at_ms: float
-    reason: str
-    #: the IL line, ``loop.asi:12`` (with its callers inside a block), when it is known
-    where: str = ""
-
-    @property
-    def text(self) -> str:
-        return f"{self.where}: {self.reason}" if self.where else self.reason
-
-
-@dataclass
-class Refusal:
-    """A firmware block that answered with an error status (a note, not a failure)."""
-
-    at_ms: float
-    where: str
-    block: str
-    status: int
-    count: int = 1
-    last_ms: float = 0.0
-
-    @property
-    def text(self) -> str:
-        more = (f" (and {self.count - 1} more time{'s' if self.count > 2 else ''} "
-                f"until {self.last_ms:g} ms)" if self.count > 1 else "")
-        where = f"{self.where}: " if self.where else ""
-        return f"{where}firmware block {self.block} refused (status {self.status:02X}h){more}"
 
 
 @dataclass
@@ -190,24 +150,20 @@ class Simulation:
         self.window = window
         #: what a trace cannot show, in words (an image without its source)
         self.untraced = ""
-        self._signals: list[tuple[Signal, Callable[[Simulation], int]]] = []
+        self._signals: list[tuple[Signal, Sample]] = []
         if trace:
-            if self.program is not None:
-                names = _trace_names(self.program)
-            else:
-                names = _image_names(self.image)
-                self.untraced = (
-                    "the image carries no source: the trace shows the operands its program "
-                    "map names (inputs and outputs of its slaves, the flag bytes it keeps "
-                    "in internal RAM, its timers and counters), not the flags it keeps in "
-                    "the communication memory"
-                )
-            self._signals = _select(self._make_signals(names), signals)
-        self._il_trace = il_trace
-        self._tracer: ILTracer | None = None
+            traced = Signals(self.program, self.image, self.symbols, signals, self.read,
+                             lambda: int(self._running))
+            self._signals, self.untraced = traced.sampled, traced.untraced
+        self._tracer: LineTrace | None = None
+        if il_trace:
+            self._tracer = LineTrace(self.board, source_texts(build), self.program,
+                                     self.line_map, window, self._since_start)
         self._t0: float | None = 0.0
         self._running = True
-        self._refusals: dict[tuple[str, str, int], Refusal] = {}
+        self.observation = Observation(
+            self.board, self.line_map, self._since_start, self.result.stops
+        )
         self._by_time: dict[float, list[Step]] = {}
         for step in scenario.ordered():
             if step.at_ms <= self.end_ms:
@@ -226,6 +182,10 @@ class Simulation:
     def now_ms(self) -> float:
         """Master time since time 0 (whole microseconds, so the sum is exact)."""
         return (round(self.board.now_ms * 1000) - round((self._t0 or 0.0) * 1000)) / 1000
+
+    def _since_start(self) -> float:
+        """Master time since time 0, and 0 before the first cycle."""
+        return self.now_ms() if self._t0 is not None else 0.0
 
     @property
     def runner(self) -> ProgramRunner | None:
@@ -297,11 +257,11 @@ class Simulation:
         download(Pc2Transport(Pc2Driver(EmulatedPort(board))), self.image, start=StartMode.STOP)
         settled = d.EcFlag.CONFIG_OK | d.EcFlag.NORMAL_OPERATION_ACTIVE
         deadline = board.now_ms + _START_WAIT_MS
-        while board.dpram[d.EC_FLAGS] & settled != settled and board.now_ms < deadline:
+        while board.dpram_byte(d.EC_FLAGS) & settled != settled and board.now_ms < deadline:
             board.advance(1.0)  # the master activates the slaves of the new configuration
         if self.scenario.cycle_ms is not None:  # only now: download and start-up need cycles
             board.cycle_period_us = round(self.scenario.cycle_ms * 1000)
-        self._watch_firmware()
+        self.observation.watch_firmware()
         self._t0 = None
 
     def begin(self) -> None:
@@ -311,7 +271,7 @@ class Simulation:
         start was given, the stop then being reported at time 0)."""
         board = self.board
         self._run_steps(0.0)
-        if self._il_trace and self.window[0] <= 0:
+        if self._tracer is not None and self.window[0] <= 0:
             self._trace_lines(True)
         board.observer = self._observe  # notes the first program cycle as time 0
         flags = int(board.control_flags) & ~(ControlFlag.CONTROL_ACTIVE | ControlFlag.RESET)
@@ -323,7 +283,7 @@ class Simulation:
         if self._t0 is None:
             self._t0 = board.now_ms
             self._running = False
-            self._stop(0.0)
+            self.observation.stop(0.0)
         end = self.window[1]
         if end is not None and end <= 0:  # a window of time 0 alone: its cycle has run
             self._trace_lines(False)
@@ -367,7 +327,7 @@ class Simulation:
     def finish(self) -> SimResult:
         result = self.result
         result.end_ms = self.end_ms
-        result.refusals = sorted(self._refusals.values(), key=lambda r: r.at_ms)
+        result.refusals = self.observation.refusals()
         if self._signals:
             marks = [Mark(f.at_ms, f"{f.written or f.operand} expected {f.expected}, got {f.got}",
                           str(f.operand)) for f in result.failures]
@@ -379,7 +339,7 @@ class Simulation:
         return result
 
     def _window_edge(self, at: float) -> None:
-        if not self._il_trace:
+        if self._tracer is None:
             return
         start, end = self.window
         if at == start:
@@ -429,212 +389,13 @@ class Simulation:
         if running != self._running:
             self._running = running
             if not running:
-                self._stop(self.now_ms())
+                self.observation.stop(self.now_ms())
         if self._signals:
             now = self.now_ms()
             for signal, read in self._signals:
-                signal.record(now, read(self))
-
-    def _stop(self, now: float) -> None:
-        board = self.board
-        reason = board.stop_message or board.stop_reason.name
-        where = ""
-        runner = board.program
-        if board.stop_reason is d.StopReason.CYCLE_TIMEOUT and runner is not None:
-            cpu = runner.cpu
-            stop = board.dpram[d.STOP_ADDRESS : d.STOP_ADDRESS + 2]  # the loop's jump
-            line = self.line_map.line_at(int.from_bytes(stop, "little"))
-            where = describe(line or current_line(cpu, self.line_map), cpu, self.line_map)
-        elif board.stop_reason is d.StopReason.CONFIG_ERROR:
-            problems = config_problems(board.dpram)
-            if problems:
-                reason += f" ({problems})"
-        self.result.stops.append(Stop(now, reason, where))
-
-    # ------------------------------------------------------------------ watching the program
-
-    def _watch_firmware(self) -> None:
-        """Note firmware blocks that refuse, at the IL line that called them."""
-        runner = self.runner
-        if runner is None:
-            return
-        cpu = runner.cpu
-        for name, address in runner.program.entry_points.items():
-            original = cpu.traps.get(address)
-            if original is None or name not in _STATUS_BLOCKS:
-                continue
-            cpu.add_trap(address, self._refusal_trap(name, original))
-
-    def _refusal_trap(
-        self, name: str, original: Callable[[Emulator], object]
-    ) -> Callable[[Emulator], None]:
-        block = name
-
-        def trap(cpu: Emulator) -> None:
-            pseg = cpu.dptr
-            original(cpu)  # the firmware's work; it returns to the caller
-            status = cpu.xdata.read(pseg)
-            if status & 0x80:
-                line = self.line_map.line_at(cpu.pc - 1)
-                self._refused(block, status, describe(line, cpu, self.line_map) if line else "")
-
-        return trap
-
-    def _refused(self, block: str, status: int, where: str) -> None:
-        now = self.now_ms() if self._t0 is not None else 0.0
-        key = (where, block, status)
-        found = self._refusals.get(key)
-        if found is None:
-            self._refusals[key] = Refusal(now, where, FIRMWARE_BLOCKS[block].name, status,
-                                          last_ms=now)
-        else:
-            found.count += 1
-            found.last_ms = now
+                signal.record(now, read())
 
     def _trace_lines(self, on: bool) -> None:
-        """Switch the per-line trace on or off (it slows the program down while on)."""
-        runner = self.runner
-        if runner is None or not self._il_trace:
-            return
-        if self._tracer is None:
-            self._tracer = ILTracer(
-                runner, self.line_map, texts=source_texts(self.build),
-                clock=lambda: self.now_ms() if self._t0 is not None else 0.0,
-                view=self.view(), operands=line_operands(self.program),
-                window=self.window,
-            )
-        if on:
-            self._tracer.hooks.install()
-            wake(self.board)
-        else:
-            self._tracer.hooks.remove()
-
-
-    # ------------------------------------------------------------------ trace signals
-
-    def _make_signals(self, names: list[str]) -> list[tuple[Signal, Callable[[Simulation], int]]]:
-        signals: list[tuple[Signal, Callable[[Simulation], int]]] = []
-        for name in names:
-            if name == RUNNING:
-                signals.append((Signal(RUNNING, 1, operand=RUNNING), _running))
-                continue
-            operand = parse_operand(name)
-            signal = Signal(self.symbols.label(name), operand.width, operand=name)
-            signals.append((signal, functools.partial(_read, operand)))
-        return signals
-
-
-def _running(sim: Simulation) -> int:
-    return int(sim._running)
-
-
-def _read(operand: Operand, sim: Simulation) -> int:
-    return sim.read(operand)
-
-
-def config_problems(dpram: bytes) -> str:
-    """Which slaves make the configuration wrong, from the master's lists (the host's view):
-    ``slave 16 missing; slave 5 not projected; slave 3 is IO 7h ID 0h, projected IO Bh ID 0h``."""
-    lps = d.slave_list(dpram[d.LPS : d.LPS + d.LIST_SIZE])
-    lds = d.slave_list(dpram[d.LDS : d.LDS + d.LIST_SIZE])
-    pcd, cdi = dpram[d.PCD : d.PCD + d.CONFIG_SIZE], dpram[d.CDI : d.CDI + d.CONFIG_SIZE]
-    problems = [f"slave {n} missing" for n in sorted(lps - lds)]
-    problems += [f"slave {n} not projected" for n in sorted(lds - lps) if n]
-    problems += [
-        f"slave {n} is IO {cdi[n] & 0xF:X}h ID {cdi[n] >> 4:X}h, projected IO "
-        f"{pcd[n] & 0xF:X}h ID {pcd[n] >> 4:X}h"
-        for n in sorted(lps & lds) if pcd[n] != cdi[n]
-    ]
-    return "; ".join(problems)
-
-
-def _select(
-    signals: list[tuple[Signal, Callable[[Simulation], int]]], patterns: list[str] | None
-) -> list[tuple[Signal, Callable[[Simulation], int]]]:
-    """The signals ``--signals`` asks for (shell patterns on lane or operand names), in
-    the order of the patterns."""
-    if not patterns:
-        return signals
-    chosen: list[tuple[Signal, Callable[[Simulation], int]]] = []
-    for pattern in patterns:
-        for item in signals:
-            signal = item[0]
-            names = (signal.name.casefold(), signal.operand.casefold())
-            if item not in chosen and any(fnmatch.fnmatchcase(n, pattern.casefold())
-                                          for n in names):
-                chosen.append(item)
-    return chosen
-
-
-def _trace_names(program: Program) -> list[str]:
-    """Every I and Q bit the program uses, the flags it reads or writes, its timers' and
-    counters' status and value, and whether it runs."""
-    inputs, outputs, flags = set(), set(), set()
-    timers, counters = set(), set()
-    for module in program.modules():
-        for section in module.sections:
-            operands: list[object] = []
-            if isinstance(section, ast.ProgramSection):
-                for s in section.statements:
-                    if isinstance(s, ast.Param):  # PARAM answers in flag byte 127
-                        flags.add("FY 127")
-                    if isinstance(s, ast.Count):
-                        counters.add(s.counter.number)
-                    operands.append(getattr(s, "operand", None))
-            elif isinstance(section, ast.GatingSection):
-                for line in section.lines:
-                    operands.append(line.target)
-                    operands.extend(t.operand for t in line.terms)
-            for operand in operands:
-                match operand:
-                    case ast.ImageBit(area=ast.BitArea.I | ast.BitArea.I2, address=a, bit=b):
-                        inputs.add((a, b))
-                    case ast.ImageBit(area=ast.BitArea.Q, address=a, bit=b):
-                        outputs.add((a, b))
-                    case ast.ImageBit(area=ast.BitArea.F, address=a, bit=b):
-                        flags.add(f"F {a}.{b}")
-                    case ast.ImageByte(area=ast.ByteArea.FY, number=n):
-                        flags.add(f"FY {n}")
-                    case ast.FlagWord(number=n):
-                        flags.update((f"FY {n}", f"FY {n + 1}"))
-                    case ast.TimerRef(number=n):
-                        timers.add(n)
-                    case ast.CounterRef(number=n):
-                        counters.add(n)
-    return (
-        [f"I {a}.{b}" for a, b in sorted(inputs)]
-        + [f"Q {a}.{b}" for a, b in sorted(outputs)]
-        + sorted(flags, key=_flag_order)
-        + [name for n in sorted(timers) for name in (f"T {n}", f"TV {n}")]
-        + [name for n in sorted(counters) for name in (f"C {n}", f"CV {n}")]
-        + [RUNNING]
-    )
-
-
-def _image_names(image: ProgramImage) -> list[str]:
-    """What an image's program map names: the I/O bits of the projected slaves its cells
-    hold, the flag bytes in cells, the timers and counters."""
-    pmap = image.pmap
-    projected = set(image.configuration.projected())
-
-    def bits(kinds: tuple[CellKind, ...]) -> list[tuple[int, int]]:
-        slaves = {
-            address
-            for (kind, k), _ in pmap.cells.items() if kind in kinds
-            for address in (2 * k, 2 * k + 1) if address in projected
-        }
-        return [(a, b) for a in sorted(slaves) for b in range(4)]
-
-    return (
-        [f"I {a}.{b}" for a, b in bits((CellKind.I, CellKind.I2))]
-        + [f"Q {a}.{b}" for a, b in bits((CellKind.Q,))]
-        + [f"FY {n}" for kind, n in sorted(pmap.cells) if kind is CellKind.F]
-        + [name for n in sorted(pmap.timers) for name in (f"T {n}", f"TV {n}")]
-        + [name for n in sorted(pmap.counters) for name in (f"C {n}", f"CV {n}")]
-        + [RUNNING]
-    )
-
-
-def _flag_order(name: str) -> tuple[bool, list[int]]:
-    return name.startswith("FY"), [int(x) for x in name.split()[1].split(".")]
+        if self._tracer is not None:
+            self._tracer.switch(on, self.view)
 

@@ -1,0 +1,42 @@
+"""The live board itself: an emulated board whose master time follows the wall clock."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+
+from asictl.board.board import Pc2Board
+from asictl.platform.pc2 import ACK, COMMAND, COMMAND_TIMEOUT_MS, NAK
+
+#: Master time one catch-up may run at most (after the process was stopped, say).
+MAX_CATCH_UP_MS = 1000.0
+#: Master time a command may take before the request returns without its acknowledge.
+COMMAND_STEP_MS = 0.25
+
+
+class LiveBoard:
+    """A ``Pc2Board`` whose master time follows ``clock`` (seconds, monotonic)."""
+
+    def __init__(self, board: Pc2Board, clock: Callable[[], float] = time.monotonic) -> None:
+        self.board = board
+        self._clock = clock
+        self._wall = clock()
+        self._master = board.now_ms
+
+    def sync(self) -> None:
+        """Let master time catch up with the wall clock; a board that ran ahead (a command
+        run to its acknowledge) waits until the wall clock has caught up instead."""
+        target = self._master + (self._clock() - self._wall) * 1000
+        lag = target - self.board.now_ms
+        if lag > MAX_CATCH_UP_MS:  # the process stood still: do not replay the pause
+            self._wall, self._master = self._clock(), self.board.now_ms + MAX_CATCH_UP_MS
+            lag = MAX_CATCH_UP_MS
+        if lag > 0:
+            self.board.advance(lag)
+
+    def run_command(self) -> None:
+        """Run the board until the command just written is acknowledged (or times out)."""
+        board, waited = self.board, 0.0
+        while board.dpram_byte(COMMAND) not in (ACK, NAK) and waited < COMMAND_TIMEOUT_MS:
+            board.advance(COMMAND_STEP_MS)
+            waited += COMMAND_STEP_MS
