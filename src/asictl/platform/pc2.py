@@ -113,6 +113,7 @@ class Command(IntEnum):
     SET_LOS = 72
     UPDATE_DPRAM = 128
     READ_TELEGRAM_COUNTERS = 129
+    EMC_TEST_MODE = 130
 
 
 #: The command byte after execution.
