@@ -108,6 +108,9 @@ class LiveBoard:
         self._clock = clock
         self._wall = clock()
         self._master = board.now_ms
+        #: actions a server attached to this board adds or replaces (the gateway's panel),
+        #: run on the loop instead of ``host.emulated``'s
+        self.actions: dict[str, Callable[[dict[str, JSON]], Awaitable[JSON]]] = {}
 
     def sync(self) -> None:
         """Let master time catch up with the wall clock; a board that ran ahead (a command
@@ -196,6 +199,9 @@ class LiveServer:
             name, args = request.get("name"), request.get("args") or {}
             if not isinstance(name, str) or not isinstance(args, dict):
                 raise ProtocolError("an action needs a name and arguments")
+            attached = self.live.actions.get(name)
+            if attached is not None:
+                return {"ok": True, "result": await attached(args)}
             return {"ok": True, "result": run_action(self.live.board, name, args)}
         raise ProtocolError(f"unknown request {op!r}")
 

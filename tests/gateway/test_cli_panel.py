@@ -1,0 +1,120 @@
+"""The front panel of a gateway served by ``asictl gateway serve``, driven as a user does:
+``gateway press`` and ``gateway panel`` in processes of their own, ``status --json`` for
+what the master did, a Modbus client for the key lock (register 1007)."""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import signal
+import subprocess
+import sys
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+from pymodbus.client import ModbusTcpClient
+
+
+class Served:
+    def __init__(self, state: Path, modbus_port: int) -> None:
+        self.state = state
+        self.modbus_port = modbus_port
+        self.env = {**os.environ, "ASICTL_STATE_DIR": str(state)}
+
+    def run(self, *args: str, code: int = 0) -> subprocess.CompletedProcess[str]:
+        result = subprocess.run(
+            [sys.executable, "-m", "asictl", *args], capture_output=True, text=True,
+            env=self.env, timeout=60,
+        )
+        assert result.returncode == code, (args, result.stdout, result.stderr)
+        return result
+
+    def status(self) -> dict:
+        return json.loads(self.run("status", "--json").stdout)
+
+    def press(self, *args: str) -> dict:
+        return json.loads(self.run("gateway", "press", *args, "--json").stdout)
+
+
+@pytest.fixture
+def served(tmp_path: Path) -> Iterator[Served]:
+    env = {**os.environ, "ASICTL_STATE_DIR": str(tmp_path)}
+    process = subprocess.Popen(
+        [sys.executable, "-m", "asictl", "gateway", "serve", "--tcp", "127.0.0.1:0"],
+        stderr=subprocess.PIPE, text=True, env=env,
+    )
+    try:
+        line = process.stderr.readline()
+        match = re.search(r"tcp 127\.0\.0\.1:(\d+)", line)
+        assert match, line
+        yield Served(tmp_path, int(match.group(1)))
+    finally:
+        process.send_signal(signal.SIGINT)
+        assert process.wait(timeout=20) == 0
+
+
+def test_mode_held_6_s_configures_a_short_press_protects_and_the_lock_stops_both(served):
+    served.run("bus", "plug", "5", "iiio,1")
+    served.run("gateway", "press", "mode")  # delivered in configuration mode: leave it
+    status = served.status()
+    assert status["mode"] == "protected" and status["lps"] == []
+    assert status["panel"] == "gateway" and status["leds"]["prj_mode"] is False
+
+    panel = served.press("mode", "--hold", "6")
+    assert panel["leds"]["prj_mode"] is True
+    status = served.status()
+    assert status["mode"] == "configuration" and status["leds"]["prj_mode"] is True
+    assert status["display"]["code"] == 5  # the detected slave, as configuration mode shows
+
+    served.run("gateway", "press", "mode")
+    status = served.status()
+    assert status["mode"] == "protected"
+    assert status["lps"] == [], "a short press does not store the configuration"
+    assert status["display"] == {
+        "code": 5, "text": "05", "blinking": False,
+        "meaning": "slave 5 is wrongly configured (found first)",
+    }
+
+    client = ModbusTcpClient("127.0.0.1", port=served.modbus_port, timeout=2, retries=0)
+    assert client.connect()
+    assert not client.write_register(1007, 1, device_id=1).isError()
+    client.close()
+    panel = served.press("mode", "--hold", "6")
+    assert panel["display"]["code"] == 82 and panel["keys_locked"] is True
+    status = served.status()
+    assert status["mode"] == "protected" and status["display"]["code"] == 82
+    assert status["keys_locked"] is True and status["lps"] == []
+    text = served.run("status").stdout
+    assert "display  82 (the keys are locked" in text
+    assert "keys     locked (Modbus register 1007)" in text
+
+
+def test_a_slave_0_when_leaving_configuration_mode_by_key_gives_80(served):
+    served.run("bus", "plug", "0", "iiio,1")
+    panel = served.press("mode")
+    assert panel["display"]["code"] == 80
+    status = served.status()
+    assert status["mode"] == "configuration" and status["display"]["code"] == 80
+    assert "there is a slave with address 0" in status["display"]["meaning"]
+    text = served.run("gateway", "panel").stdout
+    assert text.startswith("display  80 (error leaving configuration mode")
+    assert "leds     power, config err, U AS-i, AS-i active, prj mode on" in text
+
+
+def test_the_panel_needs_a_gateway(tmp_path: Path):
+    env = {**os.environ, "ASICTL_STATE_DIR": str(tmp_path)}
+    result = subprocess.run(
+        [sys.executable, "-m", "asictl", "gateway", "press", "set"], capture_output=True,
+        text=True, env=env, timeout=60,
+    )
+    assert result.returncode == 1
+    assert "no gateway serves board 300h: start one with 'asictl gateway serve" in (
+        result.stderr
+    )
+    result = subprocess.run(
+        [sys.executable, "-m", "asictl", "gateway", "press"], capture_output=True,
+        text=True, env=env, timeout=60,
+    )
+    assert result.returncode == 2 and "which key?" in result.stderr
