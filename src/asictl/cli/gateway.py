@@ -21,7 +21,7 @@ from click.core import ParameterSource
 
 from asictl.cli.serial_options import serial_options, unit_option
 from asictl.errors import ExitCode, UserError
-from asictl.host.boards import lock_file, parse_port, port_name, state_directory
+from asictl.host.boards import lock_file, port_name, state_directory
 from asictl.host.live import (
     SAVE_INTERVAL_S,
     LiveBoard,
@@ -32,6 +32,7 @@ from asictl.host.live import (
     socket_path,
 )
 from asictl.host.locking import note_holder
+from asictl.host.search import resolve_port
 from asictl.host.target import check_serial_setting, port_number
 from asictl.platform.display import Display, led_text
 from asictl.platform.gateway import Interface
@@ -68,7 +69,8 @@ def gateway() -> None:
 @serial_options("--rtu")
 @unit_option("The gateway's Modbus slave address, as set on the gateway (0 is broadcast).")
 @click.option("--port", default="300h", show_default=True,
-              help="The emulated PC2 board (by I/O base) the gateway serves.")
+              help="The emulated PC2 board (by I/O base) the gateway serves; auto: the first "
+              "one the state directory has (300h..32Ch).")
 @click.option("--state-dir", type=click.Path(file_okay=False),
               help="Where emulated boards are kept (as for download/upload).")
 @click.option("--wait", is_flag=True,
@@ -115,8 +117,9 @@ def serve(
             f"the gateway needs pymodbus and pyserial ({exc}): pip install 'asictl[modbus]'"
         ) from None
 
-    base = parse_port(port)
     directory = state_directory(state_dir)
+    base = resolve_port(port, "emulated", directory, _notify)
+    port = port_name(base)
     address = _tcp_address(tcp) if tcp else (None if rtu else ("127.0.0.1", 5020))
     stored_at = interface_file(directory, base)
     interface = _interface(
@@ -216,9 +219,10 @@ def _interface(
 
 def _served_gateway(port: str, state_dir: str | None) -> LiveClient:
     """The live socket of the gateway serving board ``port``; exit 1 if none does."""
-    base = parse_port(port)
+    directory = state_directory(state_dir)
+    base = resolve_port(port, "emulated", directory, _notify)
     name = port_name(base)
-    client = open_live(state_directory(state_dir), base)
+    client = open_live(directory, base)
     if client is None:
         raise UserError(
             f"no gateway serves board {name}: start one with 'asictl gateway serve --port "
@@ -258,7 +262,7 @@ def panel_text(view: dict[str, Any]) -> str:
 
 _PANEL_OPTIONS = [
     click.option("--port", default="300h", show_default=True,
-                 help="The board the gateway serves (by I/O base)."),
+                 help="The board the gateway serves (by I/O base; auto: the first found)."),
     click.option("--state-dir", type=click.Path(file_okay=False),
                  help="Where emulated boards are kept (as for gateway serve)."),
     click.option("--json", "as_json", is_flag=True, help="The panel as one JSON object."),

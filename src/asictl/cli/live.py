@@ -15,7 +15,7 @@ import click
 
 from asictl.cli.master import _board_options, _BoardOptions, _connect
 from asictl.errors import ExitCode, UserError
-from asictl.host.boards import parse_port, port_name, state_directory
+from asictl.host.boards import port_name, state_directory
 from asictl.host.connection import Master
 from asictl.host.emulated import (
     parse_address,
@@ -28,7 +28,8 @@ from asictl.host.emulated import (
 @click.command("serve")
 @click.option(
     "--port", default="300h", show_default=True,
-    help="The emulated board (by I/O base) to keep running.",
+    help="The emulated board (by I/O base) to keep running; auto: the first one the "
+    "state directory has (300h..32Ch).",
 )
 @click.option(
     "--state-dir", type=click.Path(file_okay=False),
@@ -52,15 +53,16 @@ def serve(port: str, state_dir: str | None, wait: bool) -> None:
     process (it is named; --wait waits for it), 2 bad usage.
     """
     from asictl.host.live import run_live
+    from asictl.host.search import resolve_port
 
-    base = parse_port(port)
+    def notify(text: str) -> None:
+        click.echo(f"asictl: {text}", err=True)
+
+    base = resolve_port(port, "emulated", state_directory(state_dir), notify)
     name = port_name(base)
 
     def started(path: object) -> None:
         click.echo(f"asictl: board {name} live at {path} (Ctrl-C stops)", err=True)
-
-    def notify(text: str) -> None:
-        click.echo(f"asictl: {text}", err=True)
 
     run_live(
         base, state_directory(state_dir), identity={"command": "asictl serve", "port": name},

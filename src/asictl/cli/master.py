@@ -72,7 +72,8 @@ def _board_options(command: _Callback) -> _Callback:
         click.option(
             "--port", default="300h", show_default=True,
             help="The board's I/O base: 300h, 304h, 308h, 30Ch, 320h, 324h, 328h or 32Ch "
-            "(also written 0x300 or 300).",
+            "(also written 0x300 or 300); auto: search them in this order and take the first "
+            "board found, as the PC2 driver's AsiPc2Init(0) does.",
         ),
         click.option(
             "--io", type=click.Choice(IO_BACKENDS), default="emulated", show_default=True,

@@ -7,12 +7,17 @@ command runs: the other commands, and ``asictl --help``, never load it.
 from __future__ import annotations
 
 from contextlib import ExitStack
+from dataclasses import replace
 from typing import Unpack
 
 import click
 
 from asictl.cli.master import _address, _board_options, _BoardOptions
 from asictl.errors import ExitCode, UserError
+
+
+def _notify(text: str) -> None:
+    click.echo(f"asictl: {text}", err=True)
 
 
 @click.command("monitor")
@@ -46,17 +51,19 @@ def monitor(**board: Unpack[_BoardOptions]) -> None:
             f"asictl monitor needs Textual ({exc.name or exc}): pip install 'asictl[monitor]'",
             ExitCode.USAGE,
         ) from None
-    from asictl.host.boards import parse_port, port_name, state_directory
+    from asictl.host.boards import port_name, state_directory
     from asictl.host.live import background_live, is_served
+    from asictl.host.search import resolve_port
     from asictl.monitor.source import MonitorSource
 
     address = _address(**board)
     note = None
     with ExitStack() as stack:
-        if address.modbus is None and address.io == "emulated":
-            base = parse_port(address.port)
+        if address.modbus is None:
             directory = state_directory(address.state_dir)
-            if not is_served(directory, base):
+            base = resolve_port(address.port, address.io, directory, _notify)
+            address = replace(address, port=port_name(base))  # searched once, not each refresh
+            if address.io == "emulated" and not is_served(directory, base):
                 stack.enter_context(background_live(
                     base, directory,
                     identity={"command": "asictl monitor", "port": port_name(base)},

@@ -20,7 +20,7 @@ from typing import Any
 
 from asictl.board.board import Pc2Board
 from asictl.errors import ExitCode, UserError
-from asictl.host.boards import connect, parse_port, port_name, state_directory, state_file
+from asictl.host.boards import connect, port_name, state_directory, state_file
 from asictl.host.commissioning import Commissioning, ModbusCommissioning, Pc2Commissioning
 from asictl.host.driver import EmulatedPort, Pc2Driver
 from asictl.host.status import MasterStatus, StoredProgram, control_summary, read_status
@@ -127,11 +127,12 @@ def connect_master(
     """
     if address.modbus is None:
         from asictl.host import live
+        from asictl.host.search import resolve_port
 
-        base = parse_port(address.port)
+        directory = state_directory(address.state_dir)
+        base = resolve_port(address.port, address.io, directory, notify or _stderr)
         name = port_name(base)
         if address.io == "emulated":
-            directory = state_directory(address.state_dir)
             client = live.open_live(directory, base)
             if client is not None:
                 try:
@@ -155,7 +156,7 @@ def connect_master(
         else:
             created = False
         with connect(
-            address.port, address.io, address.state_dir, wait=address.wait, notify=notify
+            name, address.io, address.state_dir, wait=address.wait, notify=notify
         ) as driver:
             port = driver.port
             board = port.board if isinstance(port, EmulatedPort) else None
