@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import json
 import sys
+import time
 from collections.abc import Callable, Iterator
 from contextlib import AbstractContextManager, contextmanager
 from pathlib import Path
@@ -317,12 +318,53 @@ stop_command = _control_command(
     "AS-i master (ACF /s-)." + _EXIT_STATUS,
     lambda transport: set_start(transport, start=False),
 )
-reset_command = _control_command(
-    "reset",
-    "Set the reset bit: the master reloads the program from its EEPROM and clears the "
-    "program's flags; the start flag stays as it is." + _EXIT_STATUS,
-    reset,
+@click.command("reset")
+@_board_options
+@click.option(
+    "--hardware", is_flag=True,
+    help="Reset the board itself (PAGE bit 4 held 200 ms, AsiPc2Reset): a power-up.",
 )
+def reset_command(hardware: bool, **board: Unpack[_BoardOptions]) -> None:
+    """Set the reset bit: the master reloads the program from its EEPROM and clears the
+    program's flags; the start flag stays as it is.
+
+    With --hardware the PC2 board itself is reset, as the manual's AsiPc2Reset does: the
+    PAGE register's bit 4 is held for 200 ms (the manual's minimum), then the board powers
+    up: it writes its DPRAM anew, loses everything volatile (parameters, flags, the
+    communication memory), copies the program from the EEPROM and starts up. The command
+    waits until the board is found again and its start-up is over, and says what it came
+    up with. A gateway has no such reset (exit 2).
+
+    \b
+    Example:
+      asictl reset --hardware --port 300h
+
+    Exit status: 0 done, 1 the master refused or did not come back, 2 bad usage or a
+    corrupt board state.
+    """
+    if hardware and board["modbus"] is not None:
+        raise UserError(
+            "--hardware resets a PC2 board through its PAGE register; a gateway has none "
+            "(its Modbus restart, diagnostics code 1, only takes the master offline)",
+            ExitCode.USAGE,
+        )
+    with _connect(**board) as master:
+        if hardware:
+            from asictl.host.hardware_reset import hardware_reset
+
+            assert master.driver is not None  # every PC2 master has one
+            local = master.board
+            powered = hardware_reset(
+                master.driver, local.advance if local is not None
+                else lambda ms: time.sleep(ms / 1000),
+            )
+            click.echo(f"{master.name}: {powered.report()}", err=True)
+        else:
+            reset(master.transport)
+        settle(master)
+        state = master.summary()
+    click.echo(f"{master.name}: {state}", err=True)
+    _cable_hint(master, state)
 
 
 @click.command("status")
