@@ -19,8 +19,13 @@ from asictl.platform.pc2 import Command
 
 def parameters(*, slaves: set[int], request: int, expected: int = 0, check: bool = False,
                repetitions: bool = False) -> bytes:
+    """Bytes 0-5 as line 449 lays them out, written out bit by bit."""
     byte0 = repetitions | check << 1 | expected << 3
-    return bytes([byte0, request]) + d.list_bytes(slaves)
+    data = bytes([byte0, request]) + d.list_bytes(slaves)
+    assert data == d.emc_parameters(
+        slaves, request, expected=expected if check else None, repetitions=repetitions
+    )
+    return data
 
 
 def emc(host: Host, data: bytes) -> tuple[int, int]:

@@ -12,7 +12,6 @@ from modbus_helpers import (
     write_holding,
 )
 
-from asictl.board.board import Pc2Board
 from asictl.board.execution import Phase
 from asictl.gateway.addressmap import EXCEPTION_STATUS_ERROR
 from asictl.gateway.slave import GatewaySlave

@@ -506,5 +506,5 @@ def test_a_press_needs_a_key_and_a_length(gw: GatewaySlave):
 
 def test_hardware_only_codes_are_never_shown_by_the_emulation():
     """70-76 and 88 (1353-1367) are the hardware's own faults and its segment test."""
-    assert dc.HARDWARE_ONLY == {70, 72, 73, 74, 75, 76, 88}
+    assert {70, 72, 73, 74, 75, 76, 88} == dc.HARDWARE_ONLY
     assert all(code in dc.DISPLAY_TEXT for code in dc.HARDWARE_ONLY)

@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 import os
 from pathlib import Path
+from typing import ClassVar
 
 import pytest
 from host_helpers import ScriptedBoard
@@ -84,7 +85,7 @@ class IsaFile(DevPort):
     """/dev/port as a file: FFh where no board decodes the address (an empty ISA bus),
     and one board at ``at``: its registers' values pass through the file."""
 
-    boards: dict[int, Pc2Board] = {}
+    boards: ClassVar[dict[int, Pc2Board]] = {}
 
     def read(self, offset: int) -> int:
         board = self.boards.get(self.base)
@@ -113,7 +114,7 @@ def isa(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> type[IsaFile]:
     board.advance(100)
 
     class Bus(IsaFile):
-        boards = {0x308: board}
+        boards: ClassVar[dict[int, Pc2Board]] = {0x308: board}
 
         def __init__(self, base: int) -> None:
             super().__init__(base, str(path))

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import ClassVar
 
 import pytest
 from host_helpers import ScriptedBoard
@@ -109,7 +110,7 @@ def test_reset_hardware_through_dev_port(run, tmp_path: Path, monkeypatch):
     board.advance(100)
 
     class Bus(IsaFile):
-        boards = {0x300: board}
+        boards: ClassVar[dict[int, Pc2Board]] = {0x300: board}
 
         def __init__(self, base: int) -> None:
             super().__init__(base, str(path))

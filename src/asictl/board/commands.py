@@ -15,7 +15,7 @@ from typing import Protocol
 
 from asictl.board.control import AsiControl
 from asictl.board.dpram import Dpram
-from asictl.board.emc import COUNTERS_AT, PARAMETERS_SIZE, EmcTest
+from asictl.board.emc import EmcTest
 from asictl.board.execution import ExecutionControl
 from asictl.board.images import MasterImages
 from asictl.board.services import ENTRY_POINTS
@@ -257,6 +257,6 @@ class HostCommands:
     def _emc_test_mode(self) -> bool:
         """130: the EMC test's counters to buffer bytes 8-11, and its new parameters from
         bytes 0-5 (board/emc.py; an empty slave list ends the mode)."""
-        test = EmcTest.from_buffer(self._image(d.PROGRAM_BUFFER, PARAMETERS_SIZE))
-        self._dpram.put(d.PROGRAM_BUFFER + COUNTERS_AT, self._ec.emc_test(test))
+        test = EmcTest.from_buffer(self._image(d.PROGRAM_BUFFER, d.EMC_PARAMETERS_SIZE))
+        self._dpram.put(d.PROGRAM_BUFFER + d.EMC_COUNTERS, self._ec.emc_test(test))
         return True

@@ -27,17 +27,10 @@ from dataclasses import dataclass
 
 from asictl.board.asi import AsiBus, Slave
 from asictl.platform.master import SLAVES
+from asictl.platform.pc2 import EMC_CHECK, EMC_EXPECTED_SHIFT, EMC_REPETITIONS
 
-#: Byte 0's bits (line 449).
-REPETITIONS = 0x01
-CHECK = 0x02
-EXPECTED_SHIFT = 3
 #: Bit I4 of the request: a parameter call rather than a data call.
 PARAMETER_CALL = 0x10
-#: Where 130 leaves its counters in the program buffer (line 451): requests, then errors,
-#: 16 bits each, low byte first (as 129 leaves its own at bytes 0-3).
-COUNTERS_AT = 8
-PARAMETERS_SIZE = 6
 
 
 @dataclass
@@ -62,8 +55,8 @@ class EmcTest:
         if not slaves:
             return None
         return cls(
-            repetitions=bool(data[0] & REPETITIONS), check=bool(data[0] & CHECK),
-            expected=data[0] >> EXPECTED_SHIFT, request=data[1] & 0x1F, slaves=slaves,
+            repetitions=bool(data[0] & EMC_REPETITIONS), check=bool(data[0] & EMC_CHECK),
+            expected=data[0] >> EMC_EXPECTED_SHIFT, request=data[1] & 0x1F, slaves=slaves,
         )
 
     def _answer(self, slave: Slave) -> int:

@@ -68,6 +68,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "diag": (
         "asictl.cli.commission:diag", "Read and clear LCS, error and telegram counters; the LOS."
     ),
+    "emc": ("asictl.cli.emc:emc", "Run the PC2's EMC test mode (command 130) on slaves."),
     "write": ("asictl.cli.commission:write", "Write flags (F 10.0=1, FY 10=0x12) and outputs."),
     "verify": ("asictl.cli.verify:verify", "Compare a program with the one the master runs."),
     "monitor": ("asictl.cli.monitor:monitor", "A live full-screen view of the master (ASI_MON)."),
