@@ -15,6 +15,7 @@ from pathlib import Path
 
 import pytest
 from pymodbus.client import ModbusTcpClient
+from pymodbus.exceptions import ModbusIOException
 
 
 class Served:
@@ -118,3 +119,99 @@ def test_the_panel_needs_a_gateway(tmp_path: Path):
         text=True, env=env, timeout=60,
     )
     assert result.returncode == 2 and "which key?" in result.stderr
+
+
+def test_the_first_commissioning_of_the_manuals_appendix(served):
+    """Chapter 9 (lines 1403-1417): a slave with address 0 on the cable, set until "1",
+    set held until it blinks, set again; then mode held 5 s stores it all."""
+    served.run("bus", "plug", "0", "oooi,2")
+    assert served.run("gateway", "panel", "--json").stdout.count('"code": 0') == 1
+    panel = served.press("set")
+    assert panel["display"]["code"] == 1 and not panel["display"]["blinking"]
+    panel = served.press("set", "--hold", "6")
+    assert panel["display"] == {
+        "code": 1, "text": "01", "blinking": True,
+        "meaning": "target address 1: set programs the slave with address 0 to it",
+    }
+    served.press("set")
+    cable = json.loads(served.run("bus", "--json").stdout)
+    assert [s["address"] for s in cable["slaves"]] == [1]
+    served.press("mode", "--hold", "6")
+    status = served.status()
+    assert status["mode"] == "protected" and status["lps"] == [1] and status["config_ok"]
+    assert status["display"]["code"] is None  # protected mode without errors: blank
+    leds = status["leds"]
+    assert leds["config_err"] and not leds["ser_active"], "no Modbus traffic lights it (143)"
+
+
+def test_a_board_served_without_the_gateway_has_no_panel(tmp_path: Path):
+    env = {**os.environ, "ASICTL_STATE_DIR": str(tmp_path)}
+    process = subprocess.Popen(
+        [sys.executable, "-m", "asictl", "serve"], stderr=subprocess.PIPE, text=True, env=env,
+    )
+    try:
+        assert "live at" in process.stderr.readline()
+        result = subprocess.run(
+            [sys.executable, "-m", "asictl", "gateway", "panel"], capture_output=True,
+            text=True, env=env, timeout=60,
+        )
+        assert result.returncode == 1
+        assert "is served by asictl serve (pid" in result.stderr
+        assert "which has no front panel" in result.stderr
+    finally:
+        process.send_signal(signal.SIGINT)
+        assert process.wait(timeout=20) == 0
+
+
+def test_both_keys_give_the_gateway_another_modbus_address_it_keeps(served):
+    """5.6: both keys 5 s, set counts the address up, mode stores it; then the serial
+    setting. The gateway answers to the new address at once, and after a restart."""
+    panel = served.press("--both", "--hold", "6")
+    assert panel["menu"] == "address" and panel["display"]["code"] == 1
+    assert not panel["leds"]["asi_active"], "the AS-i circuit is offline meanwhile"
+    served.press("set")
+    assert served.press("mode")["display"]["code"] == 40  # 9600 baud, no parity, 1 stop bit
+    served.press("set")
+    panel = served.press("mode")
+    assert panel["menu"] is None and panel["unit"] == 2
+    assert panel["serial"] == "9600 baud, odd parity, 1 stop bit"
+    client = ModbusTcpClient("127.0.0.1", port=served.modbus_port, timeout=1, retries=0)
+    assert client.connect()
+    assert not client.read_holding_registers(1007, count=1, device_id=2).isError()
+    with pytest.raises(ModbusIOException):  # unit 1 is nobody now: no answer
+        client.read_holding_registers(1007, count=1, device_id=1)
+    client.close()
+    stored = json.loads((served.state / "gateway-300h.json").read_text())
+    assert stored == {"unit": 2, "baud": 9600, "parity": "O", "stopbits": 1}
+
+
+def test_a_restarted_gateway_keeps_what_its_keys_stored(tmp_path: Path):
+    (tmp_path / "gateway-300h.json").write_text(
+        '{"unit": 7, "baud": 19200, "parity": "E", "stopbits": 1}'
+    )
+    env = {**os.environ, "ASICTL_STATE_DIR": str(tmp_path)}
+    process = subprocess.Popen(
+        [sys.executable, "-m", "asictl", "gateway", "serve", "--tcp", "127.0.0.1:0"],
+        stderr=subprocess.PIPE, text=True, env=env,
+    )
+    try:
+        note = process.stderr.readline()
+        assert "Modbus address 7, 19200 baud E1 as its keys stored them" in note
+        line = process.stderr.readline()
+        assert "gateway unit 7 for board 300h" in line
+        port = int(re.search(r"tcp 127\.0\.0\.1:(\d+)", line).group(1))
+        client = ModbusTcpClient("127.0.0.1", port=port, timeout=1, retries=0)
+        assert client.connect()
+        assert not client.read_holding_registers(1007, count=1, device_id=7).isError()
+        client.close()
+    finally:
+        process.send_signal(signal.SIGINT)
+        assert process.wait(timeout=20) == 0
+    (tmp_path / "gateway-300h.json").write_text("{broken")
+    result = subprocess.run(
+        [sys.executable, "-m", "asictl", "gateway", "serve"], capture_output=True, text=True,
+        env=env, timeout=60,
+    )
+    assert result.returncode == 2 and "cannot read the gateway's stored settings" in (
+        result.stderr
+    )

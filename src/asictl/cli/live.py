@@ -133,15 +133,26 @@ def show(as_json: bool = False, **board: Unpack[_BoardOptions]) -> None:
 @bus.command("plug")
 @click.argument("address")
 @click.argument("profile")
+@click.option(
+    "--address-fault", type=click.Choice(["set", "store"]),
+    help="A slave whose address programming fails: 'set', the new address does not take "
+    "(status 06h, the gateway's display 92); 'store', it is kept only until a power-up "
+    "(07h, display 93).",
+)
 @_board_options
-def plug(address: str, profile: str, **board: Unpack[_BoardOptions]) -> None:
+def plug(
+    address: str, profile: str, address_fault: str | None, **board: Unpack[_BoardOptions]
+) -> None:
     """Plug a slave in at ADDRESS (0 for a new slave) with PROFILE: its I/O code (letters
     such as iiio, or a hex digit) and ID code, as in [SETUP]: 'iiio,1', 'Bh,0'."""
     _emulated_only(board)
     where = parse_address(address)
     io_code, id_code = parse_profile(profile)
+    fault = {"address_fault": address_fault} if address_fault else {}
     with _connect(**board) as master:
-        slave = master.emulated("plug", address=where, io_code=io_code, id_code=id_code)
+        slave = master.emulated(
+            "plug", address=where, io_code=io_code, id_code=id_code, **fault
+        )
         click.echo(f"{master.name}: plugged in slave {where} ({slave['profile']})", err=True)
         _report(master)
 

@@ -32,7 +32,9 @@ def monitor(**board: Unpack[_BoardOptions]) -> None:
     (program stopped); f writes a flag byte or bit; s starts or stops the program; b
     presses the set button; p/u plug/unplug a slave at the selected address; a changes
     its address; m switches protected/configuration mode; F5/F6 store the actual
-    parameters/configuration; F9 reads everything again; q quits.
+    parameters/configuration; F9 reads everything again; q quits. Where 'asictl gateway
+    serve' serves the board, its front panel is shown (display and LEDs), [ and ] press
+    its mode and set keys, { and } hold them 6 s, | holds both 6 s.
 
     v shows the program view instead of the slaves: the program's source with each IL
     line's RLO, ACCU1, ACCU2 and operand value from the latest cycle (an emulated board
