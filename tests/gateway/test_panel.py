@@ -140,7 +140,7 @@ def test_mode_short_leaves_without_storing_long_stores(gw: GatewaySlave, board: 
     """282: short, protected mode with the projected configuration as it was; 286: longer
     than five seconds, the actual configuration is stored first."""
     run(gw, 20)
-    assert board.mode == "configuration"  # as delivered (270)
+    assert board.mode == "configuration"  # as delivered (268)
     press(gw, "mode")
     assert board.mode == "protected" and board.execution.lps == 0, "nothing stored"
     press(gw, "mode", hold_ms=HELD_MS)  # back into configuration mode
@@ -279,7 +279,7 @@ def test_protected_mode_shows_the_error_found_first_not_the_lowest(gw, board):
     """304: with several wrong addresses the one found first; set shows the next higher."""
     run(gw, 20)
     protect(gw)
-    assert code(gw.panel) is None  # no error: blank (302)
+    assert code(gw.panel) is None  # no error: blank (300)
     board.bus.remove(13)
     run(gw, 20)
     board.bus.remove(6)

@@ -235,7 +235,7 @@ class FrontPanel:
 
     def _leave_configuration(self, *, store: bool) -> None:
         """Mode in configuration mode: protected mode, storing the actual configuration
-        for a long press; never with a slave 0 present (288: display 80)."""
+        for a long press; never with a slave 0 present (292: display 80)."""
         if self.board.execution.lds & 1:
             self._message = dc.LEAVE_REFUSED
             return
@@ -356,7 +356,7 @@ class FrontPanel:
 
     def _open_menu(self) -> None:
         """Both keys 5 s: the Modbus address first. Meanwhile Modbus is silent and the AS-i
-        circuit in its safe state, the offline phase (410, 1196)."""
+        circuit in its safe state, the offline phase (410, 1195)."""
         hi = self.board.dpram[d.HI_FLAGS]
         self._menu = _Menu("address", self.interface, hi)
         self.map.driver.write_byte(d.HI_FLAGS, hi | HiFlag.OFFLINE)

@@ -166,7 +166,7 @@ def display_code(
 
 
 def misconfigured(lps: int, lds: int, pcd: Sequence[int], cdi: Sequence[int]) -> list[int]:
-    """The addresses 1..31 with a configuration error ("Fehlbelegung", line 302: a slave
+    """The addresses 1..31 with a configuration error ("Fehlbelegung", line 300: a slave
     detected or projected that cannot be activated), ascending."""
     wrong = []
     for a in range(1, SLAVES):
