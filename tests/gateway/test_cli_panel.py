@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import json
 import os
-import re
 import signal
 import subprocess
 import sys
@@ -16,6 +15,7 @@ from pathlib import Path
 import pytest
 from pymodbus.client import ModbusTcpClient
 from pymodbus.exceptions import ModbusIOException
+from served_gateway import serve_gateway
 
 
 class Served:
@@ -41,19 +41,8 @@ class Served:
 
 @pytest.fixture
 def served(tmp_path: Path) -> Iterator[Served]:
-    env = {**os.environ, "ASICTL_STATE_DIR": str(tmp_path)}
-    process = subprocess.Popen(
-        [sys.executable, "-m", "asictl", "gateway", "serve", "--tcp", "127.0.0.1:0"],
-        stderr=subprocess.PIPE, text=True, env=env,
-    )
-    try:
-        line = process.stderr.readline()
-        match = re.search(r"tcp 127\.0\.0\.1:(\d+)", line)
-        assert match, line
-        yield Served(tmp_path, int(match.group(1)))
-    finally:
-        process.send_signal(signal.SIGINT)
-        assert process.wait(timeout=20) == 0
+    with serve_gateway(tmp_path) as (port, _):
+        yield Served(tmp_path, port)
 
 
 def test_mode_held_6_s_configures_a_short_press_protects_and_the_lock_stops_both(served):
@@ -90,6 +79,12 @@ def test_mode_held_6_s_configures_a_short_press_protects_and_the_lock_stops_both
     text = served.run("status").stdout
     assert "display  82 (the keys are locked" in text
     assert "keys     locked (Modbus register 1007)" in text
+    remote = json.loads(served.run(
+        "status", "--modbus", f"tcp://127.0.0.1:{served.modbus_port}", "--json"
+    ).stdout)
+    assert remote["panel"] == "derived" and remote["keys_locked"] is True  # the letter 't'
+    assert remote["leds"]["ser_active"] is True, "the client itself talks to the gateway"
+    assert remote["leds"]["prj_mode"] is False and remote["display"]["code"] == 5
 
 
 def test_a_slave_0_when_leaving_configuration_mode_by_key_gives_80(served):
@@ -189,24 +184,14 @@ def test_a_restarted_gateway_keeps_what_its_keys_stored(tmp_path: Path):
     (tmp_path / "gateway-300h.json").write_text(
         '{"unit": 7, "baud": 19200, "parity": "E", "stopbits": 1}'
     )
-    env = {**os.environ, "ASICTL_STATE_DIR": str(tmp_path)}
-    process = subprocess.Popen(
-        [sys.executable, "-m", "asictl", "gateway", "serve", "--tcp", "127.0.0.1:0"],
-        stderr=subprocess.PIPE, text=True, env=env,
-    )
-    try:
-        note = process.stderr.readline()
-        assert "Modbus address 7, 19200 baud E1 as its keys stored them" in note
-        line = process.stderr.readline()
-        assert "gateway unit 7 for board 300h" in line
-        port = int(re.search(r"tcp 127\.0\.0\.1:(\d+)", line).group(1))
+    with serve_gateway(tmp_path) as (port, lines):
+        assert "Modbus address 7, 19200 baud E1 as its keys stored them" in lines[0]
+        assert "gateway unit 7 for board 300h" in lines[-1]
         client = ModbusTcpClient("127.0.0.1", port=port, timeout=1, retries=0)
         assert client.connect()
         assert not client.read_holding_registers(1007, count=1, device_id=7).isError()
         client.close()
-    finally:
-        process.send_signal(signal.SIGINT)
-        assert process.wait(timeout=20) == 0
+    env = {**os.environ, "ASICTL_STATE_DIR": str(tmp_path)}
     (tmp_path / "gateway-300h.json").write_text("{broken")
     result = subprocess.run(
         [sys.executable, "-m", "asictl", "gateway", "serve"], capture_output=True, text=True,

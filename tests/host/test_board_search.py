@@ -4,17 +4,14 @@ CheckAsiPc2 (10.3.3) at 300h, 304h, ..., 32Ch in order, the first board found.""
 from __future__ import annotations
 
 import json
-import os
 from pathlib import Path
-from typing import ClassVar
 
 import pytest
-from host_helpers import ScriptedBoard
+from host_helpers import ScriptedBoard, isa_bus
 
 from asictl.board.board import Pc2Board
 from asictl.host import boards, search
 from asictl.host.boards import emulated_board
-from asictl.host.driver import DevPort
 from asictl.host.live import background_live
 from asictl.host.search import FOUND, NOT_FOUND, WRONG_FIRMWARE, check_board
 from asictl.platform import pc2 as d
@@ -81,47 +78,16 @@ def test_auto_without_a_board_says_so(run):
         "32Ch (among the emulated boards in" in result.stderr
 
 
-class IsaFile(DevPort):
-    """/dev/port as a file: FFh where no board decodes the address (an empty ISA bus),
-    and one board at ``at``: its registers' values pass through the file."""
-
-    boards: ClassVar[dict[int, Pc2Board]] = {}
-
-    def read(self, offset: int) -> int:
-        board = self.boards.get(self.base)
-        if board is not None:
-            board.advance(0.001)
-            os.pwrite(self._fd, bytes([board.io_read(offset)]), self.base + offset)
-        return super().read(offset)
-
-    def write(self, offset: int, value: int) -> None:
-        super().write(offset, value)
-        board = self.boards.get(self.base)
-        if board is not None:
-            board.advance(0.001)
-            board.io_write(offset, os.pread(self._fd, 1, self.base + offset)[0])
-
-    def now_ms(self) -> float:
-        board = self.boards.get(self.base)
-        return board.now_ms if board is not None else super().now_ms()
-
-
 @pytest.fixture
-def isa(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> type[IsaFile]:
-    path = tmp_path / "port"
-    path.write_bytes(b"\xff" * 0x10000)
+def isa(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> dict[int, Pc2Board]:
+    """/dev/port with one board, at 308h; the test may change ``boards``."""
     board = Pc2Board()
     board.advance(100)
-
-    class Bus(IsaFile):
-        boards: ClassVar[dict[int, Pc2Board]] = {0x308: board}
-
-        def __init__(self, base: int) -> None:
-            super().__init__(base, str(path))
-
-    monkeypatch.setattr(search, "DevPort", Bus)
-    monkeypatch.setattr(boards, "DevPort", Bus)
-    return Bus
+    installed = {0x308: board}
+    bus = isa_bus(tmp_path / "port", installed)
+    monkeypatch.setattr(search, "DevPort", bus)
+    monkeypatch.setattr(boards, "DevPort", bus)
+    return installed
 
 
 def test_auto_finds_a_real_board_at_308h_through_dev_port(run, isa):
@@ -132,6 +98,6 @@ def test_auto_finds_a_real_board_at_308h_through_dev_port(run, isa):
 
 
 def test_auto_through_dev_port_without_a_board(run, isa):
-    isa.boards = {}
+    isa.clear()
     result = run("status", "--io", "devport", "--port", "auto")
     assert result.exit_code == 1 and "(through /dev/port)" in result.stderr

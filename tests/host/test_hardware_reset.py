@@ -5,12 +5,12 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
-from typing import ClassVar
 
 import pytest
-from host_helpers import ScriptedBoard
+from host_helpers import ScriptedBoard, isa_bus
 
 from asictl.board.board import Pc2Board
+from asictl.host import boards
 from asictl.host.boards import emulated_board
 from asictl.host.driver import EmulatedPort, Pc2Driver
 from asictl.host.hardware_reset import RESET_HOLD_MS, hardware_reset
@@ -100,22 +100,9 @@ def test_reset_hardware_on_a_live_board_loses_what_is_volatile(run):
 
 
 def test_reset_hardware_through_dev_port(run, tmp_path: Path, monkeypatch):
-    from test_board_search import IsaFile
-
-    from asictl.host import boards
-
-    path = tmp_path / "port"
-    path.write_bytes(b"\xff" * 0x10000)
     board = Pc2Board()
     board.advance(100)
-
-    class Bus(IsaFile):
-        boards: ClassVar[dict[int, Pc2Board]] = {0x300: board}
-
-        def __init__(self, base: int) -> None:
-            super().__init__(base, str(path))
-
-    monkeypatch.setattr(boards, "DevPort", Bus)
+    monkeypatch.setattr(boards, "DevPort", isa_bus(tmp_path / "port", {0x300: board}))
     booted = board.power_up_ms
     result = run("reset", "--hardware", "--io", "devport")
     assert result.exit_code == 0, result.output

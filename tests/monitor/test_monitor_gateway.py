@@ -5,17 +5,13 @@ from __future__ import annotations
 
 import asyncio
 import json
-import os
-import re
-import signal
-import subprocess
-import sys
 import time
 from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
 from monitor_harness import cli, settle
+from served_gateway import serve_gateway
 
 from asictl.host.connection import MasterAddress
 from asictl.monitor.app import MonitorApp
@@ -25,18 +21,9 @@ from asictl.monitor.source import MonitorSource
 @pytest.fixture
 def gateway(tmp_path: Path) -> Iterator[Path]:
     state = tmp_path / "state"
-    env = {**os.environ, "ASICTL_STATE_DIR": str(state)}
-    process = subprocess.Popen(
-        [sys.executable, "-m", "asictl", "gateway", "serve", "--tcp", "127.0.0.1:0"],
-        stderr=subprocess.PIPE, text=True, env=env,
-    )
-    try:
-        assert re.search(r"tcp 127\.0\.0\.1:\d+", process.stderr.readline())
+    with serve_gateway(state):
         cli(state, "bus", "plug", "4", "iiii,0")
         yield state
-    finally:
-        process.send_signal(signal.SIGINT)
-        assert process.wait(timeout=20) == 0
 
 
 def right(app: MonitorApp) -> str:

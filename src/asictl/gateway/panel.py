@@ -32,7 +32,7 @@ Modbus watchdog's time, if longer).
 from __future__ import annotations
 
 from collections.abc import Callable, Iterable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from enum import StrEnum
 from typing import Any
 
@@ -122,25 +122,25 @@ class _Menu:
     hi_flags: int
 
 
-@dataclass
 class FrontPanel:
     """The front panel of one gateway over its master (see the module's docstring)."""
 
-    board: Pc2Board
-    map: AddressMap
-    interface: Interface = field(default_factory=Interface)
-    #: told of every interface setting stored by the keys (the Modbus slave, the serial
-    #: line, the state file)
-    on_interface: list[Callable[[Interface], None]] = field(default_factory=list)
-    _gesture: _Gesture | None = None
-    _message: int | None = None
-    _selection: _Selection | None = None
-    _menu: _Menu | None = None
-    _last_telegram_ms: float | None = None
-    _power_up_ms: float = -1.0
-
-    def __post_init__(self) -> None:
-        self._power_up_ms = self.board.power_up_ms
+    def __init__(
+        self, board: Pc2Board, addressmap: AddressMap, interface: Interface | None = None
+    ) -> None:
+        self.board = board
+        self.map = addressmap
+        #: the Modbus address and serial setting, as the keys set them (5.6)
+        self.interface = interface or Interface()
+        #: told of every interface setting stored by the keys (the Modbus slave, the
+        #: serial line, the state file)
+        self.on_interface: list[Callable[[Interface], None]] = []
+        self._gesture: _Gesture | None = None
+        self._message: int | None = None
+        self._selection: _Selection | None = None
+        self._menu: _Menu | None = None
+        self._last_telegram_ms: float | None = None
+        self._power_up_ms = board.power_up_ms
 
     # ------------------------------------------------------------------ the keys
 
