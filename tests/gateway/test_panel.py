@@ -10,7 +10,7 @@ back from the master (mode, lists, the slaves' addresses), apart from the panel.
 from __future__ import annotations
 
 import pytest
-from modbus_helpers import read_holding, request, write_holding
+from modbus_helpers import FakeClock, read_holding, request, write_holding
 
 from asictl.board.asi import Slave
 from asictl.board.board import Pc2Board
@@ -30,7 +30,7 @@ HELD_MS = 6000.0
 def run(gw: GatewaySlave, ms: float, step: float = 5.0) -> None:
     """Master time passes; the panel ticks every ``step`` ms, as the served gateway's does."""
     end = gw.board.now_ms + ms
-    while gw.board.now_ms < end:
+    while gw.board.now_ms < end - 0.001:  # master time moves in whole microseconds
         gw.board.advance(min(step, end - gw.board.now_ms))
         gw.panel.tick()
 
@@ -486,6 +486,15 @@ def test_both_keys_set_the_modbus_address_and_the_serial_setting(gw, board):
     assert request(gw, 3, "HH", 0, 1, unit=5) is not None
 
 
+def test_both_keys_open_the_settings_even_on_a_blinking_target(gw: GatewaySlave):
+    run(gw, 20)
+    press(gw, "set")
+    press(gw, "set", hold_ms=HELD_MS)
+    assert gw.panel.display().blinking
+    press(gw, "set", "mode", hold_ms=HELD_MS)
+    assert gw.panel.in_menu and code(gw.panel) == 1
+
+
 def test_the_address_goes_round_from_64_to_1(gw: GatewaySlave):
     gw.panel.interface = Interface(unit=63)
     run(gw, 20)
@@ -508,3 +517,64 @@ def test_hardware_only_codes_are_never_shown_by_the_emulation():
     """70-76 and 88 (1353-1367) are the hardware's own faults and its segment test."""
     assert {70, 72, 73, 74, 75, 76, 88} == dc.HARDWARE_ONLY
     assert all(code in dc.DISPLAY_TEXT for code in dc.HARDWARE_ONLY)
+
+
+# ---------------------------------------------------------------------- any sequence
+
+from hypothesis import given, settings  # noqa: E402
+from hypothesis import strategies as st  # noqa: E402
+
+from asictl.platform.gateway import SERIAL_CODES  # noqa: E402
+
+_PRESSES = st.lists(
+    st.tuples(
+        st.sampled_from([("mode",), ("set",), ("mode", "set")]),
+        st.sampled_from([SHORT_MS, HELD_MS]),
+        st.sampled_from([None, "plug0", "unplug6", "power"]),
+    ),
+    max_size=6,
+)
+
+
+def _shown_is_a_code(panel: FrontPanel) -> bool:
+    shown = panel.display().code
+    if shown is None or 0 <= shown < 32:
+        return True
+    if panel.in_menu:
+        return shown in SERIAL_CODES or 1 <= shown <= 64
+    return shown in dc.DISPLAY_TEXT and shown not in dc.HARDWARE_ONLY
+
+
+@settings(max_examples=25, deadline=None)
+@given(presses=_PRESSES, locked=st.booleans())
+def test_any_key_sequence_keeps_the_gateway_sound(presses, locked):
+    """Whatever is pressed, with slaves coming and going: the display shows only codes of
+    the table (never a hardware-only one), Modbus answers outside the interface settings,
+    and with the keys locked the master is left exactly as it was."""
+    board = Pc2Board()
+    for address, io_code in ((1, 0x0), (6, 0x8), (13, 0x7)):
+        board.bus.attach(Slave(address, io_code=io_code, id_code=0x1))
+    gw = GatewaySlave(board, clock=FakeClock())
+    run(gw, 50, step=20)
+    if locked:
+        write_holding(gw, 1007, 1)
+    before = (board.mode, board.execution.lps, bytes(board.execution.pcd))
+    for keys, hold_ms, change in presses:
+        if change == "plug0" and not board.bus.at(0):
+            board.bus.attach(Slave(0, io_code=0x8, id_code=0x1))
+        elif change == "unplug6" and board.bus.at(6):
+            board.bus.remove(6)
+        elif change == "power":
+            board.bus.power_fail()
+            run(gw, 40, step=20)
+            board.bus.power_restore()
+        gw.panel.press(keys, hold_ms)
+        run(gw, hold_ms + 40, step=20)
+        assert _shown_is_a_code(gw.panel), gw.panel.display()
+        answered = request(gw, 3, "HH", 1007, 1, unit=gw.unit)
+        assert (answered is None) == gw.panel.in_menu
+    if locked and presses:
+        assert gw.panel.display().code == dc.KEYS_LOCKED
+        assert (board.mode, board.execution.lps, bytes(board.execution.pcd)) == before, (
+            "only the keys could have changed these"
+        )

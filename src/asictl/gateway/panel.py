@@ -181,7 +181,7 @@ class FrontPanel:
             return
         now = self.board.now_ms
         due = gesture.long_at()
-        if not gesture.done and due is not None and now >= due and self._acts_at_once():
+        if not gesture.done and due is not None and now >= due and self._acts_at_once(gesture):
             gesture.done = True
             self._long(gesture)
         if now >= gesture.end_ms:
@@ -189,10 +189,13 @@ class FrontPanel:
             if not gesture.done and len(gesture.keys) == 1:
                 self._short(next(iter(gesture.keys)), gesture)
 
-    def _acts_at_once(self) -> bool:
-        """In the menu and on a blinking target a press acts at release, however long."""
+    def _acts_at_once(self, gesture: _Gesture) -> bool:
+        """In the menu a press acts at release, however long; so does a single key on a
+        blinking target (both keys still open the interface settings)."""
         if self._menu is not None:
             return False
+        if len(gesture.keys) > 1:
+            return True
         selection = self._valid_selection()
         return selection is None or selection.kind != "target"
 
