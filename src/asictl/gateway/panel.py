@@ -32,7 +32,7 @@ Modbus watchdog's time, if longer).
 from __future__ import annotations
 
 from collections.abc import Callable, Iterable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from enum import StrEnum
 from typing import Any
 
@@ -221,7 +221,7 @@ class FrontPanel:
         elif self.board.mode == "configuration":
             self._set_long_configuration(gesture)
         else:
-            self._set_long_protected(gesture)
+            self._set_long_protected()
 
     def _short(self, key: Key, gesture: _Gesture) -> None:
         if self._menu is not None:
@@ -234,7 +234,7 @@ class FrontPanel:
         elif self.board.mode == "configuration":
             self._select(self._next_free(gesture))
         else:
-            self._step_protected(gesture)
+            self._step_protected()
 
     def _leave_configuration(self, *, store: bool) -> None:
         """Mode in configuration mode: protected mode, storing the actual configuration
@@ -247,8 +247,8 @@ class FrontPanel:
         if not self._command(Command.SET_OPERATION_MODE, 0):
             self._message = dc.LEAVE_REFUSED
 
-    def _command(self, code: Command, data: int = 0, address: int = 0) -> bool:
-        ok, _ = self.map.command(code, data, address)
+    def _command(self, code: Command, data: int = 0) -> bool:
+        ok, _ = self.map.command(code, data)
         return ok
 
     def _change_address(self, old: int, new: int) -> bool:
@@ -315,7 +315,7 @@ class FrontPanel:
             entries.append(("transient", last))
         return entries
 
-    def _step_protected(self, gesture: _Gesture) -> None:
+    def _step_protected(self) -> None:
         entries = self._protected_entries()
         if not entries:
             return
@@ -326,9 +326,10 @@ class FrontPanel:
             order = self.board.execution.error_order
             current = ("wrong", order[0]) if order else ("", -1)
         following = entries.index(current) + 1 if current in entries else 0
-        self._select(entries[following % len(entries)][1], entries[following % len(entries)][0])
+        kind, address = entries[following % len(entries)]
+        self._select(address, kind)
 
-    def _set_long_protected(self, gesture: _Gesture) -> None:
+    def _set_long_protected(self) -> None:
         """368: the wrong address shown becomes the potential target; it blinks."""
         selection = self._valid_selection()
         ec = self.board.execution
@@ -371,7 +372,7 @@ class FrontPanel:
         if key is Key.SET:  # one more (384), the next code of the table (386)
             if menu.step == "address":
                 unit = now.unit + 1 if now.unit < UNITS[-1] else UNITS[0]
-                menu.interface = Interface(unit, now.baud, now.parity, now.stopbits)
+                menu.interface = replace(now, unit=unit)
             else:
                 index = SERIAL_CODES.index(now.code)
                 menu.interface = now.with_code(SERIAL_CODES[(index + 1) % len(SERIAL_CODES)])
