@@ -47,7 +47,8 @@ COMMANDS: dict[str, tuple[str, str]] = {
     ),
     "sim": ("asictl.cli.sim:sim", "Run a program on an emulated master against a scenario."),
     "gateway": (
-        "asictl.cli.gateway:gateway", "Serve the emulated AS-i/Modbus gateway (Modbus TCP/RTU)."
+        "asictl.cli.gateway:gateway",
+        "Serve the emulated AS-i/Modbus gateway (Modbus TCP/RTU); its front panel and keys.",
     ),
     "test": ("asictl.cli.sim:test", "Run every *.scenario.toml and report N passed, M failed."),
     "serve": (
