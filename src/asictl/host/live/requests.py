@@ -8,6 +8,7 @@ of another client, and no Modbus telegram, can come between.
 
 from __future__ import annotations
 
+from collections.abc import Awaitable
 from dataclasses import dataclass
 
 from asictl.host.emulated import run_action
@@ -72,6 +73,18 @@ def _write(live: LiveBoard, offset: int, value: JSON) -> None:
     board.io_write(offset, value)
     if command:
         live.run_command()
+
+
+def attached_action(live: LiveBoard, request: dict[str, JSON]) -> Awaitable[JSON] | None:
+    """The action a server attached to the board runs for this request (the gateway's
+    front panel), if it has one of that name."""
+    name, args = request.get("name"), request.get("args") or {}
+    attached = live.actions.get(name) if isinstance(name, str) else None
+    if attached is None:
+        return None
+    if not isinstance(args, dict):
+        raise ProtocolError("an action needs a name and arguments")
+    return attached(args)
 
 
 def action(live: LiveBoard, request: dict[str, JSON]) -> JSON:

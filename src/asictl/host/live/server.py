@@ -100,6 +100,9 @@ class LiveServer:
         if op == "io":
             return {"ok": True, "reads": requests.io(self.live, conn.pointer, request.get("ops"))}
         if op == "action":
+            attached = requests.attached_action(self.live, request)
+            if attached is not None:
+                return {"ok": True, "result": await attached}
             return {"ok": True, "result": requests.action(self.live, request)}
         raise ProtocolError(f"unknown request {op!r}")
 
