@@ -52,6 +52,7 @@ LAYERS: tuple[tuple[tuple[str, str], ...], ...] = (
         ("monitor", "the full-screen live view (Textual)"),
         ("lsp", "the language server for editors"),
     ),
+    (("dap", "the debug adapter for editors: the Debug Adapter Protocol over debug/"),),
     (
         ("pytest_plugin", "scenario files as pytest tests"),
         ("cli", "the command line: options and output only"),
