@@ -65,6 +65,8 @@ class Adapter:
         self._no_debug = False
         self._stop_on_entry = False
         self._done = False
+        #: the program runs (set before its thread starts, cleared before its stop is told)
+        self._busy = False
 
     # ------------------------------------------------------------------ the loop
 
@@ -234,7 +236,7 @@ class Adapter:
         return resume
 
     def _running(self) -> bool:
-        return self._runner is not None and self._runner.is_alive()
+        return self._busy
 
     def _run(self, target: Target, how: str, *, entry: bool = False) -> None:
         self._variables.clear()
@@ -250,8 +252,10 @@ class Adapter:
                 self.output(f"internal error (this is a bug in asictl {__version__}): "
                             f"{type(exc).__name__}: {exc}\n", "stderr")
                 stop = Stop("end", exit_code=3)
+            self._busy = False
             self._stopped(stop, entry)
 
+        self._busy = True
         self._runner = threading.Thread(target=run, name="asictl-dap-run", daemon=True)
         self._runner.start()
 
@@ -366,9 +370,8 @@ class Adapter:
         target, self.target = self.target, None
         if target is None:
             return
-        if self._running():
+        if self._runner is not None and self._runner.is_alive():
             target.interrupt()
-            assert self._runner is not None
             self._runner.join(timeout=10)
         target.close()
 
