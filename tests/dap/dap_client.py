@@ -4,6 +4,7 @@ does. Events are kept in arrival order; ``wait_event`` takes the next one of a k
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import queue
@@ -117,10 +118,8 @@ class DapClient:
 
     def close(self) -> None:
         if self.process.poll() is None:
-            try:
+            with contextlib.suppress(DapError, queue.Empty, OSError):
                 self.request("disconnect", {})
-            except (DapError, queue.Empty, OSError):
-                pass
         try:
             self.process.wait(timeout=10)
         except subprocess.TimeoutExpired:

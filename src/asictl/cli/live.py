@@ -46,15 +46,18 @@ def serve(port: str, state_dir: str | None, wait: bool) -> None:
     other asictl command for this port (download, status, bus, monitor, ...) reaches the
     running board through a socket in the state directory (owner-only) instead of its
     state file. The board's non-volatile state is saved every 10 s and at the end.
-    'asictl gateway serve' is the same live board with Modbus in front.
+    'asictl gateway serve' is the same live board with Modbus in front. A debugger
+    attaches to the running program through a second socket ('asictl dap', attach).
 
     Exit status: 0 stopped by a signal, 1 the board is already served or held by another
     process (it is named; --wait waits for it), 2 bad usage.
     """
+    from asictl.debug.online import debug_socket_path, debugging
     from asictl.host.live import run_live
 
     base = parse_port(port)
     name = port_name(base)
+    directory = state_directory(state_dir)
 
     def started(path: object) -> None:
         click.echo(f"asictl: board {name} live at {path} (Ctrl-C stops)", err=True)
@@ -63,8 +66,9 @@ def serve(port: str, state_dir: str | None, wait: bool) -> None:
         click.echo(f"asictl: {text}", err=True)
 
     run_live(
-        base, state_directory(state_dir), identity={"command": "asictl serve", "port": name},
+        base, directory, identity={"command": "asictl serve", "port": name},
         started=started, wait=wait, notify=notify,
+        attach=debugging(debug_socket_path(directory, base)),
     )
     click.echo(f"asictl: board {name} stopped; its state is saved", err=True)
 

@@ -14,8 +14,9 @@ from pathlib import Path, PurePath
 from asictl.dap.adapter import resolve
 from asictl.dap.framing import JSON
 from asictl.dap.targets import Frame, Placed, Scope, Stop, Wanted
-from asictl.dap.variables import Inventory, scopes
+from asictl.dap.variables import scopes
 from asictl.debug.debugger import DebugError, Debugger, Pause
+from asictl.debug.inventory import Inventory
 from asictl.errors import UserError
 from asictl.observe.locate import call_chain
 from asictl.runtime.line_map import SourceLine

@@ -24,8 +24,9 @@ from asictl.mcs51.isa import SFRS
 from asictl.observe.hooks import LineHooks
 from asictl.observe.locate import call_chain, current_line, describe
 from asictl.observe.operands import CounterValue, Operand, TimerValue, parse_operand
+from asictl.observe.view import ProgramView
 from asictl.platform.pc2 import STOP_ADDRESS, STOPS_AT_AN_ADDRESS
-from asictl.runtime.line_map import SourceLine
+from asictl.runtime.line_map import LineMap, SourceLine
 from asictl.sim.engine import Simulation, source_texts, variables_of
 from asictl.sim.scenario import parse_duration
 from asictl.sim.session import Prepared
@@ -109,6 +110,88 @@ class DebugError(ValueError):
     """A command the debugger cannot do, in words for the user."""
 
 
+@dataclass
+class Values:
+    """Registers and operands as the program sees them now, through ``view``: what
+    ``print`` shows and breakpoint conditions compare, on a simulation or a live board."""
+
+    view: Callable[[], ProgramView]
+    #: an operand's text (or symbol) to the operand; raises DebugError
+    operand: Callable[[str], Operand]
+
+    def value(self, text: str) -> int:
+        view = self.view()
+        upper = text.strip().upper()
+        if upper in _REGISTERS:
+            return int(getattr(view, upper.lower()))
+        return view.read(self.operand(text))
+
+    def show(self, text: str) -> str:
+        """A value as people read it: bytes also in hex, timers and counters with their
+        remaining time and count."""
+        view = self.view()
+        upper = text.strip().upper()
+        if upper == "RLO":
+            return str(view.rlo)
+        if upper in ("ACCU1", "ACCU2"):
+            word = self.value(upper)
+            return f"{word} ({word:04X}h)"
+        operand = self.operand(text)
+        value = view.read(operand)
+        node = operand.node
+        if isinstance(node, ast.TimerRef):
+            return f"{value} (remaining {view.timer_ms(node.number) or 0} ms)"
+        if isinstance(node, ast.CounterRef):
+            return f"{value} (value {view.counter(node.number) or 0})"
+        if operand.is_bit or isinstance(node, CounterValue | TimerValue):
+            return str(value)
+        return f"{value} ({value:02X}h)"
+
+    def holds(self, text: str) -> bool:
+        """A breakpoint condition, ``OPERAND op VALUE``."""
+        match = _CONDITION.match(text)
+        if not match:
+            raise DebugError(f"condition '{text}': OPERAND=VALUE, e.g. RLO=1 or CV 0>=3")
+        left, op, right = match.groups()
+        try:
+            number = int(right, 0)
+        except ValueError:
+            raise DebugError(f"condition '{text}': '{right}' is not a number") from None
+        return _COMPARE[op](self.value(left), number)
+
+
+def line_with_code(line_map: LineMap, file: str, wanted: int) -> SourceLine:
+    """Line ``wanted`` of ``file``, or for a line without code (a label, a comment) the
+    next one with code."""
+    lines = [line for line in line_map.lines() if line.file.casefold() == file.casefold()]
+    if not lines:
+        known = ", ".join(line_map.files) or "none"
+        raise DebugError(f"no code from '{file}' (files with code: {known})")
+    later = [line for line in lines if line.line >= wanted]
+    if not later:
+        raise DebugError(f"{file} has no code at or after line {wanted}")
+    return later[0]
+
+
+def checked_hit_condition(text: str) -> str:
+    """A hit count condition as ``Breakpoint.due`` reads it (refused here, not at a hit)."""
+    if text and not _HIT_CONDITION.match(text):
+        raise DebugError(f"hit count '{text}': a number of hits such as 3, = 3, > 3 or % 3")
+    return text
+
+
+def due_breakpoint(
+    breakpoints: list[Breakpoint], line: SourceLine, holds: Callable[[str], bool]
+) -> Breakpoint | None:
+    """The breakpoint that stops the program at ``line`` now, counting its hits."""
+    for point in breakpoints:
+        if point.line == line and (not point.condition or holds(point.condition)):
+            point.hits += 1
+            if point.due():
+                return point
+    return None
+
+
 class Debugger:
     """One debugging session; ``execute(command)`` returns False once it has ended."""
 
@@ -119,6 +202,7 @@ class Debugger:
                               symbols=prepared.symbols)
         self.symbols = prepared.symbols
         self.line_map = self.sim.line_map
+        self.values = Values(self.sim.view, self._operand)
         self.texts = {name: text.split("\n") for name, text in
                       source_texts(prepared.build).items()}
         self.main_file = PurePath(prepared.program).name
@@ -203,10 +287,8 @@ class Debugger:
         line = self._resolve_line(where)
         if condition:
             self._condition(condition)
-        if hit_condition and not _HIT_CONDITION.match(hit_condition):
-            raise DebugError(f"hit count '{hit_condition}': a number of hits such as 3, "
-                             "= 3, > 3 or % 3")
-        point = Breakpoint(self._next_number, line, condition, hit_condition=hit_condition)
+        point = Breakpoint(self._next_number, line, condition,
+                           hit_condition=checked_hit_condition(hit_condition))
         self._next_number += 1
         self.breakpoints.append(point)
         return point
@@ -216,15 +298,7 @@ class Debugger:
         file = PurePath(file).name if file else self.main_file
         if not number.isdigit():
             raise DebugError(f"'{text}' is not a line: 12 or {self.main_file}:12")
-        wanted = int(number)
-        lines = [line for line in self.line_map.lines() if line.file.casefold() == file.casefold()]
-        if not lines:
-            known = ", ".join(self.line_map.files) or "none"
-            raise DebugError(f"no code from '{file}' (files with code: {known})")
-        later = [line for line in lines if line.line >= wanted]
-        if not later:
-            raise DebugError(f"{file} has no code at or after line {wanted}")
-        return later[0]  # a line without code (label, comment): the next one with code
+        return line_with_code(self.line_map, file, int(number))
 
     def _delete(self, rest: str) -> None:
         if not rest:
@@ -320,43 +394,14 @@ class Debugger:
 
     def value(self, text: str) -> int:
         """A register (RLO, ACCU1, ACCU2) or an operand, as the program sees it now."""
-        view = self.sim.view()
-        upper = text.strip().upper()
-        if upper in _REGISTERS:
-            return int(getattr(view, upper.lower()))
-        return view.read(self._operand(text))
+        return self.values.value(text)
 
     def show(self, text: str) -> str:
-        """A value as people read it: bytes also in hex, timers and counters with their
-        remaining time and count."""
-        view = self.sim.view()
-        upper = text.strip().upper()
-        if upper == "RLO":
-            return str(view.rlo)
-        if upper in ("ACCU1", "ACCU2"):
-            word = self.value(upper)
-            return f"{word} ({word:04X}h)"
-        operand = self._operand(text)
-        value = view.read(operand)
-        node = operand.node
-        if isinstance(node, ast.TimerRef):
-            return f"{value} (remaining {view.timer_ms(node.number) or 0} ms)"
-        if isinstance(node, ast.CounterRef):
-            return f"{value} (value {view.counter(node.number) or 0})"
-        if operand.is_bit or isinstance(node, CounterValue | TimerValue):
-            return str(value)
-        return f"{value} ({value:02X}h)"
+        """A value as ``print`` shows it."""
+        return self.values.show(text)
 
     def _condition(self, text: str) -> bool:
-        match = _CONDITION.match(text)
-        if not match:
-            raise DebugError(f"condition '{text}': OPERAND=VALUE, e.g. RLO=1 or CV 0>=3")
-        left, op, right = match.groups()
-        try:
-            number = int(right, 0)
-        except ValueError:
-            raise DebugError(f"condition '{text}': '{right}' is not a number") from None
-        return _COMPARE[op](self.value(left), number)
+        return self.values.holds(text)
 
     # ------------------------------------------------------------------ running
 
@@ -453,13 +498,7 @@ class Debugger:
 
     def _on_line(self, line: SourceLine, address: int) -> None:
         self.line = line
-        hit = None
-        for point in self.breakpoints:
-            if point.line == line and (not point.condition or self._condition(point.condition)):
-                point.hits += 1
-                if point.due():
-                    hit = point
-                    break
+        hit = due_breakpoint(self.breakpoints, line, self._condition)
         mode = self._mode
         if (
             hit is not None

@@ -38,7 +38,7 @@ from collections.abc import Awaitable, Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol
 
 from asictl.board.board import Pc2Board
 from asictl.errors import ExitCode, UserError
@@ -100,6 +100,16 @@ class ProtocolError(UserError):
 # --------------------------------------------------------------------------- the board
 
 
+class Hold(Protocol):
+    """What holds a live board (the debugger of ``asictl dap``'s attach): it lets master
+    time pass in its own way (standing still while the program is paused), and turns
+    away the emulated-only actions that would run or watch the program behind its back."""
+
+    def advance(self, ms: float) -> None: ...
+
+    def refusal(self, action: str) -> str | None: ...
+
+
 class LiveBoard:
     """A ``Pc2Board`` whose master time follows ``clock`` (seconds, monotonic)."""
 
@@ -108,6 +118,20 @@ class LiveBoard:
         self._clock = clock
         self._wall = clock()
         self._master = board.now_ms
+        #: the debugger holding the board, if one does
+        self.hold: Hold | None = None
+
+    def advance(self, ms: float) -> None:
+        """Let ``ms`` of master time pass, through the hold if there is one."""
+        if self.hold is not None:
+            self.hold.advance(ms)
+        else:
+            self.board.advance(ms)
+
+    def rebase(self) -> None:
+        """Master time goes on from here: a board that stood still (held at a breakpoint)
+        does not catch up with the pause."""
+        self._wall, self._master = self._clock(), self.board.now_ms
 
     def sync(self) -> None:
         """Let master time catch up with the wall clock; a board that ran ahead (a command
@@ -118,13 +142,13 @@ class LiveBoard:
             self._wall, self._master = self._clock(), self.board.now_ms + MAX_CATCH_UP_MS
             lag = MAX_CATCH_UP_MS
         if lag > 0:
-            self.board.advance(lag)
+            self.advance(lag)
 
     def run_command(self) -> None:
         """Run the board until the command just written is acknowledged (or times out)."""
         board, waited = self.board, 0.0
         while board.dpram[COMMAND] not in (ACK, NAK) and waited < COMMAND_TIMEOUT_MS:
-            board.advance(COMMAND_STEP_MS)
+            self.advance(COMMAND_STEP_MS)
             waited += COMMAND_STEP_MS
 
 
@@ -196,6 +220,9 @@ class LiveServer:
             name, args = request.get("name"), request.get("args") or {}
             if not isinstance(name, str) or not isinstance(args, dict):
                 raise ProtocolError("an action needs a name and arguments")
+            refusal = self.live.hold.refusal(name) if self.live.hold is not None else None
+            if refusal is not None:
+                raise UserError(refusal, ExitCode.FAILED)
             return {"ok": True, "result": run_action(self.live.board, name, args)}
         raise ProtocolError(f"unknown request {op!r}")
 
