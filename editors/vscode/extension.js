@@ -240,7 +240,8 @@ function scenarioTests(context) {
     }
     return items.filter((item) => !(request.exclude || []).includes(item));
   };
-  controller.createRunProfile("Run", vscode.TestRunProfileKind.Run, async (request, token) => {
+  // A profile runs the chosen scenarios one after the other; `each` runs one.
+  const profile = (label, kind, each) => controller.createRunProfile(label, kind, async (request, token) => {
     const run = controller.createTestRun(request);
     for (const item of chosen(request)) {
       if (token.isCancellationRequested) {
@@ -248,23 +249,15 @@ function scenarioTests(context) {
         continue;
       }
       run.started(item);
-      const { result, ms } = await runScenario(item, token);
-      report(run, item, result, ms);
+      await each(item, run, token);
     }
     run.end();
   }, true);
-  controller.createRunProfile("Debug", vscode.TestRunProfileKind.Debug, async (request, token) => {
-    const run = controller.createTestRun(request);
-    for (const item of chosen(request)) {
-      if (token.isCancellationRequested) {
-        run.skipped(item);
-        continue;
-      }
-      run.started(item);
-      await debugScenario(item, run);
-    }
-    run.end();
-  }, true);
+  profile("Run", vscode.TestRunProfileKind.Run, async (item, run, token) => {
+    const { result, ms } = await runScenario(item, token);
+    report(run, item, result, ms);
+  });
+  profile("Debug", vscode.TestRunProfileKind.Debug, (item, run) => debugScenario(item, run));
 }
 
 // ---------------------------------------------------------------- activation

@@ -41,7 +41,8 @@ def node() -> Path:
 
 def test_the_extensions_unit_tests_pass_with_a_real_asictl(tmp_path: Path):
     wrapper = tmp_path / "asictl"
-    wrapper.write_text(f"#!/bin/sh\nPYTHONPATH={ROOT / 'src'} exec {sys.executable} -m asictl \"$@\"\n")
+    wrapper.write_text(
+        f"#!/bin/sh\nPYTHONPATH={ROOT / 'src'} exec {sys.executable} -m asictl \"$@\"\n")
     wrapper.chmod(0o755)
     result = subprocess.run(
         [str(node()), "--test", "test/unit/"], cwd=EXTENSION, capture_output=True, text=True,

@@ -28,7 +28,6 @@ import contextlib
 import functools
 import os
 import queue
-import struct
 import threading
 from collections.abc import Awaitable, Callable
 from pathlib import Path
@@ -47,7 +46,7 @@ from asictl.debug.debugger import (
 )
 from asictl.debug.inventory import Inventory
 from asictl.errors import UserError
-from asictl.host.live import MAX_MESSAGE, LiveBoard, decode, encode, socket_path
+from asictl.host.live import LiveBoard, encode, read_message, socket_path
 from asictl.il import ast
 from asictl.il.ast import key
 from asictl.image.eeprom import ImageError
@@ -62,7 +61,6 @@ from asictl.runtime.line_map import SourceLine
 
 JSON = Any
 _SP = SFRS["SP"]
-_LENGTH = struct.Struct(">I")
 #: The actions a held board turns away.
 _WATCHING = frozenset({"lines"})
 
@@ -371,12 +369,8 @@ async def _client(live: LiveBoard, reader: asyncio.StreamReader,
     debugger: OnlineDebugger | None = None
     try:
         while True:
-            try:
-                (length,) = _LENGTH.unpack(await reader.readexactly(_LENGTH.size))
-                if length > MAX_MESSAGE:
-                    break
-                request = decode(await reader.readexactly(length))
-            except (asyncio.IncompleteReadError, ConnectionError, ValueError):
+            request = await read_message(reader)
+            if request is None:
                 break
             try:
                 if not isinstance(request, dict):

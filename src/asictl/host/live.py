@@ -91,6 +91,18 @@ def decode(data: bytes) -> JSON:
     return json.loads(data.decode())
 
 
+async def read_message(reader: asyncio.StreamReader) -> JSON | None:
+    """The next message of a client; None when it went away or broke the framing (a
+    message over ``MAX_MESSAGE``, bytes that are not JSON): the connection ends."""
+    try:
+        (length,) = _LENGTH.unpack(await reader.readexactly(_LENGTH.size))
+        if length > MAX_MESSAGE:
+            return None
+        return decode(await reader.readexactly(length))
+    except (asyncio.IncompleteReadError, ConnectionError, ValueError):
+        return None
+
+
 class ProtocolError(UserError):
     """The other end broke the protocol or went away."""
 
@@ -273,12 +285,8 @@ class LiveServer:
         self.connections += 1
         try:
             while True:
-                try:
-                    (length,) = _LENGTH.unpack(await reader.readexactly(_LENGTH.size))
-                    if length > MAX_MESSAGE:
-                        break
-                    request = decode(await reader.readexactly(length))
-                except (asyncio.IncompleteReadError, ConnectionError, ValueError):
+                request = await read_message(reader)
+                if request is None:
                     break
                 try:
                     answer = await self._handle(conn, request)
