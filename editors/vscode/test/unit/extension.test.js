@@ -66,13 +66,21 @@ function fakeVscode(settings) {
 
 function loadExtension(settings) {
   const fake = fakeVscode(settings);
+  const clients = fake.log.clients = [];
   const load = Module._load;
   Module._load = function (request, parent, isMain) {
     if (request === "vscode") {
       return fake.vscode;
     }
     if (request === "vscode-languageclient/node") {
-      return { TransportKind: { stdio: 0 }, LanguageClient: class { async start() { throw new Error("no server in this test"); } async stop() {} } };
+      return {
+        TransportKind: { stdio: 0 },
+        LanguageClient: class {
+          constructor(id, name, server, options) { clients.push({ id, server, options }); }
+          async start() { throw new Error("no server in this test"); }
+          async stop() {}
+        },
+      };
     }
     return load.call(this, request, parent, isMain);
   };
@@ -101,6 +109,9 @@ test("with asictl the debugger runs `asictl dap`, and F5 debugs the open program
   const { extension, log, vscode } = loadExtension({ path: process.execPath, lib: ["blocks"] });
   await extension.activate(context);
   assert.match(log.errors[0], /language server failed to start.*no server in this test/);
+  const [started] = log.clients;
+  assert.deepEqual(started.server, { command: process.execPath, args: ["lsp", "--lib", "blocks"], transport: 0 });
+  assert.deepEqual(started.options.documentSelector.map((s) => s.scheme), ["file", "untitled"]);
   const folder = { uri: vscode.Uri.file("/w") };
   const descriptor = log.registered.factory.createDebugAdapterDescriptor({ workspaceFolder: folder });
   assert.deepEqual([descriptor.command, descriptor.args, descriptor.options.cwd],
