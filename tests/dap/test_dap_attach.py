@@ -153,3 +153,25 @@ def test_attach_without_a_live_board_says_how_to_start_one(tmp_path: Path):
         assert "asictl serve --port 300h" in message
     finally:
         client.close()
+
+
+def test_a_download_while_attached_ends_the_session(served, tmp_path: Path):
+    state, program = served
+    client = DapClient(tmp_path)
+    try:
+        client.request("initialize", {})
+        client.request("attach", {"stateDir": str(state), "program": str(program)})
+        client.wait_event("initialized")
+        client.request("configurationDone")
+        cli(state, "download", str(ROOT / "demos" / "blink.asi"), "--start")
+        client.wait_event("terminated")
+        client.request("disconnect")
+        assert client.process.wait(timeout=10) == 0
+    finally:
+        client.close()
+    watcher = open_live(state, 0x300)  # nothing holds the board any more
+    assert watcher is not None
+    try:
+        assert watcher.action("lines")["identity"]
+    finally:
+        watcher.close()

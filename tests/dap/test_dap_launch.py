@@ -267,3 +267,23 @@ def test_stop_on_entry(client: DapClient, program: Path):
     start(client, program=str(program), stopOnEntry=True, noScenario=True)
     stop = client.stopped()
     assert (stop["reason"], stop["line"]) == ("entry", 6)
+
+
+def test_an_image_is_debugged_in_the_source_it_carries(client: DapClient, tmp_path: Path):
+    from click.testing import CliRunner
+
+    from asictl.cli import main
+
+    image = tmp_path / "blink.hex"
+    result = CliRunner().invoke(main, ["compile", str(DEMOS / "blink.asi"), "-o", str(image)])
+    assert result.exit_code == 0, result.output
+    placed = start(client, {Path("blink.asi"): [{"line": 11}]}, program=str(image),
+                   noScenario=True)
+    assert placed[Path("blink.asi")][0]["verified"]
+    stop = client.stopped()
+    source = stop["frames"][0]["source"]
+    assert "path" not in source and source["name"] == "blink.asi"
+    content = client.request("source", {"source": source,
+                                        "sourceReference": source["sourceReference"]})
+    assert content["content"].splitlines()[10].strip().startswith("A   T 0")
+    assert "no such source" in client.failing("source", {"sourceReference": 99})

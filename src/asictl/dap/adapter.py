@@ -121,7 +121,7 @@ class Adapter:
             "configurationDone": self._configuration_done, "threads": self._threads,
             "stackTrace": self._stack_trace, "scopes": self._scopes,
             "variables": self._variables_of, "setVariable": self._set_variable,
-            "evaluate": self._evaluate, "pause": self._pause,
+            "evaluate": self._evaluate, "pause": self._pause, "source": self._source,
             "continue": self._resumer("continue"), "next": self._resumer("next"),
             "stepIn": self._resumer("stepIn"), "stepOut": self._resumer("stepOut"),
             STEP_CYCLE: self._resumer("stepCycle"),
@@ -192,8 +192,8 @@ class Adapter:
 
     def _set_breakpoints(self, args: dict[str, JSON]) -> JSON:
         target = self._need_target()
-        source = args.get("source") if isinstance(args.get("source"), dict) else {}
-        assert isinstance(source, dict)
+        given = args.get("source")
+        source: dict[str, JSON] = given if isinstance(given, dict) else {}
         name = PurePath(str(source.get("path") or source.get("name") or "")).name
         wanted = []
         for entry in args.get("breakpoints") or []:
@@ -203,8 +203,7 @@ class Adapter:
                                      str(entry.get("hitCondition") or "")))
         if self._no_debug:
             placed = [Placed(None, message="running without debugging") for _ in wanted]
-        elif name not in target.files and not any(n.casefold() == name.casefold()
-                                                  for n in target.files):
+        elif not any(n.casefold() == name.casefold() for n in (*target.files, *target.sources)):
             placed = [Placed(None, message=f"{name} is not part of the program debugged")
                       for _ in wanted]
         else:
@@ -301,17 +300,33 @@ class Adapter:
             if frame.line is not None:
                 entry["line"] = frame.line.line + self._line_base - 1
                 entry["column"] = self._line_base
-                source: dict[str, JSON] = {"name": frame.line.file}
-                path = target.files.get(frame.line.file)
-                if path is not None:
-                    source["path"] = str(path)
-                entry["source"] = source
+                entry["source"] = self._source_of(target, frame.line.file)
             frames.append(entry)
         start = args.get("startFrame") if isinstance(args.get("startFrame"), int) else 0
         levels = args.get("levels") if isinstance(args.get("levels"), int) else 0
         assert isinstance(start, int) and isinstance(levels, int)
         chosen = frames[start:start + levels] if levels > 0 else frames[start:]
         return {"stackFrames": chosen, "totalFrames": len(frames)}
+
+    def _source_of(self, target: Target, name: str) -> JSON:
+        """A file the editor opens by its path, or asks for (``source``) by reference."""
+        source: dict[str, JSON] = {"name": name}
+        path = target.files.get(name)
+        if path is not None:
+            source["path"] = str(path)
+        elif name in target.sources:
+            source["sourceReference"] = sorted(target.sources).index(name) + 1
+        return source
+
+    def _source(self, args: dict[str, JSON]) -> JSON:
+        target = self._need_target()
+        reference = args.get("sourceReference")
+        if not isinstance(reference, int) and isinstance(args.get("source"), dict):
+            reference = args["source"].get("sourceReference")
+        names = sorted(target.sources)
+        if not isinstance(reference, int) or not 0 < reference <= len(names):
+            raise RequestError("no such source")
+        return {"content": target.sources[names[reference - 1]], "mimeType": "text/x-asi"}
 
     def _scopes(self, args: dict[str, JSON]) -> JSON:
         target = self._stopped_target()

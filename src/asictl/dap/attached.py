@@ -50,6 +50,7 @@ class AttachedTarget:
         for name in described.get("files") or []:
             if folder is not None and (folder / name).is_file():
                 self.files[str(name)] = (folder / name).resolve()
+                self.sources.pop(str(name), None)
         names = described.get("inventory") or {}
         self.inventory = Inventory(
             tuple(names.get("io", ())), tuple(names.get("flags", ())),
@@ -79,6 +80,8 @@ class AttachedTarget:
             time.sleep(POLL_S)
 
     def _stop(self, stop: dict[str, Any]) -> Stop:
+        if stop["kind"] == "end":
+            return Stop("end", str(stop["text"]))
         if stop["kind"] == "fault":
             return Stop("exception", "program stopped", str(stop["text"]))
         if stop["breakpoint"] is not None:
@@ -91,7 +94,6 @@ class AttachedTarget:
 
     def frames(self) -> list[Frame]:
         answer = self._request("frames")
-        self._constant = int(answer["constant"])
         lines = [SourceLine(str(file), int(line)) for file, line in answer["frames"]]
         if not lines:
             return [Frame("program stopped", None)]
@@ -164,4 +166,8 @@ def attach(args: dict[str, JSON], out: Callable[[str], None]) -> AttachedTarget:
         raise
     out(f"attached to the live board {port_name(base)} (image {described['identity']}); "
         "the master stands still while the program is paused")
+    if program is not None and program.name not in (described.get("files") or []):
+        out(f"warning: the board runs no code from {program.name} (its files with code: "
+            f"{', '.join(described.get('files') or []) or 'none'}): breakpoints there stay "
+            "unverified; download the program first")
     return AttachedTarget(client, described, program, symbols)

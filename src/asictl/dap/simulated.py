@@ -20,6 +20,7 @@ from asictl.debug.inventory import Inventory
 from asictl.errors import UserError
 from asictl.observe.locate import call_chain
 from asictl.runtime.line_map import SourceLine
+from asictl.sim.engine import source_texts
 from asictl.sim.scenario import parse_duration
 from asictl.sim.session import Invalid, Prepared, prepare, scenario_for
 
@@ -39,6 +40,11 @@ class SimulatedTarget:
         build = prepared.build
         self.files = {PurePath(name).name: Path(name).resolve() for name in build.texts}
         self.files.setdefault(PurePath(prepared.program).name, Path(prepared.program).resolve())
+        #: an image's own source (a .hex or uploaded file), shown by reference
+        self.sources = {name: text for name, text in source_texts(build).items()
+                        if name not in self.files or not self.files[name].is_file()}
+        for name in self.sources:
+            self.files.pop(name, None)
         assert build.image is not None  # prepare() refuses a build without one
         self.inventory = Inventory.of(build.image, build.source_program(), prepared.symbols)
         self._interrupted = False

@@ -77,6 +77,8 @@ HOW = ("continue", "stepIn", "next", "stepOut", "stepCycle")
 class Target(Protocol):
     #: source base name (as the line map names files) -> the file
     files: dict[str, Path]
+    #: base name -> text, for the files the editor cannot open (an image's own source)
+    sources: dict[str, str]
 
     def set_breakpoints(self, file: str, wanted: list[Wanted]) -> list[Placed]: ...
 

@@ -63,6 +63,8 @@ JSON = Any
 _SP = SFRS["SP"]
 #: The actions a held board turns away.
 _WATCHING = frozenset({"lines"})
+#: Stops a host causes (a stop command, a download): no fault of the program to show.
+_HOST_STOPS = (pc2.StopReason.NOT_STARTED, pc2.StopReason.NO_PROGRAM)
 
 
 def debug_socket_path(directory: Path, base: int) -> Path:
@@ -98,6 +100,8 @@ class OnlineDebugger:
         self.paused: Pause | None = None
         #: the latest stop the client has not asked about yet
         self.reported: Pause | None = None
+        #: the session's end (the program was replaced): every later state says so
+        self.ended: Pause | None = None
         self._interrupt = False
         self._next_sp = 0xFF
         self._stopped = board.control_state is not pc2.ControlState.RUNNING
@@ -135,13 +139,20 @@ class OnlineDebugger:
             if ms is None:
                 return
             self.board.advance(ms)  # never raises: a program failure is a stop
+            if self.board.program is not self.runner:  # a download replaced the program
+                self.hooks.remove()
+                self.live.hold = None  # the loop waits below: nothing else looks at it
+                self.ended = self.reported = Pause("end", text="the board's program was "
+                                                   "replaced")
+                self._done.put("done")
+                return
             self._check_stop()
             self._done.put("done")
 
     def _check_stop(self) -> None:
         board = self.board
         stopped = board.control_state is not pc2.ControlState.RUNNING
-        if stopped and not self._stopped:
+        if stopped and not self._stopped and board.stop_reason not in _HOST_STOPS:
             line = None
             if board.stop_reason in pc2.STOPS_AT_AN_ADDRESS:
                 at = int.from_bytes(board.dpram[pc2.STOP_ADDRESS : pc2.STOP_ADDRESS + 2],
@@ -180,6 +191,8 @@ class OnlineDebugger:
     # ------------------------------------------------------------------ requests (loop)
 
     def resume(self, how: str) -> None:
+        if self.ended is not None:
+            return
         sp = self.runner.cpu.sfr[_SP]
         inside = self.line is not None and bool(call_chain(self.runner.cpu, self.line_map))
         modes = {"continue": Mode.CONTINUE, "stepIn": Mode.STEP, "next": Mode.NEXT,
@@ -281,7 +294,7 @@ class OnlineDebugger:
                 "sources": sources, "inventory": inventory.as_json()}
 
     def state(self) -> JSON:
-        stop = self.reported
+        stop = self.ended or self.reported
         answer: dict[str, JSON] = {"running": self.paused is None, "cycle": self.cycle,
                                    "master_ms": self.board.now_ms, "stop": None}
         if stop is not None:
