@@ -48,7 +48,7 @@ LAYERS: tuple[tuple[tuple[str, str], ...], ...] = (
         ("sim", "scenarios in virtual time, traces"),
     ),
     (
-        ("debug", "the IL debugger on a simulation"),
+        ("debug", "the IL debugger on a simulation, and on a live board for an editor"),
         ("monitor", "the full-screen live view (Textual)"),
         ("lsp", "the language server for editors"),
     ),
