@@ -164,7 +164,15 @@ def test_a_download_while_attached_ends_the_session(served, tmp_path: Path):
         client.wait_event("initialized")
         client.request("configurationDone")
         cli(state, "download", str(ROOT / "demos" / "blink.asi"), "--start")
-        client.wait_event("terminated")
+        # the new [SETUP] may stop the old program first (its slaves are not the cable's):
+        # that stop is shown, and going on from it ends the session
+        event = client.events.get(timeout=60)
+        while event["event"] not in ("stopped", "terminated"):
+            event = client.events.get(timeout=60)
+        if event["event"] == "stopped":
+            assert event["body"]["text"] == "AS-i configuration error"
+            client.request("continue", {"threadId": 1})
+            client.wait_event("terminated")
         client.request("disconnect")
         assert client.process.wait(timeout=10) == 0
     finally:
@@ -175,3 +183,25 @@ def test_a_download_while_attached_ends_the_session(served, tmp_path: Path):
         assert watcher.action("lines")["identity"]
     finally:
         watcher.close()
+
+
+def test_a_cycle_time_out_on_the_live_board_stops_at_its_loop(served, tmp_path: Path):
+    state, _ = served
+    loop = tmp_path / "loop.asi"
+    loop.write_text("[SETUP]\n1: iiii, 0\n[PROGRAM]\n    A   I 1.0\n    JC  = stuck\n"
+                    "    BE\nstuck:\n    A   I 1.1\n    JU  = stuck\n")
+    cli(state, "download", str(loop), "--start")
+    cli(state, "bus", "match")
+    client = DapClient(tmp_path)
+    try:
+        client.request("initialize", {})
+        client.request("attach", {"stateDir": str(state), "program": str(loop)})
+        client.wait_event("initialized")
+        client.request("configurationDone")
+        cli(state, "bus", "inputs", "I 1.0=1")  # into the endless loop
+        stop = client.stopped()
+        assert (stop["reason"], stop["line"]) == ("exception", 9)
+        assert stop["text"].startswith("loop.asi:9: program cycle time-out")
+        assert client.variables()["Inputs and outputs"]["I 1.0"] == "1"
+    finally:
+        client.close()

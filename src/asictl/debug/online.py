@@ -326,7 +326,8 @@ class OnlineDebugger:
             return {}
         if op == "state":
             return self.state()
-        if self.paused is None and op in ("frames", "values", "set"):
+        halted = self.reported is not None and self.reported.kind == "fault"
+        if self.paused is None and not halted and op in ("frames", "values", "set"):
             raise DebugError("the program is running: pause it first")
         if op == "frames":
             return {"frames": [[at.file, at.line] for at in self.frames()],
