@@ -48,10 +48,11 @@ LAYERS: tuple[tuple[tuple[str, str], ...], ...] = (
         ("sim", "scenarios in virtual time, traces"),
     ),
     (
-        ("debug", "the IL debugger on a simulation"),
+        ("debug", "the IL debugger on a simulation, and on a live board for an editor"),
         ("monitor", "the full-screen live view (Textual)"),
         ("lsp", "the language server for editors"),
     ),
+    (("dap", "the debug adapter for editors: the Debug Adapter Protocol over debug/"),),
     (
         ("pytest_plugin", "scenario files as pytest tests"),
         ("cli", "the command line: options and output only"),

@@ -226,3 +226,37 @@ def test_the_debugger_in_a_real_terminal_with_history(tmp_path: Path):
         assert "print CV 0" in history.read_text()
     finally:
         subprocess.run([tmux, "-L", socket, "kill-server"], capture_output=True)
+
+
+def test_finish_runs_out_of_a_block_and_hit_counts_skip_hits():
+    session = Session(DEMOS / "fb.asi", DEMOS / "fb.scenario.toml")
+    try:
+        assert session.do("finish") == [
+            "error: not inside a function block: finish runs out of one"]
+        session.debugger.add_breakpoint("latch.fb:8", hit_condition="3")
+        assert session.do("continue")[0].startswith("breakpoint 1, latch.fb:8 (called from "
+                                                     "fb.asi:31), master time")
+        assert session.debugger.cycle == 3  # the third hit: the third cycle
+        assert session.do("finish")[0].startswith("fb.asi:33,")
+    finally:
+        session.debugger.close()
+
+
+def test_the_debugger_stops_where_the_program_stops(tmp_path: Path):
+    program = tmp_path / "loop.asi"
+    program.write_text("[SETUP]\n1: iiii, 0\n[PROGRAM]\n    A   I 1.0\n    JC  = stuck\n"
+                       "    BE\nstuck:\n    A   I 1.1\n    JU  = stuck\n")
+    lines: list[str] = []
+    debugger = Debugger(prepare(program, None, sets=["I 1.0=1"], duration_ms=50.0),
+                        lines.append)
+    try:
+        debugger.execute("continue")
+        assert lines[-3].startswith("at 0 ms: program stopped: loop.asi:9: program cycle "
+                                    "time-out")
+        assert lines[-2].startswith("loop.asi:9, master time ")  # paused at the loop
+        assert lines[-1] == "     9 | JU  = stuck"
+        assert debugger.pause is not None and debugger.pause.kind == "fault"
+        debugger.execute("continue")
+        assert lines[-1].startswith("end of the simulation at 50 ms")
+    finally:
+        debugger.close()

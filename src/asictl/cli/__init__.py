@@ -29,6 +29,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     ),
     "fmt": ("asictl.cli.fmt:fmt", "Lay out IL source files canonically (--check for CI)."),
     "lsp": ("asictl.cli.lsp:lsp", "Run the IL language server for editors (stdio)."),
+    "dap": ("asictl.cli.dap:dap", "Run the IL debug adapter for editors (DAP on stdio)."),
     "asm": ("asictl.cli.asm:asm", "Assemble 8051 source into Intel HEX."),
     "disasm": ("asictl.cli.asm:disasm", "Disassemble an Intel HEX image into 8051 source."),
     "emu": ("asictl.cli.emu:emu", "Run an Intel HEX image on the 8051 emulator."),

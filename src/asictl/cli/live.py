@@ -48,26 +48,30 @@ def serve(port: str, state_dir: str | None, wait: bool) -> None:
     other asictl command for this port (download, status, bus, monitor, ...) reaches the
     running board through a socket in the state directory (owner-only) instead of its
     state file. The board's non-volatile state is saved every 10 s and at the end.
-    'asictl gateway serve' is the same live board with Modbus in front.
+    'asictl gateway serve' is the same live board with Modbus in front. A debugger
+    attaches to the running program through a second socket ('asictl dap', attach).
 
     Exit status: 0 stopped by a signal, 1 the board is already served or held by another
     process (it is named; --wait waits for it), 2 bad usage.
     """
+    from asictl.debug.online import debug_socket_path, debugging
     from asictl.host.live.server import run_live
     from asictl.host.search import resolve_port
 
     def notify(text: str) -> None:
         click.echo(f"asictl: {text}", err=True)
 
-    base = resolve_port(port, "emulated", state_directory(state_dir), notify)
+    directory = state_directory(state_dir)
+    base = resolve_port(port, "emulated", directory, notify)
     name = port_name(base)
 
     def started(path: object) -> None:
         click.echo(f"asictl: board {name} live at {path} (Ctrl-C stops)", err=True)
 
     run_live(
-        base, state_directory(state_dir), identity={"command": "asictl serve", "port": name},
+        base, directory, identity={"command": "asictl serve", "port": name},
         started=started, wait=wait, notify=notify,
+        attach=debugging(debug_socket_path(directory, base)),
     )
     click.echo(f"asictl: board {name} stopped; its state is saved", err=True)
 

@@ -22,9 +22,11 @@ from pathlib import PurePath
 from asictl.il import ast
 from asictl.mcs51.isa import SFRS
 from asictl.observe.hooks import LineHooks
-from asictl.observe.locate import describe
+from asictl.observe.locate import call_chain, current_line, describe
 from asictl.observe.operands import CounterValue, Operand, TimerValue, parse_operand
-from asictl.runtime.line_map import SourceLine
+from asictl.observe.view import ProgramView
+from asictl.platform.pc2 import STOP_ADDRESS, STOPS_AT_AN_ADDRESS
+from asictl.runtime.line_map import LineMap, SourceLine
 from asictl.sim.engine import Simulation, source_texts, variables_of
 from asictl.sim.scenario import parse_duration
 from asictl.sim.session import Prepared
@@ -38,6 +40,9 @@ _COMPARE: dict[str, Callable[[int, int], bool]] = {
     ">=": lambda a, b: a >= b,
 }
 _CONDITION = re.compile(r"^(.+?)\s*(==|!=|<=|>=|=|<|>)\s*(\w+)\s*$")
+#: A hit count condition as editors write them: ``3`` (from the third hit on, as ``>= 3``),
+#: ``= 3`` (the third only), ``> 3``, ``< 3``, ``<= 3``, ``% 3`` (every third).
+_HIT_CONDITION = re.compile(r"^\s*(==|=|>=|<=|>|<|%)?\s*(\d+)\s*$")
 _REGISTERS = ("RLO", "ACCU1", "ACCU2")
 
 HELP = """\
@@ -46,6 +51,7 @@ delete [N]                  remove breakpoint N (all without N)
 breaks                      list the breakpoints
 step                        run one IL line, into function blocks (s)
 next                        run one IL line, over function block calls (n)
+finish                      run out of the function block to its caller's next line
 continue                    run to a breakpoint or the end (c)
 cycle                       run to the start of the next program cycle
 time DURATION               let master time pass (e.g. time 100ms, time 2s)
@@ -60,6 +66,7 @@ class Mode(Enum):
     CONTINUE = "continue"
     STEP = "step"
     NEXT = "next"
+    OUT = "finish"
     CYCLE = "cycle"
     TIME = "time"
 
@@ -70,6 +77,18 @@ class Breakpoint:
     line: SourceLine
     condition: str = ""
     hits: int = 0
+    #: stop only at the hits this allows (``_HIT_CONDITION``); every hit when empty
+    hit_condition: str = ""
+
+    def due(self) -> bool:
+        """Whether the hit just counted stops the program."""
+        match = _HIT_CONDITION.match(self.hit_condition)
+        if not self.hit_condition or match is None:
+            return True
+        op, number = match[1] or ">=", int(match[2])
+        if op == "%":
+            return number > 0 and self.hits % number == 0
+        return _COMPARE[op](self.hits, number)
 
 
 class _Quit(Exception):
@@ -77,10 +96,11 @@ class _Quit(Exception):
 
 
 @dataclass
-class _Pause:
-    """Why the worker stopped: at a line, at a cycle start, at a time, or at the end."""
+class Pause:
+    """Why the worker stopped: at a line, at a cycle start, at a time, where the program
+    stopped (a cycle time-out, a fault), or at the end."""
 
-    kind: str  # line, cycle, time, end, error
+    kind: str  # line, cycle, time, fault, end, error
     line: SourceLine | None = None
     breakpoint: Breakpoint | None = None
     text: str = ""
@@ -88,6 +108,88 @@ class _Pause:
 
 class DebugError(ValueError):
     """A command the debugger cannot do, in words for the user."""
+
+
+@dataclass
+class Values:
+    """Registers and operands as the program sees them now, through ``view``: what
+    ``print`` shows and breakpoint conditions compare, on a simulation or a live board."""
+
+    view: Callable[[], ProgramView]
+    #: an operand's text (or symbol) to the operand; raises DebugError
+    operand: Callable[[str], Operand]
+
+    def value(self, text: str) -> int:
+        view = self.view()
+        upper = text.strip().upper()
+        if upper in _REGISTERS:
+            return int(getattr(view, upper.lower()))
+        return view.read(self.operand(text))
+
+    def show(self, text: str) -> str:
+        """A value as people read it: bytes also in hex, timers and counters with their
+        remaining time and count."""
+        view = self.view()
+        upper = text.strip().upper()
+        if upper == "RLO":
+            return str(view.rlo)
+        if upper in ("ACCU1", "ACCU2"):
+            word = self.value(upper)
+            return f"{word} ({word:04X}h)"
+        operand = self.operand(text)
+        value = view.read(operand)
+        node = operand.node
+        if isinstance(node, ast.TimerRef):
+            return f"{value} (remaining {view.timer_ms(node.number) or 0} ms)"
+        if isinstance(node, ast.CounterRef):
+            return f"{value} (value {view.counter(node.number) or 0})"
+        if operand.is_bit or isinstance(node, CounterValue | TimerValue):
+            return str(value)
+        return f"{value} ({value:02X}h)"
+
+    def holds(self, text: str) -> bool:
+        """A breakpoint condition, ``OPERAND op VALUE``."""
+        match = _CONDITION.match(text)
+        if not match:
+            raise DebugError(f"condition '{text}': OPERAND=VALUE, e.g. RLO=1 or CV 0>=3")
+        left, op, right = match.groups()
+        try:
+            number = int(right, 0)
+        except ValueError:
+            raise DebugError(f"condition '{text}': '{right}' is not a number") from None
+        return _COMPARE[op](self.value(left), number)
+
+
+def line_with_code(line_map: LineMap, file: str, wanted: int) -> SourceLine:
+    """Line ``wanted`` of ``file``, or for a line without code (a label, a comment) the
+    next one with code."""
+    lines = [line for line in line_map.lines() if line.file.casefold() == file.casefold()]
+    if not lines:
+        known = ", ".join(line_map.files) or "none"
+        raise DebugError(f"no code from '{file}' (files with code: {known})")
+    later = [line for line in lines if line.line >= wanted]
+    if not later:
+        raise DebugError(f"{file} has no code at or after line {wanted}")
+    return later[0]
+
+
+def checked_hit_condition(text: str) -> str:
+    """A hit count condition as ``Breakpoint.due`` reads it (refused here, not at a hit)."""
+    if text and not _HIT_CONDITION.match(text):
+        raise DebugError(f"hit count '{text}': a number of hits such as 3, = 3, > 3 or % 3")
+    return text
+
+
+def due_breakpoint(
+    breakpoints: list[Breakpoint], line: SourceLine, holds: Callable[[str], bool]
+) -> Breakpoint | None:
+    """The breakpoint that stops the program at ``line`` now, counting its hits."""
+    for point in breakpoints:
+        if point.line == line and (not point.condition or holds(point.condition)):
+            point.hits += 1
+            if point.due():
+                return point
+    return None
 
 
 class Debugger:
@@ -100,6 +202,7 @@ class Debugger:
                               symbols=prepared.symbols)
         self.symbols = prepared.symbols
         self.line_map = self.sim.line_map
+        self.values = Values(self.sim.view, self._operand)
         self.texts = {name: text.split("\n") for name, text in
                       source_texts(prepared.build).items()}
         self.main_file = PurePath(prepared.program).name
@@ -121,9 +224,12 @@ class Debugger:
         self._next_sp = 0
         self._interrupt = False
         self._commands: queue.Queue[tuple[Mode, float] | None] = queue.Queue()
-        self._pauses: queue.Queue[_Pause] = queue.Queue()
+        self._pauses: queue.Queue[Pause] = queue.Queue()
         self._worker: threading.Thread | None = None
         self._reported = (0, 0)
+        #: the latest stop (None before the program first ran)
+        self.pause: Pause | None = None
+        self._stops_seen = 0
         #: a command was refused (for --batch's exit status)
         self.failed = False
         self.out(f"{self.main_file}: loaded at master time 0, before the first cycle; "
@@ -146,6 +252,7 @@ class Debugger:
                 "b": self._break, "break": self._break, "delete": self._delete,
                 "d": self._delete, "breaks": self._list_breaks, "info": self._list_breaks,
                 "s": self._step, "step": self._step, "n": self._next, "next": self._next,
+                "finish": self._finish,
                 "c": self._continue, "continue": self._continue, "cycle": self._cycle,
                 "time": self._time, "p": self._print, "print": self._print,
                 "set": self._set, "w": self._where, "where": self._where,
@@ -166,30 +273,32 @@ class Debugger:
         where, _, condition = rest.partition(" if ")
         if not where.strip():
             raise DebugError("break LINE or break FILE:LINE [if OPERAND=VALUE]")
-        line = self._resolve_line(where.strip())
-        if condition:
-            self._condition(condition.strip())  # check it now, not at the first hit
-        point = Breakpoint(self._next_number, line, condition.strip())
-        self._next_number += 1
-        self.breakpoints.append(point)
+        point = self.add_breakpoint(where.strip(), condition.strip())
+        line = point.line
         self.out(f"breakpoint {point.number} at {line}"
                  + (f" if {point.condition}" if point.condition else "")
                  + f": {self._source(line)}")
+
+    def add_breakpoint(
+        self, where: str, condition: str = "", hit_condition: str = ""
+    ) -> Breakpoint:
+        """A breakpoint at ``12`` or ``latch.fb:12`` (a line without code: the next one
+        with code); the condition and hit condition are checked now, not at the first hit."""
+        line = self._resolve_line(where)
+        if condition:
+            self._condition(condition)
+        point = Breakpoint(self._next_number, line, condition,
+                           hit_condition=checked_hit_condition(hit_condition))
+        self._next_number += 1
+        self.breakpoints.append(point)
+        return point
 
     def _resolve_line(self, text: str) -> SourceLine:
         file, _, number = text.rpartition(":")
         file = PurePath(file).name if file else self.main_file
         if not number.isdigit():
             raise DebugError(f"'{text}' is not a line: 12 or {self.main_file}:12")
-        wanted = int(number)
-        lines = [line for line in self.line_map.lines() if line.file.casefold() == file.casefold()]
-        if not lines:
-            known = ", ".join(self.line_map.files) or "none"
-            raise DebugError(f"no code from '{file}' (files with code: {known})")
-        later = [line for line in lines if line.line >= wanted]
-        if not later:
-            raise DebugError(f"{file} has no code at or after line {wanted}")
-        return later[0]  # a line without code (label, comment): the next one with code
+        return line_with_code(self.line_map, file, int(number))
 
     def _delete(self, rest: str) -> None:
         if not rest:
@@ -215,6 +324,12 @@ class Debugger:
         self._next_sp = self.runner.cpu.sfr[_SP] if self.line is not None else 0xFF
         self._resume(Mode.NEXT)
 
+    def _finish(self, _: str) -> None:
+        if self.line is None or not call_chain(self.runner.cpu, self.line_map):
+            raise DebugError("not inside a function block: finish runs out of one")
+        self._next_sp = self.runner.cpu.sfr[_SP] - 2  # the caller's level: one return less
+        self._resume(Mode.OUT)
+
     def _continue(self, _: str) -> None:
         self._resume(Mode.CONTINUE)
 
@@ -233,7 +348,7 @@ class Debugger:
         if not rest:
             raise DebugError("print what? e.g. print I 1.0, FY 10, C 0, RLO")
         for item in (part.strip() for part in rest.split(",")):
-            self.out(f"{item} = {self._show(item)}")
+            self.out(f"{item} = {self.show(item)}")
 
     def _set(self, rest: str) -> None:
         name, equals, value = rest.rpartition("=")
@@ -279,43 +394,14 @@ class Debugger:
 
     def value(self, text: str) -> int:
         """A register (RLO, ACCU1, ACCU2) or an operand, as the program sees it now."""
-        view = self.sim.view()
-        upper = text.strip().upper()
-        if upper in _REGISTERS:
-            return int(getattr(view, upper.lower()))
-        return view.read(self._operand(text))
+        return self.values.value(text)
 
-    def _show(self, text: str) -> str:
-        """A value as people read it: bytes also in hex, timers and counters with their
-        remaining time and count."""
-        view = self.sim.view()
-        upper = text.strip().upper()
-        if upper == "RLO":
-            return str(view.rlo)
-        if upper in ("ACCU1", "ACCU2"):
-            word = self.value(upper)
-            return f"{word} ({word:04X}h)"
-        operand = self._operand(text)
-        value = view.read(operand)
-        node = operand.node
-        if isinstance(node, ast.TimerRef):
-            return f"{value} (remaining {view.timer_ms(node.number) or 0} ms)"
-        if isinstance(node, ast.CounterRef):
-            return f"{value} (value {view.counter(node.number) or 0})"
-        if operand.is_bit or isinstance(node, CounterValue | TimerValue):
-            return str(value)
-        return f"{value} ({value:02X}h)"
+    def show(self, text: str) -> str:
+        """A value as ``print`` shows it."""
+        return self.values.show(text)
 
     def _condition(self, text: str) -> bool:
-        match = _CONDITION.match(text)
-        if not match:
-            raise DebugError(f"condition '{text}': OPERAND=VALUE, e.g. RLO=1 or CV 0>=3")
-        left, op, right = match.groups()
-        try:
-            number = int(right, 0)
-        except ValueError:
-            raise DebugError(f"condition '{text}': '{right}' is not a number") from None
-        return _COMPARE[op](self.value(left), number)
+        return self.values.holds(text)
 
     # ------------------------------------------------------------------ running
 
@@ -341,6 +427,7 @@ class Debugger:
                 self._interrupt = True
                 continue
             break
+        self.pause = pause
         self._report_events()
         self._report(pause)
 
@@ -362,20 +449,38 @@ class Debugger:
                     # in slices, so that a pause may set a nearer target (time 5ms)
                     slice_end = (sim.now_ms() // _SLICE_MS + 1) * _SLICE_MS
                     sim.run_to(min(self._target, slice_end))
+                    self._pause_at_stop()
                 if sim.now_ms() >= sim.end_ms:
                     self.ended = True
                     self.line = None
-                    self._pauses.put(_Pause("end"))
+                    self._pauses.put(Pause("end"))
                     return
                 self.line = None
-                self._pause(_Pause("time"))
+                self._pause(Pause("time"))
         except _Quit:
             return
         except Exception as exc:
             self.ended = True
-            self._pauses.put(_Pause("error", text=f"{type(exc).__name__}: {exc}"))
+            self._pauses.put(Pause("error", text=f"{type(exc).__name__}: {exc}"))
 
-    def _pause(self, pause: _Pause) -> None:
+    def _pause_at_stop(self) -> None:
+        """In the worker: the program stopped (a cycle time-out, a fault) since the last
+        look: pause there, at the line it names."""
+        stops = self.sim.result.stops
+        if len(stops) == self._stops_seen:
+            return
+        self._stops_seen = len(stops)
+        stop = stops[-1]
+        board = self.sim.board
+        line = None
+        if board.stop_reason in STOPS_AT_AN_ADDRESS:
+            stop_at = board.dpram[STOP_ADDRESS : STOP_ADDRESS + 2]
+            line = self.line_map.line_at(int.from_bytes(stop_at, "little")) or current_line(
+                self.runner.cpu, self.line_map)
+        self.line = line
+        self._pause(Pause("fault", line, text=stop.text))
+
+    def _pause(self, pause: Pause) -> None:
         """In the worker: report, then wait for the next command."""
         self._interrupt = False
         self._pauses.put(pause)
@@ -389,24 +494,19 @@ class Debugger:
         self.cycle += 1
         self.line = None
         if self._mode is Mode.CYCLE or self._interrupt:
-            self._pause(_Pause("cycle"))
+            self._pause(Pause("cycle"))
 
     def _on_line(self, line: SourceLine, address: int) -> None:
         self.line = line
-        hit = None
-        for point in self.breakpoints:
-            if point.line == line and (not point.condition or self._condition(point.condition)):
-                point.hits += 1
-                hit = point
-                break
+        hit = due_breakpoint(self.breakpoints, line, self._condition)
         mode = self._mode
         if (
             hit is not None
             or self._interrupt
             or mode is Mode.STEP
-            or (mode is Mode.NEXT and self.runner.cpu.sfr[_SP] <= self._next_sp)
+            or (mode in (Mode.NEXT, Mode.OUT) and self.runner.cpu.sfr[_SP] <= self._next_sp)
         ):
-            self._pause(_Pause("line", line, hit))
+            self._pause(Pause("line", line, hit))
 
     def close(self) -> None:
         """End the session; a paused worker unwinds."""
@@ -430,7 +530,7 @@ class Debugger:
         where = describe(self.line, self.runner.cpu, self.line_map)
         return f"{where}, master time {time}, cycle {self.cycle}"
 
-    def _report(self, pause: _Pause) -> None:
+    def _report(self, pause: Pause) -> None:
         if pause.kind == "error":
             self.out(f"error: the simulation failed: {pause.text}")
         elif pause.kind == "end":
@@ -439,6 +539,10 @@ class Debugger:
                      f"{len(self.sim.result.failures)} failed)")
         elif pause.kind == "time":
             self.out(f"master time {self.now():g} ms (cycle {self.cycle})")
+        elif pause.kind == "fault":
+            if pause.line is not None:
+                self.out(f"{self._position()}")
+                self.out(f"{pause.line.line:6} | {self._source(pause.line)}")
         elif pause.kind == "cycle":
             self.out(f"cycle {self.cycle} starts at {self.now():g} ms")
         else:

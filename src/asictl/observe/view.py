@@ -50,6 +50,12 @@ class ProgramView:
         iram = self.runner.cpu.iram
         return iram[layout.ACCU2_HI] << 8 | iram[layout.ACCU2_LO]
 
+    @property
+    def constant(self) -> int:
+        """The constant register: the last ``L KT``, ``L KC`` or ``L KP``."""
+        iram = self.runner.cpu.iram
+        return iram[layout.KREG_HI] << 8 | iram[layout.KREG_LO]
+
     def word(self, address: int) -> int:
         xdata = self.runner.cpu.xdata
         return xdata.read(address) | xdata.read(address + 1) << 8

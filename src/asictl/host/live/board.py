@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Awaitable, Callable
+from typing import Protocol
 
 from asictl.board.board import Pc2Board
 from asictl.host.live.protocol import JSON
@@ -13,6 +14,16 @@ from asictl.platform.pc2 import ACK, COMMAND, COMMAND_TIMEOUT_MS, NAK
 MAX_CATCH_UP_MS = 1000.0
 #: Master time a command may take before the request returns without its acknowledge.
 COMMAND_STEP_MS = 0.25
+
+
+class Hold(Protocol):
+    """What holds a live board (the debugger of ``asictl dap``'s attach): it lets master
+    time pass in its own way (standing still while the program is paused), and turns
+    away the emulated-only actions that would run or watch the program behind its back."""
+
+    def advance(self, ms: float) -> None: ...
+
+    def refusal(self, action: str) -> str | None: ...
 
 
 class LiveBoard:
@@ -26,6 +37,20 @@ class LiveBoard:
         #: actions a server attached to this board adds or replaces (the gateway's panel),
         #: run on the loop instead of ``host.emulated``'s
         self.actions: dict[str, Callable[[dict[str, JSON]], Awaitable[JSON]]] = {}
+        #: the debugger holding the board, if one does
+        self.hold: Hold | None = None
+
+    def advance(self, ms: float) -> None:
+        """Let ``ms`` of master time pass, through the hold if there is one."""
+        if self.hold is not None:
+            self.hold.advance(ms)
+        else:
+            self.board.advance(ms)
+
+    def rebase(self) -> None:
+        """Master time goes on from here: a board that stood still (held at a breakpoint)
+        does not catch up with the pause."""
+        self._wall, self._master = self._clock(), self.board.now_ms
 
     def sync(self) -> None:
         """Let master time catch up with the wall clock; a board that ran ahead (a command
@@ -36,11 +61,11 @@ class LiveBoard:
             self._wall, self._master = self._clock(), self.board.now_ms + MAX_CATCH_UP_MS
             lag = MAX_CATCH_UP_MS
         if lag > 0:
-            self.board.advance(lag)
+            self.advance(lag)
 
     def run_command(self) -> None:
         """Run the board until the command just written is acknowledged (or times out)."""
         board, waited = self.board, 0.0
         while board.dpram_byte(COMMAND) not in (ACK, NAK) and waited < COMMAND_TIMEOUT_MS:
-            board.advance(COMMAND_STEP_MS)
+            self.advance(COMMAND_STEP_MS)
             waited += COMMAND_STEP_MS

@@ -19,6 +19,7 @@ request.
 
 from __future__ import annotations
 
+import asyncio
 import json
 import struct
 from pathlib import Path
@@ -52,3 +53,15 @@ class ProtocolError(UserError):
     """The other end broke the protocol or went away."""
 
     exit_code = ExitCode.FAILED
+
+
+async def read_message(reader: asyncio.StreamReader) -> JSON | None:
+    """The next message of a client; None when it went away or broke the framing (a
+    message over ``MAX_MESSAGE``, bytes that are not JSON): the connection ends."""
+    try:
+        (length,) = LENGTH.unpack(await reader.readexactly(LENGTH.size))
+        if length > MAX_MESSAGE:
+            return None
+        return decode(await reader.readexactly(length))
+    except (asyncio.IncompleteReadError, ConnectionError, ValueError):
+        return None

@@ -11,6 +11,7 @@ from __future__ import annotations
 from collections.abc import Awaitable
 from dataclasses import dataclass
 
+from asictl.errors import ExitCode, UserError
 from asictl.host.emulated import run_action
 from asictl.host.live.board import LiveBoard
 from asictl.host.live.protocol import JSON, MAX_MESSAGE, ProtocolError
@@ -88,8 +89,12 @@ def attached_action(live: LiveBoard, request: dict[str, JSON]) -> Awaitable[JSON
 
 
 def action(live: LiveBoard, request: dict[str, JSON]) -> JSON:
-    """One of ``host.emulated``'s actions, as the request names it."""
+    """One of ``host.emulated``'s actions, as the request names it (unless a debugger
+    holding the board refuses it)."""
     name, args = request.get("name"), request.get("args") or {}
     if not isinstance(name, str) or not isinstance(args, dict):
         raise ProtocolError("an action needs a name and arguments")
+    refusal = live.hold.refusal(name) if live.hold is not None else None
+    if refusal is not None:
+        raise UserError(refusal, ExitCode.FAILED)
     return run_action(live.board, name, args)

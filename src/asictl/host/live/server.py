@@ -25,11 +25,9 @@ from asictl.host.live.board import LiveBoard
 from asictl.host.live.client import refuse_if_served
 from asictl.host.live.protocol import (
     JSON,
-    LENGTH,
-    MAX_MESSAGE,
     ProtocolError,
-    decode,
     encode,
+    read_message,
     socket_path,
 )
 from asictl.host.live.saver import SAVE_INTERVAL_S, state_saver
@@ -111,12 +109,8 @@ class LiveServer:
         self.connections += 1
         try:
             while True:
-                try:
-                    (length,) = LENGTH.unpack(await reader.readexactly(LENGTH.size))
-                    if length > MAX_MESSAGE:
-                        break
-                    request = decode(await reader.readexactly(length))
-                except (asyncio.IncompleteReadError, ConnectionError, ValueError):
+                request = await read_message(reader)
+                if request is None:
                     break
                 try:
                     answer = await self._handle(conn, request)

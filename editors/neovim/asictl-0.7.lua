@@ -1,0 +1,1 @@
+vim.cmd("autocmd BufRead,BufNewFile *.asi,*.fb setfiletype asi") vim.api.nvim_create_autocmd("FileType", { pattern = "asi", callback = function(args) _G.asictl_lsp = _G.asictl_lsp or vim.lsp.start_client({ name = "asictl", cmd = { "asictl", "lsp" }, root_dir = vim.fn.getcwd() }) vim.lsp.buf_attach_client(args.buf, _G.asictl_lsp) end })

@@ -1,0 +1,29 @@
+"""``asictl dap``: the debug adapter, speaking the Debug Adapter Protocol on stdin/stdout."""
+
+from __future__ import annotations
+
+import sys
+
+import click
+
+from asictl.cli.options import lib_option
+
+
+@click.command()
+@lib_option
+def dap(lib: tuple[str, ...]) -> None:
+    """Run the debug adapter on stdin/stdout (editors start it; see docs/editors.md).
+
+    'launch' debugs a program on an emulated master in virtual time (with its scenario,
+    or none, and --set-style inputs); 'attach' debugs the program of a live emulated
+    board ('asictl serve'). Breakpoints on IL lines with conditions (RLO == 1, FY 10 > 3)
+    and hit counts, step over, into and out of function blocks, a step of one program
+    cycle, the registers, inputs, outputs, flags, timers, counters and symbols.
+
+    Example, in a VS Code launch configuration or nvim-dap's adapter:
+
+        "type": "asictl", "request": "launch", "program": "${file}"
+    """
+    from asictl.dap.main import run
+
+    run(sys.stdin.buffer, sys.stdout.buffer, lib)
