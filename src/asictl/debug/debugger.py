@@ -23,7 +23,7 @@ from asictl.il import ast
 from asictl.mcs51.isa import SFRS
 from asictl.observe.hooks import LineHooks
 from asictl.observe.locate import describe
-from asictl.observe.operands import CounterValue, Operand, TimerValue, parse_operand
+from asictl.observe.operands import Operand, parse_operand
 from asictl.runtime.line_map import SourceLine
 from asictl.sim.engine import Simulation, source_texts, variables_of
 from asictl.sim.scenario import parse_duration
@@ -298,11 +298,11 @@ class Debugger:
         operand = self._operand(text)
         value = view.read(operand)
         node = operand.node
-        if isinstance(node, ast.TimerRef):
-            return f"{value} (remaining {view.timer_ms(node.number) or 0} ms)"
-        if isinstance(node, ast.CounterRef):
-            return f"{value} (value {view.counter(node.number) or 0})"
-        if operand.is_bit or isinstance(node, CounterValue | TimerValue):
+        if operand.is_bit and node.kind is ast.OperandKind.T:
+            return f"{value} (remaining {view.timer_ms(node.address) or 0} ms)"
+        if operand.is_bit and node.kind is ast.OperandKind.C:
+            return f"{value} (value {view.counter(node.address) or 0})"
+        if node.width is not ast.Width.BYTE:  # a bit, CV n, TV n
             return str(value)
         return f"{value} ({value:02X}h)"
 

@@ -12,6 +12,7 @@ import functools
 import re
 from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import assert_never
 
 from asictl.il import ast
 from asictl.il.ast import key
@@ -20,76 +21,55 @@ from asictl.il.parser import parse_text
 from asictl.observe.symbols import SymbolTable
 from asictl.platform.master import TICK_MS
 
-
-@dataclass(frozen=True)
-class CounterValue:
-    """``CV n``: counter n's value, 0..4095."""
-
-    number: int
-
-    def __str__(self) -> str:
-        return f"CV {self.number}"
-
-
-@dataclass(frozen=True)
-class TimerValue:
-    """``TV n``: timer n's remaining time in milliseconds (10 ms steps)."""
-
-    number: int
-
-    def __str__(self) -> str:
-        return f"TV {self.number}"
-
-
-BitNode = ast.ImageBit | ast.TimerRef | ast.CounterRef | ast.VarBit
-ByteNode = ast.ImageByte | ast.VarByte
-ValueNode = CounterValue | TimerValue
 _VALUE = re.compile(r"^\s*(CV|TV)\s*(\d{1,6})\s*$", re.IGNORECASE)
 #: The largest remaining time a timer can hold, in milliseconds.
 TIMER_MAX_MS = TC_MAX_VALUE * TICK_MS
+K = ast.OperandKind
 
 
 @dataclass(frozen=True)
 class Operand:
-    node: BitNode | ByteNode | ValueNode
+    """An operand as a scenario, a trace or the debugger names it: an IL operand, a bit or
+    a byte, or one of the simulator's own two, ``CV n`` and ``TV n``, which are counter n
+    and timer n as words (``L C n``, ``L T n``): the count, and the remaining time, here
+    in milliseconds."""
+
+    node: ast.Operand
+
+    @classmethod
+    def value_of(cls, kind: ast.OperandKind, number: int) -> Operand:
+        """``CV n`` (kind C) or ``TV n`` (kind T)."""
+        return cls(ast.Operand(kind, number, -1, ast.Width.WORD))
 
     @property
     def is_bit(self) -> bool:
-        return not isinstance(self.node, ast.ImageByte | ast.VarByte | CounterValue | TimerValue)
+        return self.node.width is ast.Width.BIT
 
     @property
     def width(self) -> int:
         """Bits a trace needs for it: 1, 8, 12 (a count) or 16 (milliseconds)."""
-        match self.node:
-            case CounterValue():
-                return 12
-            case TimerValue():
-                return 16
-            case ast.ImageByte() | ast.VarByte():
-                return 8
-        return 1
+        node = self.node
+        if node.width is ast.Width.WORD:
+            return 12 if node.kind is K.C else 16
+        return int(node.width)
 
     @property
     def maximum(self) -> int:
-        match self.node:
-            case CounterValue():
-                return TC_MAX_VALUE
-            case TimerValue():
-                return TIMER_MAX_MS
-        return 1 if self.is_bit else 255
+        node = self.node
+        if node.width is ast.Width.WORD:
+            return TC_MAX_VALUE if node.kind is K.C else TIMER_MAX_MS
+        return 1 if node.width is ast.Width.BIT else 255
 
     @property
     def settable(self) -> bool:
         """A scenario writes inputs (as slaves deliver them) and flags (as a host does)."""
-        match self.node:
-            case ast.ImageBit(area=area):
-                return area in (ast.BitArea.I, ast.BitArea.F)
-            case ast.ImageByte(area=area):
-                return area in (ast.ByteArea.IB, ast.ByteArea.FY)
-        return False
+        return self.node.kind in (K.I, K.F, K.IB, K.FY)
 
     def __str__(self) -> str:
-        return str(self.node)
+        node = self.node
+        if node.width is ast.Width.WORD and node.kind in (K.T, K.C):
+            return f"{node.kind.value}V {node.address}"
+        return str(node)
 
 
 @functools.lru_cache(maxsize=4096)
@@ -120,16 +100,13 @@ def parse_operand(
         number = int(value[2])
         if number > 1023:
             raise ValueError(f"'{text}': number 0..1023")
-        kind = CounterValue if value[1].upper() == "CV" else TimerValue
-        return Operand(kind(number))
+        return Operand.value_of(K.C if value[1].upper() == "CV" else K.T, number)
     statement = _statement(f"A {text}")
-    node: BitNode | ByteNode | None = (
-        statement.operand if isinstance(statement, ast.Logic) else None
-    )
+    node = statement.operand if isinstance(statement, ast.Logic) else None
     if node is None:
         statement = _statement(f"L {text}")
         loaded = statement.operand if isinstance(statement, ast.Load) else None
-        if isinstance(loaded, ast.ImageByte | ast.VarByte):
+        if loaded is not None and loaded.width is ast.Width.BYTE:
             node = loaded
     if node is None:
         raise ValueError(
@@ -141,26 +118,32 @@ def parse_operand(
     return Operand(node)
 
 
-def _check_range(node: BitNode | ByteNode, text: str, variables: Mapping[str, int]) -> None:
+def _check_range(node: ast.Operand, text: str, variables: Mapping[str, int]) -> None:
     def need(ok: bool, what: str) -> None:
         if not ok:
             raise ValueError(f"'{text}': {what}")
 
-    match node:
-        case ast.ImageBit(area=ast.BitArea.F, address=a, bit=b):
+    a, b = node.address, node.bit
+    match node.kind:
+        case K.F:
             need(a <= 127 and b <= 7, "flag byte 0..127, bit 0..7")
-        case ast.ImageBit(address=a, bit=b):
+        case K.I | K.I2 | K.Q:
             need(a <= 31 and b <= 3, "slave 0..31, data bit 0..3")
-        case ast.TimerRef(number=n) | ast.CounterRef(number=n):
-            need(n <= 1023, "number 0..1023")
-        case ast.ImageByte(area=ast.ByteArea.FY, number=n):
-            need(n <= 127, "flag byte 0..127")
-        case ast.ImageByte(area=ast.ByteArea.PSEG, number=n):
-            need(n <= 15, "PSeg byte 0..15")
-        case ast.ImageByte(number=n):
-            need(n <= 30 and n % 2 == 0, "an even slave address 0..30")
-        case ast.VarBit(name=name, offset=offset) | ast.VarByte(name=name, offset=offset):
-            size = variables.get(key(name))
+        case K.T | K.C:
+            need(a <= 1023, "number 0..1023")
+        case K.FY:
+            need(a <= 127, "flag byte 0..127")
+        case K.PSEG:
+            need(a <= 15, "PSeg byte 0..15")
+        case K.IB | K.I2B | K.QB:
+            need(a <= 30 and a % 2 == 0, "an even slave address 0..30")
+        case K.VAR:
+            size = variables.get(key(node.name))
             if size is None:
-                raise ValueError(f"'{text}': '{name}' is not a variable declared by the program")
-            need(offset < size, f"'{name}' has {size} bytes")
+                raise ValueError(
+                    f"'{text}': '{node.name}' is not a variable declared by the program")
+            need(a < size, f"'{node.name}' has {size} bytes")
+        case K.FW | K.KT | K.KC | K.KB | K.KW | K.KP:
+            raise AssertionError(f"{node} is read neither as a bit nor as a byte")
+        case _:
+            assert_never(node.kind)

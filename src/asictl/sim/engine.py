@@ -21,6 +21,7 @@ import functools
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import PurePath
+from typing import assert_never
 
 from asictl.board.asi import AsiBus, Slave
 from asictl.board.board import Pc2Board
@@ -249,21 +250,21 @@ class Simulation:
             line: int = 1) -> None:
         """Set an input (as the slave delivers it) or a flag (as a host writes it)."""
         node = operand.node
-        match node:
-            case ast.ImageBit(area=ast.BitArea.I, address=a, bit=b):
-                slave = self._need_slave(a, step, line, str(operand))
-                slave.inputs = slave.inputs & ~(1 << b) | value << b
-            case ast.ImageByte(area=ast.ByteArea.IB, number=n):
-                for address, nibble in ((n, value & 0xF), (n + 1, value >> 4)):
-                    if nibble or self.board.bus.at(address):
-                        self._need_slave(address, step, line, str(operand)).inputs = nibble
-            case ast.ImageBit(area=ast.BitArea.F, address=a, bit=b):
-                old = self.board.dpram[d.FLAGS + a]
-                self._host_write(d.FLAGS + a, old & ~(1 << b) | value << b)
-            case ast.ImageByte(area=ast.ByteArea.FY, number=n):
-                self._host_write(d.FLAGS + n, value)
-            case _:
-                raise ValueError(f"'{operand}' cannot be set: only inputs and flags can")
+        n, b = node.address, node.bit
+        if node.kind is ast.OperandKind.I:
+            slave = self._need_slave(n, step, line, str(operand))
+            slave.inputs = slave.inputs & ~(1 << b) | value << b
+        elif node.kind is ast.OperandKind.IB:
+            for address, nibble in ((n, value & 0xF), (n + 1, value >> 4)):
+                if nibble or self.board.bus.at(address):
+                    self._need_slave(address, step, line, str(operand)).inputs = nibble
+        elif node.kind is ast.OperandKind.F:
+            old = self.board.dpram[d.FLAGS + n]
+            self._host_write(d.FLAGS + n, old & ~(1 << b) | value << b)
+        elif node.kind is ast.OperandKind.FY:
+            self._host_write(d.FLAGS + n, value)
+        else:
+            raise ValueError(f"'{operand}' cannot be set: only inputs and flags can")
 
     def _need_slave(self, address: int, step: Step | None, line: int, what: str) -> Slave:
         slaves = self.board.bus.at(address)
@@ -571,36 +572,31 @@ def _trace_names(program: Program) -> list[str]:
     counters' status and value, and whether it runs."""
     inputs, outputs, flags = set(), set(), set()
     timers, counters = set(), set()
+    K = ast.OperandKind
     for module in program.modules():
-        for section in module.sections:
-            operands: list[object] = []
-            if isinstance(section, ast.ProgramSection):
-                for s in section.statements:
-                    if isinstance(s, ast.Param):  # PARAM answers in flag byte 127
-                        flags.add("FY 127")
-                    if isinstance(s, ast.Count):
-                        counters.add(s.counter.number)
-                    operands.append(getattr(s, "operand", None))
-            elif isinstance(section, ast.GatingSection):
-                for line in section.lines:
-                    operands.append(line.target)
-                    operands.extend(t.operand for t in line.terms)
-            for operand in operands:
-                match operand:
-                    case ast.ImageBit(area=ast.BitArea.I | ast.BitArea.I2, address=a, bit=b):
+        for node in module.code():
+            for operand, _ in ast.operands(node):  # (PARAM answers in flag byte 127)
+                a, b = operand.address, operand.bit
+                match operand.kind:
+                    case K.I | K.I2:
                         inputs.add((a, b))
-                    case ast.ImageBit(area=ast.BitArea.Q, address=a, bit=b):
+                    case K.Q:
                         outputs.add((a, b))
-                    case ast.ImageBit(area=ast.BitArea.F, address=a, bit=b):
+                    case K.F:
                         flags.add(f"F {a}.{b}")
-                    case ast.ImageByte(area=ast.ByteArea.FY, number=n):
-                        flags.add(f"FY {n}")
-                    case ast.FlagWord(number=n):
-                        flags.update((f"FY {n}", f"FY {n + 1}"))
-                    case ast.TimerRef(number=n):
-                        timers.add(n)
-                    case ast.CounterRef(number=n):
-                        counters.add(n)
+                    case K.FY:
+                        flags.add(f"FY {a}")
+                    case K.FW:
+                        flags.update((f"FY {a}", f"FY {a + 1}"))
+                    case K.T:
+                        timers.add(a)
+                    case K.C:
+                        counters.add(a)
+                    case (K.IB | K.I2B | K.QB | K.PSEG | K.VAR | K.KT | K.KC | K.KB | K.KW
+                          | K.KP):
+                        pass
+                    case _:
+                        assert_never(operand.kind)
     return (
         [f"I {a}.{b}" for a, b in sorted(inputs)]
         + [f"Q {a}.{b}" for a, b in sorted(outputs)]
