@@ -73,6 +73,9 @@ class Width(IntEnum):
     its remaining time (a word)."""
 
     BIT = 1
+    #: a slave's four data bits, ``I 4`` or ``Q 17``: no IL statement takes them, the
+    #: host tools and scenarios do (``asictl.observe.operands``)
+    NIBBLE = 4
     BYTE = 8
     WORD = 16
 
@@ -648,17 +651,11 @@ BodyNode = Option | SlaveSetup | Declaration | Statement | GatingLine | AsmLine
 def nodes(section: Section) -> tuple[BodyNode, ...]:
     """The nodes of a section's body, in source order ([RAW] records are text)."""
     match section:
-        case OptionsSection(options=found):
+        case OptionsSection(options=found) | SetupSection(slaves=found):
             return found
-        case SetupSection(slaves=found):
+        case DeclSection(declarations=found) | ProgramSection(statements=found):
             return found
-        case DeclSection(declarations=found):
-            return found
-        case ProgramSection(statements=found):
-            return found
-        case GatingSection(lines=found):
-            return found
-        case AssemblySection(lines=found):
+        case GatingSection(lines=found) | AssemblySection(lines=found):
             return found
         case RawSection():
             return ()

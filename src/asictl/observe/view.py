@@ -77,7 +77,7 @@ class ProgramView:
                 cell = pmap.cells.get((_CELL[node.kind], n >> 1))
                 if cell is None:
                     return self.outside(operand)
-                return runner.read(cell) >> ((n & 1) * 4 + b) & 1
+                return _data_bits(runner.read(cell) >> (n & 1) * 4, b)
             case K.PSEG:
                 return xdata.read(pmap.pseg + n)
             case K.IB | K.I2B | K.QB:
@@ -106,11 +106,11 @@ def read_on_board(board: Pc2Board, operand: Operand) -> int:
     n, b = node.address, node.bit
     kind = node.kind
     if kind is K.I:
-        return _slave_inputs(board, n) >> b & 1
+        return _data_bits(_slave_inputs(board, n), b)
     if kind is K.IB:
         return _slave_inputs(board, n) | _slave_inputs(board, n + 1) << 4
     if kind is K.Q:
-        return board.outputs[n >> 1] >> ((n & 1) * 4 + b) & 1
+        return _data_bits(board.outputs[n >> 1] >> (n & 1) * 4, b)
     if kind is K.QB:
         return board.outputs[n >> 1]
     if kind is K.F:
@@ -135,6 +135,11 @@ def wake(board: Pc2Board) -> None:
     cycles that would repeat the last one): a host access, rewriting a byte of the
     download buffer with what it holds, counts as news and changes nothing."""
     host_write(board, pc2.PROGRAM_BUFFER, board.dpram[pc2.PROGRAM_BUFFER])
+
+
+def _data_bits(nibble: int, bit: int) -> int:
+    """Data bit ``bit`` of a slave's data, or all four (``I n``, ``Q n``: bit -1)."""
+    return nibble & 0xF if bit < 0 else nibble >> bit & 1
 
 
 def _slave_inputs(board: Pc2Board, address: int) -> int:

@@ -253,7 +253,7 @@ class Simulation:
         n, b = node.address, node.bit
         if node.kind is ast.OperandKind.I:
             slave = self._need_slave(n, step, line, str(operand))
-            slave.inputs = slave.inputs & ~(1 << b) | value << b
+            slave.inputs = value if b < 0 else slave.inputs & ~(1 << b) | value << b  # (I n)
         elif node.kind is ast.OperandKind.IB:
             for address, nibble in ((n, value & 0xF), (n + 1, value >> 4)):
                 if nibble or self.board.bus.at(address):
