@@ -337,10 +337,13 @@ def _check_duplicate_slaves(program: Program, report: Reporter) -> None:
 
 def _check_code(module: ast.Module, scope: _Scope, report: Reporter) -> None:
     for node in module.code():
-        for operand, _ in ast.operands(node):
+        uses = ast.operands(node)
+        if not uses:
+            continue
+        for operand, _ in uses:
             _check_operand(operand, scope, report)
-        if isinstance(node, ast.Store) and node.op is ast.StoreOp.ASSIGN:
-            target: ast.Operand | None = node.operand
+        if isinstance(node, ast.Store):
+            target = node.operand if node.op is ast.StoreOp.ASSIGN else None
         else:
             target = node.target if isinstance(node, ast.GatingLine) else None
         if target is not None and target.kind in _TIMER_OR_COUNTER:
