@@ -14,7 +14,8 @@ are operands too (``L KT 500`` loads one), so ``L`` takes an operand like any ot
 instruction. What reads and writes which operand is answered in one place,
 ``operands()``: a count (CU, CD, STP) reads and writes its counter, and PARAM writes
 ``FY 127`` (the slave's answer), an operand the source does not show. ``nodes()`` is the
-body of a section, ``Module.statements()`` the statements of a module. Every walker of
+body of a section, ``Module.statements()`` the statements of a module and
+``Module.code()`` those with its gating lines, all that runs. Every walker of
 the tree (checks, analyses, formatter, cross-reference, allocator, code generator,
 interpreter, editor) goes through these, and every ``match`` over statement or operand
 kinds ends in ``assert_never``: mypy then names each walker a new kind is missing from.
