@@ -51,32 +51,36 @@ asm_texts = st.sampled_from(
 
 # ------------------------------------------------------------------------ operands
 
-slave_bits = st.builds(ast.ImageBit, st.sampled_from([ast.BitArea.I, ast.BitArea.I2,
-                                                      ast.BitArea.Q]),
-                       st.integers(0, 31), st.integers(0, 3))
-output_bits = st.builds(ast.ImageBit, st.just(ast.BitArea.Q), st.integers(0, 31),
-                        st.integers(0, 3))
-flag_bits = st.builds(ast.ImageBit, st.just(ast.BitArea.F), st.integers(0, 127),
-                      st.integers(0, 7))
+K = ast.OperandKind
+W = ast.Width
+operand = ast.Operand.of
+
+
+def _image_bits(kinds: list[ast.OperandKind], addresses: int, bits: int) -> st.SearchStrategy:
+    return st.builds(operand, st.sampled_from(kinds), st.integers(0, addresses),
+                     st.integers(0, bits))
+
+
+slave_bits = _image_bits([K.I, K.I2, K.Q], 31, 3)
+output_bits = _image_bits([K.Q], 31, 3)
+flag_bits = _image_bits([K.F], 127, 7)
 image_bits = slave_bits | flag_bits
 
 constants = st.one_of(
-    st.builds(ast.Constant, st.just(ast.ConstKind.KT),
-              st.integers(0, 4095).map(lambda ticks: ticks * 10)),
-    st.builds(ast.Constant, st.just(ast.ConstKind.KC), st.integers(0, 4095)),
-    st.builds(ast.Constant, st.just(ast.ConstKind.KB), st.integers(0, 255)),
-    st.builds(ast.Constant, st.just(ast.ConstKind.KW), st.integers(0, 65535)),
+    st.builds(operand, st.just(K.KT), st.integers(0, 4095).map(lambda ticks: ticks * 10)),
+    st.builds(operand, st.just(K.KC), st.integers(0, 4095)),
+    st.builds(operand, st.just(K.KB), st.integers(0, 255)),
+    st.builds(operand, st.just(K.KW), st.integers(0, 65535)),
 )
-param_constants = st.builds(ast.ParamConst, st.integers(0, 31), st.integers(0, 15))
+param_constants = st.builds(operand, st.just(K.KP), st.integers(0, 31), st.integers(0, 15))
 
 _even_slaves = st.integers(0, 15).map(lambda n: 2 * n)
-_memory_bytes = st.builds(ast.ImageByte, st.just(ast.ByteArea.FY), st.integers(0, 127)) | (
-    st.builds(ast.ImageByte, st.just(ast.ByteArea.PSEG), st.integers(0, 15)))
-readable_bytes = st.builds(ast.ImageByte, st.sampled_from([ast.ByteArea.IB, ast.ByteArea.I2B,
-                                                           ast.ByteArea.QB]),
+_memory_bytes = st.builds(operand, st.just(K.FY), st.integers(0, 127)) | (
+    st.builds(operand, st.just(K.PSEG), st.integers(0, 15)))
+readable_bytes = st.builds(operand, st.sampled_from([K.IB, K.I2B, K.QB]),
                            _even_slaves) | _memory_bytes
-writable_bytes = st.builds(ast.ImageByte, st.just(ast.ByteArea.QB), _even_slaves) | _memory_bytes
-flag_words = st.builds(ast.FlagWord, st.integers(0, 126))
+writable_bytes = st.builds(operand, st.just(K.QB), _even_slaves) | _memory_bytes
+flag_words = st.builds(operand, st.just(K.FW), st.integers(0, 126))
 
 _always = st.integers(0, 14)
 _bits = st.integers(0, 7)
@@ -92,27 +96,27 @@ class Scope:
 
 
 @st.composite
-def timer_refs(draw: st.DrawFn, scope: Scope) -> ast.TimerRef:
+def timer_refs(draw: st.DrawFn, scope: Scope, width: ast.Width = W.BIT) -> ast.Operand:
     declared = st.sampled_from(scope.timers) if scope.timers else _always
-    return ast.TimerRef(draw(_always | declared))
+    return operand(K.T, draw(_always | declared), width=width)
 
 
 @st.composite
-def counter_refs(draw: st.DrawFn, scope: Scope) -> ast.CounterRef:
+def counter_refs(draw: st.DrawFn, scope: Scope, width: ast.Width = W.BIT) -> ast.Operand:
     declared = st.sampled_from(scope.counters) if scope.counters else _always
-    return ast.CounterRef(draw(_always | declared))
+    return operand(K.C, draw(_always | declared), width=width)
 
 
 @st.composite
-def var_bits(draw: st.DrawFn, scope: Scope) -> ast.VarBit:
+def var_bits(draw: st.DrawFn, scope: Scope) -> ast.Operand:
     name, size = draw(st.sampled_from(scope.variables))
-    return ast.VarBit(name, draw(st.integers(0, size - 1)), draw(_bits))
+    return operand(K.VAR, draw(st.integers(0, size - 1)), draw(_bits), name=name)
 
 
 @st.composite
-def var_bytes(draw: st.DrawFn, scope: Scope) -> ast.VarByte:
+def var_bytes(draw: st.DrawFn, scope: Scope) -> ast.Operand:
     name, size = draw(st.sampled_from(scope.variables))
-    return ast.VarByte(name, draw(st.integers(0, size - 1)))
+    return operand(K.VAR, draw(st.integers(0, size - 1)), name=name)
 
 
 _INDEX = [st.integers(0, n) for n in range(8)]
@@ -126,35 +130,35 @@ def _choose(draw: st.DrawFn, scope: Scope, *options: st.SearchStrategy,
 
 
 @st.composite
-def bit_operands(draw: st.DrawFn, scope: Scope) -> ast.BitOperand:
+def bit_operands(draw: st.DrawFn, scope: Scope) -> ast.Operand:
     """Anything that can be read as a bit."""
     return _choose(draw, scope, image_bits, timer_refs(scope), counter_refs(scope),
                    var=var_bits(scope))
 
 
 @st.composite
-def writable_bits(draw: st.DrawFn, scope: Scope) -> ast.BitOperand:
+def writable_bits(draw: st.DrawFn, scope: Scope) -> ast.Operand:
     """Bits ``=`` may write: outputs, flags, variables."""
     return _choose(draw, scope, output_bits, flag_bits, var=var_bits(scope))
 
 
 @st.composite
-def settable_bits(draw: st.DrawFn, scope: Scope) -> ast.BitOperand:
+def settable_bits(draw: st.DrawFn, scope: Scope) -> ast.Operand:
     """Operands of S and R: also timers (start, stop) and counters (load, clear)."""
     return _choose(draw, scope, output_bits, flag_bits, timer_refs(scope), counter_refs(scope),
                    var=var_bits(scope))
 
 
 @st.composite
-def load_operands(draw: st.DrawFn, scope: Scope) -> ast.LoadOperand:
+def load_operands(draw: st.DrawFn, scope: Scope) -> ast.Operand:
     return _choose(draw, scope, constants, param_constants, readable_bytes, flag_words,
-                   timer_refs(scope), counter_refs(scope), var=var_bytes(scope))
+                   timer_refs(scope, W.WORD), counter_refs(scope, W.WORD), var=var_bytes(scope))
 
 
 @st.composite
-def transfer_operands(draw: st.DrawFn, scope: Scope) -> ast.TransferOperand:
-    return _choose(draw, scope, writable_bytes, flag_words, timer_refs(scope),
-                   counter_refs(scope), var=var_bytes(scope))
+def transfer_operands(draw: st.DrawFn, scope: Scope) -> ast.Operand:
+    return _choose(draw, scope, writable_bytes, flag_words, timer_refs(scope, W.WORD),
+                   counter_refs(scope, W.WORD), var=var_bytes(scope))
 
 
 # -------------------------------------------------------------------- statements
@@ -192,7 +196,7 @@ def statements(draw: st.DrawFn, scope: Scope) -> ast.Statement:
     if kind == 4:
         return ast.Transfer(draw(transfer_operands(scope)))
     if kind == 5:
-        return ast.Count(draw(st.sampled_from(ast.CountOp)), draw(counter_refs(scope)))
+        return ast.Count(draw(st.sampled_from(ast.CountOp)), draw(counter_refs(scope, W.WORD)))
     return draw(_fixed_statements)
 
 

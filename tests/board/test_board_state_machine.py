@@ -17,6 +17,7 @@ from hypothesis.stateful import RuleBasedStateMachine, initialize, invariant, pr
 
 from asictl.board.asi import Slave
 from asictl.board.board import Pc2Board
+from asictl.board.emc import EmcTest
 from asictl.board.execution import Phase
 from asictl.platform import pc2 as d
 from asictl.platform.master import ControlFlag
@@ -63,6 +64,9 @@ class BoardMachine(RuleBasedStateMachine):
             self.start(0)
         self.synced = False
         self.settled_for_ms = 0.0
+        #: in EMC test mode (command 130 with slaves to test) the test's request replaces
+        #: the data exchange, so inputs do not reach the IDI
+        self.emc = False
 
     # --- the bus ------------------------------------------------------------------
 
@@ -119,8 +123,12 @@ class BoardMachine(RuleBasedStateMachine):
     def command(self, code: int, data: int, address: int, extension: int) -> None:
         if code == Command.WRITE_CONTROL_FLAGS:
             self.host.write(d.CONTROL_FLAGS, data)
+        if code == Command.EMC_TEST_MODE:
+            asked = self.host.read(d.PROGRAM_BUFFER, d.EMC_PARAMETERS_SIZE)
         answer = self.host.command(code, data=data, address=address, extension=extension)
         assert answer in (d.ACK, d.NAK)
+        if code == Command.EMC_TEST_MODE and answer == d.ACK:
+            self.emc = EmcTest.from_buffer(asked) is not None
         self.changed()
 
     @rule()
@@ -260,7 +268,7 @@ class BoardMachine(RuleBasedStateMachine):
 
     @invariant()
     def inputs_reach_the_idi(self) -> None:
-        if not self.synced or self.host.byte(d.HI_FLAGS) & HiFlag.DATA_EXCHANGE_OFF:
+        if self.emc or not self.synced or self.host.byte(d.HI_FLAGS) & HiFlag.DATA_EXCHANGE_OFF:
             return
         idi = self.host.inputs()
         for address in self.host.slaves(d.LAS):

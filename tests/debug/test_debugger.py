@@ -136,6 +136,23 @@ def test_mistakes_are_refused_with_a_reason(counter: Session):
     assert counter.debugger.failed
 
 
+def test_set_and_conditions_read_values_as_every_tool_does(counter: Session):
+    """``set`` is the reader of ``asictl write``, ``--set`` and scenarios
+    (observe.operands): a slave's four inputs at once, values in 0x, 0b and IL forms."""
+    assert counter.do("set I 1=0b0101") == [
+        "I 1 = 5 (the program sees it from its next cycle)"]
+    assert counter.do("set FY 10=0Ah") == ["FY 10 = 10 (the program sees it from its next cycle)"]
+    counter.do("time 1ms")
+    assert counter.do("print I 1, I 1.2, FY 10") == ["I 1 = 5", "I 1.2 = 1", "FY 10 = 10 (0Ah)"]
+    counter.do("break 10 if CV 0>=0FFFh")
+    assert counter.do("continue")[0].startswith("breakpoint 1, count.asi:10,")
+    assert counter.do("set I 1=16") == [
+        "error: 'I 1': value 16 out of range 0..15 (four data bits)"]
+    assert counter.do("set FY 10=ten") == [
+        "error: 'FY 10': 'ten' is not a number (such as 11, 0xB, 0Bh or 0b1011)"]
+    assert counter.do("set")[0] == "error: expected OPERAND=VALUE, such as 'I 1.0=1'"
+
+
 def test_symbols_in_print_and_set(tmp_path: Path):
     program = tmp_path / "count.asi"
     program.write_text(COUNTER)

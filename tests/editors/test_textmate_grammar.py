@@ -19,7 +19,7 @@ import pytest
 
 from asictl.il import ast
 from asictl.il.parser import parse_text
-from asictl.lsp.navigation import nodes, operator_span
+from asictl.lsp.navigation import operator_span
 
 ROOT = Path(__file__).resolve().parents[2]
 EXTENSION = ROOT / "editors" / "vscode"
@@ -115,8 +115,8 @@ def _expectations(module: ast.Module):
     for section in module.sections:
         assert section.span
         yield section.span.line, section.span.column, "entity.name.section.asi"
-        for node in nodes(section):
-            span = getattr(node, "span", None)
+        for node in ast.nodes(section):
+            span = node.span
             if isinstance(node, ast.Label) and span:
                 yield span.line, span.column, "entity.name.label.asi"
                 continue
@@ -125,14 +125,13 @@ def _expectations(module: ast.Module):
                 scope = ("keyword.control.segment.asi" if isinstance(node, ast.SegmentEnd)
                          else "keyword.control.asi")
                 yield operator.line, operator.column, scope
-            operands = [getattr(node, "operand", None), getattr(node, "counter", None)]
-            if isinstance(node, ast.GatingLine):
-                operands = [node.target, *(t.operand for t in node.terms)]
-            for operand in operands:
-                where = getattr(operand, "span", None)
+            shown = isinstance(node, ast.Statement | ast.GatingLine) and not isinstance(
+                node, ast.Param)  # (PARAM's answer in FY 127 is not in the text)
+            for operand, _ in ast.operands(node) if shown else ():
+                where = operand.span
                 if where is None:
                     continue
-                scope = ("variable.other.asi" if isinstance(operand, ast.VarBit | ast.VarByte)
+                scope = ("variable.other.asi" if operand.kind is ast.OperandKind.VAR
                          else "storage.modifier.operand.asi")
                 yield where.line, where.column, scope
 

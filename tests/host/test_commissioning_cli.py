@@ -98,16 +98,22 @@ def test_board_options_before_a_bus_subcommand_count(run):
         (("bus", "plug", "32", "iiio"), 2, "must be 0..31"),
         (("bus", "plug", "3", "xyz"), 2, "I/O code"),
         (("bus", "inputs", "3", "16"), 2, "must be 0..15"),
-        (("bus", "inputs", "I 3.7=1"), 2, "bits 0..3"),
+        (("bus", "inputs", "I 3.7=1"), 2, "'I 3.7': slave 0..31, data bit 0..3"),
+        (("bus", "inputs", "Q 3.1=1"), 2, "'Q 3.1' is no input"),
+        (("bus", "inputs", "I 3=16"), 2, "'I 3': value 16 out of range 0..15 (four data bits)"),
         (("bus", "unplug", "5"), 1, "no slave is plugged in at address 5"),
         (("bus", "inputs", "5", "1"), 1, "no slave is plugged in at address 5"),
         (("bus", "show", "--io", "devport"), 2, "emulated boards only"),
         (("bus", "match"), 1, "no program loaded"),
         (("slave", "address", "9", "10"), 1, "83A1"),
         (("slave", "address", "9", "x"), 2, "slave address"),
-        (("write", "F 200.0=1"), 2, "F0..F127"),
-        (("write", "Q 3.5=1"), 2, "bits 0..3"),
-        (("write", "nonsense"), 2, "expected"),
+        (("write", "F 200.0=1"), 2, "'F 200.0': flag byte 0..127, bit 0..7"),
+        (("write", "Q 3.5=1"), 2, "'Q 3.5': slave 0..31, data bit 0..3"),
+        (("write", "nonsense"), 2, "expected OPERAND=VALUE, such as 'F 10.0=1'"),
+        (("write", "FY 10=0x100"), 2, "'FY 10': value 256 out of range 0..255 (a byte)"),
+        (("write", "FY 10=ten"), 2, "'FY 10': 'ten' is not a number"),
+        (("write", "T 3=1"), 2, "'T 3' cannot be written"),
+        (("write", "Q 0.1=1"), 2, "slaves 1..31 have outputs"),
         (("diag", "--set-los", "40"), 2, "must be 0..31"),
     ],
 )
@@ -176,3 +182,16 @@ def test_download_refuses_two_start_modes(run, modes: tuple[str, str]):
     assert result.exit_code == 2 and "contradict each other" in result.output
     assert run("status").exit_code == 0
     assert "no valid program" in run("start").stderr, "nothing was downloaded"
+
+
+def test_bus_inputs_reads_operand_value_as_the_other_tools_do(run):
+    """One reader (observe.operands): IL operands, a slave's four data bits, values in
+    decimal, 0x, 0b and the IL's 0Ah; several assignments apply together, in order."""
+    for address in ("16", "17"):
+        assert run("bus", "plug", address, "iiii,0").exit_code == 0
+    assert run("bus", "inputs", "I 16=0b0110", "I 16.3=1", "IB 16=3Ch").exit_code == 0
+    cable = {s["address"]: s["inputs"] for s in json.loads(run("bus", "--json").stdout)["slaves"]}
+    assert (cable[16], cable[17]) == (0xC, 0x3), "IB 16 was applied after I 16"
+    assert run("bus", "inputs", "I 17.0=0", "I 16=9").exit_code == 0
+    cable = {s["address"]: s["inputs"] for s in json.loads(run("bus", "--json").stdout)["slaves"]}
+    assert (cable[16], cable[17]) == (9, 2)

@@ -337,3 +337,17 @@ def test_commissioning_on_a_live_board_keeps_volatile_state(served):
     assert served.status()["flags"][10:12] == [0x12, 0x08]
     assert served("write", "Q 9=0b0101", "Q 9.3=1").exit_code == 0
     assert served.status()["slaves"]["9"]["outputs"] == 0b1101
+
+
+def test_write_takes_every_operand_form_and_value_form(served):
+    """``asictl write`` reads OPERAND=VALUE as scenarios and the debugger do
+    (observe.operands): bits, bytes, a slave's four outputs, two slaves' byte; values in
+    decimal, 0x, 0b and the IL's 0Ah; the assignments apply in order."""
+    for address in ("20", "21"):
+        assert served("bus", "plug", address, "oooo,0").exit_code == 0
+    result = served("write", "QB 20=0x5A", "Q 21.3=0", "F 10.0=1", "FY 11=0Ah", "F 10.7=1",
+                    "FY 12=0b1000_0001", "FY 12=12d")
+    assert result.exit_code == 0, result.output
+    status = served.status()
+    assert (status["slaves"]["20"]["outputs"], status["slaves"]["21"]["outputs"]) == (0xA, 0x5)
+    assert status["flags"][10:13] == [0x81, 0x0A, 12]

@@ -8,23 +8,16 @@ from asictl.diagnostics import Span
 from asictl.il.ast import (
     AsmLine,
     AssemblySection,
-    BitArea,
     BlockEnd,
-    ByteArea,
     CallFB,
-    Constant,
-    ConstKind,
     CounterDecl,
     DeclSection,
     EndKind,
     FBDecl,
-    FlagWord,
     GatingLine,
     GatingOp,
     GatingSection,
     GatingTerm,
-    ImageBit,
-    ImageByte,
     Jump,
     Label,
     Load,
@@ -32,9 +25,10 @@ from asictl.il.ast import (
     LogicOp,
     Module,
     Not,
+    Operand,
+    OperandKind,
     Option,
     OptionsSection,
-    ParamConst,
     ProgramSection,
     RawSection,
     SetupSection,
@@ -43,12 +37,13 @@ from asictl.il.ast import (
     StoreOp,
     TimerDecl,
     Transfer,
-    VarBit,
-    VarByte,
     VarDecl,
 )
 from asictl.il.parser import parse, parse_text
 from asictl.source import from_bytes
+
+K = OperandKind
+op = Operand.of
 
 
 def clean(text: str) -> tuple:
@@ -63,7 +58,7 @@ def program(*lines: str) -> tuple:
     return section.statements
 
 
-A_I_4_0 = Logic(LogicOp.A, ImageBit(BitArea.I, 4, 0))
+A_I_4_0 = Logic(LogicOp.A, op(K.I, 4, 0))
 
 
 # ------------------------------------------------------------------ comments, case
@@ -92,13 +87,13 @@ def test_case_is_ignored_and_names_keep_their_spelling() -> None:
     ) == (
         ProgramSection((
             Label("Loop"), A_I_4_0,
-            Logic(LogicOp.AN, VarBit("Reading", 0, 1)),
+            Logic(LogicOp.AN, op(K.VAR, 0, 1, name="Reading")),
             Jump(False, "LOOP"), CallFB(False, "setpp"),
         )),
-        GatingSection((GatingLine(ImageBit(BitArea.Q, 1, 0), (
-            GatingTerm(None, False, ImageBit(BitArea.I, 4, 0)),
-            GatingTerm(GatingOp.AND, True, ImageBit(BitArea.F, 1, 1)),
-            GatingTerm(GatingOp.OR, True, VarBit("reading", 0, 2)),
+        GatingSection((GatingLine(op(K.Q, 1, 0), (
+            GatingTerm(None, False, op(K.I, 4, 0)),
+            GatingTerm(GatingOp.AND, True, op(K.F, 1, 1)),
+            GatingTerm(GatingOp.OR, True, op(K.VAR, 0, 2, name="reading")),
         )),)),
     )
 
@@ -114,12 +109,12 @@ def test_bit_operand_spellings(operand: str) -> None:
 @pytest.mark.parametrize(
     ("operand", "read"),
     [
-        ("I2 4.0", ImageBit(BitArea.I2, 4, 0)),
-        ("I2,4.0", ImageBit(BitArea.I2, 4, 0)),
-        ("I2.0", ImageBit(BitArea.I, 2, 0)),
-        ("I20.1", ImageBit(BitArea.I, 20, 1)),
-        ("F42.7", ImageBit(BitArea.F, 42, 7)),
-        ("Reading 3 2", VarBit("Reading", 3, 2)),
+        ("I2 4.0", op(K.I2, 4, 0)),
+        ("I2,4.0", op(K.I2, 4, 0)),
+        ("I2.0", op(K.I, 2, 0)),
+        ("I20.1", op(K.I, 20, 1)),
+        ("F42.7", op(K.F, 42, 7)),
+        ("Reading 3 2", op(K.VAR, 3, 2, name="Reading")),
     ],
 )
 def test_glued_marks(operand: str, read: object) -> None:
@@ -129,18 +124,18 @@ def test_glued_marks(operand: str, read: object) -> None:
 def test_glued_byte_word_and_constant_marks() -> None:
     assert program("L FY1", "L FW10", "L KT500", "L KP13.9", "L KB0Ah", "T PSeg0", "L IB4",
                    "L I2B4", "L Reading 3") == (
-        Load(ImageByte(ByteArea.FY, 1)), Load(FlagWord(10)),
-        Load(Constant(ConstKind.KT, 500)), Load(ParamConst(13, 9)),
-        Load(Constant(ConstKind.KB, 10)), Transfer(ImageByte(ByteArea.PSEG, 0)),
-        Load(ImageByte(ByteArea.IB, 4)), Load(ImageByte(ByteArea.I2B, 4)),
-        Load(VarByte("Reading", 3)),
+        Load(op(K.FY, 1)), Load(op(K.FW, 10)),
+        Load(op(K.KT, 500)), Load(op(K.KP, 13, 9)),
+        Load(op(K.KB, 10)), Transfer(op(K.PSEG, 0)),
+        Load(op(K.IB, 4)), Load(op(K.I2B, 4)),
+        Load(op(K.VAR, 3, name="Reading")),
     )
 
 
 def test_a_mark_followed_by_a_letter_is_a_name() -> None:
     assert program("A Ix 1.0", "L Temp 0", "S Count 2.1") == (
-        Logic(LogicOp.A, VarBit("Ix", 1, 0)), Load(VarByte("Temp", 0)),
-        Store(StoreOp.SET, VarBit("Count", 2, 1)),
+        Logic(LogicOp.A, op(K.VAR, 1, 0, name="Ix")), Load(op(K.VAR, 0, name="Temp")),
+        Store(StoreOp.SET, op(K.VAR, 2, 1, name="Count")),
     )
 
 
@@ -176,7 +171,7 @@ def test_other_punctuation_reads_as_a_blank() -> None:
      ("00000000000012", 12), ("FFFFh", 65535), ("999999999", 999999999)],
 )
 def test_numbers(number: str, value: int) -> None:
-    assert program(f"L KW {number}") == (Load(Constant(ConstKind.KW, value)),)
+    assert program(f"L KW {number}") == (Load(op(K.KW, value)),)
 
 
 # ---------------------------------------------------------------- source encoding
@@ -191,7 +186,7 @@ def test_dos_text_crlf_ctrl_z_and_8_bit_comments(comment: bytes) -> None:
     module, diagnostics = parse(from_bytes("dos.asi", raw))
     assert diagnostics == []
     assert module.sections == (ProgramSection((
-        A_I_4_0, Store(StoreOp.ASSIGN, ImageBit(BitArea.Q, 1, 0)))),)
+        A_I_4_0, Store(StoreOp.ASSIGN, op(K.Q, 1, 0)))),)
     assert module.sections[0].statements[1].span == Span("dos.asi", 3, 5, 7)
 
 
@@ -233,8 +228,8 @@ def test_titles_without_brackets_alone_in_the_first_column() -> None:
         OptionsSection((Option("auto_start", False),)),
         SetupSection((SlaveSetup(1, 0, 0),)),
         ProgramSection((A_I_4_0,)),
-        GatingSection((GatingLine(ImageBit(BitArea.Q, 1, 0), (
-            GatingTerm(None, False, ImageBit(BitArea.I, 4, 0)),)),)),
+        GatingSection((GatingLine(op(K.Q, 1, 0), (
+            GatingTerm(None, False, op(K.I, 4, 0)),)),)),
     )
 
 

@@ -17,12 +17,8 @@ from asictl.diagnostics import Span
 from asictl.il.ast import (
     Arith,
     ArithOp,
-    BitArea,
     BlockEnd,
-    ByteArea,
     CallFB,
-    Constant,
-    ConstKind,
     CounterDecl,
     DeclSection,
     EndKind,
@@ -31,8 +27,6 @@ from asictl.il.ast import (
     GatingOp,
     GatingSection,
     GatingTerm,
-    ImageBit,
-    ImageByte,
     Jump,
     Label,
     Load,
@@ -40,10 +34,11 @@ from asictl.il.ast import (
     LogicOp,
     Module,
     Not,
+    Operand,
+    OperandKind,
     Option,
     OptionsSection,
     Param,
-    ParamConst,
     ProgramSection,
     SegmentEnd,
     SetupSection,
@@ -51,7 +46,6 @@ from asictl.il.ast import (
     Store,
     StoreOp,
     TimerDecl,
-    TimerRef,
     Transfer,
     VarDecl,
 )
@@ -60,6 +54,9 @@ from asictl.source import read_source
 
 ROOT = Path(__file__).resolve().parents[2]
 DEMOS = ROOT / "demos"
+
+K = OperandKind
+op = Operand.of
 
 
 def read(text: str) -> tuple:
@@ -111,33 +108,33 @@ def test_declaration_example_as_extracted() -> None:
 
 def test_or_and_not_network() -> None:  # 3.4.1
     assert read(EXAMPLES["or_and_not"]) == (ProgramSection((
-        Logic(LogicOp.O, ImageBit(BitArea.I, 4, 0)),
-        Logic(LogicOp.O, ImageBit(BitArea.I, 5, 0)),
-        Logic(LogicOp.AN, ImageBit(BitArea.F, 42, 7)),
-        Store(StoreOp.ASSIGN, ImageBit(BitArea.Q, 17, 3)),
+        Logic(LogicOp.O, op(K.I, 4, 0)),
+        Logic(LogicOp.O, op(K.I, 5, 0)),
+        Logic(LogicOp.AN, op(K.F, 42, 7)),
+        Store(StoreOp.ASSIGN, op(K.Q, 17, 3)),
         SegmentEnd(),
     )),)
 
 
 def test_subtraction() -> None:  # 3.4.2
     assert read(EXAMPLES["subtraction"]) == (ProgramSection((
-        Load(ImageByte(ByteArea.FY, 1)),
-        Load(ImageByte(ByteArea.FY, 2)),
+        Load(op(K.FY, 1)),
+        Load(op(K.FY, 2)),
         Arith(ArithOp.SUB),
-        Transfer(ImageByte(ByteArea.FY, 3)),
+        Transfer(op(K.FY, 3)),
         SegmentEnd(),
     )),)
 
 
 BLINK = (
-    Logic(LogicOp.A, TimerRef(0)),
+    Logic(LogicOp.A, op(K.T, 0)),
     Jump(True, "end"),
     Not(),
-    Load(Constant(ConstKind.KT, 500)),
-    Store(StoreOp.SET, TimerRef(0)),
+    Load(op(K.KT, 500)),
+    Store(StoreOp.SET, op(K.T, 0)),
     SegmentEnd(),
-    Logic(LogicOp.AN, ImageBit(BitArea.Q, 31, 0)),
-    Store(StoreOp.ASSIGN, ImageBit(BitArea.Q, 31, 0)),
+    Logic(LogicOp.AN, op(K.Q, 31, 0)),
+    Store(StoreOp.ASSIGN, op(K.Q, 31, 0)),
     Label("end"),
     BlockEnd(EndKind.BE),
 )
@@ -165,26 +162,26 @@ def test_blink_demo() -> None:
 
 def test_param_edges() -> None:  # 3.4.6
     assert read(EXAMPLES["param_edges"]) == (ProgramSection((
-        Logic(LogicOp.A, ImageBit(BitArea.I, 12, 0)),
-        Logic(LogicOp.AN, ImageBit(BitArea.I2, 12, 0)),
-        Load(ParamConst(13, 3)),
+        Logic(LogicOp.A, op(K.I, 12, 0)),
+        Logic(LogicOp.AN, op(K.I2, 12, 0)),
+        Load(op(K.KP, 13, 3)),
         Param(),
         SegmentEnd(),
-        Logic(LogicOp.A, ImageBit(BitArea.I2, 12, 0)),
-        Logic(LogicOp.AN, ImageBit(BitArea.I, 12, 0)),
-        Load(ParamConst(13, 12)),
+        Logic(LogicOp.A, op(K.I2, 12, 0)),
+        Logic(LogicOp.AN, op(K.I, 12, 0)),
+        Load(op(K.KP, 13, 12)),
         Param(),
         SegmentEnd(),
     )),)
 
 
 GATING = (GatingSection((
-    GatingLine(ImageBit(BitArea.Q, 17, 3), (
-        GatingTerm(None, False, ImageBit(BitArea.I, 4, 0)),
-        GatingTerm(GatingOp.OR, False, ImageBit(BitArea.I, 5, 0)),
-        GatingTerm(GatingOp.AND, True, ImageBit(BitArea.F, 42, 7)),
+    GatingLine(op(K.Q, 17, 3), (
+        GatingTerm(None, False, op(K.I, 4, 0)),
+        GatingTerm(GatingOp.OR, False, op(K.I, 5, 0)),
+        GatingTerm(GatingOp.AND, True, op(K.F, 42, 7)),
     )),
-    GatingLine(ImageBit(BitArea.Q, 17, 2), (GatingTerm(None, False, ImageBit(BitArea.I, 5, 0)),)),
+    GatingLine(op(K.Q, 17, 2), (GatingTerm(None, False, op(K.I, 5, 0)),)),
 )),)
 
 
@@ -199,10 +196,10 @@ def test_gating_example(target: str) -> None:  # 3.5
 
 def test_set_power_up_parameter() -> None:  # 3.8.2
     assert read(EXAMPLES["set_pp"]) == (ProgramSection((
-        Load(Constant(ConstKind.KB, 17)),
-        Transfer(ImageByte(ByteArea.PSEG, 0)),
-        Load(Constant(ConstKind.KB, 10)),
-        Transfer(ImageByte(ByteArea.PSEG, 1)),
+        Load(op(K.KB, 17)),
+        Transfer(op(K.PSEG, 0)),
+        Load(op(K.KB, 10)),
+        Transfer(op(K.PSEG, 1)),
         CallFB(False, "SetPP"),
     )),)
 

@@ -9,19 +9,22 @@ from __future__ import annotations
 import pytest
 
 from asictl.il.ast import (
-    BitArea,
     BlockEnd,
     DeclSection,
     EndKind,
-    ImageBit,
     Logic,
     LogicOp,
+    Operand,
+    OperandKind,
     ProgramSection,
     SetupSection,
     SlaveSetup,
     VarDecl,
 )
 from asictl.il.parser import parse_text
+
+K = OperandKind
+op = Operand.of
 
 
 def errors(text: str) -> list[tuple[int, int, str, str]]:
@@ -192,8 +195,8 @@ def test_every_error_of_a_file_is_reported_and_good_lines_are_kept() -> None:
     assert module.sections == (
         SetupSection((SlaveSetup(16, 1, 1), SlaveSetup(18, 0, 0))),
         ProgramSection((
-            Logic(LogicOp.A, ImageBit(BitArea.I, 1, 0)),
-            Logic(LogicOp.O, ImageBit(BitArea.I, 2, 0)),
+            Logic(LogicOp.A, op(K.I, 1, 0)),
+            Logic(LogicOp.O, op(K.I, 2, 0)),
             BlockEnd(EndKind.BE),
         )),
     )

@@ -126,7 +126,7 @@ def test_flag_byte_and_bit(board):
         assert status(board)["flags"][10] == 0x13
         await pilot.press("f", *"999=1", "enter")
         await settle(app, pilot)
-        assert "F0..F127" in log_text(app), "a bad entry is reported, not fatal"
+        assert "'FY 999': flag byte 0..127" in log_text(app), "a bad entry is reported, not fatal"
 
     run(board, check)
 

@@ -136,6 +136,25 @@ def test_set_runs_without_a_scenario(counter: Path, tmp_path: Path):
     assert bad.exit_code == 2 and "cannot be set" in bad.stderr
 
 
+def test_a_slaves_four_data_bits_and_every_value_form(counter: Path, tmp_path: Path):
+    """Scenarios and --set read operands and values as ``asictl write`` does: ``I 1`` is
+    slave 1's four inputs, ``Q 2`` slave 2's four outputs; TOML's and IL's number forms."""
+    scenario = tmp_path / "nibble.scenario.toml"
+    scenario.write_text(
+        '[master]\ncycle_ms = 5\n[[step]]\nat_ms = 0\nset = { "I 1" = 0b0001 }\n'
+        '[[step]]\nat_ms = 10\nexpect = { "Q 2" = 0b0001, "I 1" = 1, "CV 0" = 4095 }\n')
+    result = run("sim", counter, "--scenario", scenario)
+    assert result.exit_code == 0, result.output
+    out = tmp_path / "t.csv"
+    result = run("sim", counter, "--no-scenario", "--set", "I 1=0b0011", "--set", "FY 10=0Ah",
+                 "--duration", "50ms", "--csv", out, "--signals", "CV 0")
+    assert result.exit_code == 0, result.output
+    assert rows(out)[-1]["CV 0"] == "4094"
+    bad = run("sim", counter, "--no-scenario", "--set", "I 1=16")
+    assert bad.exit_code == 2
+    assert "--set 'I 1=16': 'I 1': value 16 out of range 0..15 (four data bits)" in bad.stderr
+
+
 def test_a_duration_shorter_than_the_scenario_is_an_error(counter: Path):
     result = run("sim", counter, "--duration", "15ms")
     assert result.exit_code == 2

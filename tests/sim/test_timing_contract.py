@@ -95,22 +95,22 @@ def _clean(section: ast.ProgramSection) -> ast.ProgramSection:
             continue
         if isinstance(s, ast.Jump) and s.label.casefold() in seen:
             continue
-        if isinstance(getattr(s, "operand", None), ast.TimerRef):
+        if any(o.kind is ast.OperandKind.T for o, _ in ast.operands(s)):
             continue
         kept.append(s)
     return ast.ProgramSection(tuple(kept))
 
 
 COUNTING = ast.ProgramSection((  # state that depends on the number of cycles
-    ast.Load(ast.ImageByte(ast.ByteArea.FY, 10)),
-    ast.Load(ast.Constant(ast.ConstKind.KB, 1)),
+    ast.Load(ast.Operand.of(ast.OperandKind.FY, 10)),
+    ast.Load(ast.Operand.of(ast.OperandKind.KB, 1)),
     ast.Arith(ast.ArithOp.ADD),
-    ast.Transfer(ast.ImageByte(ast.ByteArea.FY, 10)),
+    ast.Transfer(ast.Operand.of(ast.OperandKind.FY, 10)),
     ast.SegmentEnd(),
-    ast.Logic(ast.LogicOp.A, ast.ImageBit(ast.BitArea.I, 1, 0)),
-    ast.Count(ast.CountOp.CU, ast.CounterRef(1)),
-    ast.Logic(ast.LogicOp.A, ast.ImageBit(ast.BitArea.I2, 1, 1)),
-    ast.Count(ast.CountOp.CU, ast.CounterRef(2)),
+    ast.Logic(ast.LogicOp.A, ast.Operand.of(ast.OperandKind.I, 1, 0)),
+    ast.Count(ast.CountOp.CU, ast.Operand.of(ast.OperandKind.C, 1, width=ast.Width.WORD)),
+    ast.Logic(ast.LogicOp.A, ast.Operand.of(ast.OperandKind.I2, 1, 1)),
+    ast.Count(ast.CountOp.CU, ast.Operand.of(ast.OperandKind.C, 2, width=ast.Width.WORD)),
     ast.SegmentEnd(),
 ))
 

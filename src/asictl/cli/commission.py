@@ -19,9 +19,14 @@ import click
 from asictl.cli.master import _board_options, _BoardOptions, _connect
 from asictl.cli.options import lib_option
 from asictl.errors import ExitCode, UserError
+from asictl.host.commissioning import Change, image_changes, write_flags
 from asictl.host.emulated import parse_address, parse_number
+from asictl.il.ast import OperandKind as K
+from asictl.observe.operands import parse_assignment
 from asictl.platform.master import SLAVES
-from asictl.platform.pc2 import FLAGS_SIZE
+
+#: What ``asictl write`` writes: the flags and the output image.
+_WRITABLE = (K.F, K.FY, K.Q, K.QB)
 
 # --------------------------------------------------------------------------- slave
 
@@ -186,68 +191,45 @@ def diag(as_json: bool, set_los: str | None, **board: Unpack[_BoardOptions]) -> 
 
 # --------------------------------------------------------------------------- write
 
-_OPERAND = re.compile(
-    r"\s*(?P<kind>FY|F|Q)\s*(?P<number>\d+)\s*(?:\.\s*(?P<bit>\d+))?\s*=\s*(?P<value>\S+)\s*",
-    re.IGNORECASE,
-)
-
-
 @click.command("write")
 @click.argument("assignments", nargs=-1, required=True)
 @_board_options
 def write(assignments: tuple[str, ...], **board: Unpack[_BoardOptions]) -> None:
     """Write flags and outputs: 'F 10.0=1' (a flag bit), 'FY 10=0x12' (a flag byte),
-    'Q 17.3=1' (an output bit) or 'Q 17=0b1000' (a slave's four outputs). Outputs only
-    while the control program is stopped: it owns them while it runs.
+    'Q 17.3=1' (an output bit), 'Q 17=0b1000' (a slave's four outputs) or 'QB 16=0x5A'
+    (slaves 16 and 17). Values in decimal, 0x.., 0b.. or as IL writes them (12h). Outputs
+    only while the control program is stopped: it owns them while it runs.
 
     Exit status: 0 written, 1 refused, 2 bad usage (nothing is written then).
+
+    Example: asictl write "F 10.0=1" "Q 17=0b1000"
     """
-    flag_bytes: dict[int, int] = {}
-    flag_bits: list[tuple[int, int, int]] = []
+    flags: list[Change] = []
     outputs: dict[int, tuple[int, int]] = {}
     for text in assignments:
-        match = _OPERAND.fullmatch(text)
-        if not match:
+        try:
+            assignment = parse_assignment(text, example="F 10.0=1")
+        except ValueError as exc:
+            raise UserError(str(exc), ExitCode.USAGE) from None
+        kind = assignment.operand.node.kind
+        if kind not in _WRITABLE:
             raise UserError(
-                f"'{text}': expected 'F 10.0=1', 'FY 10=0x12', 'Q 17.3=1' or 'Q 17=0b1000'",
-                ExitCode.USAGE,
-            )
-        kind, number, bit = match["kind"].upper(), int(match["number"]), match["bit"]
-        if kind in ("F", "FY"):
-            if number >= FLAGS_SIZE:
-                raise UserError(f"'{text}': the flags are F0..F127", ExitCode.USAGE)
-            if kind == "FY" or bit is None:
-                if bit is not None:
-                    raise UserError(f"'{text}': FY is a whole byte", ExitCode.USAGE)
-                flag_bytes[number] = parse_number(match["value"], "flag byte", 0xFF)
-            else:
-                if int(bit) > 7:
-                    raise UserError(f"'{text}': a flag byte has bits 0..7", ExitCode.USAGE)
-                flag_bits.append((number, int(bit), parse_number(match["value"], "bit", 1)))
-        else:
+                f"'{assignment.written}' cannot be written: write sets flags (F, FY) and "
+                "outputs (Q, QB)", ExitCode.USAGE)
+        changes = image_changes(assignment)
+        if kind in (K.F, K.FY):
+            flags += changes
+            continue
+        for number, mask, bits in changes:
             if not 1 <= number < SLAVES:
-                raise UserError(f"'{text}': slaves 1..31 have outputs", ExitCode.USAGE)
-            mask, value = 0xF, 0
-            if bit is not None:
-                if int(bit) > 3:
-                    raise UserError(f"'{text}': a slave has output bits 0..3", ExitCode.USAGE)
-                mask = 1 << int(bit)
-                value = parse_number(match["value"], "bit", 1) << int(bit)
-            else:
-                value = parse_number(match["value"], "output value", 15)
+                raise UserError(f"'{assignment.written}': slaves 1..31 have outputs",
+                                ExitCode.USAGE)
             old_mask, old_value = outputs.get(number, (0, 0))
-            outputs[number] = (old_mask | mask, old_value & ~mask | value)
+            outputs[number] = (old_mask | mask, old_value & ~mask | bits)
     with _connect(**board) as master:
         tools = master.tools()
-        if flag_bytes or flag_bits:
-            flags = bytearray(tools.read_flags())
-            for n, value in flag_bytes.items():
-                flags[n] = value
-            for n, b, value in flag_bits:
-                flags[n] = flags[n] & ~(1 << b) | value << b
-            touched = sorted({*flag_bytes, *(n for n, _, _ in flag_bits)})
-            for n in touched:
-                tools.write_flags(n, bytes([flags[n]]))
+        if flags:
+            write_flags(tools, flags)
         if outputs:
             tools.write_outputs(outputs)
     click.echo(f"{master.name}: wrote {', '.join(assignments)}", err=True)

@@ -17,13 +17,11 @@ from click.core import ParameterSource
 from asictl.cli.master import _board_options, _BoardOptions, _connect
 from asictl.errors import ExitCode, UserError
 from asictl.host.boards import port_name, state_directory
-from asictl.host.emulated import (
-    parse_address,
-    parse_input_bit,
-    parse_number,
-    parse_profile,
-)
+from asictl.host.commissioning import image_changes
+from asictl.host.emulated import parse_address, parse_number, parse_profile
 from asictl.host.master import Master
+from asictl.il.ast import OperandKind as K
+from asictl.observe.operands import parse_assignment
 
 
 @click.command("serve")
@@ -214,8 +212,12 @@ def match(**board: Unpack[_BoardOptions]) -> None:
 @click.argument("settings", nargs=-1, required=True)
 @_board_options
 def inputs(settings: tuple[str, ...], **board: Unpack[_BoardOptions]) -> None:
-    """Set the input data slaves deliver: 'ADDRESS VALUE' (VALUE 0b1011, 0xB, Bh or 11)
-    or input bits such as 'I 4.0=1' (several at once are applied together)."""
+    """Set the input data slaves deliver: 'ADDRESS VALUE' (VALUE 0b1011, 0xB, Bh or 11),
+    or OPERAND=VALUE: input bits such as 'I 4.0=1', a slave's four inputs 'I 4=0b1011',
+    two slaves' 'IB 4=0x5A' (several at once are applied together).
+
+    Example: asictl bus inputs "I 4.0=1" "I 5=0b0110"
+    """
     _emulated_only(board)
     changes: list[list[int]] = []
     if len(settings) == 2 and "=" not in settings[0] + settings[1]:
@@ -224,7 +226,14 @@ def inputs(settings: tuple[str, ...], **board: Unpack[_BoardOptions]) -> None:
         )
     else:
         for text in settings:
-            changes.append(list(parse_input_bit(text)))
+            try:
+                assignment = parse_assignment(text, example="I 4.0=1")
+            except ValueError as exc:
+                raise UserError(str(exc), ExitCode.USAGE) from None
+            if assignment.operand.node.kind not in (K.I, K.IB):
+                raise UserError(f"'{assignment.written}' is no input: bus inputs sets what "
+                                "slaves deliver (I, IB)", ExitCode.USAGE)
+            changes += [list(change) for change in image_changes(assignment)]
     with _connect(**board) as master:
         now = master.emulated("inputs", changes=changes)
         shown = ", ".join(f"slave {a} inputs {v:04b}" for a, v in now.items())

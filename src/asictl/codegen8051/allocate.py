@@ -12,8 +12,8 @@ and copies inputs in and outputs and flags out around each cycle.
 from __future__ import annotations
 
 from collections import Counter
-from collections.abc import Iterator
 from dataclasses import dataclass, field
+from typing import assert_never
 
 from asictl.il import ast
 from asictl.il.ast import key
@@ -30,26 +30,24 @@ from asictl.runtime.program_map import (
     timer_status,
 )
 
-_IMAGE_CELLS = {
-    ast.BitArea.I: CellKind.I, ast.BitArea.I2: CellKind.I2, ast.BitArea.Q: CellKind.Q
-}
-_BYTE_CELLS = {
-    ast.ByteArea.IB: CellKind.I, ast.ByteArea.I2B: CellKind.I2, ast.ByteArea.QB: CellKind.Q
-}
+K = ast.OperandKind
+_IMAGE_CELLS = {K.I: CellKind.I, K.I2: CellKind.I2, K.Q: CellKind.Q}
+_BYTE_CELLS = {K.IB: CellKind.I, K.I2B: CellKind.I2, K.QB: CellKind.Q}
 
 
-def bit_cell(operand: ast.ImageBit) -> tuple[Cell, int]:
+def bit_cell(operand: ast.Operand) -> tuple[Cell, int]:
     """The cell and bit (0-7) of an I/I2/Q/F bit operand: slave 2k+1 is the high nibble."""
-    if operand.area is ast.BitArea.F:
+    if operand.kind is K.F:
         return (CellKind.F, operand.address), operand.bit
-    cell = (_IMAGE_CELLS[operand.area], operand.address >> 1)
+    cell = (_IMAGE_CELLS[operand.kind], operand.address >> 1)
     return cell, (operand.address & 1) * 4 + operand.bit
 
 
-def byte_cell(operand: ast.ImageByte) -> Cell:
-    if operand.area is ast.ByteArea.FY:
-        return CellKind.F, operand.number
-    return _BYTE_CELLS[operand.area], operand.number >> 1
+def byte_cell(operand: ast.Operand) -> Cell:
+    """The cell of an IB/I2B/QB/FY byte operand."""
+    if operand.kind is K.FY:
+        return CellKind.F, operand.address
+    return _BYTE_CELLS[operand.kind], operand.address >> 1
 
 
 @dataclass
@@ -66,49 +64,36 @@ class _Usage:
         self.byte_uses[cell] += 1
 
 
-def _bit_operands(module: ast.Module) -> Iterator[ast.BitOperand]:
-    for section in module.sections:
-        if isinstance(section, ast.GatingSection):
-            for line in section.lines:
-                yield line.target
-                yield from (term.operand for term in line.terms)
-        elif isinstance(section, ast.ProgramSection):
-            for statement in section.statements:
-                if isinstance(statement, ast.Logic | ast.Store):
-                    yield statement.operand
-
-
 def _usage(program: Program) -> _Usage:
+    """How often the program's code uses each cell as bits and as bytes, and which timers
+    and counters it has. A [PROGRAM] statement on a timer (status bit or word) uses its
+    status byte; a gating line only its status bit."""
     usage = _Usage()
     for module in program.modules():
-        for operand in _bit_operands(module):
-            match operand:
-                case ast.ImageBit():
-                    usage.bit(bit_cell(operand)[0])
-                case ast.TimerRef(number=n):
-                    usage.bit(timer_status(n)[0])
-                    usage.timers.add(n)
-                case ast.CounterRef(number=n):
-                    usage.counters.add(n)
-        for statement in module.statements():
-            used: object = getattr(statement, "operand", None) or getattr(
-                statement, "counter", None
-            )
-            match used:
-                case ast.ImageByte(area=ast.ByteArea.PSEG):
-                    pass
-                case ast.ImageByte():
-                    usage.byte(byte_cell(used))
-                case ast.FlagWord(number=n):
-                    usage.byte((CellKind.F, n))
-                    usage.byte((CellKind.F, n + 1))
-                case ast.TimerRef(number=n):
-                    usage.timers.add(n)
-                    usage.byte(timer_status(n)[0])
-                case ast.CounterRef(number=n):
-                    usage.counters.add(n)
-            if isinstance(statement, ast.Param):
-                usage.byte((CellKind.F, 127))
+        for node in module.code():
+            statement = not isinstance(node, ast.GatingLine)
+            for operand, _ in ast.operands(node):
+                n = operand.address
+                match operand.kind:
+                    case K.I | K.I2 | K.Q | K.F:
+                        usage.bit(bit_cell(operand)[0])
+                    case K.IB | K.I2B | K.QB | K.FY:
+                        usage.byte(byte_cell(operand))
+                    case K.FW:
+                        usage.byte((CellKind.F, n))
+                        usage.byte((CellKind.F, n + 1))
+                    case K.T:
+                        usage.timers.add(n)
+                        if operand.width is ast.Width.BIT:
+                            usage.bit(timer_status(n)[0])
+                        if statement:
+                            usage.byte(timer_status(n)[0])
+                    case K.C:
+                        usage.counters.add(n)
+                    case K.PSEG | K.VAR | K.KT | K.KC | K.KB | K.KW | K.KP:
+                        pass  # PSeg and variables have places of their own
+                    case _:
+                        assert_never(operand.kind)
     return usage
 
 

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 from dataclasses import dataclass, field
+from typing import assert_never
 
 from asictl.codegen8051.allocate import bit_cell, byte_cell
 from asictl.diagnostics import Span
@@ -21,6 +22,8 @@ from asictl.il.language import PARAM_FLAG
 from asictl.runtime import layout
 from asictl.runtime.firmware import FIRMWARE_BLOCKS
 from asictl.runtime.program_map import CellKind, Location, ProgramMap, Space, timer_status
+
+K = ast.OperandKind
 
 
 def _hex(value: int) -> str:
@@ -144,28 +147,33 @@ class Emitter:
 
     # --------------------------------------------------------------- bit operands
 
-    def bit_location(self, operand: ast.BitOperand) -> tuple[Location, int] | None:
+    def bit_location(self, operand: ast.Operand) -> tuple[Location, int] | None:
         """Cell location and bit of an operand; None for a counter (computed status)."""
-        match operand:
-            case ast.ImageBit():
+        match operand.kind:
+            case K.I | K.I2 | K.Q | K.F:
                 cell, bit = bit_cell(operand)
                 if cell[0] is CellKind.F:
                     return self.pmap.flag(cell[1]), bit
                 return self.pmap.cells[cell], bit
-            case ast.TimerRef(number=n):
-                cell, bit = timer_status(n)
+            case K.T:
+                cell, bit = timer_status(operand.address)
                 return self.pmap.cells[cell], bit
-            case ast.VarBit(name=name, offset=offset, bit=bit):
-                var = self.pmap.variables[key(name)]
-                return Location(Space.XDATA, var.address + offset), bit
-        return None
+            case K.VAR:
+                var = self.pmap.variables[key(operand.name)]
+                return Location(Space.XDATA, var.address + operand.address), operand.bit
+            case K.C:
+                return None
+            case (K.IB | K.I2B | K.QB | K.FY | K.PSEG | K.FW | K.KT | K.KC | K.KB | K.KW
+                  | K.KP):
+                raise AssertionError(f"{operand} is no bit operand")
+            case _:
+                assert_never(operand.kind)
 
-    def bit_source(self, operand: ast.BitOperand) -> str:
+    def bit_source(self, operand: ast.Operand) -> str:
         """Prepare a bit operand for MOV/ANL/ORL C,bit and return its bit name."""
         placed = self.bit_location(operand)
         if placed is None:
-            assert isinstance(operand, ast.CounterRef)
-            self.counter_status(operand.number)
+            self.counter_status(operand.address)
             return _hex(layout.STATUS_BIT)
         location, bit = placed
         if location.bit_addressable:
@@ -210,7 +218,7 @@ class Emitter:
 
     # ----------------------------------------------------------------- statements
 
-    def logic(self, op: ast.LogicOp, operand: ast.BitOperand, first: bool) -> None:
+    def logic(self, op: ast.LogicOp, operand: ast.Operand, first: bool) -> None:
         source = self.bit_source(operand)
         inverted = op in (ast.LogicOp.AN, ast.LogicOp.ON)
         if first:
@@ -222,12 +230,12 @@ class Emitter:
         else:
             self.emit(f"ORL C,{'/' if inverted else ''}{source}")
 
-    def store(self, op: ast.StoreOp, operand: ast.BitOperand) -> None:
-        if isinstance(operand, ast.TimerRef):
-            self.timer_set_reset(op, operand.number)
+    def store(self, op: ast.StoreOp, operand: ast.Operand) -> None:
+        if operand.kind is K.T:
+            self.timer_set_reset(op, operand.address)
             return
-        if isinstance(operand, ast.CounterRef):
-            self.counter_set_reset(op, operand.number)
+        if operand.kind is K.C:
+            self.counter_set_reset(op, operand.address)
             return
         placed = self.bit_location(operand)
         assert placed is not None
@@ -325,17 +333,22 @@ class Emitter:
         self.emit(f"MOV R5,{_hex(layout.ACCU1_LO)}")
         self.emit(f"MOV R4,{_hex(layout.ACCU1_HI)}")
 
-    def byte_location(self, operand: ast.ByteOperand) -> Location:
-        match operand:
-            case ast.ImageByte(area=ast.ByteArea.PSEG, number=n):
+    def byte_location(self, operand: ast.Operand) -> Location:
+        n = operand.address
+        match operand.kind:
+            case K.PSEG:
                 return Location(Space.XDATA, self.pmap.pseg + n)
-            case ast.ImageByte(area=ast.ByteArea.FY, number=n):
+            case K.FY:
                 return self.pmap.flag(n)
-            case ast.ImageByte():
+            case K.IB | K.I2B | K.QB:
                 return self.pmap.cells[byte_cell(operand)]
-            case ast.VarByte(name=name, offset=offset):
-                return Location(Space.XDATA, self.pmap.variables[key(name)].address + offset)
-        raise AssertionError(operand)
+            case K.VAR:
+                return Location(Space.XDATA, self.pmap.variables[key(operand.name)].address + n)
+            case (K.I | K.I2 | K.Q | K.F | K.FW | K.T | K.C | K.KT | K.KC | K.KB | K.KW
+                  | K.KP):
+                raise AssertionError(f"{operand} is no byte operand")
+            case _:
+                assert_never(operand.kind)
 
     def read_to(self, register: str, location: Location) -> None:
         if location.space is Space.IRAM:
@@ -353,32 +366,36 @@ class Emitter:
             self.emit(f"MOV A,{register}")
             self.store_acc(location)
 
-    def load(self, operand: ast.LoadOperand) -> None:
-        match operand:
-            case ast.Constant(kind=ast.ConstKind.KT, value=ms):
-                self.constant((ms + 9) // 10)
-                return
-            case ast.Constant(kind=ast.ConstKind.KC, value=value):
-                self.constant(value)
-                return
-            case ast.ParamConst(address=address, data=data):
-                self.constant(address << 4 | data)
-                return
+    def load(self, operand: ast.Operand) -> None:
+        n = operand.address
+        if operand.kind is K.KT:
+            self.constant((n + 9) // 10)
+            return
+        if operand.kind is K.KC:
+            self.constant(n)
+            return
+        if operand.kind is K.KP:
+            self.constant(n << 4 | operand.bit)
+            return
         self.push_accu()
-        match operand:
-            case ast.Constant(value=value):
-                self.emit(f"MOV R7,#{_hex(value & 0xFF)}")
-                self.emit(f"MOV R6,#{_hex(value >> 8)}")
-            case ast.FlagWord(number=n):
+        match operand.kind:
+            case K.KB | K.KW:
+                self.emit(f"MOV R7,#{_hex(n & 0xFF)}")
+                self.emit(f"MOV R6,#{_hex(n >> 8)}")
+            case K.FW:
                 self.read_to("R6", self.pmap.flag(n))
                 self.read_to("R7", self.pmap.flag(n + 1))
-            case ast.TimerRef(number=n):
+            case K.T:
                 self.read_word(self.pmap.timers[n], mask_high=False)
-            case ast.CounterRef(number=n):
+            case K.C:
                 self.read_word(self.pmap.counters[n], mask_high=True)
-            case _:
+            case K.IB | K.I2B | K.QB | K.FY | K.PSEG | K.VAR:
                 self.read_to("R7", self.byte_location(operand))
                 self.emit("MOV R6,#0")
+            case K.I | K.I2 | K.Q | K.F | K.KT | K.KC | K.KP:
+                raise AssertionError(f"L {operand} loads no word")
+            case _:
+                assert_never(operand.kind)
 
     def read_word(self, address: int, *, mask_high: bool) -> None:
         self.dptr(address)
@@ -396,25 +413,30 @@ class Emitter:
         self.emit(f"MOV R2,#{_hex(value & 0xFF)}")
         self.emit(f"MOV R3,#{_hex(value >> 8)}")
 
-    def transfer(self, operand: ast.TransferOperand) -> None:
-        match operand:
-            case ast.FlagWord(number=n):
+    def transfer(self, operand: ast.Operand) -> None:
+        n = operand.address
+        match operand.kind:
+            case K.FW:
                 self.write_from("R6", self.pmap.flag(n))
                 self.write_from("R7", self.pmap.flag(n + 1))
-            case ast.TimerRef(number=n):
+            case K.T:
                 self._helpers.add("?CLAMP")
                 self.emit("LCALL ?CLAMP")
                 self.dptr(self.pmap.timers[n])
                 self.write_word_from("R0", "R1")
                 self.emit("ORL A,R0")
                 self.status_from_acc(n)
-            case ast.CounterRef(number=n):
+            case K.C:
                 self._helpers.add("?CLAMP")
                 self.emit("LCALL ?CLAMP")
                 self.dptr(self.pmap.counters[n])
                 self.write_word_from("R0", "R1")
-            case _:
+            case K.IB | K.I2B | K.QB | K.FY | K.PSEG | K.VAR:
                 self.write_from("R7", self.byte_location(operand))
+            case K.I | K.I2 | K.Q | K.F | K.KT | K.KC | K.KB | K.KW | K.KP:
+                raise AssertionError(f"T {operand} writes no word")
+            case _:
+                assert_never(operand.kind)
 
     def arith(self, op: ast.ArithOp) -> None:
         """ACCU1 := ACCU2 +/- ACCU1 on bytes; the register survives in PSW.F0."""

@@ -8,6 +8,7 @@ cycle, then each called user block as a subroutine, then the runtime helpers use
 from __future__ import annotations
 
 from collections.abc import Mapping
+from typing import assert_never
 
 from asictl.codegen8051.emitter import (
     ENTRY_SYMBOL,
@@ -83,6 +84,10 @@ def _body(out: Emitter, module: ast.Module, scope: str | None, user_blocks: set[
                 for asm_line in asm_lines:
                     out.span = asm_line.span
                     out.raw(asm_line.text)
+            case ast.OptionsSection() | ast.SetupSection() | ast.DeclSection() | ast.RawSection():
+                pass  # they configure; they hold no code
+            case _:
+                assert_never(section)
     out.span = None
     out.emit("RET")  # the end of the last section is an implicit BE
 
@@ -111,7 +116,7 @@ def _statements(
                 out.compare(op)
                 first = False
             case ast.Count(op=op, counter=counter):
-                out.count(op, counter.number)
+                out.count(op, counter.address)
             case ast.SegmentEnd():
                 first = True
             case ast.BlockEnd(kind=kind):
@@ -126,3 +131,5 @@ def _statements(
                 out.raw(text)
             case ast.Label(name=name):
                 out.label(label_symbol(scope, name))
+            case _:
+                assert_never(statement)

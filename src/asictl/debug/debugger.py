@@ -23,7 +23,13 @@ from asictl.il import ast
 from asictl.mcs51.isa import SFRS
 from asictl.observe.hooks import LineHooks
 from asictl.observe.locate import call_chain, current_line, describe
-from asictl.observe.operands import CounterValue, Operand, TimerValue, parse_operand
+from asictl.observe.operands import (
+    SETTABLE,
+    Operand,
+    parse_assignment,
+    parse_operand,
+    read_number,
+)
 from asictl.observe.view import ProgramView
 from asictl.platform.pc2 import STOP_ADDRESS, STOPS_AT_AN_ADDRESS
 from asictl.runtime.line_map import LineMap, SourceLine
@@ -139,11 +145,11 @@ class Values:
         operand = self.operand(text)
         value = view.read(operand)
         node = operand.node
-        if isinstance(node, ast.TimerRef):
-            return f"{value} (remaining {view.timer_ms(node.number) or 0} ms)"
-        if isinstance(node, ast.CounterRef):
-            return f"{value} (value {view.counter(node.number) or 0})"
-        if operand.is_bit or isinstance(node, CounterValue | TimerValue):
+        if operand.is_bit and node.kind is ast.OperandKind.T:
+            return f"{value} (remaining {view.timer_ms(node.address) or 0} ms)"
+        if operand.is_bit and node.kind is ast.OperandKind.C:
+            return f"{value} (value {view.counter(node.address) or 0})"
+        if node.width is not ast.Width.BYTE:  # a bit, CV n, TV n
             return str(value)
         return f"{value} ({value:02X}h)"
 
@@ -154,9 +160,9 @@ class Values:
             raise DebugError(f"condition '{text}': OPERAND=VALUE, e.g. RLO=1 or CV 0>=3")
         left, op, right = match.groups()
         try:
-            number = int(right, 0)
-        except ValueError:
-            raise DebugError(f"condition '{text}': '{right}' is not a number") from None
+            number = read_number(right)
+        except ValueError as exc:
+            raise DebugError(f"condition '{text}': {exc}") from None
         return _COMPARE[op](self.value(left), number)
 
 
@@ -351,23 +357,15 @@ class Debugger:
             self.out(f"{item} = {self.show(item)}")
 
     def _set(self, rest: str) -> None:
-        name, equals, value = rest.rpartition("=")
-        if not equals or not name.strip():
-            raise DebugError("set OPERAND=VALUE, e.g. set I 1.0=1")
-        operand = self._operand(name.strip())
         try:
-            number = int(value.strip(), 0)
-        except ValueError:
-            raise DebugError(f"'{value.strip()}' is not a number") from None
-        if not operand.settable:
-            raise DebugError(f"'{operand}' cannot be set: only inputs (I, IB) and flags (F, FY)")
-        if not 0 <= number <= operand.maximum:
-            raise DebugError(f"value {number} out of range 0..{operand.maximum}")
-        try:
-            self.sim.set(operand, number)
+            assignment = parse_assignment(rest, variables_of(self.runner.pmap), self.symbols)
+            if not assignment.operand.settable:
+                raise ValueError(f"'{assignment.operand}' cannot be set: {SETTABLE}")
+            self.sim.set(assignment.operand, assignment.value)
         except ValueError as exc:
             raise DebugError(str(exc)) from None
-        self.out(f"{name.strip()} = {number} (the program sees it from its next cycle)")
+        self.out(f"{assignment.written} = {assignment.value} "
+                 "(the program sees it from its next cycle)")
 
     def _where(self, _: str) -> None:
         self.out(self._position())

@@ -34,11 +34,9 @@ class Inventory:
             io += [f"Q {slave.address}.{b}" for b in range(4) if letters[b] in "ob"]
         flags: set[tuple[int, int, str]] = set()
         for operand in line_operands(program).values():
-            match operand.node:
-                case ast.ImageBit(area=ast.BitArea.F, address=a, bit=b):
-                    flags.add((a, b, str(operand)))
-                case ast.ImageByte(area=ast.ByteArea.FY, number=n):
-                    flags.add((n, -1, str(operand)))
+            node = operand.node
+            if node.kind in (ast.OperandKind.F, ast.OperandKind.FY):
+                flags.add((node.address, node.bit, str(operand)))
         pmap = image.pmap
         return cls(
             tuple(io),

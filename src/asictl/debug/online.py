@@ -54,7 +54,7 @@ from asictl.image.eeprom import ImageError
 from asictl.mcs51.isa import SFRS
 from asictl.observe.hooks import LineHooks
 from asictl.observe.locate import call_chain, current_line
-from asictl.observe.operands import Operand, parse_operand
+from asictl.observe.operands import SETTABLE, Operand, parse_operand
 from asictl.observe.symbols import SymbolTable
 from asictl.observe.view import ProgramView, host_write, read_on_board, wake
 from asictl.platform import pc2
@@ -253,25 +253,25 @@ class OnlineDebugger:
         """An input as its slave delivers it, a flag as a host writes it."""
         operand = self._operand(name)
         if not operand.settable:
-            raise DebugError(f"'{operand}' cannot be set: only inputs (I, IB) and flags (F, FY)")
+            raise DebugError(f"'{operand}' cannot be set: {SETTABLE}")
         if not 0 <= value <= operand.maximum:
             raise DebugError(f"value {value} out of range 0..{operand.maximum}")
-        board = self.board
-        match operand.node:
-            case ast.ImageBit(area=ast.BitArea.I, address=a, bit=b):
-                for slave in self._slaves(a, name):
-                    slave.inputs = slave.inputs & ~(1 << b) | value << b
-            case ast.ImageByte(area=ast.ByteArea.IB, number=n):
-                for address, nibble in ((n, value & 0xF), (n + 1, value >> 4)):
-                    for slave in self._slaves(address, name):
-                        slave.inputs = nibble
-            case ast.ImageBit(area=ast.BitArea.F, address=a, bit=b):
-                old = board.dpram[pc2.FLAGS + a]
-                host_write(board, pc2.FLAGS + a, old & ~(1 << b) | value << b)
-            case ast.ImageByte(area=ast.ByteArea.FY, number=n):
-                host_write(board, pc2.FLAGS + n, value)
-            case _:
-                raise DebugError(f"'{operand}' cannot be set")
+        board, node = self.board, operand.node
+        n, b, kind = node.address, node.bit, node.kind
+        if kind is ast.OperandKind.I:
+            for slave in self._slaves(n, name):
+                slave.inputs = value if b < 0 else slave.inputs & ~(1 << b) | value << b
+        elif kind is ast.OperandKind.IB:
+            for address, nibble in ((n, value & 0xF), (n + 1, value >> 4)):
+                for slave in self._slaves(address, name):
+                    slave.inputs = nibble
+        elif kind is ast.OperandKind.F:
+            old = board.dpram_byte(pc2.FLAGS + n)
+            host_write(board, pc2.FLAGS + n, old & ~(1 << b) | value << b)
+        elif kind is ast.OperandKind.FY:
+            host_write(board, pc2.FLAGS + n, value)
+        else:
+            raise DebugError(f"'{operand}' cannot be set")
 
     def _slaves(self, address: int, name: str) -> list[Any]:
         found = self.board.bus.at(address)

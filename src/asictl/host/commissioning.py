@@ -18,7 +18,9 @@ from typing import TYPE_CHECKING, Protocol
 from asictl.errors import ExitCode, UserError
 from asictl.host.driver import Pc2Driver
 from asictl.host.jobs import JobError, JobStatus, address_change_failure
+from asictl.il.ast import OperandKind as K
 from asictl.image.eeprom import Configuration
+from asictl.observe.operands import Assignment
 from asictl.platform.gateway import (
     EXCEPTION_STATUS_ERROR,
     MEMORY_BYTES,
@@ -90,6 +92,40 @@ class Commissioning(Protocol):
     def read_flags(self) -> bytes: ...
 
     def write_outputs(self, changes: dict[int, tuple[int, int]]) -> None: ...
+
+
+#: A change of the master's images: (flag byte or slave, mask, bits): the bits under the
+#: mask become the bits (a slave's data bits are the low four).
+Change = tuple[int, int, int]
+
+
+def image_changes(assignment: Assignment) -> list[Change]:
+    """What an ``OPERAND=VALUE`` changes: flag bytes for F and FY, slaves' data bits for
+    I, Q (a bit, or all four: ``Q 17``), IB and QB (two slaves); ``UserError`` for an
+    operand that is neither (a timer, a variable: the program's own)."""
+    node, value = assignment.operand.node, assignment.value
+    n, bit = node.address, node.bit
+    kind = node.kind
+    if kind in (K.F, K.I, K.I2, K.Q) and bit >= 0:
+        return [(n, 1 << bit, value << bit)]
+    if kind in (K.I, K.I2, K.Q):
+        return [(n, 0xF, value)]
+    if kind is K.FY:
+        return [(n, 0xFF, value)]
+    if kind in (K.IB, K.I2B, K.QB):
+        return [(n, 0xF, value & 0xF), (n + 1, 0xF, value >> 4)]
+    raise UserError(f"'{assignment.written}' is the program's own: only flags, inputs and "
+                    "outputs can be written", ExitCode.USAGE)
+
+
+def write_flags(tools: Commissioning, changes: list[Change]) -> None:
+    """Change flag bits and bytes (``image_changes`` of F and FY): each byte touched is
+    read, changed under its masks and written back once."""
+    memory = bytearray(tools.read_flags())
+    for n, mask, bits in changes:
+        memory[n] = memory[n] & ~mask | bits
+    for n in sorted({n for n, _, _ in changes}):
+        tools.write_flags(n, bytes([memory[n]]))
 
 
 def check_address(address: int, *, zero: bool = True) -> None:

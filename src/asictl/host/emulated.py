@@ -23,6 +23,7 @@ from typing import Any
 from asictl.board.asi import BusError, Slave
 from asictl.board.board import Pc2Board
 from asictl.errors import ExitCode, UserError
+from asictl.observe.operands import read_number
 from asictl.platform.master import IO_CODE_BITS, SLAVES, TICK_MS
 
 JSON = Any
@@ -47,15 +48,10 @@ class ActionError(UserError):
 
 
 def parse_number(text: str, what: str, limit: int) -> int:
-    """``0b1011``, ``0xB``, ``Bh`` or ``11``: a value 0..limit (exit 2 otherwise)."""
-    digits = text.strip().lower().replace("_", "")
+    """``0b1011``, ``0xB``, ``Bh`` or ``11`` (``observe.operands.read_number``): a value
+    0..limit (exit 2 otherwise)."""
     try:
-        if digits.startswith(("0b", "0x")):
-            value = int(digits, 0)
-        elif digits.endswith("h") and len(digits) > 1:
-            value = int(digits[:-1], 16)
-        else:
-            value = int(digits, 10)
+        value = read_number(text)
     except ValueError:
         raise UserError(
             f"{what} '{text}': expected a number such as 11, 0xB, Bh or 0b1011",
@@ -97,24 +93,6 @@ def parse_profile(text: str) -> tuple[int, int]:
             )
         id_code = int(token.rstrip("h"), 16)
     return io_code, id_code
-
-
-_INPUT_BIT = re.compile(r"\s*I\s*(\d+)\s*\.\s*(\d+)\s*=\s*(\S+)\s*", re.IGNORECASE)
-
-
-def parse_input_bit(text: str) -> tuple[int, int, int]:
-    """``I 4.0=1``: (address, mask, bits) for the ``inputs`` action."""
-    match = _INPUT_BIT.fullmatch(text)
-    if not match:
-        raise UserError(
-            f"'{text}': expected an input bit and its value such as 'I 4.0=1'", ExitCode.USAGE
-        )
-    address = parse_address(match[1])
-    bit = int(match[2])
-    if bit > 3:
-        raise UserError(f"'{text}': a slave has input bits 0..3", ExitCode.USAGE)
-    value = parse_number(match[3], "bit value", 1)
-    return address, 1 << bit, value << bit
 
 
 # --------------------------------------------------------------------------- actions

@@ -5,16 +5,31 @@ node carries the ``Span`` it was read from, excluded from equality so that a tre
 back with ``to_source()`` and read again compares equal to the original (the round-trip
 property the tests rely on). Names keep the spelling of the source; the language ignores
 case, so comparisons go through ``key()``.
+
+The operand model: every operand of every statement is one ``Operand`` value, whatever
+it names: kind (the mark: ``I``, ``FY``, ``T``, ``KT`` ..., or a variable), address (the
+number after the mark), bit (after the dot), width (how the statement uses it: ``T 1`` is
+a bit in ``A T 1`` and a word in ``L T 1``), a variable's name, and its span. Constants
+are operands too (``L KT 500`` loads one), so ``L`` takes an operand like any other
+instruction. What reads and writes which operand is answered in one place,
+``operands()``: a count (CU, CD, STP) reads and writes its counter, and PARAM writes
+``FY 127`` (the slave's answer), an operand the source does not show. ``nodes()`` is the
+body of a section, ``Module.statements()`` the statements of a module and
+``Module.code()`` those with its gating lines, all that runs. Every walker of
+the tree (checks, analyses, formatter, cross-reference, allocator, code generator,
+interpreter, editor) goes through these, and every ``match`` over statement or operand
+kinds ends in ``assert_never``: mypy then names each walker a new kind is missing from.
 """
 
 from __future__ import annotations
 
 from collections.abc import Iterator
 from dataclasses import dataclass, field
-from enum import StrEnum
-from typing import TypeVar
+from enum import IntEnum, StrEnum
+from typing import TypeVar, assert_never
 
 from asictl.diagnostics import Span
+from asictl.il.language import PARAM_FLAG
 
 
 def _span() -> Span | None:
@@ -30,146 +45,121 @@ def key(name: str) -> str:
 # 3.4.1 binary operands, 3.4.3 byte and word addresses, 3.4.2 constants
 
 
-class BitArea(StrEnum):
-    """Bit-addressable images: ``I 4.0`` input, ``I2`` previous input, ``Q`` output, ``F`` flag."""
+class OperandKind(StrEnum):
+    """What an operand names. The value is the mark the source writes before the number
+    (a variable's operands start with its name instead)."""
 
     I = "I"  # noqa: E741 - the manual's own name
     I2 = "I2"
     Q = "Q"
     F = "F"
-
-
-class ByteArea(StrEnum):
-    """Byte-addressable images (3.4.3). IB/I2B/QB take an even slave address."""
-
     IB = "IB"
     I2B = "I2B"
     QB = "QB"
     FY = "FY"
     PSEG = "PSeg"
+    FW = "FW"
+    T = "T"
+    C = "C"
+    VAR = "variable"
+    KT = "KT"
+    KC = "KC"
+    KB = "KB"
+    KW = "KW"
+    KP = "KP"
 
 
-@dataclass(frozen=True)
-class ImageBit:
-    """``I 4.0``: slave 4, data bit 0 (I, I2, Q); ``F 42.7``: flag byte 42, bit 7."""
+class Width(IntEnum):
+    """How many bits a statement takes of an operand: ``A T 1`` its status bit, ``L T 1``
+    its remaining time (a word)."""
 
-    area: BitArea
+    BIT = 1
+    #: a slave's four data bits, ``I 4`` or ``Q 17``: no IL statement takes them, the
+    #: host tools and scenarios do (``asictl.observe.operands``)
+    NIBBLE = 4
+    BYTE = 8
+    WORD = 16
+
+
+#: The images' and flags' bits; the slaves' data bits (two slaves to a byte operand).
+IMAGE_BITS = frozenset({OperandKind.I, OperandKind.I2, OperandKind.Q, OperandKind.F})
+SLAVE_BITS = frozenset({OperandKind.I, OperandKind.I2, OperandKind.Q})
+SLAVE_BYTES = frozenset({OperandKind.IB, OperandKind.I2B, OperandKind.QB})
+#: The constants ``L`` loads: KB and KW into ACCU1, KT, KC and KP into the constant register.
+CONSTANTS = frozenset({
+    OperandKind.KT, OperandKind.KC, OperandKind.KB, OperandKind.KW, OperandKind.KP,
+})
+_WIDTHS = {
+    **dict.fromkeys(IMAGE_BITS | {OperandKind.T, OperandKind.C}, Width.BIT),
+    **dict.fromkeys(SLAVE_BYTES | {OperandKind.FY, OperandKind.PSEG, OperandKind.KB}, Width.BYTE),
+    **dict.fromkeys({OperandKind.FW, OperandKind.KT, OperandKind.KC, OperandKind.KW,
+                     OperandKind.KP}, Width.WORD),
+}
+
+
+@dataclass(frozen=True, slots=True, repr=False)
+class Operand:
+    """One operand of a statement, as the source writes it.
+
+    ``address`` is the number after the mark: the slave (``I 4.0``), the byte (``F 42.7``,
+    ``FY 10``, ``PSeg 0``), the word, the timer or counter, a variable's byte offset
+    (``Reading 3.2``), a constant's value (``KT 500``), the slave of ``KP 13.9``. ``bit``
+    is the number after the dot: the bit, or KP's parameter; -1 where there is none.
+    ``width`` is how the statement uses it (a timer is a bit in ``A T 1`` and a word in
+    ``L T 1``), ``name`` a variable's name as written. The span takes no part in
+    equality: an operand is a value, the span where it was read.
+    """
+
+    kind: OperandKind
     address: int
-    bit: int
-    span: Span | None = _span()
+    bit: int = -1
+    width: Width = Width.BIT
+    name: str = ""
+    span: Span | None = field(default=None, compare=False, repr=False)
+
+    @classmethod
+    def of(
+        cls, kind: OperandKind, address: int, bit: int = -1, *, name: str = "",
+        width: Width | None = None, span: Span | None = None,
+    ) -> Operand:
+        """An operand with the width its kind has where the language takes it whole (a
+        timer or counter: its status bit; a variable: a bit with a bit number, else a
+        byte)."""
+        if width is None:
+            if kind is OperandKind.VAR:
+                width = Width.BIT if bit >= 0 else Width.BYTE
+            else:
+                width = _WIDTHS[kind]
+        return cls(kind, address, bit, width, name, span)
+
+    def __repr__(self) -> str:
+        return f"Operand({self}, {self.width.name.lower()})"
 
     def __str__(self) -> str:
-        return f"{self.area.value} {self.address}.{self.bit}"
+        head = self.name if self.kind is OperandKind.VAR else self.kind.value
+        return f"{head} {self.address}" if self.bit < 0 else f"{head} {self.address}.{self.bit}"
+
+    def slaves(self) -> tuple[int, ...]:
+        """The slaves whose data it addresses: one for a bit, two for a byte (IB 4 holds
+        slaves 4 and 5)."""
+        return slaves_of(self.kind, self.address)
 
 
-@dataclass(frozen=True)
-class TimerRef:
-    """``T n``: the status bit as a bit operand, the remaining time as a word operand."""
-
-    number: int
-    span: Span | None = _span()
-
-    def __str__(self) -> str:
-        return f"T {self.number}"
+def slaves_of(kind: OperandKind, address: int) -> tuple[int, ...]:
+    if kind in SLAVE_BITS:
+        return (address,)
+    if kind in SLAVE_BYTES:
+        return (address, address + 1)
+    return ()
 
 
-@dataclass(frozen=True)
-class CounterRef:
-    """``C n``: the status bit as a bit operand, the count as a word operand."""
-
-    number: int
-    span: Span | None = _span()
-
-    def __str__(self) -> str:
-        return f"C {self.number}"
-
-
-@dataclass(frozen=True)
-class VarBit:
-    """``Reading 3.2``: bit 2 of byte 3 of a variable declared in [DECL]."""
-
-    name: str
-    offset: int
-    bit: int
-    span: Span | None = _span()
-
-    def __str__(self) -> str:
-        return f"{self.name} {self.offset}.{self.bit}"
-
-
-@dataclass(frozen=True)
-class ImageByte:
-    """``IB 4``, ``I2B 4``, ``QB 16``, ``FY 10``, ``PSeg 0``."""
-
-    area: ByteArea
-    number: int
-    span: Span | None = _span()
-
-    def __str__(self) -> str:
-        return f"{self.area.value} {self.number}"
-
-
-@dataclass(frozen=True)
-class VarByte:
-    """``Reading 3``: byte 3 of a variable declared in [DECL]."""
-
-    name: str
-    offset: int
-    span: Span | None = _span()
-
-    def __str__(self) -> str:
-        return f"{self.name} {self.offset}"
-
-
-@dataclass(frozen=True)
-class FlagWord:
-    """``FW n``: FY n is the high byte and FY n+1 the low byte, as in STEP5."""
-
-    number: int
-    span: Span | None = _span()
-
-    def __str__(self) -> str:
-        return f"FW {self.number}"
-
-
-class ConstKind(StrEnum):
-    """The constant forms of ``L`` (3.4.2)."""
-
-    KT = "KT"  # time in milliseconds, 0..40950
-    KC = "KC"  # counter value, 0..4095
-    KB = "KB"  # byte, 0..255
-    KW = "KW"  # word, 0..65535
-
-
-@dataclass(frozen=True)
-class Constant:
-    """``KT 500``, ``KC 10``, ``KB 0Ah``, ``KW 1000``."""
-
-    kind: ConstKind
-    value: int
-    span: Span | None = _span()
-
-    def __str__(self) -> str:
-        return f"{self.kind.value} {self.value}"
-
-
-@dataclass(frozen=True)
-class ParamConst:
-    """``KP 13.9``: send parameter 9 to slave 13 (with PARAM)."""
-
-    address: int
-    data: int
-    span: Span | None = _span()
-
-    def __str__(self) -> str:
-        return f"KP {self.address}.{self.data}"
-
-
-BitOperand = ImageBit | TimerRef | CounterRef | VarBit
-ByteOperand = ImageByte | VarByte
-WordOperand = FlagWord | TimerRef | CounterRef
-LoadOperand = Constant | ParamConst | ImageByte | VarByte | FlagWord | TimerRef | CounterRef
-TransferOperand = ImageByte | VarByte | FlagWord | TimerRef | CounterRef
+def flag_bytes(kind: OperandKind, address: int) -> range:
+    """The flag bytes a flag operand covers (FW n is FY n and FY n+1); empty for others."""
+    if kind is OperandKind.F or kind is OperandKind.FY:
+        return range(address, address + 1)
+    if kind is OperandKind.FW:
+        return range(address, address + 2)
+    return range(0)
 
 
 # ----------------------------------------------------------------------- instructions
@@ -223,7 +213,7 @@ class Logic:
     """A/AN/O/ON: combine the single-bit register with a bit operand (or load it, first check)."""
 
     op: LogicOp
-    operand: BitOperand
+    operand: Operand
     span: Span | None = _span()
 
     def to_source(self) -> str:
@@ -235,7 +225,7 @@ class Store:
     """``=``, ``S``, ``R``. On a timer S starts it with the last KT; on a counter S loads KC."""
 
     op: StoreOp
-    operand: BitOperand
+    operand: Operand
     span: Span | None = _span()
 
     def to_source(self) -> str:
@@ -256,7 +246,7 @@ class Not:
 class Load:
     """``L x``: ACCU2 := ACCU1, ACCU1 := x (constants also preset the timer/counter/KP value)."""
 
-    operand: LoadOperand
+    operand: Operand
     span: Span | None = _span()
 
     def to_source(self) -> str:
@@ -267,7 +257,7 @@ class Load:
 class Transfer:
     """``T x``: store ACCU1 (its low byte for a byte operand)."""
 
-    operand: TransferOperand
+    operand: Operand
     span: Span | None = _span()
 
     def to_source(self) -> str:
@@ -301,7 +291,7 @@ class Count:
     """``CU C n``, ``CD C n`` (when the register is 1), ``STP C n`` (up on 1, down on 0)."""
 
     op: CountOp
-    counter: CounterRef
+    counter: Operand
     span: Span | None = _span()
 
     def to_source(self) -> str:
@@ -405,7 +395,7 @@ class GatingTerm:
 
     op: GatingOp | None
     negated: bool
-    operand: BitOperand
+    operand: Operand
     span: Span | None = _span()
 
     def to_source(self) -> str:
@@ -420,12 +410,60 @@ class GatingTerm:
 class GatingLine:
     """``Q 17.3 = I 4.0 or I 5.0 and not F 42.7``: evaluated strictly left to right."""
 
-    target: BitOperand
+    target: Operand
     terms: tuple[GatingTerm, ...]
     span: Span | None = _span()
 
     def to_source(self) -> str:
         return f"{self.target} = " + " ".join(t.to_source() for t in self.terms)
+
+
+# ------------------------------------------------------------------------ the walk
+
+
+class Access(StrEnum):
+    """How a statement uses an operand."""
+
+    READ = "read"
+    WRITE = "write"
+    #: CU, CD and STP read a counter's value to write it back one up or down
+    READ_WRITE = "read and write"
+
+
+_READ, _WRITE = Access.READ, Access.WRITE
+#: An operand and what a statement does with it (a plain tuple: there is one for nearly
+#: every line of a program, made in each walk of every check).
+Use = tuple[Operand, Access]
+
+
+def operands(node: Statement | GatingLine | GatingTerm) -> tuple[Use, ...]:
+    """The operands a statement, a gating line or a gating term reads and writes, in
+    source order (a gating line: its target first).
+
+    Constants are operands that are read. PARAM writes ``FY 127``, the slave's answer,
+    which the source does not write: its operand has the span of the PARAM.
+    """
+    # the most frequent kinds first: every check walks every line
+    match node:
+        case Logic() | Load():
+            return ((node.operand, _READ),)
+        case Store() | Transfer():
+            return ((node.operand, _WRITE),)
+        case SegmentEnd() | Label() | Jump():
+            return ()
+        case Count():
+            return ((node.counter, Access.READ_WRITE),)
+        case GatingLine():
+            return ((node.target, _WRITE), *((term.operand, _READ) for term in node.terms))
+        case GatingTerm():
+            return ((node.operand, _READ),)
+        case Param():
+            answer = Operand(OperandKind.FY, PARAM_FLAG, -1, Width.BYTE, "", node.span)
+            return ((answer, _WRITE),)
+        case Not() | Arith() | Compare() | BlockEnd() | CallFB() | Asm():
+            return ()
+        case _:
+            assert_never(node)
 
 
 # -------------------------------------------------------------------------- sections
@@ -607,6 +645,25 @@ Section = (
 _SectionT = TypeVar("_SectionT", bound=Section)
 
 
+#: What a section's body holds, one node to a line (declarations may share one).
+BodyNode = Option | SlaveSetup | Declaration | Statement | GatingLine | AsmLine
+
+
+def nodes(section: Section) -> tuple[BodyNode, ...]:
+    """The nodes of a section's body, in source order ([RAW] records are text)."""
+    match section:
+        case OptionsSection(options=found) | SetupSection(slaves=found):
+            return found
+        case DeclSection(declarations=found) | ProgramSection(statements=found):
+            return found
+        case GatingSection(lines=found) | AssemblySection(lines=found):
+            return found
+        case RawSection():
+            return ()
+        case _:
+            assert_never(section)
+
+
 @dataclass(frozen=True)
 class Module:
     """One source file: a main program or a function block's file."""
@@ -630,3 +687,11 @@ class Module:
         """The statements of all its program sections, in order."""
         for section in self.sections_of(ProgramSection):
             yield from section.statements
+
+    def code(self) -> Iterator[Statement | GatingLine]:
+        """What runs: the [PROGRAM] statements and [GATING] lines, in source order."""
+        for section in self.sections:
+            if isinstance(section, ProgramSection):
+                yield from section.statements
+            elif isinstance(section, GatingSection):
+                yield from section.lines

@@ -10,10 +10,11 @@ from __future__ import annotations
 
 import bisect
 import re
-from collections.abc import Callable, Iterable, Iterator, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from enum import StrEnum
 from pathlib import Path
+from typing import assert_never
 
 from asictl.codes import CheckCode, SyntaxCode
 from asictl.diagnostics import Diagnostic, Reporter, Span
@@ -38,10 +39,10 @@ from asictl.runtime.firmware import FIRMWARE_BLOCKS
 from asictl.source import SourceText, read_source
 
 CONST_RANGES = {
-    ast.ConstKind.KT: MAX_KT_MS,
-    ast.ConstKind.KC: 4095,
-    ast.ConstKind.KB: 255,
-    ast.ConstKind.KW: 65535,
+    ast.OperandKind.KT: MAX_KT_MS,
+    ast.OperandKind.KC: 4095,
+    ast.OperandKind.KB: 255,
+    ast.OperandKind.KW: 65535,
 }
 
 
@@ -334,49 +335,37 @@ def _check_duplicate_slaves(program: Program, report: Reporter) -> None:
 # --------------------------------------------------------------------------- operands
 
 
-def _operands_of(module: ast.Module) -> Iterator[tuple[object, str]]:
-    """Every operand with its role: 'bit', 'assign', 'set' (S/R), 'load', 'transfer', 'counter'."""
-    for statement in module.statements():
-        match statement:
-            case ast.Logic(operand=op):
-                yield op, "bit"
-            case ast.Store(op=ast.StoreOp.ASSIGN, operand=op):
-                yield op, "assign"
-            case ast.Store(operand=op):
-                yield op, "set"
-            case ast.Load(operand=op):
-                yield op, "load"
-            case ast.Transfer(operand=op):
-                yield op, "transfer"
-            case ast.Count(counter=op):
-                yield op, "counter"
-    for section in module.sections_of(ast.GatingSection):
-        for line in section.lines:
-            yield line.target, "assign"
-            for term in line.terms:
-                yield term.operand, "bit"
-
-
 def _check_code(module: ast.Module, scope: _Scope, report: Reporter) -> None:
-    for operand, role in _operands_of(module):
-        _check_operand(operand, role, scope, report)
-        if role == "assign" and isinstance(operand, ast.TimerRef | ast.CounterRef):
+    for node in module.code():
+        uses = ast.operands(node)
+        if not uses:
+            continue
+        for operand, _ in uses:
+            _check_operand(operand, scope, report)
+        if isinstance(node, ast.Store):
+            target = node.operand if node.op is ast.StoreOp.ASSIGN else None
+        else:
+            target = node.target if isinstance(node, ast.GatingLine) else None
+        if target is not None and target.kind in _TIMER_OR_COUNTER:
             report.error(
                 CheckCode.ASSIGNED_TIMER_OR_COUNTER,
-                f"the status bit of {operand} is read-only: S {operand} loads it, "
-                f"R {operand} clears it",
-                operand.span,
+                f"the status bit of {target} is read-only: S {target} loads it, "
+                f"R {target} clears it",
+                target.span,
             )
-    for statement in module.statements():
-        if isinstance(statement, ast.Load) and isinstance(statement.operand, ast.Constant):
-            const = statement.operand
-            if const.kind is ast.ConstKind.KT and const.value % 10 and const.value <= MAX_KT_MS:
-                rounded = (const.value + 9) // 10 * 10
+        if isinstance(node, ast.Load) and node.operand.kind is ast.OperandKind.KT:
+            const = node.operand
+            if const.address % 10 and const.address <= MAX_KT_MS:
+                rounded = (const.address + 9) // 10 * 10
                 report.warning(
                     CheckCode.TIME_ROUNDED,
-                    f"timers count in 10 ms steps: KT {const.value} is rounded up to {rounded} ms",
+                    f"timers count in 10 ms steps: KT {const.address} is rounded up to "
+                    f"{rounded} ms",
                     const.span,
                 )
+
+
+_TIMER_OR_COUNTER = (ast.OperandKind.T, ast.OperandKind.C)
 
 
 def _range(
@@ -386,58 +375,57 @@ def _range(
         report.error(CheckCode.OUT_OF_RANGE, f"{what} {value} out of range {lo}..{hi}", span)
 
 
-def _check_operand(operand: object, role: str, scope: _Scope, report: Reporter) -> None:
-    match operand:
-        case ast.ImageBit(area=area, address=address, bit=bit, span=span):
-            if area is ast.BitArea.F:
-                _range(report, span, "flag byte", address, 127)
-                _range(report, span, "flag bit", bit, 7)
-            else:
-                _range(report, span, "slave address", address, 31)
-                _range(report, span, "data bit", bit, 3)
-        case ast.TimerRef(number=n, span=span) | ast.CounterRef(number=n, span=span):
-            is_timer = isinstance(operand, ast.TimerRef)
-            kind = "timer" if is_timer else "counter"
+def _check_operand(operand: ast.Operand, scope: _Scope, report: Reporter) -> None:
+    kind, n, span = operand.kind, operand.address, operand.span
+    K = ast.OperandKind
+    match kind:
+        case K.F:
+            _range(report, span, "flag byte", n, 127)
+            _range(report, span, "flag bit", operand.bit, 7)
+        case K.I | K.I2 | K.Q:
+            _range(report, span, "slave address", n, 31)
+            _range(report, span, "data bit", operand.bit, 3)
+        case K.T | K.C:
+            is_timer = kind is K.T
+            what = "timer" if is_timer else "counter"
             declared = scope.timers if is_timer else scope.counters
             if not 0 <= n <= MAX_TC:
-                _range(report, span, f"{kind} number", n, MAX_TC)
+                _range(report, span, f"{what} number", n, MAX_TC)
             elif n >= BUILTIN_TC and n not in declared:
                 report.error(
                     CheckCode.UNDECLARED_TIMER_OR_COUNTER,
-                    f"{kind} {n} is not declared (only 0..14 exist without "
-                    f"'{'T' if is_timer else 'C'}{n} {kind.upper()}' in [DECL])",
+                    f"{what} {n} is not declared (only 0..14 exist without "
+                    f"'{kind.value}{n} {what.upper()}' in [DECL])",
                     span,
                 )
-        case ast.VarBit(name=name, offset=offset, bit=bit, span=span):
-            decl = _variable(name, span, scope, report)
+        case K.VAR:
+            decl = _variable(operand.name, span, scope, report)
             if decl:
-                _range(report, span, f"byte of '{decl.name}'", offset, decl.size - 1)
-            _range(report, span, "bit", bit, 7)
-        case ast.VarByte(name=name, offset=offset, span=span):
-            decl = _variable(name, span, scope, report)
-            if decl:
-                _range(report, span, f"byte of '{decl.name}'", offset, decl.size - 1)
-        case ast.ImageByte(area=area, number=n, span=span):
-            if area is ast.ByteArea.FY:
-                _range(report, span, "flag byte", n, 127)
-            elif area is ast.ByteArea.PSEG:
-                _range(report, span, "PSeg byte", n, 15)
-            else:
-                _range(report, span, f"{area.value} slave address", n, 30)
-                if n % 2:
-                    report.error(
-                        CheckCode.ODD_SLAVE_ADDRESS,
-                        f"{area.value} takes an even slave address (the byte holds slaves "
-                        f"{n - 1} and {n} as {area.value} {n - 1})",
-                        span,
-                    )
-        case ast.FlagWord(number=n, span=span):
+                _range(report, span, f"byte of '{decl.name}'", n, decl.size - 1)
+            if operand.width is ast.Width.BIT:
+                _range(report, span, "bit", operand.bit, 7)
+        case K.FY:
+            _range(report, span, "flag byte", n, 127)
+        case K.PSEG:
+            _range(report, span, "PSeg byte", n, 15)
+        case K.IB | K.I2B | K.QB:
+            _range(report, span, f"{kind.value} slave address", n, 30)
+            if n % 2:
+                report.error(
+                    CheckCode.ODD_SLAVE_ADDRESS,
+                    f"{kind.value} takes an even slave address (the byte holds slaves "
+                    f"{n - 1} and {n} as {kind.value} {n - 1})",
+                    span,
+                )
+        case K.FW:
             _range(report, span, "flag word", n, 126)
-        case ast.Constant(kind=kind, value=value, span=span):
-            _range(report, span, kind.value, value, CONST_RANGES[kind])
-        case ast.ParamConst(address=address, data=data, span=span):
-            _range(report, span, "KP slave address", address, 31)
-            _range(report, span, "KP parameter", data, 15)
+        case K.KT | K.KC | K.KB | K.KW:
+            _range(report, span, kind.value, n, CONST_RANGES[kind])
+        case K.KP:
+            _range(report, span, "KP slave address", n, 31)
+            _range(report, span, "KP parameter", operand.bit, 15)
+        case _:
+            assert_never(kind)
 
 
 def _variable(
@@ -533,6 +521,7 @@ def _check_recursion(program: Program, report: Reporter) -> None:
 
 
 def _reads_register(statement: ast.Statement) -> bool:
+    """Whether a statement reads the register (A/AN/O/ON only when not first checks)."""
     match statement:
         case ast.Jump(conditional=c) | ast.CallFB(conditional=c):
             return c
@@ -540,7 +529,11 @@ def _reads_register(statement: ast.Statement) -> bool:
             return kind is ast.EndKind.BEC
         case ast.Store() | ast.Not() | ast.Param() | ast.Count():
             return True
-    return False
+        case (ast.Logic() | ast.Load() | ast.Transfer() | ast.Arith() | ast.Compare()
+              | ast.SegmentEnd() | ast.Asm() | ast.Label()):
+            return False
+        case _:
+            assert_never(statement)
 
 
 def _segments(module: ast.Module) -> list[list[ast.Statement]]:
@@ -631,15 +624,13 @@ def _check_register_flow(module: ast.Module, report: Reporter, skipped: Sequence
             defined = True
         elif isinstance(statement, ast.SegmentEnd):
             defined = False
-        match statement:
-            case ast.Jump(conditional=conditional, label=label):
-                if key(label) in labels:
-                    work.append((labels[key(label)], defined))
-                falls_through = conditional
-            case ast.BlockEnd(kind=kind):
-                falls_through = kind is ast.EndKind.BEC
-            case _:
-                falls_through = True
+        falls_through = True
+        if isinstance(statement, ast.Jump):
+            if key(statement.label) in labels:
+                work.append((labels[key(statement.label)], defined))
+            falls_through = statement.conditional
+        elif isinstance(statement, ast.BlockEnd):
+            falls_through = statement.kind is ast.EndKind.BEC
         if falls_through:
             # falling into the next section starts a new segment
             work.append((i + 1, defined and i + 1 not in starts))
@@ -690,25 +681,26 @@ def _check_control1(module: ast.Module, scope: _Scope, report: Reporter) -> None
             case ast.Load(operand=op, span=span) | ast.Transfer(operand=op, span=span):
                 if not _control1_operand(op, statement):
                     only2(f"byte/word operation '{statement.to_source()}'", span)
-    for operand, _role in _operands_of(module):
-        match operand:
-            case ast.VarBit(span=span) | ast.VarByte(span=span):
-                only2("a declared variable", span)
-            case ast.TimerRef(number=n, span=span) | ast.CounterRef(number=n, span=span):
-                if n >= BUILTIN_TC:
-                    kind = "timer" if isinstance(operand, ast.TimerRef) else "counter"
-                    only2(f"{kind} {n} (Control I has 0..14)", span)
+            case (ast.Logic() | ast.Store() | ast.Not() | ast.Count() | ast.SegmentEnd()
+                  | ast.BlockEnd() | ast.Jump() | ast.Param() | ast.Label()):
+                pass
+            case _:
+                assert_never(statement)
+    for node in module.code():
+        for operand, _ in ast.operands(node):
+            if operand.kind is ast.OperandKind.VAR:
+                only2("a declared variable", operand.span)
+            elif operand.kind in _TIMER_OR_COUNTER and operand.address >= BUILTIN_TC:
+                what = "timer" if operand.kind is ast.OperandKind.T else "counter"
+                only2(f"{what} {operand.address} (Control I has 0..14)", operand.span)
 
 
-def _control1_operand(operand: object, statement: ast.Statement) -> bool:
+def _control1_operand(operand: ast.Operand, statement: ast.Statement) -> bool:
     """Control I loads KT, KC and KP constants and moves timer and counter words (3.4.3)."""
-    if isinstance(operand, ast.TimerRef | ast.CounterRef | ast.ParamConst):
+    kind = operand.kind
+    if kind in _TIMER_OR_COUNTER or kind is ast.OperandKind.KP:
         return True
-    return (
-        isinstance(statement, ast.Load)
-        and isinstance(operand, ast.Constant)
-        and operand.kind in (ast.ConstKind.KT, ast.ConstKind.KC)
-    )
+    return isinstance(statement, ast.Load) and kind in (ast.OperandKind.KT, ast.OperandKind.KC)
 
 
 @dataclass

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 from asictl.diagnostics import Span
 from asictl.il import ast
-from asictl.il.language import COUNTER_FLAG_BASE, MAPPED_COUNTERS, PARAM_FLAG
+from asictl.il.language import COUNTER_FLAG_BASE, MAPPED_COUNTERS
 from asictl.il.loader import Program
 from asictl.il.references import (
     Occurrence,
@@ -25,6 +25,7 @@ from asictl.il.references import (
     SymbolKind,
     build_index,
 )
+from asictl.il.usage import mark as usage_mark
 from asictl.platform import gateway as g
 from asictl.runtime.firmware import FIRMWARE_BLOCKS
 from asictl.runtime.program_map import Variable
@@ -38,7 +39,6 @@ _ROLES = {
 _AREAS = ("I", "I2", "Q", "F", "IB", "I2B", "QB", "FY", "FW", "PSEG")
 _KINDS = (SymbolKind.TIMER, SymbolKind.COUNTER, SymbolKind.VARIABLE, SymbolKind.LABEL,
           SymbolKind.BLOCK)
-_PARAM_ANSWER = Symbol(SymbolKind.OPERAND, f"FY {PARAM_FLAG}")
 LEGEND = (
     "marks: the instruction (A AN O ON = S R L T CU CD STP JU JC), G a [GATING] source, "
     ": a label, PARAM its answer in FY 127, BYTE/TIMER/COUNTER/FB a [DECL] line, "
@@ -75,11 +75,6 @@ def entries(
     out). ``variables`` (a compiled program's map) adds each variable's address."""
     index = index if index is not None else build_index(program)
     table = {s: list(o) for s, o in index.by_symbol.items() if s.kind is not SymbolKind.SLAVE}
-    for module in program.modules():  # PARAM leaves the slave's answer in FY 127
-        for statement in module.statements():
-            if isinstance(statement, ast.Param) and statement.span is not None:
-                table.setdefault(_PARAM_ANSWER, []).append(
-                    Occurrence(_PARAM_ANSWER, statement.span, Role.WRITE, statement))
     order = {file: n for n, file in enumerate(dict.fromkeys(m.file for m in program.modules()))}
 
     def place(occurrence: Occurrence) -> tuple[int, int, int]:
@@ -124,22 +119,19 @@ def _text(symbol: Symbol, occurrences: list[Occurrence]) -> str:
     return symbol.name
 
 
-def _name_of(node: object) -> str:
-    match node:
-        case ast.VarDecl(name=name) | ast.FBDecl(name=name) | ast.Label(name=name):
-            return name
-        case ast.Jump(label=name) | ast.CallFB(name=name):
-            return name
-    for operand in _operands(node):
-        if isinstance(operand, ast.VarBit | ast.VarByte):
-            return operand.name
+def _name_of(node: ast.BodyNode | None) -> str:
+    """The name a variable, label or block has at a place."""
+    if isinstance(node, ast.VarDecl | ast.FBDecl | ast.Label):
+        return node.name
+    if isinstance(node, ast.Jump):
+        return node.label
+    if isinstance(node, ast.CallFB):
+        return node.name
+    if isinstance(node, ast.Statement | ast.GatingLine):
+        for operand, _ in ast.operands(node):
+            if operand.kind is ast.OperandKind.VAR:
+                return operand.name
     return ""
-
-
-def _operands(node: object) -> list[object]:
-    if isinstance(node, ast.GatingLine):
-        return [node.target, *(term.operand for term in node.terms)]
-    return [getattr(node, "operand", None)]
 
 
 def _about(symbol: Symbol, variables: Mapping[str, Variable] | None) -> str:
@@ -151,33 +143,10 @@ def _about(symbol: Symbol, variables: Mapping[str, Variable] | None) -> str:
 
 
 def mark(occurrence: Occurrence) -> str:
-    """The instruction at a place, as a cross-reference shows it."""
+    """The instruction at a place, as a cross-reference shows it (``usage.mark``)."""
     node = occurrence.node
-    match node:
-        case ast.Logic(op=op) | ast.Store(op=op):
-            return op.value
-        case ast.Count(op=count):
-            return count.value
-        case ast.Load():
-            return "L"
-        case ast.Transfer():
-            return "T"
-        case ast.Jump(conditional=conditional) | ast.CallFB(conditional=conditional):
-            return "JC" if conditional else "JU"
-        case ast.Label():
-            return ":"
-        case ast.GatingLine():
-            return "=" if occurrence.role is Role.WRITE else "G"
-        case ast.Param():
-            return "PARAM"
-        case ast.VarDecl():
-            return "BYTE"
-        case ast.TimerDecl():
-            return "TIMER"
-        case ast.CounterDecl():
-            return "COUNTER"
-        case ast.FBDecl():
-            return "FB"
+    if isinstance(node, ast.Statement | ast.GatingLine | ast.Declaration):
+        return usage_mark(node, written=occurrence.role is Role.WRITE)
     return "file" if occurrence.role is Role.DEFINE else ""
 
 

@@ -52,18 +52,8 @@ class Flow:
         return [range(a, b) for a, b in zip(starts, ends, strict=True)]
 
 
-def nodes_of(module: ast.Module) -> list[Node]:
-    nodes: list[Node] = []
-    for section in module.sections:
-        if isinstance(section, ast.ProgramSection):
-            nodes += section.statements
-        elif isinstance(section, ast.GatingSection):
-            nodes += section.lines
-    return nodes
-
-
 def flow_of(module: ast.Module) -> Flow:
-    nodes = nodes_of(module)
+    nodes = list(module.code())
     labels: dict[str, int] = {}
     for i, node in enumerate(nodes):
         if type(node) is ast.Label:

@@ -18,8 +18,8 @@ did not, that would be a bug here, and it is raised rather than written.
 from __future__ import annotations
 
 import re
-from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import assert_never
 
 from asictl.diagnostics import DiagnosticError
 from asictl.il import ast
@@ -51,7 +51,7 @@ class _Line:
     code: str
     comment: str
     section: ast.Section | None
-    nodes: list[object] = field(default_factory=list)
+    nodes: list[ast.BodyNode] = field(default_factory=list)
     is_title: bool = False
 
 
@@ -119,21 +119,10 @@ def _attach(lines: list[_Line], module: ast.Module) -> None:
         stop = min(following, default=len(lines))
         for line in lines[title:stop]:
             line.section = section
-        for node in _nodes(section):
-            span = getattr(node, "span", None)
+        for node in ast.nodes(section):
+            span = node.span
             if span is not None and span.line - 1 < len(lines):
                 lines[span.line - 1].nodes.append(node)
-
-
-def _nodes(section: ast.Section) -> Sequence[object]:
-    match section:
-        case ast.OptionsSection(options=nodes) | ast.SetupSection(slaves=nodes):
-            return nodes
-        case ast.DeclSection(declarations=nodes) | ast.ProgramSection(statements=nodes):
-            return nodes
-        case ast.GatingSection(lines=nodes) | ast.AssemblySection(lines=nodes):
-            return nodes
-    return ()
 
 
 def _end_line(lines: list[str], module: ast.Module) -> int:
@@ -148,8 +137,8 @@ def _end_line(lines: list[str], module: ast.Module) -> int:
         if section.span is not None:
             taken.add(section.span.line)
             last = max(last, section.span.line)
-        for node in _nodes(section):
-            span = getattr(node, "span", None)
+        for node in ast.nodes(section):
+            span = node.span
             if span is not None:
                 taken.add(span.line)
                 last = max(last, span.line)
@@ -187,7 +176,10 @@ def _lay_out(line: _Line, widths: dict[int, int]) -> str:
             return _statement(line)
         case ast.GatingSection():
             return re.sub(r"\s*=\s*", " = ", _words(line.code))
-    return line.code.strip()  # [RAW] records; [ASSEMBLY] lines are kept (see _verbatim)
+        case ast.RawSection() | ast.AssemblySection():
+            return line.code.strip()  # records; [ASSEMBLY] lines are kept (see _verbatim)
+        case _:
+            assert_never(section)
 
 
 def _key_widths(lines: list[_Line]) -> dict[int, int]:
@@ -221,10 +213,10 @@ def _keyed(code: str, most: int, width: int) -> str:
     return f"{words[0]}:".ljust(width) + ", ".join(words[1:])
 
 
-def _declaration_parts(line: _Line, decl: object) -> tuple[str, str]:
+def _declaration_parts(line: _Line, decl: ast.BodyNode) -> tuple[str, str]:
     """A declaration as (name, rest): ("Reading", "BYTE 5"), ("T134", "TIMER")."""
-    span = getattr(decl, "span", None)
-    assert span is not None
+    assert isinstance(decl, ast.Declaration) and decl.span is not None  # a [DECL] line's
+    span = decl.span
     text = line.code[span.column - 1 : span.column - 1 + span.length]
     match decl:
         case ast.FBDecl(name=name, file=file):
@@ -232,8 +224,11 @@ def _declaration_parts(line: _Line, decl: object) -> tuple[str, str]:
             return name, f"{_words(text[len(name):len(text) - len(file)])} {file}"
         case ast.VarDecl(name=name):
             return name, _words(text[len(name):])
-    head, _, keyword = text.rstrip().rpartition(" ")
-    return _words(head), keyword
+        case ast.TimerDecl() | ast.CounterDecl():
+            head, _, keyword = text.rstrip().rpartition(" ")
+            return _words(head), keyword
+        case _:
+            assert_never(decl)
 
 
 def _declarations(line: _Line, width: int) -> str:
@@ -245,7 +240,7 @@ def _declarations(line: _Line, width: int) -> str:
     return name.ljust(max(width, len(name) + 1)) + rest
 
 
-def operator_length(statement: object) -> int:
+def operator_length(statement: ast.Statement) -> int:
     """How many characters the operator of a statement has (``JC`` of ``JC = end``)."""
     match statement:
         case ast.Logic(op=op) | ast.Store(op=op) | ast.Compare(op=op) | ast.Count(op=op):
@@ -258,7 +253,12 @@ def operator_length(statement: object) -> int:
             return 2
         case ast.Param():
             return 5
-    return 1  # N, L, T, + and -
+        case ast.Not() | ast.Load() | ast.Transfer() | ast.Arith():
+            return 1  # N, L, T, + and -
+        case ast.Label():
+            return 0
+        case _:
+            assert_never(statement)
 
 
 def _statement(line: _Line) -> str:
@@ -266,11 +266,14 @@ def _statement(line: _Line) -> str:
     column takes one blank and shortens the operator field, so that the operand still
     lines up where it can ("goesoff: L  KT 700")."""
     label = next((n for n in line.nodes if isinstance(n, ast.Label)), None)
-    statement = next((n for n in line.nodes if not isinstance(n, ast.Label)), None)
+    statement = next(
+        (n for n in line.nodes if isinstance(n, ast.Statement) and not isinstance(n, ast.Label)),
+        None,
+    )
     prefix = f"{label.name}:" if label else ""
-    if statement is None:
+    if statement is None or statement.span is None:
         return prefix
-    span = statement.span  # type: ignore[attr-defined]
+    span = statement.span
     start = span.column - 1
     length = operator_length(statement)
     operator = line.code[start : start + length]

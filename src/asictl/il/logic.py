@@ -19,23 +19,17 @@ from asictl.il.ast import key
 from asictl.il.flow import Flow, flow_of
 from asictl.il.language import BUILTIN_TC, COUNTER_FLAG_BASE, MAPPED_COUNTERS
 from asictl.il.loader import Program
-from asictl.il.usage import (
-    Access,
-    Operand,
-    OperandKind,
-    Usage,
-    Use,
-    flag_bytes,
-    is_firmware_block,
-    operand_of,
-)
+from asictl.il.usage import Access, Key, Name, Usage, Use, is_firmware_block
 from asictl.il.wiring import has_logic
 
 #: The flag operands, and the bytes map_counters gives the counters 0..14.
-_FLAGS = (OperandKind.FLAG, OperandKind.FLAG_BYTE, OperandKind.FLAG_WORD)
+_K = ast.OperandKind
+_FLAGS = (_K.F, _K.FY, _K.FW)
 _MAPPED_FLAGS = range(COUNTER_FLAG_BASE, COUNTER_FLAG_BASE + 2 * MAPPED_COUNTERS)
 #: What sets a timer or counter going (R only stops or clears it).
-_SETS = {OperandKind.TIMER: ("S", "T"), OperandKind.COUNTER: ("S", "T", "CU", "CD", "STP")}
+_SETS: dict[ast.OperandKind | Name, tuple[str, ...]] = {
+    _K.T: ("S", "T"), _K.C: ("S", "T", "CU", "CD", "STP"),
+}
 
 
 def check_logic(
@@ -44,7 +38,7 @@ def check_logic(
     report: Reporter,
     *,
     whole_program: bool,
-    host_flags: Iterable[Operand] = (),
+    host_flags: Iterable[ast.Operand] = (),
 ) -> None:
     """Every W71x. ``whole_program``: the main file is a whole program ([OPTIONS] or
     [SETUP]), not a fragment, so its flags are its interface and are checked (W714)."""
@@ -73,30 +67,26 @@ def check_logic(
 class _Assignment:
     """An '=' of a Q or F bit, reached through ``calls`` (calls of blocks, outermost first)."""
 
-    operand: Operand
+    operand: Key
     site: Span
     calls: tuple[Span, ...] = ()
 
 
-_ASSIGNABLE_AREAS = (ast.BitArea.Q, ast.BitArea.F)
-_ASSIGNABLE = (OperandKind.OUTPUT, OperandKind.FLAG)
+_ASSIGNABLE = (_K.Q, _K.F)
 
 
 def _assignment(node: object) -> _Assignment | None:
     if isinstance(node, ast.Store):
         if node.op is not ast.StoreOp.ASSIGN:
             return None
-        target: object = node.operand
+        target = node.operand
     elif isinstance(node, ast.GatingLine):
         target = node.target
     else:
         return None
-    if not isinstance(target, ast.ImageBit) or target.area not in _ASSIGNABLE_AREAS:
+    if target.kind not in _ASSIGNABLE or target.span is None:
         return None
-    operand = operand_of(target)
-    if operand is None or target.span is None:
-        return None
-    return _Assignment(operand, target.span)
+    return _Assignment(Key.of(target), target.span)
 
 
 @dataclass
@@ -177,7 +167,7 @@ def _assigned_twice(program: Program, flows: dict[str, Flow], report: Reporter) 
         blocks = flow.blocks()
         reachable = flow.reachable
         reach = _reaching(flow, blocks, reachable)
-        by_operand: dict[Operand, list[_Event]] = {}
+        by_operand: dict[Key, list[_Event]] = {}
         for n, b in enumerate(blocks):
             if reachable[b.start]:
                 for i in b:
@@ -273,18 +263,18 @@ def _unreachable(flow: Flow, report: Reporter) -> None:
 
 
 def _unused_labels_and_blocks(
-    program: Program, index: Usage, by_operand: dict[Operand, list[Use]],
+    program: Program, index: Usage, by_operand: dict[Key, list[Use]],
     report: Reporter,
 ) -> None:
     """W716 labels no jump names; W717 declared blocks no call names."""
     has_code = any(has_logic(m) for m in program.modules())
     for operand, uses in by_operand.items():
-        if operand.kind not in (OperandKind.LABEL, OperandKind.BLOCK):
+        if operand.kind not in (Name.LABEL, Name.BLOCK):
             continue
         if any(r.access is Access.USE for r in uses):
             continue
         for definition in (r for r in uses if r.access is Access.DEFINE):
-            if operand.kind is OperandKind.LABEL:
+            if operand.kind is Name.LABEL:
                 report.warning(
                     AnalysisCode.LABEL_UNUSED,
                     f"label '{index.text(operand)}' is never jumped to",
@@ -304,15 +294,15 @@ def _unused_labels_and_blocks(
 
 
 def _timers_and_counters(
-    by_operand: dict[Operand, list[Use]], map_counters: bool, report: Reporter
+    by_operand: dict[Key, list[Use]], map_counters: bool, report: Reporter
 ) -> None:
     """W712 set and never read; W713 read and never set. With map_counters, counters
     0..14 are flag bytes the host reads and writes too, so they are not judged."""
     for operand, uses in by_operand.items():
         if operand.kind not in _SETS:
             continue
-        kind = "timer" if operand.kind is OperandKind.TIMER else "counter"
-        if operand.kind is OperandKind.COUNTER and map_counters and operand.number < BUILTIN_TC:
+        kind = "timer" if operand.kind is _K.T else "counter"
+        if operand.kind is _K.C and map_counters and operand.address < BUILTIN_TC:
             continue
         sets = [r for r in uses if r.access is Access.WRITE
                 and r.mark in _SETS[operand.kind]]
@@ -322,7 +312,7 @@ def _timers_and_counters(
             first = sets[0]
             report.warning(
                 AnalysisCode.SET_NEVER_READ,
-                f"{kind} {operand.number} is {'started' if kind == 'timer' else 'set'} "
+                f"{kind} {operand.address} is {'started' if kind == 'timer' else 'set'} "
                 f"('{first.mark} {text}') but never read: nothing uses its "
                 f"{'status or time' if kind == 'timer' else 'status or count'}",
                 first.span,
@@ -331,8 +321,8 @@ def _timers_and_counters(
             verb = "started (S T" if kind == "timer" else "set or counted (S, CU, CD, STP"
             report.warning(
                 AnalysisCode.READ_NEVER_SET,
-                f"{kind} {operand.number} is read ('{reads[0].mark} {text}') but never "
-                f"{verb} {operand.number}): it is always 0",
+                f"{kind} {operand.address} is read ('{reads[0].mark} {text}') but never "
+                f"{verb} {operand.address}): it is always 0",
                 reads[0].span,
             )
 
@@ -342,9 +332,9 @@ def _timers_and_counters(
 
 def _flags_never_written(
     index: Usage,
-    by_operand: dict[Operand, list[Use]],
+    by_operand: dict[Key, list[Use]],
     map_counters: bool,
-    host_flags: Iterable[Operand],
+    host_flags: Iterable[ast.Operand],
     report: Reporter,
 ) -> None:
     """W714: a flag the program reads and nothing writes: not the program, not PARAM
@@ -352,19 +342,19 @@ def _flags_never_written(
     bits: set[tuple[int, int]] = set()  # written bit by bit
     whole: set[int] = set(_MAPPED_FLAGS) if map_counters else set()  # written as bytes
     writers = [r.operand for r in index.of_kind(*_FLAGS) if r.access is Access.WRITE]
-    for operand in [*writers, *host_flags]:
-        if operand.kind is OperandKind.FLAG:
-            bits.add((operand.number, operand.bit))
+    for operand in [*writers, *map(Key.of, host_flags)]:
+        if operand.kind is _K.F:
+            bits.add((operand.address, operand.bit))
         else:
-            whole.update(flag_bytes(operand))
+            whole.update(_flag_bytes(operand))
     touched = whole | {byte for byte, _ in bits}
     for operand, uses in by_operand.items():
         if operand.kind not in _FLAGS:
             continue
-        if operand.kind is OperandKind.FLAG:
-            written = (operand.number, operand.bit) in bits or operand.number in whole
+        if operand.kind is _K.F:
+            written = (operand.address, operand.bit) in bits or operand.address in whole
         else:
-            written = any(b in touched for b in flag_bytes(operand))
+            written = any(b in touched for b in _flag_bytes(operand))
         reads = [r for r in uses if r.access is Access.READ]
         if written or not reads:
             continue
@@ -375,3 +365,8 @@ def _flags_never_written(
             f"say so with '; asictl: host {text}'",
             reads[0].span,
         )
+
+
+def _flag_bytes(operand: Key) -> range:
+    assert isinstance(operand.kind, ast.OperandKind)  # (only flags are asked about)
+    return ast.flag_bytes(operand.kind, operand.address)

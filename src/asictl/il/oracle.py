@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import assert_never
 
 from asictl.il import ast
 from asictl.il.ast import key
@@ -18,6 +19,9 @@ from asictl.il.language import COUNTER_FLAG_BASE, MAPPED_COUNTERS, PARAM_FLAG
 from asictl.il.language import TC_MAX_VALUE as TC_MAX
 from asictl.il.loader import Program
 from asictl.runtime.firmware import FirmwareServices
+
+#: The operand kinds, as the patterns below name them.
+K = ast.OperandKind
 
 
 class CycleTimeout(Exception):
@@ -190,7 +194,7 @@ class Interpreter:
                 case ast.Compare(op=op):
                     state.rlo = _COMPARE[op](state.accu2 & 0xFF, state.accu1 & 0xFF)
                 case ast.Count(op=op, counter=counter):
-                    self._count(op, counter.number)
+                    self._count(op, counter.address)
                 case ast.SegmentEnd() | ast.Label():
                     pass
                 case ast.BlockEnd(kind=kind):
@@ -209,6 +213,8 @@ class Interpreter:
                     self._gate(statement)
                 case ast.Asm():
                     raise NotImplementedError("the reference interpreter cannot run ASM lines")
+                case _:
+                    assert_never(statement)
 
     def _call(self, name: str) -> None:
         block = self.blocks.get(key(name))
@@ -243,41 +249,42 @@ class Interpreter:
 
     # ------------------------------------------------------------------ operands
 
-    def _read_bit(self, operand: ast.BitOperand) -> bool:
+    def _read_bit(self, operand: ast.Operand) -> bool:
         state = self.state
-        match operand:
-            case ast.ImageBit(area=area, address=address, bit=bit):
-                if area is ast.BitArea.F:
-                    return bool(state.flags[address] >> bit & 1)
-                return _image_bit(self._image(area), address, bit)
-            case ast.TimerRef(number=n):
-                return state.timers.get(n, 0) != 0
-            case ast.CounterRef(number=n):
-                return self._counter(n) != 0
-            case ast.VarBit(name=name, offset=offset, bit=bit):
-                return bool(state.variables[key(name)][offset] >> bit & 1)
-        raise AssertionError(operand)
+        address, bit = operand.address, operand.bit
+        match operand.kind:
+            case K.F:
+                return bool(state.flags[address] >> bit & 1)
+            case K.I | K.I2 | K.Q:
+                return _image_bit(self._image(operand.kind), address, bit)
+            case K.T:
+                return state.timers.get(address, 0) != 0
+            case K.C:
+                return self._counter(address) != 0
+            case K.VAR:
+                return bool(state.variables[key(operand.name)][address] >> bit & 1)
+            case (K.IB | K.I2B | K.QB | K.FY | K.PSEG | K.FW | K.KT | K.KC | K.KB | K.KW
+                  | K.KP):
+                raise AssertionError(f"{operand} is no bit operand")
+            case _:
+                assert_never(operand.kind)
 
-    def _image(self, area: ast.BitArea) -> bytearray:
+    def _image(self, kind: ast.OperandKind) -> bytearray:
         state = self.state
-        return {
-            ast.BitArea.I: state.inputs,
-            ast.BitArea.I2: state.old_inputs,
-            ast.BitArea.Q: state.outputs,
-        }[area]
+        return {K.I: state.inputs, K.I2: state.old_inputs, K.Q: state.outputs}[kind]
 
-    def _store(self, op: ast.StoreOp, operand: ast.BitOperand) -> None:
+    def _store(self, op: ast.StoreOp, operand: ast.Operand) -> None:
         state = self.state
-        if isinstance(operand, ast.TimerRef):
+        if operand.kind is K.T:
             if state.rlo:
-                state.timers[operand.number] = (
+                state.timers[operand.address] = (
                     min(state.constant, TC_MAX) if op is ast.StoreOp.SET else 0
                 )
             return
-        if isinstance(operand, ast.CounterRef):
+        if operand.kind is K.C:
             if state.rlo:
                 value = min(state.constant, TC_MAX) if op is ast.StoreOp.SET else 0
-                self._set_counter(operand.number, value)
+                self._set_counter(operand.address, value)
             return
         if op is ast.StoreOp.ASSIGN:
             value = state.rlo
@@ -285,72 +292,95 @@ class Interpreter:
             return
         else:
             value = op is ast.StoreOp.SET
-        match operand:
-            case ast.ImageBit(area=ast.BitArea.F, address=address, bit=bit):
+        address, bit = operand.address, operand.bit
+        match operand.kind:
+            case K.F:
                 _set_bit(state.flags, address, bit, value)
-            case ast.ImageBit(area=area, address=address, bit=bit):
-                _set_image_bit(self._image(area), address, bit, value)
-            case ast.VarBit(name=name, offset=offset, bit=bit):
-                _set_bit(state.variables[key(name)], offset, bit, value)
+            case K.I | K.I2 | K.Q:
+                _set_image_bit(self._image(operand.kind), address, bit, value)
+            case K.VAR:
+                _set_bit(state.variables[key(operand.name)], address, bit, value)
+            case (K.T | K.C | K.IB | K.I2B | K.QB | K.FY | K.PSEG | K.FW | K.KT | K.KC | K.KB
+                  | K.KW | K.KP):
+                raise AssertionError(f"{operand} is no bit operand")
+            case _:
+                assert_never(operand.kind)
 
-    def _load(self, operand: ast.LoadOperand) -> None:
+    def _load(self, operand: ast.Operand) -> None:
         state = self.state
-        match operand:
-            case ast.Constant(kind=ast.ConstKind.KT, value=ms):
-                state.constant = (ms + 9) // 10
-                return
-            case ast.Constant(kind=ast.ConstKind.KC, value=n):
-                state.constant = n
-                return
-            case ast.ParamConst(address=address, data=data):
-                state.constant = address << 4 | data
-                return
-        state.accu2 = state.accu1
-        state.accu1 = self._read_word(operand)
+        kind = operand.kind  # KT, KC and KP load the constant register, the rest ACCU1
+        if kind is K.KT:
+            state.constant = (operand.address + 9) // 10
+        elif kind is K.KC:
+            state.constant = operand.address
+        elif kind is K.KP:
+            state.constant = operand.address << 4 | operand.bit
+        else:
+            state.accu2 = state.accu1
+            state.accu1 = self._read_word(operand)
 
-    def _read_word(self, operand: ast.Constant | ast.TransferOperand) -> int:
+    def _read_word(self, operand: ast.Operand) -> int:
+        """What ``L`` puts in ACCU1: a constant, a word, a byte."""
         state = self.state
-        match operand:
-            case ast.Constant(value=value):
-                return value
-            case ast.FlagWord(number=n):
+        n = operand.address
+        match operand.kind:
+            case K.KB | K.KW:
+                return n
+            case K.FW:
                 return state.flags[n] << 8 | state.flags[n + 1]
-            case ast.TimerRef(number=n):
+            case K.T:
                 return state.timers.get(n, 0)
-            case ast.CounterRef(number=n):
+            case K.C:
                 return self._counter(n)
-        buffer, index = self._byte_location(operand)
-        return buffer[index]
+            case K.IB | K.I2B | K.QB | K.FY | K.PSEG | K.VAR:
+                buffer, index = self._byte_location(operand)
+                return buffer[index]
+            case K.I | K.I2 | K.Q | K.F | K.KT | K.KC | K.KP:
+                raise AssertionError(f"L {operand} loads no word")
+            case _:
+                assert_never(operand.kind)
 
-    def _transfer(self, operand: ast.TransferOperand) -> None:
+    def _transfer(self, operand: ast.Operand) -> None:
         state = self.state
         value = state.accu1
-        match operand:
-            case ast.FlagWord(number=n):
+        n = operand.address
+        match operand.kind:
+            case K.FW:
                 state.flags[n] = value >> 8 & 0xFF
                 state.flags[n + 1] = value & 0xFF
-            case ast.TimerRef(number=n):
+            case K.T:
                 state.timers[n] = min(value, TC_MAX)
-            case ast.CounterRef(number=n):
+            case K.C:
                 self._set_counter(n, min(value, TC_MAX))
-            case _:
+            case K.IB | K.I2B | K.QB | K.FY | K.PSEG | K.VAR:
                 buffer, index = self._byte_location(operand)
                 buffer[index] = value & 0xFF
+            case K.I | K.I2 | K.Q | K.F | K.KT | K.KC | K.KB | K.KW | K.KP:
+                raise AssertionError(f"T {operand} writes no word")
+            case _:
+                assert_never(operand.kind)
 
-    def _byte_location(self, operand: ast.ByteOperand) -> tuple[bytearray, int]:
+    def _byte_location(self, operand: ast.Operand) -> tuple[bytearray, int]:
         state = self.state
-        match operand:
-            case ast.ImageByte(area=area, number=n):
-                return {
-                    ast.ByteArea.IB: (state.inputs, n >> 1),
-                    ast.ByteArea.I2B: (state.old_inputs, n >> 1),
-                    ast.ByteArea.QB: (state.outputs, n >> 1),
-                    ast.ByteArea.FY: (state.flags, n),
-                    ast.ByteArea.PSEG: (state.pseg, n),
-                }[area]
-            case ast.VarByte(name=name, offset=offset):
-                return state.variables[key(name)], offset
-        raise AssertionError(operand)
+        n = operand.address
+        match operand.kind:
+            case K.IB:
+                return state.inputs, n >> 1
+            case K.I2B:
+                return state.old_inputs, n >> 1
+            case K.QB:
+                return state.outputs, n >> 1
+            case K.FY:
+                return state.flags, n
+            case K.PSEG:
+                return state.pseg, n
+            case K.VAR:
+                return state.variables[key(operand.name)], n
+            case (K.I | K.I2 | K.Q | K.F | K.FW | K.T | K.C | K.KT | K.KC | K.KB | K.KW
+                  | K.KP):
+                raise AssertionError(f"{operand} is no byte operand")
+            case _:
+                assert_never(operand.kind)
 
     # ------------------------------------------------------------------ counters
 

@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 
 from asictl.codes import AnalysisCode, all_codes
 from asictl.diagnostics import Diagnostic, Severity, Span
-from asictl.il.usage import Operand, OperandKind
+from asictl.il.ast import Operand, OperandKind
 from asictl.source import SourceText
 
 _DIRECTIVE = re.compile(r";[ \t]*asictl[ \t]*:[ \t]*(?P<word>[^ \t\n,;]*)(?P<rest>.*)", re.I)
@@ -122,16 +122,16 @@ def _host_flags(rest: str, at: Span, directives: Directives) -> list[Operand]:
     while (match := _HOST_FLAG.match(rest, pos)) is not None:
         pos = match.end()
         if match["area"]:
-            kind = OperandKind.FLAG_WORD if match["area"].upper() == "FW" else OperandKind.FLAG_BYTE
-            number, bit, top = int(match["n"]), -1, 126 if kind is OperandKind.FLAG_WORD else 127
+            kind = OperandKind.FW if match["area"].upper() == "FW" else OperandKind.FY
+            number, bit, top = int(match["n"]), -1, 126 if kind is OperandKind.FW else 127
         else:
-            kind, number, bit, top = OperandKind.FLAG, int(match["byte"]), int(match["bit"]), 127
+            kind, number, bit, top = OperandKind.F, int(match["byte"]), int(match["bit"]), 127
         if number > top or bit > 7:
             directives.problems.append(_problem(
                 f"'{match.group().strip(' ,')}' is no flag (bytes 0..127, bits 0..7, FW 0..126)",
                 at))
             continue
-        flags.append(Operand(kind, number=number, bit=bit))
+        flags.append(Operand.of(kind, number, bit))
     if not pos:
         directives.problems.append(_problem(
             "'asictl: host' needs the flags the host writes, such as 'F 10.0, FY 11, FW 12'", at))

@@ -17,6 +17,7 @@ from collections import defaultdict
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from enum import StrEnum
+from typing import assert_never
 
 from asictl.diagnostics import Span
 from asictl.il import ast
@@ -64,8 +65,9 @@ class Occurrence:
     symbol: Symbol
     span: Span
     role: Role
-    #: the statement or declaration the occurrence is part of (for hover texts)
-    node: object = field(compare=False, repr=False, default=None)
+    #: the statement, line or declaration the occurrence is part of (for hover texts);
+    #: None for a block's own file
+    node: ast.BodyNode | None = field(compare=False, repr=False, default=None)
 
     def covers(self, line: int, column: int) -> bool:
         """Whether the 1-based position lies on the span (its end included, for a cursor
@@ -81,7 +83,9 @@ class ReferenceIndex:
     occurrences: list[Occurrence] = field(default_factory=list)
     by_symbol: dict[Symbol, list[Occurrence]] = field(default_factory=lambda: defaultdict(list))
 
-    def add(self, symbol: Symbol, span: Span | None, role: Role, node: object = None) -> None:
+    def add(
+        self, symbol: Symbol, span: Span | None, role: Role, node: ast.BodyNode | None = None
+    ) -> None:
         if span is None:
             return
         occurrence = Occurrence(symbol, span, role, node)
@@ -125,21 +129,20 @@ def build_index(program: Program) -> ReferenceIndex:
 def index_module(module: ast.Module, index: ReferenceIndex) -> None:
     """Add one file's occurrences to ``index``."""
     for section in module.sections:
-        match section:
-            case ast.SetupSection(slaves=slaves):
-                for slave in slaves:
-                    index.add(_slave(slave.address), slave.span, Role.DEFINE, slave)
-            case ast.DeclSection(declarations=declarations):
-                for decl in declarations:
-                    _declaration(decl, index)
-            case ast.ProgramSection(statements=statements):
-                for statement in statements:
-                    _statement(statement, module.file, index)
-            case ast.GatingSection(lines=lines):
-                for line in lines:
-                    _operand(line.target, Role.WRITE, line, index)
-                    for term in line.terms:
-                        _operand(term.operand, Role.READ, line, index)
+        if isinstance(section, ast.SetupSection):
+            for slave in section.slaves:
+                index.add(_slave(slave.address), slave.span, Role.DEFINE, slave)
+        elif isinstance(section, ast.DeclSection):
+            for decl in section.declarations:
+                _declaration(decl, index)
+    for node in module.code():
+        if isinstance(node, ast.Label | ast.Jump | ast.CallFB):
+            _name(node, module.file, index)
+        for operand, access in ast.operands(node):
+            role = Role.READ if access is ast.Access.READ else Role.WRITE  # a count: a write
+            for symbol in operand_symbols(operand):
+                use = Role.USE if operand.kind is ast.OperandKind.KP else role
+                index.add(symbol, operand.span, use, node)
 
 
 def _slave(address: int) -> Symbol:
@@ -169,12 +172,11 @@ def _declaration(decl: ast.Declaration, index: ReferenceIndex) -> None:
             index.add(Symbol(SymbolKind.TIMER, str(n)), span, Role.DECLARE, decl)
         case ast.CounterDecl(number=n, span=span):
             index.add(Symbol(SymbolKind.COUNTER, str(n)), span, Role.DECLARE, decl)
+        case _:
+            assert_never(decl)
 
 
-_WRITES = (ast.Store, ast.Transfer, ast.Count)
-
-
-def _statement(statement: ast.Statement, file: str, index: ReferenceIndex) -> None:
+def _name(statement: ast.Label | ast.Jump | ast.CallFB, file: str, index: ReferenceIndex) -> None:
     match statement:
         case ast.Label(name=name, span=span):
             index.add(Symbol(SymbolKind.LABEL, key(name), file), span, Role.DEFINE, statement)
@@ -183,39 +185,30 @@ def _statement(statement: ast.Statement, file: str, index: ReferenceIndex) -> No
                       statement)
         case ast.CallFB(name=name, span=span):
             index.add(Symbol(SymbolKind.BLOCK, key(name)), _tail(span, name), Role.USE, statement)
-        case ast.Logic(operand=op) | ast.Store(operand=op) | ast.Load(operand=op):
-            role = Role.WRITE if isinstance(statement, _WRITES) else Role.READ
-            _operand(op, role, statement, index)
-        case ast.Transfer(operand=op) | ast.Count(counter=op):
-            _operand(op, Role.WRITE, statement, index)
+        case _:
+            assert_never(statement)
 
 
-def operand_symbols(operand: object) -> Iterator[Symbol]:
-    """The symbols an operand refers to, the most specific first."""
-    match operand:
-        case ast.ImageBit(area=area, address=address):
+def operand_symbols(operand: ast.Operand) -> Iterator[Symbol]:
+    """The symbols an operand refers to, the most specific first (PARAM's answer in
+    ``FY 127`` is one too)."""
+    K = ast.OperandKind
+    kind = operand.kind
+    match kind:
+        case K.I | K.I2 | K.Q | K.IB | K.I2B | K.QB:
             yield Symbol(SymbolKind.OPERAND, str(operand).upper())
-            if area is not ast.BitArea.F:
-                yield _slave(address)
-        case ast.ImageByte(area=area, number=n):
+            yield from map(_slave, operand.slaves())
+        case K.F | K.FY | K.PSEG | K.FW:
             yield Symbol(SymbolKind.OPERAND, str(operand).upper())
-            if area in (ast.ByteArea.IB, ast.ByteArea.I2B, ast.ByteArea.QB):
-                yield _slave(n)
-                yield _slave(n + 1)
-        case ast.FlagWord():
-            yield Symbol(SymbolKind.OPERAND, str(operand).upper())
-        case ast.TimerRef(number=n):
-            yield Symbol(SymbolKind.TIMER, str(n))
-        case ast.CounterRef(number=n):
-            yield Symbol(SymbolKind.COUNTER, str(n))
-        case ast.VarBit(name=name) | ast.VarByte(name=name):
-            yield Symbol(SymbolKind.VARIABLE, key(name))
-        case ast.ParamConst(address=address):
-            yield _slave(address)
-
-
-def _operand(operand: object, role: Role, node: object, index: ReferenceIndex) -> None:
-    span = getattr(operand, "span", None)
-    for symbol in operand_symbols(operand):
-        use = Role.USE if isinstance(operand, ast.ParamConst) else role
-        index.add(symbol, span, use, node)
+        case K.T:
+            yield Symbol(SymbolKind.TIMER, str(operand.address))
+        case K.C:
+            yield Symbol(SymbolKind.COUNTER, str(operand.address))
+        case K.VAR:
+            yield Symbol(SymbolKind.VARIABLE, key(operand.name))
+        case K.KP:
+            yield _slave(operand.address)
+        case K.KT | K.KC | K.KB | K.KW:
+            pass
+        case _:
+            assert_never(kind)

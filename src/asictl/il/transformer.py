@@ -36,18 +36,15 @@ SectionItem = (
 #: after [END]), each followed by the items of its section.
 Piece = Token | SectionItem
 
-_BIT_AREAS = {
-    "I_MARK": ast.BitArea.I, "I2_MARK": ast.BitArea.I2,
-    "Q_MARK": ast.BitArea.Q, "F_MARK": ast.BitArea.F,
+_K = ast.OperandKind
+_MARKS = {
+    "I_MARK": _K.I, "I2_MARK": _K.I2, "Q_MARK": _K.Q, "F_MARK": _K.F,
+    "IB_MARK": _K.IB, "I2B_MARK": _K.I2B, "QB_MARK": _K.QB, "FY_MARK": _K.FY,
+    "PSEG_MARK": _K.PSEG, "KT_MARK": _K.KT, "KC_MARK": _K.KC, "KB_MARK": _K.KB,
+    "KW_MARK": _K.KW,
 }
-_BYTE_AREAS = {
-    "IB_MARK": ast.ByteArea.IB, "I2B_MARK": ast.ByteArea.I2B, "QB_MARK": ast.ByteArea.QB,
-    "FY_MARK": ast.ByteArea.FY, "PSEG_MARK": ast.ByteArea.PSEG,
-}
-_CONST_KINDS = {
-    "KT_MARK": ast.ConstKind.KT, "KC_MARK": ast.ConstKind.KC,
-    "KB_MARK": ast.ConstKind.KB, "KW_MARK": ast.ConstKind.KW,
-}
+_BIT, _BYTE, _WORD = ast.Width.BIT, ast.Width.BYTE, ast.Width.WORD
+_CONSTANT_WIDTHS = {_K.KT: _WORD, _K.KC: _WORD, _K.KB: _BYTE, _K.KW: _WORD}
 _STORE_OPS = {"EQ": ast.StoreOp.ASSIGN, "S": ast.StoreOp.SET, "R": ast.StoreOp.RESET}
 _ARITH_OPS = {"PLUS": ast.ArithOp.ADD, "MINUS": ast.ArithOp.SUB}
 _COMPARE_OPS = {
@@ -92,6 +89,13 @@ def _end(item: Token | _Node) -> int:
     span = item.span
     assert span is not None
     return span.column + span.length
+
+
+def _word(operand: ast.Operand) -> ast.Operand:
+    """A timer or counter as a word: the remaining time, the count (L, T, CU, CD, STP)."""
+    if operand.width is not _BIT or (operand.kind is not _K.T and operand.kind is not _K.C):
+        return operand
+    return ast.Operand(operand.kind, operand.address, -1, _WORD, "", operand.span)
 
 
 class AstBuilder:
@@ -149,36 +153,42 @@ class AstBuilder:
 
     # ------------------------------------------------------------------- operands
 
-    def image_bit(self, c: list[Token]) -> ast.ImageBit:
+    def image_bit(self, c: list[Token]) -> ast.Operand:
         mark = c[0]
-        return ast.ImageBit(
-            _BIT_AREAS[mark.type], number(c[-2]), number(c[-1]), self._span(mark, c[-1])
+        return ast.Operand(
+            _MARKS[mark.type], number(c[-2]), number(c[-1]), _BIT, "", self._span(mark, c[-1])
         )
 
-    def timer(self, c: list[Token]) -> ast.TimerRef:
-        return ast.TimerRef(number(c[1]), self._span(c[0], c[1]))
+    def timer(self, c: list[Token]) -> ast.Operand:
+        # a status bit; load and transfer make it the word
+        return ast.Operand(_K.T, number(c[1]), -1, _BIT, "", self._span(c[0], c[1]))
 
-    def counter(self, c: list[Token]) -> ast.CounterRef:
-        return ast.CounterRef(number(c[1]), self._span(c[0], c[1]))
+    def counter(self, c: list[Token]) -> ast.Operand:
+        return ast.Operand(_K.C, number(c[1]), -1, _BIT, "", self._span(c[0], c[1]))
 
-    def var_bit(self, c: list[Token]) -> ast.VarBit:
+    def var_bit(self, c: list[Token]) -> ast.Operand:
         name, offset, bit = c
-        return ast.VarBit(name.value, number(offset), number(bit), self._span(name, bit))
+        return ast.Operand(
+            _K.VAR, number(offset), number(bit), _BIT, name.value, self._span(name, bit)
+        )
 
-    def image_byte(self, c: list[Token]) -> ast.ImageByte:
-        return ast.ImageByte(_BYTE_AREAS[c[0].type], number(c[1]), self._span(c[0], c[1]))
+    def image_byte(self, c: list[Token]) -> ast.Operand:
+        return ast.Operand(_MARKS[c[0].type], number(c[1]), -1, _BYTE, "", self._span(c[0], c[1]))
 
-    def var_byte(self, c: list[Token]) -> ast.VarByte:
-        return ast.VarByte(c[0].value, number(c[1]), self._span(c[0], c[1]))
+    def var_byte(self, c: list[Token]) -> ast.Operand:
+        return ast.Operand(_K.VAR, number(c[1]), -1, _BYTE, c[0].value, self._span(c[0], c[1]))
 
-    def flag_word(self, c: list[Token]) -> ast.FlagWord:
-        return ast.FlagWord(number(c[1]), self._span(c[0], c[1]))
+    def flag_word(self, c: list[Token]) -> ast.Operand:
+        return ast.Operand(_K.FW, number(c[1]), -1, _WORD, "", self._span(c[0], c[1]))
 
-    def constant(self, c: list[Token]) -> ast.Constant:
-        return ast.Constant(_CONST_KINDS[c[0].type], number(c[1]), self._span(c[0], c[1]))
+    def constant(self, c: list[Token]) -> ast.Operand:
+        kind = _MARKS[c[0].type]
+        return ast.Operand(
+            kind, number(c[1]), -1, _CONSTANT_WIDTHS[kind], "", self._span(c[0], c[1])
+        )
 
-    def param_const(self, c: list[Token]) -> ast.ParamConst:
-        return ast.ParamConst(number(c[1]), number(c[2]), self._span(c[0], c[2]))
+    def param_const(self, c: list[Token]) -> ast.Operand:
+        return ast.Operand(_K.KP, number(c[1]), number(c[2]), _WORD, "", self._span(c[0], c[2]))
 
     # --------------------------------------------------------------- instructions
 
@@ -187,13 +197,13 @@ class AstBuilder:
 
     def logic(self, c: _Mixed) -> ast.Logic:
         op: Token
-        operand: ast.BitOperand
+        operand: ast.Operand
         op, operand = c
         return ast.Logic(ast.LogicOp[op.type], operand, self._span(op, operand))
 
     def store(self, c: _Mixed) -> ast.Store:
         op: Token
-        operand: ast.BitOperand
+        operand: ast.Operand
         op, operand = c
         return ast.Store(_STORE_OPS[op.type], operand, self._span(op, operand))
 
@@ -202,12 +212,12 @@ class AstBuilder:
 
     def load(self, c: _Mixed) -> ast.Load:
         op: Token = c[0]
-        operand: ast.LoadOperand = c[1]
+        operand: ast.Operand = _word(c[1])
         return ast.Load(operand, self._span(op, operand))
 
     def transfer(self, c: _Mixed) -> ast.Transfer:
         op: Token = c[0]
-        operand: ast.TransferOperand = c[1]
+        operand: ast.Operand = _word(c[1])
         return ast.Transfer(operand, self._span(op, operand))
 
     def arith(self, c: list[Token]) -> ast.Arith:
@@ -218,7 +228,7 @@ class AstBuilder:
 
     def count(self, c: _Mixed) -> ast.Count:
         op: Token = c[0]
-        counter: ast.CounterRef = c[1]
+        counter: ast.Operand = _word(c[1])
         return ast.Count(ast.CountOp[op.type], counter, self._span(op, counter))
 
     def segment_end(self, c: list[Token]) -> ast.SegmentEnd:
@@ -242,20 +252,20 @@ class AstBuilder:
     # ------------------------------------------------------------------- [GATING]
 
     def gating_line(self, c: _Mixed) -> ast.GatingLine:
-        target: ast.BitOperand = c[0]
+        target: ast.Operand = c[0]
         terms: tuple[ast.GatingTerm, ...] = tuple(c[2:])
         assert target.span is not None
         return ast.GatingLine(target, terms, self._span(target.span, terms[-1]))
 
     def gating_term(self, c: _Mixed) -> ast.GatingTerm:
-        operand: ast.BitOperand = c[-1]
+        operand: ast.Operand = c[-1]
         if len(c) == 1:
             return ast.GatingTerm(None, False, operand, operand.span)
         return ast.GatingTerm(None, True, operand, self._span(c[0], operand))
 
     def gating_combine(self, c: _Mixed) -> ast.GatingTerm:
         op: Token = c[0]
-        operand: ast.BitOperand = c[-1]
+        operand: ast.Operand = c[-1]
         negated = len(c) == 3
         gate = ast.GatingOp.AND if op.type == "AND" else ast.GatingOp.OR
         return ast.GatingTerm(gate, negated, operand, self._span(op, operand))

@@ -5,94 +5,63 @@ An editor's reference index (``il.references``) answers "where is this name?" wi
 names as text and places as spans. The analyses ask other questions, of every check of
 every program: which slave and data bit does this operand address, which bytes of the
 flags does it cover, does this instruction start the timer or stop it, does PARAM write
-F 127, is there assembler code that may touch anything? So an operand here is a
-structured ``Operand`` (kind, number, bit), each use carries the instruction (its
-"mark"), and the walk is kept lean: the analyses run on every ``asictl check``.
+F 127, is there assembler code that may touch anything? So each use carries a ``Key``,
+what it is a use of, and the instruction (its "mark"), and the walk is kept lean: the
+analyses run on every ``asictl check``.
 
-The same memory written two ways is two operands (``F 11.0`` and ``FY 11``), as a
-programmer reads them; ``flag_bytes`` relates them.
+The operands and what each statement does with them come from ``ast.operands``. A key is
+the memory an operand names, whatever width a statement takes of it (``S T 1`` and
+``L T 1`` are one timer) and however a variable's name is spelled; labels and blocks
+have keys too. The same memory written two ways is two keys (``F 11.0`` and ``FY 11``),
+as a programmer reads them; ``ast.flag_bytes`` relates them.
 """
 
 from __future__ import annotations
 
 from collections.abc import Iterator
 from dataclasses import dataclass, field
-from enum import IntEnum, StrEnum
-from typing import NamedTuple
+from enum import StrEnum
+from typing import NamedTuple, assert_never
 
 from asictl.diagnostics import Span
 from asictl.il import ast
 from asictl.il.ast import key
-from asictl.il.language import PARAM_FLAG
 from asictl.il.loader import Program
 from asictl.runtime.firmware import FIRMWARE_BLOCKS
 
 
-class OperandKind(IntEnum):
-    """What an operand is (labels and blocks too)."""
+class Name(StrEnum):
+    """What else a program names: its labels and the blocks it declares and calls."""
 
-    INPUT = 0
-    OLD_INPUT = 1
-    OUTPUT = 2
-    FLAG = 3
-    INPUT_BYTE = 4
-    OLD_INPUT_BYTE = 5
-    OUTPUT_BYTE = 6
-    FLAG_BYTE = 7
-    FLAG_WORD = 8
-    PSEG = 9
-    TIMER = 10
-    COUNTER = 11
-    VARIABLE = 12
-    LABEL = 13
-    BLOCK = 14
+    LABEL = "label"
+    BLOCK = "block"
 
 
-_BIT_KINDS = {
-    ast.BitArea.I: OperandKind.INPUT, ast.BitArea.I2: OperandKind.OLD_INPUT,
-    ast.BitArea.Q: OperandKind.OUTPUT, ast.BitArea.F: OperandKind.FLAG,
-}
-_BYTE_KINDS = {
-    ast.ByteArea.IB: OperandKind.INPUT_BYTE, ast.ByteArea.I2B: OperandKind.OLD_INPUT_BYTE,
-    ast.ByteArea.QB: OperandKind.OUTPUT_BYTE, ast.ByteArea.FY: OperandKind.FLAG_BYTE,
-    ast.ByteArea.PSEG: OperandKind.PSEG,
-}
-_MARKS = {
-    OperandKind.INPUT: "I", OperandKind.OLD_INPUT: "I2", OperandKind.OUTPUT: "Q",
-    OperandKind.FLAG: "F", OperandKind.INPUT_BYTE: "IB", OperandKind.OLD_INPUT_BYTE: "I2B",
-    OperandKind.OUTPUT_BYTE: "QB", OperandKind.FLAG_BYTE: "FY", OperandKind.FLAG_WORD: "FW",
-    OperandKind.PSEG: "PSeg", OperandKind.TIMER: "T", OperandKind.COUNTER: "C",
-}
-#: The operands that address a slave's data: (kind, is a byte of two slaves).
-SLAVE_KINDS = {
-    OperandKind.INPUT: False, OperandKind.OLD_INPUT: False, OperandKind.OUTPUT: False,
-    OperandKind.INPUT_BYTE: True, OperandKind.OLD_INPUT_BYTE: True, OperandKind.OUTPUT_BYTE: True,
-}
+class Key(NamedTuple):
+    """What a use is of. For an operand: its kind, a variable's ``key()`` name, the address
+    and bit of ``ast.Operand``; for a label or block its ``key()`` name (and a label's file
+    in ``scope``). A named tuple: a program has thousands, made, hashed and sorted on every
+    check."""
 
-
-class Operand(NamedTuple):
-    """One operand, label or block. ``name`` is ``key()`` of a variable, label or block;
-    ``number`` the slave, byte, word, timer or counter number or a variable's byte offset;
-    ``bit`` the bit (-1 for none); ``scope`` the file a label belongs to. (A named tuple:
-    a program has thousands, made, hashed and sorted on every check.)"""
-
-    kind: OperandKind
+    kind: ast.OperandKind | Name
     name: str = ""
-    number: int = -1
+    address: int = -1
     bit: int = -1
     scope: str = ""
 
+    @classmethod
+    def of(cls, operand: ast.Operand) -> Key:
+        if operand.kind is ast.OperandKind.VAR:
+            return cls(operand.kind, key(operand.name), operand.address, operand.bit)
+        return cls(operand.kind, "", operand.address, operand.bit)
+
     def text(self, spelling: str = "") -> str:
-        """The operand as IL writes it; ``spelling`` is a name as the source spells it."""
+        """As IL writes it; ``spelling`` is a name as the source spells it."""
         name = spelling or self.name
-        if self.kind in (OperandKind.LABEL, OperandKind.BLOCK):
+        kind = self.kind
+        if isinstance(kind, Name) or (kind is ast.OperandKind.VAR and self.address < 0):
             return name
-        if self.kind is OperandKind.VARIABLE:
-            if self.number < 0:
-                return name
-            return f"{name} {self.number}" + (f".{self.bit}" if self.bit >= 0 else "")
-        text = f"{_MARKS[self.kind]} {self.number}"
-        return f"{text}.{self.bit}" if self.bit >= 0 else text
+        return str(ast.Operand(kind, self.address, self.bit, name=name))
 
 
 class Access(StrEnum):
@@ -104,11 +73,18 @@ class Access(StrEnum):
     USE = "used"  # a jump to a label, a call of a block
 
 
-class Use(NamedTuple):
-    """One place: ``mark`` is the instruction (``A``, ``=``, ``S``, ``L``, ``T``, ``CU``,
-    ``JC``, ``:`` for a label, ``G`` for a [GATING] source, ``PARAM`` for its answer)."""
+#: A count reads its counter only to write it back: for the analyses it sets the counter
+#: (one that is only counted is set and never read).
+_ACCESS = {
+    ast.Access.READ: Access.READ, ast.Access.WRITE: Access.WRITE,
+    ast.Access.READ_WRITE: Access.WRITE,
+}
 
-    operand: Operand
+
+class Use(NamedTuple):
+    """One place: ``mark`` is the instruction (see ``mark``)."""
+
+    operand: Key
     access: Access
     mark: str
     span: Span
@@ -120,142 +96,133 @@ class Usage:
 
     uses: list[Use] = field(default_factory=list)
     #: (kind, key(name)) -> the name as first written, for variables, labels and blocks
-    spellings: dict[tuple[OperandKind, str], str] = field(default_factory=dict)
+    spellings: dict[tuple[ast.OperandKind | Name, str], str] = field(default_factory=dict)
     #: whether the program has code the index cannot see into (ASM, [ASSEMBLY])
     has_assembly: bool = False
 
-    def by_operand(self) -> dict[Operand, list[Use]]:
-        table: dict[Operand, list[Use]] = {}
+    def by_operand(self) -> dict[Key, list[Use]]:
+        table: dict[Key, list[Use]] = {}
         for use in self.uses:
             table.setdefault(use.operand, []).append(use)
         return dict(sorted(table.items()))
 
-    def of_kind(self, *kinds: OperandKind) -> Iterator[Use]:
+    def of_kind(self, *kinds: ast.OperandKind | Name) -> Iterator[Use]:
         wanted = set(kinds)
         return (r for r in self.uses if r.operand.kind in wanted)
 
-    def text(self, operand: Operand) -> str:
+    def text(self, operand: Key) -> str:
         if is_firmware_block(operand):
             return FIRMWARE_BLOCKS[operand.name].name
         return operand.text(self.spellings.get((operand.kind, operand.name), ""))
 
 
-def operand_of(operand: object) -> Operand | None:
-    """The operand an operand refers to (None for constants)."""
-    if isinstance(operand, ast.ImageBit):
-        return Operand(_BIT_KINDS[operand.area], "", operand.address, operand.bit)
-    if isinstance(operand, ast.ImageByte):
-        return Operand(_BYTE_KINDS[operand.area], "", operand.number)
-    if isinstance(operand, ast.TimerRef):
-        return Operand(OperandKind.TIMER, "", operand.number)
-    if isinstance(operand, ast.CounterRef):
-        return Operand(OperandKind.COUNTER, "", operand.number)
-    if isinstance(operand, ast.FlagWord):
-        return Operand(OperandKind.FLAG_WORD, "", operand.number)
-    if isinstance(operand, ast.VarBit):
-        return Operand(OperandKind.VARIABLE, key(operand.name), operand.offset, operand.bit)
-    if isinstance(operand, ast.VarByte):
-        return Operand(OperandKind.VARIABLE, key(operand.name), operand.offset)
-    return None
-
-
-def flag_bytes(operand: Operand) -> range:
-    """The flag bytes a flag operand covers (FW n is FY n and FY n+1); empty for others."""
-    if operand.kind in (OperandKind.FLAG, OperandKind.FLAG_BYTE):
-        return range(operand.number, operand.number + 1)
-    if operand.kind is OperandKind.FLAG_WORD:
-        return range(operand.number, operand.number + 2)
-    return range(0)
-
-
-def slaves_of(operand: Operand) -> tuple[int, ...]:
-    """The slaves whose data an I/I2/Q operand addresses (two for a byte)."""
-    two = SLAVE_KINDS.get(operand.kind)
-    if two is None:
-        return ()
-    return (operand.number, operand.number + 1) if two else (operand.number,)
+def mark(node: ast.Statement | ast.GatingLine | ast.Declaration, *, written: bool) -> str:
+    """The instruction at a place, as the cross-reference shows it: ``A AN O ON = S R L
+    T CU CD STP JU JC``, ``G`` for a [GATING] source (``=`` for its target), ``:`` for a
+    label, ``PARAM`` for its answer, ``BYTE``/``TIMER``/``COUNTER``/``FB`` for [DECL]."""
+    match node:
+        case ast.Logic() | ast.Store() | ast.Count():
+            return node.op  # (a StrEnum: its own text)
+        case ast.Load():
+            return "L"
+        case ast.Transfer():
+            return "T"
+        case ast.Jump(conditional=conditional) | ast.CallFB(conditional=conditional):
+            return "JC" if conditional else "JU"
+        case ast.Label():
+            return ":"
+        case ast.GatingLine():
+            return "=" if written else "G"
+        case ast.Param():
+            return "PARAM"
+        case ast.VarDecl():
+            return "BYTE"
+        case ast.TimerDecl():
+            return "TIMER"
+        case ast.CounterDecl():
+            return "COUNTER"
+        case ast.FBDecl():
+            return "FB"
+        case (ast.Not() | ast.Arith() | ast.Compare() | ast.SegmentEnd() | ast.BlockEnd()
+              | ast.Asm()):
+            return node.to_source()
+        case _:
+            assert_never(node)
 
 
 class _Builder:
     def __init__(self, index: Usage) -> None:
         self.index = index
 
-    def add(self, operand: Operand, access: Access, mark: str, span: Span | None,
-            spelling: str = "") -> None:
+    def add(self, operand: Key, access: Access, node: ast.Statement | ast.Declaration,
+            span: Span | None, spelling: str = "") -> None:
         if span is None:
             return
         if spelling:
             self.index.spellings.setdefault((operand.kind, operand.name), spelling)
-        self.index.uses.append(Use(operand, access, mark, span))
-
-    def operand(self, node: object, access: Access, mark: str) -> None:
-        operand = operand_of(node)
-        span = getattr(node, "span", None)
-        if operand is None or span is None:
-            return
-        if operand.kind is OperandKind.VARIABLE:
-            self.index.spellings.setdefault(
-                (operand.kind, operand.name), getattr(node, "name", ""))
-        self.index.uses.append(Use(operand, access, mark, span))
+        written = access is Access.WRITE
+        self.index.uses.append(Use(operand, access, mark(node, written=written), span))
 
     def module(self, module: ast.Module) -> None:
+        index = self.index
         for section in module.sections:
-            match section:
-                case ast.DeclSection():
-                    self.declarations(section)
-                case ast.ProgramSection():
-                    for statement in section.statements:
-                        self.statement(statement, module.file)
-                case ast.GatingSection():
-                    for line in section.lines:
-                        self.operand(line.target, Access.WRITE, "=")
-                        for term in line.terms:
-                            self.operand(term.operand, Access.READ, "G")
-                case ast.AssemblySection():
-                    self.index.has_assembly = True
+            if isinstance(section, ast.DeclSection):
+                for decl in section.declarations:
+                    self.declaration(decl)
+            elif isinstance(section, ast.AssemblySection):
+                index.has_assembly = True
+        uses, spellings = index.uses, index.spellings
+        constants, variable, gating_line = ast.CONSTANTS, ast.OperandKind.VAR, ast.GatingLine
+        for node in module.code():
+            found = ast.operands(node)
+            if not found:
+                if isinstance(node, ast.Label | ast.Jump | ast.CallFB | ast.Asm):
+                    self.name(node, module.file)
+                continue
+            gating = isinstance(node, gating_line)  # the only node with marks per operand
+            shown = "" if gating else mark(node, written=False)
+            for operand, used in found:
+                span, kind = operand.span, operand.kind
+                if span is None or kind in constants:
+                    continue
+                if kind is variable:
+                    name = key(operand.name)
+                    spellings.setdefault((kind, name), operand.name)
+                    what = Key(kind, name, operand.address, operand.bit)
+                else:
+                    what = Key(kind, "", operand.address, operand.bit)
+                access = _ACCESS[used]
+                if gating:
+                    shown = mark(node, written=access is Access.WRITE)
+                uses.append(Use(what, access, shown, span))
 
-    def declarations(self, section: ast.DeclSection) -> None:
-        for decl in section.declarations:
-            match decl:
-                case ast.VarDecl(name=name, span=span):
-                    self.add(Operand(OperandKind.VARIABLE, name=key(name)), Access.DEFINE,
-                             "BYTE", span, name)
-                case ast.TimerDecl(number=number, span=span):
-                    self.add(Operand(OperandKind.TIMER, number=number), Access.DEFINE, "TIMER",
-                             span)
-                case ast.CounterDecl(number=number, span=span):
-                    self.add(Operand(OperandKind.COUNTER, number=number), Access.DEFINE,
-                             "COUNTER", span)
-                case ast.FBDecl(name=name, span=span):
-                    self.add(Operand(OperandKind.BLOCK, name=key(name)), Access.DEFINE, "FB",
-                             span, name)
+    def declaration(self, decl: ast.Declaration) -> None:
+        match decl:
+            case ast.VarDecl(name=name, span=span):
+                self.add(Key(ast.OperandKind.VAR, key(name)), Access.DEFINE, decl, span, name)
+            case ast.TimerDecl(number=number, span=span):
+                self.add(Key(ast.OperandKind.T, address=number), Access.DEFINE, decl, span)
+            case ast.CounterDecl(number=number, span=span):
+                self.add(Key(ast.OperandKind.C, address=number), Access.DEFINE, decl, span)
+            case ast.FBDecl(name=name, span=span):
+                self.add(Key(Name.BLOCK, key(name)), Access.DEFINE, decl, span, name)
+            case _:
+                assert_never(decl)
 
-    def statement(self, statement: ast.Statement, file: str) -> None:
-        # the operand instructions first: they are nearly all of a program
-        if isinstance(statement, ast.Logic):
-            self.operand(statement.operand, Access.READ, statement.op.value)
-        elif isinstance(statement, ast.Store):
-            self.operand(statement.operand, Access.WRITE, statement.op.value)
-        elif isinstance(statement, ast.Load):
-            self.operand(statement.operand, Access.READ, "L")
-        elif isinstance(statement, ast.Transfer):
-            self.operand(statement.operand, Access.WRITE, "T")
-        elif isinstance(statement, ast.Count):
-            self.operand(statement.counter, Access.WRITE, statement.op.value)
-        elif isinstance(statement, ast.Label):
-            self.add(Operand(OperandKind.LABEL, key(statement.name), scope=file), Access.DEFINE,
-                     ":", statement.span, statement.name)
-        elif isinstance(statement, ast.Jump):
-            self.add(Operand(OperandKind.LABEL, key(statement.label), scope=file), Access.USE,
-                     "JC" if statement.conditional else "JU", statement.span, statement.label)
-        elif isinstance(statement, ast.CallFB):
-            self.add(Operand(OperandKind.BLOCK, key(statement.name)), Access.USE,
-                     "JC" if statement.conditional else "JU", statement.span, statement.name)
-        elif isinstance(statement, ast.Param):
-            self.add(Operand(OperandKind.FLAG_BYTE, "", PARAM_FLAG), Access.WRITE, "PARAM",
-                     statement.span)
-        elif isinstance(statement, ast.Asm):
-            self.index.has_assembly = True
+    def name(self, statement: ast.Label | ast.Jump | ast.CallFB | ast.Asm, file: str) -> None:
+        match statement:
+            case ast.Label(name=name, span=span):
+                self.add(Key(Name.LABEL, key(name), scope=file), Access.DEFINE, statement, span,
+                         name)
+            case ast.Jump(label=label, span=span):
+                self.add(Key(Name.LABEL, key(label), scope=file), Access.USE, statement, span,
+                         label)
+            case ast.CallFB(name=name, span=span):
+                self.add(Key(Name.BLOCK, key(name)), Access.USE, statement, span, name)
+            case ast.Asm():
+                self.index.has_assembly = True
+            case _:
+                assert_never(statement)
 
 
 def usage_of(program: Program) -> Usage:
@@ -267,5 +234,5 @@ def usage_of(program: Program) -> Usage:
     return index
 
 
-def is_firmware_block(operand: Operand) -> bool:
-    return operand.kind is OperandKind.BLOCK and operand.name in FIRMWARE_BLOCKS
+def is_firmware_block(operand: Key) -> bool:
+    return operand.kind is Name.BLOCK and operand.name in FIRMWARE_BLOCKS

@@ -11,20 +11,20 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import assert_never
 
 from asictl.codes import AnalysisCode
 from asictl.diagnostics import Related, Reporter, Span
 from asictl.il import ast
 from asictl.il.ast import key
 from asictl.il.loader import Program
-from asictl.il.usage import Operand, OperandKind, Usage, slaves_of
+from asictl.il.usage import Key, Name, Usage
 from asictl.platform.master import IO_CODE_BITS, SLAVES
 from asictl.runtime.firmware import FIRMWARE_BLOCKS
 
 #: The operands of input data (any access reads the input image) and of output data.
-_INPUTS = (OperandKind.INPUT, OperandKind.OLD_INPUT, OperandKind.INPUT_BYTE,
-           OperandKind.OLD_INPUT_BYTE)
-_OUTPUTS = (OperandKind.OUTPUT, OperandKind.OUTPUT_BYTE)
+_INPUTS = (ast.OperandKind.I, ast.OperandKind.I2, ast.OperandKind.IB, ast.OperandKind.I2B)
+_OUTPUTS = (ast.OperandKind.Q, ast.OperandKind.QB)
 _BITS_PER_SLAVE = 4
 
 
@@ -79,7 +79,7 @@ def check_wiring(program: Program, index: Usage, report: Reporter) -> None:
     if not wiring.slaves:
         _no_slaves(program, wiring, report)
         return
-    verdicts: dict[Operand, _Verdict | None] = {}
+    verdicts: dict[Key, _Verdict | None] = {}
     for use in index.of_kind(*_INPUTS, *_OUTPUTS):
         operand = use.operand
         if operand not in verdicts:
@@ -87,7 +87,7 @@ def check_wiring(program: Program, index: Usage, report: Reporter) -> None:
         verdict = verdicts[operand]
         if verdict is not None:
             report.warning(verdict.code, verdict.message, use.span, verdict.notes)
-    if any(r.mark == "PARAM" or r.operand.kind is OperandKind.BLOCK for r in index.uses):
+    if any(r.mark == "PARAM" or r.operand.kind is Name.BLOCK for r in index.uses):
         for module in program.modules():
             _check_slave_commands(module, wiring, report)
 
@@ -128,8 +128,9 @@ class _Verdict:
     notes: tuple[Related, ...]
 
 
-def _judge(text: str, operand: Operand, wiring: Wiring) -> _Verdict | None:
-    slaves = [a for a in slaves_of(operand) if 0 <= a < SLAVES]
+def _judge(text: str, operand: Key, wiring: Wiring) -> _Verdict | None:
+    assert isinstance(operand.kind, ast.OperandKind)  # (only slave data is judged)
+    slaves = [a for a in ast.slaves_of(operand.kind, operand.address) if 0 <= a < SLAVES]
     if not slaves:
         return None
     is_input = operand.kind in _INPUTS
@@ -174,7 +175,7 @@ def _judge(text: str, operand: Operand, wiring: Wiring) -> _Verdict | None:
 class _Known:
     """Constants a straight run of statements has loaded: (value, where it was loaded)."""
 
-    parameter: tuple[ast.ParamConst, Span] | None = None  # the constant register's KP
+    parameter: tuple[ast.Operand, Span] | None = None  # the constant register's KP
     accu: tuple[int, Span] | None = None  # ACCU1
     pseg0: tuple[int, Span] | None = None  # PSeg 0
 
@@ -186,23 +187,28 @@ def _check_slave_commands(module: ast.Module, wiring: Wiring, report: Reporter) 
     straight run of statements (a label starts a new one: another path may lead there).
     """
     known = _Known()
+    K = ast.OperandKind
     for statement in module.statements():
         match statement:
             case ast.Label() | ast.Asm():
                 known = _Known()
-            case ast.Load(operand=ast.ParamConst() as kp, span=span) if span:
-                known.parameter = (kp, span)
-            case ast.Load(operand=ast.Constant(kind=kind, value=value), span=span) if span:
-                if kind in (ast.ConstKind.KB, ast.ConstKind.KW):
-                    known.accu = (value & 0xFF, span)
-                else:  # KT and KC load the constant register, as KP does
+            case ast.Load(operand=operand, span=span):
+                if span and operand.kind is K.KP:
+                    known.parameter = (operand, span)
+                elif span and operand.kind in (K.KB, K.KW):
+                    known.accu = (operand.address & 0xFF, span)
+                elif span and operand.kind in (K.KT, K.KC):  # the constant register, as KP
                     known.parameter = None
-            case ast.Load() | ast.Arith():
+                else:
+                    known.accu = None
+            case ast.Arith():
                 known.accu = None
-            case ast.Transfer(operand=ast.ImageByte(area=ast.ByteArea.PSEG, number=0)):
-                known.pseg0 = known.accu
-            case ast.Param(span=span) if known.parameter is not None and span:
-                _param(known.parameter, span, wiring, report)
+            case ast.Transfer(operand=operand):
+                if operand.kind is K.PSEG and operand.address == 0:
+                    known.pseg0 = known.accu
+            case ast.Param(span=span):
+                if known.parameter is not None and span:
+                    _param(known.parameter, span, wiring, report)
             case ast.CallFB(name=name, span=span):
                 block = FIRMWARE_BLOCKS.get(key(name))
                 if block is not None and block.for_projected_slave and known.pseg0 and span:
@@ -210,15 +216,20 @@ def _check_slave_commands(module: ast.Module, wiring: Wiring, report: Reporter) 
                 known.pseg0 = None
                 if block is None:  # a user block may load anything
                     known = _Known()
+            case (ast.Logic() | ast.Store() | ast.Not() | ast.Compare() | ast.Count()
+                  | ast.SegmentEnd() | ast.BlockEnd() | ast.Jump()):
+                pass
+            case _:
+                assert_never(statement)
 
 
-def _param(kp: tuple[ast.ParamConst, Span], at: Span, wiring: Wiring, report: Reporter) -> None:
+def _param(kp: tuple[ast.Operand, Span], at: Span, wiring: Wiring, report: Reporter) -> None:
     constant, loaded = kp
     if constant.address in wiring.slaves:
         return
     report.warning(
         AnalysisCode.SLAVE_COMMAND_NOT_PROJECTED,
-        f"PARAM sends parameter {constant.data} to slave {constant.address}, which is not in "
+        f"PARAM sends parameter {constant.bit} to slave {constant.address}, which is not in "
         "[SETUP]: the master sends parameters only to projected slaves",
         at, ((loaded, f"slave {constant.address} comes from 'L {constant}' here"),
              *wiring.setup_note()),

@@ -3,6 +3,8 @@ it, the [SETUP] line of its slave, the times a timer is started with."""
 
 from __future__ import annotations
 
+from typing import assert_never
+
 from asictl.il import ast
 from asictl.il.ast import key
 from asictl.il.references import Occurrence, Role, Symbol, SymbolKind
@@ -24,29 +26,32 @@ def hover(analysis: Analysis, file: str, line: int, column: int) -> str | None:
     module = analysis.module(file)
     if module is None:
         return None
-    section, node = node_at(module, line, column)
+    _, node = node_at(module, line, column)
     if node is None:
         return None
-    if node is section:
-        entry = SECTIONS[section.kind.value]  # type: ignore[union-attr]
+    if isinstance(node, ast.Section):
+        entry = SECTIONS[node.kind.value]
         return f"**{entry.syntax}**: {entry.meaning}"
-    if covers(operator_span(node), line, column):
+    if isinstance(node, ast.Statement) and covers(operator_span(node), line, column):
         return _instruction(node)
     found = analysis.index.at(file, line, column)
     if found:
         return _symbol(analysis, found[0], found)
-    match node:
-        case ast.Option(name=name):
-            option = OPTIONS.get(key(name))
-            if option:
-                return f"**{name}** (default {option.syntax}): {option.meaning}"
-        case ast.Load(operand=ast.Constant() as constant):
-            return _constant(constant)
+    if isinstance(node, ast.Option):
+        option = OPTIONS.get(key(node.name))
+        if option:
+            return f"**{node.name}** (default {option.syntax}): {option.meaning}"
+    if isinstance(node, ast.Load) and node.operand.kind in _CONSTANTS:
+        return _constant(node.operand)
     return None
 
 
-def _instruction(statement: object) -> str:
-    text = statement.to_source() if hasattr(statement, "to_source") else ""
+#: The constants that name nothing (KP names its slave, which has a hover of its own).
+_CONSTANTS = (ast.OperandKind.KT, ast.OperandKind.KC, ast.OperandKind.KB, ast.OperandKind.KW)
+
+
+def _instruction(statement: ast.Statement) -> str:
+    text = statement.to_source()
     words = text.upper().split(" ")
     operator = words[0]
     entry = INSTRUCTIONS.get(operator)
@@ -67,12 +72,12 @@ def _mark(operand: object) -> str:
     return f"`{entry.syntax}`: {entry.meaning}" if entry else ""
 
 
-def _constant(constant: ast.Constant) -> str:
+def _constant(constant: ast.Operand) -> str:
     head = f"**{constant}**: {_mark(constant)}"
-    if constant.kind is ast.ConstKind.KT:
-        ticks = (constant.value + 9) // 10
-        return f"{head}\n\n{constant.value} ms = {ticks} ticks of 10 ms"
-    return f"{head}\n\n= {constant.value} = {constant.value:X}h"
+    value = constant.address
+    if constant.kind is ast.OperandKind.KT:
+        return f"{head}\n\n{value} ms = {(value + 9) // 10} ticks of 10 ms"
+    return f"{head}\n\n= {value} = {value:X}h"
 
 
 def _symbol(analysis: Analysis, occurrence: Occurrence, found: list[Occurrence]) -> str:
@@ -98,43 +103,44 @@ def _symbol(analysis: Analysis, occurrence: Occurrence, found: list[Occurrence])
     return "\n\n".join(p for p in parts if p)
 
 
-def _operand_of(node: object, occurrence: Occurrence) -> object | None:
+def _operand_of(node: ast.BodyNode | None, occurrence: Occurrence) -> ast.Operand | None:
     """The operand at the occurrence's place, when it is one (not a label, block, decl)."""
     if occurrence.role in (Role.DEFINE, Role.DECLARE) or occurrence.symbol.kind in (
             SymbolKind.LABEL, SymbolKind.BLOCK):
         return None
-    candidates: list[object] = []
-    if isinstance(node, ast.GatingLine):
-        candidates = [node.target, *(t.operand for t in node.terms)]
-    else:
-        candidates = [getattr(node, "operand", None), getattr(node, "counter", None)]
-    return next((c for c in candidates if getattr(c, "span", None) == occurrence.span), None)
+    if not isinstance(node, ast.Statement | ast.GatingLine):
+        return None
+    return next((o for o, _ in ast.operands(node) if o.span == occurrence.span), None)
 
 
-def _where(operand: object) -> str:
+def _where(operand: ast.Operand) -> str:
     """Where an operand lives."""
-    match operand:
-        case ast.ImageBit(area=ast.BitArea.F, address=byte, bit=bit):
-            return (f"flag byte {byte}, bit {bit}: communication memory "
-                    f"{FLAGS_BASE + byte:03X}h (the host can read and write it)")
-        case ast.ImageBit(area=area, address=address, bit=bit):
-            image = {ast.BitArea.I: "input", ast.BitArea.I2: "previous cycle's input",
-                     ast.BitArea.Q: "output"}[area]
-            return f"slave {address}, data bit D{bit} ({image})"
-        case ast.ImageByte(area=ast.ByteArea.FY, number=n):
+    K = ast.OperandKind
+    n, bit = operand.address, operand.bit
+    match operand.kind:
+        case K.F:
+            return (f"flag byte {n}, bit {bit}: communication memory "
+                    f"{FLAGS_BASE + n:03X}h (the host can read and write it)")
+        case K.I | K.I2 | K.Q:
+            image = {K.I: "input", K.I2: "previous cycle's input", K.Q: "output"}[operand.kind]
+            return f"slave {n}, data bit D{bit} ({image})"
+        case K.FY:
             return f"communication memory {FLAGS_BASE + n:03X}h"
-        case ast.FlagWord(number=n):
+        case K.FW:
             return (f"FY {n} (high byte, {FLAGS_BASE + n:03X}h) and FY {n + 1} "
                     f"(low byte, {FLAGS_BASE + n + 1:03X}h)")
-        case ast.ImageByte(area=ast.ByteArea.PSEG):
+        case K.PSEG:
             return "the firmware blocks' arguments and results"
-        case ast.ImageByte(number=n):
+        case K.IB | K.I2B | K.QB:
             return f"slaves {n} (D0-D3 = bits 0-3) and {n + 1} (bits 4-7)"
-        case ast.VarBit(name=name, offset=offset, bit=bit):
-            return f"byte {offset}, bit {bit} of variable `{name}`"
-        case ast.VarByte(name=name, offset=offset):
-            return f"byte {offset} of variable `{name}`"
-    return ""
+        case K.VAR:
+            if operand.width is ast.Width.BIT:
+                return f"byte {n}, bit {bit} of variable `{operand.name}`"
+            return f"byte {n} of variable `{operand.name}`"
+        case K.T | K.C | K.KT | K.KC | K.KB | K.KW | K.KP:
+            return ""
+        case _:
+            assert_never(operand.kind)
 
 
 def _line_of(analysis: Analysis, occurrence: Occurrence) -> str:
@@ -189,6 +195,10 @@ def _slave(analysis: Analysis, symbol: Symbol) -> str:
             f"ID code {slave.id_code:X}h, power-up parameter {parameter}h")
 
 
+#: What loads the constant register that S starts a timer or loads a counter with.
+_PRESETS = (ast.OperandKind.KT, ast.OperandKind.KC, ast.OperandKind.KP)
+
+
 def _timer_or_counter(analysis: Analysis, symbol: Symbol) -> str:
     """Its declaration, if it needs one, and the constants ``S`` starts or loads it with:
     the last ``L KT``/``KC``/``KP`` before each ``S T n`` (the constant register)."""
@@ -198,18 +208,15 @@ def _timer_or_counter(analysis: Analysis, symbol: Symbol) -> str:
     if n > 14:
         parts.append(_declaration(analysis, symbol, "timer" if is_timer else "counter"))
     presets: list[str] = []
+    kind = ast.OperandKind.T if is_timer else ast.OperandKind.C
     for module in analysis.result.program.modules():
-        constant: ast.Constant | ast.ParamConst | None = None
+        constant: ast.Operand | None = None
         for statement in module.statements():
-            if isinstance(statement, ast.Load) and isinstance(
-                    statement.operand, ast.Constant | ast.ParamConst) and not (
-                    isinstance(statement.operand, ast.Constant)
-                    and statement.operand.kind in (ast.ConstKind.KB, ast.ConstKind.KW)):
+            if isinstance(statement, ast.Load) and statement.operand.kind in _PRESETS:
                 constant = statement.operand
             elif (isinstance(statement, ast.Store) and statement.op is ast.StoreOp.SET
-                  and isinstance(statement.operand, ast.TimerRef if is_timer
-                                 else ast.CounterRef)
-                  and statement.operand.number == n and statement.span):
+                  and statement.operand.kind is kind
+                  and statement.operand.address == n and statement.span):
                 value = str(constant) if constant else "no constant loaded before"
                 presets.append(f"`{value}` (line {statement.span.line})")
     if presets:

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from collections.abc import Iterator
 from dataclasses import dataclass, field
-from typing import get_args
+from typing import assert_never
 
 from asictl.diagnostics import Span
 from asictl.il import ast
@@ -54,38 +54,25 @@ def covers(span: Span | None, line: int, column: int) -> bool:
         span.column <= column <= span.column + span.length)
 
 
-def nodes(section: ast.Section) -> tuple[object, ...]:
-    """The nodes of a section's body, each on its own line (declarations may share one)."""
-    match section:
-        case ast.OptionsSection(options=found) | ast.SetupSection(slaves=found):
-            return found
-        case ast.DeclSection(declarations=found) | ast.ProgramSection(statements=found):
-            return found
-        case ast.GatingSection(lines=found) | ast.AssemblySection(lines=found):
-            return found
-    return ()
-
-
-def node_at(module: ast.Module, line: int, column: int) -> tuple[ast.Section | None, object]:
+def node_at(
+    module: ast.Module, line: int, column: int
+) -> tuple[ast.Section | None, ast.Section | ast.BodyNode | None]:
     """The section title, or the innermost node of a section's body, at the position."""
     for section in module.sections:
         if covers(section.span, line, column):
             return section, section
-        for node in nodes(section):
-            if covers(getattr(node, "span", None), line, column):
+        for node in ast.nodes(section):
+            if covers(node.span, line, column):
                 return section, node
     return None, None
 
 
-_INSTRUCTIONS = tuple(t for t in get_args(ast.Statement) if t is not ast.Label)
-
-
-def operator_span(statement: object) -> Span | None:
+def operator_span(node: ast.Section | ast.BodyNode | None) -> Span | None:
     """The operator of a [PROGRAM] statement: ``JC`` of ``JC = end``."""
-    span = getattr(statement, "span", None)
-    if span is None or not isinstance(statement, _INSTRUCTIONS):
+    if not isinstance(node, ast.Statement) or isinstance(node, ast.Label) or node.span is None:
         return None
-    return Span(span.file, span.line, span.column, operator_length(statement))
+    span = node.span
+    return Span(span.file, span.line, span.column, operator_length(node))
 
 
 # ------------------------------------------------------------- outline and folding
@@ -121,8 +108,8 @@ def _last_content(module: ast.Module, section: ast.Section) -> int:
     """The last line of the last section: that of its last node (so [END] stays out)."""
     assert section.span is not None
     last = section.span.line
-    for node in nodes(section):
-        span = getattr(node, "span", None)
+    for node in ast.nodes(section):
+        span = node.span
         if span is not None:
             last = max(last, span.line)
     if isinstance(section, ast.RawSection):
@@ -173,20 +160,21 @@ def _declared(decl: ast.Declaration) -> str:
             return f"T{n}"
         case ast.CounterDecl(number=n):
             return f"C{n}"
-    return ""
+        case _:
+            assert_never(decl)
 
 
 def _segments(section: ast.ProgramSection, last_line: int) -> list[Outline]:
     """The segments of a [PROGRAM] section (each ended by ``***``), with their labels."""
     segments: list[Outline] = []
-    current: list[object] = []
+    current: list[ast.Statement] = []
 
     def close(end: int) -> None:
-        spans = [s.span for s in current if getattr(s, "span", None)]  # type: ignore[attr-defined]
+        spans = [s.span for s in current if s.span]
         if not spans:
             return
         first = next((s for s in current if not isinstance(s, ast.Label)), current[0])
-        detail = first.to_source() if hasattr(first, "to_source") else ""
+        detail = first.to_source()
         segment = Outline(f"segment {len(segments) + 1}", detail, (spans[0].line, end),
                           spans[0], "segment")
         segment.children = [

@@ -29,7 +29,7 @@ from textual.containers import Horizontal, Vertical
 from textual.widgets import Footer, Input, RichLog, Static
 
 from asictl.errors import UserError
-from asictl.host.commissioning import check_address
+from asictl.host.commissioning import Change, check_address, image_changes, write_flags
 from asictl.host.emulated import parse_address, parse_number, parse_profile
 from asictl.host.master import Master
 from asictl.host.status import (
@@ -42,9 +42,11 @@ from asictl.host.status import (
     stop_text,
     timer_text,
 )
+from asictl.il.ast import OperandKind
 from asictl.monitor.program import Listing, heading, listing_of, render_rows
 from asictl.monitor.source import MonitorSource, Snapshot, toggle_start
 from asictl.observe.online import CycleLines
+from asictl.observe.operands import parse_assignment
 from asictl.platform.display import LEDS, Display
 from asictl.platform.master import IO_CODE_BITS, SLAVES
 
@@ -451,8 +453,8 @@ class MonitorApp(App[None]):
                 lambda m: m.tools().write_outputs({address: (0xF, value)}),
             )
         elif kind == "flag":
-            number, mask, bits = _flag(text)
-            self._act(f"{text}: written", lambda m: _write_flag(m, number, mask, bits))
+            changes = _flag(text)
+            self._act(f"{text}: written", lambda m: write_flags(m.tools(), changes))
         elif kind == "plug":
             io_code, id_code = parse_profile(text)
             self._act(
@@ -478,27 +480,15 @@ def _inputs(master: Master, address: int, mask: int, bits: int) -> None:
     master.emulated("inputs", changes=[[address, mask, bits]])
 
 
-def _flag(text: str) -> tuple[int, int, int]:
-    """'FY 10=0x12' or 'F 10.0=1': (flag byte, mask, bits)."""
-    import re
-
-    match = re.fullmatch(
-        r"\s*(FY|F)\s*(\d+)\s*(?:\.\s*(\d))?\s*=\s*(\S+)\s*", text, re.IGNORECASE
-    )
-    if not match or int(match[2]) > 127 or (match[1].upper() == "FY") == (match[3] is not None):
-        raise UserError("expected 'FY 10=0x12' or 'F 10.0=1' (flags F0..F127)")
-    if match[3] is None:
-        return int(match[2]), 0xFF, parse_number(match[4], "flag byte", 0xFF)
-    bit = int(match[3])
-    if bit > 7:
-        raise UserError("a flag byte has bits 0..7")
-    return int(match[2]), 1 << bit, parse_number(match[4], "bit", 1) << bit
-
-
-def _write_flag(master: Master, number: int, mask: int, bits: int) -> None:
-    tools = master.tools()
-    old = tools.read_flags()[number]
-    tools.write_flags(number, bytes([old & ~mask | bits]))
+def _flag(text: str) -> list[Change]:
+    """'FY 10=0x12' or 'F 10.0=1': the flag changes."""
+    try:
+        assignment = parse_assignment(text, example="FY 10=0x12")
+    except ValueError as exc:
+        raise UserError(str(exc)) from None
+    if assignment.operand.node.kind not in (OperandKind.F, OperandKind.FY):
+        raise UserError(f"'{assignment.written}' is no flag: 'FY 10=0x12' or 'F 10.0=1'")
+    return image_changes(assignment)
 
 
 def _changes(old: MasterStatus, new: MasterStatus) -> list[str]:

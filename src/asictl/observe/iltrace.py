@@ -18,7 +18,7 @@ from pathlib import PurePath
 from asictl.il import ast
 from asictl.il.loader import Program
 from asictl.observe.hooks import LineHooks
-from asictl.observe.operands import CounterValue, Operand, TimerValue
+from asictl.observe.operands import Operand
 from asictl.observe.view import ProgramView
 from asictl.runtime.line_map import LineMap, SourceLine
 from asictl.runtime.runner import ProgramRunner
@@ -40,45 +40,28 @@ class LineRow:
 
 
 def line_operands(program: Program | None) -> dict[SourceLine, Operand]:
-    """The operand each IL line works on, as a scenario would name it."""
+    """The operand each IL line works on, as a scenario would name it (a gating line: its
+    target; a count, or a timer or counter loaded or transferred: ``CV n``, ``TV n``)."""
     found: dict[SourceLine, Operand] = {}
     if program is None:
         return found
     for module in program.modules():
-        for section in module.sections:
-            items: list[tuple[object, object]] = []
-            if isinstance(section, ast.ProgramSection):
-                items = [(s, _operand_of(s)) for s in section.statements]
-            elif isinstance(section, ast.GatingSection):
-                items = [(g, g.target) for g in section.lines]
-            for statement, node in items:
-                span = getattr(statement, "span", None)
-                operand = _as_operand(node)
-                if span is not None and operand is not None:
-                    found[SourceLine(PurePath(span.file).name, span.line)] = operand
+        for node in module.code():
+            operand = _operand_of(node)
+            if node.span is not None and operand is not None:
+                found[SourceLine(PurePath(node.span.file).name, node.span.line)] = operand
     return found
 
 
-def _operand_of(statement: ast.Statement) -> object:
-    match statement:
-        case ast.Count(counter=counter):
-            return CounterValue(counter.number)
-        case ast.Load(operand=ast.TimerRef(number=n)) | ast.Transfer(
-            operand=ast.TimerRef(number=n)
-        ):
-            return TimerValue(n)
-        case ast.Load(operand=ast.CounterRef(number=n)) | ast.Transfer(
-            operand=ast.CounterRef(number=n)
-        ):
-            return CounterValue(n)
-    return getattr(statement, "operand", None)
-
-
-def _as_operand(node: object) -> Operand | None:
-    if isinstance(node, ast.ImageBit | ast.ImageByte | ast.TimerRef | ast.CounterRef
-                  | ast.VarBit | ast.VarByte | CounterValue | TimerValue):
-        return Operand(node)
-    return None
+def _operand_of(node: ast.Statement | ast.GatingLine) -> Operand | None:
+    """The operand the source shows (not PARAM's answer), if it is one a view reads."""
+    uses = ast.operands(node)
+    if not uses or isinstance(node, ast.Param):
+        return None
+    operand = uses[0][0]
+    if operand.kind in ast.CONSTANTS or operand.kind is ast.OperandKind.FW:
+        return None
+    return Operand(operand)
 
 
 class ILTracer:

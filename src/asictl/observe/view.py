@@ -10,11 +10,12 @@ R6/R7, ACCU2 in R4/R5 of register bank 0.
 from __future__ import annotations
 
 from collections.abc import Callable
+from typing import assert_never
 
 from asictl.board.board import Pc2Board
 from asictl.il import ast
 from asictl.mcs51.isa import SFRS
-from asictl.observe.operands import CounterValue, Operand, TimerValue
+from asictl.observe.operands import Operand
 from asictl.platform import pc2
 from asictl.platform.master import COUNTER_FLAG_BASE, MAPPED_COUNTERS, TICK_MS
 from asictl.runtime import layout
@@ -23,9 +24,9 @@ from asictl.runtime.runner import ProgramRunner
 
 _PSW = SFRS["PSW"]
 _CARRY = 0x80
-_CELL = {ast.BitArea.I: CellKind.I, ast.BitArea.I2: CellKind.I2, ast.BitArea.Q: CellKind.Q}
-_BYTE_CELL = {ast.ByteArea.IB: CellKind.I, ast.ByteArea.I2B: CellKind.I2,
-              ast.ByteArea.QB: CellKind.Q}
+K = ast.OperandKind
+_CELL = {K.I: CellKind.I, K.I2: CellKind.I2, K.Q: CellKind.Q, K.IB: CellKind.I,
+         K.I2B: CellKind.I2, K.QB: CellKind.Q}
 
 
 class ProgramView:
@@ -76,34 +77,36 @@ class ProgramView:
     def read(self, operand: Operand) -> int:
         runner, pmap = self.runner, self.runner.pmap
         xdata = runner.cpu.xdata
-        match operand.node:
-            case ast.ImageBit(area=ast.BitArea.F, address=a, bit=b):
-                return runner.read(pmap.flag(a)) >> b & 1
-            case ast.ImageByte(area=ast.ByteArea.FY, number=n):
+        node = operand.node
+        n, b = node.address, node.bit
+        match node.kind:
+            case K.F:
+                return runner.read(pmap.flag(n)) >> b & 1
+            case K.FY:
                 return runner.read(pmap.flag(n))
-            case ast.ImageBit(area=area, address=a, bit=b):
-                cell = pmap.cells.get((_CELL[area], a >> 1))
+            case K.I | K.I2 | K.Q:
+                cell = pmap.cells.get((_CELL[node.kind], n >> 1))
                 if cell is None:
                     return self.outside(operand)
-                return runner.read(cell) >> ((a & 1) * 4 + b) & 1
-            case ast.ImageByte(area=ast.ByteArea.PSEG, number=n):
+                return _data_bits(runner.read(cell) >> (n & 1) * 4, b)
+            case K.PSEG:
                 return xdata.read(pmap.pseg + n)
-            case ast.ImageByte(area=area, number=n):
-                cell = pmap.cells.get((_BYTE_CELL[area], n >> 1))
+            case K.IB | K.I2B | K.QB:
+                cell = pmap.cells.get((_CELL[node.kind], n >> 1))
                 return self.outside(operand) if cell is None else runner.read(cell)
-            case ast.TimerRef(number=n):
-                return int(bool(self.timer_ms(n)))
-            case ast.CounterRef(number=n):
-                return int(bool(self.counter(n)))
-            case CounterValue(number=n):
-                return self.counter(n) or 0
-            case TimerValue(number=n):
-                return self.timer_ms(n) or 0
-            case ast.VarBit(name=name, offset=o, bit=b):
-                return xdata.read(pmap.variables[name.casefold()].address + o) >> b & 1
-            case ast.VarByte(name=name, offset=o):
-                return xdata.read(pmap.variables[name.casefold()].address + o)
-        raise AssertionError(operand)
+            case K.T:
+                ms = self.timer_ms(n)
+                return (ms or 0) if node.width is ast.Width.WORD else int(bool(ms))
+            case K.C:
+                count = self.counter(n)
+                return (count or 0) if node.width is ast.Width.WORD else int(bool(count))
+            case K.VAR:
+                byte = xdata.read(pmap.variables[node.name.casefold()].address + n)
+                return byte if node.width is ast.Width.BYTE else byte >> b & 1
+            case K.FW | K.KT | K.KC | K.KB | K.KW | K.KP:
+                raise AssertionError(f"{operand} is not observed")
+            case _:
+                assert_never(node.kind)
 
 
 def read_on_board(board: Pc2Board, operand: Operand) -> int:
@@ -111,19 +114,20 @@ def read_on_board(board: Pc2Board, operand: Operand) -> int:
     deliver them, outputs as the slaves receive them (0 while the program is stopped),
     flags from the communication memory, the rest from the program's memory."""
     node = operand.node
-    match node:
-        case ast.ImageBit(area=ast.BitArea.I, address=a, bit=b):
-            return _slave_inputs(board, a) >> b & 1
-        case ast.ImageByte(area=ast.ByteArea.IB, number=n):
-            return _slave_inputs(board, n) | _slave_inputs(board, n + 1) << 4
-        case ast.ImageBit(area=ast.BitArea.Q, address=a, bit=b):
-            return board.outputs[a >> 1] >> ((a & 1) * 4 + b) & 1
-        case ast.ImageByte(area=ast.ByteArea.QB, number=n):
-            return board.outputs[n >> 1]
-        case ast.ImageBit(area=ast.BitArea.F, address=a, bit=b):
-            return board.dpram_byte(pc2.FLAGS + a) >> b & 1
-        case ast.ImageByte(area=ast.ByteArea.FY, number=n):
-            return board.dpram_byte(pc2.FLAGS + n)
+    n, b = node.address, node.bit
+    kind = node.kind
+    if kind is K.I:
+        return _data_bits(_slave_inputs(board, n), b)
+    if kind is K.IB:
+        return _slave_inputs(board, n) | _slave_inputs(board, n + 1) << 4
+    if kind is K.Q:
+        return _data_bits(board.outputs[n >> 1] >> (n & 1) * 4, b)
+    if kind is K.QB:
+        return board.outputs[n >> 1]
+    if kind is K.F:
+        return board.dpram_byte(pc2.FLAGS + n) >> b & 1
+    if kind is K.FY:
+        return board.dpram_byte(pc2.FLAGS + n)
     runner = board.program
     if runner is None:
         return 0
@@ -142,6 +146,11 @@ def wake(board: Pc2Board) -> None:
     cycles that would repeat the last one): a host access, rewriting a byte of the
     download buffer with what it holds, counts as news and changes nothing."""
     host_write(board, pc2.PROGRAM_BUFFER, board.dpram_byte(pc2.PROGRAM_BUFFER))
+
+
+def _data_bits(nibble: int, bit: int) -> int:
+    """Data bit ``bit`` of a slave's data, or all four (``I n``, ``Q n``: bit -1)."""
+    return nibble & 0xF if bit < 0 else nibble >> bit & 1
 
 
 def _slave_inputs(board: Pc2Board, address: int) -> int:

@@ -209,21 +209,21 @@ class Simulation:
             line: int = 1) -> None:
         """Set an input (as the slave delivers it) or a flag (as a host writes it)."""
         node = operand.node
-        match node:
-            case ast.ImageBit(area=ast.BitArea.I, address=a, bit=b):
-                slave = self._need_slave(a, step, line, str(operand))
-                slave.inputs = slave.inputs & ~(1 << b) | value << b
-            case ast.ImageByte(area=ast.ByteArea.IB, number=n):
-                for address, nibble in ((n, value & 0xF), (n + 1, value >> 4)):
-                    if nibble or self.board.bus.at(address):
-                        self._need_slave(address, step, line, str(operand)).inputs = nibble
-            case ast.ImageBit(area=ast.BitArea.F, address=a, bit=b):
-                old = self.board.dpram[d.FLAGS + a]
-                self._host_write(d.FLAGS + a, old & ~(1 << b) | value << b)
-            case ast.ImageByte(area=ast.ByteArea.FY, number=n):
-                self._host_write(d.FLAGS + n, value)
-            case _:
-                raise ValueError(f"'{operand}' cannot be set: only inputs and flags can")
+        n, b = node.address, node.bit
+        if node.kind is ast.OperandKind.I:
+            slave = self._need_slave(n, step, line, str(operand))
+            slave.inputs = value if b < 0 else slave.inputs & ~(1 << b) | value << b  # (I n)
+        elif node.kind is ast.OperandKind.IB:
+            for address, nibble in ((n, value & 0xF), (n + 1, value >> 4)):
+                if nibble or self.board.bus.at(address):
+                    self._need_slave(address, step, line, str(operand)).inputs = nibble
+        elif node.kind is ast.OperandKind.F:
+            old = self.board.dpram_byte(d.FLAGS + n)
+            self._host_write(d.FLAGS + n, old & ~(1 << b) | value << b)
+        elif node.kind is ast.OperandKind.FY:
+            self._host_write(d.FLAGS + n, value)
+        else:
+            raise ValueError(f"'{operand}' cannot be set: only inputs and flags can")
 
     def _need_slave(self, address: int, step: Step | None, line: int, what: str) -> Slave:
         slaves = self.board.bus.at(address)

@@ -22,7 +22,7 @@ from asictl.diagnostics import Diagnostic, DiagnosticError, Reporter, Severity, 
 from asictl.il import ast
 from asictl.il.parser import parse_text
 from asictl.il.suggest import did_you_mean
-from asictl.observe.operands import Operand, parse_operand
+from asictl.observe.operands import Operand, check_value, parse_operand
 from asictl.observe.symbols import SymbolTable
 from asictl.source import SourceText, read_source
 
@@ -217,8 +217,10 @@ def _operands(
         if isinstance(value, bool) or not isinstance(value, int):
             reader.error(f"'{key}': expected a whole number, got {value!r}", at, column)
             continue
-        if not 0 <= value <= operand.maximum:
-            reader.error(f"'{key}': value {value} out of range 0..{operand.maximum}", at, column)
+        try:
+            check_value(value, operand, key)
+        except ValueError as exc:
+            reader.error(str(exc), at, column)
             continue
         if settable and not operand.settable:
             reader.error(

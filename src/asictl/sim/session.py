@@ -23,7 +23,7 @@ from asictl import __version__
 from asictl.build import Build, build_file
 from asictl.diagnostics import DiagnosticError, render_text
 from asictl.errors import UserError
-from asictl.observe.operands import parse_operand
+from asictl.observe.operands import SETTABLE, parse_assignment, parse_operand
 from asictl.observe.symbols import SymbolTable, symbols_for
 from asictl.sim import SUFFIX
 from asictl.sim.engine import SimResult, Simulation, variables_of
@@ -149,22 +149,16 @@ def _command_line_sets(
     """``--set "I 1.0=1"``: one step at time 0."""
     step = Step(0.0, 0)
     for text in sets:
-        name, equals, value = text.rpartition("=")
         try:
-            if not equals:
-                raise ValueError("expected OPERAND=VALUE, e.g. \"I 1.0=1\"")
-            operand = parse_operand(name.strip(), variables, symbols)
-            number = int(value.strip(), 0)
-            if not operand.settable:
-                raise ValueError(f"'{operand}' cannot be set: only inputs (I, IB) and flags "
-                                 "(F, FY)")
-            if not 0 <= number <= operand.maximum:
-                raise ValueError(f"value {number} out of range 0..{operand.maximum}")
+            assignment = parse_assignment(text, variables, symbols)
+            if not assignment.operand.settable:
+                raise ValueError(f"'{assignment.written}' cannot be set: {SETTABLE}")
         except ValueError as exc:
             raise UserError(f"--set '{text}': {exc}") from None
-        step.set.append((operand, number, 0))
-        if name.strip() != str(operand):
-            step.written[(0, str(operand))] = name.strip()
+        operand = assignment.operand
+        step.set.append((operand, assignment.value, 0))
+        if assignment.written != str(operand):
+            step.written[(0, str(operand))] = assignment.written
     return step
 
 

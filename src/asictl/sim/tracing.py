@@ -13,6 +13,7 @@ from __future__ import annotations
 import fnmatch
 import functools
 from collections.abc import Callable
+from typing import assert_never
 
 from asictl.board.board import Pc2Board
 from asictl.il import ast
@@ -132,36 +133,31 @@ def _trace_names(program: Program) -> list[str]:
     counters' status and value, and whether it runs."""
     inputs, outputs, flags = set(), set(), set()
     timers, counters = set(), set()
+    K = ast.OperandKind
     for module in program.modules():
-        for section in module.sections:
-            operands: list[object] = []
-            if isinstance(section, ast.ProgramSection):
-                for s in section.statements:
-                    if isinstance(s, ast.Param):  # PARAM answers in flag byte 127
-                        flags.add("FY 127")
-                    if isinstance(s, ast.Count):
-                        counters.add(s.counter.number)
-                    operands.append(getattr(s, "operand", None))
-            elif isinstance(section, ast.GatingSection):
-                for line in section.lines:
-                    operands.append(line.target)
-                    operands.extend(t.operand for t in line.terms)
-            for operand in operands:
-                match operand:
-                    case ast.ImageBit(area=ast.BitArea.I | ast.BitArea.I2, address=a, bit=b):
+        for node in module.code():
+            for operand, _ in ast.operands(node):  # (PARAM answers in flag byte 127)
+                a, b = operand.address, operand.bit
+                match operand.kind:
+                    case K.I | K.I2:
                         inputs.add((a, b))
-                    case ast.ImageBit(area=ast.BitArea.Q, address=a, bit=b):
+                    case K.Q:
                         outputs.add((a, b))
-                    case ast.ImageBit(area=ast.BitArea.F, address=a, bit=b):
+                    case K.F:
                         flags.add(f"F {a}.{b}")
-                    case ast.ImageByte(area=ast.ByteArea.FY, number=n):
-                        flags.add(f"FY {n}")
-                    case ast.FlagWord(number=n):
-                        flags.update((f"FY {n}", f"FY {n + 1}"))
-                    case ast.TimerRef(number=n):
-                        timers.add(n)
-                    case ast.CounterRef(number=n):
-                        counters.add(n)
+                    case K.FY:
+                        flags.add(f"FY {a}")
+                    case K.FW:
+                        flags.update((f"FY {a}", f"FY {a + 1}"))
+                    case K.T:
+                        timers.add(a)
+                    case K.C:
+                        counters.add(a)
+                    case (K.IB | K.I2B | K.QB | K.PSEG | K.VAR | K.KT | K.KC | K.KB | K.KW
+                          | K.KP):
+                        pass
+                    case _:
+                        assert_never(operand.kind)
     return (
         [f"I {a}.{b}" for a, b in sorted(inputs)]
         + [f"Q {a}.{b}" for a, b in sorted(outputs)]
