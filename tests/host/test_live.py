@@ -280,7 +280,7 @@ def test_a_waiting_session_is_announced(live):
 
         thread = threading.Thread(target=second)
         thread.start()
-        assert wait_for(lambda: heard == ["first holder"])
+        assert wait_for(lambda: heard == ["first holder (a session silent for 10 s is ended)"])
     thread.join(5)
     assert not thread.is_alive()
     a.close()
