@@ -52,7 +52,7 @@ from asictl.host.live.protocol import (
     peer_uid,
     socket_path,
 )
-from asictl.host.live.saver import SAVE_INTERVAL_S, StateKeeper
+from asictl.host.live.saver import SAVE_INTERVAL_S, NotSaved, StateKeeper
 from asictl.host.locking import note_holder
 
 #: How often master time catches up with the wall clock while nobody asks.
@@ -166,7 +166,13 @@ class LiveServer:
         else:
             raise ProtocolError(f"unknown request {op!r}")
         if self.keeper is not None:
-            self.keeper.save_changes()  # before the client hears it is done
+            try:
+                self.keeper.save_changes()  # before the client hears it is done
+            except NotSaved as exc:
+                raise NotSaved(
+                    f"the live board made the change but cannot save it ({exc}): it is "
+                    "lost if the board stops before a save succeeds"
+                ) from None
         return answer
 
     async def _client(self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
@@ -390,17 +396,19 @@ def run_live(
 
 @contextmanager
 def background_live(
-    base: int, directory: Path, *, identity: dict[str, JSON], timeout: float = 30.0
+    base: int, directory: Path, *, identity: dict[str, JSON], timeout: float = 30.0,
+    **options: Any,
 ) -> Iterator[Path]:
     """The board at ``base`` served live from a thread of this process until the block
-    ends (the monitor does this when no ``asictl serve`` runs); its socket path."""
+    ends (the monitor does this when no ``asictl serve`` runs); its socket path.
+    ``options`` go to ``LiveServer``."""
     refuse_if_served(directory, base)
     path = socket_path(directory, base)
 
     @contextmanager
     def make() -> Iterator[LiveServer]:
         with emulated_board(base, directory) as board:
-            yield _server(board, directory, base, identity)
+            yield _server(board, directory, base, identity, **options)
 
     def serve(server: LiveServer, ready: Callable[[], None]) -> Awaitable[None]:
         return server.serve(ready)
