@@ -37,23 +37,9 @@ def protect(host: Host, lps: set[int], pcd: dict[int, int]) -> None:
     settle(host.board)
 
 
-@pytest.mark.parametrize("code", [1, 2, 4, 6, 9, 11, 13, 21, 55, 57, 73, 127, 130, 200, 254])
+@pytest.mark.parametrize("code", [1, 2, 4, 6, 9, 11, 13, 21, 55, 57, 73, 127, 131, 200, 254])
 def test_unknown_codes_are_refused(host: Host, code: int):
     assert host.command(code) == d.NAK
-
-
-def test_130_emc_test_mode_is_not_offered(board: Pc2Board, host: Host):
-    """The letters say what a host may use (10.2.5): byte 3 'e', no EMC test mode, and 130
-    is refused as on a master without that option (7.3: "available only with the EMC test
-    extension"); the program buffer keeps its bytes."""
-    assert host.letters()[3] == "e"
-    host.write(d.PROGRAM_BUFFER, bytes([0x03, 0x00, 0x06, 0, 0, 0]) + bytes(range(1, 7)))
-    before = board.dpram
-    assert host.command(130) == d.NAK
-    after = board.dpram
-    assert after[d.PROGRAM_BUFFER : d.PROGRAM_BUFFER + 12] == (
-        before[d.PROGRAM_BUFFER : d.PROGRAM_BUFFER + 12]
-    )
 
 
 def test_writing_00_or_ff_issues_nothing(board: Pc2Board, host: Host):

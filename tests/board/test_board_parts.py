@@ -131,5 +131,5 @@ def test_command_50_without_reset_leaves_the_program_alone():
 def test_unknown_codes_are_refused_without_touching_anything():
     commands, dpram, _ = commands_for(FakeBoard(loads=True))
     before = dpram.snapshot()
-    assert commands.run(130) is False and commands.run(0) is False
+    assert commands.run(131) is False and commands.run(0) is False
     assert dpram.snapshot() == before

@@ -232,7 +232,7 @@ class BoardMachine(RuleBasedStateMachine):
         hi = host.byte(d.HI_FLAGS)
         running = board.control_state is ControlState.RUNNING
         assert letters[0] == ("C" if running else "c")
-        assert letters[1:8] == "BFeDC.."
+        assert letters[1:8] == "BFEDC.."
         assert letters[8] == ("d" if hi & HiFlag.DATA_EXCHANGE_OFF else "D")
         assert letters[9] == ("O" if hi & HiFlag.OFFLINE else "o")
         assert letters[10] == ("a" if hi & HiFlag.AUTO_ADDRESS_OFF else "A")

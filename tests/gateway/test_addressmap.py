@@ -12,9 +12,8 @@ from modbus_helpers import (
     write_holding,
 )
 
-from asictl.board.board import Pc2Board
 from asictl.board.execution import Phase
-from asictl.gateway.addressmap import EXCEPTION_STATUS_ERROR, display_code, display_text
+from asictl.gateway.addressmap import EXCEPTION_STATUS_ERROR
 from asictl.gateway.slave import GatewaySlave
 from asictl.platform import pc2 as d
 
@@ -165,11 +164,11 @@ def test_start_stop_register_is_the_control_flags_byte(gw, board):
 
 
 def test_key_lock_and_watchdog_letters(gw, board):
-    assert request(gw, 65, "BB", 1, 3)[2:18] == b"cBFe....DoA...wT"
+    assert request(gw, 65, "BB", 1, 3)[2:18] == b"cBFE....DoA...wT"
     write_holding(gw, 1007, 1)
     write_holding(gw, 1008, 50)
     assert read_holding(gw, 1007) == [1]
-    assert request(gw, 65, "BB", 1, 3)[2:18] == b"cBFe....DoA...Wt"
+    assert request(gw, 65, "BB", 1, 3)[2:18] == b"cBFE....DoA...Wt"
 
 
 def test_modbus_watchdog_sends_the_master_offline(gw, board, clock: FakeClock):
@@ -215,26 +214,6 @@ def test_multiple_writes(gw, board):
     assert request(gw, 15, "HHBB", 24, 4, 1, 0b0110) == bytes([15, 0, 24, 0, 4])
     board.advance(10)
     assert board.bus.outputs(6) == 0b0110
-
-
-def test_display_code_follows_the_master(board: Pc2Board, gw):
-    assert display_code(board) in (1, 6, 13)
-    codes = set()
-    for _ in range(3):
-        codes.add(display_code(board))
-        board.advance(500)
-    assert codes == {1, 6, 13}  # the detected slaves in turn, two a second
-    write_holding(gw, 1004, 1)
-    write_holding(gw, 1000, 0)
-    board.advance(10)
-    assert display_code(board) is None
-    board.bus.remove(6)
-    board.advance(20)
-    assert display_code(board) == 6 and display_text(6) == "slave 6"
-    write_holding(gw, 8, 0b010)
-    board.advance(10)
-    assert display_code(board) == 40
-    assert "offline" in display_text(40)
 
 
 def test_unit_id_other_slaves_are_ignored(board, clock):

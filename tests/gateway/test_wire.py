@@ -72,7 +72,7 @@ def test_tcp_function_65_names_the_gateway_in_full(tcp):
 def test_tcp_user_functions_share_the_eeprom_with_the_pc2_port(tcp, board):
     client, gateway = tcp
     info = client.execute(False, pdus.MasterInfoRequest(pdus.INFO_SOFTWARE, dev_id=1))
-    assert info.text == "cBFe....DoA...wT"  # e: no EMC test mode, as the master
+    assert info.text == "cBFE....DoA...wT"  # E: the EMC test mode, as the master
     assert "VAG-MOD-KF-R4" in client.execute(False, pdus.MasterInfoRequest(1, dev_id=1)).text
     blocks = [bytes((16 * k + i) & 0xFF for i in range(16)) for k in range(4)]
     for k, block in enumerate(blocks):

@@ -3,14 +3,17 @@
 ``ScriptedBoard`` is a register-level stand-in with scripted command answers, for
 testing the driver and jobs apart from the emulated master. ``WiredDevPort`` puts a
 board behind a plain file in place of /dev/port, so ``DevPort``'s own pread/pwrite at
-base+offset is what the tests exercise. ``InterruptingPort`` raises after N accesses.
+base+offset is what the tests exercise; ``isa_bus`` does so for emulated boards at any
+bases of an otherwise empty ISA bus. ``InterruptingPort`` raises after N accesses.
 """
 
 from __future__ import annotations
 
 import os
 from collections.abc import Callable
+from pathlib import Path
 
+from asictl.board.board import Pc2Board
 from asictl.host.driver import DevPort, PortIO
 from asictl.platform.pc2 import (
     COMMAND,
@@ -132,3 +135,32 @@ class InterruptingPort:
 
     def now_ms(self) -> float:
         return self.port.now_ms()
+
+
+class IsaPort(DevPort):
+    """``DevPort`` on a file standing for the PC's I/O space: at ``base`` either nothing
+    (the file's FFh: an empty ISA address) or an emulated board, whose register values
+    pass through the file."""
+
+    def __init__(self, base: int, path: str, board: Pc2Board | None) -> None:
+        super().__init__(base, path)
+        self.board = board
+
+    def read(self, offset: int) -> int:
+        if self.board is not None:
+            self.board.advance(0.001)  # an 8-bit ISA cycle
+            os.pwrite(self._fd, bytes([self.board.io_read(offset)]), self.base + offset)
+        return super().read(offset)
+
+    def write(self, offset: int, value: int) -> None:
+        super().write(offset, value)
+        if self.board is not None:
+            self.board.advance(0.001)
+            self.board.io_write(offset, os.pread(self._fd, 1, self.base + offset)[0])
+
+
+def isa_bus(path: Path, boards: dict[int, Pc2Board]) -> Callable[[int], DevPort]:
+    """What stands for ``DevPort(base)``: /dev/port as the file ``path``, with ``boards``
+    at their bases and nothing anywhere else."""
+    path.write_bytes(b"\xff" * 0x10000)
+    return lambda base: IsaPort(base, str(path), boards.get(base))

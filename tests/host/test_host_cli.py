@@ -33,7 +33,8 @@ def test_download_then_status(run):
     assert fields["start_flag"] is True and fields["control_active"] is True
     assert fields["lps"] == [31] and fields["missing"] == [] and fields["las"] == [31]
     assert fields["mode"] == "protected" and fields["config_ok"] is True
-    assert fields["display"] == "blank"
+    assert fields["display"] == {"code": None, "text": "", "blinking": False, "meaning": "blank"}
+    assert fields["panel"] == "derived" and fields["leds"] is None  # a PC2 board has none
     program = fields["program"]
     assert program["valid"] is True and program["source_included"] is True
     assert len(program["identity"]) == 32
@@ -46,7 +47,8 @@ def test_download_then_status(run):
     text = run("status")
     assert text.exit_code == 0
     assert "LPS  ...............................X" in text.stdout
-    assert "config   no errors" in text.stdout and "display  blank" in text.stdout
+    assert "config   no errors" in text.stdout
+    assert "display  blank (as a gateway shows this state)" in text.stdout
     assert program["identity"] in text.stdout
 
 
@@ -67,7 +69,8 @@ def test_status_of_a_running_program_with_a_wrong_slave(run):
         board.advance(100)
     fields = json.loads(run("status", "--json").stdout)
     assert fields["unexpected"] == [7] and fields["missing"] == []
-    assert fields["display"] == "07: slave 7"  # the gateway's display: the first wrong slave
+    assert fields["display"]["code"] == 7  # the gateway's display: the wrong slave
+    assert fields["display"]["meaning"] == "slave 7 is wrongly configured"
     assert fields["config_ok"] is False and fields["stop_reason"] == "config error"
     with emulated_board(0x300, run.state_dir) as board:
         board.bus.remove(7)

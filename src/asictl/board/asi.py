@@ -16,6 +16,11 @@ from typing import Any
 
 from asictl.platform.master import DEFAULT_PARAMETER, SLAVES
 
+#: How a slave's address programming can fail (the gateway's display codes 92 and 93):
+#: "set", the new address cannot be set (the slave is left at address 0); "store", the
+#: slave takes it but cannot store it, so a power-up brings back the address it had.
+ADDRESS_FAULTS = ("", "set", "store")
+
 
 class BusError(ValueError):
     """A slave or bus operation that does not make sense (bad address, unknown slave)."""
@@ -38,7 +43,8 @@ class Slave:
 
     The address is the one stored in the slave's own EEPROM; 0 is a new slave. With
     ``parameter_echo`` (the usual slave) the answer to a parameter call is the parameter
-    itself; otherwise it is ``parameter_response``.
+    itself; otherwise it is ``parameter_response``. ``address_fault`` (``ADDRESS_FAULTS``)
+    makes it fail address programming as a worn-out slave EEPROM does.
     """
 
     def __init__(
@@ -51,8 +57,14 @@ class Slave:
         parameter_response: int = 0,
         *,
         name: str = "",
+        address_fault: str = "",
     ) -> None:
         self._address = _address(address)
+        #: the address in the slave's own EEPROM, which a power-up brings back
+        self._stored_address = self._address
+        if address_fault not in ADDRESS_FAULTS:
+            raise BusError(f"address fault must be one of 'set', 'store', not {address_fault!r}")
+        self.address_fault = address_fault
         self.io_code = _nibble(io_code, "I/O code")
         self.id_code = _nibble(id_code, "ID code")
         self._inputs = _nibble(inputs, "input data")
@@ -85,8 +97,21 @@ class Slave:
 
     @address.setter
     def address(self, value: int) -> None:
-        self._address = _address(value)
+        self._address = self._stored_address = _address(value)
         self._touch()
+
+    def program_address(self, value: int) -> bool:
+        """Address programming by the master (Change_Slave_Address): False when the
+        slave's ``address_fault`` spoils it (see ``ADDRESS_FAULTS``)."""
+        if self.address_fault == "set":
+            self.address = 0  # the old address was deleted; the new one did not take
+            return False
+        if self.address_fault == "store":
+            self._address = _address(value)
+            self._touch()
+            return False
+        self.address = value
+        return True
 
     @property
     def inputs(self) -> int:
@@ -131,13 +156,17 @@ class Slave:
         return None
 
     def power_up(self) -> None:
-        """What a slave does on power-up or reset: outputs off, default parameter."""
+        """What a slave does on power-up or reset: outputs off, default parameter, the
+        address from its own EEPROM."""
         self.outputs = 0
         self.parameter = DEFAULT_PARAMETER
+        if self._address != self._stored_address:
+            self._address = self._stored_address
+            self._touch()
 
     def to_dict(self) -> dict[str, Any]:
         data: dict[str, Any] = {
-            "address": self._address,
+            "address": self._stored_address,
             "io_code": self.io_code,
             "id_code": self.id_code,
             "inputs": self._inputs,
@@ -147,6 +176,8 @@ class Slave:
             data["parameter_response"] = self.parameter_response
         if self.name:
             data["name"] = self.name
+        if self.address_fault:
+            data["address_fault"] = self.address_fault
         return data
 
     @classmethod
@@ -155,7 +186,7 @@ class Slave:
             raise BusError(f"a slave must be described by an object, not {data!r}")
         unknown = set(data) - {
             "address", "io_code", "id_code", "inputs", "parameter_echo",
-            "parameter_response", "name",
+            "parameter_response", "name", "address_fault",
         }
         if unknown:
             raise BusError(f"unknown slave fields: {', '.join(sorted(unknown))}")
@@ -168,6 +199,7 @@ class Slave:
                 bool(data.get("parameter_echo", True)),
                 _int(data, "parameter_response", 0),
                 name=str(data.get("name", "")),
+                address_fault=str(data.get("address_fault", "")),
             )
         except TypeError as exc:
             raise BusError(f"bad slave description {data!r}: {exc}") from None

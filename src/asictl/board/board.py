@@ -29,7 +29,7 @@ from asictl.board.execution import ExecutionControl, Phase
 from asictl.board.images import VERSION_ID, MasterImages
 from asictl.board.nonvolatile import Nonvolatile
 from asictl.board.services import MasterFirmware
-from asictl.image.eeprom import ProgramImage
+from asictl.image.eeprom import ProgramImage, image_length
 from asictl.mcs51.emulator import EmulatorError, UndefinedOpcode
 from asictl.platform import pc2 as d
 from asictl.platform.master import COUNTER_HIGH_FLAGS, SLAVES, TICK_US, ControlFlag
@@ -91,7 +91,7 @@ class Pc2Board:
     def _boot(self, state: Nonvolatile, *, now_us: int) -> None:
         """Power-up: the DPRAM is written anew, everything volatile starts from scratch."""
         self.bus = bus = state.bus
-        self._now_us = now_us
+        self._now_us = self._power_up_us = now_us
         self._index = self._page = 0
         self._in_reset = False
         self._saved: Nonvolatile | None = None
@@ -135,7 +135,9 @@ class Pc2Board:
 
     def reload_program(self) -> bool:
         """Load the program from the EEPROM (power-up, command 50's reset bit)."""
-        loaded = self._control.load(bytes(self._eeprom))
+        eeprom = bytes(self._eeprom)
+        loaded = self._control.load(eeprom)
+        self._copied = (self._now_us, image_length(eeprom))
         runner = self._control.runner
         self._timer_addresses = sorted(runner.pmap.timers.values()) if runner else []
         self._quiet = False
@@ -545,6 +547,17 @@ class Pc2Board:
     @property
     def in_reset(self) -> bool:
         return self._in_reset
+
+    @property
+    def power_up_ms(self) -> float:
+        """Master time of the last power-up (the end of a reset is one)."""
+        return self._power_up_us / 1000
+
+    @property
+    def program_copy(self) -> tuple[float, int]:
+        """When the program was last copied from the EEPROM (power-up, reset bit), in
+        master time, and how many bytes the image there announced (0: none)."""
+        return self._copied[0] / 1000, self._copied[1]
 
     @property
     def interrupt_request(self) -> bool:

@@ -15,6 +15,7 @@ from typing import Protocol
 
 from asictl.board.control import AsiControl
 from asictl.board.dpram import Dpram
+from asictl.board.emc import EmcTest
 from asictl.board.execution import ExecutionControl
 from asictl.board.images import MasterImages
 from asictl.board.services import ENTRY_POINTS
@@ -78,6 +79,7 @@ class HostCommands:
             Command.SET_LOS: self._set_los,
             Command.UPDATE_DPRAM: self._update_dpram,
             Command.READ_TELEGRAM_COUNTERS: self._read_telegram_counters,
+            Command.EMC_TEST_MODE: self._emc_test_mode,
         }
 
     def run(self, code: int) -> bool:
@@ -250,4 +252,11 @@ class HostCommands:
         self._dpram.put(
             d.PROGRAM_BUFFER, b"".join(min(n, 0xFFFF).to_bytes(2, "little") for n in counts)
         )
+        return True
+
+    def _emc_test_mode(self) -> bool:
+        """130: the EMC test's counters to buffer bytes 8-11, and its new parameters from
+        bytes 0-5 (board/emc.py; an empty slave list ends the mode)."""
+        test = EmcTest.from_buffer(self._image(d.PROGRAM_BUFFER, d.EMC_PARAMETERS_SIZE))
+        self._dpram.put(d.PROGRAM_BUFFER + d.EMC_COUNTERS, self._ec.emc_test(test))
         return True

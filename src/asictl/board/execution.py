@@ -18,6 +18,7 @@ from collections.abc import Iterator
 from enum import Enum
 
 from asictl.board.asi import AsiBus, Slave
+from asictl.board.emc import EmcTest
 from asictl.platform.master import NO_PROFILE, SLAVES, TICK_US
 from asictl.platform.pc2 import EcFlag, Status
 
@@ -93,9 +94,19 @@ class ExecutionControl:
         self.los_offline = False
         #: configuration error addresses (LPS/LDS mismatch or wrong profile)
         self.errors = 0
+        #: the addresses in ``errors`` in the order they were found (the gateway's display
+        #: shows the first, gateway manual line 304)
+        self.error_order: list[int] = []
+        #: where the latest configuration error appeared, 0 for an AS-i power failure (as
+        #: in the LCS); None before any (the gateway's set key shows it, line 306)
+        self.last_error: int | None = None
+        #: master time normal operation last began at (the gateway's display 43)
+        self.normal_since_us = 0
         self.config_ok = False
         self._ok_since: int | None = None
         self.idi = bytearray(16)
+        #: the EMC test mode of command 130, while it is on (board/emc.py)
+        self.emc: EmcTest | None = None
         #: bumped when ec-flags, LDS, LAS, CDI (the lists the master writes) change
         self.generation = 0
         #: bumped when LPS, PCD, PP, PI, LOS or the host interface flags change
@@ -161,9 +172,11 @@ class ExecutionControl:
             self._sent = None
             self._input_version = -1
         self._topology = self.bus.topology
+        was_normal = self.phase is Phase.NORMAL
         if not self.bus.powered:
             self.apf = True
             self.lcs |= 1
+            self.last_error = 0
             self._go_offline()
         elif self.offline or self.los_offline:
             self.apf = False
@@ -174,6 +187,8 @@ class ExecutionControl:
             self._advance_phase()
             if self.phase is Phase.NORMAL:
                 self._check_configuration()
+        if self.phase is Phase.NORMAL and not was_normal:
+            self.normal_since_us = now_us
         self._delay_config_ok(now_us)
         visible = self._visible()
         if visible != self._shown:
@@ -242,7 +257,9 @@ class ExecutionControl:
         self._lossy = any(slave.lost_telegrams for _, slave in active)
 
     def _check_configuration(self) -> None:
-        self.errors = ((self.lps ^ self.lds) | self._mismatched()) & OPERATING
+        errors = ((self.lps ^ self.lds) | self._mismatched()) & OPERATING
+        if errors != self.errors:
+            self._note_errors(errors)
         self.lcs |= self.errors
         if self.configuration_mode:
             return
@@ -257,7 +274,15 @@ class ExecutionControl:
             and self.lds & 1
             and self.cdi[0] == self.pcd[target]
         ):
-            self._slaves[0].address = target  # found again by the next cycle's detection
+            self._slaves[0].program_address(target)  # found again by the next detection
+
+    def _note_errors(self, errors: int) -> None:
+        """The new error set: the order of finding, and the latest to appear."""
+        appeared = list(addresses(errors & ~self.errors))
+        self.error_order = [a for a in self.error_order if errors >> a & 1] + appeared
+        if appeared:
+            self.last_error = appeared[-1]
+        self.errors = errors
 
     def _single_missing(self) -> int | None:
         missing = self.lps & ~self.lds & OPERATING
@@ -279,6 +304,7 @@ class ExecutionControl:
                 slave.outputs = 0
         self.phase = Phase.OFFLINE
         self.lds = self.las = self.errors = 0
+        self.error_order = []
         self.cdi = bytearray([NO_PROFILE]) * SLAVES
         self._active, self._slaves, self._by_address = [], {}, {}
         self._sent = None
@@ -297,6 +323,9 @@ class ExecutionControl:
         would do anyway.
         """
         if self.phase is not Phase.NORMAL or not self.data_exchange_active:
+            return False
+        if self.emc is not None:
+            self.emc.cycle(self.bus)
             return False
         self.requests += len(self._active) + 1
         if self._lossy:
@@ -338,12 +367,17 @@ class ExecutionControl:
         """The slaves hold ``outputs`` and the IDI their inputs: an exchange changes nothing."""
         if self.phase is not Phase.NORMAL or not self.data_exchange_active:
             return True
+        if self.emc is not None:
+            return self.emc.steady(self.bus)
         return self._sent == outputs and self.bus.input_version == self._input_version
 
     def count_idle_cycles(self, cycles: int) -> None:
         """Cycles skipped as idle still sent their calls (for command 129)."""
         if self.phase is Phase.NORMAL and self.data_exchange_active:
-            self.requests += cycles * (len(self._active) + 1)
+            if self.emc is not None:
+                self.emc.repeat(cycles)
+            else:
+                self.requests += cycles * (len(self._active) + 1)
 
     def stop_exchange(self) -> None:
         """Data exchange switched off: the slaves' watchdogs switch their outputs off."""
@@ -419,8 +453,10 @@ class ExecutionControl:
             return Status.ADDRESS_OCCUPIED
         if old != 0 and self.lds & 1:
             return Status.SLAVE_ZERO_PRESENT
-        self._slaves[old].address = new
-        return Status.OK
+        slave = self._slaves[old]
+        if slave.program_address(new):
+            return Status.OK
+        return Status.CANNOT_SET_ADDRESS if slave.address != new else Status.CANNOT_STORE_ADDRESS
 
     def execute_command(self, address: int, information: int) -> int | None:
         if not 0 <= address < SLAVES or not self.lds >> address & 1:
@@ -437,6 +473,20 @@ class ExecutionControl:
         counters = bytes(self.error_counters)
         self.error_counters[:] = bytes(SLAVES)
         return counters
+
+    def emc_test(self, test: EmcTest | None) -> bytes:
+        """Command 130: the counters of the test until now (and cleared), and ``test`` on
+        from now (None ends the mode)."""
+        report = self.emc.report() if self.emc is not None else bytes(4)
+        if test is not None and self.emc is None:
+            listed = test.slaves
+            for a, slave in self._active:
+                if not listed >> a & 1:
+                    slave.outputs = 0  # no more data calls: the slave's watchdog
+        self.emc = test
+        self._sent = None  # the outputs go out again when data exchange returns
+        self._input_version = -1
+        return report
 
     def read_clear_telegram_counters(self) -> tuple[int, int]:
         counts = (self.requests, self.failures)

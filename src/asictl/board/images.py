@@ -34,10 +34,9 @@ MASTER_VERSION = b"asictl emulation".ljust(16, b"\0")
 VERSION_ID = b"00000200"
 
 #: The master's capabilities, bytes 1-7 of the installed-software string (10.2.5): bus-capable
-#: (B), AS-i error counters (F), no EMC test mode (e: command 130 is refused, as on a master
-#: without that option; the manual describes too little of the mode to emulate it, see
-#: docs/master.md), advanced diagnostics (D), offline phase on configuration error (C).
-CAPABILITIES = "BFeDC.."
+#: (B), AS-i error counters (F), the EMC test mode of command 130 (E, board/emc.py),
+#: advanced diagnostics (D), offline phase on configuration error (C).
+CAPABILITIES = "BFEDC.."
 
 #: What the installed-software letters and the status bytes 305h-307h are made of.
 _Status = tuple[bool, bool, bool, bool, bool, ProgramStatus, StopReason, ControlState]

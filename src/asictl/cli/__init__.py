@@ -47,7 +47,8 @@ COMMANDS: dict[str, tuple[str, str]] = {
     ),
     "sim": ("asictl.cli.sim:sim", "Run a program on an emulated master against a scenario."),
     "gateway": (
-        "asictl.cli.gateway:gateway", "Serve the emulated AS-i/Modbus gateway (Modbus TCP/RTU)."
+        "asictl.cli.gateway:gateway",
+        "Serve the emulated AS-i/Modbus gateway (Modbus TCP/RTU); its front panel and keys.",
     ),
     "test": ("asictl.cli.sim:test", "Run every *.scenario.toml and report N passed, M failed."),
     "serve": (
@@ -68,6 +69,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "diag": (
         "asictl.cli.commission:diag", "Read and clear LCS, error and telegram counters; the LOS."
     ),
+    "emc": ("asictl.cli.emc:emc", "Run the PC2's EMC test mode (command 130) on slaves."),
     "write": ("asictl.cli.commission:write", "Write flags (F 10.0=1, FY 10=0x12) and outputs."),
     "verify": ("asictl.cli.verify:verify", "Compare a program with the one the master runs."),
     "monitor": ("asictl.cli.monitor:monitor", "A live full-screen view of the master (ASI_MON)."),

@@ -16,7 +16,7 @@ from click.core import ParameterSource
 
 from asictl.cli.master import _board_options, _BoardOptions, _connect
 from asictl.errors import ExitCode, UserError
-from asictl.host.boards import parse_port, port_name, state_directory
+from asictl.host.boards import port_name, state_directory
 from asictl.host.emulated import (
     parse_address,
     parse_input_bit,
@@ -30,7 +30,8 @@ from asictl.host.master import Master
 @click.command("serve")
 @click.option(
     "--port", default="300h", show_default=True,
-    help="The emulated board (by I/O base) to keep running.",
+    help="The emulated board (by I/O base) to keep running; auto: the first one the "
+    "state directory has (300h..32Ch).",
 )
 @click.option(
     "--state-dir", type=click.Path(file_okay=False),
@@ -70,15 +71,16 @@ def serve(
     end (what is lost is said), 2 bad usage.
     """
     from asictl.host.live.server import run_live
+    from asictl.host.search import resolve_port
 
-    base = parse_port(port)
+    def notify(text: str) -> None:
+        click.echo(f"asictl: {text}", err=True)
+
+    base = resolve_port(port, "emulated", state_directory(state_dir), notify)
     name = port_name(base)
 
     def started(path: object) -> None:
         click.echo(f"asictl: board {name} live at {path} (Ctrl-C stops)", err=True)
-
-    def notify(text: str) -> None:
-        click.echo(f"asictl: {text}", err=True)
 
     run_live(
         base, state_directory(state_dir), identity={"command": "asictl serve", "port": name},
@@ -167,15 +169,26 @@ def show(as_json: bool = False, **board: Unpack[_BoardOptions]) -> None:
 @bus.command("plug")
 @click.argument("address")
 @click.argument("profile")
+@click.option(
+    "--address-fault", type=click.Choice(["set", "store"]),
+    help="A slave whose address programming fails: 'set', the new address does not take "
+    "(status 06h, the gateway's display 92); 'store', it is kept only until a power-up "
+    "(07h, display 93).",
+)
 @_board_options
-def plug(address: str, profile: str, **board: Unpack[_BoardOptions]) -> None:
+def plug(
+    address: str, profile: str, address_fault: str | None, **board: Unpack[_BoardOptions]
+) -> None:
     """Plug a slave in at ADDRESS (0 for a new slave) with PROFILE: its I/O code (letters
     such as iiio, or a hex digit) and ID code, as in [SETUP]: 'iiio,1', 'Bh,0'."""
     _emulated_only(board)
     where = parse_address(address)
     io_code, id_code = parse_profile(profile)
+    fault = {"address_fault": address_fault} if address_fault else {}
     with _connect(**board) as master:
-        slave = master.emulated("plug", address=where, io_code=io_code, id_code=id_code)
+        slave = master.emulated(
+            "plug", address=where, io_code=io_code, id_code=id_code, **fault
+        )
         click.echo(f"{master.name}: plugged in slave {where} ({slave['profile']})", err=True)
         _report(master)
 

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import json
 import sys
+import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -67,7 +68,8 @@ def _board_options(command: _Callback) -> _Callback:
         click.option(
             "--port", default="300h", show_default=True,
             help="The board's I/O base: 300h, 304h, 308h, 30Ch, 320h, 324h, 328h or 32Ch "
-            "(also written 0x300 or 300).",
+            "(also written 0x300 or 300); auto: search them in this order and take the first "
+            "board found, as the PC2 driver's AsiPc2Init(0) does.",
         ),
         click.option(
             "--io", type=click.Choice(IO_BACKENDS), default="emulated", show_default=True,
@@ -277,6 +279,14 @@ def upload_command(output: str, overwrite: bool, **board: Unpack[_BoardOptions])
         )
 
 
+def _master_wait(master: Master) -> Callable[[float], None]:
+    """How a command lets master time pass: at once on a board loaded for the command,
+    in real time on a live or real one."""
+    if master.action is not None:
+        return master.action.wait_ms
+    return lambda ms: time.sleep(ms / 1000)
+
+
 def _cable_hint(master: Master, summary: str) -> None:
     """On an emulated board a configuration error is usually a cable that does not match
     the program yet: say how to plug in the [SETUP]'s slaves."""
@@ -328,12 +338,49 @@ stop_command = _control_command(
     "AS-i master (ACF /s-)." + _EXIT_STATUS,
     lambda transport: set_start(transport, start=False),
 )
-reset_command = _control_command(
-    "reset",
-    "Set the reset bit: the master reloads the program from its EEPROM and clears the "
-    "program's flags; the start flag stays as it is." + _EXIT_STATUS,
-    reset,
+@click.command("reset")
+@_board_options
+@click.option(
+    "--hardware", is_flag=True,
+    help="Reset the board itself (PAGE bit 4 held 200 ms, AsiPc2Reset): a power-up.",
 )
+def reset_command(hardware: bool, **board: Unpack[_BoardOptions]) -> None:
+    """Set the reset bit: the master reloads the program from its EEPROM and clears the
+    program's flags; the start flag stays as it is.
+
+    With --hardware the PC2 board itself is reset, as the manual's AsiPc2Reset does: the
+    PAGE register's bit 4 is held for 200 ms (the manual's minimum), then the board powers
+    up: it writes its DPRAM anew, loses everything volatile (parameters, flags, the
+    communication memory), copies the program from the EEPROM and starts up. The command
+    waits until the board is found again and its start-up is over, and says what it came
+    up with. A gateway has no such reset (exit 2).
+
+    \b
+    Example:
+      asictl reset --hardware --port 300h
+
+    Exit status: 0 done, 1 the master refused or did not come back, 2 bad usage or a
+    corrupt board state.
+    """
+    if hardware and board["modbus"] is not None:
+        raise UserError(
+            "--hardware resets a PC2 board through its PAGE register; a gateway has none "
+            "(its Modbus restart, diagnostics code 1, only takes the master offline)",
+            ExitCode.USAGE,
+        )
+    with _connect(**board) as master:
+        if hardware:
+            from asictl.host.hardware_reset import hardware_reset
+
+            assert master.driver is not None  # every PC2 master has one
+            powered = hardware_reset(master.driver, _master_wait(master))
+            click.echo(f"{master.name}: {powered.report()}", err=True)
+        else:
+            reset(master.transport)
+        master.settle()
+        state = master.summary()
+    click.echo(f"{master.name}: {state}", err=True)
+    _cable_hint(master, state)
 
 
 @click.command("status")

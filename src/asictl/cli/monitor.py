@@ -7,12 +7,17 @@ command runs: the other commands, and ``asictl --help``, never load it.
 from __future__ import annotations
 
 from contextlib import ExitStack
+from dataclasses import replace
 from typing import Unpack
 
 import click
 
 from asictl.cli.master import _address, _board_options, _BoardOptions
 from asictl.errors import missing_extra
+
+
+def _notify(text: str) -> None:
+    click.echo(f"asictl: {text}", err=True)
 
 
 @click.command("monitor")
@@ -27,7 +32,9 @@ def monitor(**board: Unpack[_BoardOptions]) -> None:
     (program stopped); f writes a flag byte or bit; s starts or stops the program; b
     presses the set button; p/u plug/unplug a slave at the selected address; a changes
     its address; m switches protected/configuration mode; F5/F6 store the actual
-    parameters/configuration; F9 reads everything again; q quits.
+    parameters/configuration; F9 reads everything again; q quits. Where 'asictl gateway
+    serve' serves the board, its front panel is shown (display and LEDs), [ and ] press
+    its mode and set keys, { and } hold them 6 s, | holds both 6 s.
 
     v shows the program view instead of the slaves: the program's source with each IL
     line's RLO, ACCU1, ACCU2 and operand value from the latest cycle (an emulated board
@@ -43,18 +50,20 @@ def monitor(**board: Unpack[_BoardOptions]) -> None:
         from asictl.monitor.app import MonitorApp
     except ImportError as exc:
         raise missing_extra("asictl monitor", "monitor", f"no {exc.name or exc}") from None
-    from asictl.host.boards import parse_port, port_name, state_directory
+    from asictl.host.boards import port_name, state_directory
     from asictl.host.live.client import is_served
     from asictl.host.live.server import background_live
+    from asictl.host.search import resolve_port
     from asictl.monitor.source import MonitorSource
 
     address = _address(**board)
     note = None
     with ExitStack() as stack:
-        if address.modbus is None and address.io == "emulated":
-            base = parse_port(address.port)
+        if address.modbus is None:
             directory = state_directory(address.state_dir)
-            if not is_served(directory, base):
+            base = resolve_port(address.port, address.io, directory, _notify)
+            address = replace(address, port=port_name(base))  # searched once, not each refresh
+            if address.io == "emulated" and not is_served(directory, base):
                 stack.enter_context(background_live(
                     base, directory,
                     identity={"command": "asictl monitor", "port": port_name(base)},

@@ -22,7 +22,6 @@ from typing import TypeVar
 from asictl.board.board import Pc2Board
 from asictl.host.driver import EmulatedPort, Pc2Driver
 from asictl.host.jobs import JobError
-from asictl.platform import display as master_display
 from asictl.platform import gateway as g
 from asictl.platform import pc2 as d
 from asictl.platform.gateway import (
@@ -517,27 +516,6 @@ def _register_limit(address: int) -> int:
     return 0xFFFF
 
 
-# ---------------------------------------------------------------------- chapter 8
-
-
-def display_code(board: Pc2Board) -> int | None:
-    """The gateway's display for the master's state now (see ``master.display``)."""
-    phase = "offline" if board.in_reset else board.phase.name.lower()
-    ram = board.dpram
-    return master_display.display_code(
-        phase,
-        board.mode == "configuration",
-        int.from_bytes(ram[d.LPS : d.LPS + d.LIST_SIZE], "little"),
-        int.from_bytes(ram[d.LDS : d.LDS + d.LIST_SIZE], "little"),
-        ram[d.PCD : d.PCD + d.CONFIG_SIZE],
-        ram[d.CDI : d.CDI + d.CONFIG_SIZE],
-        turn=int(board.now_ms // 500),
-    )
-
-
-display_text = master_display.display_text
-
-
 __all__ = [
     "MAX_BITS",
     "MAX_REGISTERS",
@@ -545,6 +523,4 @@ __all__ = [
     "ExceptionCode",
     "ExecutionRegister",
     "ModbusError",
-    "display_code",
-    "display_text",
 ]

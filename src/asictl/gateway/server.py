@@ -100,6 +100,9 @@ class GatewayServer:
         self.idle_timeout = idle_timeout or None
         self.conditions = ConditionLog(log or (lambda message: None))
         self.tcp_address: tuple[str, int] | None = None
+        #: the RTU line while it is open, and its end-of-frame silence
+        self._line: Any = None
+        self._gap = MIN_FRAME_GAP_S
         self._stop = asyncio.Event()
         self._connections: dict[asyncio.Task[None], _Connection] = {}
 
@@ -195,7 +198,7 @@ class GatewayServer:
         loop = asyncio.get_running_loop()
         buffer = bytearray()
         timer: list[asyncio.TimerHandle] = []
-        gap = settings.frame_gap_s()
+        self._line, self._gap = line, settings.frame_gap_s()
         fd = line.fileno()
 
         def end_of_frame() -> None:
@@ -218,10 +221,19 @@ class GatewayServer:
             buffer.extend(chunk)
             if timer:
                 timer.pop().cancel()
-            timer.append(loop.call_later(gap, end_of_frame))
+            timer.append(loop.call_later(self._gap, end_of_frame))
 
         loop.add_reader(fd, readable)
         return line, fd
+
+    def set_serial(self, baud: int, parity: str, stopbits: int) -> None:
+        """The gateway's keys stored another serial setting (manual 5.6): the line takes it
+        at once."""
+        line = self._line
+        if line is None:
+            return
+        line.baudrate, line.parity, line.stopbits = baud, parity, stopbits
+        self._gap = SerialSettings(line.port, baud, parity, stopbits).frame_gap_s()
 
     def _rtu_frame(self, frame: bytes) -> bytes | None:
         """One frame between silences; short or corrupt frames count as CRC errors."""
@@ -269,6 +281,7 @@ class GatewayServer:
             if line is not None:
                 asyncio.get_running_loop().remove_reader(fd)
                 line.close()
+                self._line = None
             if server is not None:
                 server.close()
                 for task in list(self._connections):

@@ -16,16 +16,17 @@ from __future__ import annotations
 import struct
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, fields, replace
 
 from pymodbus.pdu import ModbusPDU
 
 from asictl.board.board import Pc2Board
 from asictl.gateway.addressmap import MAX_BITS, AddressMap, ExceptionCode, ModbusError
+from asictl.gateway.panel import FrontPanel
 from asictl.gateway.requestlog import request_line
 from asictl.host import gateway_pdus as pdus
 from asictl.platform import pc2 as d
-from asictl.platform.gateway import UNITS
+from asictl.platform.gateway import UNITS, Interface
 from asictl.platform.master import EEPROM_SIZE
 from asictl.platform.pc2 import Command
 
@@ -92,13 +93,16 @@ class GatewaySlave:
 
     def __init__(
         self, board: Pc2Board, unit: int = 1, clock: Callable[[], float] = time.monotonic,
-        *, sync: Callable[[], None] | None = None,
+        *, sync: Callable[[], None] | None = None, interface: Interface | None = None,
     ) -> None:
         if unit not in UNITS:
             raise ValueError(f"the gateway's Modbus address is {UNITS[0]}..{UNITS[-1]}, not {unit}")
         self.board = board
         self.map = AddressMap(board)
         self.unit = unit
+        #: the front panel; its keys can give the gateway another Modbus address (5.6)
+        self.panel = FrontPanel(board, self.map, replace(interface or Interface(), unit=unit))
+        self.panel.on_interface.append(self._interface_set)
         self.listen_only = False
         self.counters = Counters()
         #: told one line per frame (``gateway serve --verbose``)
@@ -134,12 +138,17 @@ class GatewaySlave:
         """
         if self._sync is not None:
             self._sync()
-            return
-        now = self._clock()
-        elapsed_ms = (now - self._synced) * 1000
-        self._synced = now
-        if elapsed_ms > 0:
-            self.board.advance(min(elapsed_ms, MAX_CATCH_UP_MS))
+        else:
+            now = self._clock()
+            elapsed_ms = (now - self._synced) * 1000
+            self._synced = now
+            if elapsed_ms > 0:
+                self.board.advance(min(elapsed_ms, MAX_CATCH_UP_MS))
+        self.panel.tick()
+
+    def _interface_set(self, interface: Interface) -> None:
+        """The keys stored a Modbus address: from now on the gateway answers to it."""
+        self.unit = interface.unit
 
     # ------------------------------------------------------------------ frames
 
@@ -156,6 +165,8 @@ class GatewaySlave:
     def _frame(self, unit: int, pdu: bytes, *, crc_ok: bool) -> bytes | None:
         c = self.counters
         c.bus_messages += 1
+        if self.panel.in_menu:
+            return None  # "Kommunikation über den Modbus nicht möglich" (gateway manual 5.6)
         if unit not in (self.unit, BROADCAST):
             return None
         if not crc_ok:
@@ -173,6 +184,7 @@ class GatewaySlave:
                 self._restart(pdu[3:])
             c.no_responses += 1
             return None
+        self.panel.telegram()
         response = self._execute(pdu, broadcast=unit == BROADCAST)
         if response is None or unit == BROADCAST:
             c.no_responses += 1

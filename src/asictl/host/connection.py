@@ -16,7 +16,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from asictl.errors import missing_extra
-from asictl.host.boards import connect, parse_port, port_name, state_directory, state_file
+from asictl.host.boards import connect, port_name, state_directory, state_file
 from asictl.host.driver import EmulatedPort, Pc2Driver
 from asictl.host.emulated import LoadedBoard
 from asictl.host.master import Master
@@ -64,11 +64,12 @@ def connect_master(
     """
     if address.modbus is None:
         from asictl.host.live.client import LiveActions, LivePort, open_live
+        from asictl.host.search import resolve_port
 
-        base = parse_port(address.port)
+        directory = state_directory(address.state_dir)
+        base = resolve_port(address.port, address.io, directory, notify or _stderr)
         name = port_name(base)
         if address.io == "emulated":
-            directory = state_directory(address.state_dir)
             client = open_live(directory, base)
             if client is not None:
                 try:
@@ -90,7 +91,7 @@ def connect_master(
         else:
             created = False
         with connect(
-            address.port, address.io, address.state_dir, wait=address.wait, notify=notify
+            name, address.io, address.state_dir, wait=address.wait, notify=notify
         ) as driver:
             port = driver.port
             yield Pc2Master.over(

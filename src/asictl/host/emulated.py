@@ -125,7 +125,7 @@ def _slave_json(slave: Slave) -> dict[str, JSON]:
         "address": slave.address, "io_code": slave.io_code, "id_code": slave.id_code,
         "profile": f"{IO_CODE_BITS[slave.io_code]},{slave.id_code:X}",
         "inputs": slave.inputs, "outputs": slave.outputs, "parameter": slave.parameter,
-        "name": slave.name,
+        "name": slave.name, "address_fault": slave.address_fault,
     }
 
 
@@ -140,7 +140,10 @@ def _plug(board: Pc2Board, args: dict[str, JSON]) -> JSON:
     address = int(args["address"])
     if board.bus.at(address):
         raise ActionError(f"a slave is already plugged in at address {address}; unplug it first")
-    slave = Slave(address, int(args["io_code"]), int(args["id_code"]), int(args.get("inputs", 0)))
+    slave = Slave(
+        address, int(args["io_code"]), int(args["id_code"]), int(args.get("inputs", 0)),
+        address_fault=str(args.get("address_fault", "")),
+    )
     board.bus.attach(slave)
     return _slave_json(slave)
 
@@ -304,3 +307,6 @@ class LoadedBoard:
 
     def settle(self) -> None:
         self.board.advance(SETTLE_MS)
+
+    def wait_ms(self, ms: float) -> None:
+        self.board.advance(ms)

@@ -48,6 +48,10 @@ class EmulatedBoard(Protocol):
     def settle(self) -> None:
         """Let the board run on after a download, as a real one does meanwhile."""
 
+    def wait_ms(self, ms: float) -> None:
+        """Let ``ms`` of master time pass: a loaded board runs them at once, a live one in
+        real time (a hardware reset's hold, an EMC test's reading interval)."""
+
 
 class Master(Protocol):
     """A master as the commands see it, whichever way it is reached."""

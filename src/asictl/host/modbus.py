@@ -57,6 +57,7 @@ from asictl.host.master import JSON, emulated_board
 from asictl.host.status import (
     MasterStatus,
     derived_control_state,
+    gateway_panel,
     program_info,
     slave_data,
     slave_fields,
@@ -414,6 +415,7 @@ def read_status(transport: ModbusTransport) -> MasterStatus:
         text for text in (transport.master_info(INFO_NAME), transport.master_info(INFO_VERSION))
         if text
     )
+    software = transport.master_info(INFO_SOFTWARE)
     program = program_info(transport)
     state, reason = derived_control_state(program.present, flags, ec)
     slaves = slave_data(
@@ -428,7 +430,7 @@ def read_status(transport: ModbusTransport) -> MasterStatus:
         port=f"Modbus {transport.name} unit {transport.unit}",
         master_name=name,
         version_id=transport.master_info(INFO_VERSION_ID),
-        installed_software=transport.master_info(INFO_SOFTWARE),
+        installed_software=software,
         **state_fields(ec, flags),
         **slave_fields(lps, lds, las, bytes(pcd), bytes(cdi), ec=ec),
         control_state=state.name.lower(),
@@ -443,4 +445,5 @@ def read_status(transport: ModbusTransport) -> MasterStatus:
         slaves=slaves,
         hi_flags=transport.read_registers(g.HI_FLAGS, 1)[0] & 0x07,
         flags=[r & 0xFF for r in transport.read_registers(g.MEMORY_BYTES, 128)],
+        **gateway_panel(ec, software),
     )

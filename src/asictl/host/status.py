@@ -24,7 +24,8 @@ from asictl.host.driver import Pc2Driver
 from asictl.host.jobs import JobError, JobStatus
 from asictl.host.transfer import Pc2Transport, Transport, upload, upload_head
 from asictl.image.eeprom import MAGIC, ProgramImage
-from asictl.platform.display import display_code, display_text
+from asictl.platform.display import Display, derived, led_text
+from asictl.platform.display import leds as derived_leds
 from asictl.platform.master import SLAVES, ControlFlag
 from asictl.platform.pc2 import (
     CDI,
@@ -142,8 +143,10 @@ class MasterStatus:
     missing: list[int]
     unexpected: list[int]
     wrong_profile: list[WrongSlave]
-    #: what the gateway's 7-segment display would show (gateway manual, chapter 8)
-    display: str
+    #: the gateway's display (gateway manual, chapter 8): its panel's own where the board
+    #: is served by the emulated gateway (``panel`` "gateway"), else what it would show
+    #: for this state (``panel`` "derived")
+    display: Display
     control_flags: int
     start_flag: bool
     ignore_config_errors: bool
@@ -170,9 +173,18 @@ class MasterStatus:
     #: after a cycle time-out or a program fault: the IL line of the endless loop or of the
     #: fault (from the image's line map)
     stop_line: str | None = None
+    #: the gateway's seven LEDs by name (platform/display.LEDS); None for a PC2 board
+    leds: dict[str, bool] | None = None
+    #: where display and LEDs come from: "gateway" (the served gateway's panel) or
+    #: "derived" (worked out from the master's flags and lists)
+    panel: str = "derived"
+    #: the gateway's key lock (register 1007), where it is known
+    keys_locked: bool | None = None
 
     def to_json(self) -> dict[str, Any]:
-        return asdict(self)
+        data = asdict(self)
+        data["display"] = self.display.to_json()
+        return data
 
 
 def _slaves(bits: bytes) -> list[int]:
@@ -269,13 +281,10 @@ def slave_fields(
     """The slave lists, the configuration errors by their cause (PCD/CDI in PC2 layout)
     and the display code they make."""
     phase = {"normal operation": "normal", "offline": "offline"}.get(_phase(ec), "detection")
-    code = display_code(
-        phase, bool(ec & EcFlag.CONFIGURATION_ACTIVE), sum(1 << n for n in lps),
-        sum(1 << n for n in lds), pcd, cdi,
-    )
     return {
-        "display": ("blank" if code is None else f"{code:02d}: ") + (
-            "" if code is None else display_text(code)
+        "display": derived(
+            phase, bool(ec & EcFlag.CONFIGURATION_ACTIVE), sum(1 << n for n in lps),
+            sum(1 << n for n in lds), pcd, cdi,
         ),
         "lps": lps, "lds": lds, "las": las,
         "missing": [n for n in lps if n not in lds],
@@ -303,13 +312,31 @@ def slave_data(
 
 
 def view_fields(view: View | None) -> dict[str, Any]:
-    """The ``MasterStatus`` fields an emulated board's view gives."""
+    """The ``MasterStatus`` fields an emulated board's view gives; a board the emulated
+    gateway serves adds its front panel (``panel``: display, LEDs, key lock)."""
     if view is None:
         return {}
-    return {
+    fields: dict[str, Any] = {
         "lcs": list(view["lcs"]),
         "timers": [Timer(t["number"], t["remaining_ms"], t["running"]) for t in view["timers"]],
         "counters": [Counter(c["number"], c["value"]) for c in view["counters"]],
+    }
+    panel = view.get("panel")
+    if isinstance(panel, dict):
+        fields.update(
+            display=Display.from_json(panel["display"]), leds=dict(panel["leds"]),
+            panel="gateway", keys_locked=bool(panel["keys_locked"]),
+        )
+    return fields
+
+
+def gateway_panel(ec: int, software: str) -> dict[str, Any]:
+    """What a gateway's LEDs show, from its ec-flags and its installed-software letters
+    (byte 15: T keys free, t locked), for a gateway reached over Modbus: that the
+    client talks to it is the Modbus communication that lights ser active."""
+    return {
+        "leds": derived_leds(ec, ser_active=True),
+        "keys_locked": software[15:16] == "t" if len(software) >= 16 else None,
     }
 
 
@@ -346,7 +373,7 @@ def read_status(
         version_id=_text(driver.read(VERSION_ID, VERSION_ID_SIZE)),
         installed_software=_text(driver.read(INSTALLED_SOFTWARE, INSTALLED_SOFTWARE_SIZE)),
         **state_fields(ec, flags),
-        **slave_fields(lps, lds, las, pcd, cdi, ec=ec),
+        **{**slave_fields(lps, lds, las, pcd, cdi, ec=ec), **view_fields(extra)},
         control_state=_name(ControlState, state),
         stop_reason=None if reason == StopReason.NONE else _name(StopReason, reason),
         program_status=_name(ProgramStatus, driver.read_byte(PROGRAM_STATUS)),
@@ -358,7 +385,6 @@ def read_status(
         los=los,
         hi_flags=driver.read_byte(HI_FLAGS),
         flags=list(driver.read(FLAGS, FLAGS_SIZE)),
-        **view_fields(extra),
     )
 
 
@@ -512,7 +538,10 @@ def render(status: MasterStatus) -> str:
         *(["    " + _slave_row("LCS", s.lcs)] if s.lcs is not None else []),
         "    " + _slave_row("LOS", s.los),
         "config   " + ("; ".join(problems) if problems else "no errors"),
-        f"display  {s.display}",
+        f"display  {s.display.shown()}"
+        + ("" if s.panel == "gateway" else " (as a gateway shows this state)"),
+        *([f"leds     {led_text(s.leds)}"] if s.leds is not None else []),
+        *(["keys     locked (Modbus register 1007)"] if s.keys_locked else []),
         f"control  {control}",
         f"flags    {s.control_flags:02X}h " + (" ".join(set_flags) or "(none)"),
         f"program  {program} ({s.program_status})",

@@ -7,6 +7,11 @@ F0..F127. Bottom: the event log and the keys. The screen refreshes ``REFRESH_S``
 reading the master happens in a worker thread, so a slow or vanished master never
 freezes the screen (it is shown as gone, and found again when it returns).
 
+Where the emulated gateway serves the board, the right side starts with its front panel
+(the display, blinking or not, and the seven LEDs) and ``[`` ``]`` press its mode and set
+keys, ``{`` ``}`` hold them 6 s, ``|`` holds both 6 s; the press goes on in the gateway
+while the screen refreshes, so what the display does meanwhile is seen.
+
 ``v`` swaps the middle for the program view (``monitor.program``): the program's
 source with each line's values from the latest cycle, scrolled with the arrows and
 PgUp/PgDn, ``n`` jumping to the next file (the function blocks follow the main file).
@@ -40,6 +45,7 @@ from asictl.host.status import (
 from asictl.monitor.program import Listing, heading, listing_of, render_rows
 from asictl.monitor.source import MonitorSource, Snapshot, toggle_start
 from asictl.observe.online import CycleLines
+from asictl.platform.display import LEDS, Display
 from asictl.platform.master import IO_CODE_BITS, SLAVES
 
 #: Seconds between two refreshes.
@@ -110,6 +116,11 @@ class MonitorApp(App[None]):
         Binding("f5", "store_parameters", "Store PP"),
         Binding("f6", "store_configuration", "Store config"),
         Binding("f9", "reload", "Reload"),
+        Binding("left_square_bracket", "key('mode', 0.2)", "mode key"),
+        Binding("right_square_bracket", "key('set', 0.2)", "set key"),
+        Binding("left_curly_bracket", "key('mode', 6)", "mode 6 s"),
+        Binding("right_curly_bracket", "key('set', 6)", "set 6 s"),
+        Binding("vertical_line", "key('both', 6)", "both 6 s"),
         Binding("escape", "cancel_prompt", "Cancel", show=False),
     ]
     #: what each prompt asks for, and the text it starts with
@@ -192,6 +203,10 @@ class MonitorApp(App[None]):
             self.log_event(f"master gone: {snapshot.error}")
         elif not snapshot.error and was_error:
             self.log_event("master found again")
+        if (old is None) != (self.status is None) or (
+            old is not None and self.status is not None and old.panel != self.status.panel
+        ):
+            self.refresh_bindings()  # the panel's keys come and go with the gateway
         if old is not None and self.status is not None:
             for event in _changes(old, self.status):
                 if self.emulated and event.startswith("configuration error"):
@@ -268,6 +283,8 @@ class MonitorApp(App[None]):
         program = self.view == "program"
         if action == "show":
             return parameters[0] != self.view
+        if action == "key":  # the front panel's keys, where a gateway serves the board
+            return self.status is not None and self.status.panel == "gateway"
         if action in ("scroll", "page", "next_file"):
             return program
         if action in _SLAVE_VIEW_ONLY or parameters in (("plug",), ("address",)):
@@ -373,6 +390,18 @@ class MonitorApp(App[None]):
         self._act(
             "F6 store actual configuration: done", lambda m: m.tools().store_configuration()
         )
+
+    def action_key(self, key: str, seconds: float) -> None:
+        """The gateway's mode or set key (or both) held ``seconds``: the press goes on in
+        the gateway while the screen refreshes, so the display is seen to change."""
+        keys = ["mode", "set"] if key == "both" else [key]
+        what = f"{' and '.join(keys)} key{'s' if len(keys) > 1 else ''} held {seconds:g} s"
+
+        def press(master: Master) -> str:
+            view = master.emulated("press", keys=keys, hold_ms=seconds * 1000, wait=False)
+            return f"{what}: display {Display.from_json(view['display']).shown()}"
+
+        self._act(what, press)
 
     def action_reload(self) -> None:
         self.source.reload_program()
@@ -565,12 +594,39 @@ def _detail(status: MasterStatus, selected: int) -> Text:
     return text
 
 
+#: The LEDs' colours on the gateway's front.
+_LED_STYLE = {"config_err": "bold red", "prj_mode": "bold yellow", "prg_enable": "bold yellow"}
+
+
+def _panel(status: MasterStatus) -> Text:
+    """The gateway's front: the display and its seven LEDs (lit: a filled dot)."""
+    text = Text()
+    source = "gateway panel" if status.panel == "gateway" else "gateway (from its flags)"
+    display = status.display
+    text.append(f"{source}  ", style="bold")
+    text.append(f" {display.text or '  '} ", style="reverse blink" if display.blinking
+                else "reverse")
+    text.append(f"  {display.meaning}" + (", blinking" if display.blinking else ""))
+    if status.keys_locked:
+        text.append("  keys locked", style="bold red")
+    for row, (name, label) in enumerate(LEDS.items()):
+        lit = bool(status.leds and status.leds.get(name))
+        text.append("\n" if row in (0, 4) else "  ")
+        text.append("● " if lit else "○ ", style=_LED_STYLE.get(name, "bold green") if lit
+                    else "dim")
+        text.append(label, style="" if lit else "dim")
+    text.append("\n\n")
+    return text
+
+
 def _right(status: MasterStatus) -> Text:
     s = status
     flags = [name for name in ("start_flag", "ignore_config_errors", "wait_for_set_button",
                                "map_counters", "control_active") if getattr(s, name)]
+    panel = _panel(s) if s.leds is not None else Text()
     lines = [
-        f"ec-flags {s.ec_flags:02X}h  display {s.display}",
+        f"ec-flags {s.ec_flags:02X}h"
+        + ("" if s.leds is not None else f"  display {s.display.shown()}"),
         f"hi-flags {s.hi_flags:02X}h {hi_flag_text(s.hi_flags)}",
         f"control flags {s.control_flags:02X}h {' '.join(flags) or '(none)'}",
         *timer_text(s),
@@ -578,4 +634,4 @@ def _right(status: MasterStatus) -> Text:
         "flag bytes F0..F127",
         *flag_rows(s.flags),
     ]
-    return Text("\n".join(lines))
+    return panel + Text("\n".join(lines))

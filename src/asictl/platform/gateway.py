@@ -8,6 +8,7 @@ The emulated gateway (``gateway.addressmap``) serves this map and the Modbus tra
 
 from __future__ import annotations
 
+from dataclasses import dataclass, replace
 from enum import IntEnum
 
 # --- the Modbus interface's settings (manual 5.6, 6.1)
@@ -27,6 +28,34 @@ def serial_setting_code(baud: int, parity: str, stopbits: int) -> int | None:
     if baud not in BAUD_RATES or (parity, stopbits) not in FRAMINGS:
         return None
     return 10 * (BAUD_RATES.index(baud) + 1) + FRAMINGS.index((parity, stopbits))
+
+
+#: Every serial setting's code in the order the set key steps through them (5.6's table).
+SERIAL_CODES = tuple(10 * b + f for b in range(1, len(BAUD_RATES) + 1) for f in range(4))
+
+
+@dataclass(frozen=True)
+class Interface:
+    """The gateway's Modbus address and serial setting: what its keys set (5.6) and its
+    EEPROM keeps."""
+
+    unit: int = 1
+    baud: int = DEFAULT_BAUD
+    parity: str = "N"
+    stopbits: int = 1
+
+    @property
+    def code(self) -> int:
+        code = serial_setting_code(self.baud, self.parity, self.stopbits)
+        assert code is not None, f"no gateway setting {self}"
+        return code
+
+    def with_code(self, code: int) -> Interface:
+        """The same address with the serial setting of display code ``code``."""
+        parity, stopbits = FRAMINGS[code % 10]
+        return replace(
+            self, baud=BAUD_RATES[code // 10 - 1], parity=parity, stopbits=stopbits
+        )
 
 
 #: Registers one telegram may carry (manual 6.3.3, 6.3.8).

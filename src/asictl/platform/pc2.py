@@ -113,6 +113,30 @@ class Command(IntEnum):
     SET_LOS = 72
     UPDATE_DPRAM = 128
     READ_TELEGRAM_COUNTERS = 129
+    EMC_TEST_MODE = 130
+
+
+#: Command 130 (EMC test mode, manual 7.3, lines 443-457): its parameters in program buffer
+#: bytes 0-5 (byte 0: bit 0 repetitions allowed, bit 1 answers checked, bits 3-7 the
+#: expected answer; byte 1 the request; bytes 2-5 the slaves), its counters at bytes
+#: 8-11 (requests, then failed answers, 16 bits each, low byte first).
+EMC_REPETITIONS = 0x01
+EMC_CHECK = 0x02
+EMC_EXPECTED_SHIFT = 3
+EMC_PARAMETERS_SIZE = 6
+EMC_COUNTERS = 8
+
+
+def emc_parameters(
+    slaves: set[int] | list[int], request: int, *, expected: int | None = None,
+    repetitions: bool = False,
+) -> bytes:
+    """Program buffer bytes 0-5 for command 130; answers are checked when ``expected`` is
+    given; an empty slave list ends the mode."""
+    byte0 = (EMC_REPETITIONS if repetitions else 0) | (
+        0 if expected is None else EMC_CHECK | (expected & 0x1F) << EMC_EXPECTED_SHIFT
+    )
+    return bytes([byte0, request & 0x1F]) + list_bytes(slaves)
 
 
 #: The command byte after execution.

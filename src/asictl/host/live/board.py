@@ -3,9 +3,10 @@
 from __future__ import annotations
 
 import time
-from collections.abc import Callable
+from collections.abc import Awaitable, Callable
 
 from asictl.board.board import Pc2Board
+from asictl.host.live.protocol import JSON
 from asictl.platform.pc2 import ACK, COMMAND, COMMAND_TIMEOUT_MS, NAK
 
 #: Master time one catch-up may run at most (after the process was stopped, say).
@@ -22,6 +23,9 @@ class LiveBoard:
         self._clock = clock
         self._wall = clock()
         self._master = board.now_ms
+        #: actions a server attached to this board adds or replaces (the gateway's panel),
+        #: run on the loop instead of ``host.emulated``'s
+        self.actions: dict[str, Callable[[dict[str, JSON]], Awaitable[JSON]]] = {}
 
     def sync(self) -> None:
         """Let master time catch up with the wall clock; a board that ran ahead (a command

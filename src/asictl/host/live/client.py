@@ -333,3 +333,6 @@ class LiveActions:
 
     def settle(self) -> None:
         time.sleep(SETTLE_MS / 1000)
+
+    def wait_ms(self, ms: float) -> None:
+        time.sleep(ms / 1000)

@@ -9,7 +9,8 @@ waiting first gets ``{"waiting": HOLDER}``); ``{"op": "io", "ops": [...]}`` with
 emulated-only actions of ``host.emulated`` (the cable, the set button, the program's
 timers and counters, and ``lines``: the program's IL lines with their values in the
 latest cycle, for which the board runs one cycle under line hooks and removes them
-again). A failure is ``{"ok": false, "error": TEXT, "exit": CODE}``.
+again), or those a server attached to the board adds (``LiveBoard.actions``: the
+gateway's front panel). A failure is ``{"ok": false, "error": TEXT, "exit": CODE}``.
 
 Register accesses are batched (writes wait until a read needs their effect, and a block
 of data reads is one access with a count), so a download moves a 240-byte block per

@@ -11,6 +11,7 @@ depends on where the pointer has got to).
 
 from __future__ import annotations
 
+from collections.abc import Awaitable
 from dataclasses import dataclass
 
 from asictl.host.emulated import run_action
@@ -108,6 +109,18 @@ def _accesses(live: LiveBoard, accesses: list[tuple[str, int, JSON]]) -> list[li
                 commands += 1
                 live.run_command()
     return reads
+
+
+def attached_action(live: LiveBoard, request: dict[str, JSON]) -> Awaitable[JSON] | None:
+    """The action a server attached to the board runs for this request (the gateway's
+    front panel), if it has one of that name."""
+    name, args = request.get("name"), request.get("args") or {}
+    attached = live.actions.get(name) if isinstance(name, str) else None
+    if attached is None:
+        return None
+    if not isinstance(args, dict):
+        raise ProtocolError("an action needs a name and arguments")
+    return attached(args)
 
 
 def action(live: LiveBoard, request: dict[str, JSON]) -> JSON:

@@ -73,6 +73,8 @@ class _Connection:
     last: float = field(default_factory=time.monotonic)
     #: why its session was ended, said at its next request
     ended: str | None = None
+    #: inside a request (a wait in master time may take a while): never silent then
+    busy: bool = False
 
 
 class LiveServer:
@@ -126,7 +128,7 @@ class LiveServer:
 
     async def _end_silent_session(self) -> None:
         owner, limit = self._owner, self.session_timeout
-        if owner is None or limit is None or time.monotonic() - owner.last < limit:
+        if owner is None or limit is None or owner.busy or time.monotonic() - owner.last < limit:
             return
         owner.ended = (
             f"the live board ended this command's session: it sent nothing for {limit:g} s "
@@ -162,7 +164,11 @@ class LiveServer:
         if op == "io":
             answer = {"ok": True, "reads": requests.io(self.live, conn.pointer, request.get("ops"))}
         elif op == "action":
-            answer = {"ok": True, "result": requests.action(self.live, request)}
+            attached = requests.attached_action(self.live, request)
+            result = await attached if attached is not None else requests.action(
+                self.live, request
+            )
+            answer = {"ok": True, "result": result}
         else:
             raise ProtocolError(f"unknown request {op!r}")
         if self.keeper is not None:
@@ -190,15 +196,15 @@ class LiveServer:
                     request = decode(await reader.readexactly(length))
                 except (asyncio.IncompleteReadError, ConnectionError, ValueError):
                     break
-                conn.last = time.monotonic()
-                ended = conn.ended
+                ended, conn.busy = conn.ended, True
                 try:
                     answer = await self._handle(conn, request)
                 except UserError as exc:
                     answer = {"ok": False, "error": str(exc), "exit": int(exc.exit_code)}
                 except ValueError as exc:  # the board refused a register access
                     answer = {"ok": False, "error": str(exc), "exit": int(ExitCode.FAILED)}
-                conn.last = time.monotonic()
+                finally:
+                    conn.busy, conn.last = False, time.monotonic()
                 writer.write(encode(answer))
                 await writer.drain()
                 if ended is not None:
