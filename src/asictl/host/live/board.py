@@ -26,6 +26,10 @@ class LiveBoard:
         #: actions a server attached to this board adds or replaces (the gateway's panel),
         #: run on the loop instead of ``host.emulated``'s
         self.actions: dict[str, Callable[[dict[str, JSON]], Awaitable[JSON]]] = {}
+        #: keeps a change of the board's non-volatile state (on disk, saver.py): called
+        #: after a request of a server attached to the board, before its answer; False
+        #: if it could not (the answer must then not acknowledge the change)
+        self.save_changes: Callable[[], bool] = lambda: True
 
     def sync(self) -> None:
         """Let master time catch up with the wall clock; a board that ran ahead (a command

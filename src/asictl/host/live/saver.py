@@ -66,6 +66,18 @@ class StateKeeper:
         if state != self._saved:
             self._write(state)
 
+    def saved(self) -> bool:
+        """``save_changes`` for a server that answers in its own protocol (the Modbus
+        gateway): False if the state could not be saved (logged once, then at most once
+        a minute)."""
+        try:
+            self.save_changes()
+        except NotSaved as exc:
+            self._conditions.event("save", f"cannot save the board state ({exc}); a "
+                                   "change is answered as a failure until it can")
+            return False
+        return True
+
     def save(self) -> None:
         """Save the state whether or not it changed (its file may have gone)."""
         self._write(self.board.nonvolatile())

@@ -318,8 +318,10 @@ def _server(
     change of the board's state before acknowledging it (and what changes by itself
     every ``interval`` seconds); ``options`` go to ``LiveServer``."""
     keeper = StateKeeper(board, state_file(directory, base), interval=interval, notify=notify)
+    live = LiveBoard(board)
+    live.save_changes = keeper.saved
     return LiveServer(
-        LiveBoard(board), socket_path(directory, base),
+        live, socket_path(directory, base),
         identity={**identity, "pid": os.getpid()}, on_tick=keeper.tick, keeper=keeper,
         log=notify, **options,
     )
