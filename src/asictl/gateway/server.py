@@ -253,14 +253,6 @@ class GatewayServer:
                 return True
         return False
 
-    def _loop_trouble(self, loop: asyncio.AbstractEventLoop, context: dict[str, Any]) -> None:
-        """asyncio's own troubles (above all accept() failing when the process is out of
-        descriptors, which asyncio retries every second) as one line per condition."""
-        message = str(context.get("message", "event loop error"))
-        exception = context.get("exception")
-        detail = f": {exception}" if exception is not None else ""
-        self.conditions.event(message, f"gateway: {message}{detail}")
-
     async def _serve_tcp(self, host: str, port: int) -> asyncio.Server:
         loop = asyncio.get_running_loop()
 
@@ -353,7 +345,7 @@ class GatewayServer:
         if tcp is None and rtu is None:
             raise ValueError("nothing to serve: give a TCP address or a serial line")
         loop = asyncio.get_running_loop()
-        loop.set_exception_handler(self._loop_trouble)
+        loop.set_exception_handler(self.conditions.loop_handler("gateway"))
         server = await self._serve_tcp(*tcp) if tcp else None
         line: Any = None
         fd = -1

@@ -238,14 +238,6 @@ class LiveServer:
             return False
         return True
 
-    def _loop_trouble(self, loop: asyncio.AbstractEventLoop, context: dict[str, Any]) -> None:
-        """asyncio's own troubles (above all accept() failing when the process is out of
-        descriptors, which asyncio retries every second) as one line per condition."""
-        message = str(context.get("message", "event loop error"))
-        exception = context.get("exception")
-        detail = f": {exception}" if exception is not None else ""
-        self.conditions.event(message, f"live board: {message}{detail}")
-
     # ------------------------------------------------------------------ running
 
     async def _listen(self) -> asyncio.AbstractServer:
@@ -275,7 +267,7 @@ class LiveServer:
     async def serve(self, started: Callable[[], None] | None = None) -> None:
         """Listen until ``stop()``; master time catches up every ``PACING_S``."""
         self._free, self._stop = asyncio.Condition(), asyncio.Event()
-        asyncio.get_running_loop().set_exception_handler(self._loop_trouble)
+        asyncio.get_running_loop().set_exception_handler(self.conditions.loop_handler("live board"))
         server = await self._listen()
         try:
             if started is not None:
