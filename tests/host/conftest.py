@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import shutil
+import tempfile
+from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
@@ -24,3 +27,15 @@ def run(tmp_path: Path, monkeypatch: pytest.MonkeyPatch):
 
     invoke.state_dir = state_dir  # type: ignore[attr-defined]
     return invoke
+
+
+@pytest.fixture
+def open_folder() -> Iterator[Path]:
+    """A folder every user can walk into (pytest's own are root's alone), for the tests
+    with a second local user (two_users.py)."""
+    folder = Path(tempfile.mkdtemp(prefix="asictl-two-users-", dir="/tmp"))
+    folder.chmod(0o755)
+    try:
+        yield folder
+    finally:
+        shutil.rmtree(folder)

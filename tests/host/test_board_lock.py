@@ -82,7 +82,8 @@ def test_every_board_command_stops_at_once_naming_the_holder(command, tmp_path: 
 
 def test_status_while_gateway_serve_holds_the_board(tmp_path: Path):
     """The gateway's board is live: status reaches it through its socket. Without the
-    socket (here removed), status finds the lock held and names the holder at once."""
+    socket (removed while the server stands still: it would bind it again at once),
+    status finds the lock held and names the holder at once."""
     env = {**os.environ, "ASICTL_STATE_DIR": str(tmp_path)}
     server = _asictl("gateway", "serve", "--tcp", "127.0.0.1:0", env=env)
     try:
@@ -93,11 +94,15 @@ def test_status_while_gateway_serve_holds_the_board(tmp_path: Path):
             env=env, timeout=HANG_GUARD_S,
         )
         assert live.returncode == 0 and "LPS" in live.stdout, live.stderr
-        (tmp_path / "pc2-300h.sock").unlink()
-        status = subprocess.run(
-            [sys.executable, "-m", "asictl", "status"], capture_output=True, text=True,
-            env=env, timeout=HANG_GUARD_S,
-        )
+        server.send_signal(signal.SIGSTOP)
+        try:
+            (tmp_path / "pc2-300h.sock").unlink()
+            status = subprocess.run(
+                [sys.executable, "-m", "asictl", "status"], capture_output=True, text=True,
+                env=env, timeout=HANG_GUARD_S,
+            )
+        finally:
+            server.send_signal(signal.SIGCONT)
         assert status.returncode == 1, status.stderr
         assert f"board 300h is in use by process {server.pid} (" in status.stderr
         assert "gateway serve --tcp 127.0.0.1:0" in status.stderr
@@ -113,7 +118,9 @@ def test_status_while_gateway_serve_holds_the_board(tmp_path: Path):
             [sys.executable, "-m", "asictl", "gateway", "serve", "--tcp", "127.0.0.1:0"],
             capture_output=True, text=True, env=env, timeout=HANG_GUARD_S,
         )
-        assert second.returncode == 1 and "is in use by process" in second.stderr, (
+        assert (tmp_path / "pc2-300h.sock").is_socket()  # bound again once running
+        assert second.returncode == 1, second.stderr
+        assert f"already served live by asictl gateway serve (pid {server.pid})" in (
             second.stderr
         )
     finally:

@@ -8,8 +8,6 @@ against its socket, as any asictl command would.
 from __future__ import annotations
 
 import json
-import os
-import signal
 import socket
 import stat
 import subprocess
@@ -20,18 +18,16 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
-from click.testing import CliRunner, Result
+from click.testing import Result
+from live_helpers import BLINK, cli, start_serve, stop, wait_for
 
 from asictl.board.board import Pc2Board
-from asictl.cli import main
 from asictl.host.driver import EmulatedPort, Pc2Driver
 from asictl.host.live.client import LiveClient, LivePort, open_live
 from asictl.host.live.protocol import encode, socket_path
 from asictl.host.live.server import background_live
 from asictl.platform.pc2 import PROGRAM_BUFFER, Command
 
-ROOT = Path(__file__).resolve().parents[2]
-BLINK = ROOT / "demos" / "blink.asi"
 OR_PROGRAM = """\
 [SETUP]
 4: iiii, 0
@@ -47,12 +43,6 @@ OR_PROGRAM = """\
 """
 
 
-def cli(state: Path, *args: str) -> Result:
-    result = CliRunner().invoke(main, [*args, "--state-dir", str(state)])
-    assert "Traceback" not in result.output, result.output
-    return result
-
-
 class Served:
     def __init__(self, state: Path, process: subprocess.Popen[str]) -> None:
         self.state, self.process = state, process
@@ -66,29 +56,6 @@ class Served:
         return json.loads(result.stdout)
 
 
-def start_serve(state: Path, *extra: str) -> subprocess.Popen[str]:
-    process = subprocess.Popen(
-        [sys.executable, "-m", "asictl", "serve", "--state-dir", str(state), *extra],
-        stderr=subprocess.PIPE, text=True, env={**os.environ, "PYTHONPATH": str(ROOT / "src")},
-    )
-    assert process.stderr is not None
-    line = process.stderr.readline()
-    assert "live at" in line, line
-    return process
-
-
-def stop(process: subprocess.Popen[str]) -> int:
-    if process.poll() is None:
-        process.send_signal(signal.SIGTERM)
-        try:
-            return process.wait(timeout=10)
-        except subprocess.TimeoutExpired:
-            process.kill()
-            process.wait()
-            raise
-    return process.returncode
-
-
 @pytest.fixture
 def served(tmp_path: Path) -> Iterator[Served]:
     state = tmp_path / "state"
@@ -97,15 +64,6 @@ def served(tmp_path: Path) -> Iterator[Served]:
         yield Served(state, process)
     finally:
         assert stop(process) == 0
-
-
-def wait_for(predicate, timeout: float = 5.0) -> bool:
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if predicate():
-            return True
-        time.sleep(0.05)
-    return False
 
 
 # --------------------------------------------------------------------------- the bars
@@ -280,7 +238,7 @@ def test_a_waiting_session_is_announced(live):
 
         thread = threading.Thread(target=second)
         thread.start()
-        assert wait_for(lambda: heard == ["first holder"])
+        assert wait_for(lambda: heard == ["first holder (a session silent for 10 s is ended)"])
     thread.join(5)
     assert not thread.is_alive()
     a.close()

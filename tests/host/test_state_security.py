@@ -9,22 +9,18 @@ from __future__ import annotations
 
 import json
 import os
-import shutil
 import stat
-import subprocess
-import tempfile
 from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
 from click.testing import CliRunner
+from two_users import NOBODY, as_nobody, as_root
 
 from asictl.cli import main
 
 ROOT = Path(__file__).resolve().parents[2]
 BLINK = ROOT / "demos" / "blink.asi"
-NOBODY = 65534
-as_root = pytest.mark.skipif(os.geteuid() != 0, reason="a second user needs root to act as")
 
 
 def asictl(state: Path, *args: str) -> object:
@@ -113,38 +109,18 @@ def test_a_link_planted_as_the_lock_file_is_refused(tmp_path):
     assert victim.read_text() == "precious\n" and stat.S_IMODE(victim.stat().st_mode) != 0o600
 
 
-def _as_nobody(*command: str) -> subprocess.CompletedProcess[str]:
-    def drop() -> None:
-        os.setgid(NOBODY)
-        os.setuid(NOBODY)
-
-    return subprocess.run(list(command), capture_output=True, text=True, preexec_fn=drop,
-                          cwd="/")
-
-
-@pytest.fixture
-def open_folder() -> Iterator[Path]:
-    """A folder every user can walk into (pytest's own are root's alone)."""
-    folder = Path(tempfile.mkdtemp(prefix="asictl-two-users-", dir="/tmp"))
-    folder.chmod(0o755)
-    try:
-        yield folder
-    finally:
-        shutil.rmtree(folder)
-
-
 @as_root
 def test_another_user_can_neither_read_nor_lock_a_board(open_folder: Path):
     state = open_folder / "state"
     assert asictl(state, "download", str(BLINK)).exit_code == 0
     assert json.loads((state / "pc2-300h.json").read_text())  # the owner reads it
-    peek = _as_nobody("cat", str(state / "pc2-300h.json"))
+    peek = as_nobody("cat", str(state / "pc2-300h.json"))
     assert peek.returncode != 0 and "Permission denied" in peek.stderr
     state.chmod(0o755)  # even where the folder is open to look into, the files are not
-    peek = _as_nobody("cat", str(state / "pc2-300h.json"))
+    peek = as_nobody("cat", str(state / "pc2-300h.json"))
     assert peek.returncode != 0 and "Permission denied" in peek.stderr
     for name in ("pc2-300h.json", "pc2-300h.lock"):
-        tried = _as_nobody("flock", "--nonblock", "--shared", str(state / name), "true")
+        tried = as_nobody("flock", "--nonblock", "--shared", str(state / name), "true")
         assert tried.returncode != 0, name  # cannot open it: no lock held against us
     result = asictl(state, "status")
     assert result.exit_code == 0 and "in use" not in result.stderr

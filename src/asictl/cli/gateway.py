@@ -78,13 +78,17 @@ def gateway() -> None:
               help="TCP connections served at once; further ones are closed at once.")
 @click.option("--idle-timeout", type=click.FloatRange(min=0), default=60.0, show_default=True,
               metavar="SECONDS", help="Close a TCP connection silent this long (0: never).")
+@click.option("--frame-timeout", type=click.FloatRange(min=0.01), default=0.5,
+              show_default=True, metavar="SECONDS",
+              help="Close a TCP connection whose frame has not arrived whole this long after "
+              "its first byte.")
 @click.option("--save-interval", type=click.FloatRange(min=0.1), default=SAVE_INTERVAL_S,
               show_default=True, metavar="SECONDS",
               help="How often the board's state is saved while serving.")
 def serve(
     tcp: str | None, rtu: str | None, baud: str, parity: str, stopbits: str, unit: int,
     port: str, state_dir: str | None, wait: bool, verbose: bool, max_connections: int,
-    idle_timeout: float, save_interval: float,
+    idle_timeout: float, frame_timeout: float, save_interval: float,
 ) -> None:
     """Serve the board over Modbus until Ctrl-C; its state is saved periodically and at exit.
 
@@ -132,7 +136,8 @@ def serve(
         if verbose:
             slave.request_log = _notify
         server = GatewayServer(
-            slave, max_connections=max_connections, idle_timeout=idle_timeout, log=_notify
+            slave, max_connections=max_connections, idle_timeout=idle_timeout,
+            frame_timeout=frame_timeout, on_request=live.save_changes, log=_notify,
         )
         live.actions.update(panel_actions(slave))
 

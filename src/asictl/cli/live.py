@@ -19,6 +19,7 @@ from asictl.errors import ExitCode, UserError
 from asictl.host.boards import port_name, state_directory
 from asictl.host.commissioning import image_changes
 from asictl.host.emulated import parse_address, parse_number, parse_profile
+from asictl.host.live.server import DEFAULT_MAX_CONNECTIONS, DEFAULT_SESSION_TIMEOUT_S
 from asictl.host.master import Master
 from asictl.il.ast import OperandKind as K
 from asictl.observe.operands import parse_assignment
@@ -38,19 +39,36 @@ from asictl.observe.operands import parse_assignment
     "--wait", is_flag=True,
     help="If another process holds the board, wait for it instead of stopping.",
 )
-def serve(port: str, state_dir: str | None, wait: bool) -> None:
+@click.option(
+    "--max-connections", type=click.IntRange(1, 1000), default=DEFAULT_MAX_CONNECTIONS,
+    show_default=True, help="Clients connected at once; further ones are closed at once.",
+)
+@click.option(
+    "--session-timeout", type=click.FloatRange(min=0), default=DEFAULT_SESSION_TIMEOUT_S,
+    show_default=True, metavar="SECONDS",
+    help="End a command's hold on the board when it sends nothing this long (0: never).",
+)
+def serve(
+    port: str, state_dir: str | None, wait: bool, max_connections: int,
+    session_timeout: float,
+) -> None:
     """Keep the emulated board running in real time until Ctrl-C or SIGTERM.
 
     Master time follows the wall clock: the control program runs, its timers run, the
     slaves' inputs are read, whether or not a command is talking to the board. Every
     other asictl command for this port (download, status, bus, monitor, ...) reaches the
     running board through a socket in the state directory (owner-only) instead of its
-    state file. The board's non-volatile state is saved every 10 s and at the end.
-    'asictl gateway serve' is the same live board with Modbus in front. A debugger
-    attaches to the running program through a second socket ('asictl dap', attach).
+    state file. A change of the board's non-volatile state (a download, store, setup,
+    the cable) is saved before the command hears it is done; the rest every 10 s and at
+    the end. 'asictl gateway serve' is the same live board with Modbus in front. A
+    debugger attaches to the running program through a second socket ('asictl dap',
+    attach).
+
+    Example: asictl serve --port 300h & asictl download demos/blink.asi
 
     Exit status: 0 stopped by a signal, 1 the board is already served or held by another
-    process (it is named; --wait waits for it), 2 bad usage.
+    process (it is named; --wait waits for it), or its state could not be saved at the
+    end (what is lost is said), 2 bad usage.
     """
     from asictl.debug.online import debug_socket_path, debugging
     from asictl.host.live.server import run_live
@@ -68,8 +86,8 @@ def serve(port: str, state_dir: str | None, wait: bool) -> None:
 
     run_live(
         base, directory, identity={"command": "asictl serve", "port": name},
-        started=started, wait=wait, notify=notify,
-        attach=debugging(debug_socket_path(directory, base)),
+        started=started, wait=wait, notify=notify, max_connections=max_connections,
+        session_timeout=session_timeout, attach=debugging(debug_socket_path(directory, base)),
     )
     click.echo(f"asictl: board {name} stopped; its state is saved", err=True)
 

@@ -8,24 +8,33 @@ not answered (slave.py). Master time follows the wall clock: ``PACING_S`` timer 
 catch-up before every request.
 
 A gateway must survive its clients. At most ``max_connections`` TCP connections are served
-at once: a new one beyond takes the place of the connection silent longest (if one has
-been silent ``EVICT_AFTER_S``), else it is closed at once, so it costs no descriptor; a
-connection silent for ``idle_timeout`` seconds is closed; and every trouble of that kind (refused
-connections, idle ones closed, the process out of descriptors) is logged as one line when
-it starts and then at most once a minute with a count, never once per event.
+at once. When all are taken, a new one takes the place of the connection least likely to
+be a client's: first one that never sent a byte (the oldest), then one silent for
+``EVICT_AFTER_S`` since its last request (silent longest), then one stuck inside a frame
+(the oldest); when every connection is a client's in use, the new one is closed at once,
+so it costs no descriptor. A frame must arrive whole within ``frame_timeout`` of its
+first byte (the manual's character time-out, 3.5 character times on the serial line, is
+milliseconds; TCP gets half a second), so a header announcing 253 bytes that never come
+holds a connection for no longer; a connection silent for ``idle_timeout`` seconds is
+closed; and every trouble of that kind (refused connections, idle or stuck ones closed,
+the process out of descriptors) is logged as one line when it starts and then at most
+once a minute with a count, never once per event.
 """
 
 from __future__ import annotations
 
 import asyncio
 import contextlib
+import fcntl
 import os
 import struct
+import termios
 import time
-from collections.abc import Awaitable, Callable, Iterator
+from collections.abc import Awaitable, Callable, Iterable, Iterator
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, SupportsIndex
 
+from asictl.gateway.addressmap import ExceptionCode
 from asictl.gateway.slave import GatewaySlave
 from asictl.host.background import NotStarted, in_thread
 from asictl.host.condition_log import ConditionLog
@@ -42,17 +51,45 @@ DEFAULT_MAX_CONNECTIONS = 32
 DEFAULT_IDLE_TIMEOUT_S = 60.0
 
 
-#: A connection silent this long makes way for a new one when all are taken.
+#: A connection silent this long after a request makes way for a new one when all are
+#: taken (one that never sent anything makes way at once).
 EVICT_AFTER_S = 1.0
+#: Seconds a TCP frame may take from its first byte to its last by default.
+DEFAULT_FRAME_TIMEOUT_S = 0.5
+
+
+class _Reader(asyncio.StreamReader):
+    """A stream reader that knows whether any byte came, read or not yet."""
+
+    fed = False
+
+    def feed_data(self, data: Iterable[SupportsIndex]) -> None:
+        self.fed = self.fed or bool(data)
+        super().feed_data(data)
 
 
 @dataclass
 class _Connection:
     writer: asyncio.StreamWriter
+    reader: _Reader
     #: when it last finished a request (or opened)
     since: float = field(default_factory=time.monotonic)
-    #: inside a request: never closed to make room
-    busy: bool = False
+    #: when the frame now arriving began; None between frames
+    frame_since: float | None = None
+
+    def spoke(self) -> bool:
+        """Whether the client sent anything, even bytes not yet read from the socket."""
+        if self.reader.fed:
+            return True
+        sock = self.writer.get_extra_info("socket")
+        if sock is None:
+            return False
+        pending = bytearray(4)
+        try:
+            fcntl.ioctl(sock.fileno(), termios.FIONREAD, pending)
+        except OSError:
+            return False
+        return int.from_bytes(pending, "little") > 0
 
 
 def crc16(data: bytes) -> bytes:
@@ -90,6 +127,8 @@ class GatewayServer:
         on_tick: Callable[[], None] | None = None,
         max_connections: int = DEFAULT_MAX_CONNECTIONS,
         idle_timeout: float | None = DEFAULT_IDLE_TIMEOUT_S,
+        frame_timeout: float = DEFAULT_FRAME_TIMEOUT_S,
+        on_request: Callable[[], bool] | None = None,
         log: Callable[[str], None] | None = None,
     ):
         self.slave = slave
@@ -98,6 +137,10 @@ class GatewayServer:
         self.max_connections = max_connections
         #: seconds; None or 0: connections may stay silent for ever
         self.idle_timeout = idle_timeout or None
+        self.frame_timeout = frame_timeout
+        #: called after each request, before its answer goes out (the live board saves
+        #: a change of its non-volatile state there); False: it could not
+        self.on_request = on_request
         self.conditions = ConditionLog(log or (lambda message: None))
         self.tcp_address: tuple[str, int] | None = None
         #: the RTU line while it is open, and its end-of-frame silence
@@ -112,6 +155,7 @@ class GatewayServer:
         self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter
     ) -> None:
         """MBAP: a malformed header ends the connection, as Modbus/TCP asks."""
+        assert isinstance(reader, _Reader)
         if len(self._connections) >= self.max_connections and not self._make_room():
             self.conditions.event(
                 "limit", f"gateway: {self.max_connections} connections busy "
@@ -121,67 +165,101 @@ class GatewayServer:
             return
         task = asyncio.current_task()
         assert task is not None
-        connection = _Connection(writer)
+        connection = _Connection(writer, reader)
         self._connections[task] = connection
         try:
             while True:
                 try:
-                    header = await asyncio.wait_for(
-                        reader.readexactly(_MBAP.size), self.idle_timeout
-                    )
+                    first = await asyncio.wait_for(reader.readexactly(1), self.idle_timeout)
                 except TimeoutError:
                     self.conditions.event(
                         "idle", f"gateway: closing connections silent for {self.idle_timeout:g} s"
                         " (--idle-timeout)",
                     )
                     break
-                connection.busy = True
-                tid, protocol, length, unit = _MBAP.unpack(header)
-                if not 2 <= length <= 254:
+                connection.frame_since = time.monotonic()
+                try:
+                    frame = await asyncio.wait_for(self._frame(reader, first), self.frame_timeout)
+                except TimeoutError:
+                    self.conditions.event(
+                        "frame", "gateway: closing connections that stopped inside a frame "
+                        f"for {self.frame_timeout:g} s (--frame-timeout)",
+                    )
                     break
-                pdu = await asyncio.wait_for(reader.readexactly(length - 1), self.idle_timeout)
-                if protocol != 0:
-                    continue
-                response = self.slave.frame(unit, pdu)
+                if frame is None:
+                    break
+                response = self._tcp_request(*frame)
                 if response is not None:
-                    writer.write(_MBAP.pack(tid, 0, len(response) + 1, unit) + response)
+                    writer.write(response)
                     await writer.drain()
-                connection.busy, connection.since = False, time.monotonic()
+                connection.frame_since, connection.since = None, time.monotonic()
         except (asyncio.IncompleteReadError, OSError, TimeoutError, asyncio.CancelledError):
             pass
         finally:
             self._connections.pop(task, None)
             writer.close()
 
-    def _make_room(self) -> bool:
-        """Close the connection silent longest, if one has been silent ``EVICT_AFTER_S``:
-        a client that polls keeps its connection, one that only holds it makes way."""
-        now = time.monotonic()
-        quiet = [(c.since, task) for task, c in self._connections.items() if not c.busy]
-        if not quiet:
-            return False
-        since, task = min(quiet, key=lambda item: item[0])
-        if now - since < EVICT_AFTER_S:
-            return False
-        self.conditions.event(
-            "evict", f"gateway: {self.max_connections} connections open (--max-connections); "
-            "closing the one silent longest for each new one",
-        )
-        connection = self._connections.pop(task)
-        connection.writer.close()
-        task.cancel()
-        return True
+    @staticmethod
+    async def _frame(
+        reader: asyncio.StreamReader, first: bytes
+    ) -> tuple[int, int, int, bytes] | None:
+        """The rest of an MBAP frame: transaction, protocol, unit and PDU; None if its
+        length is not a Modbus frame's."""
+        header = first + await reader.readexactly(_MBAP.size - 1)
+        tid, protocol, length, unit = _MBAP.unpack(header)
+        if not 2 <= length <= 254:
+            return None
+        return tid, protocol, unit, await reader.readexactly(length - 1)
 
-    def _loop_trouble(self, loop: asyncio.AbstractEventLoop, context: dict[str, Any]) -> None:
-        """asyncio's own troubles (above all accept() failing when the process is out of
-        descriptors, which asyncio retries every second) as one line per condition."""
-        message = str(context.get("message", "event loop error"))
-        exception = context.get("exception")
-        detail = f": {exception}" if exception is not None else ""
-        self.conditions.event(message, f"gateway: {message}{detail}")
+    def _tcp_request(self, tid: int, protocol: int, unit: int, pdu: bytes) -> bytes | None:
+        if protocol != 0:
+            return None
+        response = self._kept(self.slave.frame(unit, pdu))
+        if response is None:
+            return None
+        return _MBAP.pack(tid, 0, len(response) + 1, unit) + response
+
+    def _kept(self, response: bytes | None) -> bytes | None:
+        """``response``, once what the request changed is kept (``on_request``); if it
+        cannot be, the answer is exception 04, slave device failure: a write is never
+        acknowledged when it is not safe."""
+        if self.on_request is None or self.on_request() or not response:
+            return response
+        return bytes([response[0] | 0x80, ExceptionCode.SLAVE_DEVICE_FAILURE])
+
+    def _make_room(self) -> bool:
+        """Close the connection least likely to be a client's, if there is one: one that
+        never sent anything, then one silent ``EVICT_AFTER_S`` since its last request,
+        then one stuck inside a frame; a client polling keeps its connection."""
+        now = time.monotonic()
+        mute = [(c.since, task) for task, c in self._connections.items()
+                if c.frame_since is None and not c.reader.fed]
+        quiet = [(c.since, task) for task, c in self._connections.items()
+                 if c.frame_since is None and c.reader.fed and now - c.since >= EVICT_AFTER_S]
+        stuck = [(c.frame_since, task) for task, c in self._connections.items()
+                 if c.frame_since is not None]
+        for candidates in (mute, quiet, stuck):
+            for _since, task in sorted(candidates, key=lambda item: item[0]):
+                connection = self._connections[task]
+                if candidates is mute and connection.spoke():
+                    continue  # its first bytes are on their way in
+                self.conditions.event(
+                    "evict", f"gateway: {self.max_connections} connections open "
+                    "(--max-connections); closing the one silent longest for each new one",
+                )
+                del self._connections[task]
+                connection.writer.close()
+                task.cancel()
+                return True
+        return False
 
     async def _serve_tcp(self, host: str, port: int) -> asyncio.Server:
-        server = await asyncio.start_server(self._tcp_client, host, port)
+        loop = asyncio.get_running_loop()
+
+        def protocol() -> asyncio.StreamReaderProtocol:
+            return asyncio.StreamReaderProtocol(_Reader(), self._tcp_client)
+
+        server = await loop.create_server(protocol, host, port)
         self.tcp_address = server.sockets[0].getsockname()[:2]
         return server
 
@@ -241,7 +319,7 @@ class GatewayServer:
             return None
         unit = frame[0]
         crc_ok = len(frame) >= 4 and crc16(frame[:-2]) == frame[-2:]
-        response = self.slave.frame(unit, frame[1:-2], crc_ok=crc_ok)
+        response = self._kept(self.slave.frame(unit, frame[1:-2], crc_ok=crc_ok))
         if response is None:
             return None
         answer = bytes([unit]) + response
@@ -267,7 +345,7 @@ class GatewayServer:
         if tcp is None and rtu is None:
             raise ValueError("nothing to serve: give a TCP address or a serial line")
         loop = asyncio.get_running_loop()
-        loop.set_exception_handler(self._loop_trouble)
+        loop.set_exception_handler(self.conditions.loop_handler("gateway"))
         server = await self._serve_tcp(*tcp) if tcp else None
         line: Any = None
         fd = -1

@@ -19,9 +19,10 @@ import os
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
+from typing import Any
 
 from asictl.board.board import Pc2Board
-from asictl.errors import UserError
+from asictl.errors import ExitCode, UserError
 from asictl.host.driver import DevPort, EmulatedPort, Pc2Driver
 from asictl.host.locking import exclusive
 from asictl.host.state_files import prepare_folder, read_private, write_private
@@ -97,14 +98,16 @@ def emulated_board(
     *,
     wait: bool = False,
     notify: Callable[[str], None] | None = None,
+    save: bool = True,
 ) -> Iterator[Pc2Board]:
     """The board at ``base``, powered up from its saved state (or new) under the lock,
-    and saved when done.
+    and saved when done (unless not ``save``: the live server saves it itself).
 
     A board another process holds (``gateway serve``, a long download) is a
     ``LockBusy`` naming the holder, unless ``wait``: then ``notify`` hears why the
     command waits. The state is saved however the block ends, an interruption included:
-    what the commands did to the board until then is what a real board would keep.
+    what the commands did to the board until then is what a real board would keep. A
+    save that fails says so plainly: the command's changes are then lost.
     """
     path = state_file(directory, base)
     prepare_folder(directory, warn=(lambda text: notify(f"warning: {text}")) if notify else None)
@@ -115,12 +118,24 @@ def emulated_board(
         try:
             yield board
         finally:
-            save_board(board, path)
+            if save:
+                try:
+                    save_board(board, path)
+                except UserError as exc:
+                    raise UserError(
+                        f"board {port_name(base)}: its state could not be saved ({exc}): "
+                        "what this command changed on it is NOT saved", ExitCode.FAILED,
+                    ) from None
 
 
 def save_board(board: Pc2Board, path: Path) -> None:
     """The board's non-volatile state, private and on disk before this returns."""
-    text = json.dumps(board.nonvolatile(), indent=1, sort_keys=True) + "\n"
+    save_state(board.nonvolatile(), path)
+
+
+def save_state(state: dict[str, Any], path: Path) -> None:
+    """A board's non-volatile state (``Pc2Board.nonvolatile``), as ``save_board``."""
+    text = json.dumps(state, indent=1, sort_keys=True) + "\n"
     write_private(path, text.encode("utf-8"))
 
 

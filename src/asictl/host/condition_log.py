@@ -7,9 +7,11 @@ stays readable and the process does not spend its time writing it.
 
 from __future__ import annotations
 
+import asyncio
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Any
 
 #: A condition that goes on is logged again at most this often, with a count.
 LOG_INTERVAL_S = 60.0
@@ -37,3 +39,18 @@ class ConditionLog:
         self._last[condition] = now
         times = "" if last is None else f" ({count} times in the last {now - last:.0f} s)"
         self.log(f"{message}{times}")
+
+    def loop_handler(
+        self, who: str
+    ) -> Callable[[asyncio.AbstractEventLoop, dict[str, Any]], None]:
+        """An asyncio exception handler logging the loop's own troubles (above all accept()
+        failing when the process is out of descriptors, which asyncio retries every
+        second) as one line per condition, each line starting with ``who``."""
+
+        def handle(loop: asyncio.AbstractEventLoop, context: dict[str, Any]) -> None:
+            message = str(context.get("message", "event loop error"))
+            exception = context.get("exception")
+            detail = f": {exception}" if exception is not None else ""
+            self.event(message, f"{who}: {message}{detail}")
+
+        return handle

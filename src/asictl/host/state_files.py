@@ -48,6 +48,11 @@ def prepare_folder(folder: Path, warn: Callable[[str], None] | None = None) -> P
         pass
     except OSError as exc:
         raise UserError(f"{folder}: cannot use as state directory: {exc.strerror or exc}") from None
+    return check_folder(folder, warn)
+
+
+def check_folder(folder: Path, warn: Callable[[str], None] | None = None) -> Path:
+    """``folder`` as ``prepare_folder`` finds it, made by nobody: refused if unsafe."""
     try:
         info = os.stat(folder)
     except OSError as exc:

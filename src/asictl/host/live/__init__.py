@@ -9,7 +9,8 @@ with the very driver code a real board gets.
 The parts: ``protocol`` (the messages both ends speak, and where the socket is),
 ``board`` (the board whose master time follows the wall clock), ``requests`` (what each
 request does to the board), ``server`` (the socket: connections, sessions, the loop that
-keeps master time), ``saver`` (the board's state saved now and then and at the end) and
+keeps master time), ``saver`` (every change of the board's state saved before it is
+acknowledged), ``guard`` (the state folder, lock and socket put back when removed) and
 ``client`` (the commands' end: ``LiveClient``, the ``LivePort`` their driver runs on,
 the board's emulated-only actions).
 """

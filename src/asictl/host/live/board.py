@@ -39,6 +39,10 @@ class LiveBoard:
         self.actions: dict[str, Callable[[dict[str, JSON]], Awaitable[JSON]]] = {}
         #: the debugger holding the board, if one does
         self.hold: Hold | None = None
+        #: keeps a change of the board's non-volatile state (on disk, saver.py): called
+        #: after a request of a server attached to the board, before its answer; False
+        #: if it could not (the answer must then not acknowledge the change)
+        self.save_changes: Callable[[], bool] = lambda: True
 
     def advance(self, ms: float) -> None:
         """Let ``ms`` of master time pass, through the hold if there is one."""

@@ -1,14 +1,20 @@
 """The commands' end of the live board: finding it, talking to it, driving it.
 
-``open_live`` finds the socket (and removes one a dead server left behind);
-``LiveClient`` sends requests and waits for their answers; ``LivePort`` is the
+``open_live`` finds the socket (and removes one a dead server left behind), and talks
+to it only if it is the user's own: a socket file of another user, or a serving process
+of another user, is refused before a request is sent, since a socket planted in the
+state folder would take the user's download to someone else's board. ``LiveClient``
+sends requests and waits for their answers, each checked for the form it must have (an
+answer that is not the protocol's is a plain error, never a crash); ``LivePort`` is the
 ``PortIO`` the commands' driver runs on, batching its register accesses into requests.
 """
 
 from __future__ import annotations
 
 import contextlib
+import os
 import socket
+import stat
 import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
@@ -18,8 +24,18 @@ from pathlib import Path
 from asictl.errors import ExitCode, UserError
 from asictl.host.boards import lock_file, port_name
 from asictl.host.emulated import SETTLE_MS, VIEWS
-from asictl.host.live.protocol import JSON, LENGTH, ProtocolError, decode, encode, socket_path
+from asictl.host.live.protocol import (
+    JSON,
+    LENGTH,
+    MAX_MESSAGE,
+    ProtocolError,
+    decode,
+    encode,
+    peer_uid,
+    socket_path,
+)
 from asictl.host.locking import is_free
+from asictl.host.state_files import UnsafeStateFolder, check_folder
 from asictl.platform.pc2 import PORT_DATA
 
 #: How long a client waits for an answer (a session may wait longer: it is announced).
@@ -38,53 +54,96 @@ class LiveClient:
         try:
             self.sock.sendall(encode(message))
         except OSError as exc:
-            raise ProtocolError(f"{self.path}: the live board went away ({exc})") from None
+            raise self._parting_words() or ProtocolError(
+                f"{self.path}: the live board went away ({exc})"
+            ) from None
+
+    def _parting_words(self) -> UserError | None:
+        """What the server said before it closed the connection (a session it ended
+        because the client was silent), if it said anything."""
+        try:
+            self._answer(self._receive(timeout=0.5))
+        except ProtocolError:
+            return None
+        except UserError as exc:
+            return exc
+        return None
 
     def _receive(self, timeout: float | None = ANSWER_TIMEOUT_S) -> JSON:
         self.sock.settimeout(timeout)
         try:
-            head = self._exactly(LENGTH.size)
-            (length,) = LENGTH.unpack(head)
-            return decode(self._exactly(length))
+            (length,) = LENGTH.unpack(self._exactly(LENGTH.size))
+            if length > MAX_MESSAGE:
+                raise self._malformed(f"it announces {length} bytes, more than any answer")
+            data = self._exactly(length)
         except TimeoutError:
             raise ProtocolError(f"{self.path}: the live board did not answer") from None
         except OSError as exc:
             raise ProtocolError(f"{self.path}: the live board went away ({exc})") from None
+        try:
+            return decode(data)
+        except ValueError as exc:
+            raise self._malformed(f"not JSON: {exc}") from None
 
     def _exactly(self, size: int) -> bytes:
         data = b""
         while len(data) < size:
             chunk = self.sock.recv(size - len(data))
             if not chunk:
-                raise ProtocolError(f"{self.path}: the live board went away")
+                raise ProtocolError(
+                    f"{self.path}: the live board went away"
+                    + (f" in the middle of an answer ({len(data)} of {size} bytes)" if data else "")
+                )
             data += chunk
         return data
 
-    def request(self, message: JSON) -> JSON:
+    def _malformed(self, what: str) -> ProtocolError:
+        return ProtocolError(
+            f"{self.path}: the live board's answer is malformed ({what}); is an asictl "
+            "of another version serving it?"
+        )
+
+    def request(self, message: JSON) -> dict[str, JSON]:
         self._send(message)
         return self._answer(self._receive())
 
-    @staticmethod
-    def _answer(answer: JSON) -> JSON:
-        if not isinstance(answer, dict) or not answer.get("ok"):
-            error = answer.get("error", "malformed answer") if isinstance(answer, dict) else ""
-            code = answer.get("exit", 1) if isinstance(answer, dict) else 1
-            raise UserError(str(error), ExitCode(code) if code in (1, 2) else ExitCode.FAILED)
-        return answer
+    def _answer(self, answer: JSON) -> dict[str, JSON]:
+        if not isinstance(answer, dict):
+            raise self._malformed(f"{_kind(answer)} instead of an object")
+        ok = answer.get("ok")
+        if ok is True:
+            return answer
+        error, code = answer.get("error"), answer.get("exit", 1)
+        if ok is not False or not isinstance(error, str):
+            raise self._malformed("neither a result nor an error")
+        raise UserError(error, ExitCode(code) if code in (1, 2) else ExitCode.FAILED)
+
+    def _field(self, answer: dict[str, JSON], name: str, kind: type) -> JSON:
+        value = answer.get(name)
+        if not isinstance(value, kind):
+            what = "missing" if name not in answer else f"{_kind(value)}, not {kind.__name__}"
+            raise self._malformed(f"'{name}' {what}")
+        return value
 
     def hello(self) -> dict[str, JSON]:
-        server = self.request({"op": "hello"}).get("server", {})
-        self.server = server if isinstance(server, dict) else {}
+        server = self._field(self.request({"op": "hello"}), "server", dict)
+        assert isinstance(server, dict)
+        self.server = server
         return self.server
 
     @contextmanager
     def session(self, who: str, waiting: Callable[[str], None] | None = None) -> Iterator[None]:
-        """The board to this client alone; ``waiting`` hears who has it meanwhile."""
+        """The board to this client alone; ``waiting`` hears who has it meanwhile (and
+        how long the server lets a silent holder keep it)."""
         self._send({"op": "begin", "who": who})
         answer = self._receive()
         if isinstance(answer, dict) and "waiting" in answer:
             if waiting is not None:
-                waiting(str(answer["waiting"]))
+                limit = answer.get("idle_limit")
+                waiting(str(answer["waiting"]) + (
+                    f" (a session silent for {limit:g} s is ended)"
+                    if isinstance(limit, int | float) and not isinstance(limit, bool) else ""
+                ))
             answer = self._receive(timeout=None)
         self._answer(answer)
         try:
@@ -94,12 +153,24 @@ class LiveClient:
                 self.request({"op": "end"})
 
     def io(self, ops: list[JSON]) -> list[list[int]]:
-        reads = self.request({"op": "io", "ops": ops})["reads"]
-        assert isinstance(reads, list)
-        return reads
+        """The reads of ``ops``, each as many bytes as it asked for."""
+        reads = self._field(self.request({"op": "io", "ops": ops}), "reads", list)
+        counts = [op[2] for op in ops if op[0] == "r"]
+        if len(reads) != len(counts) or not all(
+            isinstance(read, list) and len(read) == count
+            and all(isinstance(v, int) and not isinstance(v, bool) and 0 <= v <= 0xFF
+                    for v in read)
+            for read, count in zip(reads, counts, strict=True)
+        ):
+            raise self._malformed(f"'reads' is not {len(counts)} lists of the bytes asked for")
+        checked: list[list[int]] = reads
+        return checked
 
     def action(self, name: str, **args: JSON) -> JSON:
-        return self.request({"op": "action", "name": name, "args": args})["result"]
+        answer = self.request({"op": "action", "name": name, "args": args})
+        if "result" not in answer:
+            raise self._malformed("'result' missing")
+        return answer["result"]
 
     def close(self) -> None:
         self.sock.close()
@@ -141,10 +212,27 @@ class LivePort:
 
 def open_live(directory: Path, base: int) -> LiveClient | None:
     """The live board at ``base`` if one serves it; a socket left behind by a server that
-    died is removed (only when the board's lock is free: a starting server keeps its)."""
+    died is removed (only when the board's lock is free: a starting server keeps its).
+
+    Only the user's own socket is used: something else at its place (a folder, a file)
+    or a socket of another user, or a server running as another user, is refused.
+    """
     path = socket_path(directory, base)
-    if not path.exists():
+    try:
+        info = os.lstat(path)
+    except FileNotFoundError:
         return None
+    except OSError as exc:
+        raise UserError(f"{path}: cannot reach the live board: {exc.strerror or exc}") from None
+    if not stat.S_ISSOCK(info.st_mode):
+        raise UserError(
+            f"{path}: where board {port_name(base)}'s live socket belongs there is "
+            f"{_file_kind(info.st_mode)}; asictl neither uses nor removes it: move it away",
+            ExitCode.FAILED,
+        )
+    check_folder(directory)  # a loose folder lets others swap the socket after this
+    if info.st_uid != os.geteuid():
+        raise _foreign(path, "the socket belongs to", info.st_uid)
     sock = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
     try:
         sock.connect(str(path))
@@ -163,9 +251,40 @@ def open_live(directory: Path, base: int) -> LiveClient | None:
     except OSError as exc:
         sock.close()
         raise UserError(f"{path}: cannot reach the live board: {exc.strerror or exc}") from None
+    uid = peer_uid(sock)
+    if uid is not None and uid != os.geteuid():
+        sock.close()
+        raise _foreign(path, "the process serving it runs as", uid)
     client = LiveClient(sock, path)
-    client.hello()
+    try:
+        client.hello()
+    except UserError:
+        client.close()
+        raise
     return client
+
+
+def _foreign(path: Path, whose: str, uid: int) -> UnsafeStateFolder:
+    return UnsafeStateFolder(
+        f"{path}: {whose} another user (uid {uid}), not you: refusing to talk to it (your "
+        "command would reach that user's board); remove it if you did not expect it"
+    )
+
+
+def _file_kind(mode: int) -> str:
+    if stat.S_ISDIR(mode):
+        return "a directory"
+    if stat.S_ISLNK(mode):
+        return "a symbolic link"
+    if stat.S_ISREG(mode):
+        return "a regular file"
+    return "something other than a socket"
+
+
+def _kind(value: JSON) -> str:
+    names = {list: "a list", str: "a string", bool: "true/false", type(None): "null",
+             int: "a number", float: "a number", dict: "an object"}
+    return names.get(type(value), type(value).__name__)
 
 
 def is_served(directory: Path, base: int) -> bool:

@@ -3,7 +3,10 @@
 Each client has its own INDEX/PAGE pointer, restored before its accesses, and a command
 written to the command byte runs to its acknowledge before the request returns (the
 board executes it at its next AS-i cycle, a few milliseconds of master time): no request
-of another client, and no Modbus telegram, can come between.
+of another client, and no Modbus telegram, can come between. So that no request keeps
+the others waiting long, a request is checked against the protocol's limits before any of
+its accesses runs (its commands are counted as they come: whether a write is a command
+depends on where the pointer has got to).
 """
 
 from __future__ import annotations
@@ -14,7 +17,13 @@ from dataclasses import dataclass
 from asictl.errors import ExitCode, UserError
 from asictl.host.emulated import run_action
 from asictl.host.live.board import LiveBoard
-from asictl.host.live.protocol import JSON, MAX_MESSAGE, ProtocolError
+from asictl.host.live.protocol import (
+    JSON,
+    MAX_ACCESSES,
+    MAX_COMMANDS,
+    MAX_TRANSFER,
+    ProtocolError,
+)
 from asictl.platform.pc2 import (
     ACK,
     COMMAND,
@@ -37,43 +46,70 @@ def io(live: LiveBoard, pointer: Pointer, ops: JSON) -> list[list[int]]:
     """Register accesses in order, from this client's pointer; the board's own
     auto-increment moves it, and it is kept for the client's next request (also after a
     malformed access, as far as the accesses before it went)."""
-    if not isinstance(ops, list):
-        raise ProtocolError("'io' needs a list of accesses")
+    accesses = _checked(ops)
     board = live.board
     page_bits = PAGE_RESET_BIT if board.in_reset else 0
     board.io_write(PORT_INDEX, pointer.address & 0xFF)
     board.io_write(PORT_PAGE, pointer.address >> 8 | page_bits)
     try:
-        return _accesses(live, ops)
+        return _accesses(live, accesses)
     finally:
         pointer.address = board.pointer
 
 
-def _accesses(live: LiveBoard, ops: list[JSON]) -> list[list[int]]:
-    board = live.board
-    reads: list[list[int]] = []
+class RequestTooLarge(ProtocolError):
+    """A request beyond what one may do at a time."""
+
+
+def _checked(ops: JSON) -> list[tuple[str, int, JSON]]:
+    """The accesses of a request, each well-formed, together within the limits."""
+    if not isinstance(ops, list):
+        raise ProtocolError("'io' needs a list of accesses")
+    if len(ops) > MAX_ACCESSES:
+        raise RequestTooLarge(
+            f"a request of {len(ops)} register accesses: at most {MAX_ACCESSES} at a time"
+        )
+    accesses, transfer = [], 0
     for op in ops:
         if not (isinstance(op, list) and len(op) == 3 and op[1] in (0, 1, 2)):
             raise ProtocolError(f"malformed access {op!r}")
         kind, offset, arg = op
         if kind == "w" and isinstance(arg, list):
-            for value in arg:
-                _write(live, offset, value)
-        elif kind == "r" and isinstance(arg, int) and 0 < arg <= MAX_MESSAGE // 4:
-            reads.append([board.io_read(offset) for _ in range(arg)])
+            transfer += len(arg)
+        elif kind == "r" and isinstance(arg, int) and not isinstance(arg, bool) and arg > 0:
+            transfer += arg
         else:
             raise ProtocolError(f"malformed access {op!r}")
-    return reads
+        accesses.append((kind, offset, arg))
+    if transfer > MAX_TRANSFER:
+        raise RequestTooLarge(
+            f"a request reading and writing {transfer} register bytes: at most "
+            f"{MAX_TRANSFER} at a time (the whole DPRAM)"
+        )
+    return accesses
 
 
-def _write(live: LiveBoard, offset: int, value: JSON) -> None:
-    if not isinstance(value, int) or not 0 <= value <= 0xFF:
-        raise ProtocolError(f"a register takes a byte, not {value!r}")
+def _accesses(live: LiveBoard, accesses: list[tuple[str, int, JSON]]) -> list[list[int]]:
     board = live.board
-    command = offset == PORT_DATA and board.pointer == COMMAND and value not in (ACK, NAK)
-    board.io_write(offset, value)
-    if command:
-        live.run_command()
+    reads: list[list[int]] = []
+    commands = 0
+    for kind, offset, arg in accesses:
+        if kind == "r":
+            reads.append([board.io_read(offset) for _ in range(arg)])
+            continue
+        for value in arg:
+            if not isinstance(value, int) or not 0 <= value <= 0xFF:
+                raise ProtocolError(f"a register takes a byte, not {value!r}")
+            command = offset == PORT_DATA and board.pointer == COMMAND and value not in (
+                ACK, NAK
+            )
+            if command and commands == MAX_COMMANDS:
+                raise RequestTooLarge(f"more than {MAX_COMMANDS} commands in one request")
+            board.io_write(offset, value)
+            if command:
+                commands += 1
+                live.run_command()
+    return reads
 
 
 def attached_action(live: LiveBoard, request: dict[str, JSON]) -> Awaitable[JSON] | None:

@@ -3,7 +3,21 @@ keeps master time with the wall clock while nobody asks.
 
 Everything runs on one asyncio loop, so requests are handled one at a time: a request is
 never interleaved with another client's, nor with the Modbus gateway's telegrams when one
-is attached (``run_live``'s ``attach``).
+is attached (``run_live``'s ``attach``). What keeps one client from holding up the others:
+
+- a request does at most what the protocol allows (requests.py), and the server turns to
+  the other clients after each one;
+- only the owner's processes are served (the peer's user, ``SO_PEERCRED``);
+- at most ``max_connections`` connections at once: further ones are closed at once, so
+  a flood (or a process out of descriptors) costs no more descriptors, and each such
+  condition is logged as one line (then at most once a minute), never once per event;
+- a session (a command's hold on the board) whose client sends nothing for
+  ``session_timeout`` seconds (a stopped or hung command) is ended: the clients waiting
+  for it are told of the limit, and the silent client hears why when it speaks again.
+
+A change of the board's non-volatile state is saved before the request that made it is
+answered (saver.py), and the socket, state folder and lock are put back if removed while
+the board is served (guard.py).
 """
 
 from __future__ import annotations
@@ -11,39 +25,55 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import os
+import time
 from collections.abc import Awaitable, Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 from asictl.board.board import Pc2Board
 from asictl.errors import ExitCode, UserError
 from asictl.host.background import NotStarted, in_thread
 from asictl.host.boards import emulated_board, lock_file, port_name, state_file
+from asictl.host.condition_log import ConditionLog
 from asictl.host.live import requests
 from asictl.host.live.board import LiveBoard
 from asictl.host.live.client import refuse_if_served
+from asictl.host.live.guard import WATCH_S, Identity, StatePlace
+from asictl.host.live.guard import identity as file_identity
 from asictl.host.live.protocol import (
     JSON,
+    MAX_REQUEST,
     ProtocolError,
     encode,
+    peer_uid,
     read_message,
     socket_path,
 )
-from asictl.host.live.saver import SAVE_INTERVAL_S, state_saver
+from asictl.host.live.saver import SAVE_INTERVAL_S, NotSaved, StateKeeper
 from asictl.host.locking import note_holder
 
 #: How often master time catches up with the wall clock while nobody asks.
 PACING_S = 0.01
+#: Connections served at once by default (each command is one; a monitor is one).
+DEFAULT_MAX_CONNECTIONS = 32
+#: Seconds a session may go without a request by default before it is ended.
+DEFAULT_SESSION_TIMEOUT_S = 10.0
 
 
 @dataclass(eq=False)
 class _Connection:
-    """One client: its INDEX/PAGE pointer, and what it said it is."""
+    """One client: its INDEX/PAGE pointer, what it said it is, when it last asked."""
 
     who: str = "a client"
     pointer: requests.Pointer = field(default_factory=requests.Pointer)
     writer: asyncio.StreamWriter | None = field(default=None, repr=False)
+    last: float = field(default_factory=time.monotonic)
+    #: why its session was ended, said at its next request
+    ended: str | None = None
+    #: inside a request (a wait in master time may take a while): never silent then
+    busy: bool = False
 
 
 class LiveServer:
@@ -51,16 +81,32 @@ class LiveServer:
 
     def __init__(
         self, live: LiveBoard, path: Path, *, identity: dict[str, JSON] | None = None,
-        on_tick: Callable[[], None] | None = None,
+        on_tick: Callable[[], None] | None = None, keeper: StateKeeper | None = None,
+        on_watch: Callable[[], None] | None = None,
+        max_connections: int = DEFAULT_MAX_CONNECTIONS,
+        session_timeout: float | None = DEFAULT_SESSION_TIMEOUT_S,
+        log: Callable[[str], None] | None = None,
     ) -> None:
         self.live = live
         self.path = path
         self.identity = identity or {}
         self.on_tick = on_tick
+        #: saves every change before it is acknowledged
+        self.keeper = keeper
+        #: called every ``WATCH_S`` (the state folder's guard); raising ends the serving
+        self.on_watch = on_watch
+        self.max_connections = max_connections
+        self.session_timeout = session_timeout or None
+        self.conditions = ConditionLog(log or (lambda message: None))
         self._owner: _Connection | None = None
         self._free: asyncio.Condition | None = None
         self._stop: asyncio.Event | None = None
-        self.connections = 0
+        self._clients: set[_Connection] = set()
+        self._socket_id: Identity = None
+
+    @property
+    def connections(self) -> int:
+        return len(self._clients)
 
     # ------------------------------------------------------------------ sessions
 
@@ -79,16 +125,35 @@ class LiveServer:
                 self._owner = None
                 self._free.notify_all()
 
+    async def _end_silent_session(self) -> None:
+        owner, limit = self._owner, self.session_timeout
+        if owner is None or limit is None or owner.busy or time.monotonic() - owner.last < limit:
+            return
+        owner.ended = (
+            f"the live board ended this command's session: it sent nothing for {limit:g} s "
+            "(was it stopped?), and other clients were let in; run it again"
+        )
+        self.conditions.event(
+            "session", f"ended the session of {owner.who}: no request for {limit:g} s"
+        )
+        await self._release(owner)
+
     async def _handle(self, conn: _Connection, request: JSON) -> JSON:
         op = request.get("op") if isinstance(request, dict) else None
+        if conn.ended is not None:
+            raise UserError(conn.ended, ExitCode.FAILED)
         if op == "hello":
             return {"ok": True, "server": self.identity}
         if op == "begin":
             conn.who = str(request.get("who", conn.who))
             if self._owner not in (None, conn) and conn.writer is not None:
-                conn.writer.write(encode({"waiting": self._owner.who if self._owner else ""}))
+                conn.writer.write(encode({
+                    "waiting": self._owner.who if self._owner else "",
+                    "idle_limit": self.session_timeout,
+                }))
                 await conn.writer.drain()
             await self._session(conn, take=True)
+            conn.last = time.monotonic()
             return {"ok": True, "server": self.identity}
         if op == "end":
             await self._release(conn)
@@ -96,62 +161,131 @@ class LiveServer:
         await self._session(conn)
         self.live.sync()
         if op == "io":
-            return {"ok": True, "reads": requests.io(self.live, conn.pointer, request.get("ops"))}
-        if op == "action":
+            answer = {"ok": True, "reads": requests.io(self.live, conn.pointer, request.get("ops"))}
+        elif op == "action":
             attached = requests.attached_action(self.live, request)
-            if attached is not None:
-                return {"ok": True, "result": await attached}
-            return {"ok": True, "result": requests.action(self.live, request)}
-        raise ProtocolError(f"unknown request {op!r}")
+            result = await attached if attached is not None else requests.action(
+                self.live, request
+            )
+            answer = {"ok": True, "result": result}
+        else:
+            raise ProtocolError(f"unknown request {op!r}")
+        if self.keeper is not None:
+            try:
+                self.keeper.save_changes()  # before the client hears it is done
+            except NotSaved as exc:
+                raise NotSaved(
+                    f"the live board made the change but cannot save it ({exc}): it is "
+                    "lost if the board stops before a save succeeds"
+                ) from None
+        return answer
 
     async def _client(self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
+        if not self._admit(writer):
+            writer.close()
+            return
         conn = _Connection(writer=writer)
-        self.connections += 1
+        self._clients.add(conn)
         try:
             while True:
-                request = await read_message(reader)
+                request = await read_message(reader, limit=MAX_REQUEST)
                 if request is None:
                     break
+                ended, conn.busy = conn.ended, True
                 try:
                     answer = await self._handle(conn, request)
                 except UserError as exc:
                     answer = {"ok": False, "error": str(exc), "exit": int(exc.exit_code)}
                 except ValueError as exc:  # the board refused a register access
                     answer = {"ok": False, "error": str(exc), "exit": int(ExitCode.FAILED)}
+                finally:
+                    conn.busy, conn.last = False, time.monotonic()
                 writer.write(encode(answer))
                 await writer.drain()
-        except (ConnectionError, asyncio.CancelledError):
+                if ended is not None:
+                    break
+                await asyncio.sleep(0)  # the other clients' turn
+        except (OSError, asyncio.CancelledError):
             pass
         finally:
-            self.connections -= 1
+            self._clients.discard(conn)
             await self._release(conn)
             writer.close()
 
+    def _admit(self, writer: asyncio.StreamWriter) -> bool:
+        """Only the owner's processes, and no more than ``max_connections`` at once."""
+        uid = peer_uid(writer.get_extra_info("socket"))
+        if uid is not None and uid != os.geteuid():
+            self.conditions.event(
+                "stranger", f"refused a connection of another user (uid {uid}): the live "
+                "board serves its owner only",
+            )
+            writer.write(encode({
+                "ok": False, "exit": int(ExitCode.FAILED),
+                "error": "this live board serves only the user who runs it",
+            }))
+            return False
+        if len(self._clients) >= self.max_connections:
+            self.conditions.event(
+                "limit", f"{self.max_connections} clients connected (--max-connections): "
+                "refusing further ones until some leave",
+            )
+            return False
+        return True
+
     # ------------------------------------------------------------------ running
 
-    async def serve(self, started: Callable[[], None] | None = None) -> None:
-        """Listen until ``stop()``; master time catches up every ``PACING_S``."""
-        self._free, self._stop = asyncio.Condition(), asyncio.Event()
+    async def _listen(self) -> asyncio.AbstractServer:
+        """The socket, made anew (0600, never briefly open to others)."""
         with contextlib.suppress(FileNotFoundError):
             self.path.unlink()  # ours: the caller holds the board's lock
-        old = os.umask(0o177)  # the socket is created 0600, never briefly open to others
+        old = os.umask(0o177)
         try:
             server = await asyncio.start_unix_server(self._client, path=str(self.path))
         finally:
             os.umask(old)
+        self._socket_id = file_identity(self.path)
+        return server
+
+    async def _watch(self, server: asyncio.AbstractServer) -> asyncio.AbstractServer:
+        """The state folder's guard, then the socket: one removed is bound again."""
+        if self.on_watch is not None:
+            self.on_watch()
+        if file_identity(self.path) == self._socket_id:
+            return server
+        server.close()
+        server = await self._listen()
+        self.conditions.event("socket", f"the live board's socket {self.path} was removed "
+                              "or replaced: it is bound again")
+        return server
+
+    async def serve(self, started: Callable[[], None] | None = None) -> None:
+        """Listen until ``stop()``; master time catches up every ``PACING_S``."""
+        self._free, self._stop = asyncio.Condition(), asyncio.Event()
+        asyncio.get_running_loop().set_exception_handler(self.conditions.loop_handler("live board"))
+        server = await self._listen()
         try:
             if started is not None:
                 started()
+            watched = time.monotonic()
             while not self._stop.is_set():
                 self.live.sync()
                 if self.on_tick is not None:
                     self.on_tick()
+                await self._end_silent_session()
+                if time.monotonic() - watched >= WATCH_S:
+                    watched = time.monotonic()
+                    server = await self._watch(server)
                 with contextlib.suppress(asyncio.TimeoutError):
                     await asyncio.wait_for(self._stop.wait(), PACING_S)
         finally:
             server.close()
-            with contextlib.suppress(FileNotFoundError):
-                self.path.unlink()
+            if file_identity(self.path) == self._socket_id:  # never another's socket
+                with contextlib.suppress(FileNotFoundError):
+                    self.path.unlink()
+            for conn in list(self._clients):
+                if conn.writer is not None:
+                    conn.writer.close()
             await server.wait_closed()
 
     def stop(self) -> None:
@@ -165,13 +299,18 @@ Attachment = Callable[[LiveBoard], tuple[Awaitable[None], Callable[[], None]]]
 def _server(
     board: Pc2Board, directory: Path, base: int, identity: dict[str, JSON], *,
     interval: float = SAVE_INTERVAL_S, notify: Callable[[str], None] | None = None,
+    **options: Any,
 ) -> LiveServer:
-    """The live server of ``board``: at its socket, naming this process, saving the
-    board's state every ``interval`` seconds."""
+    """The live server of ``board``: at its socket, naming this process, saving every
+    change of the board's state before acknowledging it (and what changes by itself
+    every ``interval`` seconds); ``options`` go to ``LiveServer``."""
+    keeper = StateKeeper(board, state_file(directory, base), interval=interval, notify=notify)
+    live = LiveBoard(board)
+    live.save_changes = keeper.saved
     return LiveServer(
-        LiveBoard(board), socket_path(directory, base),
-        identity={**identity, "pid": os.getpid()},
-        on_tick=state_saver(board, state_file(directory, base), interval=interval, notify=notify),
+        live, socket_path(directory, base),
+        identity={**identity, "pid": os.getpid()}, on_tick=keeper.tick, keeper=keeper,
+        log=notify, **options,
     )
 
 
@@ -179,28 +318,36 @@ def run_live(
     base: int, directory: Path, *, identity: dict[str, JSON],
     started: Callable[[Path], None] | None = None, attach: Attachment | None = None,
     wait: bool = False, notify: Callable[[str], None] | None = None,
-    save_interval: float = SAVE_INTERVAL_S,
+    save_interval: float = SAVE_INTERVAL_S, max_connections: int = DEFAULT_MAX_CONNECTIONS,
+    session_timeout: float | None = DEFAULT_SESSION_TIMEOUT_S,
 ) -> None:
     """Serve the board at ``base`` live until SIGINT/SIGTERM, holding its lock throughout.
 
     ``attach`` adds another server on the same loop (the Modbus gateway): it gets the live
-    board and returns its coroutine and its stop function. The board's state is saved
-    every ``save_interval`` seconds (a failed save is logged and tried again) and when
-    serving ends. A board another process holds stops
-    this with the holder named (``LockBusy``), or is waited for with ``wait``.
+    board and returns its coroutine and its stop function. The board's state is saved at
+    the start, after every request that changed it (before the answer), every
+    ``save_interval`` seconds if it changed by itself (a failed save is logged and tried
+    again), and when serving ends: a final save that fails is a ``NotSaved`` saying what
+    is lost. A board another process holds stops this with the holder named
+    (``LockBusy``), or is waited for with ``wait``.
     """
     import signal
 
     refuse_if_served(directory, base)
     path = socket_path(directory, base)
-    with emulated_board(base, directory, wait=wait, notify=notify) as board:
-        note_holder(
-            lock_file(directory, base),
-            f"it keeps the board running live: commands reach it through {path}",
-        )
+    name = f"board {port_name(base)}"
+    with emulated_board(base, directory, wait=wait, notify=notify, save=False) as board:
+        note = f"it keeps the board running live: commands reach it through {path}"
+        note_holder(lock_file(directory, base), note)
         server = _server(
-            board, directory, base, identity, interval=save_interval, notify=notify
+            board, directory, base, identity, interval=save_interval, notify=notify,
+            max_connections=max_connections, session_timeout=session_timeout,
         )
+        keeper = server.keeper
+        assert keeper is not None
+        keeper.save()  # the state file is there, and writable, before anyone is served
+        place = StatePlace(directory, base, keeper, note, notify)
+        server.on_watch = place.check
         live = server.live
 
         async def main() -> None:
@@ -223,9 +370,11 @@ def run_live(
                 if started is not None:
                     started(path)
 
-            results = await asyncio.gather(
-                server.serve(on_started), *tasks, return_exceptions=True
-            )
+            # whatever ends the live server (a signal, its state folder taken over)
+            # ends the servers attached to it too
+            serving = asyncio.ensure_future(server.serve(on_started))
+            serving.add_done_callback(lambda _: stop_all())
+            results = await asyncio.gather(serving, *tasks, return_exceptions=True)
             for result in results:
                 if isinstance(result, BaseException):
                     stop_all()
@@ -235,21 +384,28 @@ def run_live(
             asyncio.run(main())
         except OSError as exc:
             raise UserError(f"cannot serve: {exc.strerror or exc}") from None
+        finally:
+            try:
+                keeper.final(name)
+            finally:
+                place.close()
 
 
 @contextmanager
 def background_live(
-    base: int, directory: Path, *, identity: dict[str, JSON], timeout: float = 30.0
+    base: int, directory: Path, *, identity: dict[str, JSON], timeout: float = 30.0,
+    **options: Any,
 ) -> Iterator[Path]:
     """The board at ``base`` served live from a thread of this process until the block
-    ends (the monitor does this when no ``asictl serve`` runs); its socket path."""
+    ends (the monitor does this when no ``asictl serve`` runs); its socket path.
+    ``options`` go to ``LiveServer``."""
     refuse_if_served(directory, base)
     path = socket_path(directory, base)
 
     @contextmanager
     def make() -> Iterator[LiveServer]:
         with emulated_board(base, directory) as board:
-            yield _server(board, directory, base, identity)
+            yield _server(board, directory, base, identity, **options)
 
     def serve(server: LiveServer, ready: Callable[[], None]) -> Awaitable[None]:
         return server.serve(ready)
