@@ -56,6 +56,10 @@ class CheckCode(StrEnum):
     TIME_ROUNDED = "W202"
     DUPLICATE_OPTION = "W203"
     BUILTIN_DECLARED = "W204"
+    ALWAYS_ZERO = "W205"
+    TRANSFER_AFTER_CONSTANT = "W206"
+    LANDING_UNDEFINED = "W207"
+    ENDLESS_LOOP = "W208"
 
 
 class AnalysisCode(StrEnum):
@@ -158,6 +162,10 @@ TITLES: dict[str, str] = {
     "W202": "time rounded to 10 ms",
     "W203": "option given twice",
     "W204": "built-in timer or counter declared",
+    "W205": "register always 0 after a JC that did not jump",
+    "W206": "T right after L KT, L KC or L KP",
+    "W207": "jump lands on a combining A/O with the register undefined",
+    "W208": "loop no cycle leaves once it jumps",
     "E301": "program data too large",
     "E302": "program code too large",
     "E303": "image too large for the EEPROM",

@@ -8,7 +8,6 @@ manual and ``docs/language.md``; each diagnostic code is listed there.
 
 from __future__ import annotations
 
-import bisect
 import re
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
@@ -32,6 +31,7 @@ from asictl.il.language import (
 )
 from asictl.il.loader import Program, Reader, calls, load_program
 from asictl.il.pragmas import read_directives
+from asictl.il.register import check_register
 from asictl.il.suggest import did_you_mean
 from asictl.mcs51.words import RESERVED as ASSEMBLER_RESERVED
 from asictl.platform.master import Options
@@ -90,7 +90,7 @@ def check_program(
         _check_code(module, scope, report)
         _check_labels_and_jumps(module, report, _lost_labels(program, module.file, lines))
         _check_calls(module, program, report)
-        _check_register_flow(module, report, lines)
+        check_register(module, report, lines)
         if dialect is Dialect.CONTROL1:
             _check_control1(module, scope, report)
     _check_duplicate_slaves(program, report)
@@ -515,141 +515,6 @@ def _check_recursion(program: Program, report: Reporter) -> None:
         name = key(call.name)
         if name in program.blocks and state.get(name) is None:
             visit(name, [name])
-
-
-# ------------------------------------------------------------ the single-bit register
-
-
-def _reads_register(statement: ast.Statement) -> bool:
-    """Whether a statement reads the register (A/AN/O/ON only when not first checks)."""
-    match statement:
-        case ast.Jump(conditional=c) | ast.CallFB(conditional=c):
-            return c
-        case ast.BlockEnd(kind=kind):
-            return kind is ast.EndKind.BEC
-        case ast.Store() | ast.Not() | ast.Param() | ast.Count():
-            return True
-        case (ast.Logic() | ast.Load() | ast.Transfer() | ast.Arith() | ast.Compare()
-              | ast.SegmentEnd() | ast.Asm() | ast.Label()):
-            return False
-        case _:
-            assert_never(statement)
-
-
-def _segments(module: ast.Module) -> list[list[ast.Statement]]:
-    """The program sections' statements; each section starts a new segment (3.4)."""
-    return [list(s.statements) for s in module.sections_of(ast.ProgramSection)]
-
-
-def _after_skipped(module: ast.Module, skipped: Sequence[int]) -> set[int]:
-    """Indexes (into the flat statements) of statements with a skipped line just before
-    them in their section: what that line did to the register is unknown."""
-    found: set[int] = set()
-    if not skipped:
-        return found
-    index = 0
-    for section in module.sections_of(ast.ProgramSection):
-        previous = section.span.line if section.span else 0
-        for statement in section.statements:
-            line = statement.span.line if statement.span else previous
-            if bisect.bisect_right(skipped, previous) < bisect.bisect_left(skipped, line):
-                found.add(index)
-            previous = line
-            index += 1
-    return found
-
-
-def _check_register_flow(module: ast.Module, report: Reporter, skipped: Sequence[int]) -> None:
-    """Two register rules of il-semantics.md.
-
-    A lint: A/AN/O/ON after '=', S or R in the same segment combines with the old result
-    instead of starting a new one (STEP5 habit). An error: an instruction that reads the
-    register where, on every path that reaches it, the register is undefined. Found by a
-    forward data-flow analysis ("may the register be defined here?") over jumps.
-
-    A line skipped for a syntax error may have been an A or O: after one, the register
-    counts as defined and the logic string as begun, so no error follows from the gap.
-    """
-    sections = _segments(module)
-    flat: list[ast.Statement] = [s for section in sections for s in section]
-    starts: set[int] = set()
-    index = 0
-    for section in sections:
-        starts.add(index)
-        index += len(section)
-    gaps = _after_skipped(module, skipped)
-
-    # lexical facts: which A/AN/O/ON are first checks, and the lint
-    first_check: set[int] = set()
-    first = True
-    stored = False
-    for i, statement in enumerate(flat):
-        if i in starts:
-            first, stored = True, False
-        if i in gaps:
-            first, stored = False, False
-        if isinstance(statement, ast.SegmentEnd):
-            first, stored = True, False
-        if isinstance(statement, ast.Logic):
-            if first:
-                first_check.add(i)
-            elif stored:
-                report.warning(
-                    CheckCode.LOGIC_AFTER_STORE,
-                    f"'{statement.op.value}' after '=', S or R continues the old logic string; "
-                    "end the segment with *** to start a new one",
-                    statement.span,
-                )
-            first, stored = False, False
-        elif isinstance(statement, ast.Compare):
-            first, stored = False, False  # a comparison loads the register
-        elif isinstance(statement, ast.Store):
-            stored = True
-
-    labels = {key(s.name): i for i, s in enumerate(flat) if isinstance(s, ast.Label)}
-    # may_defined[i]: may the register be defined before statement i? (None: unreachable)
-    may_defined: list[bool | None] = [None] * len(flat)
-    work = [(0, False)] if flat else []
-    while work:
-        i, defined = work.pop()
-        if i >= len(flat):
-            continue
-        defined = defined or i in gaps
-        known = may_defined[i]
-        if known is not None and (known or not defined):
-            continue
-        may_defined[i] = defined
-        statement = flat[i]
-        if isinstance(statement, ast.Logic | ast.Compare | ast.Asm | ast.CallFB):
-            defined = True
-        elif isinstance(statement, ast.SegmentEnd):
-            defined = False
-        falls_through = True
-        if isinstance(statement, ast.Jump):
-            if key(statement.label) in labels:
-                work.append((labels[key(statement.label)], defined))
-            falls_through = statement.conditional
-        elif isinstance(statement, ast.BlockEnd):
-            falls_through = statement.kind is ast.EndKind.BEC
-        if falls_through:
-            # falling into the next section starts a new segment
-            work.append((i + 1, defined and i + 1 not in starts))
-
-    for i, statement in enumerate(flat):
-        reads = _reads_register(statement) or (
-            isinstance(statement, ast.Logic) and i not in first_check
-        )
-        if reads and may_defined[i] is False:
-            report.error(
-                CheckCode.UNDEFINED_REGISTER,
-                f"'{_op_text(statement)}' reads the single-bit register, which is always "
-                "undefined here (start of program, block or segment): begin with A, AN, O or ON",
-                statement.span,
-            )
-
-
-def _op_text(statement: ast.Statement) -> str:
-    return statement.to_source().split(" ")[0]
 
 
 # ------------------------------------------------------------------------ dialects
