@@ -244,7 +244,8 @@ class Not:
 
 @dataclass(frozen=True)
 class Load:
-    """``L x``: ACCU2 := ACCU1, ACCU1 := x (constants also preset the timer/counter/KP value)."""
+    """``L x``: ACCU2 := ACCU1, ACCU1 := x; ``L KT``/``L KC``/``L KP`` instead load the
+    constant register (for S T, S C and PARAM) and leave both accumulators alone."""
 
     operand: Operand
     span: Span | None = _span()
