@@ -199,3 +199,40 @@ def test_test_shows_its_progress_on_a_terminal_and_not_in_a_pipe(tmp_path: Path)
     piped = subprocess.run(command, capture_output=True, text=True, timeout=120)
     assert "failed\r" not in piped.stderr and "\x1b[K" not in piped.stderr
     assert piped.stdout.splitlines()[-1] == done.stdout.decode().splitlines()[-1]
+
+
+FINAL = """[SETUP]
+1: iiii, 0
+2: oooo, 0
+[PROGRAM]
+    A I 1.0
+    = Q 2.1
+    CU C 3
+    ***
+    AN I 1.0
+    L KT 500
+    S T 4
+"""
+
+
+def test_sim_without_expectations_shows_what_the_program_left(tmp_path: Path):
+    """Without a scenario's expectations, the outputs, counters and timers at the end."""
+    program = tmp_path / "p.asi"
+    program.write_text(FINAL)
+    result = run("sim", str(program), "--set", "I 1.0=1", "--duration", "100ms")
+    assert result.exit_code == 0, result.output
+    lines = result.stdout.splitlines()
+    assert lines[0] == "at 100 ms:"
+    assert "  outputs   Q 2 = 0010" in lines
+    counted = next(line for line in lines if line.startswith("  counters"))
+    assert int(counted.split("C 3 = ")[1]) >= 5  # once per cycle while I 1.0 is 1
+    assert "  timers    T 4 = 0 ms" in lines  # AN I 1.0 is 0: never started
+    data = json.loads(run("sim", str(program), "--duration", "100ms", "--json").stdout)
+    assert data["final"]["outputs"] == {"2": 0}
+    assert data["final"]["counters"] == {"3": 0}
+    assert 400 <= data["final"]["timers_ms"]["4"] <= 500  # started: I 1.0 stays 0
+
+
+def test_sim_with_expectations_shows_no_final_state():
+    result = run("sim", "--scenario", str(SCENARIOS / "blink.scenario.toml"))
+    assert "outputs " not in result.stdout and "expectations" in result.stdout

@@ -25,6 +25,7 @@ from asictl.sim.session import (
     as_json,
     default_jobs,
     events,
+    final_lines,
     prepare,
     run_file,
     scenario_for,
@@ -134,6 +135,9 @@ def sim(
     else:
         for line in events(run):
             click.echo(line)
+        if not run.result.checked:
+            for line in final_lines(run):
+                click.echo(line)
         click.echo(summary(run))
     ctx.exit(int(ExitCode.OK if run.result.passed else ExitCode.FAILED))
 

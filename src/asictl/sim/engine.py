@@ -34,7 +34,7 @@ from asictl.observe.operands import Operand
 from asictl.observe.symbols import SymbolTable
 from asictl.observe.view import ProgramView, host_write, read_on_board
 from asictl.platform import pc2 as d
-from asictl.platform.master import ControlFlag
+from asictl.platform.master import IO_CODE_BITS, ControlFlag
 from asictl.runtime.line_map import LineMap
 from asictl.runtime.program_map import ProgramMap
 from asictl.runtime.runner import ProgramRunner
@@ -70,6 +70,28 @@ class Failure:
         return f"at {self.step.at_ms:g} ms: {name} expected {self.expected}, got {self.got}"
 
 
+@dataclass(frozen=True)
+class FinalState:
+    """What a program left when the simulation ended: what ``sim`` without expectations
+    shows, so that a quick run answers "what does it do?" without a scenario."""
+
+    at_ms: float
+    #: each slave with output bits on the bus: the four bits it receives (D0 = bit 0)
+    outputs: dict[int, int]
+    #: each counter of the program: its value
+    counters: dict[int, int]
+    #: each timer of the program: its remaining time in milliseconds
+    timers_ms: dict[int, int]
+
+    def as_json(self) -> dict[str, object]:
+        return {
+            "at_ms": self.at_ms,
+            "outputs": {str(a): v for a, v in self.outputs.items()},
+            "counters": {str(n): v for n, v in self.counters.items()},
+            "timers_ms": {str(n): v for n, v in self.timers_ms.items()},
+        }
+
+
 @dataclass
 class SimResult:
     scenario: Scenario
@@ -80,6 +102,7 @@ class SimResult:
     trace: Trace | None = None
     il_rows: list[LineRow] = field(default_factory=list)
     end_ms: float = 0.0
+    final: FinalState | None = None
 
     @property
     def passed(self) -> bool:
@@ -307,6 +330,20 @@ class Simulation:
         self._trace_lines(False)
         return self.finish()
 
+    def _final_state(self) -> FinalState:
+        view = self.view()
+        pmap = self.image.pmap
+        outputs = {
+            slave.address: self.board.outputs[slave.address >> 1] >> (slave.address & 1) * 4 & 0xF
+            for slave in sorted(self.board.bus.slaves, key=lambda s: s.address)
+            if any(letter in "ob" for letter in IO_CODE_BITS[slave.io_code])
+        }
+        return FinalState(
+            self.end_ms, outputs,
+            {n: view.counter(n) or 0 for n in sorted(pmap.counters)},
+            {n: view.timer_ms(n) or 0 for n in sorted(pmap.timers)},
+        )
+
     def run_to(self, t_ms: float) -> None:
         """Let master time pass up to ``t_ms``, applying the steps (and trace window
         edges) on the way; the steps at ``t_ms`` are applied and its cycles run."""
@@ -327,6 +364,7 @@ class Simulation:
     def finish(self) -> SimResult:
         result = self.result
         result.end_ms = self.end_ms
+        result.final = self._final_state()
         result.refusals = self.observation.refusals()
         if self._signals:
             marks = [Mark(f.at_ms, f"{f.written or f.operand} expected {f.expected}, got {f.got}",

@@ -211,6 +211,26 @@ def events(run: Run) -> list[str]:
     return [text for _, _, text in sorted(timed, key=lambda item: item[:2])]
 
 
+def final_lines(run: Run) -> list[str]:
+    """The outputs, counters and timers the program left at the end: what a run without
+    expectations shows (one with them shows its failures instead)."""
+    final = run.result.final
+    if final is None:
+        return []
+    rows = [f"at {final.at_ms:g} ms:"]
+    if final.outputs:
+        rows.append("  outputs   " + "  ".join(
+            f"Q {a} = {v:04b}" for a, v in final.outputs.items()))
+    if final.counters:
+        rows.append("  counters  " + "  ".join(f"C {n} = {v}" for n, v in final.counters.items()))
+    if final.timers_ms:
+        rows.append("  timers    " + "  ".join(
+            f"T {n} = {v} ms" for n, v in final.timers_ms.items()))
+    if len(rows) == 1:
+        rows.append("  no outputs, counters or timers")
+    return rows
+
+
 def summary(run: Run) -> str:
     r = run.result
     failed = len(r.failures)
@@ -236,6 +256,7 @@ def as_json(run: Run) -> dict[str, Any]:
         "stops": [{"at_ms": s.at_ms, "reason": s.reason, "where": s.where} for s in r.stops],
         "notes": [{"at_ms": n.at_ms, "text": n.text} for n in r.refusals],
         "end_ms": r.end_ms,
+        "final": r.final.as_json() if r.final is not None else None,
         "wall_s": round(run.seconds, 3),
     }
 
