@@ -74,7 +74,7 @@ def test_program_stops_are_reported_with_their_time(tmp_path: Path):
     ))
     result = run("sim", program, "--scenario", scenario, "--json")
     assert result.exit_code == 0, result.output
-    report = json.loads(result.output)
+    report = json.loads(result.stdout)  # (stderr: the W208 of the loop)
     [stop] = report["stops"]
     assert 50 <= stop["at_ms"] <= 60 and "cycle" in stop["reason"]
 
