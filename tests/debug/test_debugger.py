@@ -133,6 +133,8 @@ def test_mistakes_are_refused_with_a_reason(counter: Session):
     assert counter.do("print Q 2.0, X 1")[1].startswith("error: 'X 1'")
     assert counter.do("set Q 2.0=1")[0].startswith("error: 'Q 2.0' cannot be set")
     assert counter.do("frobnicate") == ["error: unknown command 'frobnicate' ('help' lists them)"]
+    assert counter.do("break ²") == ["error: '²' is not a line: 12 or count.asi:12"]
+    assert counter.do("delete ²")[0].startswith("error: ")
     assert counter.debugger.failed
 
 
@@ -277,3 +279,18 @@ def test_the_debugger_stops_where_the_program_stops(tmp_path: Path):
         assert lines[-1].startswith("end of the simulation at 50 ms")
     finally:
         debugger.close()
+
+
+def test_an_empty_line_repeats_the_last_step_as_gdb_does(counter: Session, monkeypatch):
+    """At the prompt, Enter repeats step, next, continue, cycle, finish or time; not print."""
+    from asictl.cli import debug as cli_debug
+
+    typed = iter(["break 6", "continue", "", "print CV 0", "", "quit"])
+    monkeypatch.setattr("builtins.input", lambda prompt="": next(typed))
+    monkeypatch.setattr(cli_debug, "_history_file", lambda: Path(os.devnull) / "none")
+    echoed: list[str] = []
+    monkeypatch.setattr(cli_debug.click, "echo", lambda text="", **_: echoed.append(str(text)))
+    cli_debug._interactive(counter.debugger)
+    stops = [line for line in counter.lines if line.startswith("breakpoint 1, count.asi:6")]
+    assert [s.split(", cycle ")[1] for s in stops] == ["1", "2"]  # not again after print
+    assert len([line for line in counter.lines if line.startswith("CV 0 = ")]) == 1

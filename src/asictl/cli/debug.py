@@ -84,6 +84,15 @@ def _batch(debugger: Debugger, path: Path) -> None:
     debugger.close()
 
 
+#: The commands an empty line repeats, as gdb does: the ones that move the program on.
+REPEATED = frozenset({"s", "step", "n", "next", "c", "continue", "cycle", "finish", "time"})
+
+
+def _moves_on(command: str) -> bool:
+    words = command.split()
+    return bool(words) and words[0].lower() in REPEATED
+
+
 def _interactive(debugger: Debugger) -> None:
     history = _history_file()
     try:
@@ -94,6 +103,7 @@ def _interactive(debugger: Debugger) -> None:
         with contextlib.suppress(OSError):
             readline.read_history_file(history)
         readline.set_history_length(1000)
+    last = ""
     try:
         while True:
             try:
@@ -104,6 +114,10 @@ def _interactive(debugger: Debugger) -> None:
             except KeyboardInterrupt:
                 click.echo()
                 continue
+            if command.strip():
+                last = command
+            elif _moves_on(last):
+                command = last  # as gdb: Enter repeats the last command when it moved on
             if not debugger.execute(command):
                 break
     finally:

@@ -302,7 +302,7 @@ class Debugger:
     def _resolve_line(self, text: str) -> SourceLine:
         file, _, number = text.rpartition(":")
         file = PurePath(file).name if file else self.main_file
-        if not number.isdigit():
+        if not (number.isascii() and number.isdigit()):  # not '²', which int() refuses
             raise DebugError(f"'{text}' is not a line: 12 or {self.main_file}:12")
         return line_with_code(self.line_map, file, int(number))
 
@@ -311,7 +311,9 @@ class Debugger:
             self.breakpoints.clear()
             self.out("all breakpoints deleted")
             return
-        if not rest.isdigit() or not any(b.number == int(rest) for b in self.breakpoints):
+        if not (rest.isascii() and rest.isdigit()) or not any(
+            b.number == int(rest) for b in self.breakpoints
+        ):
             raise DebugError(f"no breakpoint {rest}")
         self.breakpoints = [b for b in self.breakpoints if b.number != int(rest)]
         self.out(f"breakpoint {rest} deleted")
