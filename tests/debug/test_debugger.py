@@ -294,3 +294,21 @@ def test_an_empty_line_repeats_the_last_step_as_gdb_does(counter: Session, monke
     stops = [line for line in counter.lines if line.startswith("breakpoint 1, count.asi:6")]
     assert [s.split(", cycle ")[1] for s in stops] == ["1", "2"]  # not again after print
     assert len([line for line in counter.lines if line.startswith("CV 0 = ")]) == 1
+
+
+def test_print_shows_the_constant_register(tmp_path: Path):
+    """L KT/KC/KP load the constant register and leave the accumulators alone."""
+    program = tmp_path / "k.asi"
+    program.write_text("[SETUP]\n1: iiii, 0\n[PROGRAM]\n    L KB 7\n    L KT 500\n"
+                       "    A I 1.0\n    S T 1\n    BE\n")
+    session = Session(program)
+    try:
+        session.do("break 6")
+        session.do("continue")
+        assert session.do("print KREG, ACCU1, ACCU2") == [
+            "KREG = 50 (032h; as L KT 500 ms, as L KC 50, as L KP 3.2)",
+            "ACCU1 = 7 (0007h)", "ACCU2 = 0 (0000h)",
+        ]
+        assert session.debugger.value("KREG") == 50
+    finally:
+        session.debugger.close()

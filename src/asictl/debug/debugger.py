@@ -49,7 +49,9 @@ _CONDITION = re.compile(r"^(.+?)\s*(==|!=|<=|>=|=|<|>)\s*(\w+)\s*$")
 #: A hit count condition as editors write them: ``3`` (from the third hit on, as ``>= 3``),
 #: ``= 3`` (the third only), ``> 3``, ``< 3``, ``<= 3``, ``% 3`` (every third).
 _HIT_CONDITION = re.compile(r"^\s*(==|=|>=|<=|>|<|%)?\s*(\d+)\s*$")
-_REGISTERS = ("RLO", "ACCU1", "ACCU2")
+#: The IL machine's registers as ``print`` and conditions name them, and where the
+#: program view has each (KREG: the 12-bit constant register of L KT, L KC and L KP).
+_REGISTERS = {"RLO": "rlo", "ACCU1": "accu1", "ACCU2": "accu2", "KREG": "constant"}
 
 HELP = """\
 break LINE | FILE:LINE [if OPERAND=VALUE]   stop before an IL line (b)
@@ -61,7 +63,7 @@ finish                      run out of the function block to its caller's next l
 continue                    run to a breakpoint or the end (c)
 cycle                       run to the start of the next program cycle
 time DURATION               let master time pass (e.g. time 100ms, time 2s)
-print X[, Y...]             I 1.0, FY 10, T 0, C 0, CV 0, TV 1, RLO, ACCU1, a symbol (p)
+print X[, Y...]             I 1.0, FY 10, T 0, C 0, CV 0, TV 1, RLO, ACCU1, KREG, a symbol (p)
 set OPERAND=VALUE           set an input or a flag (e.g. set I 1.0=1)
 where                       the current line and its callers (w)
 list                        the source around the current line (l)
@@ -129,7 +131,7 @@ class Values:
         view = self.view()
         upper = text.strip().upper()
         if upper in _REGISTERS:
-            return int(getattr(view, upper.lower()))
+            return int(getattr(view, _REGISTERS[upper]))
         return view.read(self.operand(text))
 
     def show(self, text: str) -> str:
@@ -142,6 +144,10 @@ class Values:
         if upper in ("ACCU1", "ACCU2"):
             word = self.value(upper)
             return f"{word} ({word:04X}h)"
+        if upper == "KREG":
+            k = view.constant
+            return (f"{k} ({k:03X}h; as L KT {k * 10} ms, as L KC {k}, "
+                    f"as L KP {k >> 4 & 0x1F}.{k & 0xF})")
         operand = self.operand(text)
         value = view.read(operand)
         node = operand.node
@@ -393,7 +399,7 @@ class Debugger:
             raise DebugError(str(exc)) from None
 
     def value(self, text: str) -> int:
-        """A register (RLO, ACCU1, ACCU2) or an operand, as the program sees it now."""
+        """A register (RLO, ACCU1, ACCU2, KREG) or an operand, as the program sees it now."""
         return self.values.value(text)
 
     def show(self, text: str) -> str:
