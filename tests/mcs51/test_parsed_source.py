@@ -82,3 +82,17 @@ def test_locate_reports_nothing_and_leaves_that_to_assemble():
 )
 def test_the_symbols_a_line_refers_to(line: str, names: list[str]):
     assert list(referenced_symbols(parse_line(line))) == names
+
+
+def test_a_layout_finishes_into_the_same_assembly_once():
+    layout = locate(parsed(PROGRAM), predefined=PREDEFINED)
+    assembly = layout.assemble()
+    assert assembly == assemble(from_string("gen", PROGRAM), predefined=PREDEFINED)
+    with pytest.raises(RuntimeError, match="assembled already"):
+        layout.assemble()
+
+
+def test_a_layout_reports_the_problems_when_it_is_assembled():
+    layout = locate(from_string("gen", "        JC nowhere\n"))
+    with pytest.raises(DiagnosticError, match="undefined symbol 'nowhere'"):
+        layout.assemble()

@@ -158,13 +158,24 @@ class ParsedSource:
     lines: Sequence[ParsedLine]
 
 
-@dataclass(frozen=True)
+@dataclass
 class Layout:
     """Where the first pass put things: the address of each line of the first source (up
-    to its END) and the value of every label, by its upper-case name."""
+    to its END) and the value of every label, by its upper-case name.
+
+    ``assemble`` finishes the assembly from here (once), so a caller that accepts the
+    layout it sees does not run the first pass again."""
 
     addresses: tuple[int, ...]
     labels: Mapping[str, int]
+    _assembler: _Assembler | None = field(default=None, repr=False)
+
+    def assemble(self) -> Assembly:
+        """The second pass over what was located. Raises ``DiagnosticError``."""
+        if self._assembler is None:
+            raise RuntimeError("this layout has been assembled already")
+        asm, self._assembler = self._assembler, None
+        return _second_pass(asm)
 
 
 @dataclass(slots=True)
@@ -713,6 +724,7 @@ def locate(
             for name, entry in asm.symbols.items()
             if entry.kind == "label" and entry.value is not None
         },
+        _assembler=asm,
     )
 
 
@@ -728,7 +740,10 @@ def assemble(
     replace SFR names but not reserved words. ``END`` ends the file it is in.
     Raises ``DiagnosticError`` with every problem found if any is an error.
     """
-    asm = _first_pass(sources, predefined, include)
+    return _second_pass(_first_pass(sources, predefined, include))
+
+
+def _second_pass(asm: _Assembler) -> Assembly:
     asm.settle_definitions()
     asm.emit_all()
     if asm.reporter.has_errors:
