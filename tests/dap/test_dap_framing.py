@@ -13,7 +13,7 @@ from dap_client import DapClient
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from asictl.dap.framing import MAX_BODY, Malformed, Reader, Writer
+from asictl.framing import MAX_BODY, Malformed, Reader, Writer
 
 
 def frame(body: bytes) -> bytes:
