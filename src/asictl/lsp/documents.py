@@ -12,7 +12,10 @@ version of each, so a change to one buffer drops only the analyses that read it:
 hundreds of open files, typing in one re-checks one program, not all of them. The store
 may be read from several threads (the server checks off its message loop): the buffers
 are copied under a lock into a ``View`` and analysed there, and an analysis is kept only
-if none of the files it read changed meanwhile.
+if none of the files it read changed meanwhile. Which main program calls a block is
+taken, for a request, from the last analysis of each program, current or not: a hover
+in a small file must not wait for the check of a megabyte program open beside it that
+has just changed (the checker, which groups the files for diagnostics, asks afresh).
 """
 
 from __future__ import annotations
@@ -94,6 +97,8 @@ class Documents:
     _versions: dict[str, int] = field(default_factory=dict)
     _analyses: dict[str, Analysis] = field(default_factory=dict)
     _lines: dict[str, list[str]] = field(default_factory=dict)
+    #: main program -> the files its last analysis read
+    _files: dict[str, frozenset[str]] = field(default_factory=dict)
     _lock: threading.Lock = field(default_factory=threading.Lock)
 
     # ------------------------------------------------------------------ buffers
@@ -167,7 +172,7 @@ class Documents:
         return self.view().analyse_open()
 
     def main_of(self, path: str) -> str:
-        return self.view().main_of(normal(path))
+        return self.view().main_of(normal(path), fresh=True)
 
     def cached(self, path: str) -> Analysis | None:
         """``analyse(path)`` if that needs no check (every analysis it takes is kept)."""
@@ -192,6 +197,7 @@ class Documents:
 
     def _keep(self, analysis: Analysis) -> None:
         with self._lock:
+            self._files[analysis.main] = frozenset(analysis.files)
             if all(self._versions.get(path, 0) == version
                    for path, version in analysis.reads.items()):
                 self._analyses[analysis.main] = analysis
@@ -214,24 +220,34 @@ class View:
     def analyse(self, path: str, *, check: bool = True) -> Analysis:
         self.check = check
         path = normal(path)
-        analysis = self._analyse_main(self.main_of(path))
+        analysis = self._analyse_main(self.main_of(path, fresh=False))
         return analysis if path in analysis.files else self._analyse_main(path)
 
     def analyse_open(self) -> list[Analysis]:
-        mains = dict.fromkeys(self.main_of(path) for path in self.buffers)
+        mains = dict.fromkeys(self.main_of(path, fresh=True) for path in self.buffers)
         return [self._analyse_main(main) for main in mains]
 
-    def main_of(self, path: str) -> str:
+    def main_of(self, path: str, *, fresh: bool) -> str:
+        """The main program ``path`` is analysed in: an open one that reads it (by its
+        current analysis if ``fresh``, else by its last), else a neighbour that declares
+        it, else itself."""
         for other in self.buffers:
-            if other != path and not _is_block_file(other):
-                analysis = self._analyse_main(other)
-                if path in analysis.files:
-                    return other
+            if other != path and not _is_block_file(other) and path in self._files_of(
+                    other, fresh):
+                return other
         if _is_block_file(path):
             for candidate in self._neighbours(path):
                 if self._declares(candidate, path):
                     return candidate
         return path
+
+    def _files_of(self, main: str, fresh: bool) -> frozenset[str]:
+        if not fresh:
+            with self.documents._lock:
+                known = self.documents._files.get(main)
+            if known is not None:
+                return known
+        return frozenset(self._analyse_main(main).files)
 
     def _analyse_main(self, main: str) -> Analysis:
         kept = self.documents._kept(main, self.versions)

@@ -18,6 +18,7 @@ long line cost more than linear time.
 from __future__ import annotations
 
 import asyncio
+import logging
 import sys
 import threading
 from collections.abc import Sequence
@@ -114,12 +115,7 @@ class AsiLanguageServer(LanguageServer):
         return self.documents.lines(path)
 
     def _units(self, text: str) -> int:
-        encoding = self.workspace.position_encoding
-        if encoding == lsp.PositionEncodingKind.Utf8:
-            return len(text.encode("utf-8"))
-        if encoding == lsp.PositionEncodingKind.Utf32:
-            return len(text)
-        return len(text.encode("utf-16-le")) // 2
+        return _units(text, self.workspace.position_encoding)
 
     def _column(self, text: str, units: int) -> int:
         """How many characters of ``text`` its first ``units`` code units hold whole.
@@ -127,12 +123,13 @@ class AsiLanguageServer(LanguageServer):
         Every character takes at least one unit, so they lie within the first ``units``
         characters: the time is the column's, not the line's (a hover at the start of a
         line of 400,000 characters costs what one on a short line does)."""
+        encoding = self.workspace.position_encoding
         prefix = text[:units]
-        if self._units(prefix) == len(prefix):  # one unit each (ASCII, or UTF-32)
+        if _units(prefix, encoding) == len(prefix):  # one unit each (ASCII, or UTF-32)
             return len(prefix)
         count = 0
         for n, char in enumerate(prefix):
-            count += self._units(char)
+            count += _units(char, encoding)
             if count > units:
                 return n
         return len(prefix)
@@ -225,13 +222,23 @@ class AsiLanguageServer(LanguageServer):
         found: list[tuple[Analysis, _ByFile]] = []
         for analysis in self.documents.analyse_open():
             mains.append(analysis.main)
-            if self.published.get(analysis.main) is analysis or \
-                    not self.documents.is_current(analysis):
-                continue
-            found.append((analysis, {
-                file: [self.diagnostic(d, analysis) for d in analysis.diagnostics(file)]
-                for file in analysis.files}))
+            if self.published.get(analysis.main) is not analysis:
+                by_file = self._convert(analysis)
+                if by_file is not None:
+                    found.append((analysis, by_file))
         return mains, found
+
+    def _convert(self, analysis: Analysis) -> _ByFile | None:
+        """The analysis's diagnostics as the editor gets them, or None as soon as a change
+        makes it stale (tens of thousands of them take a while)."""
+        by_file: _ByFile = {}
+        for file in analysis.files:
+            items = by_file[file] = []
+            for n, d in enumerate(analysis.diagnostics(file)):
+                if n % 1000 == 0 and not self.documents.is_current(analysis):
+                    return None
+                items.append(self.diagnostic(d, analysis))
+        return by_file if self.documents.is_current(analysis) else None
 
     def _publish(self, mains: list[str], found: list[tuple[Analysis, _ByFile]]) -> None:
         """Send what a check found that is still current; files no longer covered by
@@ -261,6 +268,10 @@ class AsiLanguageServer(LanguageServer):
         the process) or its input ends."""
         self._stop_event = threading.Event()
         self.protocol.set_writer(StdoutWriter(stdout))
+        # pygls logs a traceback to standard error for every message it cannot read; the
+        # server answers or logs those itself, in one line, and a client that does not
+        # drain standard error would otherwise stall the server once the pipe is full.
+        logging.getLogger("pygls").setLevel(logging.CRITICAL)
         try:
             asyncio.run(self._serve(stdin))
         finally:
@@ -336,6 +347,15 @@ class AsiLanguageServer(LanguageServer):
 _ByFile = dict[str, list[lsp.Diagnostic]]
 #: the requests made at a position in a file
 _AtPosition = lsp.HoverParams | lsp.DefinitionParams | lsp.ReferenceParams | lsp.CompletionParams
+
+
+def _units(text: str, encoding: lsp.PositionEncodingKind | str | None) -> int:
+    """The length of ``text`` in the editor's code units (UTF-16 unless it chose)."""
+    if encoding == lsp.PositionEncodingKind.Utf8:
+        return len(text.encode("utf-8"))
+    if encoding == lsp.PositionEncodingKind.Utf32:
+        return len(text)
+    return len(text.encode("utf-16-le")) // 2
 
 
 def _why(exc: JsonRpcException) -> str:
