@@ -224,7 +224,16 @@ class View:
         return analysis if path in analysis.files else self._analyse_main(path)
 
     def analyse_open(self) -> list[Analysis]:
-        mains = dict.fromkeys(self.main_of(path, fresh=True) for path in self.buffers)
+        """``main_of`` for every buffer, in time linear in their number: each open main
+        program is analysed once, and who reads which file is looked up from that."""
+        readers: dict[str, list[str]] = {}
+        for other in self.buffers:
+            if not _is_block_file(other):
+                for file in self._analyse_main(other).files:
+                    readers.setdefault(file, []).append(other)
+        mains = dict.fromkeys(
+            next((m for m in readers.get(path, ()) if m != path), None)
+            or self._unread_main(path) for path in self.buffers)
         return [self._analyse_main(main) for main in mains]
 
     def main_of(self, path: str, *, fresh: bool) -> str:
@@ -235,6 +244,11 @@ class View:
             if other != path and not _is_block_file(other) and path in self._files_of(
                     other, fresh):
                 return other
+        return self._unread_main(path)
+
+    def _unread_main(self, path: str) -> str:
+        """The main program of a file no open program reads: for a block, an ``.asi``
+        file beside it that declares it; else the file itself."""
         if _is_block_file(path):
             for candidate in self._neighbours(path):
                 if self._declares(candidate, path):
