@@ -12,10 +12,12 @@ version of each, so a change to one buffer drops only the analyses that read it:
 hundreds of open files, typing in one re-checks one program, not all of them. The store
 may be read from several threads (the server checks off its message loop): the buffers
 are copied under a lock into a ``View`` and analysed there, and an analysis is kept only
-if none of the files it read changed meanwhile. Which main program calls a block is
-taken, for a request, from the last analysis of each program, current or not: a hover
-in a small file must not wait for the check of a megabyte program open beside it that
-has just changed (the checker, which groups the files for diagnostics, asks afresh).
+if none of the files it read changed meanwhile; a thread that needs an analysis another
+is making of the same texts waits for that one rather than make it twice. Which main
+program calls a block is taken, for a request, from the last analysis of each program,
+current or not: a hover in a small file must not wait for the check of a megabyte
+program open beside it that has just changed (the checker, which groups the files for
+diagnostics, asks afresh).
 """
 
 from __future__ import annotations
@@ -24,6 +26,7 @@ import os
 import re
 import threading
 from collections.abc import Iterable, Mapping
+from concurrent.futures import Future
 from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
@@ -99,6 +102,8 @@ class Documents:
     _lines: dict[str, list[str]] = field(default_factory=dict)
     #: main program -> the files its last analysis read
     _files: dict[str, frozenset[str]] = field(default_factory=dict)
+    #: main program -> the analysis a thread is making, and of which buffer versions
+    _making: dict[str, tuple[dict[str, int], Future[Analysis]]] = field(default_factory=dict)
     _lock: threading.Lock = field(default_factory=threading.Lock)
 
     # ------------------------------------------------------------------ buffers
@@ -269,6 +274,31 @@ class View:
             return kept
         if not self.check:
             raise _NotCached(main)
+        documents = self.documents
+        with documents._lock:
+            making = documents._making.get(main)
+            if making is not None and making[0] == self.versions:
+                waiting = making[1]  # another thread checks the same texts: wait for it
+            else:
+                waiting = None
+                made: Future[Analysis] = Future()
+                documents._making[main] = (self.versions, made)
+        if waiting is not None:
+            return waiting.result()
+        try:
+            analysis = self._make(main)
+        except BaseException as exc:
+            made.set_exception(exc)
+            raise
+        else:
+            made.set_result(analysis)
+            return analysis
+        finally:
+            with documents._lock:
+                if documents._making.get(main, (None, None))[1] is made:
+                    del documents._making[main]
+
+    def _make(self, main: str) -> Analysis:
         reads: dict[str, int] = {}
 
         def read(path: str | Path) -> SourceText:
