@@ -138,7 +138,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--src", type=Path, default=ROOT / "src",
                         help="the asictl sources whose server is run")
-    parser.add_argument("--sizes", type=int, nargs="+", default=[100, 1024],
+    parser.add_argument("--sizes", type=int, nargs="*", default=[100, 1024],
                         help="document sizes in KB")
     parser.add_argument("--skip-big", action="store_true",
                         help="leave out the hover during a 1 MB check")

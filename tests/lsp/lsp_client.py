@@ -92,6 +92,7 @@ class LspClient:
                         message["params"]["uri"] == uri and until(
                         message["params"]["diagnostics"]):
                     return list(message["params"]["diagnostics"])
+            after = len(self.notifications)  # each message is looked at once
             self._keep(self._next(deadline))
 
     def close(self) -> int:

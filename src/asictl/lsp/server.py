@@ -457,12 +457,14 @@ def build(lib: Sequence[str] = ()) -> AsiLanguageServer:
                 for first, last in navigation.folding_ranges(module, analysis.text(path))]
 
     @server.feature(lsp.TEXT_DOCUMENT_FORMATTING)
-    def on_formatting(ls: AsiLanguageServer, params: lsp.DocumentFormattingParams
-                      ) -> list[lsp.TextEdit] | None:
+    async def on_formatting(ls: AsiLanguageServer, params: lsp.DocumentFormattingParams
+                            ) -> list[lsp.TextEdit] | None:
         path = ls.path(params.text_document.uri)
-        source = ls.documents.source(path)
-        try:
-            formatted = format_text(source.text, path).split("\n")
+        text = ls.documents.text(path)
+        loop = asyncio.get_running_loop()
+        try:  # on the answering thread: a megabyte takes a while
+            formatted = (await loop.run_in_executor(ls.answerer, format_text, text, path)
+                         ).split("\n")
         except DiagnosticError as exc:
             errors = sum(d.is_error for d in exc.diagnostics)
             ls.window_show_message(lsp.ShowMessageParams(
@@ -474,7 +476,7 @@ def build(lib: Sequence[str] = ()) -> AsiLanguageServer:
             ls.window_show_message(
                 lsp.ShowMessageParams(type=lsp.MessageType.Error, message=str(exc)))
             return None
-        old = ls.lines(path)
+        old = text.split("\n")
         return [
             lsp.TextEdit(
                 lsp.Range(lsp.Position(n, 0), lsp.Position(n, ls._units(old[n]))), new)
