@@ -121,8 +121,9 @@ class AsiLanguageServer(LanguageServer):
         """How many characters of ``text`` its first ``units`` code units hold whole.
 
         Every character takes at least one unit, so they lie within the first ``units``
-        characters: the time is the column's, not the line's (a hover at the start of a
-        line of 400,000 characters costs what one on a short line does)."""
+        characters: the time is the column's, not the line's, and one encoding of them
+        settles the usual case (a hover at the end of a line of 400,000 characters took
+        46 s when every prefix was encoded in turn)."""
         encoding = self.workspace.position_encoding
         prefix = text[:units]
         if _units(prefix, encoding) == len(prefix):  # one unit each (ASCII, or UTF-32)
