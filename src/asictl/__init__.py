@@ -22,6 +22,7 @@ LAYERS: tuple[tuple[tuple[str, str], ...], ...] = (
         ("diagnostics", "`file:line:col: error: ...` with source line and caret, JSON, GitHub"),
         ("codes", "every diagnostic code, one enumeration per stage"),
         ("platform", "hardware facts, each defined once: the master, the PC2, the gateway"),
+        ("framing", "the Content-Length frames of the editor protocols (LSP, DAP)"),
     ),
     (
         ("source", "reading DOS-era text (UTF-8, CP850, Latin-1; CR LF; Ctrl-Z)"),
