@@ -16,6 +16,8 @@ left by the cycles that started before T; at equal times sets come before checks
 
 from __future__ import annotations
 
+import copy
+import math
 from dataclasses import dataclass, field
 from pathlib import PurePath
 
@@ -39,6 +41,7 @@ from asictl.runtime.line_map import LineMap
 from asictl.runtime.program_map import ProgramMap
 from asictl.runtime.runner import ProgramRunner
 from asictl.sim.observation import Observation, Refusal, Stop
+from asictl.sim.plant import Plant
 from asictl.sim.scenario import Scenario, SlaveSpec, Step
 from asictl.sim.trace import Mark, Signal, Trace
 from asictl.sim.tracing import RUNNING, LineTrace, Sample, Signals
@@ -173,10 +176,19 @@ class Simulation:
         self.window = window
         #: what a trace cannot show, in words (an image without its source)
         self.untraced = ""
+        #: the scenario's plant models (copies: a scenario may run more than once)
+        self.plant = Plant(copy.deepcopy(scenario.plants))
+        self._io = _PlantIO(self)
+        #: where the current ``advance`` ends, and whether a model paused it before
+        self._limit = math.inf
+        self._paused = False
         self._signals: list[tuple[Signal, Sample]] = []
         if trace:
+            lanes = [(Signal(lane.name, lane.width, operand=lane.name), lane.sample)
+                     for lane in self.plant.lanes()]
             traced = Signals(self.program, self.image, self.symbols, signals, self.read,
-                             lambda: int(self._running))
+                             lambda: int(self._running), lanes,
+                             [str(o) for m in self.plant.models for o in m.driven()])
             self._signals, self.untraced = traced.sampled, traced.untraced
         self._tracer: LineTrace | None = None
         if il_trace:
@@ -248,6 +260,22 @@ class Simulation:
         else:
             raise ValueError(f"'{operand}' cannot be set: only inputs and flags can")
 
+    def _check_plant(self) -> None:
+        """Every input a plant model drives belongs to a slave on the bus."""
+        for model in self.plant.models:
+            for operand in model.driven():
+                node = operand.node
+                if node.kind in (ast.OperandKind.I, ast.OperandKind.IB) \
+                        and not self.board.bus.at(node.address):
+                    message = (f"{model.name} drives '{operand}' of slave {node.address}, "
+                               "which is not on the bus")
+                    if not model.line:
+                        raise ValueError(message)
+                    raise DiagnosticError([Diagnostic(
+                        Severity.ERROR, ScenarioCode.NO_SUCH_SLAVE, message,
+                        Span(self.scenario.file, model.line, 1),
+                    )])
+
     def _need_slave(self, address: int, step: Step | None, line: int, what: str) -> Slave:
         slaves = self.board.bus.at(address)
         if not slaves:
@@ -293,6 +321,9 @@ class Simulation:
         program cycle (or, if the program cannot start within a second, the moment the
         start was given, the stop then being reported at time 0)."""
         board = self.board
+        if self.plant.models:  # the models' inputs at time 0, before any cycle
+            self._check_plant()
+            self.plant.update(0.0, self._io)
         self._run_steps(0.0)
         if self._tracer is not None and self.window[0] <= 0:
             self._trace_lines(True)
@@ -346,20 +377,31 @@ class Simulation:
 
     def run_to(self, t_ms: float) -> None:
         """Let master time pass up to ``t_ms``, applying the steps (and trace window
-        edges) on the way; the steps at ``t_ms`` are applied and its cycles run."""
+        edges) and evaluating the plant models at their changes on the way; the steps at
+        ``t_ms`` are applied and its cycles run."""
         events = self._events
-        while self._next_event < len(events) and events[self._next_event] <= t_ms:
-            at = events[self._next_event]
-            self._next_event += 1
+        while True:
+            at = events[self._next_event] if self._next_event < len(events) else math.inf
             if at <= self._done_ms:
+                self._next_event += 1
+                continue
+            change = self.plant.next_change_ms() if self.plant.models else None
+            if change is not None and change <= t_ms and change < at:
+                if self._advance_to(change - _BEFORE_MS):  # applied as a set at its time
+                    self._plant_update(change)
+                continue
+            if at > t_ms:
+                if self._advance_to(t_ms):
+                    return
                 continue
             step = at in self._by_time
-            self._advance_to(at - _BEFORE_MS if step else at)
+            if not self._advance_to(at - _BEFORE_MS if step else at):
+                continue
+            self._next_event += 1
             self._window_edge(at)
             if step:
                 self._run_steps(at)
             self._done_ms = at
-        self._advance_to(t_ms)
 
     def finish(self) -> SimResult:
         result = self.result
@@ -385,10 +427,25 @@ class Simulation:
         if end is not None and at == end + _BEFORE_MS:
             self._trace_lines(False)
 
-    def _advance_to(self, t_ms: float) -> None:
-        delta = t_ms - self.now_ms()
-        if delta > 0:
-            self.board.advance(delta)
+    def _advance_to(self, t_ms: float) -> bool:
+        """Let master time pass up to ``t_ms``; False when a plant model paused the board
+        before it (its next change came sooner than planned)."""
+        self._limit = t_ms
+        while round(t_ms * 1000) > round(self.now_ms() * 1000):
+            self._paused = False
+            self.board.advance(t_ms - self.now_ms())
+            if self._paused:
+                return round(t_ms * 1000) <= round(self.now_ms() * 1000)
+        return True
+
+    def _plant_update(self, at: float) -> None:
+        """Evaluate the plant models at ``at`` (an input of theirs changes then)."""
+        self.plant.update(at, self._io)
+        self._sample(at)
+
+    def _sample(self, now: float) -> None:
+        for signal, read in self._signals:
+            signal.record(now, read())
 
     def _apply(self, step: Step) -> None:
         bus = self.board.bus
@@ -428,12 +485,30 @@ class Simulation:
             self._running = running
             if not running:
                 self.observation.stop(self.now_ms())
+        if self.plant.models:
+            self.plant.update(self.now_ms(), self._io)
+            change = self.plant.next_change_ms()
+            if change is not None and change - _BEFORE_MS < self._limit:
+                self._paused = True  # a model changes an input before the planned end
+                board.pause()
         if self._signals:
-            now = self.now_ms()
-            for signal, read in self._signals:
-                signal.record(now, read())
+            self._sample(self.now_ms())
 
     def _trace_lines(self, on: bool) -> None:
         if self._tracer is not None:
             self._tracer.switch(on, self.view)
 
+
+
+class _PlantIO:
+    """The plant models' view of a simulation: operands as ``Simulation.read`` gives
+    them, inputs written as a scenario's ``set`` writes them."""
+
+    def __init__(self, simulation: Simulation) -> None:
+        self._simulation = simulation
+
+    def read(self, operand: Operand) -> int:
+        return self._simulation.read(operand)
+
+    def write(self, operand: Operand, value: int) -> None:
+        self._simulation.set(operand, value)

@@ -24,6 +24,8 @@ from asictl.il.parser import parse_text
 from asictl.il.suggest import did_you_mean
 from asictl.observe.operands import Operand, check_value, parse_operand
 from asictl.observe.symbols import SymbolTable
+from asictl.sim.condition import Condition, parse_condition
+from asictl.sim.plant import Model, Plant, read_model
 from asictl.source import SourceText, read_source
 
 _DURATION = re.compile(r"^\s*(\d+(?:\.\d+)?)\s*(ms|s|m|min|h)?\s*$", re.IGNORECASE)
@@ -93,6 +95,8 @@ class Scenario:
     steps: list[Step]
     #: test markers (``markers = ["slow"]``) for test runners
     markers: list[str] = field(default_factory=list)
+    #: the ``[[plant]]`` models, as read (a simulation runs copies)
+    plants: list[Model] = field(default_factory=list)
 
     @property
     def end_ms(self) -> float:
@@ -104,7 +108,7 @@ class Scenario:
         return sorted(self.steps, key=lambda s: s.at_ms)
 
 
-_TOP_KEYS = ("program", "master", "step", "markers")
+_TOP_KEYS = ("program", "master", "step", "markers", "plant")
 _MASTER_KEYS = ("cycle_ms", "slaves")
 _STEP_KEYS = {"at_ms", "at", "set", "expect", "add_slaves", "remove_slaves", "power_fail",
               "press_set_button"}
@@ -122,6 +126,8 @@ class _Reader:
         layout = _scan(source.text)
         self.too_deep = layout.too_deep
         self.step_lines = layout.step_lines
+        self.plant_lines = layout.plant_lines
+        self.headers = layout.headers
 
     def span(self, line: int, column: int = 1) -> Span:
         return Span(self.source.name, line, column)
@@ -407,9 +413,63 @@ def read_scenario(
         reader.error("steps are [[step]] tables", 1)
         raw_steps = []
     steps = [s for i, d in enumerate(raw_steps) if (s := _step(reader, i, d))]
+    plants = _plants(reader, data.get("plant", []), steps)
     if reader.report.has_errors:
         raise DiagnosticError(reader.report.diagnostics)
-    return Scenario(source.name, program_path, cycle_ms, slaves, steps, list(markers))
+    return Scenario(source.name, program_path, cycle_ms, slaves, steps, list(markers), plants)
+
+
+class _PlantPlace:
+    """A ``[[plant]]`` table's lines, for ``plant.read_model``'s problems."""
+
+    def __init__(self, reader: _Reader, line: int, end: int) -> None:
+        self.reader = reader
+        self.line = line
+        self.end = end
+
+    def problem(self, message: str, key: str | None = None) -> None:
+        line, column = self.reader.key_at(key, self.line, self.end) if key else (self.line, 1)
+        self.reader.error(message, line, column)
+
+    def operand(self, text: str) -> Operand:
+        return parse_operand(text, self.reader.variables, self.reader.symbols)
+
+    def condition(self, text: str) -> Condition:
+        return parse_condition(text, self.reader.variables, self.reader.symbols)
+
+
+def _plants(reader: _Reader, raw: object, steps: list[Step]) -> list[Model]:
+    """The ``[[plant]]`` models; a model writing an input another one writes, or that a
+    step sets, is an error (at that step's key)."""
+    lines = reader.plant_lines
+    if not isinstance(raw, list) or not all(isinstance(t, dict) for t in raw):
+        reader.error("plant models are [[plant]] tables", lines[0] if lines else 1)
+        return []
+    plant = Plant()
+    counts: dict[str, int] = {}
+    for index, table in enumerate(raw):
+        line = lines[index] if index < len(lines) else 1
+        later = [h for h in (*reader.headers, *lines) if h > line]
+        place = _PlantPlace(reader, line, min(later, default=len(reader.lines) + 1) - 1)
+        kind = str(table.get("type", "plant"))
+        counts[kind] = counts.get(kind, 0) + 1
+        model = read_model(table, f"{kind}{counts[kind]}", place)
+        if model is None:
+            continue
+        model.line = line
+        try:
+            plant.add(model)
+        except ValueError as exc:
+            place.problem(str(exc))
+    for step in steps:
+        for operand, _, line in step.set:
+            driver = plant.driver_of(operand)
+            if driver is not None:
+                written = step.written.get((line, str(operand)), str(operand))
+                at, column = reader.key_at(written, line, line)
+                reader.error(f"'{written}' is driven by the plant model {driver.name}: a step "
+                             "cannot set it", at, column)
+    return plant.models
 
 
 def load_scenario(
@@ -446,10 +506,17 @@ class _Layout:
 
     step_lines: list[int]
     too_deep: int = 0
+    #: each ``[[plant]]`` table's first line (or its ``{`` in a ``plant = [...]`` array)
+    plant_lines: list[int] = field(default_factory=list)
+    #: the line of every table header (``[master]``, ``[[step]]``, ...), where a table ends
+    headers: list[int] = field(default_factory=list)
 
 
 _STEP_HEADER = re.compile(r"\s*\[\[\s*step\s*\]\]")
 _STEP_ARRAY = re.compile(r"\s*step\s*=\s*\[")
+_PLANT_HEADER = re.compile(r"\s*\[\[\s*plant\s*\]\]")
+_PLANT_ARRAY = re.compile(r"\s*plant\s*=\s*\[")
+_HEADER = re.compile(r"\s*\[")
 
 
 def _scan(text: str) -> _Layout:
@@ -462,6 +529,7 @@ def _scan(text: str) -> _Layout:
     layout = _Layout([])
     depth = 0
     array_depth = -1  # the bracket depth inside an inline step array, while in one
+    array_lines = layout.step_lines  # where that array's elements are noted
     line = 1
     i, n = 0, len(text)
     at_line_start = True
@@ -472,8 +540,14 @@ def _scan(text: str) -> _Layout:
             rest = text[i : n if end < 0 else end]
             if _STEP_HEADER.match(rest):
                 layout.step_lines.append(line)
-            elif _STEP_ARRAY.match(rest):
+            elif _PLANT_HEADER.match(rest):
+                layout.plant_lines.append(line)
+            elif _STEP_ARRAY.match(rest) or _PLANT_ARRAY.match(rest):
                 array_depth = 1
+                array_lines = layout.step_lines if _STEP_ARRAY.match(rest) \
+                    else layout.plant_lines
+            if _HEADER.match(rest):
+                layout.headers.append(line)
         at_line_start = False
         if c == "\n":
             line += 1
@@ -490,7 +564,7 @@ def _scan(text: str) -> _Layout:
             if depth > MAX_NESTING and not layout.too_deep:
                 layout.too_deep = line
             if c == "{" and array_depth >= 0 and depth == array_depth + 1:
-                layout.step_lines.append(line)
+                array_lines.append(line)
         elif c in "]}":
             depth = max(0, depth - 1)
             if array_depth >= 0 and depth < array_depth:
