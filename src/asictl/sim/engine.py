@@ -17,6 +17,7 @@ left by the cycles that started before T; at equal times sets come before checks
 from __future__ import annotations
 
 import copy
+import functools
 import math
 from dataclasses import dataclass, field
 from pathlib import PurePath
@@ -41,7 +42,7 @@ from asictl.runtime.line_map import LineMap
 from asictl.runtime.program_map import ProgramMap
 from asictl.runtime.runner import ProgramRunner
 from asictl.sim.observation import Observation, Refusal, Stop
-from asictl.sim.plant import Plant
+from asictl.sim.plant import Model, Plant
 from asictl.sim.scenario import Scenario, SlaveSpec, Step
 from asictl.sim.trace import Mark, Signal, Trace
 from asictl.sim.tracing import RUNNING, LineTrace, Sample, Signals
@@ -52,6 +53,8 @@ _BEFORE_MS = 0.001
 _POWER_UP_MS = 100.0
 #: How long the master may take after the start command to run the first cycle.
 _START_WAIT_MS = 1000.0
+#: How often a trace samples a moving plant model without a cycle period of its own.
+_SAMPLE_MS = 10.0
 
 
 @dataclass
@@ -183,6 +186,9 @@ class Simulation:
         self._limit = math.inf
         self._paused = False
         self._signals: list[tuple[Signal, Sample]] = []
+        self._trace = trace
+        #: how often a trace samples a moving model between its changes
+        self._sample_ms = (scenario.cycle_ms or _SAMPLE_MS) if trace else None
         if trace:
             lanes = [(Signal(lane.name, lane.width, operand=lane.name), lane.sample)
                      for lane in self.plant.lanes()]
@@ -260,9 +266,43 @@ class Simulation:
         else:
             raise ValueError(f"'{operand}' cannot be set: only inputs and flags can")
 
-    def _check_plant(self) -> None:
-        """Every input a plant model drives belongs to a slave on the bus."""
-        for model in self.plant.models:
+    def add_model(self, model: Model) -> Model:
+        """Add a plant model before the run starts (``asictl.testing`` does); its lanes
+        join the trace. ``ValueError`` if another model drives one of its inputs or a
+        slave of them is not on the bus."""
+        if self.started:
+            raise ValueError("plant models are added before the program runs")
+        self.plant.add(model)
+        try:
+            self._check_plant([model])
+        except ValueError:
+            self.plant.models.remove(model)
+            raise
+        if self._trace:
+            known = {signal.operand for signal, _ in self._signals}
+            for operand in model.driven():
+                if str(operand) not in known:
+                    name = self.symbols.label(str(operand))
+                    self._signals.append((Signal(name, operand.width, operand=str(operand)),
+                                          functools.partial(self.read, operand)))
+            self._signals += [(Signal(lane.name, lane.width, operand=lane.name), lane.sample)
+                              for lane in model.lanes()]
+        return model
+
+    def evaluate_plant(self) -> None:
+        """Evaluate the plant models now, so that their state is as of now for a reader
+        (between their changes they are evaluated only after the cycles that ran)."""
+        if self.plant.models and self.started:
+            self._plant_update(self.now_ms())
+
+    def trace_now(self) -> Trace:
+        """The trace recorded so far (empty without ``trace=True``), with the stops."""
+        marks = [Mark(s.at_ms, f"stopped: {s.text}", RUNNING) for s in self.result.stops]
+        return Trace([s for s, _ in self._signals], end_ms=self._since_start(), marks=marks)
+
+    def _check_plant(self, models: list[Model]) -> None:
+        """Every input these plant models drive belongs to a slave on the bus."""
+        for model in models:
             for operand in model.driven():
                 node = operand.node
                 if node.kind in (ast.OperandKind.I, ast.OperandKind.IB) \
@@ -322,7 +362,7 @@ class Simulation:
         start was given, the stop then being reported at time 0)."""
         board = self.board
         if self.plant.models:  # the models' inputs at time 0, before any cycle
-            self._check_plant()
+            self._check_plant(self.plant.models)
             self.plant.update(0.0, self._io)
         self._run_steps(0.0)
         if self._tracer is not None and self.window[0] <= 0:
@@ -385,7 +425,7 @@ class Simulation:
             if at <= self._done_ms:
                 self._next_event += 1
                 continue
-            change = self.plant.next_change_ms() if self.plant.models else None
+            change = self.plant.next_change_ms(self._sample_ms) if self.plant.models else None
             if change is not None and change <= t_ms and change < at:
                 if self._advance_to(change - _BEFORE_MS):  # applied as a set at its time
                     self._plant_update(change)
@@ -487,7 +527,7 @@ class Simulation:
                 self.observation.stop(self.now_ms())
         if self.plant.models:
             self.plant.update(self.now_ms(), self._io)
-            change = self.plant.next_change_ms()
+            change = self.plant.next_change_ms(self._sample_ms)
             if change is not None and change - _BEFORE_MS < self._limit:
                 self._paused = True  # a model changes an input before the planned end
                 board.pause()

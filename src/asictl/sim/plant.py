@@ -111,6 +111,11 @@ class Model:
         change while the outputs stay as they are (None: never)."""
         return None
 
+    @property
+    def moving(self) -> bool:
+        """Does a lane's value change between the input changes (a position, a level)?"""
+        return False
+
     def _advance(self, dt: int, now: int) -> None:
         """The state ``dt`` microseconds later (``now`` is the new time)."""
 
@@ -169,6 +174,11 @@ class Cylinder(Model):
         if self.retracted is not None:
             found.append((self.retracted, int(self.travel <= 0)))
         return found
+
+    @property
+    def moving(self) -> bool:
+        return (self.direction > 0 and self.travel < self.stroke) or (
+            self.direction < 0 and self.travel > 0)
 
     def next_change(self) -> int | None:
         if self.direction > 0 and self.travel < self.stroke:
@@ -253,6 +263,10 @@ class Conveyor(Model):
             for barrier, (start, end) in zip(self.barriers, self._edges, strict=True)
         ]
 
+    @property
+    def moving(self) -> bool:
+        return self.running and bool(self.parts)
+
     def next_change(self) -> int | None:
         times = [self._arrivals[-1]] if self._arrivals else []
         if self.running:
@@ -309,6 +323,10 @@ class Tank(Model):
 
     def _inputs(self) -> list[tuple[Operand, int]]:
         return [(s.input, int(self.level >= s.at)) for s in self.switches]
+
+    @property
+    def moving(self) -> bool:
+        return (self.rate > 0 and self.level < self.capacity) or (self.rate < 0 and self.level > 0)
 
     def next_change(self) -> int | None:
         times = []
@@ -456,9 +474,13 @@ class Plant:
         for model in self.models:
             model.update(now_ms, io)
 
-    def next_change_ms(self) -> float | None:
-        """The next moment a model's input would change, in milliseconds (None: never)."""
+    def next_change_ms(self, sample_ms: float | None = None) -> float | None:
+        """The next moment a model's input would change, in milliseconds (None: never);
+        with ``sample_ms``, also ``sample_ms`` after the last evaluation while a model is
+        moving, so that a trace draws its position or level as it goes."""
         times = [t for m in self.models if (t := m.next_change()) is not None]
+        if sample_ms is not None:
+            times += [m._t + round(sample_ms * 1000) for m in self.models if m.moving]
         return min(times) / 1000 if times else None
 
     def lanes(self) -> list[Lane]:

@@ -162,18 +162,25 @@ class _Reader:
 
 def _slave(reader: _Reader, address: object, spec: object, line: int) -> SlaveSpec | None:
     try:
+        return parse_slave(address, spec)
+    except ValueError as exc:
+        reader.error(str(exc), line)
+        return None
+
+
+def parse_slave(address: object, spec: object) -> SlaveSpec:
+    """A slave as ``[master] slaves`` names it: address 1..31 and ``"iiio,1"`` (I/O code,
+    ID, optional parameter, as in [SETUP]); ``ValueError`` says what is wrong."""
+    try:
         number = int(str(address))  # TOML keys are strings
     except ValueError:
-        reader.error(f"slave address '{address}' is not a number", line)
-        return None
+        raise ValueError(f"slave address '{address}' is not a number") from None
     if not isinstance(spec, str):
-        reader.error(f"slave {number}: expected a string like \"iiio,1\", got {spec!r}", line)
-        return None
+        raise ValueError(f"slave {number}: expected a string like \"iiio,1\", got {spec!r}")
     module, diagnostics = parse_text(f"[SETUP]\n{number}: {spec}\n", "<slave>")
     setup = module.sections_of(ast.SetupSection)
     if diagnostics or not setup or not setup[0].slaves:
-        reader.error(f"slave {number}: '{spec}' is not 'I/O code, ID[, parameter]'", line)
-        return None
+        raise ValueError(f"slave {number}: '{spec}' is not 'I/O code, ID[, parameter]'")
     slave = setup[0].slaves[0]
     problems = [
         what for what, value in (("I/O code", slave.io_code), ("ID", slave.id_code),
@@ -181,9 +188,8 @@ def _slave(reader: _Reader, address: object, spec: object, line: int) -> SlaveSp
         if value is not None and not 0 <= value <= 0xF
     ]
     if not 1 <= number <= 31 or problems:
-        reader.error(f"slave {number}: address 1..31 and {', '.join(problems) or 'codes'} "
-                     "0..F expected", line)
-        return None
+        raise ValueError(f"slave {number}: address 1..31 and {', '.join(problems) or 'codes'} "
+                         "0..F expected")
     parameter = 0xF if slave.parameter is None else slave.parameter
     return SlaveSpec(number, slave.io_code, slave.id_code, parameter)
 
