@@ -22,6 +22,8 @@ _COMPARE: dict[str, Callable[[int, int], bool]] = {
     "==": operator.eq, "!=": operator.ne, "<": operator.lt, "<=": operator.le,
     ">": operator.gt, ">=": operator.ge,
 }
+#: Parentheses (and ``not``) nested deeper than this are refused, not a recursion error.
+MAX_DEPTH = 32
 #: How a condition reads an operand's value now.
 Read = Callable[[Operand], int]
 _Node = Callable[[Read], bool]
@@ -68,6 +70,7 @@ class _Parser:
         self.variables = variables
         self.symbols = symbols
         self.operands: list[Operand] = []
+        self.depth = 0
 
     def peek(self) -> str:
         return self.tokens[self.at].lower() if self.at < len(self.tokens) else ""
@@ -100,10 +103,20 @@ class _Parser:
         token = self.take()
         word = token.lower()
         if word == "not":
+            self.depth += 1
+            if self.depth > MAX_DEPTH:
+                raise ValueError(f"condition '{self.text[:40]}': 'not' nested more than "
+                                 f"{MAX_DEPTH} deep")
             inner = self.single()
+            self.depth -= 1
             return lambda read: not inner(read)
         if word == "(":
+            self.depth += 1
+            if self.depth > MAX_DEPTH:
+                raise ValueError(f"condition '{self.text[:40]}': parentheses nested more "
+                                 f"than {MAX_DEPTH} deep")
             inner = self.either()
+            self.depth -= 1
             if self.take() != ")":
                 raise ValueError(f"condition '{self.text}': ')' expected")
             return inner

@@ -19,6 +19,7 @@ from __future__ import annotations
 import copy
 import functools
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import PurePath
 
@@ -32,13 +33,14 @@ from asictl.host.transfer import Pc2Transport, StartMode, download
 from asictl.il import ast
 from asictl.il.loader import Program
 from asictl.image.eeprom import ProgramImage
+from asictl.mcs51.emulator import Emulator
 from asictl.observe.iltrace import LineRow
 from asictl.observe.operands import Operand
 from asictl.observe.symbols import SymbolTable
 from asictl.observe.view import ProgramView, host_write, read_on_board
 from asictl.platform import pc2 as d
 from asictl.platform.master import IO_CODE_BITS, ControlFlag
-from asictl.runtime.line_map import LineMap
+from asictl.runtime.line_map import LineMap, SourceLine
 from asictl.runtime.program_map import ProgramMap
 from asictl.runtime.runner import ProgramRunner
 from asictl.sim.observation import Observation, Refusal, Stop
@@ -66,6 +68,9 @@ class Failure:
     got: int
     #: the operand as the scenario wrote it (a symbol, say)
     written: str = ""
+    #: the IL line that last wrote the operand before the step's time (``prog.asi:12``),
+    #: where it is known: for the expectations of a step with a tolerance window
+    writer: str = ""
 
     @property
     def at_ms(self) -> float:
@@ -73,7 +78,26 @@ class Failure:
 
     def __str__(self) -> str:
         name = self.written or str(self.operand)
-        return f"at {self.step.at_ms:g} ms: {name} expected {self.expected}, got {self.got}"
+        window = f" (within {self.step.within_ms:g} ms)" if self.step.within_ms else ""
+        text = f"at {self.step.at_ms:g} ms{window}: {name} expected {self.expected}, got {self.got}"
+        return f"{text}; last written by {self.writer}" if self.writer else text
+
+
+@dataclass
+class _Window:
+    """The tolerance window of one step's expectations: which held at some moment in it
+    (after an AS-i cycle that ran, at its edges), the values at the step's own time."""
+
+    step: Step
+    closes_at: float
+    held: set[int] = field(default_factory=set)
+    got: dict[int, int] = field(default_factory=dict)
+    writers: dict[int, str] = field(default_factory=dict)
+
+    def sample(self, read: Callable[[Operand], int]) -> None:
+        for index, (operand, expected, _) in enumerate(self.step.expect):
+            if index not in self.held and read(operand) == expected:
+                self.held.add(index)
 
 
 @dataclass(frozen=True)
@@ -163,7 +187,10 @@ class Simulation:
         symbols: SymbolTable | None = None,
         il_trace: bool = False,
         window: tuple[float, float | None] = (0.0, None),
+        track_writers: bool = False,
     ) -> None:
+        """``track_writers``: note which IL line last wrote each operand the steps with
+        a tolerance window expect (it costs a trap at each line that writes one)."""
         if build.image is None:
             raise ValueError("a simulation needs a build with an image")
         self.build = build
@@ -213,8 +240,18 @@ class Simulation:
         marks = {t for t in (start, None if end is None else end + _BEFORE_MS)
                  if t is not None and 0 < t <= self.end_ms}
         self._marks = marks
-        #: step times and trace window edges, in order; the next one to come
-        self._events = sorted({*self._by_time, *marks})
+        #: the tolerance windows by the times they open and close; those open now
+        self._opens: dict[float, list[Step]] = {}
+        self._closes: dict[float, list[Step]] = {}
+        for steps in self._by_time.values():
+            for step in steps:
+                if step.within_ms and step.expect:
+                    self._opens.setdefault(max(0.0, step.at_ms - step.within_ms), []).append(step)
+                    self._closes.setdefault(step.at_ms + step.within_ms, []).append(step)
+        self._windows: dict[int, _Window] = {}
+        self._writers = _Writers(self) if track_writers else None
+        #: step times, window edges and trace window edges, in order; the next one to come
+        self._events = sorted({*self._by_time, *marks, *self._opens, *self._closes})
         self._next_event = 0
         self._done_ms = -1.0
 
@@ -353,6 +390,8 @@ class Simulation:
         if self.scenario.cycle_ms is not None:  # only now: download and start-up need cycles
             board.cycle_period_us = round(self.scenario.cycle_ms * 1000)
         self.observation.watch_firmware()
+        if self._writers is not None:
+            self._writers.install()
         self._t0 = None
 
     def begin(self) -> None:
@@ -364,6 +403,7 @@ class Simulation:
         if self.plant.models:  # the models' inputs at time 0, before any cycle
             self._check_plant(self.plant.models)
             self.plant.update(0.0, self._io)
+        self._open_windows(0.0)
         self._run_steps(0.0)
         if self._tracer is not None and self.window[0] <= 0:
             self._trace_lines(True)
@@ -435,15 +475,42 @@ class Simulation:
                     return
                 continue
             step = at in self._by_time
-            if not self._advance_to(at - _BEFORE_MS if step else at):
+            edge = step or at in self._opens or at in self._closes
+            if not self._advance_to(at - _BEFORE_MS if edge else at):
                 continue
             self._next_event += 1
+            self._close_windows(at)
+            self._open_windows(at)
             self._window_edge(at)
             if step:
                 self._run_steps(at)
             self._done_ms = at
 
+    def _open_windows(self, at: float) -> None:
+        for step in self._opens.get(at, []):
+            window = _Window(step, step.at_ms + step.within_ms)
+            window.sample(self.read)
+            self._windows[id(step)] = window
+
+    def _close_windows(self, at: float | None) -> None:
+        """Decide the windows closing at ``at`` (None: all still open, at the end)."""
+        for key, window in list(self._windows.items()):
+            if at is not None and window.closes_at != at:
+                continue
+            del self._windows[key]
+            window.sample(self.read)
+            step = window.step
+            for index, (operand, expected, line) in enumerate(step.expect):
+                self.result.checked += 1
+                if index not in window.held:
+                    self.result.failures.append(Failure(
+                        step, line, operand, expected, window.got.get(index, 0),
+                        step.written.get((line, str(operand)), ""),
+                        window.writers.get(index, ""),
+                    ))
+
     def finish(self) -> SimResult:
+        self._close_windows(None)
         result = self.result
         result.end_ms = self.end_ms
         result.final = self._final_state()
@@ -471,9 +538,9 @@ class Simulation:
         """Let master time pass up to ``t_ms``; False when a plant model paused the board
         before it (its next change came sooner than planned)."""
         self._limit = t_ms
-        while round(t_ms * 1000) > round(self.now_ms() * 1000):
+        while (delta_us := round(t_ms * 1000) - round(self.now_ms() * 1000)) > 0:
             self._paused = False
-            self.board.advance(t_ms - self.now_ms())
+            self.board.advance(delta_us / 1000)  # whole microseconds, as the board counts
             if self._paused:
                 return round(t_ms * 1000) <= round(self.now_ms() * 1000)
         return True
@@ -504,6 +571,14 @@ class Simulation:
             self.set(operand, value, step=step, line=line)
 
     def _check(self, step: Step) -> None:
+        window = self._windows.get(id(step))
+        if window is not None:  # decided when the window closes
+            window.sample(self.read)
+            for index, (operand, _, _) in enumerate(step.expect):
+                window.got[index] = self.read(operand)
+                if self._writers is not None:
+                    window.writers[index] = self._writers.last(operand)
+            return
         written = step.written
         for operand, expected, line in step.expect:
             self.result.checked += 1
@@ -531,6 +606,8 @@ class Simulation:
             if change is not None and change - _BEFORE_MS < self._limit:
                 self._paused = True  # a model changes an input before the planned end
                 board.pause()
+        for window in self._windows.values():
+            window.sample(self.read)
         if self._signals:
             self._sample(self.now_ms())
 
@@ -552,3 +629,72 @@ class _PlantIO:
 
     def write(self, operand: Operand, value: int) -> None:
         self._simulation.set(operand, value)
+
+
+def _cells(node: ast.Operand) -> set[tuple[str, int, int]]:
+    """The bits (or, for the rest, the whole operand) an IL operand covers, to find the
+    lines that write an operand a scenario expects: ``Q 2.1`` is written by ``= Q 2.1``
+    and by ``T QB 2``."""
+    K = ast.OperandKind
+    n, b = node.address, node.bit
+    letter = {K.I: "I", K.IB: "I", K.Q: "Q", K.QB: "Q", K.F: "F", K.FY: "F", K.FW: "F"}
+    kind = letter.get(node.kind)
+    if kind is None:
+        return {(f"{node.kind.value}{node.name}", n, b)}
+    if node.kind in (K.I, K.Q):
+        return {(kind, n, b)} if b >= 0 else {(kind, n, i) for i in range(4)}
+    if node.kind in (K.IB, K.QB):
+        return {(kind, a, i) for a in (n, n + 1) for i in range(4)}
+    if node.kind is K.F:
+        return {(kind, n, b)}
+    size = 2 if node.kind is K.FW else 1
+    return {(kind, y, i) for y in range(n, n + size) for i in range(8)}
+
+
+class _Writers:
+    """Which IL line last wrote each operand a tolerance window expects: a trap at the
+    start of each line that writes one (an S or R only while the register is 1)."""
+
+    def __init__(self, simulation: Simulation) -> None:
+        self.simulation = simulation
+        self.expected = [operand for steps in simulation._by_time.values() for step in steps
+                         if step.within_ms for operand, _, _ in step.expect]
+        self._last: dict[str, str] = {}
+
+    def install(self) -> None:
+        simulation = self.simulation
+        runner, program = simulation.runner, simulation.program
+        if runner is None or program is None or not self.expected:
+            return
+        wanted = {str(o): _cells(o.node) for o in self.expected}
+        lines: dict[SourceLine, tuple[ast.Statement | ast.GatingLine, list[str]]] = {}
+        for module in program.modules():
+            for node in module.code():
+                if node.span is None:
+                    continue
+                written = set().union(*(_cells(o) for o, access in ast.operands(node)
+                                        if access is not ast.Access.READ))
+                hit = [name for name, cells in wanted.items() if cells & written]
+                if hit:
+                    lines[SourceLine(PurePath(node.span.file).name, node.span.line)] = (node, hit)
+        cpu = runner.cpu
+        for address, line in simulation.line_map.line_starts().items():
+            if line in lines and address not in cpu.traps:
+                node, names = lines[line]
+                cpu.add_trap(address, self._trap(line, node, names))
+
+    def _trap(self, line: SourceLine, node: ast.Statement | ast.GatingLine,
+              names: list[str]) -> Callable[[Emulator], None]:
+        conditional = isinstance(node, ast.Store) and node.op is not ast.StoreOp.ASSIGN
+        text = str(line)
+
+        def trap(cpu: Emulator) -> None:
+            if conditional and not self.simulation.view().rlo:
+                return  # an S or R that writes nothing
+            for name in names:
+                self._last[name] = text
+
+        return trap
+
+    def last(self, operand: Operand) -> str:
+        return self._last.get(str(operand), "")

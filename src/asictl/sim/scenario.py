@@ -84,6 +84,9 @@ class Step:
     remove_slaves: list[int] = field(default_factory=list)
     power_fail: bool | None = None
     press_set_button: bool = False
+    #: the expectations' tolerance: each holds if its value is seen within this long
+    #: before or after ``at_ms`` (0: exactly at ``at_ms``)
+    within_ms: float = 0.0
 
 
 @dataclass
@@ -100,7 +103,8 @@ class Scenario:
 
     @property
     def end_ms(self) -> float:
-        return max((s.at_ms for s in self.steps), default=0.0)
+        """The last step's time, or the end of the last tolerance window."""
+        return max((s.at_ms + s.within_ms for s in self.steps), default=0.0)
 
     def ordered(self) -> list[Step]:
         """Steps by time; at equal times the file's order (sets are applied before checks
@@ -111,7 +115,7 @@ class Scenario:
 _TOP_KEYS = ("program", "master", "step", "markers", "plant")
 _MASTER_KEYS = ("cycle_ms", "slaves")
 _STEP_KEYS = {"at_ms", "at", "set", "expect", "add_slaves", "remove_slaves", "power_fail",
-              "press_set_button"}
+              "press_set_button", "within_ms"}
 
 
 class _Reader:
@@ -296,6 +300,19 @@ def _step(reader: _Reader, index: int, data: object) -> Step | None:
                          reader.key_line("remove_slaves", line, end))
         else:
             step.remove_slaves = list(removed)
+    if "within_ms" in data:
+        within = check_time(data["within_ms"])
+        where = reader.key_line("within_ms", line, end)
+        if within is None:
+            reader.error(f"within_ms is a time in milliseconds from 0 to {MAX_TIME_MS:.0f}, "
+                         f"not {_show(data['within_ms'])}", where)
+        elif "expect" not in data:
+            reader.error("within_ms is the tolerance of the step's expect, and the step has "
+                         "none", where)
+        elif at + within > MAX_TIME_MS:
+            reader.error("the tolerance window ends after the longest simulation, 24h", where)
+        else:
+            step.within_ms = within
     for flag in ("power_fail", "press_set_button"):
         if flag in data:
             if not isinstance(data[flag], bool):

@@ -190,12 +190,25 @@ def simulate(
             signals=signals, symbols=prepared.symbols, il_trace=il_trace, window=window,
         )
         result = simulation.run()
+        if any(f.step.within_ms for f in result.failures):
+            _name_writers(prepared, result)
     except DiagnosticError as exc:
         raise _invalid(exc, {**prepared.build.texts, **_texts(Path(prepared.scenario.file))}) \
             from None
     note = f"asictl: note: {prepared.program}: {simulation.untraced}\n" if simulation.untraced \
         else ""
     return Run(prepared, result, time.perf_counter() - start, note)
+
+
+def _name_writers(prepared: Prepared, result: SimResult) -> None:
+    """Run once more, watching the lines that write what the tolerance windows expect,
+    to name the line that last wrote each failed one (the run is deterministic: the
+    failures are the same, and the first run's traces stay as they were)."""
+    again = Simulation(prepared.build, prepared.scenario, duration_ms=prepared.end_ms,
+                       symbols=prepared.symbols, track_writers=True).run()
+    writers = {(f.line, str(f.operand)): f.writer for f in again.failures}
+    for failure in result.failures:
+        failure.writer = writers.get((failure.line, str(failure.operand)), "")
 
 
 def events(run: Run) -> list[str]:
