@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import os
 import time
 from datetime import UTC, datetime
@@ -76,14 +77,15 @@ def _values(status: MasterStatus, names: set[str]) -> dict[str, int]:
 @click.option("--signals", help='What to record: comma-separated shell patterns over I a.b, '
               'Q a.b and F y.b, e.g. "I 4.*,Q 17.*,F 0.0" (default: every input and output '
               "of the slaves on the bus).")
-@click.option("--tolerance-ms", type=click.FloatRange(0, 60_000), default=DEFAULT_TOLERANCE_MS,
-              show_default=True,
+@click.option("--tolerance-ms", type=click.FloatRange(0, 60_000),
               help="The expectations' tolerance window (within_ms): a change may come this "
-              "much earlier or later in a replay.")
+              f"much earlier or later in a replay [default: {DEFAULT_TOLERANCE_MS} ms, or twice "
+              "the sampling interval if that is longer].")
 @click.option("--program", "program", type=click.Path(dir_okay=False, path_type=Path),
               help="Name this program in the scenario ('program = ...', relative to it).")
 def record(duration: str, output: Path, force: bool, signals: str | None,
-           tolerance_ms: float, program: Path | None, **board: Unpack[_BoardOptions]) -> None:
+           tolerance_ms: float | None, program: Path | None,
+           **board: Unpack[_BoardOptions]) -> None:
     """Record a running master (a served emulated board, a real board or a gateway) as
     a scenario: its input changes become set steps, its output changes (and those of the
     flags --signals chooses) expectations with a tolerance window.
@@ -133,6 +135,8 @@ def record(duration: str, output: Path, force: bool, signals: str | None,
         samples = [Sample(s.at_ms - first, s.values) for s in samples]
     span = samples[-1].at_ms
     every = span / max(1, len(samples) - 1)
+    if tolerance_ms is None:  # a change is seen up to a sample late, its effect too
+        tolerance_ms = max(DEFAULT_TOLERANCE_MS, math.ceil(2 * every / 10) * 10)
     when = datetime.now(UTC).strftime("%Y-%m-%d %H:%M UTC")
     named = None
     if program is not None:
