@@ -4,6 +4,7 @@ recordings' scenarios (sim/recording.py) read back as what was recorded."""
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 from click.testing import CliRunner
@@ -32,6 +33,10 @@ def test_an_expectation_holds_if_its_value_is_seen_within_the_window(tmp_path: P
     assert code == 1, out
     assert "w.scenario.toml:10: at 2060 ms (within 20 ms): Q 2.0 expected 1, got 0; last " \
            "written by ondelay.asi:22" in out, out
+    result = CliRunner().invoke(main, ["sim", "--scenario", str(tmp_path / "w.scenario.toml"),
+                                       "--json"])
+    (failure,) = json.loads(result.stdout)["failures"]
+    assert failure["within_ms"] == 20 and failure["last_written_by"] == "ondelay.asi:22"
     # the window looks back, too: off before 2090, so 2150 +- 70 sees the 0 as well
     code, out = sim(tmp_path, '[[step]]\nat_ms = 2150\nwithin_ms = 70\nexpect = { "Q 2.0" = 0 }\n')
     assert code == 0, out

@@ -12,6 +12,13 @@ nothing runs; then the host sets the start flag and the master runs the first cy
 the AS-i cycle that executes the command. From then on a ``set`` at T takes effect for
 every program cycle that starts at or after T, and an ``expect`` at T checks the state
 left by the cycles that started before T; at equal times sets come before checks.
+
+Closed loop: the scenario's plant models (sim/plant.py) are evaluated after every AS-i
+cycle that ran and at each model's own next change, which is applied as a ``set`` at
+its time; a model that will change an input sooner than the current ``advance`` was
+planned to end pauses the board (``Pc2Board.pause``) there. A step with ``within_ms``
+has its expectations decided when its window closes: each holds if its value was seen
+at the window's edges or after any AS-i cycle that ran in it.
 """
 
 from __future__ import annotations

@@ -263,7 +263,9 @@ def as_json(run: Run) -> dict[str, Any]:
         "checked": r.checked,
         "failures": [
             {"line": f.line, "at_ms": f.at_ms, "operand": f.written or str(f.operand),
-             "expected": f.expected, "got": f.got}
+             "expected": f.expected, "got": f.got,
+             **({"within_ms": f.step.within_ms, "last_written_by": f.writer}
+                if f.step.within_ms else {})}
             for f in r.failures
         ],
         "stops": [{"at_ms": s.at_ms, "reason": s.reason, "where": s.where} for s in r.stops],
