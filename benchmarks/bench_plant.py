@@ -2,7 +2,7 @@
 
 The program extends the cylinder while its retracted switch is closed and lets it spring
 back once it is out, forever; the cylinder takes 300 ms each way, so an hour of master
-time at a 5 ms cycle is 6,000 double strokes, 12,000 end-switch changes and 720,000
+time at a 5 ms cycle is 6,000 double strokes, 24,000 end-switch changes and 720,000
 program cycles. The master skips the cycles that change nothing, and the plant model is
 evaluated after the cycles that ran and at its own changes only, so the run costs what
 its events cost, not its cycles. With ``--trace`` the run records the trace too (the
