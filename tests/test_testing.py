@@ -73,6 +73,10 @@ def test_on_cycle_is_called_after_every_program_cycle_with_the_elapsed_time():
     assert calls == [(0.0, 0.0)] + [(5.0 * k, 5.0) for k in range(1, 11)]
     plc.run("2.5ms")
     assert calls[-1] == (50.0, 5.0) and plc.time_ms == 52.5
+    seen: list[tuple[Plc, float]] = []
+    plc.on_cycle(lambda given, elapsed: seen.append((given, elapsed)))  # the Plc too
+    plc.run("10ms")
+    assert seen == [(plc, 2.5), (plc, 5.0)]  # counted from when it was added
 
 
 def test_a_python_plant_model_closes_the_loop():

@@ -15,6 +15,7 @@ expected 1, got 0``.
 
 from __future__ import annotations
 
+import functools
 import inspect
 import math
 from collections.abc import Callable, Mapping
@@ -40,6 +41,18 @@ __all__ = ["ExpectationFailed", "LoadError", "Plc", "TimedOut"]
 
 #: How many rows of the trace a time-out shows.
 TRACE_ROWS = 20
+#: A Python plant model: ``fn(elapsed_ms)`` or ``fn(plc, elapsed_ms)``.
+CycleFunction = Callable[[float], object] | Callable[["Plc", float], object]
+
+
+def _positional(fn: Callable[..., object]) -> int:
+    """How many positional arguments ``fn`` takes (1 where that cannot be seen)."""
+    try:
+        parameters = inspect.signature(fn).parameters.values()
+    except (TypeError, ValueError):
+        return 1
+    kinds = (inspect.Parameter.POSITIONAL_ONLY, inspect.Parameter.POSITIONAL_OR_KEYWORD)
+    return sum(1 for p in parameters if p.kind in kinds)
 
 
 class LoadError(Exception):
@@ -110,9 +123,9 @@ class Plc:
         self.cycle_ms = cycle_ms
         self._variables = variables
         self.symbols = symbols
-        self._callbacks: list[Callable[[float], object]] = []
+        #: each callback with the time of its last call
+        self._callbacks: list[tuple[Callable[[float], object], list[float]]] = []
         self._closed = False
-        self._last_callback = 0.0
         self._names: dict[str, int] = {}
 
     # ------------------------------------------------------------------ making one
@@ -208,15 +221,16 @@ class Plc:
 
     # ------------------------------------------------------------------ plant models
 
-    def on_cycle(self, fn: Callable[[float], object]) -> Callable[[float], object]:
-        """Call ``fn(elapsed_ms)`` after every program cycle (every ``cycle_ms``; every
-        millisecond with ``cycle_ms=None``), with the time since its previous call: a
-        plant model in Python, which reads outputs (``plc["Q 2.0"]``) and sets inputs.
-        What it sets is seen by the next cycle. Returns ``fn`` (a decorator)."""
+    def on_cycle(self, fn: CycleFunction) -> CycleFunction:
+        """Call ``fn(elapsed_ms)`` (or ``fn(plc, elapsed_ms)``, if it takes two
+        arguments) after every program cycle (every ``cycle_ms``; every millisecond with
+        ``cycle_ms=None``), with the time since its previous call: a plant model in
+        Python, which reads outputs (``plc["Q 2.0"]``) and sets inputs. What it sets is
+        seen by the next cycle. Returns ``fn`` (a decorator)."""
         self._open()
-        if not self._callbacks:  # the first one counts from now
-            self._last_callback = self.time_ms
-        self._callbacks.append(fn)
+        given: Callable[..., object] = fn
+        call = functools.partial(given, self) if _positional(given) >= 2 else given
+        self._callbacks.append((call, [self.time_ms]))  # its first call counts from now
         return fn
 
     def add_plant(self, type: str, **table: Any) -> Model:
@@ -299,13 +313,12 @@ class Plc:
     def _start(self) -> None:
         if not self._sim.started:
             self._sim.begin()
-            self._last_callback = 0.0
             self._call_back()
 
     def _call_back(self) -> None:
         now = self.time_ms
-        elapsed, self._last_callback = now - self._last_callback, now
-        for fn in list(self._callbacks):
+        for fn, last in list(self._callbacks):
+            elapsed, last[0] = now - last[0], now
             fn(elapsed)
 
     def _advance(self, end: float, test: Condition | None) -> bool:
