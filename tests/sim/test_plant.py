@@ -346,6 +346,14 @@ def test_a_step_may_not_set_an_input_a_model_drives(tmp_path: Path):
             in result.output), result.output
 
 
+def test_a_command_line_set_may_not_set_an_input_a_model_drives():
+    result = CliRunner().invoke(main, ["sim", "--scenario",
+                                       str(SEQUENCE / "sequence.scenario.toml"),
+                                       "--set", "I 1.2=1", "--set", "I 1.0=1"])
+    assert result.exit_code == 2, result.output
+    assert "--set 'I 1.0': driven by the plant model pusher" in result.output
+
+
 def test_a_model_driving_a_slave_that_is_not_on_the_bus_is_an_error(tmp_path: Path):
     (tmp_path / "p.asi").write_text(FOLLOW)
     path = tmp_path / "p.scenario.toml"

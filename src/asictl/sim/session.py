@@ -27,6 +27,7 @@ from asictl.observe.operands import SETTABLE, parse_assignment, parse_operand
 from asictl.observe.symbols import SymbolTable, symbols_for
 from asictl.sim import SUFFIX
 from asictl.sim.engine import SimResult, Simulation, variables_of
+from asictl.sim.plant import Plant
 from asictl.sim.scenario import (
     Scenario,
     Step,
@@ -127,6 +128,13 @@ def prepare(
         scenario = Scenario("<command line>", program, None, None, [])
     extra = _command_line_sets(sets, variables, symbols)
     if extra.set:
+        plant = Plant(scenario.plants)
+        for operand, _, _ in extra.set:
+            driver = plant.driver_of(operand)
+            if driver is not None:
+                written = extra.written.get((0, str(operand)), str(operand))
+                raise UserError(f"--set '{written}': driven by the plant model {driver.name} "
+                                "of the scenario")
         scenario.steps.append(extra)
     last = scenario.end_ms
     if duration_ms is None:
