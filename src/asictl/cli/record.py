@@ -5,6 +5,9 @@ from __future__ import annotations
 import math
 import os
 import time
+from collections.abc import Iterator, Mapping, Sequence
+from contextlib import contextmanager
+from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Unpack
@@ -14,6 +17,7 @@ import click
 from asictl.cli.master import _board_options, _BoardOptions, _connect
 from asictl.errors import UserError
 from asictl.files import real_path, write_output
+from asictl.host.master import Master
 from asictl.host.status import MasterStatus, StoredProgram
 from asictl.sim import SUFFIX
 from asictl.sim.recording import Sample, choose, slave_operands, to_scenario
@@ -23,17 +27,71 @@ from asictl.sim.scenario import parse_duration
 DEFAULT_TOLERANCE_MS = 100
 
 
+@dataclass(frozen=True)
+class _Data:
+    """One sample's data: each slave's input and output bits, the flag bytes."""
+
+    inputs: Mapping[int, int]
+    outputs: Mapping[int, int]
+    flags: Sequence[int]
+
+    @classmethod
+    def of(cls, status: MasterStatus) -> _Data:
+        slaves = {int(a): s for a, s in status.slaves.items()}
+        return cls({a: s.inputs for a, s in slaves.items()},
+                   {a: s.outputs for a, s in slaves.items()}, status.flags)
+
+    def values(self, names: set[str]) -> dict[str, int]:
+        values = {}
+        for kind, data in (("I", self.inputs), ("Q", self.outputs)):
+            for address, nibble in data.items():
+                for bit in range(4):
+                    name = f"{kind} {address}.{bit}"
+                    if name in names:
+                        values[name] = nibble >> bit & 1
+        for byte, flags in enumerate(self.flags):
+            for bit in range(8):
+                name = f"F {byte}.{bit}"
+                if name in names:
+                    values[name] = flags >> bit & 1
+        return values
+
+
 class _Reader:
-    """Reads the master's status, one connection a sample: a live board serves one
-    session at a time, and the inputs must keep changing meanwhile (``asictl bus
-    inputs``, a monitor). The EEPROM's program is read once, where the master allows."""
+    """Reads the master, one connection a sample: a live board serves one session at a
+    time, and the inputs must keep changing meanwhile (``asictl bus inputs``, a
+    monitor). The first sample is the whole status (which slaves are there); then a PC2
+    board's status without its EEPROM's program, a gateway's data registers alone."""
 
     def __init__(self, board: _BoardOptions) -> None:
         self.board = board
         self.program: StoredProgram | None = None
         self.name = ""
+        #: the flags are read only where they are recorded
+        self.flags = True
 
-    def __call__(self) -> MasterStatus:
+    def first(self) -> MasterStatus:
+        with self._master() as master:
+            status = master.status()
+            if master.quick_status is not None:
+                self.program = StoredProgram(status.program)
+            return status
+
+    def __call__(self) -> _Data:
+        with self._master() as master:
+            quick = master.quick_status
+            if quick is not None and self.program is not None:
+                return _Data.of(quick(self.program))
+            if master.driver is None:  # a gateway: three requests instead of a status
+                from asictl.host.modbus import ModbusMaster, read_data
+
+                if isinstance(master, ModbusMaster):
+                    inputs, outputs, flags = read_data(master.transport, flags=self.flags)
+                    return _Data(dict(enumerate(inputs)), dict(enumerate(outputs)), flags)
+            return _Data.of(master.status())
+
+    @contextmanager
+    def _master(self) -> Iterator[Master]:
         with _connect(**self.board) as master:
             self.name = master.name
             if master.action is not None and master.action.live is None:
@@ -42,29 +100,7 @@ class _Reader:
                     "it, so nothing would change: serve it first ('asictl serve --port "
                     f"{self.board['port']}')"
                 )
-            quick = master.quick_status
-            if quick is not None and self.program is not None:
-                return quick(self.program)
-            status = master.status()
-            if quick is not None:
-                self.program = StoredProgram(status.program)
-            return status
-
-
-def _values(status: MasterStatus, names: set[str]) -> dict[str, int]:
-    values = {}
-    for address, slave in status.slaves.items():
-        for bit in range(4):
-            for kind, data in (("I", slave.inputs), ("Q", slave.outputs)):
-                name = f"{kind} {int(address)}.{bit}"
-                if name in names:
-                    values[name] = data >> bit & 1
-    for byte, flags in enumerate(status.flags):
-        for bit in range(8):
-            name = f"F {byte}.{bit}"
-            if name in names:
-                values[name] = flags >> bit & 1
-    return values
+            yield master
 
 
 @click.command("record")
@@ -106,7 +142,7 @@ def record(duration: str, output: Path, force: bool, signals: str | None,
     patterns = [p for p in signals.split(",") if p.strip()] if signals else None
     samples: list[Sample] = []
     read = _Reader(board)
-    status = read()
+    status = read.first()
     detected = {int(a): s.cdi for a, s in status.slaves.items() if int(a) in status.lds
                 and int(a)}
     inputs, expected = choose(*slave_operands(detected), patterns)
@@ -114,17 +150,18 @@ def record(duration: str, output: Path, force: bool, signals: str | None,
         raise UserError("nothing to record: no slave on the bus"
                         + (f" matches --signals '{signals}'" if patterns else ""))
     names = {*inputs, *expected}
+    read.flags = any(name.startswith("F") for name in names)
     click.echo(f"asictl: recording {read.name} for {seconds:g} s: {len(inputs)} inputs, "
                f"{len(expected)} outputs and flags (Ctrl-C ends it early)", err=True)
     started = time.monotonic()
     try:
         while True:
             before = time.monotonic()
-            status = read()
+            data = read()
             at = (before + time.monotonic()) / 2 - started
             if at > seconds:
                 break
-            samples.append(Sample(at * 1000, _values(status, names)))
+            samples.append(Sample(at * 1000, data.values(names)))
     except KeyboardInterrupt:
         click.echo("asictl: recording ended early (Ctrl-C)", err=True)
     name = read.name
