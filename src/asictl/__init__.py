@@ -52,6 +52,7 @@ LAYERS: tuple[tuple[tuple[str, str], ...], ...] = (
         ("debug", "the IL debugger on a simulation, and on a live board for an editor"),
         ("monitor", "the full-screen live view (Textual)"),
         ("lsp", "the language server for editors"),
+        ("testing", "the Python test API: a program on an emulated master, from code"),
     ),
     (("dap", "the debug adapter for editors: the Debug Adapter Protocol over debug/"),),
     (

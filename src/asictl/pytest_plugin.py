@@ -8,12 +8,15 @@ pytest-xdist (``-n auto``). A failed scenario shows its lines as ``asictl test``
 
 Turning it off: ``-p no:asictl`` for one run, ``asictl_scenarios = false`` in the ini
 file for a project, or ``collect_ignore_glob`` in a conftest.py for some folders.
+
+The fixture ``asictl_plc`` is a factory of ``asictl.testing.Plc`` (docs/testing.md):
+``asictl_plc("prog.asi", cycle_ms=5)``, each one closed after the test.
 """
 
 from __future__ import annotations
 
 import tomllib
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -23,6 +26,7 @@ from asictl.sim import SUFFIX
 
 if TYPE_CHECKING:
     from asictl.sim.session import Outcome
+    from asictl.testing import Plc
 
 
 def pytest_addoption(parser: pytest.Parser) -> None:
@@ -89,3 +93,28 @@ class ScenarioItem(pytest.Item):
 
     def reportinfo(self) -> tuple[Path, int | None, str]:
         return self.path, None, f"scenario {self.path.name}"
+
+
+@pytest.fixture
+def asictl_plc(request: pytest.FixtureRequest) -> Iterator[Callable[..., Plc]]:
+    """``asictl_plc(path, cycle_ms=5, slaves=None, symbols=None)``: ``Plc.load`` with
+    the ini file's ``asictl_lib``; a relative path is found beside the test file first,
+    then from the current directory. Every ``Plc`` made is closed after the test."""
+    from asictl.testing import Plc  # the simulation loads only for a test that asks
+
+    lib = tuple(str(p) for p in request.config.getini("asictl_lib"))
+    made: list[Plc] = []
+
+    def make(path: str | Path, **options: Any) -> Plc:
+        where = Path(path)
+        beside = request.path.parent / where
+        if not where.is_absolute() and beside.exists():
+            where = beside
+        options.setdefault("lib", lib)
+        plc = Plc.load(where, **options)
+        made.append(plc)
+        return plc
+
+    yield make
+    for plc in made:
+        plc.close()

@@ -52,6 +52,9 @@ COMMANDS: dict[str, tuple[str, str]] = {
         "Serve the emulated AS-i/Modbus gateway (Modbus TCP/RTU); its front panel and keys.",
     ),
     "test": ("asictl.cli.sim:test", "Run every *.scenario.toml and report N passed, M failed."),
+    "record": (
+        "asictl.cli.record:record", "Record a running master's inputs and outputs as a scenario."
+    ),
     "serve": (
         "asictl.cli.live:serve", "Keep an emulated board running in real time (a live board)."
     ),

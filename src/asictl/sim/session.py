@@ -27,6 +27,7 @@ from asictl.observe.operands import SETTABLE, parse_assignment, parse_operand
 from asictl.observe.symbols import SymbolTable, symbols_for
 from asictl.sim import SUFFIX
 from asictl.sim.engine import SimResult, Simulation, variables_of
+from asictl.sim.plant import Plant
 from asictl.sim.scenario import (
     Scenario,
     Step,
@@ -127,6 +128,13 @@ def prepare(
         scenario = Scenario("<command line>", program, None, None, [])
     extra = _command_line_sets(sets, variables, symbols)
     if extra.set:
+        plant = Plant(scenario.plants)
+        for operand, _, _ in extra.set:
+            driver = plant.driver_of(operand)
+            if driver is not None:
+                written = extra.written.get((0, str(operand)), str(operand))
+                raise UserError(f"--set '{written}': driven by the plant model {driver.name} "
+                                "of the scenario")
         scenario.steps.append(extra)
     last = scenario.end_ms
     if duration_ms is None:
@@ -190,12 +198,25 @@ def simulate(
             signals=signals, symbols=prepared.symbols, il_trace=il_trace, window=window,
         )
         result = simulation.run()
+        if any(f.step.within_ms for f in result.failures):
+            _name_writers(prepared, result)
     except DiagnosticError as exc:
         raise _invalid(exc, {**prepared.build.texts, **_texts(Path(prepared.scenario.file))}) \
             from None
     note = f"asictl: note: {prepared.program}: {simulation.untraced}\n" if simulation.untraced \
         else ""
     return Run(prepared, result, time.perf_counter() - start, note)
+
+
+def _name_writers(prepared: Prepared, result: SimResult) -> None:
+    """Run once more, watching the lines that write what the tolerance windows expect,
+    to name the line that last wrote each failed one (the run is deterministic: the
+    failures are the same, and the first run's traces stay as they were)."""
+    again = Simulation(prepared.build, prepared.scenario, duration_ms=prepared.end_ms,
+                       symbols=prepared.symbols, track_writers=True).run()
+    writers = {(f.line, str(f.operand)): f.writer for f in again.failures}
+    for failure in result.failures:
+        failure.writer = writers.get((failure.line, str(failure.operand)), "")
 
 
 def events(run: Run) -> list[str]:
@@ -250,7 +271,9 @@ def as_json(run: Run) -> dict[str, Any]:
         "checked": r.checked,
         "failures": [
             {"line": f.line, "at_ms": f.at_ms, "operand": f.written or str(f.operand),
-             "expected": f.expected, "got": f.got}
+             "expected": f.expected, "got": f.got,
+             **({"within_ms": f.step.within_ms, "last_written_by": f.writer}
+                if f.step.within_ms else {})}
             for f in r.failures
         ],
         "stops": [{"at_ms": s.at_ms, "reason": s.reason, "where": s.where} for s in r.stops],
