@@ -29,6 +29,7 @@ from asictl.host.transfer import Pc2Transport, StartMode, download
 from asictl.il import ast
 from asictl.il.loader import Program
 from asictl.image.eeprom import ProgramImage
+from asictl.observe.coverage import Collector, Coverage
 from asictl.observe.iltrace import LineRow
 from asictl.observe.operands import Operand
 from asictl.observe.symbols import SymbolTable
@@ -103,6 +104,8 @@ class SimResult:
     il_rows: list[LineRow] = field(default_factory=list)
     end_ms: float = 0.0
     final: FinalState | None = None
+    #: what the run reached of the program (with ``coverage=True``)
+    coverage: Coverage | None = None
 
     @property
     def passed(self) -> bool:
@@ -157,6 +160,8 @@ class Simulation:
         symbols: SymbolTable | None = None,
         il_trace: bool = False,
         window: tuple[float, float | None] = (0.0, None),
+        coverage: bool = False,
+        fail_fast: bool = False,
     ) -> None:
         if build.image is None:
             raise ValueError("a simulation needs a build with an image")
@@ -178,6 +183,11 @@ class Simulation:
             traced = Signals(self.program, self.image, self.symbols, signals, self.read,
                              lambda: int(self._running))
             self._signals, self.untraced = traced.sampled, traced.untraced
+        #: collects the IL coverage (observe/coverage.py) once the program is loaded
+        self.coverage = coverage
+        #: end the run at the first failed expectation (what mutation testing needs)
+        self.fail_fast = fail_fast
+        self._collectors: list[Collector] = []
         self._tracer: LineTrace | None = None
         if il_trace:
             self._tracer = LineTrace(self.board, source_texts(build), self.program,
@@ -285,7 +295,19 @@ class Simulation:
         if self.scenario.cycle_ms is not None:  # only now: download and start-up need cycles
             board.cycle_period_us = round(self.scenario.cycle_ms * 1000)
         self.observation.watch_firmware()
+        self._watch_coverage()
         self._t0 = None
+
+    def _watch_coverage(self) -> None:
+        """Collect coverage from the runner now loaded (a reload makes a new one)."""
+        runner = self.board.program
+        if not self.coverage or self.program is None or runner is None:
+            return
+        if self._collectors and self._collectors[-1].runner is runner:
+            return
+        collector = Collector(runner, self.line_map, self.program)
+        collector.attach()
+        self._collectors.append(collector)
 
     def begin(self) -> None:
         """Apply the steps at time 0 (and check its expectations against the state before
@@ -359,6 +381,8 @@ class Simulation:
             if step:
                 self._run_steps(at)
             self._done_ms = at
+            if self.fail_fast and self.result.failures:
+                return
         self._advance_to(t_ms)
 
     def finish(self) -> SimResult:
@@ -374,6 +398,10 @@ class Simulation:
                                  marks=sorted(marks, key=lambda m: m.at_ms))
         if self._tracer is not None:
             result.il_rows = self._tracer.rows
+        if self.coverage and self.program is not None:
+            result.coverage = Coverage()
+            for collector in self._collectors:
+                result.coverage.merge(collector.coverage())
         return result
 
     def _window_edge(self, at: float) -> None:
@@ -420,6 +448,9 @@ class Simulation:
         """Called by the board after each AS-i cycle that ran: stops and trace samples."""
         board = self.board
         running = board.control_state is d.ControlState.RUNNING
+        if self.coverage and (not self._collectors
+                              or self._collectors[-1].runner is not board.program):
+            self._watch_coverage()
         if self._t0 is None:
             if not running:
                 return
