@@ -38,7 +38,7 @@ def pytest_addoption(parser: pytest.Parser) -> None:
     group = parser.getgroup("asictl", "asictl scenarios")
     group.addoption("--asictl-coverage", metavar="FILE", default=None,
                     help="write the IL coverage of the scenarios run to FILE")
-    group.addoption("--asictl-coverage-format", choices=("cobertura", "lcov", "json"),
+    group.addoption("--asictl-coverage-format", choices=("cobertura", "lcov", "json", "sonarqube"),
                     default=None, help="format of --asictl-coverage (default: by its "
                     "suffix, .json json, .info or .lcov lcov, else cobertura)")
 

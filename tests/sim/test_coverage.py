@@ -212,3 +212,20 @@ def test_pytest_plugin(project: Path, pytester: pytest.Pytester,
     report = json.loads((pytester.path / "cov.json").read_text())
     lines = report["files"]["plc/main.asi"]["lines"]
     assert {r["line"]: r["hits"] for r in lines} == MAIN_LINES
+
+
+def test_sonarqube_generic_coverage(project: Path):
+    from xml.etree import ElementTree
+
+    code, _ = _test("plc", "--coverage", "sonar.xml", "--coverage-format", "sonarqube")
+    assert code == 0
+    root = ElementTree.parse(project / "sonar.xml").getroot()
+    assert root.tag == "coverage" and root.get("version") == "1"
+    files = {f.get("path"): f for f in root.findall("file")}
+    assert sorted(files) == ["plc/latch.fb", "plc/main.asi"]
+    lines = {int(e.get("lineNumber", 0)): e.attrib for e in files["plc/main.asi"]}
+    assert sorted(lines) == sorted(MAIN_LINES)
+    assert all(a["covered"] == "true" for a in lines.values())
+    assert (lines[12]["branchesToCover"], lines[12]["coveredBranches"]) == ("2", "2")
+    assert (lines[25]["branchesToCover"], lines[25]["coveredBranches"]) == ("4", "2")
+    assert "branchesToCover" not in lines[14]

@@ -52,6 +52,10 @@ COMMANDS: dict[str, tuple[str, str]] = {
         "Serve the emulated AS-i/Modbus gateway (Modbus TCP/RTU); its front panel and keys.",
     ),
     "test": ("asictl.cli.sim:test", "Run every *.scenario.toml and report N passed, M failed."),
+    "mutate": (
+        "asictl.cli.mutate:mutate", "Mutation testing: would the scenarios notice a changed "
+        "program?"
+    ),
     "serve": (
         "asictl.cli.live:serve", "Keep an emulated board running in real time (a live board)."
     ),

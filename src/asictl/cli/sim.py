@@ -253,7 +253,7 @@ def _outcomes(
               help="Write the IL coverage of all scenarios (lines, branches, conditions).")
 @click.option("--coverage-format", type=click.Choice(FORMATS), default=None,
               help="Format of --coverage (default: by its suffix, .json json, .info or "
-              ".lcov lcov, else cobertura).")
+              ".lcov lcov, else cobertura; sonarqube: its generic coverage XML).")
 @click.option("--coverage-fail-under", type=click.FloatRange(0, 100), metavar="PERCENT",
               help="Exit 1 when less than PERCENT of the statement lines ran.")
 def test(paths: tuple[Path, ...], junit: Path | None, jobs: int | None,

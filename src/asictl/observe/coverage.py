@@ -8,7 +8,9 @@ read as 0 and as 1. Function blocks' files count as files of their own.
 
 How it is counted without slowing the simulation much: a program cycle is a function
 of the machine's state at its start (internal RAM, SFRs, the communication memory, the
-program's data, the input images) as long as it calls no firmware block. The first
+program's data, the input images) as long as it calls no firmware block; the remaining
+time of a running timer, which the 10 ms clock counts down, is left out unless the
+program loads it (``L T n``): the program sees only the timer's status. The first
 cycle from each state runs in the emulator's interpreter with a function called after
 every instruction; that sees each IL line's first instruction run (its first address in
 the line map), the single-bit register at each branch (the first instruction of a JC or
@@ -95,6 +97,10 @@ class Coverage:
              for f, n, c, o, z, w in data["conditions"]},
         )
 
+    def reached(self) -> set[LineKey]:
+        """The statement lines that ran."""
+        return {key for key, hits in self.lines.items() if hits}
+
     def files(self) -> list[str]:
         return sorted({file for file, _ in self.lines})
 
@@ -138,10 +144,16 @@ class _Record:
 
 
 class Collector:
-    """Collects the coverage of ``runner``'s cycles (install with ``attach``)."""
+    """Collects the coverage of ``runner``'s cycles (install with ``attach``). Without
+    ``counts`` the master still skips the cycles that would repeat the last one: what ran
+    and which outcomes were seen stay exact, the hit counts count only cycles run."""
 
-    def __init__(self, runner: ProgramRunner, line_map: LineMap, program: Program) -> None:
+    def __init__(
+        self, runner: ProgramRunner, line_map: LineMap, program: Program, *,
+        counts: bool = True,
+    ) -> None:
         self.runner = runner
+        self.counts = counts
         self._view = ProgramView(runner, lambda _: 0)
         files = {PurePath(m.file).name: os.path.abspath(m.file) for m in program.modules()}
         self._lines: list[LineKey] = []
@@ -161,6 +173,16 @@ class Collector:
                 if start is None or start in self._points:
                     continue  # no code of its own
                 self._points[start] = self._point(path, node)
+        #: the timers' remaining counts, which the tick changes every 10 ms: a cycle does
+        #: not depend on them (only on the status bits) unless the program loads one
+        loaded = {
+            node.operand.address for module in program.modules() for node in module.code()
+            if isinstance(node, ast.Load) and node.operand.kind is ast.OperandKind.T
+        }
+        pmap = runner.pmap
+        self._data = (layout.DATA_BASE, pmap.data_end)
+        self._unread = [address - layout.DATA_BASE for n, address in pmap.timers.items()
+                        if n not in loaded and layout.DATA_BASE <= address < pmap.data_end - 1]
         self._records: dict[bytes, _Record] = {}
         #: the records of cycles that called firmware blocks (never reused)
         self._once: list[_Record] = []
@@ -207,7 +229,8 @@ class Collector:
         self._close()
         firmware = self.runner.firmware
         if firmware is not None and hasattr(firmware, "calls"):
-            firmware.calls += 1  # keeps the master from skipping the next cycle
+            if self.counts:
+                firmware.calls += 1  # keeps the master from skipping the next cycle
             self._calls = firmware.calls
         state = self._state(inputs)
         if state is not None:
@@ -225,9 +248,12 @@ class Collector:
         if not cpu.xdata.plain:
             return None
         ram = cpu.xdata.ram
+        start, end = self._data
+        data = ram[start:end]
+        for offset in self._unread:
+            data[offset] = data[offset + 1] = 0
         return b"".join((
-            cpu.iram, cpu.sfr, runner.inputs, inputs or b"", ram[: layout.DPRAM_SIZE],
-            ram[layout.DATA_BASE : runner.pmap.data_end],
+            cpu.iram, cpu.sfr, runner.inputs, inputs or b"", ram[: layout.DPRAM_SIZE], data,
         ))
 
     def _tracer(self, record: _Record) -> Trace:

@@ -1,10 +1,11 @@
-"""Coverage reports: json (asictl's own, docs/testing.md), Cobertura XML and lcov.
+"""Coverage reports: json (asictl's own, docs/testing.md), Cobertura XML, lcov and
+SonarQube's generic coverage XML.
 
-CI systems show Cobertura (GitLab's ``coverage_report``, SonarQube, Codecov) and lcov
-(Codecov, Coveralls, genhtml) on the source, so both name each program by its path
-relative to the current folder. Neither format has a kind for conditions: both carry
-them as branches, two per bit operand (read as 0, read as 1), beside the two of each
-JC or BEC (taken, not taken); the json report keeps the three kinds apart.
+CI systems show Cobertura (GitLab's ``coverage_report``, Codecov), lcov (Codecov,
+Coveralls, genhtml) and the generic XML (SonarQube) on the source, so all name each
+program by its path relative to the current folder. None has a kind for conditions:
+they carry them as branches, two per bit operand (read as 0, read as 1), beside the two
+of each JC or BEC (taken, not taken); the json report keeps the three kinds apart.
 """
 
 from __future__ import annotations
@@ -20,7 +21,7 @@ from xml.etree import ElementTree
 from asictl import __version__
 from asictl.observe.coverage import Coverage
 
-FORMATS = ("cobertura", "lcov", "json")
+FORMATS = ("cobertura", "lcov", "json", "sonarqube")
 #: Format by file suffix, for ``--coverage FILE`` without ``--coverage-format``.
 _BY_SUFFIX = {".json": "json", ".info": "lcov", ".lcov": "lcov", ".xml": "cobertura"}
 
@@ -197,9 +198,29 @@ def _class(classes: ElementTree.Element, name: str, kinds: _File) -> list[int]:
     return [lines_hit, len(kinds.lines), outcomes_hit, outcomes_all]
 
 
+def to_sonarqube(coverage: Coverage) -> str:
+    """SonarQube's generic coverage (``sonar.coverageReportPaths``): per line whether it
+    ran, and its outcomes (branches and conditions) to cover and covered."""
+    root = ElementTree.Element("coverage", version="1")
+    for file, kinds in _by_file(coverage).items():
+        element = ElementTree.SubElement(root, "file", path=_relative(file))
+        outcomes = kinds.outcomes()
+        for line, hits in kinds.lines:
+            attributes = {"lineNumber": str(line), "covered": "true" if hits else "false"}
+            counts = outcomes.get(line)
+            if counts:
+                attributes["branchesToCover"] = str(len(counts))
+                attributes["coveredBranches"] = str(sum(1 for c in counts if c))
+            ElementTree.SubElement(element, "lineToCover", attributes)
+    ElementTree.indent(root)
+    return ElementTree.tostring(root, encoding="unicode", xml_declaration=True) + "\n"
+
+
 def render(coverage: Coverage, fmt: str) -> str:
     if fmt == "json":
         return to_json(coverage)
     if fmt == "lcov":
         return to_lcov(coverage)
+    if fmt == "sonarqube":
+        return to_sonarqube(coverage)
     return to_cobertura(coverage)

@@ -161,6 +161,7 @@ class Simulation:
         il_trace: bool = False,
         window: tuple[float, float | None] = (0.0, None),
         coverage: bool = False,
+        coverage_counts: bool = True,
         fail_fast: bool = False,
     ) -> None:
         if build.image is None:
@@ -185,6 +186,8 @@ class Simulation:
             self._signals, self.untraced = traced.sampled, traced.untraced
         #: collects the IL coverage (observe/coverage.py) once the program is loaded
         self.coverage = coverage
+        #: exact hit counts (every cycle run, none skipped as a repeat of the last)
+        self.coverage_counts = coverage_counts
         #: end the run at the first failed expectation (what mutation testing needs)
         self.fail_fast = fail_fast
         self._collectors: list[Collector] = []
@@ -305,7 +308,8 @@ class Simulation:
             return
         if self._collectors and self._collectors[-1].runner is runner:
             return
-        collector = Collector(runner, self.line_map, self.program)
+        collector = Collector(runner, self.line_map, self.program,
+                              counts=self.coverage_counts)
         collector.attach()
         self._collectors.append(collector)
 

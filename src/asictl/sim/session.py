@@ -184,6 +184,7 @@ def simulate(
     il_trace: bool = False,
     window: tuple[float, float | None] = (0.0, None),
     coverage: bool = False,
+    coverage_counts: bool = True,
     fail_fast: bool = False,
 ) -> Run:
     start = time.perf_counter()
@@ -191,7 +192,7 @@ def simulate(
         simulation = Simulation(
             prepared.build, prepared.scenario, duration_ms=prepared.end_ms, trace=trace,
             signals=signals, symbols=prepared.symbols, il_trace=il_trace, window=window,
-            coverage=coverage, fail_fast=fail_fast,
+            coverage=coverage, coverage_counts=coverage_counts, fail_fast=fail_fast,
         )
         result = simulation.run()
     except DiagnosticError as exc:
