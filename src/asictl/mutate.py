@@ -293,6 +293,8 @@ def run_all(
             if done is not None:
                 done(results[index])
     pending = [index for index in range(len(queue)) if index not in results]
+    # the mutants of the slowest programs first: the others fill the workers meanwhile
+    pending.sort(key=lambda index: -queue[index][0].seconds)
     running: dict[int, tuple[Any, Any, float, float]] = {}  # index -> process, pipe, start, limit
     try:
         _run_pending(context, queue, pending, jobs, timeout_s, results, done, running)
