@@ -45,6 +45,9 @@ from asictl.runtime.runner import ProgramRunner, Trace
 
 _PSW = SFRS["PSW"]
 _CARRY = 0x80
+#: The most cycle records kept for reuse (a few hundred bytes each): beyond them a
+#: program that keeps reaching new states has its new cycles watched and added up.
+MAX_RECORDS = 65_536
 
 #: (file, line): a statement line; the file as the program was loaded (absolute)
 LineKey = tuple[str, int]
@@ -184,8 +187,8 @@ class Collector:
         self._unread = [address - layout.DATA_BASE for n, address in pmap.timers.items()
                         if n not in loaded and layout.DATA_BASE <= address < pmap.data_end - 1]
         self._records: dict[bytes, _Record] = {}
-        #: the records of cycles that called firmware blocks (never reused)
-        self._once: list[_Record] = []
+        #: what the cycles that called firmware blocks did, added up (never reused)
+        self._once = _Record()
         self._watching: tuple[bytes | None, _Record] | None = None
         self._calls = 0
 
@@ -283,8 +286,10 @@ class Collector:
         self._watching = None
         firmware = self.runner.firmware
         called = firmware is not None and getattr(firmware, "calls", 0) != self._calls
-        if state is None or called:
-            self._once.append(record)
+        if state is None or called or len(self._records) >= MAX_RECORDS:
+            self._once.lines.update(record.lines)
+            self._once.branches.update(record.branches)
+            self._once.conditions.update(record.conditions)
         else:
             self._records[state] = record
 
@@ -295,7 +300,7 @@ class Collector:
         lines = [0] * len(self._lines)
         branches = [[0, 0] for _ in self._branches]
         conditions = [[0, 0] for _ in self._conditions]
-        for record in (*self._records.values(), *self._once):
+        for record in (*self._records.values(), self._once):
             n = record.count
             for index, hits in record.lines.items():
                 lines[index] += hits * n
