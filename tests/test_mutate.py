@@ -140,6 +140,16 @@ def test_a_suite_that_fails_unchanged_is_refused(project: Path):
     assert code == 1 and "fails on the unchanged program" in output
 
 
+def test_bad_input(project: Path):
+    (project / "machine.scenario.toml").unlink()
+    code, output = _mutate(".")
+    assert code == 2 and "no .scenario.toml files found" in output
+    (project / "machine.scenario.toml").write_text("[[step]]\nat_ms = -1\n")
+    code, output = _mutate(".")
+    assert code == 2 and "machine.scenario.toml:2:1: error: at_ms is a time" in output
+    assert "Traceback" not in output
+
+
 def _first(source: str) -> ast.Statement | ast.GatingLine:
     module, diagnostics = parse_text(source, "x.asi")
     assert not [d for d in diagnostics if d.is_error]

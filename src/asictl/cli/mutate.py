@@ -13,6 +13,7 @@ import asictl.mutate as mutation
 from asictl.cli.options import lib_option
 from asictl.errors import ExitCode, UserError
 from asictl.mutate import PROVE_HINT, Result, Target, mutants_of, run_all, score
+from asictl.sim import SUFFIX
 from asictl.sim.session import (
     Invalid,
     Prepared,
@@ -34,7 +35,10 @@ def _targets(paths: tuple[Path, ...], lib: tuple[str, ...]) -> list[Target]:
     """The programs the scenarios under ``paths`` test, each with its scenarios; every
     scenario must pass on the original program (else no mutant can be judged)."""
     by_program: dict[Path, list[tuple[Path, Prepared]]] = defaultdict(list)
-    for scenario in find_scenarios(paths):
+    scenarios = find_scenarios(paths)
+    if not scenarios:
+        raise UserError(f"no {SUFFIX} files found")
+    for scenario in scenarios:
         try:
             prepared = prepare(None, scenario, lib=lib)
         except Invalid as exc:
