@@ -121,6 +121,20 @@ def test_json_counts_are_the_ones_worked_out_by_hand(project: Path):
     assert output.rstrip().splitlines()[-2:] == ["1 passed, 0 failed", summary]
 
 
+def test_scenarios_add_up_the_same_in_worker_processes(project: Path):
+    """Two scenarios of one program: their hits add up, whether -j 1 or 2 ran them."""
+    second = SCENARIO.replace("[master]", 'program = "main.asi"\n[master]')
+    (project / "plc" / "again.scenario.toml").write_text(second)
+    reports = []
+    for jobs in ("1", "2"):
+        result = CliRunner().invoke(main, ["test", "-j", jobs, "plc", "--coverage", f"{jobs}.json"])
+        assert result.exit_code == 0, result.output
+        reports.append(json.loads((project / f"{jobs}.json").read_text())["files"])
+    assert reports[0] == reports[1]
+    lines = {r["line"]: r["hits"] for r in reports[0]["plc/main.asi"]["lines"]}
+    assert lines == {line: 2 * hits for line, hits in MAIN_LINES.items()}
+
+
 def test_coverage_changes_no_result(project: Path):
     """The same run, with and without coverage, for the test program and for a demo that
     calls user and firmware blocks and stops on a configuration error."""
