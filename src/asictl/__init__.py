@@ -53,6 +53,7 @@ LAYERS: tuple[tuple[tuple[str, str], ...], ...] = (
         ("monitor", "the full-screen live view (Textual)"),
         ("lsp", "the language server for editors"),
         ("testing", "the Python test API: a program on an emulated master, from code"),
+        ("mutate", "mutation testing: one-change mutants of programs against their scenarios"),
     ),
     (("dap", "the debug adapter for editors: the Debug Adapter Protocol over debug/"),),
     (

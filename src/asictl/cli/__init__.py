@@ -55,6 +55,10 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "record": (
         "asictl.cli.record:record", "Record a running master's inputs and outputs as a scenario."
     ),
+    "mutate": (
+        "asictl.cli.mutate:mutate", "Mutation testing: would the scenarios notice a changed "
+        "program?"
+    ),
     "serve": (
         "asictl.cli.live:serve", "Keep an emulated board running in real time (a live board)."
     ),

@@ -41,6 +41,7 @@ from asictl.il import ast
 from asictl.il.loader import Program
 from asictl.image.eeprom import ProgramImage
 from asictl.mcs51.emulator import Emulator
+from asictl.observe.coverage import Collector, Coverage
 from asictl.observe.iltrace import LineRow
 from asictl.observe.operands import Operand
 from asictl.observe.symbols import SymbolTable
@@ -140,6 +141,8 @@ class SimResult:
     il_rows: list[LineRow] = field(default_factory=list)
     end_ms: float = 0.0
     final: FinalState | None = None
+    #: what the run reached of the program (with ``coverage=True``)
+    coverage: Coverage | None = None
 
     @property
     def passed(self) -> bool:
@@ -195,6 +198,9 @@ class Simulation:
         il_trace: bool = False,
         window: tuple[float, float | None] = (0.0, None),
         track_writers: bool = False,
+        coverage: bool = False,
+        coverage_counts: bool = True,
+        fail_fast: bool = False,
     ) -> None:
         """``track_writers``: note which IL line last wrote each operand the steps with
         a tolerance window expect (it costs a trap at each line that writes one)."""
@@ -230,6 +236,13 @@ class Simulation:
                              lambda: int(self._running), lanes,
                              [str(o) for m in self.plant.models for o in m.driven()])
             self._signals, self.untraced = traced.sampled, traced.untraced
+        #: collects the IL coverage (observe/coverage.py) once the program is loaded
+        self.coverage = coverage
+        #: exact hit counts (every cycle run, none skipped as a repeat of the last)
+        self.coverage_counts = coverage_counts
+        #: end the run at the first failed expectation (what mutation testing needs)
+        self.fail_fast = fail_fast
+        self._collectors: list[Collector] = []
         self._tracer: LineTrace | None = None
         if il_trace:
             self._tracer = LineTrace(self.board, source_texts(build), self.program,
@@ -399,7 +412,20 @@ class Simulation:
         self.observation.watch_firmware()
         if self._writers is not None:
             self._writers.install()
+        self._watch_coverage()
         self._t0 = None
+
+    def _watch_coverage(self) -> None:
+        """Collect coverage from the runner now loaded (a reload makes a new one)."""
+        runner = self.board.program
+        if not self.coverage or self.program is None or runner is None:
+            return
+        if self._collectors and self._collectors[-1].runner is runner:
+            return
+        collector = Collector(runner, self.line_map, self.program,
+                              counts=self.coverage_counts)
+        collector.attach()
+        self._collectors.append(collector)
 
     def begin(self) -> None:
         """Apply the steps at time 0 (and check its expectations against the state before
@@ -492,6 +518,8 @@ class Simulation:
             if step:
                 self._run_steps(at)
             self._done_ms = at
+            if self.fail_fast and self.result.failures:
+                return
 
     def _open_windows(self, at: float) -> None:
         for step in self._opens.get(at, []):
@@ -530,6 +558,10 @@ class Simulation:
                                  marks=sorted(marks, key=lambda m: m.at_ms))
         if self._tracer is not None:
             result.il_rows = self._tracer.rows
+        if self.coverage and self.program is not None:
+            result.coverage = Coverage()
+            for collector in self._collectors:
+                result.coverage.merge(collector.coverage())
         return result
 
     def _window_edge(self, at: float) -> None:
@@ -599,6 +631,9 @@ class Simulation:
         """Called by the board after each AS-i cycle that ran: stops and trace samples."""
         board = self.board
         running = board.control_state is d.ControlState.RUNNING
+        if self.coverage and (not self._collectors
+                              or self._collectors[-1].runner is not board.program):
+            self._watch_coverage()
         if self._t0 is None:
             if not running:
                 return

@@ -23,6 +23,7 @@ from asictl import __version__
 from asictl.build import Build, build_file
 from asictl.diagnostics import DiagnosticError, render_text
 from asictl.errors import UserError
+from asictl.observe.coverage import Coverage
 from asictl.observe.operands import SETTABLE, parse_assignment, parse_operand
 from asictl.observe.symbols import SymbolTable, symbols_for
 from asictl.sim import SUFFIX
@@ -190,12 +191,16 @@ def simulate(
     signals: list[str] | None = None,
     il_trace: bool = False,
     window: tuple[float, float | None] = (0.0, None),
+    coverage: bool = False,
+    coverage_counts: bool = True,
+    fail_fast: bool = False,
 ) -> Run:
     start = time.perf_counter()
     try:
         simulation = Simulation(
             prepared.build, prepared.scenario, duration_ms=prepared.end_ms, trace=trace,
             signals=signals, symbols=prepared.symbols, il_trace=il_trace, window=window,
+            coverage=coverage, coverage_counts=coverage_counts, fail_fast=fail_fast,
         )
         result = simulation.run()
         if any(f.step.within_ms for f in result.failures):
@@ -309,13 +314,15 @@ class Outcome:
     stops: list[str] = field(default_factory=list)
     #: the program file the scenario ran (none for an ERROR row)
     program: str = ""
+    #: what the scenario reached of its program, when asked for
+    coverage: Coverage | None = None
 
 
-def run_file(path: str, lib: tuple[str, ...] = ()) -> Outcome:
+def run_file(path: str, lib: tuple[str, ...] = (), coverage: bool = False) -> Outcome:
     """Run one scenario file; whatever goes wrong is in the outcome, nothing is raised."""
     try:
         prepared = prepare(None, Path(path), lib=lib)
-        run = simulate(prepared)
+        run = simulate(prepared, coverage=coverage)
     except Invalid as exc:
         return Outcome(path, "ERROR", stderr=exc.text, message=exc.message)
     except UserError as exc:
@@ -331,8 +338,22 @@ def run_file(path: str, lib: tuple[str, ...] = ()) -> Outcome:
         prepared.notes + run.note, seconds=run.seconds, markers=list(prepared.scenario.markers),
         failures=[(f.line, str(f)) for f in run.result.failures],
         stops=[f"at {s.at_ms:g} ms: program stopped: {s.text}" for s in run.result.stops],
-        program=str(prepared.program),
+        program=str(prepared.program), coverage=run.result.coverage,
     )
+
+
+def find_scenarios(paths: Iterable[Path]) -> list[Path]:
+    """The scenario files PATHs name: files as given, folders searched (default: the
+    current folder); raises ``UserError`` for a path that is not there."""
+    found: list[Path] = []
+    for path in list(paths) or [Path()]:
+        if path.is_dir():
+            found.extend(sorted(p for p in path.rglob(f"*{SUFFIX}") if p.is_file()))
+        elif path.is_file():
+            found.append(path)
+        else:
+            raise UserError(f"{path}: no such file or directory")
+    return found
 
 
 def default_jobs() -> int:
