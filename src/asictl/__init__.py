@@ -46,6 +46,7 @@ LAYERS: tuple[tuple[tuple[str, str], ...], ...] = (
     (
         ("gateway", "the emulated AS-i/Modbus gateway in front of a board"),
         ("sim", "scenarios in virtual time, traces"),
+        ("fleet", "a plant's masters: the inventory, backup into git, verify, status"),
     ),
     (
         ("debug", "the IL debugger on a simulation, and on a live board for an editor"),
