@@ -31,7 +31,13 @@ PROGRAM = """\
 [PROGRAM]
         L   KB 42
         T   FY 12
-        BE
+***
+        A   T 0             ; timer 0 running?
+        JC  = end
+        N
+        L   KT 500
+        S   T 0
+end:    BE
 """
 NAMESPACE = "urn:asictl:board"
 
@@ -96,6 +102,9 @@ def test_a_client_browses_reads_the_flag_subscribes_and_may_not_write(state: Pat
             assert await node(client, ns, "Master.Phase").read_value() == "normal operation"
             assert await node(client, ns, "Slave.1.Lists").read_value() == ["LPS", "LDS", "LAS"]
             assert await node(client, ns, "Slave.1.IoCode").read_value() == 0
+            assert await node(client, ns, "T 0.Running").read_value() is True
+            assert 0 <= await node(client, ns, "T 0").read_value() <= 500
+            assert await node(client, ns, "Symbol.answer").read_value() == 42
 
             heard: list[int] = []
             changed = asyncio.Event()
@@ -121,7 +130,8 @@ def test_a_client_browses_reads_the_flag_subscribes_and_may_not_write(state: Pat
             methods = [(await m.read_browse_name()).Name for m in await master.get_methods()]
             assert methods == []
 
-    with served(state, "serve") as url:
+    (state / "flag.symbols.toml").write_text('answer = "FY 12"\n')
+    with served(state, "serve", "--opcua-symbols", str(state / "flag.symbols.toml")) as url:
         asyncio.run(session(url))
         port = int(re.search(r":(\d+)/", url).group(1))  # type: ignore[union-attr]
         for garbage in (os.urandom(4096), b"HELF\xff\xff\xff\x7f" + bytes(64), b"\x00" * 3):
@@ -152,6 +162,13 @@ def test_gateway_serve_writable_with_a_login(state: Path):
             await node(client, ns, "F 14.3").write_value(ua.Variant(True, ua.VariantType.Boolean))
             await node(client, ns, "Slave.1.Inputs").write_value(
                 ua.Variant(0b1010, ua.VariantType.Byte))
+            with pytest.raises(ua.UaStatusCodeError) as refused:  # no slave 2 on the cable
+                await node(client, ns, "Slave.2.Inputs").write_value(
+                    ua.Variant(1, ua.VariantType.Byte))
+            assert refused.value.code == ua.StatusCodes.BadNotWritable
+            with pytest.raises(ua.UaStatusCodeError) as refused:
+                await node(client, ns, "FY 13").write_value(ua.Variant(1, ua.VariantType.Int32))
+            assert refused.value.code == ua.StatusCodes.BadTypeMismatch
             await node(client, ns, "Master").call_method(ua.NodeId("Master.Stop", ns))
 
     env = {"ASICTL_OPCUA_PASSWORD": "secret"}

@@ -37,6 +37,8 @@ from asyncua.crypto.permission_rules import User, UserRole
 from asyncua.server.address_space import NodeData
 from asyncua.server.server import Server
 from asyncua.ua.attribute_ids import AttributeIds
+from asyncua.ua.status_codes import StatusCodes
+from asyncua.ua.uaerrors._base import UaStatusCodeError
 
 from asictl.errors import ExitCode, UserError
 from asictl.host.driver import EmulatedPort, Pc2Driver
@@ -282,21 +284,36 @@ class BoardSpace:
     def _input_writer(self, address: int) -> Callable[[Any], None]:
         def write(value: Any) -> None:
             board = self.live.board
-            if board.bus.at(address):
-                run_action(board, "inputs", {"changes": [[address, 0xF, int(value) & 0xF]]})
-                self.live.save_changes()
+            if not board.bus.at(address):  # nothing on the cable there to deliver them
+                raise _refused(StatusCodes.BadNotWritable)
+            run_action(board, "inputs", {"changes": [[address, 0xF, int(value) & 0xF]]})
+            self._saved()
 
         return write
 
+    def _saved(self) -> None:
+        """A change of the non-volatile state is saved before it is acknowledged: the
+        client hears of a failed save as a failed write or call."""
+        if not self.live.save_changes():
+            raise _refused(StatusCodes.BadResourceUnavailable)
+
     async def _start(self, parent: ua.NodeId) -> list[ua.Variant]:
+        if self.program is None or not self.program.info.valid:
+            raise _refused(StatusCodes.BadInvalidState)  # as 'asictl start'
         set_start(self.master.transport, start=True)
-        self.live.save_changes()
+        self._saved()
         return []
 
     async def _stop(self, parent: ua.NodeId) -> list[ua.Variant]:
         set_start(self.master.transport, start=False)
-        self.live.save_changes()
+        self._saved()
         return []
+
+
+def _refused(code: int) -> Exception:
+    """The error asyncua answers a write or call with ``code`` for (its constructor
+    carries no type hints)."""
+    return UaStatusCodeError(code)  # type: ignore[no-untyped-call]
 
 
 #: (MasterStatus attribute, variable name, type)
