@@ -129,7 +129,12 @@ def test_one_master_that_does_not_answer_stops_no_other(tmp_path: Path):
         '[masters.pc-2]\nport = "304h"\nstate_dir = "boards"\n'
     )
     archive = tmp_path / "archive"
+    archive.mkdir()
+    subprocess.run(["git", "init", "-q", str(archive)], check=True)
+    (archive / "README").write_text("the plant's archive\n")
+    git(archive, "add", "README")  # staged by the user: not the backup's to commit
     result = asictl("fleet", "backup", str(inventory), "--into", str(archive), code=1)
+    assert git(archive, "diff", "--cached", "--name-only").split() == ["README"]
     lines = result.stdout.splitlines()
     assert lines[1].split()[:4] == ["pc-1", "port", "300h", "changed"]
     assert lines[2].split()[:5] == ["gone", "tcp://127.0.0.1:9", "unit", "1", "FAILED"]

@@ -124,3 +124,17 @@ def test_the_cli_shows_the_line_and_caret_and_exits_2(tmp_path: Path):
         "  retries = -1\n"
         "  ^~~~~~~\n"
     )
+
+
+def test_one_master_twice_is_refused():
+    found = problems(
+        '[masters.a]\nmodbus = "tcp://127.0.0.1:5020"\n'
+        '[masters.b]\nmodbus = "tcp://127.0.0.1:5020"\nunit = 2\n'
+        '[masters.c]\nmodbus = "tcp://127.0.0.1:5020"\nunit = 1\n'
+        '[masters.d]\nport = "300h"\nstate_dir = "x"\n[masters.e]\nport = "300h"\n'
+        'state_dir = "x/"\n'
+    )
+    assert [(line, message.split(":")[0]) for line, _, message in found] == [
+        (6, "master 'c' is reached as 'a' is (tcp"),
+        (12, "master 'e' is reached as 'd' is (port 300h)"),
+    ]

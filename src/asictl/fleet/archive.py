@@ -208,7 +208,8 @@ class Archive:
         ]
         if failed:
             body += ["", "not backed up:"] + [f"{name}: {why}" for name, why in failed.items()]
-        self.git("commit", "--quiet", "-m", title, "-m", "\n".join(body))
+        # only the masters' folders: whatever else the user has staged stays staged
+        self.git("commit", "--quiet", "-m", title, "-m", "\n".join(body), "--", *changed)
         return self.git("rev-parse", "HEAD").strip(), changed
 
 

@@ -157,8 +157,9 @@ def read_inventory(source: SourceText) -> Inventory:
             reader.key_span("masters", "") if masters is not None else Span(source.name, 1, 1),
         )
         raise DiagnosticError(reader.problems)
-    found = []
+    found: list[FleetMaster] = []
     folders: dict[str, str] = {}
+    reaches: dict[tuple[object, ...], str] = {}
     base = Path(source.name).parent
     for name, table in masters.items():
         where = f"masters.{name}"
@@ -182,11 +183,29 @@ def read_inventory(source: SourceText) -> Inventory:
             continue
         _unknown(reader, table, MASTER_KEYS, where, f" in [masters.{name}]")
         master = _master(reader, name, {**defaults, **table}, table, base)
-        if master is not None:
-            found.append(master)
+        if master is None:
+            continue
+        same = reaches.setdefault(_reach(master), name)
+        if same != name:
+            reader.error(f"master '{name}' is reached as '{same}' is ({master.reached}): "
+                         "one master twice would be backed up twice at once",
+                         reader.header_span(where))
+            continue
+        found.append(master)
     if reader.problems:
         raise DiagnosticError(reader.problems)
     return Inventory(Path(source.name), tuple(found))
+
+
+def _reach(master: FleetMaster) -> tuple[object, ...]:
+    """What tells masters apart: the gateway and unit, or the board's state file."""
+    address = master.address
+    if address.modbus is not None:
+        return ("modbus", address.modbus, address.unit)
+    if address.io != "emulated":
+        return ("devport", address.port)
+    where = address.state_dir
+    return ("emulated", str(Path(where).resolve()) if where is not None else None, address.port)
 
 
 def _unknown(
