@@ -158,6 +158,14 @@ def test_one_master_that_does_not_answer_stops_no_other(tmp_path: Path):
         f"1 of 3 masters run what {archive} holds; not: gone, pc-2",
     ]
 
+    status = json.loads(asictl("fleet", "status", str(inventory), "--format", "json",
+                               code=1).stdout)["masters"]
+    assert [(m["master"], m["answered"]) for m in status] == [
+        ("pc-1", True), ("gone", False), ("pc-2", False)
+    ]
+    assert status[0]["program"] == "20d70c72b6d28daa44489603394639cf"
+    assert status[0]["summary"] == "control program running"
+
 
 def test_a_folder_that_is_no_archive_is_not_taken_over(tmp_path: Path):
     board_with(BLINK, tmp_path / "boards")

@@ -196,3 +196,13 @@ def test_refusals_before_serving(tmp_path: Path):
                                env={"ASICTL_OPCUA_PASSWORD": ""})
         assert result.exit_code == 2, (args, result.output)
         assert message in result.stderr, (args, result.stderr)
+
+
+def test_without_the_extra_the_hint_names_what_to_install(tmp_path: Path,
+                                                          monkeypatch: pytest.MonkeyPatch):
+    monkeypatch.setitem(sys.modules, "asictl.opcua.server", None)  # as if asyncua were absent
+    result = CliRunner().invoke(main, ["serve", "--opcua", "127.0.0.1:4840", "--state-dir",
+                                       str(tmp_path)])
+    assert result.exit_code == 2
+    assert "--opcua needs the 'opcua' extra" in result.stderr
+    assert "pip install 'asyncua>=2.1,<3'" in result.stderr
