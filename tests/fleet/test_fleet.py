@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import shutil
+import socket
 import subprocess
 from collections.abc import Iterator
 from pathlib import Path
@@ -122,11 +123,14 @@ def test_one_master_that_does_not_answer_stops_no_other(tmp_path: Path):
     """A PC2 board in a state directory, a gateway port nobody serves, a board that is
     not there (and must not be made): the first is archived, the others fail, exit 1."""
     board_with(BLINK, tmp_path / "boards")
+    silent = socket.create_server(("127.0.0.1", 0))  # accepts, never answers
     inventory = tmp_path / "plant.toml"
     inventory.write_text(
         '[masters.pc-1]\nport = "300h"\nstate_dir = "boards"\n\n'
         '[masters.gone]\nmodbus = "tcp://127.0.0.1:9"\ntimeout = 0.2\nretries = 0\n\n'
-        '[masters.pc-2]\nport = "304h"\nstate_dir = "boards"\n'
+        '[masters.pc-2]\nport = "304h"\nstate_dir = "boards"\n\n'
+        f'[masters.silent]\nmodbus = "tcp://127.0.0.1:{silent.getsockname()[1]}"\n'
+        "timeout = 0.2\nretries = 1\nattempts = 1\n"
     )
     archive = tmp_path / "archive"
     archive.mkdir()
@@ -142,7 +146,11 @@ def test_one_master_that_does_not_answer_stops_no_other(tmp_path: Path):
     assert lines[3].split()[:4] == ["pc-2", "port", "304h", "FAILED"]
     assert f"pc-2: no emulated board 304h in {tmp_path / 'boards'}" in result.stderr
     assert not (tmp_path / "boards" / "pc2-304h.json").exists()
-    assert lines[-1] == f"{archive}: 1 of 3 masters backed up; commit " + git(
+    assert lines[4].split()[0] == "silent" and lines[4].split()[-5:-3] == ["FAILED", "-"]
+    assert lines[4].split()[-3] == "1"  # its own attempts
+    silent_error = next(x for x in result.stderr.splitlines() if x.startswith("silent: "))
+    assert "no answer" in silent_error or "time" in silent_error, silent_error
+    assert lines[-1] == f"{archive}: 1 of 4 masters backed up; commit " + git(
         archive, "rev-parse", "HEAD")[:12] + " (1 changed)"
     message = git(archive, "log", "-1", "--format=%B")
     assert "not backed up:\ngone: cannot open the Modbus connection" in message
@@ -155,16 +163,18 @@ def test_one_master_that_does_not_answer_stops_no_other(tmp_path: Path):
         "pc-1: identical (20d70c72b6d28daa44489603394639cf)",
         *[line for line in verify.stdout.splitlines() if line.startswith("gone: unreachable: ")],
         f"pc-2: unreachable: no emulated board 304h in {tmp_path / 'boards'}",
-        f"1 of 3 masters run what {archive} holds; not: gone, pc-2",
+        *[line for line in verify.stdout.splitlines() if line.startswith("silent: unreachable")],
+        f"1 of 4 masters run what {archive} holds; not: gone, pc-2, silent",
     ]
 
     status = json.loads(asictl("fleet", "status", str(inventory), "--format", "json",
                                code=1).stdout)["masters"]
     assert [(m["master"], m["answered"]) for m in status] == [
-        ("pc-1", True), ("gone", False), ("pc-2", False)
+        ("pc-1", True), ("gone", False), ("pc-2", False), ("silent", False)
     ]
     assert status[0]["program"] == "20d70c72b6d28daa44489603394639cf"
     assert status[0]["summary"] == "control program running"
+    silent.close()
 
 
 def test_a_folder_that_is_no_archive_is_not_taken_over(tmp_path: Path):

@@ -50,10 +50,11 @@ class Verdict:
 def verify_master(archive: Path, fleet_master: FleetMaster, master: Master) -> Verdict:
     """Compare the master's program with the image archived for it (the work of
     ``fleet verify``, with ``archive`` bound, for ``survey.each_master``)."""
+    entry_points = master.transport.entry_points()  # the master answers, archived or not
     path = archived_image(archive, fleet_master.name)
     if path is None:
         return Verdict("not archived")
-    built = build_file(str(path), entry_points=master.transport.entry_points())
+    built = build_file(str(path), entry_points=entry_points)
     mine = built.image
     if built.has_errors or mine is None:
         first = next((d.message for d in built.diagnostics if d.is_error), "no image")
