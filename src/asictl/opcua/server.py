@@ -234,7 +234,11 @@ class BoardSpace:
                 await self.variable(self.counters, key, key, counter.value, V.Int32)
 
     async def refresh(self) -> None:
-        """Read the board once and write every value that changed."""
+        """Read the board once and write every value that changed; while a command holds
+        the board (a download through the socket, say) the values stay as they were: the
+        refresh's own host commands must not come between that command's requests."""
+        if self.live.in_session():
+            return
         self.live.sync()
         status = self.read()
         await self._timers_and_counters(status)

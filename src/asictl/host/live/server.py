@@ -88,6 +88,7 @@ class LiveServer:
         log: Callable[[str], None] | None = None,
     ) -> None:
         self.live = live
+        live.in_session = lambda: self._owner is not None
         self.path = path
         self.identity = identity or {}
         self.on_tick = on_tick
