@@ -4,9 +4,13 @@ PC2 boards in state directories; the archive's git history against what changed.
 from __future__ import annotations
 
 import json
+import os
+import pty
+import re
 import shutil
 import socket
 import subprocess
+import sys
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -186,3 +190,35 @@ def test_a_folder_that_is_no_archive_is_not_taken_over(tmp_path: Path):
     result = asictl("fleet", "backup", str(inventory), "--into", str(tmp_path / "other"), code=2)
     assert "a folder with files in it and no git repository is not an archive" in result.stderr
     assert not (tmp_path / "other" / ".git").exists()
+
+
+def test_a_progress_line_on_a_terminal_only(tmp_path: Path):
+    """Standard error a terminal: one line rewritten per master as each finishes, and
+    cleared before the table; not a terminal (the tests above): no progress at all."""
+    board_with(BLINK, tmp_path / "boards")
+    board_with(BLINK, tmp_path / "more")
+    inventory = tmp_path / "plant.toml"
+    inventory.write_text('[masters.pc-1]\nport = "300h"\nstate_dir = "boards"\n\n'
+                         '[masters.pc-2]\nport = "300h"\nstate_dir = "more"\n')
+    main_fd, terminal = pty.openpty()
+    result = subprocess.run(
+        [sys.executable, "-m", "asictl", "fleet", "backup", str(inventory), "--into",
+         str(tmp_path / "archive")], stdout=subprocess.PIPE, stderr=terminal, timeout=60,
+    )
+    os.close(terminal)
+    shown = b""
+    while True:
+        try:
+            chunk = os.read(main_fd, 4096)
+        except OSError:  # the terminal's other end is closed: all is read
+            break
+        if not chunk:
+            break
+        shown += chunk
+    os.close(main_fd)
+    assert result.returncode == 0
+    text = shown.decode()
+    assert re.search(r"^\rbackup 1/2: pc-[12] ok", text)
+    assert re.search(r"\rbackup 2/2: pc-[12] ok", text)
+    assert text.endswith("\r")  # the line cleared: the table starts at the margin
+    assert b"backup 1/2" not in result.stdout and result.stdout.startswith(b"master ")
