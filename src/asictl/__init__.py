@@ -47,6 +47,8 @@ LAYERS: tuple[tuple[tuple[str, str], ...], ...] = (
     (
         ("gateway", "the emulated AS-i/Modbus gateway in front of a board"),
         ("sim", "scenarios in virtual time, traces"),
+        ("fleet", "a plant's masters: the inventory, backup into git, verify, status"),
+        ("opcua", "the OPC UA server on a live board (asyncua)"),
     ),
     (
         ("debug", "the IL debugger on a simulation, and on a live board for an editor"),

@@ -92,12 +92,14 @@ class CompileCode(StrEnum):
 
 
 class ScenarioCode(StrEnum):
-    """Reading and running scenarios (``sim``), and the symbol tables they use."""
+    """Reading and running scenarios (``sim``), the symbol tables they use, and the other
+    TOML inputs (a plant's inventory, ``fleet``)."""
 
     NOT_TOML = "E400"
     INVALID = "E401"
     NO_SUCH_SLAVE = "E402"
     SYMBOLS = "E403"
+    INVENTORY = "E404"
 
 
 class AssemblerCode(StrEnum):
@@ -173,6 +175,7 @@ TITLES: dict[str, str] = {
     "E401": "invalid scenario",
     "E402": "scenario sets a slave that is not on the bus",
     "E403": "invalid symbol table",
+    "E404": "invalid plant inventory",
     "E501": "syntax",
     "E502": "unknown mnemonic or directive",
     "E503": "operand not valid for the instruction",
