@@ -10,7 +10,8 @@ how it is written out.
 
 Three things follow from holding objects rather than text:
 
-- The peephole rules compare instructions and operands, not spellings.
+- The peephole rules compare instructions and operands, not spellings; hand-written
+  lines (ASM, [ASSEMBLY]) are passed on as written, and no rule touches them.
 - Jump targets, block calls and firmware calls are references (``Ref``): the assembler
   resolves them, and the firmware entry points a program uses are read off its
   references (``references``), never searched for in its text.
