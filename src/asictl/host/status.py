@@ -71,6 +71,9 @@ from asictl.platform.pc2 import (
     nibbles,
 )
 
+#: The version of ``status --json``'s object (its ``schema`` key): raised when a key
+#: changes its meaning or goes away, not when one is added.
+STATUS_SCHEMA = 1
 #: The slave lists a slave can be in, in ASI_MON's order.
 LISTS = ("LPS", "LDS", "LAS", "LCS", "LOS")
 #: What an emulated board's ``view`` action adds (None: not available on this master).
@@ -186,9 +189,13 @@ class MasterStatus:
     forced: list[ForcedValue] | None = None
     #: the symbol table the program on the master carries: name -> operand
     symbols: dict[str, str] = field(default_factory=dict)
+    #: whether the master reports its program cycle times (a gateway does not: 0 then)
+    cycle_times_known: bool = True
 
     def to_json(self) -> dict[str, Any]:
-        data = asdict(self)
+        """The object ``status --json`` prints (docs/commissioning.md has every key);
+        ``schema`` counts its incompatible changes."""
+        data = {"schema": STATUS_SCHEMA, **asdict(self)}
         data["display"] = self.display.to_json()
         return data
 
@@ -508,6 +515,29 @@ def timer_text(status: MasterStatus) -> list[str]:
     ]
 
 
+#: The installed-software letters (manual 10.2.5): position -> (capital, lower case).
+_SOFTWARE = {
+    0: ("control program running", "control program not running"),
+    1: ("bus-capable", ""), 2: ("error counters", ""), 3: ("EMC test mode", ""),
+    4: ("advanced diagnostics", ""), 5: ("offline on a configuration error", ""),
+    8: ("data exchange active", "data exchange off"), 9: ("offline", "online"),
+    10: ("auto-address enabled", "auto-address off"), 14: ("watchdog on", "watchdog off"),
+}
+
+
+def software_legend(letters: str) -> str:
+    """What the installed-software letters say (capital: yes): ``C control program
+    running, B bus-capable, ...``; the unused places are left out."""
+    parts = []
+    for place, (yes, no) in _SOFTWARE.items():
+        letter = letters[place : place + 1]
+        if not letter.isalpha():
+            continue
+        meaning = yes if letter.isupper() else no or f"no {yes}"
+        parts.append(f"{letter} {meaning}")
+    return ", ".join(parts)
+
+
 def forced_text(status: MasterStatus) -> list[str]:
     """The force list as a PLC's FORCE lamp and force table show it: how many operands
     are forced, and each with its value (and name)."""
@@ -552,9 +582,11 @@ def render(status: MasterStatus) -> str:
         program = p.problem or "none"
     lines = [
         f"master   {s.master_name}  {s.version_id}  at {s.port}",
-        f"software {s.installed_software}",
+        f"software {s.installed_software}"
+        + (f"  ({legend})" if (legend := software_legend(s.installed_software)) else ""),
         f"phase    {s.phase}, {s.mode} mode, "
-        + ("config ok" if s.config_ok else "configuration error")
+        + ("config ok" if s.config_ok else "no slaves detected yet" if not s.lds
+           else "configuration error")
         + (", AS-i power fail" if s.power_fail else ""),
         f"ec-flags {s.ec_flags:02X}h",
         "slaves   " + "".join(str(n // 10) for n in range(SLAVES)),
@@ -564,7 +596,9 @@ def render(status: MasterStatus) -> str:
         "    " + _slave_row("LAS", s.las),
         *(["    " + _slave_row("LCS", s.lcs)] if s.lcs is not None else []),
         "    " + _slave_row("LOS", s.los),
-        "config   " + ("; ".join(problems) if problems else "no errors"),
+        "config   " + ("; ".join(problems) if problems else "no errors" if s.config_ok
+                         else "no slaves detected yet" if not s.lds
+                         else "the master reports a configuration error"),
         f"display  {s.display.shown()}"
         + ("" if s.panel == "gateway" else " (as a gateway shows this state)"),
         *([f"leds     {led_text(s.leds)}"] if s.leds is not None else []),
@@ -572,7 +606,8 @@ def render(status: MasterStatus) -> str:
         f"control  {control}",
         f"flags    {s.control_flags:02X}h " + (" ".join(set_flags) or "(none)"),
         f"program  {program} ({s.program_status})",
-        f"cycle    {s.cycle_time_ms:.1f} ms (max {s.max_cycle_time_ms:.1f} ms)",
+        (f"cycle    {s.cycle_time_ms:.1f} ms (max {s.max_cycle_time_ms:.1f} ms)"
+         if s.cycle_times_known else "cycle    n/a (the gateway does not report them)"),
         f"hi-flags {s.hi_flags:02X}h {hi_flag_text(s.hi_flags)}",
         *timer_text(s),
         *forced_text(s),
