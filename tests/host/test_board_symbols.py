@@ -63,6 +63,15 @@ def test_the_table_survives_download_and_upload(program, tmp_path):
     assert written.read_bytes() == TABLE.encode()
 
 
+def test_an_upload_to_standard_output_leaves_the_table_out_and_says_so(program, tmp_path):
+    state = tmp_path / "state"
+    assert cli(state, "download", str(program)).exit_code == 0
+    result = cli(state, "upload", "-o", "-")
+    assert result.exit_code == 0, result.output
+    assert result.stdout.encode() == program.read_bytes()
+    assert "symbol table is written only beside a file" in result.stderr
+
+
 def test_online_commands_take_and_show_the_boards_names(program, tmp_path):
     state = tmp_path / "state"
     assert cli(state, "download", str(program), "--start").exit_code == 0
