@@ -20,12 +20,14 @@ from dataclasses import asdict, dataclass, field
 from enum import IntEnum
 from typing import Any
 
+from asictl.errors import ExitCode, UserError
 from asictl.host.driver import Pc2Driver
 from asictl.host.forcing import ForcedValue, entries_from_json, forced_values
 from asictl.host.jobs import JobError, JobStatus
 from asictl.host.transfer import Pc2Transport, Transport, upload, upload_head
+from asictl.il import ast
 from asictl.image.eeprom import MAGIC, ProgramImage
-from asictl.observe.operands import image_symbols
+from asictl.observe.operands import Operand, image_symbols, parse_operand
 from asictl.platform.display import Display, derived, led_text
 from asictl.platform.display import leds as derived_leds
 from asictl.platform.master import SLAVES, ControlFlag
@@ -538,6 +540,58 @@ def software_legend(letters: str) -> str:
     return ", ".join(parts)
 
 
+# --------------------------------------------------------------------------- operands
+
+K = ast.OperandKind
+#: The operand kinds a status shows the value of (``operand_value``).
+VISIBLE = (K.I, K.IB, K.Q, K.QB, K.F, K.FY, K.T, K.C)
+
+
+def operand_value(status: MasterStatus, operand: Operand) -> int:
+    """The operand's value in ``status``; ``UserError`` (exit 1) for a timer or counter on
+    a master that does not show them."""
+    node = operand.node
+    a, bit = node.address, node.bit
+    match node.kind:
+        case K.F:
+            return status.flags[a] >> bit & 1
+        case K.FY:
+            return status.flags[a]
+        case K.I | K.Q:
+            data = _data(status, a, node.kind is K.I)
+            return data >> bit & 1 if bit >= 0 else data
+        case K.IB | K.QB:
+            inputs = node.kind is K.IB
+            return _data(status, a, inputs) | _data(status, a + 1, inputs) << 4
+        case K.T | K.C:
+            return _timer_or_counter(status, operand)
+    raise AssertionError(f"{operand} is not shown by a status")  # callers check VISIBLE
+
+
+def _data(status: MasterStatus, slave: int, inputs: bool) -> int:
+    row: SlaveData | None = status.slaves.get(str(slave))
+    if row is None:
+        return 0
+    return row.inputs if inputs else row.outputs
+
+
+def _timer_or_counter(status: MasterStatus, operand: Operand) -> int:
+    node = operand.node
+    if node.kind is K.T:
+        if status.timers is None:
+            raise UserError(f"'{operand}': only an emulated board shows the program's timers",
+                            ExitCode.FAILED)
+        timer = next((t for t in status.timers if t.number == node.address), None)
+        remaining = timer.remaining_ms if timer else 0
+        return int(remaining != 0) if operand.is_bit else remaining
+    if status.counters is None:
+        raise UserError(f"'{operand}': only an emulated board shows the program's counters",
+                        ExitCode.FAILED)
+    counter = next((c for c in status.counters if c.number == node.address), None)
+    count = counter.value if counter else 0
+    return int(count != 0) if operand.is_bit else count
+
+
 def forced_text(status: MasterStatus) -> list[str]:
     """The force list as a PLC's FORCE lamp and force table show it: how many operands
     are forced, and each with its value (and name)."""
@@ -549,10 +603,18 @@ def forced_text(status: MasterStatus) -> list[str]:
 
 
 def symbol_text(status: MasterStatus) -> list[str]:
-    """The names the program on the master gives its operands."""
+    """The names the program on the master gives its operands, each with its value where
+    the status shows it: ``Lamp (Q 2.0) = 1``."""
     if not status.symbols:
         return []
-    return ["symbols  " + ", ".join(f"{name} = {text}" for name, text in status.symbols.items())]
+    parts = []
+    for name, text in status.symbols.items():
+        operand = parse_operand(text)
+        shown = operand.node.kind in VISIBLE and (
+            operand.node.kind not in (K.T, K.C) or status.timers is not None)
+        parts.append(f"{name} ({text})" + (f" = {operand_value(status, operand)}"
+                                           if shown else ""))
+    return ["symbols  " + ", ".join(parts)]
 
 
 def render(status: MasterStatus) -> str:
