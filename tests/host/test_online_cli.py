@@ -98,6 +98,19 @@ def test_forces_outlast_the_command_on_a_board_kept_in_its_state_file(tmp_path):
     assert again.exit_code == 1 and "FY 12: not forced" in again.output
 
 
+def test_a_force_is_saved_before_it_is_acknowledged(tmp_path):
+    """Killed right after ``force`` answered, the live board's state file has the force."""
+    state = tmp_path / "state"
+    process = start_serve(state)
+    try:
+        assert cli(state, "force", "FY 20=0x33").exit_code == 0
+    finally:
+        process.kill()
+        process.wait(timeout=10)
+    listed = cli(state, "force", "--list")
+    assert listed.exit_code == 0 and listed.stdout == "FY 20 = 51\n"
+
+
 @pytest.mark.parametrize(("args", "message"), [
     (("T 1=1",), "'T 1' cannot be forced"),
     (("Q 0.0=1",), "slaves 1..31"),
