@@ -176,6 +176,22 @@ def test_watch_prints_a_line_for_each_change_until_ctrl_c(edge_served):
     assert out == ""  # nothing changed since
 
 
+def test_watch_stops_when_the_live_board_is_no_longer_served(tmp_path):
+    state = tmp_path / "state"
+    process = start_serve(state)
+    try:
+        watcher = _watcher(state, "F 10.0", "--interval", "0.1s")
+        assert watcher.stdout is not None
+        assert "F 10.0" in watcher.stdout.readline()  # the watch has begun
+    finally:
+        assert stop(process) == 0
+    _, err = watcher.communicate(timeout=60)
+    assert watcher.returncode == 1, err
+    # between two reads, or (rarely) inside one, when the server closes the session
+    assert "the live board is no longer served" in err or "went away" in err, err
+    assert "Traceback" not in err
+
+
 def test_watch_reads_a_table_and_shows_each_value_three_ways(tmp_path):
     state = tmp_path / "state"
     assert cli(state, "download", str(EDGE), "--start").exit_code == 0
