@@ -209,6 +209,20 @@ def test_watch_reads_a_table_and_shows_each_value_three_ways(tmp_path):
     ]
 
 
+@pytest.mark.parametrize(("text", "where", "message"), [
+    ('watch = ["F 10.0",\n  oops ]\n', ":2:3: error: watch table is not valid TOML", "oops ]"),
+    ('# mine\nlist = ["F 10.0"]\n', ":2:1: error: a watch table is one list", "list = "),
+    ('watch = ["F 10.0", 3]\n', ":1:1: error: a watch table is one list", "watch = "),
+])
+def test_a_bad_watch_table_is_shown_at_its_line(tmp_path, text, where, message):
+    table = tmp_path / "bad.watch.toml"
+    table.write_text(text)
+    result = cli(tmp_path / "state", "watch", "--table", str(table), "--duration", "1s")
+    assert result.exit_code == 2
+    assert f"{table}{where}" in result.stderr and message in result.stderr
+    assert "^" in result.stderr and result.stdout == ""
+
+
 @pytest.mark.parametrize(("args", "message"), [
     (("--duration", "1s"), "nothing to watch"),
     (("PSeg 0", "--duration", "1s"), "cannot be watched from the host"),

@@ -146,14 +146,22 @@ def watch(
     Example: asictl watch "F 10.0" Motor --format json --duration 10s
     """
     from asictl.cli.master import _address, _master_wait
+    from asictl.diagnostics import DiagnosticError, render_text
     from asictl.host.connection import connect_master
     from asictl.host.status import read_program
     from asictl.host.watch import read_table, watch_list
     from asictl.observe.operands import image_symbols
+    from asictl.source import read_source
 
     period = _seconds(interval, "--interval")
     limit = _seconds(duration, "--duration") if duration is not None else None
-    items = [*(read_table(table) if table else []), *operands]
+    try:
+        listed = read_table(read_source(table)) if table else []
+    except DiagnosticError as exc:
+        texts = {table: read_source(table).text} if table else {}
+        click.echo(render_text(exc.diagnostics, texts), nl=False, err=True)
+        raise click.exceptions.Exit(int(ExitCode.USAGE)) from None
+    items = [*listed, *operands]
     if not items:
         raise UserError("nothing to watch: name operands or give --table FILE.watch.toml",
                         ExitCode.USAGE)

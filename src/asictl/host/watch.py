@@ -14,16 +14,19 @@ the list is read, not while it is watched.
 
 from __future__ import annotations
 
+import re
 import tomllib
 from collections.abc import Sequence
 from dataclasses import dataclass
-from pathlib import Path
+from typing import NoReturn
 
+from asictl.codes import ScenarioCode
+from asictl.diagnostics import Diagnostic, DiagnosticError, Severity, Span
 from asictl.errors import ExitCode, UserError
 from asictl.host.status import VISIBLE, MasterStatus, operand_value
 from asictl.host.symbols import Names
 from asictl.observe.operands import Operand
-from asictl.source import read_source
+from asictl.source import SourceText
 
 #: What a watch list may hold, as messages say it.
 WATCHABLE = ("inputs (I, IB), outputs (Q, QB), flags (F, FY), and on an emulated board "
@@ -46,19 +49,29 @@ class Watched:
         return f"{self.text} ({self.symbol})" if self.symbol else self.text
 
 
-def read_table(path: str | Path) -> list[str]:
-    """The operands of a ``FILE.watch.toml`` (``watch = [...]``); ``UserError`` exit 2."""
-    source = read_source(path)
+def read_table(source: SourceText) -> list[str]:
+    """The operands of a ``FILE.watch.toml`` (``watch = [...]``); ``DiagnosticError`` at
+    the place that is wrong."""
+
+    def error(code: ScenarioCode, message: str, line: int = 1, column: int = 1) -> NoReturn:
+        raise DiagnosticError([Diagnostic(Severity.ERROR, code, message,
+                                          Span(source.name, line, column))])
+
     try:
         data = tomllib.loads(source.text)
     except tomllib.TOMLDecodeError as exc:
-        raise UserError(f"{source.name}: not a watch table: {exc}", ExitCode.USAGE) from None
+        where = re.search(r"line (\d+), column (\d+)", str(exc))
+        error(ScenarioCode.NOT_TOML, f"watch table is not valid TOML: {exc}",
+              *((int(where[1]), int(where[2])) if where else (1, 1)))
+    except RecursionError:
+        error(ScenarioCode.NOT_TOML, "watch table nested too deeply")
     items = data.get("watch")
     if not isinstance(items, list) or not all(isinstance(i, str) for i in items) or (
             set(data) - {"watch"}):
-        raise UserError(
-            f"{source.name}: a watch table is one list of operands or names: "
-            'watch = ["F 10.0", "Motor"]', ExitCode.USAGE)
+        line = next((n for n, text in enumerate(source.text.split("\n"), 1)
+                     if text.strip() and not text.lstrip().startswith("#")), 1)
+        error(ScenarioCode.INVALID, 'a watch table is one list of operands or names: '
+              'watch = ["F 10.0", "Motor"]', line)
     return list(items)
 
 
