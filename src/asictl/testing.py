@@ -29,13 +29,13 @@ from asictl.errors import UserError
 from asictl.files import refuse_inputs, write_output
 from asictl.il.ast import key
 from asictl.observe.operands import SETTABLE, Operand, check_value, parse_operand
-from asictl.observe.symbols import SymbolTable, load_symbols, symbols_for, symbols_path
+from asictl.observe.symbols import SymbolTable, load_symbols, symbols_for
 from asictl.sim.condition import Condition, parse_condition
 from asictl.sim.engine import Simulation, variables_of
 from asictl.sim.plant import Model, read_model
 from asictl.sim.scenario import Scenario, parse_duration, parse_slave
 from asictl.sim.trace import Trace, to_csv, to_vcd, write_plot
-from asictl.source import read_source
+from asictl.source import read_source, symbols_path
 
 __all__ = ["ExpectationFailed", "LoadError", "Plc", "TimedOut"]
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 import concurrent.futures
 import json
 import sys
+import time
 from collections.abc import Iterator
 from pathlib import Path
 from xml.etree import ElementTree
@@ -106,11 +107,17 @@ def sim(
         prepared = prepare(program, scenario_path, lib=lib, sets=sets, duration_ms=duration_ms,
                            allow_partial=allow_partial)
         click.echo(prepared.notes, nl=False, err=True)
-        run = simulate(
-            prepared, trace=bool(vcd or csv_path or plot),
-            signals=[s.strip() for s in signals.split(",") if s.strip()] if signals else None,
-            il_trace=trace_il is not None, window=(start, end),
-        )
+        progress = _SimProgress()
+        try:
+            run = simulate(
+                prepared, trace=bool(vcd or csv_path or plot),
+                signals=[s.strip() for s in signals.split(",") if s.strip()] if signals
+                else None,
+                il_trace=trace_il is not None, window=(start, end),
+                progress=progress if progress.enabled else None,
+            )
+        finally:
+            progress.clear()
     except Invalid as exc:
         click.echo(exc.text, nl=False, err=True)
         ctx.exit(int(ExitCode.USAGE))
@@ -171,6 +178,33 @@ def _junit(outcomes: list[Outcome], path: Path, inputs: list[Path]) -> None:
                  + "\n", inputs=inputs)
 
 
+class _SimProgress:
+    """A long simulation's progress on a terminal's standard error: master time done of
+    the run's, shown once the run has taken a second, at most five times a second."""
+
+    def __init__(self) -> None:
+        self.enabled = sys.stderr.isatty()
+        self.begun = time.monotonic()
+        self.last = 0.0
+        self.shown = False
+
+    def __call__(self, now_ms: float, end_ms: float) -> None:
+        wall = time.monotonic()
+        if wall - self.begun < 1.0 or wall - self.last < 0.2:
+            return
+        self.last = wall
+        sys.stderr.write(f"\r\x1b[K[sim] {now_ms / 1000:.1f} s of {end_ms / 1000:.1f} s "
+                         f"master time ({100 * now_ms / end_ms if end_ms else 100:.0f}%)")
+        sys.stderr.flush()
+        self.shown = True
+
+    def clear(self) -> None:
+        if self.shown:
+            sys.stderr.write("\r\x1b[K")
+            sys.stderr.flush()
+            self.shown = False
+
+
 class _Progress:
     """One line on a terminal's standard error: scenarios done, failures so far."""
 
@@ -192,6 +226,17 @@ class _Progress:
         if self.shown:
             sys.stderr.write("\r\x1b[K")
             sys.stderr.flush()
+
+
+def _json(outcome: Outcome) -> dict[str, object]:
+    """One scenario of ``test --format json``."""
+    return {
+        "path": outcome.path, "status": outcome.status, "program": outcome.program or None,
+        "summary": outcome.summary, "message": outcome.message or None,
+        "events": outcome.events, "stops": outcome.stops,
+        "failures": [{"line": line, "text": text} for line, text in outcome.failures],
+        "seconds": round(outcome.seconds, 3),
+    }
 
 
 def _print(outcome: Outcome, progress: _Progress, fmt: str) -> None:
@@ -246,9 +291,10 @@ def _outcomes(
               help="Scenarios run at once, in worker processes (default: the number of "
               "cores; 1 runs them one after the other here).")
 @lib_option
-@click.option("--format", "fmt", type=click.Choice(["text", "github"]), default="text",
+@click.option("--format", "fmt", type=click.Choice(["text", "github", "json"]), default="text",
               show_default=True, help="github: also a GitHub Actions annotation at the "
-              "scenario line of each failed expectation.")
+              "scenario line of each failed expectation; json: one JSON document, "
+              '{"scenarios": [...], "summary": {...}}, each scenario written as it is done.')
 @click.option("--coverage", "coverage_path", type=click.Path(dir_okay=False, path_type=Path),
               help="Write the IL coverage of all scenarios (lines, branches, conditions).")
 @click.option("--coverage-format", type=click.Choice(FORMATS), default=None,
@@ -263,7 +309,8 @@ def test(paths: tuple[Path, ...], junit: Path | None, jobs: int | None,
 
     A scenario without a 'program' line tests the program of the same name beside it
     (blink.scenario.toml tests blink.asi). Prints one line per scenario, in a stable
-    order whatever -j is, and a summary 'N passed, M failed'.
+    order whatever -j is, each as soon as it and the ones before it are done, and a
+    summary 'N passed, M failed'; --format json writes the same as one JSON document.
 
     With --coverage (or --coverage-fail-under) the simulator also records which IL
     lines ran, which way each JC and BEC went and which values each bit operand of a
@@ -282,13 +329,25 @@ def test(paths: tuple[Path, ...], junit: Path | None, jobs: int | None,
     progress = _Progress(len(scenarios))
     outcomes: list[Outcome] = []
     collect = coverage_path is not None or coverage_fail_under is not None
+    if fmt == "json":
+        click.echo('{"scenarios": [')
     for outcome in _outcomes(scenarios, lib, jobs or default_jobs(), collect):
         outcomes.append(outcome)
-        _print(outcome, progress, fmt)
+        if fmt == "json":
+            progress.clear()
+            click.echo(("  " if len(outcomes) == 1 else ", ") + json.dumps(_json(outcome)))
+        else:
+            _print(outcome, progress, fmt)
         progress.update(outcome)
     progress.clear()
     passed = sum(1 for o in outcomes if o.status == "PASS")
-    click.echo(f"{passed} passed, {len(outcomes) - passed} failed")
+    if fmt == "json":
+        errors = sum(1 for o in outcomes if o.status == "ERROR")
+        summary = {"total": len(outcomes), "passed": passed,
+                   "failed": len(outcomes) - passed - errors, "errors": errors}
+        click.echo(f'], "summary": {json.dumps(summary)}}}')
+    else:
+        click.echo(f"{passed} passed, {len(outcomes) - passed} failed")
     read = [Path(p) for p in (*scenarios, *(o.program for o in outcomes if o.program))]
     if junit:
         _junit(outcomes, junit, read)
@@ -298,7 +357,8 @@ def test(paths: tuple[Path, ...], junit: Path | None, jobs: int | None,
         for outcome in outcomes:
             if outcome.coverage is not None:
                 coverage.merge(outcome.coverage)
-        click.echo(coverage_summary(coverage))
+        # after a JSON document, on standard error: standard output stays one document
+        click.echo(coverage_summary(coverage), err=fmt == "json")
         if coverage_path is not None:
             text = render(coverage, format_for(str(coverage_path), coverage_format))
             write_output(coverage_path, text, inputs=[*read, *coverage.files_read()])

@@ -65,6 +65,8 @@ _POWER_UP_MS = 100.0
 _START_WAIT_MS = 1000.0
 #: How often a trace samples a moving plant model without a cycle period of its own.
 _SAMPLE_MS = 10.0
+#: How much master time passes between two reports to a simulation's ``progress``.
+PROGRESS_MS = 1000.0
 
 
 @dataclass
@@ -178,7 +180,7 @@ def source_texts(build: Build) -> dict[str, str]:
     carries its source)."""
     texts = {PurePath(name).name: text for name, text in build.texts.items()}
     if not texts and build.image is not None:
-        for name, raw in build.image.sources().items():
+        for name, raw in build.image.program_sources().items():
             texts[name] = raw.decode("latin-1").replace("\r\n", "\n")
     return texts
 
@@ -201,9 +203,12 @@ class Simulation:
         coverage: bool = False,
         coverage_counts: bool = True,
         fail_fast: bool = False,
+        progress: Callable[[float, float], None] | None = None,
     ) -> None:
         """``track_writers``: note which IL line last wrote each operand the steps with
-        a tolerance window expect (it costs a trap at each line that writes one)."""
+        a tolerance window expect (it costs a trap at each line that writes one).
+        ``progress(now_ms, end_ms)`` hears, every ``PROGRESS_MS`` of master time, how far
+        the run is (a long simulation's progress line)."""
         if build.image is None:
             raise ValueError("a simulation needs a build with an image")
         self.build = build
@@ -273,6 +278,7 @@ class Simulation:
         #: step times, window edges and trace window edges, in order; the next one to come
         self._events = sorted({*self._by_time, *marks, *self._opens, *self._closes})
         self._next_event = 0
+        self._progress = progress
         self._done_ms = -1.0
 
     # ------------------------------------------------------------------ reading
@@ -575,13 +581,19 @@ class Simulation:
 
     def _advance_to(self, t_ms: float) -> bool:
         """Let master time pass up to ``t_ms``; False when a plant model paused the board
-        before it (its next change came sooner than planned)."""
+        before it (its next change came sooner than planned). With a ``progress``, in
+        slices of ``PROGRESS_MS``, each reported (the board ends a slice exactly where one
+        long advance would pass: the same cycles run)."""
         self._limit = t_ms
+        progress = self._progress
         while (delta_us := round(t_ms * 1000) - round(self.now_ms() * 1000)) > 0:
             self._paused = False
-            self.board.advance(delta_us / 1000)  # whole microseconds, as the board counts
+            step_us = min(delta_us, round(PROGRESS_MS * 1000)) if progress else delta_us
+            self.board.advance(step_us / 1000)  # whole microseconds, as the board counts
             if self._paused:
                 return round(t_ms * 1000) <= round(self.now_ms() * 1000)
+            if progress is not None and step_us < delta_us:
+                progress(self.now_ms(), self.end_ms)
         return True
 
     def _plant_update(self, at: float) -> None:

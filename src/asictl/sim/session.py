@@ -14,7 +14,7 @@ from __future__ import annotations
 import contextlib
 import os
 import time
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -194,13 +194,17 @@ def simulate(
     coverage: bool = False,
     coverage_counts: bool = True,
     fail_fast: bool = False,
+    progress: Callable[[float, float], None] | None = None,
 ) -> Run:
+    """Run the prepared scenario; ``progress(now_ms, end_ms)`` hears how far it is, once
+    a second of master time."""
     start = time.perf_counter()
     try:
         simulation = Simulation(
             prepared.build, prepared.scenario, duration_ms=prepared.end_ms, trace=trace,
             signals=signals, symbols=prepared.symbols, il_trace=il_trace, window=window,
             coverage=coverage, coverage_counts=coverage_counts, fail_fast=fail_fast,
+            progress=progress,
         )
         result = simulation.run()
         if any(f.step.within_ms for f in result.failures):
