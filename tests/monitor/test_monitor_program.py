@@ -114,7 +114,7 @@ def test_v_toggles_the_program_view_and_the_footer_says_so(tmp_path):
         await pilot.press("v")
         await settle(app, pilot)
         assert app.view == "program" and app.source.watch_lines
-        assert app.query_one("#program").display and not app.query_one("#left").display
+        assert app.query_one("#program").display and not app.query_one("#slaves").display
         assert app.screen.active_bindings["v"].binding.description == "Slave view"
         assert "Next file" in [b.binding.description for b in app.screen.active_bindings.values()]
         text = program_text(app)
@@ -123,7 +123,7 @@ def test_v_toggles_the_program_view_and_the_footer_says_so(tmp_path):
         await pilot.press("v")
         await settle(app, pilot)
         assert app.view == "slaves" and not app.source.watch_lines
-        assert app.query_one("#left").display and not app.query_one("#program").display
+        assert app.query_one("#slaves").display and not app.query_one("#program").display
         assert app.screen.active_bindings["v"].binding.description == "Program view"
 
     with live(tmp_path, BLINKER, "blinker.asi") as state:

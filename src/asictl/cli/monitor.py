@@ -27,12 +27,14 @@ def monitor(**board: Unpack[_BoardOptions]) -> None:
 
     The 31 slaves with their input and output data and list membership, the selected
     slave's details, the flag bytes, timers and counters, the program's state, cycle
-    times, phase and mode, and an event log. Keys (shown at the bottom): arrows select a
+    times, phase and mode, and an event log, laid out for the terminal's size (every
+    slave on the screen from 80x24 on). Keys (? or F1 lists them all): arrows select a
     slave; 0-3 toggle the selected emulated slave's input bits; o writes its outputs
     (program stopped); f writes a flag byte or bit; s starts or stops the program; b
     presses the set button; p/u plug/unplug a slave at the selected address; a changes
     its address; m switches protected/configuration mode; F5/F6 store the actual
-    parameters/configuration; F9 reads everything again; q quits. Where 'asictl gateway
+    parameters/configuration; F9 reads everything again; d shows the data view (the
+    flags panel across the screen); q or F10 quits. Where 'asictl gateway
     serve' serves the board, its front panel is shown (display and LEDs), [ and ] press
     its mode and set keys, { and } hold them 6 s, | holds both 6 s.
 

@@ -1,9 +1,13 @@
 """The monitor's screen (Textual): ASI_MON's monitor and editor modes and ASI_VIS at once.
 
-Top: the master, its phase and mode, the control program and cycle times. Left: the 31
-slaves (and slave 0) with their input and output nibbles and list letters; below them
-the selected slave's details. Right: hi-flags, timers and counters, the flag bytes
-F0..F127. Bottom: the event log and the keys. The screen refreshes ``REFRESH_S`` apart;
+Top: the master, its phase and mode, the control program and cycle times. Then the 31
+slaves (and slave 0) with their input and output nibbles and list letters, the selected
+slave's details, and the panel: hi-flags, timers and counters, the flag bytes F0..F127.
+Bottom: the event log and the keys. How these stand depends on the terminal's size
+(``layout_for``): the panel beside the grid, under it, or (80 x 24) in a view of its own
+(``d``); the grid takes the most compact form that fits (``grid_form``), so every slave
+is always on the screen. ``?`` and F1 list every key (``monitor.keys``).
+The screen refreshes ``REFRESH_S`` apart;
 reading the master happens in a worker thread, so a slow or vanished master never
 freezes the screen (it is shown as gone, and found again when it returns).
 
@@ -22,10 +26,15 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any, ClassVar
 
+from rich.console import Group
+from rich.table import Table
 from rich.text import Text
+from textual import events
 from textual.app import App, ComposeResult
 from textual.binding import Binding, BindingType
-from textual.containers import Horizontal, Vertical
+from textual.containers import Horizontal, Vertical, VerticalScroll
+from textual.geometry import Size
+from textual.screen import ModalScreen
 from textual.widgets import Footer, Input, RichLog, Static
 
 from asictl.errors import UserError
@@ -43,6 +52,7 @@ from asictl.host.status import (
     timer_text,
 )
 from asictl.il.ast import OperandKind
+from asictl.monitor.keys import KEYS
 from asictl.monitor.program import Listing, heading, listing_of, render_rows
 from asictl.monitor.source import MonitorSource, Snapshot, toggle_start
 from asictl.observe.online import CycleLines
@@ -52,9 +62,38 @@ from asictl.platform.master import IO_CODE_BITS, SLAVES
 
 #: Seconds between two refreshes.
 REFRESH_S = 0.25
-#: The grid: slaves 0..31 in rows of this many.
-COLUMNS = 8
 _LIST_LETTERS = {"LPS": "P", "LDS": "D", "LAS": "A", "LCS": "C", "LOS": "O"}
+#: The screen's layouts, by the terminal's size (``layout_for``).
+LAYOUTS = ("wide", "medium", "narrow")
+#: The right-hand panel's width (the flag bytes' hex dump and a border).
+PANEL_WIDTH = 62
+#: The grid's forms, the most compact first: slaves a row, and whether a slave's list
+#: letters stand beside its data (one line a row) or under it (two).
+GRID_FORMS = ((8, True), (8, False), (4, True), (4, False), (2, True), (2, False))
+_CELL = {True: len(" 0 0000/0000 PDACO"), False: len(" 0 0000/0000")}
+_GAP = {True: 2, False: 1}
+_LEGEND = "lists: P projected D detected A active C corrupted O offline"
+
+
+def layout_for(width: int, height: int) -> str:
+    """``wide``: the panel beside the grid and the slave's details (170 columns and
+    more); ``medium``: the grid across, the panel and the details under it (110 x 34 and
+    more); ``narrow`` (down to 80 x 24): the grid and the details, the panel in the data
+    view (``d``)."""
+    if width >= 170 and height >= 30:
+        return "wide"
+    if width >= 110 and height >= 34:
+        return "medium"
+    return "narrow"
+
+
+def grid_form(width: int) -> tuple[int, bool]:
+    """The most compact form of the grid that fits ``width`` columns: every slave 0..31
+    is always on the screen."""
+    for columns, beside in GRID_FORMS:
+        if columns * (_CELL[beside] + _GAP[beside]) - _GAP[beside] <= width:
+            return columns, beside
+    return GRID_FORMS[-1]
 
 Action = Callable[[Master], str | None]
 #: Keys of the slave view only: the program view keeps those that change what the
@@ -77,27 +116,38 @@ class MonitorApp(App[None]):
 
     TITLE = "asictl monitor"
     CSS = """
-    #top { height: 3; padding: 0 1; background: $boost; }
-    #middle { height: 1fr; }
-    #left { width: 2fr; }
-    #grid { height: 13; padding: 0 1; }
-    #detail { height: 1fr; padding: 0 1; border-top: solid $primary; }
-    #right { width: 1fr; min-width: 58; padding: 0 1; border-left: solid $primary; }
-    #program { height: 1fr; padding: 0 1; display: none; }
-    #middle.program #left, #middle.program #right { display: none; }
-    #middle.program #program { display: block; }
-    #log { height: 8; border-top: solid $primary; }
+    #top { height: auto; max-height: 5; padding: 0 1; background: $boost; }
+    #middle { height: auto; }
+    #middle.program { height: 3fr; }
+    #slaves, #left, #lower { height: auto; }
+    #grid { height: auto; padding: 0 1; }
+    #lower { border-top: solid $primary; }
+    #detail { width: 1fr; height: auto; padding: 0 1; }
+    #right, #under { width: 62; height: auto; padding: 0 1; display: none; }
+    #right { border-left: solid $primary; }
+    #under { border-left: solid $primary; }
+    #program, #data { height: auto; padding: 0 1; display: none; }
+    #program { height: 1fr; }
+    #middle.program #slaves, #middle.data #slaves { display: none; }
+    #middle.program #program, #middle.data #data { display: block; }
+    Screen.wide #right, Screen.medium #under { display: block; }
+    #log { height: 1fr; min-height: 3; border-top: solid $primary; }
     #prompt { dock: bottom; display: none; }
     #prompt.visible { display: block; }
     """
     BINDINGS: ClassVar[list[BindingType]] = [
+        Binding("question_mark", "help", "Help", key_display="?"),
+        Binding("f1", "help", "Help", show=False),
         Binding("q", "quit", "Quit"),
+        Binding("f10", "quit", "Quit", show=False),
         Binding("v", "show('program')", "Program view"),
         Binding("v", "show('slaves')", "Slave view"),
+        Binding("d", "show('data')", "Data view"),
+        Binding("d", "show('slaves')", "Slave view"),
         Binding("left", "move(-1)", "Select", show=False, priority=True),
         Binding("right", "move(1)", "Select", show=False, priority=True),
-        Binding("up", "move(-8)", "Select", show=False, priority=True),
-        Binding("down", "move(8)", "Select", show=False, priority=True),
+        Binding("up", "move(-1, True)", "Select", show=False, priority=True),
+        Binding("down", "move(1, True)", "Select", show=False, priority=True),
         Binding("up", "scroll(-1)", "Scroll", show=False, priority=True),
         Binding("down", "scroll(1)", "Scroll", show=False, priority=True),
         Binding("pageup", "page(-1)", "Scroll", show=False, priority=True),
@@ -155,16 +205,24 @@ class MonitorApp(App[None]):
         self._program_rows = 1
         self._prompting: str | None = None
         self._shown: dict[str, Any] = {}
+        #: the grid's slaves a row, as last drawn (up and down move by a row)
+        self.columns = 8
+        #: which of ``LAYOUTS`` the screen has
+        self.layout_name = "wide"
 
     # ------------------------------------------------------------------ layout
 
     def compose(self) -> ComposeResult:
         yield Static(id="top")
-        with Horizontal(id="middle"):
-            with Vertical(id="left"):
-                yield Static(id="grid")
-                yield Static(id="detail")
-            yield Static(id="right")
+        with Vertical(id="middle"):
+            with Horizontal(id="slaves"):
+                with Vertical(id="left"):
+                    yield Static(id="grid")
+                    with Horizontal(id="lower"):
+                        yield Static(id="detail")
+                        yield Static(id="under")  # the panel, under the grid (medium)
+                yield Static(id="right")  # the panel, beside (wide)
+            yield Static(id="data")
             yield Static(id="program")
         yield RichLog(id="log", max_lines=500, wrap=True)
         yield Input(id="prompt", select_on_focus=False)
@@ -172,11 +230,29 @@ class MonitorApp(App[None]):
 
     def on_mount(self) -> None:
         self.query_one("#log", RichLog).can_focus = False  # the arrows select slaves
+        self._fit(self.size)
         if self.note:
             self.log_event(self.note)
         self.source.notify = lambda text: self.call_from_thread(self.log_event, text)
         self.refresh_now()
         self.set_interval(REFRESH_S, self.refresh_now)
+
+    def on_resize(self, event: events.Resize) -> None:
+        self._fit(event.size)
+
+    def _fit(self, size: Size) -> None:
+        """The layout for the terminal's size (``layout_for``) as the screen's class."""
+        wanted = layout_for(size.width, size.height)
+        for name in LAYOUTS:
+            self.screen.set_class(name == wanted, name)
+        self.layout_name = wanted
+        if self.status is not None:
+            self._shown.clear()
+            self._paint()
+
+    def action_help(self) -> None:
+        if not isinstance(self.screen, HelpScreen):
+            self.push_screen(HelpScreen())
 
     # ------------------------------------------------------------------ refreshing
 
@@ -233,9 +309,15 @@ class MonitorApp(App[None]):
         if self.view == "program":
             self._set("program", self._program_view(status))
             return
-        self._set("grid", _grid(status, self.selected))
+        if self.view == "data":
+            self._set("data", _right(status))
+            return
+        width = self.query_one("#grid", Static).content_size.width or self.size.width - 2
+        grid, self.columns = _grid(status, self.selected, width)
+        self._set("grid", grid)
         self._set("detail", _detail(status, self.selected))
-        self._set("right", _right(status))
+        if self.layout_name != "narrow":
+            self._set("right" if self.layout_name == "wide" else "under", _right(status))
 
     # ------------------------------------------------------------------ program view
 
@@ -297,6 +379,7 @@ class MonitorApp(App[None]):
         self.view = view
         middle = self.query_one("#middle")
         middle.set_class(view == "program", "program")
+        middle.set_class(view == "data", "data")
         self.source.watch_lines = view == "program"
         self.refresh_bindings()
         if self.status is not None:
@@ -338,10 +421,11 @@ class MonitorApp(App[None]):
         self.log_event(message)
         self.refresh_now()
 
-    def action_move(self, step: int) -> None:
+    def action_move(self, step: int, rows: bool = False) -> None:
+        """Select the next slave (``rows``: the one a grid row up or down)."""
         if self._prompting is not None:
             return
-        self.selected = (self.selected + step) % SLAVES
+        self.selected = (self.selected + step * (self.columns if rows else 1)) % SLAVES
         if self.status is not None:
             self._paint()
 
@@ -473,6 +557,43 @@ class MonitorApp(App[None]):
         return None if self.status is None else self.status.slaves.get(str(address))
 
 
+class HelpScreen(ModalScreen[None]):
+    """``?`` and F1: every key of the monitor (``monitor.keys``), over the screen."""
+
+    DEFAULT_CSS = """
+    HelpScreen { align: center middle; }
+    #help { width: 100%; max-width: 110; height: 100%; max-height: 44;
+            border: round $primary; background: $surface; padding: 0 1; }
+    """
+    BINDINGS: ClassVar[list[BindingType]] = [
+        Binding("escape", "dismiss", "Close"),
+        Binding("q", "dismiss", "Close", show=False),
+        Binding("question_mark", "dismiss", "Close", show=False),
+        Binding("f1", "dismiss", "Close", show=False),
+    ]
+
+    def compose(self) -> ComposeResult:
+        table = Table.grid(padding=(0, 2))
+        table.add_column(style="bold cyan", no_wrap=True)
+        table.add_column()
+        for key in KEYS:
+            what = Text(key.what)
+            if key.where:
+                what.append(f"  ({key.where})", style="dim")
+            table.add_row(Text(key.label), what)
+        text = Group(
+            Text("asictl monitor: the keys   (Esc, q or ? closes this help)\n", style="bold"),
+            table,
+            Text(
+                "\nThe grid: each slave's input/output bits and its lists (P projected, "
+                "D detected, A active, C corrupted, O offline); green active, yellow not "
+                "active, red a configuration error."
+            ),
+        )
+        with VerticalScroll(id="help"):
+            yield Static(text)
+
+
 # --------------------------------------------------------------------------- helpers
 
 
@@ -540,13 +661,18 @@ def _top(status: MasterStatus, *, gone: str | None) -> Text:
     return text
 
 
-def _grid(status: MasterStatus, selected: int) -> Text:
+def _grid(status: MasterStatus, selected: int, width: int) -> tuple[Text, int]:
+    """Slaves 0..31 with their input/output bits and list letters, in the most compact
+    form that fits ``width`` (``grid_form``); the text and its slaves a row."""
+    columns, beside = grid_form(width)
     problems = set(status.missing) | set(status.unexpected)
     problems |= {w.slave for w in status.wrong_profile}
-    text = Text("slave  in   out  PDACO  (P projected D detected A active C corrupted "
-                "O offline)\n", style="dim")
-    for row in range(0, SLAVES, COLUMNS):
-        for address in range(row, row + COLUMNS):
+    head = "slave in/out " + (_LEGEND if len(_LEGEND) + 13 <= width else "lists PDACO (? explains)")
+    lines = [Text(head, style="dim")]
+    gap = " " * _GAP[beside]
+    for row in range(0, SLAVES, columns):
+        line, letters = Text(), Text(style="dim")
+        for address in range(row, row + columns):
             slave = status.slaves.get(str(address))
             style = "dim"
             if slave is not None:
@@ -555,16 +681,19 @@ def _grid(status: MasterStatus, selected: int) -> Text:
                 style = "bold red"
             if address == selected:
                 style += " reverse"
-            if slave is None:
-                cell = f"{address:>2} ----/---- "
-            else:
-                cell = f"{address:>2} {slave.inputs:04b}/{slave.outputs:04b} "
-            text.append(cell, style=style)
-        text.append("\n")
-        for address in range(row, row + COLUMNS):
-            text.append(f"   {_lists(status.slaves.get(str(address)))}     ", style="dim")
-        text.append("\n")
-    return text
+            data = "----/----" if slave is None else f"{slave.inputs:04b}/{slave.outputs:04b}"
+            if address > row:
+                line.append(gap)
+                letters.append(gap)
+            line.append(f"{address:>2} {data}", style=style)
+            if beside:
+                line.append(f" {_lists(slave)}", style="dim")
+            letters.append(f"   {_lists(slave)}    ")
+        lines.append(line)
+        if not beside:
+            lines.append(letters)
+    text = Text("\n").join(lines)
+    return text, columns
 
 
 def _detail(status: MasterStatus, selected: int) -> Text:
