@@ -239,8 +239,8 @@ def test_a_real_board_or_a_gateway_says_per_line_values_need_an_emulated_board(
     looks to the monitor: the source from the uploaded image, no values."""
 
     @contextmanager
-    def as_hardware(address, notify=None):
-        with connection.connect_master(address, notify=notify) as master:
+    def as_hardware(address, notify=None, live_only=False):
+        with connection.connect_master(address, notify=notify, live_only=live_only) as master:
             if shape == "real":
                 yield dataclasses.replace(master, action=None)
             else:

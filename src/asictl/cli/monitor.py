@@ -6,7 +6,6 @@ command runs: the other commands, and ``asictl --help``, never load it.
 
 from __future__ import annotations
 
-from contextlib import ExitStack
 from dataclasses import replace
 from typing import Unpack
 
@@ -44,7 +43,10 @@ def monitor(**board: Unpack[_BoardOptions]) -> None:
     file (the function blocks follow the main file); v again returns.
 
     An emulated board that no 'asictl serve' keeps running is served live by the monitor
-    itself while it runs, so the other commands reach it meanwhile.
+    itself while it runs, so the other commands reach it meanwhile; when the server it
+    watches goes away, the monitor takes over serving the board (top line and event log:
+    'took over'), or, when another process holds the board, shows the master as gone in
+    red and refuses the keys that act on it until it can.
 
     Exit status: 0 quit, 2 bad usage or Textual not installed.
     """
@@ -53,25 +55,13 @@ def monitor(**board: Unpack[_BoardOptions]) -> None:
     except ImportError as exc:
         raise missing_extra("asictl monitor", "monitor", f"no {exc.name or exc}") from None
     from asictl.host.boards import port_name, state_directory
-    from asictl.host.live.client import is_served
-    from asictl.host.live.server import background_live
     from asictl.host.search import resolve_port
     from asictl.monitor.source import MonitorSource
 
     address = _address(**board)
-    note = None
-    with ExitStack() as stack:
-        if address.modbus is None:
-            directory = state_directory(address.state_dir)
-            base = resolve_port(address.port, address.io, directory, _notify)
-            address = replace(address, port=port_name(base))  # searched once, not each refresh
-            if address.io == "emulated" and not is_served(directory, base):
-                stack.enter_context(background_live(
-                    base, directory,
-                    identity={"command": "asictl monitor", "port": port_name(base)},
-                ))
-                note = (
-                    f"no live board was running for {port_name(base)}: the monitor keeps it "
-                    "running while it runs"
-                )
-        MonitorApp(MonitorSource(address), note=note).run()
+    if address.modbus is None:
+        directory = state_directory(address.state_dir)
+        base = resolve_port(address.port, address.io, directory, _notify)
+        address = replace(address, port=port_name(base))  # searched once, not each refresh
+    with MonitorSource(address) as source:
+        MonitorApp(source).run()

@@ -23,6 +23,7 @@ PgUp/PgDn, ``n`` jumping to the next file (the function blocks follow the main f
 
 from __future__ import annotations
 
+import time
 from collections.abc import Callable
 from typing import Any, ClassVar
 
@@ -119,6 +120,7 @@ class MonitorApp(App[None]):
     #top { height: auto; max-height: 5; padding: 0 1; background: $boost; }
     #middle { height: auto; }
     #middle.program { height: 3fr; }
+    #middle.gone { text-opacity: 50%; }
     #slaves, #left, #lower { height: auto; }
     #grid { height: auto; padding: 0 1; }
     #lower { border-top: solid $primary; }
@@ -183,14 +185,19 @@ class MonitorApp(App[None]):
         "address": "new address for the selected slave",
     }
 
-    def __init__(self, source: MonitorSource, *, note: str | None = None) -> None:
+    def __init__(self, source: MonitorSource) -> None:
         super().__init__()
         self.source = source
-        self.note = note
         self.selected = 1
         self.status: MasterStatus | None = None
+        #: why the master is gone (None: it answered the latest refresh); ``status`` is
+        #: then the last one seen, at ``seen_at``
         self.error: str | None = None
+        self.seen_at = 0.0
         self.emulated = False
+        #: who keeps an emulated board running, and when this monitor took it over
+        self.served_by: str | None = None
+        self.took_over: float | None = None
         #: refreshes shown so far (tests and the refresh-rate benchmark read it)
         self.refreshes = 0
         #: "slaves" or "program": what the middle of the screen shows
@@ -231,8 +238,6 @@ class MonitorApp(App[None]):
     def on_mount(self) -> None:
         self.query_one("#log", RichLog).can_focus = False  # the arrows select slaves
         self._fit(self.size)
-        if self.note:
-            self.log_event(self.note)
         self.source.notify = lambda text: self.call_from_thread(self.log_event, text)
         self.refresh_now()
         self.set_interval(REFRESH_S, self.refresh_now)
@@ -270,23 +275,29 @@ class MonitorApp(App[None]):
         self._refreshing = False
         if not self.is_running:  # a refresh that ends while the screen closes
             return
-        old, self.status = self.status, snapshot.status
+        old = None if self.error else self.status
         was_error, self.error = self.error, snapshot.error
-        self.emulated = snapshot.emulated
+        if snapshot.status is not None:  # while gone: the last status seen, marked gone
+            self.status, self.seen_at = snapshot.status, time.time()
+            self.emulated = snapshot.emulated
+        self.served_by, self.took_over = snapshot.served_by, snapshot.took_over
+        for event in snapshot.events:
+            self.log_event(event, style="bold yellow" if event.startswith("took over") else "")
         if snapshot.program is not None and snapshot.program is not self.program:
             self.program = snapshot.program
             self.listing = listing_of(snapshot.program)
         self.lines, self.lines_note = snapshot.lines, snapshot.lines_note
         if snapshot.error and snapshot.error != was_error:
-            self.log_event(f"master gone: {snapshot.error}")
+            self.log_event(f"master gone: {snapshot.error}", style="bold red")
         elif not snapshot.error and was_error:
             self.log_event("master found again")
-        if (old is None) != (self.status is None) or (
-            old is not None and self.status is not None and old.panel != self.status.panel
+        if (old is None) != (snapshot.status is None) or (
+            old is not None and snapshot.status is not None
+            and old.panel != snapshot.status.panel
         ):
             self.refresh_bindings()  # the panel's keys come and go with the gateway
-        if old is not None and self.status is not None:
-            for event in _changes(old, self.status):
+        if old is not None and snapshot.status is not None:
+            for event in _changes(old, snapshot.status):
                 if self.emulated and event.startswith("configuration error"):
                     event += " (an emulated cable: 'asictl bus match' plugs in the [SETUP])"
                 self.log_event(event)
@@ -303,9 +314,13 @@ class MonitorApp(App[None]):
     def _paint(self) -> None:
         status = self.status
         if status is None:
-            self._set("top", Text(f"master not reachable: {self.error}", style="bold red"))
+            self._set("top", Text(f"master gone: {self.error}", style="bold red"))
             return
-        self._set("top", _top(status, gone=self.error))
+        self.query_one("#middle").set_class(self.error is not None, "gone")
+        self._set("top", _top(
+            status, gone=self.error, seen_at=self.seen_at, served_by=self.served_by,
+            took_over=self.took_over,
+        ))
         if self.view == "program":
             self._set("program", self._program_view(status))
             return
@@ -403,13 +418,23 @@ class MonitorApp(App[None]):
         last_page = self.program_top >= len(self.listing.lines) - self._program_rows
         self._scroll_to(later[0] if later and not last_page else 0)
 
-    def log_event(self, text: str) -> None:
-        self.query_one("#log", RichLog).write(text)
+    def log_event(self, text: str, style: str = "") -> None:
+        stamp = time.strftime("%H:%M:%S ")
+        self.query_one("#log", RichLog).write(Text(stamp, style="dim") + Text(text, style=style))
+
+    def _refused(self, what: str) -> bool:
+        """A key that would act on the master, while it is gone: refused, and said so."""
+        if self.error is None:
+            return False
+        self.log_event(f"{what}: refused, the master is gone ({self.error})", style="red")
+        return True
 
     # ------------------------------------------------------------------ actions
 
     def _act(self, what: str, action: Action) -> None:
         """Run ``action`` in a worker; its outcome goes to the event log."""
+        if self._refused(what):
+            return
 
         def work() -> None:
             message = self.source.run(what, action)
@@ -430,6 +455,8 @@ class MonitorApp(App[None]):
             self._paint()
 
     def _emulated_only(self, what: str) -> bool:
+        if self._refused(what):
+            return False
         if not self.emulated:
             self.log_event(f"{what}: only an emulated board's cable can be changed from here")
         return self.emulated
@@ -497,7 +524,7 @@ class MonitorApp(App[None]):
     # ------------------------------------------------------------------ prompts
 
     def action_prompt(self, kind: str) -> None:
-        if kind in ("plug",) and not self._emulated_only("plug"):
+        if self._refused(kind) or (kind in ("plug",) and not self._emulated_only("plug")):
             return
         self._prompting = kind
         prompt = self.query_one("#prompt", Input)
@@ -641,10 +668,25 @@ def _changes(old: MasterStatus, new: MasterStatus) -> list[str]:
     return events
 
 
-def _top(status: MasterStatus, *, gone: str | None) -> Text:
+def _top(
+    status: MasterStatus, *, gone: str | None, seen_at: float = 0.0,
+    served_by: str | None = None, took_over: float | None = None,
+) -> Text:
     s = status
     text = Text()
-    text.append(f"{s.master_name}  at {s.port}\n", style="bold")
+    if gone:
+        seen = time.strftime("%H:%M:%S", time.localtime(seen_at))
+        text.append(f"MASTER GONE: {gone}", style="bold white on red")
+        text.append(f"\nlast seen at {seen} (below, as it was then); keys that act on it "
+                    "are refused\n", style="bold red")
+    as_it_was = len(text)
+    text.append(f"{s.master_name}  at {s.port}", style="bold")
+    if took_over is not None:
+        since = time.strftime("%H:%M:%S", time.localtime(took_over))
+        text.append(f"   took over at {since}: served by this monitor", style="bold yellow")
+    elif served_by:
+        text.append(f"   served by {served_by}", style="dim")
+    text.append("\n")
     text.append(f"{s.phase}, {s.mode} mode, ")
     text.append(
         "config ok" if s.config_ok else "CONFIGURATION ERROR",
@@ -657,7 +699,7 @@ def _top(status: MasterStatus, *, gone: str | None) -> Text:
     text.append(f"\ncycle {s.cycle_time_ms:.1f} ms (max {s.max_cycle_time_ms:.1f} ms)   ")
     text.append(f"program {s.program.identity or s.program.problem or 'none'}")
     if gone:
-        text.append(f"   master gone: {gone}", style="bold red")
+        text.stylize("dim", as_it_was)
     return text
 
 
