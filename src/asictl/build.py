@@ -31,7 +31,7 @@ from asictl.il import ast
 from asictl.il.checks import Dialect, check_source
 from asictl.il.loader import Program
 from asictl.platform.master import EEPROM_SIZE, Options
-from asictl.source import SourceText, from_bytes, read_source
+from asictl.source import SourceText, from_bytes, read_source, symbols_path
 
 # The image format (and the runtime contract it describes) and the compiler are imported
 # by the functions that use them: checking a source file, what ``asictl check`` does most,
@@ -125,9 +125,11 @@ def build(
     entry_points: Mapping[str, int] | None = None,
     with_source: bool = True,
     on_stage: Callable[[Stage, Build], None] | None = None,
+    symbols: bytes | None = None,
 ) -> Build:
     """Check, compile and make the image of a program file; ``entry_points`` are the
-    firmware's of the master it is for (default: the runtime contract's table).
+    firmware's of the master it is for (default: the runtime contract's table);
+    ``symbols`` the raw symbol table the image carries with its source.
 
     Raises ``ImageError`` for an Intel HEX file that holds no valid image (unreadable
     input); everything else wrong with the program is in the diagnostics.
@@ -151,7 +153,7 @@ def build(
     built.diagnostics.extend(compiled.diagnostics)
     report(Stage.COMPILED, built)
     try:
-        built.image = build_image(compiled, with_source=with_source)
+        built.image = build_image(compiled, with_source=with_source, symbols=symbols)
     except ImageError as exc:
         built.diagnostics.append(Diagnostic(Severity.ERROR, CompileCode.IMAGE_TOO_LARGE, str(exc)))
         return built
@@ -167,15 +169,23 @@ def build_file(
     with_source: bool = True,
     on_stage: Callable[[Stage, Build], None] | None = None,
 ) -> Build:
-    """``build`` of the file at ``path`` ('-' is standard input)."""
+    """``build`` of the file at ``path`` ('-' is standard input), with the symbol table
+    beside it (``NAME.symbols.toml``) when there is one: an image carries it with the
+    source, so that a board shows and takes the program's names."""
+    table = symbols_path(path) if str(path) != "-" else None
+    symbols = read_source(table).raw if table is not None and table.is_file() else None
     return build(
         read_source(path), lib=lib, entry_points=entry_points, with_source=with_source,
-        on_stage=on_stage,
+        on_stage=on_stage, symbols=symbols,
     )
 
 
-def build_image(compiled: Compiled, *, with_source: bool = True) -> ProgramImage:
-    """The image of a compiled program, with its source if wanted and if it fits.
+def build_image(
+    compiled: Compiled, *, with_source: bool = True, symbols: bytes | None = None
+) -> ProgramImage:
+    """The image of a compiled program, with its source if wanted and if it fits, and
+    the raw ``symbols`` table as the source container's last file (named after the main
+    file: ``NAME.symbols.toml``).
 
     Raises ``ImageError`` when even the code and map exceed the EEPROM.
     """
@@ -191,6 +201,8 @@ def build_image(compiled: Compiled, *, with_source: bool = True) -> ProgramImage
 
     program = compiled.program
     files = source_files({name: s.raw for name, s in program.sources.items()})
+    if symbols is not None and with_source:
+        files.append((symbols_path(files[0][0]).name, symbols))
     image = ProgramImage(
         flags=compiled.options.control_flags(),
         configuration=Configuration.of(program.slaves),
@@ -223,7 +235,7 @@ def build_image(compiled: Compiled, *, with_source: bool = True) -> ProgramImage
 def program_of_image(image: ProgramImage) -> Program | None:
     """The program an image carries as source, read from the image alone (None without
     source, or if that source no longer reads cleanly)."""
-    sources = image.sources()
+    sources = image.program_sources()
     if not sources:
         return None
     texts = {Path(name).name.casefold(): from_bytes(name, raw) for name, raw in sources.items()}

@@ -22,6 +22,15 @@ CTRL_Z = b"\x1a"
 #: The largest source file read. Programs are a few hundred KB at most (the EEPROM the
 #: program lands in holds 16 KB); more is a wrong file, or a device such as /dev/zero.
 MAX_SOURCE_BYTES = 8 * 1024 * 1024
+#: A program's symbol table lives beside it: ``conveyor.asi`` -> ``conveyor.symbols.toml``
+#: (read by ``observe.symbols``; an image carries it with the source).
+SYMBOLS_SUFFIX = ".symbols.toml"
+
+
+def symbols_path(program: str | Path) -> Path:
+    """Where a program's symbol table is: ``conveyor.asi`` -> ``conveyor.symbols.toml``."""
+    path = Path(program)
+    return path.with_name(path.stem + SYMBOLS_SUFFIX)
 
 
 @dataclass(frozen=True)

@@ -141,6 +141,8 @@ BOARD_COMMANDS = {
     "slave command": ["4", "1"], "slave parameter": ["4", "1"], "start": [],
     "status": [], "stop": [], "store": ["configuration"], "upload": ["-o", "-"],
     "verify": [str(BLINK)], "write": ["F 1.0=1"],
+    "hiflags": [], "force": ["F 1.0=1"], "unforce": ["--all"],
+    "watch": ["F 1.0", "--duration", "1s"],
 }
 
 

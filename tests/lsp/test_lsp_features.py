@@ -50,6 +50,20 @@ def test_hover_texts_on_the_fb_demo():
     assert "the firmware blocks' arguments" in at(45, "PSeg")
 
 
+def test_hover_names_the_operand_by_the_symbol_table_beside_the_file(tmp_path):
+    program = tmp_path / "edge.asi"
+    program.write_text("[PROGRAM]\n A I 1.0\n = F 10.0\n = Q 2.0\n")
+    (tmp_path / "edge.symbols.toml").write_text('Start = "I1.0"\nEdge = "F 10.0"\n')
+    documents = Documents()
+    documents.open(str(program), program.read_text())
+    analysis = documents.analyse(str(program))
+    assert "symbol `Start` (edge.symbols.toml)" in hover.hover(analysis, str(program), 2, 4)
+    assert "symbol `Edge`" in hover.hover(analysis, str(program), 3, 4)
+    assert "symbol" not in hover.hover(analysis, str(program), 4, 4)
+    (tmp_path / "edge.symbols.toml").write_text("Start = 1\n")  # an error: no names
+    assert "symbol" not in hover.hover(analysis, str(program), 2, 4)
+
+
 def test_hover_on_a_variable_and_a_constant():
     documents = Documents()
     documents.open("/v.asi", "[DECL]\nLevel BYTE 2\n[PROGRAM]\n L KT 505\n L Level 1\n")

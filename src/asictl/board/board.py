@@ -26,6 +26,7 @@ from asictl.board.commands import HostCommands
 from asictl.board.control import AsiControl
 from asictl.board.dpram import COMMAND, MASTER_OWNED, Dpram
 from asictl.board.execution import ExecutionControl, Phase
+from asictl.board.forcing import Area
 from asictl.board.images import VERSION_ID, MasterImages
 from asictl.board.nonvolatile import Nonvolatile
 from asictl.board.services import MasterFirmware
@@ -84,6 +85,7 @@ class Pc2Board:
             pp=bytes(ec.pp),
             config_ok_delay=ec.config_ok_delay,
             bus=self.bus,
+            forced=self.forces,
         )
 
     # ------------------------------------------------------------------ power-up
@@ -91,6 +93,8 @@ class Pc2Board:
     def _boot(self, state: Nonvolatile, *, now_us: int) -> None:
         """Power-up: the DPRAM is written anew, everything volatile starts from scratch."""
         self.bus = bus = state.bus
+        #: the force list (board/forcing.py); change it through ``force`` and ``release``
+        self.forces = state.forced
         self._now_us = self._power_up_us = now_us
         self._index = self._page = 0
         self._in_reset = False
@@ -320,16 +324,20 @@ class Pc2Board:
         if ec.exchange(self._outputs()):
             self._dpram.put(d.IDI, ec.idi)
             self._dpram.interrupt(InterruptSource.IDI_CHANGE)
+        if self.forces:  # a host's write to a forced flag never reaches the program
+            self.forces.rewrite_flags(self._ram, d.FLAGS)
         if self._control.running and self._now_us >= self._program_ready_us:
             self._program_cycle()
         if self._ram[_INTERRUPT_ENABLE] & _ASI_CYCLE and ec.phase is _NORMAL:
             self._dpram.interrupt(InterruptSource.ASI_CYCLE)
 
     def _outputs(self) -> bytes | bytearray:
+        """What the slaves receive: the program's outputs (the host's while it is
+        stopped), forced bits in place."""
         runner = self._control.runner
         if self._control.running and runner is not None:
-            return runner.outputs
-        return self._host_outputs
+            return self.forces.outputs(runner.outputs)
+        return self.forces.outputs(self._host_outputs)
 
     def _read_host_images(self) -> None:
         """The images the master reads cyclically: ODI, PI, hi-flags, and its settings."""
@@ -383,7 +391,7 @@ class Pc2Board:
         calls = self._firmware.calls
         before = self._snapshot(runner) if probe else None
         try:
-            runner.cycle(self._ec.idi)
+            runner.cycle(self.forces.inputs(self._ec.idi))
         except CycleTimeout as exc:
             self._halt(StopReason.CYCLE_TIMEOUT, str(exc))
             return
@@ -398,6 +406,7 @@ class Pc2Board:
             ram = self._ram
             for address in _COUNTER_HIGH_BYTES:
                 ram[address] &= 0x0F
+        self.forces.rewrite_flags(self._ram, d.FLAGS)  # before the quiet check: held bits
         duration = control.record_cycle(runner.last_cycles)
         self._program_ready_us = self._now_us + math.ceil(duration)
         if before is not None:
@@ -406,7 +415,7 @@ class Pc2Board:
         else:
             self._probe_wait -= 1
             self._quiet = False
-        odi = bytes(runner.outputs).translate(_INVERT)
+        odi = bytes(self.forces.outputs(runner.outputs)).translate(_INVERT)
         if odi != self._odi_written:
             self._odi_written = odi
             dpram.put(d.ODI, odi)
@@ -449,6 +458,32 @@ class Pc2Board:
         self._host_outputs = _NO_OUTPUTS
         self._odi_written = None
         self._dpram.put(d.ODI, b"\xff" * d.IMAGE_SIZE)
+
+    # ------------------------------------------------------------------ forcing
+
+    def force(self, area: Area, index: int, mask: int, bits: int) -> None:
+        """Hold the bits under ``mask`` at ``bits`` (board/forcing.py says where); a
+        forced flag is written at once. ``ForceError`` for an index or mask out of range."""
+        self.forces.force(area, index, mask, bits)
+        self._forces_changed()
+
+    def release(self, area: Area | None = None, index: int = 0, mask: int = 0) -> int:
+        """Release the bits under ``mask`` of ``index`` (all forces: ``area`` None);
+        returns how many were released (indices for all, else 1 or 0)."""
+        if area is None:
+            released = self.forces.clear()
+        else:
+            released = int(self.forces.release(area, index, mask))
+        self._forces_changed()
+        return released
+
+    def _forces_changed(self) -> None:
+        """The next AS-i cycle runs the program and sends the outputs again."""
+        self.forces.rewrite_flags(self._ram, d.FLAGS)
+        self._dpram.stirred = True
+        self._quiet = False
+        self._host_dirty = True
+        self._odi_written = None
 
     # ------------------------------------------------------------------ buttons and views
 

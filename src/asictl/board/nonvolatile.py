@@ -3,9 +3,9 @@
 The real board keeps its EEPROM (the control program), the non-volatile AS-i Control
 flags (manual 10.2.6), the operating mode and the master's settings (LPS, PCD, PP, LOS,
 the Config_ok delay) across a power cycle; the emulation also keeps the installation:
-the slaves on the cable. The persistent emulated boards of ``host.boards`` are this
-state saved between commands, so a malformed file is refused naming the bad field,
-never half-loaded.
+the slaves on the cable, and its force list (board/forcing.py). The persistent emulated
+boards of ``host.boards`` are this state saved between commands, so a malformed file is
+refused naming the bad field, never half-loaded.
 """
 
 from __future__ import annotations
@@ -15,6 +15,7 @@ from typing import Any
 
 from asictl.board.asi import AsiBus, BusError
 from asictl.board.execution import addresses
+from asictl.board.forcing import Forces
 from asictl.platform.master import CONTROL_FLAGS_NONVOLATILE, EEPROM_SIZE, NO_PROFILE, SLAVES
 from asictl.platform.pc2 import IMAGE_SIZE, nibbles, pack_nibbles
 
@@ -46,6 +47,8 @@ class Nonvolatile:
     #: Config_ok 0->1 delay, 10 ms units
     config_ok_delay: int = 2
     bus: AsiBus = field(default_factory=AsiBus)
+    #: the force list (board/forcing.py): the emulation's own, kept until released
+    forced: Forces = field(default_factory=Forces)
 
     def to_json(self) -> dict[str, Any]:
         """JSON-able: the EEPROM as hex without its trailing FFh, lists as addresses."""
@@ -61,6 +64,7 @@ class Nonvolatile:
             "los": list(addresses(self.los)),
             "config_ok_delay": self.config_ok_delay,
             "bus": self.bus.to_dict(),
+            **({"forced": self.forced.to_json()} if self.forced else {}),
         }
 
     @classmethod
@@ -97,6 +101,10 @@ class Nonvolatile:
             state.bus = AsiBus.from_dict(data.get("bus", {"slaves": []}))
         except BusError as exc:
             raise NonvolatileError(f"saved board state: bus: {exc}") from None
+        try:
+            state.forced = Forces.from_json(data.get("forced", {}))
+        except ValueError as exc:  # ForceError among them
+            raise NonvolatileError(f"saved board state: {exc}") from None
         return state
 
 

@@ -67,11 +67,22 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "setup": (
         "asictl.cli.commission:setup", "Write a program's [SETUP] as the projected configuration."
     ),
+    "hiflags": (
+        "asictl.cli.commission:hiflags",
+        "Show or set the host interface flags: offline, data exchange, auto-address.",
+    ),
     "diag": (
         "asictl.cli.commission:diag", "Read and clear LCS, error and telegram counters; the LOS."
     ),
     "emc": ("asictl.cli.emc:emc", "Run the PC2's EMC test mode (command 130) on slaves."),
     "write": ("asictl.cli.commission:write", "Write flags (F 10.0=1, FY 10=0x12) and outputs."),
+    "force": (
+        "asictl.cli.online:force", "Force inputs, outputs and flags (held every cycle); --list."
+    ),
+    "unforce": ("asictl.cli.online:unforce", "Release forced operands (--all: every one)."),
+    "watch": (
+        "asictl.cli.online:watch", "Watch operands or symbols on the master: a line per change."
+    ),
     "verify": ("asictl.cli.verify:verify", "Compare a program with the one the master runs."),
     "monitor": ("asictl.cli.monitor:monitor", "A live full-screen view of the master (ASI_MON)."),
     "debug": ("asictl.cli.debug:debug", "Debug a program at the IL level on an emulated master."),

@@ -21,8 +21,9 @@ from asictl.cli.options import lib_option
 from asictl.errors import ExitCode, UserError
 from asictl.host.commissioning import Change, image_changes, write_flags
 from asictl.host.emulated import parse_address, parse_number
+from asictl.host.symbols import Names
 from asictl.il.ast import OperandKind as K
-from asictl.observe.operands import parse_assignment
+from asictl.observe.operands import Assignment
 from asictl.platform.master import SLAVES
 
 #: What ``asictl write`` writes: the flags and the output image.
@@ -146,6 +147,67 @@ def setup(file: str, lib: tuple[str, ...], **board: Unpack[_BoardOptions]) -> No
     )
 
 
+# --------------------------------------------------------------------------- hi-flags
+
+
+@click.command("hiflags")
+@click.option("--offline/--online", "offline", default=None,
+              help="Take the master offline (no AS-i communication at all), or online again.")
+@click.option("--data-exchange/--no-data-exchange", "data_exchange", default=None,
+              help="Let the master exchange data with the slaves, or stop it (the slaves keep "
+              "their last outputs until their watchdogs end them).")
+@click.option("--auto-address/--no-auto-address", "auto_address", default=None,
+              help="Let the master give a replaced slave its address automatically, or not.")
+@click.option("--json", "as_json", is_flag=True, help="The flags as JSON on stdout.")
+@_board_options
+def hiflags(
+    offline: bool | None, data_exchange: bool | None, auto_address: bool | None,
+    as_json: bool, **board: Unpack[_BoardOptions],
+) -> None:
+    """Show or set the host interface flags (ASI_MON's hi-flags; the PC2 driver's message
+    74h, 'write host interface flags'): offline, data exchange active, auto-address
+    enable. The master reads them every AS-i cycle. Without an option they are shown;
+    'status --json' has them as 'hi_flags' (bit 0 data exchange off, 1 offline, 2 auto
+    address off: bits 0 and 2 are transmitted inverted).
+
+    Exit status: 0 shown or set, 1 the master did not take them, 2 bad usage.
+
+    Example: asictl hiflags --offline
+    """
+    from asictl.host.status import hi_flag_text
+    from asictl.platform.pc2 import HiFlag
+
+    wanted = {HiFlag.OFFLINE: offline, HiFlag.DATA_EXCHANGE_OFF: None if data_exchange is None
+              else not data_exchange,
+              HiFlag.AUTO_ADDRESS_OFF: None if auto_address is None else not auto_address}
+    with _connect(**board) as master:
+        tools = master.tools()
+        flags = before = tools.read_hi_flags()
+        for bit, on in wanted.items():
+            if on is not None:
+                flags = flags | bit if on else flags & ~bit
+        if flags != before:
+            tools.write_hi_flags(flags)
+            master.settle()
+            flags = tools.read_hi_flags()
+        summary = master.summary()
+    if as_json:
+        click.echo(json.dumps({
+            "hi_flags": flags, "offline": bool(flags & HiFlag.OFFLINE),
+            "data_exchange_active": not flags & HiFlag.DATA_EXCHANGE_OFF,
+            "auto_address_enable": not flags & HiFlag.AUTO_ADDRESS_OFF,
+        }, indent=2))
+    else:
+        click.echo(f"hi-flags {flags:02X}h {hi_flag_text(flags)}")
+    click.echo(f"{master.name}: {summary}", err=True)
+    if flags != before and master.action is not None and master.action.live is None:
+        click.echo(
+            f"{master.name}: note: this emulated board runs only during a command: the "
+            "hi-flags are in its DPRAM and start again at 00h with the next command "
+            "('asictl serve' keeps it running)", err=True,
+        )
+
+
 # --------------------------------------------------------------------------- diagnostics
 
 
@@ -191,26 +253,15 @@ def diag(as_json: bool, set_los: str | None, **board: Unpack[_BoardOptions]) -> 
 
 # --------------------------------------------------------------------------- write
 
-@click.command("write")
-@click.argument("assignments", nargs=-1, required=True)
-@_board_options
-def write(assignments: tuple[str, ...], **board: Unpack[_BoardOptions]) -> None:
-    """Write flags and outputs: 'F 10.0=1' (a flag bit), 'FY 10=0x12' (a flag byte),
-    'Q 17.3=1' (an output bit), 'Q 17=0b1000' (a slave's four outputs) or 'QB 16=0x5A'
-    (slaves 16 and 17). Values in decimal, 0x.., 0b.. or as IL writes them (12h). Outputs
-    only while the control program is stopped: it owns them while it runs.
 
-    Exit status: 0 written, 1 refused, 2 bad usage (nothing is written then).
-
-    Example: asictl write "F 10.0=1" "Q 17=0b1000"
-    """
+def _image_writes(
+    assignments: list[Assignment],
+) -> tuple[list[Change], dict[int, tuple[int, int]]]:
+    """The flag changes and the output changes (slave -> (mask, bits)) of a ``write``;
+    ``UserError`` (exit 2) for an operand ``write`` does not write."""
     flags: list[Change] = []
     outputs: dict[int, tuple[int, int]] = {}
-    for text in assignments:
-        try:
-            assignment = parse_assignment(text, example="F 10.0=1")
-        except ValueError as exc:
-            raise UserError(str(exc), ExitCode.USAGE) from None
+    for assignment in assignments:
         kind = assignment.operand.node.kind
         if kind not in _WRITABLE:
             raise UserError(
@@ -226,7 +277,28 @@ def write(assignments: tuple[str, ...], **board: Unpack[_BoardOptions]) -> None:
                                 ExitCode.USAGE)
             old_mask, old_value = outputs.get(number, (0, 0))
             outputs[number] = (old_mask | mask, old_value & ~mask | bits)
+    return flags, outputs
+
+
+@click.command("write")
+@click.argument("assignments", nargs=-1, required=True)
+@_board_options
+def write(assignments: tuple[str, ...], **board: Unpack[_BoardOptions]) -> None:
+    """Write flags and outputs: 'F 10.0=1' (a flag bit), 'FY 10=0x12' (a flag byte),
+    'Q 17.3=1' (an output bit), 'Q 17=0b1000' (a slave's four outputs) or 'QB 16=0x5A'
+    (slaves 16 and 17), or a name of the symbol table the program on the master carries
+    ('Motor=1'). Values in decimal, 0x.., 0b.. or as IL writes them (12h). Outputs only
+    while the control program is stopped: it owns them while it runs ('asictl force'
+    holds them even then).
+
+    Exit status: 0 written, 1 refused, 2 bad usage (nothing is written then).
+
+    Example: asictl write "F 10.0=1" "Q 17=0b1000"
+    """
     with _connect(**board) as master:
+        names = Names(master)
+        flags, outputs = _image_writes(
+            [names.assignment(text, example="F 10.0=1") for text in assignments])
         tools = master.tools()
         if flags:
             write_flags(tools, flags)

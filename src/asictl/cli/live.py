@@ -21,8 +21,8 @@ from asictl.host.commissioning import image_changes
 from asictl.host.emulated import parse_address, parse_number, parse_profile
 from asictl.host.live.server import DEFAULT_MAX_CONNECTIONS, DEFAULT_SESSION_TIMEOUT_S
 from asictl.host.master import Master
+from asictl.host.symbols import Names
 from asictl.il.ast import OperandKind as K
-from asictl.observe.operands import parse_assignment
 
 
 @click.command("serve")
@@ -232,27 +232,26 @@ def match(**board: Unpack[_BoardOptions]) -> None:
 def inputs(settings: tuple[str, ...], **board: Unpack[_BoardOptions]) -> None:
     """Set the input data slaves deliver: 'ADDRESS VALUE' (VALUE 0b1011, 0xB, Bh or 11),
     or OPERAND=VALUE: input bits such as 'I 4.0=1', a slave's four inputs 'I 4=0b1011',
-    two slaves' 'IB 4=0x5A' (several at once are applied together).
+    two slaves' 'IB 4=0x5A', or a name of the program's symbol table ('Start=1');
+    several at once are applied together.
 
     Example: asictl bus inputs "I 4.0=1" "I 5=0b0110"
     """
     _emulated_only(board)
     changes: list[list[int]] = []
-    if len(settings) == 2 and "=" not in settings[0] + settings[1]:
+    pairs = len(settings) == 2 and "=" not in settings[0] + settings[1]
+    if pairs:
         changes.append(
             [parse_address(settings[0]), 0xF, parse_number(settings[1], "input value", 15)]
         )
-    else:
-        for text in settings:
-            try:
-                assignment = parse_assignment(text, example="I 4.0=1")
-            except ValueError as exc:
-                raise UserError(str(exc), ExitCode.USAGE) from None
+    with _connect(**board) as master:
+        names = Names(master)
+        for text in () if pairs else settings:
+            assignment = names.assignment(text, example="I 4.0=1")
             if assignment.operand.node.kind not in (K.I, K.IB):
                 raise UserError(f"'{assignment.written}' is no input: bus inputs sets what "
                                 "slaves deliver (I, IB)", ExitCode.USAGE)
             changes += [list(change) for change in image_changes(assignment)]
-    with _connect(**board) as master:
         now = master.emulated("inputs", changes=changes)
         shown = ", ".join(f"slave {a} inputs {v:04b}" for a, v in now.items())
         click.echo(f"{master.name}: {shown}", err=True)

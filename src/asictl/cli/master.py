@@ -240,7 +240,8 @@ def upload_command(output: str, overwrite: bool, **board: Unpack[_BoardOptions])
 
     The image is read from the EEPROM and checked (CRC). If it carries its source, the
     exact files it was compiled from are written: the main file as FILE.asi, the
-    function-block files beside it. Otherwise FILE.asi gets [OPTIONS], [SETUP] and the
+    function-block files beside it, and the symbol table the download carried as
+    FILE.symbols.toml. Otherwise FILE.asi gets [OPTIONS], [SETUP] and the
     image itself as [RAW] records. Either way, downloading FILE.asi stores the identical
     image again (the file names are part of a program's identity: keep the main file's
     name). Files that exist with other content are left alone (and nothing is written)
@@ -255,6 +256,10 @@ def upload_command(output: str, overwrite: bool, **board: Unpack[_BoardOptions])
     files = uploaded_files(image, output)
     source = "its source" if image.source else "[RAW] records (the image carries no source)"
     if output == STDOUT:
+        if image.symbols() is not None:
+            files.pop()  # the symbol table: a file beside the program, none on stdout
+            click.echo(f"{master.name}: note: the program's symbol table is written only "
+                       "beside a file (-o FILE.asi)", err=True)
         if len(files) > 1:
             raise UserError(
                 f"the program has {len(files) - 1} function-block file(s), which cannot go to "
@@ -270,7 +275,7 @@ def upload_command(output: str, overwrite: bool, **board: Unpack[_BoardOptions])
            else "files already up to date"),
         err=True,
     )
-    main_name = next(iter(image.sources()), None)
+    main_name = next(iter(image.program_sources()), None)
     if main_name is not None and main_name != Path(output).name:
         click.echo(
             f"asictl: note: the program's main file was '{shown_name(main_name)}'; compiled "

@@ -285,7 +285,7 @@ class OnlineDebugger:
         """What the client needs once: the files with code, their sources (when the image
         carries them), the operands to show."""
         sources = {name: raw.decode("latin-1").replace("\r\n", "\n")
-                   for name, raw in self.image.sources().items()}
+                   for name, raw in self.image.program_sources().items()}
         try:
             program = program_of_image(self.image)
         except ImageError:

@@ -2,7 +2,8 @@
 
 Changing a slave's address, writing a parameter, sending an AS-i command, switching the
 operation mode, storing the actual configuration or parameters, the diagnostics (LCS,
-error counters, LOS, telegram counters), and writing flags and outputs: each goes
+error counters, LOS, telegram counters), the host interface flags, and writing flags and
+outputs: each goes
 through the master's own host commands, so one procedure serves the emulated board, a
 real board through /dev/port and a live board (``Pc2Commissioning``, over the driver),
 and a Modbus gateway where it offers the function (``ModbusCommissioning``, over its
@@ -21,6 +22,7 @@ from asictl.host.jobs import JobError, JobStatus, address_change_failure
 from asictl.il.ast import OperandKind as K
 from asictl.image.eeprom import Configuration
 from asictl.observe.operands import Assignment
+from asictl.platform import gateway
 from asictl.platform.gateway import (
     EXCEPTION_STATUS_ERROR,
     MEMORY_BYTES,
@@ -33,6 +35,7 @@ from asictl.platform.pc2 import (
     CONTROL_FLAGS,
     FLAGS,
     FLAGS_SIZE,
+    HI_FLAGS,
     LIST_SIZE,
     LOS,
     ODI,
@@ -93,6 +96,13 @@ class Commissioning(Protocol):
 
     def write_outputs(self, changes: dict[int, tuple[int, int]]) -> None: ...
 
+    def read_hi_flags(self) -> int: ...
+
+    def write_hi_flags(self, flags: int) -> None: ...
+
+
+#: The three host interface flags (platform.pc2.HiFlag) of the hi-flags byte.
+HI_FLAGS_MASK = 0x07
 
 #: A change of the master's images: (flag byte or slave, mask, bits): the bits under the
 #: mask become the bits (a slave's data bits are the low four).
@@ -235,6 +245,14 @@ class Pc2Commissioning:
     def read_flags(self) -> bytes:
         return self.driver.read(FLAGS, FLAGS_SIZE)
 
+    def read_hi_flags(self) -> int:
+        return self.driver.read_byte(HI_FLAGS) & HI_FLAGS_MASK
+
+    def write_hi_flags(self, flags: int) -> None:
+        """The hi-flags byte 123h, which the master reads every AS-i cycle (manual 7.3;
+        the driver message 74h, 'write host interface flags', writes the same byte)."""
+        self.driver.write(HI_FLAGS, bytes([flags & HI_FLAGS_MASK]))
+
     def write_outputs(self, changes: dict[int, tuple[int, int]]) -> None:
         """The ODI (stored inverted): per slave (mask, bits), the output bits under the
         mask become the bits; only while no program runs, whose outputs would replace
@@ -332,6 +350,13 @@ class ModbusCommissioning:
 
     def read_flags(self) -> bytes:
         return bytes(r & 0xFF for r in self.transport.read_registers(MEMORY_BYTES, FLAGS_SIZE))
+
+    def read_hi_flags(self) -> int:
+        return self.transport.read_registers(gateway.HI_FLAGS, 1)[0] & HI_FLAGS_MASK
+
+    def write_hi_flags(self, flags: int) -> None:
+        """Holding register 8: the hi-flags as the DPRAM holds them (gateway manual 6.3)."""
+        self.transport.write_registers(gateway.HI_FLAGS, [flags & HI_FLAGS_MASK])
 
     def write_outputs(self, changes: dict[int, tuple[int, int]]) -> None:
         if self.transport.control_flags() & ControlFlag.CONTROL_ACTIVE:

@@ -8,6 +8,9 @@ whichever board they reach. Arguments come from the command line's parsers below
 check them first; an action still refuses anything that does not fit the cable as it is
 (``BusError``: a slave already at an address, no slave there).
 
+``force``, ``unforce`` and ``forced`` are the force list (board/forcing.py), which only
+an emulated board has: the PC2 firmware does not force.
+
 ``lines`` is the monitor's program view: each IL line with the register and operand
 values of the latest program cycle, recorded on the board for that one cycle
 (``observe.online``).
@@ -22,6 +25,7 @@ from typing import Any
 
 from asictl.board.asi import BusError, Slave
 from asictl.board.board import Pc2Board
+from asictl.board.forcing import Area, ForceError, Forces
 from asictl.errors import ExitCode, UserError
 from asictl.observe.operands import read_number
 from asictl.platform.master import IO_CODE_BITS, SLAVES, TICK_MS
@@ -212,6 +216,7 @@ def _view(board: Pc2Board, args: dict[str, JSON]) -> JSON:
         "counters": [],
         "master_ms": board.now_ms,
         "bus_powered": board.bus.powered,
+        "forced": _forced(board, {}),
     }
     runner = board.program
     if runner is not None:
@@ -228,6 +233,34 @@ def _view(board: Pc2Board, args: dict[str, JSON]) -> JSON:
             {"number": n, "value": word(a)} for n, a in sorted(runner.pmap.counters.items())
         ]
     return view
+
+
+def _forced(board: Pc2Board, args: dict[str, JSON]) -> JSON:
+    """The force list: [area, index, mask, bits] per forced slave or flag byte."""
+    return [[area.value, index, mask, bits] for area, index, mask, bits in board.forces.entries()]
+
+
+def _force(board: Pc2Board, args: dict[str, JSON]) -> JSON:
+    """``changes``: [area, index, mask, bits]: hold the bits under the mask; all are
+    checked before any is forced."""
+    changes = [(Area(str(a)), int(i), int(m), int(b)) for a, i, m, b in args["changes"]]
+    trial = Forces.from_json(board.forces.to_json())
+    for area, index, mask, bits in changes:
+        trial.force(area, index, mask, bits)  # ForceError: out of range
+    for area, index, mask, bits in changes:
+        board.force(area, index, mask, bits)
+    return _forced(board, {})
+
+
+def _unforce(board: Pc2Board, args: dict[str, JSON]) -> JSON:
+    """``changes``: [area, index, mask] to release, or ``all``: true; the list left and
+    how many forces were released."""
+    if args.get("all"):
+        released = board.release()
+    else:
+        changes = [(Area(str(a)), int(i), int(m)) for a, i, m in args["changes"]]
+        released = sum(board.release(area, index, mask) for area, index, mask in changes)
+    return {"released": released, "forced": _forced(board, {})}
 
 
 def _lines(board: Pc2Board, args: dict[str, JSON]) -> JSON:
@@ -247,9 +280,12 @@ ACTIONS: dict[str, Action] = {
     "set_button": _set_button,
     "view": _view,
     "lines": _lines,
+    "force": _force,
+    "unforce": _unforce,
+    "forced": _forced,
 }
 #: Actions that only look: a command running them need not save the board's state.
-VIEWS = frozenset({"bus", "view", "lines"})
+VIEWS = frozenset({"bus", "view", "lines", "forced"})
 
 
 def run_action(board: Pc2Board, name: str, args: dict[str, JSON]) -> JSON:
@@ -259,7 +295,7 @@ def run_action(board: Pc2Board, name: str, args: dict[str, JSON]) -> JSON:
         raise ActionError(f"the emulated board has no action '{name}'")
     try:
         return action(board, args)
-    except BusError as exc:
+    except (BusError, ForceError) as exc:
         raise ActionError(str(exc)) from None
     except (KeyError, TypeError, ValueError) as exc:
         raise ActionError(f"malformed '{name}' request: {exc}") from None

@@ -1,8 +1,9 @@
 """From an uploaded image back to files (the way there is ``asictl.build``).
 
 An upload gives back the exact source files the image carries (the main file under the
-name asked for, its function-block files beside it), or, for an image without source,
-a file whose [RAW] section downloads the identical image again.
+name asked for, its function-block files beside it, its symbol table as
+``NAME.symbols.toml`` for the name asked for), or, for an image without source, a file
+whose [RAW] section downloads the identical image again.
 """
 
 from __future__ import annotations
@@ -13,17 +14,19 @@ from asictl.errors import ExitCode, UserError
 from asictl.files import real_path, shown_name, write_together
 from asictl.il import ast
 from asictl.image.eeprom import ImageError, ProgramImage
+from asictl.source import symbols_path
 
 
 def uploaded_files(image: ProgramImage, output: str | Path) -> list[tuple[Path, bytes]]:
-    """(path, exact bytes) of every file an upload to ``output`` writes, main first.
+    """(path, exact bytes) of every file an upload to ``output`` writes, main first, the
+    symbol table (if the image carries one) last.
 
     The block files' names come from the image, which anyone can craft: each must be a
     plain, printable file name (no folder, no NUL, no escape sequence that would drive
     the terminal it is printed on), or nothing is written.
     """
     output = Path(output)
-    sources = image.sources()
+    sources = image.program_sources()
     if not sources:
         return [(output, uploaded_source(image).encode("utf-8"))]
     (_, main), *blocks = sources.items()
@@ -37,6 +40,9 @@ def uploaded_files(image: ProgramImage, output: str | Path) -> list[tuple[Path, 
                 ExitCode.FAILED,
             )
         files.append((output.parent / name, raw))
+    table = image.symbols()
+    if table is not None:
+        files.append((symbols_path(output), table[1]))
     targets = [real_path(path) for path, _ in files]
     if len(set(targets)) != len(targets):
         raise UserError(

@@ -21,9 +21,11 @@ from enum import IntEnum
 from typing import Any
 
 from asictl.host.driver import Pc2Driver
+from asictl.host.forcing import ForcedValue, entries_from_json, forced_values
 from asictl.host.jobs import JobError, JobStatus
 from asictl.host.transfer import Pc2Transport, Transport, upload, upload_head
 from asictl.image.eeprom import MAGIC, ProgramImage
+from asictl.observe.operands import image_symbols
 from asictl.platform.display import Display, derived, led_text
 from asictl.platform.display import leds as derived_leds
 from asictl.platform.master import SLAVES, ControlFlag
@@ -180,6 +182,10 @@ class MasterStatus:
     panel: str = "derived"
     #: the gateway's key lock (register 1007), where it is known
     keys_locked: bool | None = None
+    #: the force list (host/forcing.py), None where the master has none (real hardware)
+    forced: list[ForcedValue] | None = None
+    #: the symbol table the program on the master carries: name -> operand
+    symbols: dict[str, str] = field(default_factory=dict)
 
     def to_json(self) -> dict[str, Any]:
         data = asdict(self)
@@ -367,6 +373,7 @@ def read_status(
     )
     if program is None:
         program = read_program(Pc2Transport(driver))
+    symbols = image_symbols(program.image)
     return MasterStatus(
         port=port,
         master_name=_text(driver.read(MASTER_NAME, MASTER_NAME_SIZE)),
@@ -385,6 +392,9 @@ def read_status(
         los=los,
         hi_flags=driver.read_byte(HI_FLAGS),
         flags=list(driver.read(FLAGS, FLAGS_SIZE)),
+        forced=None if extra is None else forced_values(
+            entries_from_json(extra.get("forced", [])), symbols),
+        symbols={name: text for name, text in symbols.entries.values()},
     )
 
 
@@ -498,6 +508,23 @@ def timer_text(status: MasterStatus) -> list[str]:
     ]
 
 
+def forced_text(status: MasterStatus) -> list[str]:
+    """The force list as a PLC's FORCE lamp and force table show it: how many operands
+    are forced, and each with its value (and name)."""
+    if status.forced is None:
+        return []
+    if not status.forced:
+        return ["forced   (none)"]
+    return [f"forced   FORCE {len(status.forced)}: " + ", ".join(map(str, status.forced))]
+
+
+def symbol_text(status: MasterStatus) -> list[str]:
+    """The names the program on the master gives its operands."""
+    if not status.symbols:
+        return []
+    return ["symbols  " + ", ".join(f"{name} = {text}" for name, text in status.symbols.items())]
+
+
 def render(status: MasterStatus) -> str:
     """A text screen: flags on top, the slave lists below, the control program last."""
     s = status
@@ -548,6 +575,8 @@ def render(status: MasterStatus) -> str:
         f"cycle    {s.cycle_time_ms:.1f} ms (max {s.max_cycle_time_ms:.1f} ms)",
         f"hi-flags {s.hi_flags:02X}h {hi_flag_text(s.hi_flags)}",
         *timer_text(s),
+        *forced_text(s),
+        *symbol_text(s),
         "",
         *slave_rows(s.slaves),
         "",

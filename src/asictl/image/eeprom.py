@@ -50,6 +50,7 @@ from asictl.runtime.program_map import (
     Space,
     Variable,
 )
+from asictl.source import SYMBOLS_SUFFIX
 
 MAGIC = b"ASI2"
 #: Version 2 added the line map; images of version 1 (without it) still read and keep
@@ -364,6 +365,23 @@ class ProgramImage:
             files[name] = reader.take(reader.u32())
         reader.end()
         return files
+
+    def symbols(self) -> tuple[str, bytes] | None:
+        """The program's symbol table stored with its source (``NAME.symbols.toml``, the
+        container's last file when there is one): its name and raw bytes."""
+        sources = self.sources()
+        last = next(reversed(sources), None) if sources else None
+        if last is None or len(sources) < 2 or not last.endswith(SYMBOLS_SUFFIX):
+            return None
+        return last, sources[last]
+
+    def program_sources(self) -> dict[str, bytes]:
+        """``sources`` without the symbol table: the IL files, main file first."""
+        sources = self.sources()
+        table = self.symbols()
+        if table is not None:
+            del sources[table[0]]
+        return sources
 
 
 # --------------------------------------------------------------------------- program map

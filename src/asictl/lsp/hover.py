@@ -1,10 +1,13 @@
-"""Hover texts (Markdown): what an instruction does, where an operand is, what declares
-it, the [SETUP] line of its slave, the times a timer is started with."""
+"""Hover texts (Markdown): what an instruction does, where an operand is, its name in the
+program's symbol table, what declares it, the [SETUP] line of its slave, the times a
+timer is started with."""
 
 from __future__ import annotations
 
 from typing import assert_never
 
+from asictl.diagnostics import DiagnosticError
+from asictl.errors import UserError
 from asictl.il import ast
 from asictl.il.ast import key
 from asictl.il.references import Occurrence, Role, Symbol, SymbolKind
@@ -18,8 +21,11 @@ from asictl.lsp.texts import (
     SECTIONS,
     io_code_text,
 )
+from asictl.observe.operands import operand_text
+from asictl.observe.symbols import symbols_for
 from asictl.runtime.firmware import FIRMWARE_BLOCKS
 from asictl.runtime.layout import FLAGS_BASE
+from asictl.source import symbols_path
 
 
 def hover(analysis: Analysis, file: str, line: int, column: int) -> str | None:
@@ -88,6 +94,7 @@ def _symbol(analysis: Analysis, occurrence: Occurrence, found: list[Occurrence])
     if operand is not None:
         parts.append(f"**{operand}**: {_mark(operand)}")
         parts.append(_where(operand))
+        parts.append(_symbol_name(occurrence.span.file, operand))
     match symbol.kind:
         case SymbolKind.LABEL:
             parts.append(_label(analysis, symbol))
@@ -101,6 +108,20 @@ def _symbol(analysis: Analysis, occurrence: Occurrence, found: list[Occurrence])
         if other.symbol.kind is SymbolKind.SLAVE:
             parts.append(_slave(analysis, other.symbol))
     return "\n\n".join(p for p in parts if p)
+
+
+def _symbol_name(file: str, operand: ast.Operand) -> str:
+    """The operand's name in the symbol table beside the file (``NAME.symbols.toml``, the
+    table a download stores on the board), if it has one; a table with errors names
+    nothing (``asictl sim`` and ``download`` report them)."""
+    try:
+        table = symbols_for(file, operand_text)
+    except (DiagnosticError, UserError):
+        return ""
+    name = table.label(str(operand)) if table else None
+    if not name or name == str(operand):
+        return ""
+    return f"symbol `{name}` ({symbols_path(file).name})"
 
 
 def _operand_of(node: ast.BodyNode | None, occurrence: Occurrence) -> ast.Operand | None:

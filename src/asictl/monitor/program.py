@@ -77,7 +77,7 @@ def listing_of(program: StoredProgram | None) -> Listing:
         return Listing(note=f"no program to show: {program.info.problem or 'no image'}")
     with_code = set(image.line_map.lines())
     try:
-        sources = image.sources()
+        sources = image.program_sources()
     except ImageError as exc:
         sources, damaged = {}, str(exc)
     else:

@@ -22,13 +22,18 @@ import functools
 import re
 from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import assert_never
+from typing import TYPE_CHECKING, assert_never
 
+from asictl.diagnostics import DiagnosticError
 from asictl.il import ast
 from asictl.il.ast import key
 from asictl.il.language import TC_MAX_VALUE
-from asictl.observe.symbols import SymbolTable
+from asictl.observe.symbols import SymbolTable, read_symbols
 from asictl.platform.master import TICK_MS
+from asictl.source import from_bytes
+
+if TYPE_CHECKING:
+    from asictl.image.eeprom import ProgramImage
 
 _VALUE = re.compile(r"^\s*(CV|TV)\s*(\d{1,6})\s*$", re.IGNORECASE)
 #: ``I 4``, ``I2 4``, ``Q 17``: a slave's four data bits (``I2`` takes a blank before the
@@ -253,3 +258,25 @@ def parse_assignment(
         raise ValueError(f"{given}expected OPERAND=VALUE, such as '{example}'")
     operand = parse_operand(written, variables, symbols)
     return Assignment(operand, parse_value(value, operand, written), written)
+
+
+# -------------------------------------------------------------------- symbol tables
+
+
+def operand_text(text: str) -> str:
+    """An operand as it prints (``"I1.0"`` -> ``"I 1.0"``): the check a symbol table is
+    read with, so that a name is found by the operand however the table wrote it."""
+    return str(parse_operand(text))
+
+
+def image_symbols(image: ProgramImage | None) -> SymbolTable:
+    """The symbol table an image carries with its source (``asictl download`` stores the
+    one beside the program); an empty one without, or if it does not read (its errors
+    are for whoever wrote it, at download; a board only shows names)."""
+    table = image.symbols() if image is not None else None
+    if table is None:
+        return SymbolTable()
+    try:
+        return read_symbols(from_bytes(table[0], table[1]), operand_text)
+    except DiagnosticError:
+        return SymbolTable()

@@ -24,9 +24,9 @@ from pathlib import Path
 from asictl.codes import ScenarioCode
 from asictl.diagnostics import Diagnostic, DiagnosticError, Severity, Span
 from asictl.il.ast import key
-from asictl.source import SourceText, read_source
+from asictl.source import SYMBOLS_SUFFIX, SourceText, read_source, symbols_path
 
-SUFFIX = ".symbols.toml"
+SUFFIX = SYMBOLS_SUFFIX
 _NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
 #: ``CV Parts``, ``TV Delay``: a counter's value, a timer's remaining time, by name
 _VALUE_OF = re.compile(r"^\s*(CV|TV)\s+([A-Za-z_][A-Za-z0-9_]*)\s*$", re.IGNORECASE)
@@ -84,12 +84,6 @@ class SymbolTable:
             if named is not None:
                 return f"{match[1]} {named}"
         return operand
-
-
-def symbols_path(program: str | Path) -> Path:
-    """Where a program's symbol table is: ``conveyor.asi`` -> ``conveyor.symbols.toml``."""
-    path = Path(program)
-    return path.with_name(path.stem + SUFFIX)
 
 
 def read_symbols(

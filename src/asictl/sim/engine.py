@@ -138,7 +138,7 @@ def source_texts(build: Build) -> dict[str, str]:
     carries its source)."""
     texts = {PurePath(name).name: text for name, text in build.texts.items()}
     if not texts and build.image is not None:
-        for name, raw in build.image.sources().items():
+        for name, raw in build.image.program_sources().items():
             texts[name] = raw.decode("latin-1").replace("\r\n", "\n")
     return texts
 

@@ -1,0 +1,221 @@
+"""``asictl force``, ``unforce``, ``watch``: the online commands a PLC runtime offers
+beyond reading and writing (docs/commissioning.md, "Forcing", "Watch tables").
+
+Operands are named as ``asictl write`` names them, and by the names of the symbol
+table the program on the master carries (host/symbols.py).
+"""
+
+from __future__ import annotations
+
+import itertools
+import json
+import time
+from dataclasses import asdict
+from typing import Unpack
+
+import click
+
+from asictl.cli.master import _board_options, _BoardOptions, _connect
+from asictl.errors import ExitCode, UserError
+from asictl.host.forcing import Entry, ForcedValue, forced, forced_values
+from asictl.host.master import Master
+from asictl.host.status import StoredProgram
+from asictl.host.symbols import Names
+from asictl.host.watch import Watched
+
+
+def _forced_text(values: list[ForcedValue]) -> str:
+    """``FORCE 2: F 10.0 = 1, FY 12 = 85`` (the count as a PLC's FORCE lamp shows it)."""
+    if not values:
+        return "nothing forced"
+    return f"FORCE {len(values)}: " + ", ".join(map(str, values))
+
+
+def _show(master: Master, entries: list[Entry], names: Names, as_json: bool) -> None:
+    values = forced_values(entries, names.table if entries else None)
+    if as_json:
+        click.echo(json.dumps({"forced": [asdict(v) for v in values]}, indent=2))
+    else:
+        for value in values:
+            click.echo(str(value))
+    click.echo(f"{master.name}: {_forced_text(values)}", err=True)
+
+
+@click.command("force")
+@click.argument("assignments", nargs=-1)
+@click.option("--list", "list_", is_flag=True, help="Show the force list (the default "
+              "without OPERAND=VALUE).")
+@click.option("--json", "as_json", is_flag=True, help="The force list as JSON on stdout.")
+@_board_options
+def force(
+    assignments: tuple[str, ...], list_: bool, as_json: bool, **board: Unpack[_BoardOptions]
+) -> None:
+    """Force inputs, outputs and flags: 'I 1.0=1' (what the program reads), 'Q 2.0=1'
+    (what the slave receives, whatever the program writes), 'F 10.0=1', 'FY 12=0x55'
+    (written again after every program cycle), 'Q 2=0b1010' (a slave's four bits),
+    'QB 2=0x5A', or a name of the program's symbol table ('Motor=1'). Forces hold until
+    'asictl unforce' releases them, across commands and restarts; they are listed on
+    stdout, and 'status' marks them. Emulated boards only: the PC2 firmware has no force
+    list.
+
+    Exit status: 0 forced (or listed), 1 refused (a real board, a gateway), 2 bad usage
+    (nothing is forced then).
+
+    Example: asictl force "F 10.0=1" "FY 12=0x55"
+    """
+    from asictl.host.forcing import force as force_all
+
+    with _connect(**board) as master:
+        names = Names(master)
+        parsed = [names.assignment(text, example="F 10.0=1") for text in assignments]
+        entries = force_all(master, parsed) if parsed else forced(master)
+        _show(master, entries, names, as_json)
+
+
+@click.command("unforce")
+@click.argument("operands", nargs=-1)
+@click.option("--all", "all_", is_flag=True, help="Release every force.")
+@_board_options
+def unforce(operands: tuple[str, ...], all_: bool, **board: Unpack[_BoardOptions]) -> None:
+    """Release forced operands ('F 10.0', 'FY 12', 'Q 2', a symbol's name), or all of
+    them with --all; the program's own values take over in its next cycle. What is still
+    forced is listed on stdout.
+
+    Exit status: 0 released, 1 refused (a real board, a gateway) or nothing of it was
+    forced, 2 bad usage.
+
+    Example: asictl unforce --all
+    """
+    from asictl.host.forcing import unforce as release
+
+    if bool(operands) == all_:
+        raise UserError("name the operands to release, or --all (not both)", ExitCode.USAGE)
+    with _connect(**board) as master:
+        names = Names(master)
+        parsed = None if all_ else [(names.operand(text), text) for text in operands]
+        released, entries = release(master, parsed)
+        _show(master, entries, names, False)
+    if not released and not all_:
+        raise UserError(f"{', '.join(operands)}: not forced", ExitCode.FAILED)
+
+
+# --------------------------------------------------------------------------- watch
+
+
+def _seconds(text: str, option: str) -> float:
+    from asictl.sim.scenario import parse_duration
+
+    try:
+        seconds = parse_duration(text) / 1000
+    except ValueError as exc:
+        raise click.BadParameter(str(exc), param_hint=option) from None
+    if seconds <= 0:
+        raise click.BadParameter(f"'{text}' is no time at all", param_hint=option)
+    return seconds
+
+
+@click.command("watch")
+@click.argument("operands", nargs=-1)
+@click.option("--table", "table", type=click.Path(dir_okay=False), metavar="FILE.watch.toml",
+              help='A watch table: watch = ["F 10.0", "Motor", ...] (added to OPERANDS).')
+@click.option("--interval", default="0.2s", show_default=True,
+              help="How often the values are read (250ms, 1s, ...).")
+@click.option("--duration", default=None,
+              help="Stop after this long (10s, 2m); default: until Ctrl-C.")
+@click.option("--format", "format_", type=click.Choice(["text", "json"]), default="text",
+              show_default=True, help="json: one JSON object a line.")
+@_board_options
+def watch(
+    operands: tuple[str, ...], table: str | None, interval: str, duration: str | None,
+    format_: str, **board: Unpack[_BoardOptions],
+) -> None:
+    """Watch operands on the master: a line for each value at the start, then one for
+    each change, until --duration or Ctrl-C. OPERANDS are inputs, outputs and flags as
+    'write' names them ('F 10.0', 'FY 11', 'Q 2', 'IB 4'), timers and counters ('T 1',
+    'TV 1' its remaining milliseconds, 'CV 0' a count; emulated boards only), or names of
+    the symbol table the program on the master carries. Text lines are 'TIME OPERAND
+    (NAME) VALUE' with the value in decimal, hex and binary; JSON lines are {"operand",
+    "symbol", "value", "time"} with time in seconds since the watch began.
+
+    A board that runs only during a command (not under 'asictl serve') runs its own
+    time as fast as it can: --duration is then master time.
+
+    Exit status: 0 watched, 1 the master did not answer, 2 bad usage.
+
+    Example: asictl watch "F 10.0" Motor --format json --duration 10s
+    """
+    from asictl.cli.master import _address, _master_wait
+    from asictl.host.connection import connect_master
+    from asictl.host.status import read_program
+    from asictl.host.watch import read_table, watch_list
+    from asictl.observe.operands import image_symbols
+
+    period = _seconds(interval, "--interval")
+    limit = _seconds(duration, "--duration") if duration is not None else None
+    items = [*(read_table(table) if table else []), *operands]
+    if not items:
+        raise UserError("nothing to watch: name operands or give --table FILE.watch.toml",
+                        ExitCode.USAGE)
+    with _connect(**board) as master:
+        loaded = master.action is not None and master.action.live is None
+        if loaded and limit is None:
+            raise UserError(
+                f"{master.name} runs only during a command: give --duration, or keep it "
+                "running with 'asictl serve'", ExitCode.USAGE)
+        program = read_program(master.transport)
+        watched = watch_list(Names(master, image_symbols(program.image)), items)
+        lines = _WatchLines(watched, format_)
+        if loaded:  # the board runs only in this command: master time passes as it waits
+            wait = _master_wait(master)
+            for reads in itertools.count():
+                lines.show(_read(master, program, watched), reads * period)
+                if limit is not None and (reads + 1) * period > limit + 1e-9:
+                    return
+                wait(period * 1000)
+    # a live board, a real one, a gateway: one session a read, as the monitor's refresh,
+    # so that other commands reach the board between reads
+    address = _address(**board)
+    begun = time.monotonic()
+    try:
+        for reads in itertools.count():
+            with connect_master(address) as master:
+                now = _read(master, program, watched)
+            lines.show(now, time.monotonic() - begun if reads else 0.0)
+            due = (reads + 1) * period
+            if limit is not None and due > limit + 1e-9:
+                return
+            time.sleep(max(0.0, due - (time.monotonic() - begun)))
+    except KeyboardInterrupt:
+        pass
+
+
+def _read(master: Master, program: StoredProgram, watched: list[Watched]) -> list[int]:
+    from asictl.host.watch import values
+
+    quick = master.quick_status
+    return values(quick(program) if quick is not None else master.status(), watched)
+
+
+class _WatchLines:
+    """Prints a line for each watched value that differs from the one shown last."""
+
+    def __init__(self, watched: list[Watched], format_: str) -> None:
+        self.watched = watched
+        self.format = format_
+        self.shown: list[int | None] = [None] * len(watched)
+
+    def show(self, now: list[int], elapsed: float) -> None:
+        for k, (entry, value) in enumerate(zip(self.watched, now, strict=True)):
+            if value != self.shown[k]:
+                self.shown[k] = value
+                click.echo(_watch_line(entry, value, elapsed, self.format))
+
+
+def _watch_line(entry: Watched, value: int, elapsed: float, format_: str) -> str:
+    if format_ == "json":
+        return json.dumps({"operand": entry.text, "symbol": entry.symbol, "value": value,
+                           "time": round(elapsed, 3)})
+    bits = entry.operand.width
+    digits = max(1, (bits + 3) // 4)
+    return (f"{elapsed:8.3f}s  {entry.label:<24} {value:>5}  {value:0{digits}X}h  "
+            f"{value:0{bits}b}b")
