@@ -86,9 +86,9 @@ def test_the_monitor_shows_the_slaves_in_tmux_and_q_quits(tmp_path: Path):
             return (
                 "program view  blink.asi" in screen and "v Slave view" in screen
                 and "ACCU1" in screen
-                and any(re.search(r"still running\?\s+[01]\s+\d+\s+\d+\s+[01]$", line)
+                and any(re.search(r"still running\?\s+[01]\s+\d+\s+\d+\s+\d+\s+[01]$", line)
                         for line in rows)
-                and any(re.search(r"=   Q 31.0\s+(-\s+){3}not run$", line)
+                and any(re.search(r"=   Q 31.0\s+(-\s+){4}not run$", line)
                         for line in screen.splitlines())
             )
 

@@ -41,25 +41,32 @@ from textual.widgets import Footer, Input, RichLog, Static
 from asictl.errors import UserError
 from asictl.host.commissioning import Change, check_address, image_changes, write_flags
 from asictl.host.emulated import parse_address, parse_number, parse_profile
+from asictl.host.forcing import Entry, force, forced_values, unforce
 from asictl.host.master import Master
 from asictl.host.status import (
     MasterStatus,
     SlaveData,
     StoredProgram,
     flag_rows,
+    forced_text,
     hi_flag_text,
     profile_text,
     stop_text,
+    symbol_text,
     timer_text,
 )
+from asictl.host.symbols import Names
+from asictl.host.watch import Watched, watch_list
+from asictl.host.watch import value as watched_value
 from asictl.il.ast import OperandKind
 from asictl.monitor.keys import KEYS
 from asictl.monitor.program import Listing, heading, listing_of, render_rows
 from asictl.monitor.source import MonitorSource, Snapshot, toggle_start
 from asictl.observe.online import CycleLines
-from asictl.observe.operands import parse_assignment
+from asictl.observe.operands import Assignment, parse_assignment
 from asictl.platform.display import LEDS, Display
 from asictl.platform.master import IO_CODE_BITS, SLAVES
+from asictl.platform.pc2 import HiFlag
 
 #: Seconds between two refreshes.
 REFRESH_S = 0.25
@@ -128,10 +135,10 @@ class MonitorApp(App[None]):
     #right, #under { width: 62; height: auto; padding: 0 1; display: none; }
     #right { border-left: solid $primary; }
     #under { border-left: solid $primary; }
-    #program, #data { height: auto; padding: 0 1; display: none; }
+    #program, #data, #watch { height: auto; padding: 0 1; display: none; }
     #program { height: 1fr; }
-    #middle.program #slaves, #middle.data #slaves { display: none; }
-    #middle.program #program, #middle.data #data { display: block; }
+    #middle.program #slaves, #middle.data #slaves, #middle.watch #slaves { display: none; }
+    #middle.program #program, #middle.data #data, #middle.watch #watch { display: block; }
     Screen.wide #right, Screen.medium #under { display: block; }
     #log { height: 1fr; min-height: 3; border-top: solid $primary; }
     #prompt { dock: bottom; display: none; }
@@ -146,21 +153,33 @@ class MonitorApp(App[None]):
         Binding("v", "show('slaves')", "Slave view"),
         Binding("d", "show('data')", "Data view"),
         Binding("d", "show('slaves')", "Slave view"),
+        Binding("w", "show('watch')", "Watch view"),
+        Binding("w", "show('slaves')", "Slave view"),
         Binding("left", "move(-1)", "Select", show=False, priority=True),
         Binding("right", "move(1)", "Select", show=False, priority=True),
         Binding("up", "move(-1, True)", "Select", show=False, priority=True),
         Binding("down", "move(1, True)", "Select", show=False, priority=True),
         Binding("up", "scroll(-1)", "Scroll", show=False, priority=True),
         Binding("down", "scroll(1)", "Scroll", show=False, priority=True),
+        Binding("up", "watch_row(-1)", "Row", show=False, priority=True),
+        Binding("down", "watch_row(1)", "Row", show=False, priority=True),
         Binding("pageup", "page(-1)", "Scroll", show=False, priority=True),
         Binding("pagedown", "page(1)", "Scroll", key_display="↑↓ PgUp PgDn", priority=True),
         Binding("n", "next_file", "Next file"),
+        Binding("x", "hex", "Hex/decimal"),
+        Binding("plus", "prompt('watch')", "Add"),
+        Binding("minus", "unwatch", "Remove"),
+        Binding("equals_sign", "prompt('write')", "Write once"),
         Binding("0", "toggle_input(0)", "0-3 Input bit"),
         Binding("1", "toggle_input(1)", "Input bit 1", show=False),
         Binding("2", "toggle_input(2)", "Input bit 2", show=False),
         Binding("3", "toggle_input(3)", "Input bit 3", show=False),
         Binding("o", "prompt('output')", "Outputs"),
         Binding("f", "prompt('flag')", "Flags"),
+        Binding("F", "prompt('force')", "Force"),
+        Binding("R", "prompt('release')", "Release"),
+        Binding("P", "prompt('parameter')", "Parameter"),
+        Binding("h", "prompt('hiflags')", "Hi-flags"),
         Binding("s", "start_stop", "Start/stop"),
         Binding("b", "set_button", "Set button"),
         Binding("p", "prompt('plug')", "Plug"),
@@ -183,6 +202,15 @@ class MonitorApp(App[None]):
         "flag": "flag byte or bit: 'FY 10=0x12' or 'F 10.0=1'",
         "plug": "plug in at the selected address: profile such as iiio,1 or Bh,0",
         "address": "new address for the selected slave",
+        "parameter": "parameter for the selected slave: 0..15 (10, Ah, 0b1010)",
+        "force": "force OPERAND=VALUE or NAME=VALUE, held every cycle: 'Q 17.0=1', "
+                 "'I 4.0=0', 'FY 12=0x55'",
+        "release": "release OPERAND or NAME ('all': every force)",
+        "hiflags": "hi-flags: offline or online, data-exchange or no-data-exchange, "
+                   "auto-address or no-auto-address",
+        "watch": "operands or names to watch, comma-separated: 'F 10.0, FY 11, Motor'",
+        "write": "write once OPERAND=VALUE or NAME=VALUE: flags, outputs (program "
+                 "stopped), inputs of an emulated slave",
     }
 
     def __init__(self, source: MonitorSource) -> None:
@@ -216,6 +244,11 @@ class MonitorApp(App[None]):
         self.columns = 8
         #: which of ``LAYOUTS`` the screen has
         self.layout_name = "wide"
+        #: the program view's values in hex (``x``)
+        self.hex_values = False
+        #: the watch view's list and its selected row
+        self.watched: list[Watched] = []
+        self.watch_row = 0
 
     # ------------------------------------------------------------------ layout
 
@@ -230,6 +263,7 @@ class MonitorApp(App[None]):
                         yield Static(id="under")  # the panel, under the grid (medium)
                 yield Static(id="right")  # the panel, beside (wide)
             yield Static(id="data")
+            yield Static(id="watch")
             yield Static(id="program")
         yield RichLog(id="log", max_lines=500, wrap=True)
         yield Input(id="prompt", select_on_focus=False)
@@ -306,7 +340,7 @@ class MonitorApp(App[None]):
 
     def _set(self, widget: str, content: Text | str) -> None:
         """Update a widget only when its content changed: no flicker, little work."""
-        key = content.plain if isinstance(content, Text) else content
+        key = content.copy() if isinstance(content, Text) else content  # styles count too
         if self._shown.get(widget) != key:
             self._shown[widget] = key
             self.query_one(f"#{widget}", Static).update(content)
@@ -326,6 +360,9 @@ class MonitorApp(App[None]):
             return
         if self.view == "data":
             self._set("data", _right(status))
+            return
+        if self.view == "watch":
+            self._set("watch", _watch_view(status, self.watched, self.watch_row))
             return
         width = self.query_one("#grid", Static).content_size.width or self.size.width - 2
         grid, self.columns = _grid(status, self.selected, width)
@@ -363,13 +400,14 @@ class MonitorApp(App[None]):
         for note in filter(None, notes):
             text.append("\n" + note, style="yellow")
         text.append("\n")
-        text.append_text(heading(self.listing, width))
+        text.append_text(heading(self.listing, width, hex_values=self.hex_values))
         visible = max(1, size.height - text.plain.count("\n") - 1)
         self._program_rows = visible
         self.program_top = max(0, min(self.program_top, len(self.listing.lines) - visible))
         rows = render_rows(
             self.listing, lines, top=self.program_top, height=visible, width=width,
-            stop_line=status.stop_line,
+            stop_line=status.stop_line, hex_values=self.hex_values,
+            names={operand: name for name, operand in status.symbols.items()},
         )
         if rows:
             text.append("\n")
@@ -384,8 +422,13 @@ class MonitorApp(App[None]):
             return parameters[0] != self.view
         if action == "key":  # the front panel's keys, where a gateway serves the board
             return self.status is not None and self.status.panel == "gateway"
-        if action in ("scroll", "page", "next_file"):
+        if action in ("scroll", "page", "next_file", "hex"):
             return program
+        watch = self.view == "watch"
+        if action in ("watch_row", "unwatch") or parameters in (("watch",), ("write",)):
+            return watch
+        if action == "move" and watch:
+            return False
         if action in _SLAVE_VIEW_ONLY or parameters in (("plug",), ("address",)):
             return not program
         return True
@@ -395,6 +438,7 @@ class MonitorApp(App[None]):
         middle = self.query_one("#middle")
         middle.set_class(view == "program", "program")
         middle.set_class(view == "data", "data")
+        middle.set_class(view == "watch", "watch")
         self.source.watch_lines = view == "program"
         self.refresh_bindings()
         if self.status is not None:
@@ -411,6 +455,33 @@ class MonitorApp(App[None]):
 
     def action_page(self, pages: int) -> None:
         self._scroll_to(self.program_top + pages * max(1, self._program_rows - 1))
+
+    def action_hex(self) -> None:
+        """x: the program view's values in hex, or in decimal again."""
+        self.hex_values = not self.hex_values
+        if self.status is not None:
+            self._paint()
+
+    def action_watch_row(self, step: int) -> None:
+        if self.watched:
+            self.watch_row = (self.watch_row + step) % len(self.watched)
+            if self.status is not None:
+                self._paint()
+
+    def action_unwatch(self) -> None:
+        """-: the selected row leaves the watch list."""
+        if self.watched:
+            gone = self.watched.pop(self.watch_row)
+            self.watch_row = max(0, min(self.watch_row, len(self.watched) - 1))
+            self.log_event(f"no longer watching {gone.label}")
+            if self.status is not None:
+                self._paint()
+
+    def _watch_add(self, found: list[Watched]) -> None:
+        texts = {w.text for w in self.watched}
+        self.watched += [w for w in found if w.text not in texts]
+        if self.status is not None:
+            self._paint()
 
     def action_next_file(self) -> None:
         """The next file's header at the top (after the last, the first again)."""
@@ -530,6 +601,9 @@ class MonitorApp(App[None]):
         prompt = self.query_one("#prompt", Input)
         prompt.placeholder = self.PROMPTS[kind]
         prompt.value = "FY " if kind == "flag" else ""
+        if self.view == "watch" and self.watched and kind in ("force", "release", "write"):
+            row = self.watched[self.watch_row].text  # the selected row's operand
+            prompt.value = row if kind == "release" else f"{row}="
         prompt.cursor_position = len(prompt.value)
         prompt.add_class("visible")
         prompt.focus()
@@ -579,6 +653,35 @@ class MonitorApp(App[None]):
                 f"slave {address} now has address {new}",
                 lambda m: m.tools().change_address(address, new),
             )
+        elif kind == "parameter":
+            check_address(address, zero=False)
+            value = parse_number(text, "parameter", 15)
+
+            def parameter(master: Master) -> str:
+                answer = master.tools().write_parameter(address, value)
+                return f"slave {address} got parameter {value:X}h, answered {answer:X}h"
+
+            self._act(f"parameter {value:X}h to slave {address}", parameter)
+        elif kind == "force":
+            self._act(f"force {text}", lambda m: _forced(
+                force(m, [Names(m).assignment(text, example="Q 17.0=1")]), f"forced {text}"))
+        elif kind == "release":
+            self._act(f"release {text}", lambda m: _released(m, text))
+        elif kind == "hiflags":
+            wanted = _hi_flags(text)
+            self._act(f"hi-flags {text}", lambda m: _set_hi_flags(m, wanted))
+        elif kind == "watch":
+            items = [item.strip() for item in text.split(",") if item.strip()]
+
+            def add(master: Master) -> str:
+                found = watch_list(Names(master), items)
+                self.call_from_thread(self._watch_add, found)
+                return f"watching {', '.join(w.label for w in found)}"
+
+            self._act(f"watch {text}", add)
+        elif kind == "write":
+            self._act(f"write {text}", lambda m: _write_once(
+                m, Names(m).assignment(text, example="F 10.0=1")))
 
     def _slave(self, address: int) -> SlaveData | None:
         return None if self.status is None else self.status.slaves.get(str(address))
@@ -626,6 +729,67 @@ class HelpScreen(ModalScreen[None]):
 
 def _inputs(master: Master, address: int, mask: int, bits: int) -> None:
     master.emulated("inputs", changes=[[address, mask, bits]])
+
+
+def _forced(entries: list[Entry], what: str) -> str:
+    return f"{what}: FORCE {len(forced_values(entries))}"
+
+
+def _released(master: Master, text: str) -> str:
+    """R: release one operand or name, or 'all'."""
+    if text.lower() == "all":
+        released, left = unforce(master, None)
+    else:
+        released, left = unforce(master, [(Names(master).operand(text), text)])
+    return _forced(left, f"released {text} ({released} released)")
+
+
+#: The hi-flags prompt's words (as 'asictl hiflags' names them): the bit, and whether
+#: the word sets it.
+_HI_WORDS = {
+    "offline": (HiFlag.OFFLINE, True), "online": (HiFlag.OFFLINE, False),
+    "data-exchange": (HiFlag.DATA_EXCHANGE_OFF, False),
+    "no-data-exchange": (HiFlag.DATA_EXCHANGE_OFF, True),
+    "auto-address": (HiFlag.AUTO_ADDRESS_OFF, False),
+    "no-auto-address": (HiFlag.AUTO_ADDRESS_OFF, True),
+}
+
+
+def _hi_flags(text: str) -> dict[HiFlag, bool]:
+    """'offline no-auto-address' (commas or blanks, '--' allowed): bit -> set."""
+    wanted = {}
+    for word in text.replace(",", " ").split():
+        entry = _HI_WORDS.get(word.lower().removeprefix("--"))
+        if entry is None:
+            raise UserError(f"'{word}': the hi-flags are {', '.join(_HI_WORDS)}")
+        wanted[entry[0]] = entry[1]
+    return wanted
+
+
+def _set_hi_flags(master: Master, wanted: dict[HiFlag, bool]) -> str:
+    tools = master.tools()
+    flags = tools.read_hi_flags()
+    for bit, on in wanted.items():
+        flags = flags | bit if on else flags & ~bit
+    tools.write_hi_flags(flags)
+    return f"hi-flags {flags:02X}h: {hi_flag_text(flags)}"
+
+
+def _write_once(master: Master, assignment: Assignment) -> str:
+    """=: an operand written once: flags, outputs (program stopped), an emulated slave's
+    inputs; the program may change it again in its next cycle (a force holds it)."""
+    kind = assignment.operand.node.kind
+    changes = image_changes(assignment)
+    if kind in (OperandKind.F, OperandKind.FY):
+        write_flags(master.tools(), changes)
+    elif kind in (OperandKind.Q, OperandKind.QB):
+        master.tools().write_outputs({n: (mask, bits) for n, mask, bits in changes})
+    elif kind in (OperandKind.I, OperandKind.IB):
+        master.emulated("inputs", changes=[list(change) for change in changes])
+    else:
+        raise UserError(f"'{assignment.written}' cannot be written: flags, outputs and "
+                        "inputs can")
+    return f"{assignment.written}: written"
 
 
 def _flag(text: str) -> list[Change]:
@@ -696,6 +860,9 @@ def _top(
     stopped = stop_text(s)
     if stopped:
         text.append(f" ({stopped})", style="yellow")
+    if s.forced:  # the FORCE lamp
+        text.append("   ")
+        text.append(f" FORCE {len(s.forced)} ", style="bold white on magenta")
     text.append(f"\ncycle {s.cycle_time_ms:.1f} ms (max {s.max_cycle_time_ms:.1f} ms)   ")
     text.append(f"program {s.program.identity or s.program.problem or 'none'}")
     if gone:
@@ -709,6 +876,7 @@ def _grid(status: MasterStatus, selected: int, width: int) -> tuple[Text, int]:
     columns, beside = grid_form(width)
     problems = set(status.missing) | set(status.unexpected)
     problems |= {w.slave for w in status.wrong_profile}
+    forced = _forced_slaves(status)
     head = "slave in/out " + (_LEGEND if len(_LEGEND) + 13 <= width else "lists PDACO (? explains)")
     lines = [Text(head, style="dim")]
     gap = " " * _GAP[beside]
@@ -721,6 +889,8 @@ def _grid(status: MasterStatus, selected: int, width: int) -> tuple[Text, int]:
                 style = "green" if "LAS" in slave.lists else "yellow"
             if address in problems:
                 style = "bold red"
+            if address in forced:
+                style = "bold magenta"
             if address == selected:
                 style += " reverse"
             data = "----/----" if slave is None else f"{slave.inputs:04b}/{slave.outputs:04b}"
@@ -752,7 +922,26 @@ def _detail(status: MasterStatus, selected: int) -> Text:
     )
     text.append(f"PP {slave.pp:X}h   PI {slave.pi:X}h   errors "
                 + ("-" if slave.errors is None else str(slave.errors)))
+    forced = [str(f) for f in status.forced or [] if _slave_of(f.operand) == selected]
+    if forced:
+        text.append("\nforced  " + ", ".join(forced), style="bold magenta")
+    names = [f"{name} = {operand}" for name, operand in status.symbols.items()
+             if _slave_of(operand) == selected]
+    if names:
+        text.append("\nnames   " + ", ".join(names), style="cyan")
     return text
+
+
+def _slave_of(operand: str) -> int | None:
+    """The slave an input or output operand's text names ('I 4.0', 'Q 17'), else None."""
+    kind, _, where = operand.partition(" ")
+    if kind not in ("I", "Q") or not where.split(".")[0].isdigit():
+        return None
+    return int(where.split(".")[0])
+
+
+def _forced_slaves(status: MasterStatus) -> set[int]:
+    return {n for f in status.forced or [] if (n := _slave_of(f.operand)) is not None}
 
 
 #: The LEDs' colours on the gateway's front.
@@ -791,8 +980,43 @@ def _right(status: MasterStatus) -> Text:
         f"hi-flags {s.hi_flags:02X}h {hi_flag_text(s.hi_flags)}",
         f"control flags {s.control_flags:02X}h {' '.join(flags) or '(none)'}",
         *timer_text(s),
+        *forced_text(s),
+        *symbol_text(s),
         "",
         "flag bytes F0..F127",
         *flag_rows(s.flags),
     ]
     return panel + Text("\n".join(lines))
+
+
+def _watch_view(status: MasterStatus, watched: list[Watched], selected: int) -> Text:
+    """The watch list: each operand (and its name) in binary, decimal and hex, forced
+    ones marked."""
+    text = Text("watch view", style="bold")
+    text.append("   + add  - remove  = write once  F force  R release  (the selected row)\n",
+                style="dim")
+    if not watched:
+        text.append("nothing watched yet: + adds operands or names ('F 10.0, FY 11, Motor')",
+                    style="yellow")
+        return text
+    width = max(len(w.label) for w in watched) + 2
+    text.append(f"{'operand':<{width}}{'binary':>18}{'decimal':>9}{'hex':>7}\n", style="bold")
+    forced = {f.operand for f in status.forced or []}
+    for row, entry in enumerate(watched):
+        try:
+            value: int | None = watched_value(status, entry.operand)
+        except UserError:
+            value = None
+        held = entry.text in forced or entry.text.split(".")[0] in forced or (
+            entry.text.replace("F ", "FY ", 1).split(".")[0] in forced)
+        style = "reverse" if row == selected else ""
+        if value is None:
+            cells = f"{'n/a':>18}{'':>9}{'':>7}"
+        else:
+            cells = f"{value:>18b}{value:>9}{value:>6X}h"
+        text.append(f"{entry.label:<{width}}{cells}", style=style)
+        if held:
+            text.append("  FORCED", style="bold magenta")
+        text.append("\n")
+    text.rstrip()
+    return text
