@@ -135,7 +135,8 @@ def test_at_80x24_every_slave_the_help_and_a_killed_server_taken_over(tmp_path: 
             server
         )
         tmux(server, "send-keys", "-t", "monitor", "?")
-        assert wait_for(lambda: "this help" in capture(server)), capture(server)
+        assert wait_for(lambda: "this help" in capture(server)
+                        and "force OPERAND=VALUE" in capture(server)), capture(server)
         tmux(server, "send-keys", "-t", "monitor", "Escape")
         assert wait_for(lambda: "this help" not in capture(server)), capture(server)
         serve.kill()

@@ -31,16 +31,21 @@ def monitor(**board: Unpack[_BoardOptions]) -> None:
     slave; 0-3 toggle the selected emulated slave's input bits; o writes its outputs
     (program stopped); f writes a flag byte or bit; s starts or stops the program; b
     presses the set button; p/u plug/unplug a slave at the selected address; a changes
-    its address; m switches protected/configuration mode; F5/F6 store the actual
-    parameters/configuration; F9 reads everything again; d shows the data view (the
-    flags panel across the screen); q or F10 quits. Where 'asictl gateway
+    its address; P writes its parameter; m switches protected/configuration mode; F5/F6
+    store the actual parameters/configuration; F9 reads everything again; h sets the
+    hi-flags; F forces an operand or name (held every cycle, FORCE n on top) and R
+    releases it (an emulated board); d shows the data view (the flags panel across the
+    screen); w the watch view (a chosen list in binary, decimal and hex: + adds, -
+    removes, = writes once, F/R force and release the selected row); q or F10 quits.
+    Where 'asictl gateway
     serve' serves the board, its front panel is shown (display and LEDs), [ and ] press
     its mode and set keys, { and } hold them 6 s, | holds both 6 s.
 
     v shows the program view instead of the slaves: the program's source with each IL
-    line's RLO, ACCU1, ACCU2 and operand value from the latest cycle (an emulated board
-    only), lines that did not run grey; arrows and PgUp/PgDn scroll, n goes to the next
-    file (the function blocks follow the main file); v again returns.
+    line's RLO, ACCU1, ACCU2, constant register (KREG) and operand value from the latest
+    cycle (an emulated board only), operands named by the board's symbol table, lines
+    that did not run grey; arrows and PgUp/PgDn scroll, n goes to the next file (the
+    function blocks follow the main file), x shows hex; v again returns.
 
     An emulated board that no 'asictl serve' keeps running is served live by the monitor
     itself while it runs, so the other commands reach it meanwhile; when the server it

@@ -989,6 +989,13 @@ def _right(status: MasterStatus) -> Text:
     return panel + Text("\n".join(lines))
 
 
+def _held(operand: str, forced: set[str]) -> bool:
+    """The operand is forced: itself, or the slave or flag byte its bit is in (``Q 17``
+    holds ``Q 17.3``, ``FY 10`` holds ``F 10.0``)."""
+    whole = operand.split(".")[0]
+    return operand in forced or whole in forced or whole.replace("F ", "FY ", 1) in forced
+
+
 def _watch_view(status: MasterStatus, watched: list[Watched], selected: int) -> Text:
     """The watch list: each operand (and its name) in binary, decimal and hex, forced
     ones marked."""
@@ -1007,8 +1014,7 @@ def _watch_view(status: MasterStatus, watched: list[Watched], selected: int) -> 
             value: int | None = watched_value(status, entry.operand)
         except UserError:
             value = None
-        held = entry.text in forced or entry.text.split(".")[0] in forced or (
-            entry.text.replace("F ", "FY ", 1).split(".")[0] in forced)
+        held = _held(entry.text, forced)
         style = "reverse" if row == selected else ""
         if value is None:
             cells = f"{'n/a':>18}{'':>9}{'':>7}"

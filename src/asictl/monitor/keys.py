@@ -26,6 +26,10 @@ class Key:
 KEYS: tuple[Key, ...] = (
     Key("? F1", "this help (Esc, q or ? closes it)", ("question_mark", "f1")),
     Key("q F10", "quit", ("q", "f10")),
+    Key("F", "force OPERAND=VALUE or NAME=VALUE (I, Q, F, FY): held every cycle whatever "
+        "the program writes, until released; forced slaves magenta, FORCE n on top",
+        ("F",), "emulated board"),
+    Key("R", "release a force (OPERAND or NAME; all: every force)", ("R",), "emulated board"),
     Key("v", "the program view: the source with each line's values in the latest cycle; "
         "v again: the slaves", ("v",)),
     Key("d", "the data view: hi-flags, control flags, timers, counters, flag bytes "
@@ -49,10 +53,6 @@ KEYS: tuple[Key, ...] = (
         ("0", "1", "2", "3")),
     Key("o", "write the selected slave's outputs (program stopped)", ("o",)),
     Key("f", "write a flag byte (FY 10=0x12) or bit (F 10.0=1)", ("f",)),
-    Key("F", "force OPERAND=VALUE or NAME=VALUE (I, Q, F, FY): held every cycle whatever "
-        "the program writes, until released; forced slaves magenta, FORCE n on top",
-        ("F",), "emulated board"),
-    Key("R", "release a force (OPERAND or NAME; all: every force)", ("R",), "emulated board"),
     Key("P", "write the selected slave's parameter (0..15)", ("P",)),
     Key("h", "set the hi-flags: offline / online, data-exchange / no-data-exchange, "
         "auto-address / no-auto-address", ("h",)),
