@@ -60,6 +60,7 @@ def monitor(**board: Unpack[_BoardOptions]) -> None:
     except ImportError as exc:
         raise missing_extra("asictl monitor", "monitor", f"no {exc.name or exc}") from None
     from asictl.host.boards import port_name, state_directory
+    from asictl.host.live.client import is_served
     from asictl.host.search import resolve_port
     from asictl.monitor.source import MonitorSource
 
@@ -68,5 +69,7 @@ def monitor(**board: Unpack[_BoardOptions]) -> None:
         directory = state_directory(address.state_dir)
         base = resolve_port(address.port, address.io, directory, _notify)
         address = replace(address, port=port_name(base))  # searched once, not each refresh
+        if address.io == "emulated":
+            is_served(directory, base)  # a socket place that is not safe: refused at once
     with MonitorSource(address) as source:
         MonitorApp(source).run()

@@ -124,7 +124,8 @@ class MonitorApp(App[None]):
 
     TITLE = "asictl monitor"
     CSS = """
-    #top { height: auto; max-height: 5; padding: 0 1; background: $boost; }
+    Screen { overflow: hidden; }
+    #top { height: auto; max-height: 6; padding: 0 1; background: $boost; }
     #middle { height: auto; }
     #middle.program { height: 3fr; }
     #middle.gone { text-opacity: 50%; }
@@ -140,7 +141,7 @@ class MonitorApp(App[None]):
     #middle.program #slaves, #middle.data #slaves, #middle.watch #slaves { display: none; }
     #middle.program #program, #middle.data #data, #middle.watch #watch { display: block; }
     Screen.wide #right, Screen.medium #under { display: block; }
-    #log { height: 1fr; min-height: 3; border-top: solid $primary; }
+    #log { height: 1fr; min-height: 2; border-top: solid $primary; }
     #prompt { dock: bottom; display: none; }
     #prompt.visible { display: block; }
     """
@@ -717,7 +718,8 @@ class HelpScreen(ModalScreen[None]):
             Text(
                 "\nThe grid: each slave's input/output bits and its lists (P projected, "
                 "D detected, A active, C corrupted, O offline); green active, yellow not "
-                "active, red a configuration error."
+                "active, red a configuration error, magenta forced. FORCE n on top: that "
+                "many operands are forced."
             ),
         )
         with VerticalScroll(id="help"):
@@ -841,8 +843,8 @@ def _top(
     if gone:
         seen = time.strftime("%H:%M:%S", time.localtime(seen_at))
         text.append(f"MASTER GONE: {gone}", style="bold white on red")
-        text.append(f"\nlast seen at {seen} (below, as it was then); keys that act on it "
-                    "are refused\n", style="bold red")
+        text.append(f"\nlast seen at {seen} (as below); keys that act on it are refused\n",
+                    style="bold red")
     as_it_was = len(text)
     text.append(f"{s.master_name}  at {s.port}", style="bold")
     if took_over is not None:

@@ -30,9 +30,10 @@ from contextlib import ExitStack
 from dataclasses import dataclass
 
 from asictl.errors import UserError
-from asictl.host.boards import parse_port, port_name, state_directory
+from asictl.host.boards import lock_file, parse_port, port_name, state_directory
 from asictl.host.connection import MasterAddress, NotServed, connect_master
 from asictl.host.live.server import background_live
+from asictl.host.locking import is_free, read_holder
 from asictl.host.master import Master
 from asictl.host.status import MasterStatus, StoredProgram, read_program
 from asictl.host.transfer import set_start
@@ -146,8 +147,18 @@ class MonitorSource:
                 base, directory, identity={"command": OWN_SERVER, "port": name},
             ))
         except UserError as exc:
-            what = f"{before} went away" if before else "no live board serves it"
-            raise UserError(f"{what}, and the monitor cannot take it over: {exc}") from None
+            what = (
+                "the monitor's own live board stopped" if before == THIS_MONITOR
+                else f"{before} went away" if before else "no live board serves it"
+            )
+            lock = lock_file(directory, base)
+            if is_free(lock):
+                why = str(exc)
+            else:  # the monitor tries again each refresh: no hint to run anything again
+                holder = read_holder(lock)
+                by = f"process {holder.pid} ({holder.command})" if holder else "another process"
+                why = f"board {name} is in use by {by}; taken over once it is free"
+            raise UserError(f"{what}, and the monitor cannot take over: {why}") from None
         self._served_by = THIS_MONITOR
         if before is None:
             events.append(
