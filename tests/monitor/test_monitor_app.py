@@ -207,7 +207,7 @@ def test_a_vanished_master_is_shown_and_found_again(tmp_path):
     async def main_() -> None:
         async with app.run_test(size=(170, 45)) as pilot:
             await settle(app, pilot)
-            assert "master not reachable" in str(app.query_one("#top").render())
+            assert "master gone" in str(app.query_one("#top").render())
             assert "master gone" in log_text(app)
 
     asyncio.run(main_())

@@ -98,8 +98,9 @@ def first_row(app: MonitorApp) -> str:
 
 
 def values(text: str) -> list[str]:
-    """RLO, ACCU1, ACCU2 (and the operand) at the end of a row."""
-    return text.split()[-4:]
+    """RLO, ACCU1, ACCU2 (and the operand) at the end of a row (KREG left out)."""
+    rlo, accu1, accu2, _kreg, operand = text.split()[-5:]
+    return [rlo, accu1, accu2, operand]
 
 
 def log_text(app: MonitorApp) -> str:
@@ -114,7 +115,7 @@ def test_v_toggles_the_program_view_and_the_footer_says_so(tmp_path):
         await pilot.press("v")
         await settle(app, pilot)
         assert app.view == "program" and app.source.watch_lines
-        assert app.query_one("#program").display and not app.query_one("#left").display
+        assert app.query_one("#program").display and not app.query_one("#slaves").display
         assert app.screen.active_bindings["v"].binding.description == "Slave view"
         assert "Next file" in [b.binding.description for b in app.screen.active_bindings.values()]
         text = program_text(app)
@@ -123,7 +124,7 @@ def test_v_toggles_the_program_view_and_the_footer_says_so(tmp_path):
         await pilot.press("v")
         await settle(app, pilot)
         assert app.view == "slaves" and not app.source.watch_lines
-        assert app.query_one("#left").display and not app.query_one("#program").display
+        assert app.query_one("#slaves").display and not app.query_one("#program").display
         assert app.screen.active_bindings["v"].binding.description == "Program view"
 
     with live(tmp_path, BLINKER, "blinker.asi") as state:
@@ -220,7 +221,7 @@ def test_an_image_without_source_shows_line_numbers_values_and_a_note(tmp_path):
         text = program_text(app)
         assert NO_SOURCE[:40] in text.replace("\n", "")
         assert "A   T 0" not in text
-        assert re.fullmatch(r"\s+15\s+[01]\s+0\s+0", row(app, 15)), "no operand"
+        assert re.fullmatch(r"\s+15\s+[01]\s+0\s+0\s+\d+", row(app, 15)), "no operand"
         assert "not run" in row(app, 20)
         assert not any(re.match(r"\s+(5|11|14) ", line) for line in text.splitlines()), (
             "only lines with code"
@@ -239,8 +240,8 @@ def test_a_real_board_or_a_gateway_says_per_line_values_need_an_emulated_board(
     looks to the monitor: the source from the uploaded image, no values."""
 
     @contextmanager
-    def as_hardware(address, notify=None):
-        with connection.connect_master(address, notify=notify) as master:
+    def as_hardware(address, notify=None, live_only=False):
+        with connection.connect_master(address, notify=notify, live_only=live_only) as master:
             if shape == "real":
                 yield dataclasses.replace(master, action=None)
             else:
@@ -287,3 +288,30 @@ def test_the_source_keeps_the_stop_line_between_image_reads(tmp_path):
         source = MonitorSource(MasterAddress(state_dir=state))
         lines = [source.snapshot().status.stop_line for _ in range(3)]
     assert lines == ["loop.asi:9"] * 3
+
+
+def test_x_shows_hex_and_the_constant_register_has_a_column(tmp_path):
+    """L KC leaves both accumulators alone and loads the constant register (KREG): the
+    view shows it in decimal and, after x, in hex."""
+    program = (
+        "[SETUP]\n4: iiii, 0\n17: oooo, 0\n\n[PROGRAM]\n        L   KC 300\n"
+        "        A   I 4.0\n        =   Q 17.0\n        BE\n[END]\n"
+    )
+
+    async def check(app, pilot):
+        await pilot.press("v")
+        await settle(app, pilot)
+        assert "KREG" in program_text(app) and "(hex)" not in program_text(app)
+        _rlo, accu1, accu2, kreg = row(app, 6).split()[-4:]  # L KC 300: no operand
+        assert (accu1, accu2, kreg) == ("0", "0", "300"), row(app, 6)
+        assert values(row(app, 8))[-1] == "0"
+        await pilot.press("x")
+        await settle(app, pilot)
+        assert "(hex)" in program_text(app)
+        assert row(app, 6).split()[-3:] == ["0h", "0h", "12Ch"], row(app, 6)
+        await pilot.press("x")
+        await settle(app, pilot)
+        assert "(hex)" not in program_text(app) and row(app, 6).split()[-1] == "300"
+
+    with live(tmp_path, program, "kreg.asi") as state:
+        run(state, check)

@@ -11,7 +11,7 @@ from __future__ import annotations
 import asyncio
 import threading
 from collections.abc import Awaitable, Callable, Iterator
-from contextlib import AbstractContextManager, contextmanager
+from contextlib import AbstractContextManager, contextmanager, suppress
 from typing import Protocol, TypeVar
 
 
@@ -64,5 +64,7 @@ def in_thread(
     try:
         yield server, loop
     finally:
-        loop.call_soon_threadsafe(server.stop)
+        if thread.is_alive():  # a server that stopped by itself has closed its loop
+            with suppress(RuntimeError):  # ... or is closing it just now
+                loop.call_soon_threadsafe(server.stop)
         thread.join(timeout)

@@ -15,7 +15,7 @@ from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
-from asictl.errors import missing_extra
+from asictl.errors import ExitCode, UserError, missing_extra
 from asictl.host.boards import connect, port_name, state_directory, state_file
 from asictl.host.driver import EmulatedPort, Pc2Driver
 from asictl.host.emulated import LoadedBoard
@@ -43,6 +43,13 @@ class MasterAddress:
     wait: bool = False
 
 
+class NotServed(UserError):
+    """No live server keeps the emulated board running (``connect_master``'s
+    ``live_only``): a view that must not show a board frozen in its state file."""
+
+    exit_code = ExitCode.FAILED
+
+
 def _who() -> str:
     return f"{' '.join(['asictl', *sys.argv[1:2]])} (pid {os.getpid()})"
 
@@ -53,14 +60,17 @@ def _stderr(text: str) -> None:
 
 @contextmanager
 def connect_master(
-    address: MasterAddress, notify: Callable[[str], None] | None = None
+    address: MasterAddress, notify: Callable[[str], None] | None = None, *,
+    live_only: bool = False,
 ) -> Iterator[Master]:
     """The PC2 board at ``address.port``, or the gateway at ``address.modbus``;
     ``notify`` hears why a command waits (for a board another process or client holds).
 
     An emulated board that a live server (``asictl serve``) keeps running is reached
     through its socket, for the whole command in one session; otherwise the board is
-    loaded from its state file under its lock, and saved afterwards.
+    loaded from its state file under its lock, and saved afterwards; with ``live_only``
+    it is not (``NotServed``): a board loaded for a moment does not run, so a live view
+    of it would show a program "running" that nothing runs.
     """
     if address.modbus is None:
         from asictl.host.live.client import LiveActions, LivePort, open_live
@@ -87,6 +97,8 @@ def connect_master(
                 finally:
                     client.close()
                 return
+            if live_only:
+                raise NotServed(f"board {name}: no live board serves it")
             created = not state_file(directory, base).exists()
         else:
             created = False

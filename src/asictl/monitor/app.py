@@ -1,9 +1,13 @@
 """The monitor's screen (Textual): ASI_MON's monitor and editor modes and ASI_VIS at once.
 
-Top: the master, its phase and mode, the control program and cycle times. Left: the 31
-slaves (and slave 0) with their input and output nibbles and list letters; below them
-the selected slave's details. Right: hi-flags, timers and counters, the flag bytes
-F0..F127. Bottom: the event log and the keys. The screen refreshes ``REFRESH_S`` apart;
+Top: the master, its phase and mode, the control program and cycle times. Then the 31
+slaves (and slave 0) with their input and output nibbles and list letters, the selected
+slave's details, and the panel: hi-flags, timers and counters, the flag bytes F0..F127.
+Bottom: the event log and the keys. How these stand depends on the terminal's size
+(``layout_for``): the panel beside the grid, under it, or (80 x 24) in a view of its own
+(``d``); the grid takes the most compact form that fits (``grid_form``), so every slave
+is always on the screen. ``?`` and F1 list every key (``monitor.keys``).
+The screen refreshes ``REFRESH_S`` apart;
 reading the master happens in a worker thread, so a slow or vanished master never
 freezes the screen (it is shown as gone, and found again when it returns).
 
@@ -19,42 +23,85 @@ PgUp/PgDn, ``n`` jumping to the next file (the function blocks follow the main f
 
 from __future__ import annotations
 
+import time
 from collections.abc import Callable
 from typing import Any, ClassVar
 
+from rich.console import Group
+from rich.table import Table
 from rich.text import Text
+from textual import events
 from textual.app import App, ComposeResult
 from textual.binding import Binding, BindingType
-from textual.containers import Horizontal, Vertical
+from textual.containers import Horizontal, Vertical, VerticalScroll
+from textual.geometry import Size
+from textual.screen import ModalScreen
 from textual.widgets import Footer, Input, RichLog, Static
 
 from asictl.errors import UserError
 from asictl.host.commissioning import Change, check_address, image_changes, write_flags
 from asictl.host.emulated import parse_address, parse_number, parse_profile
+from asictl.host.forcing import Entry, force, forced_values, unforce
 from asictl.host.master import Master
 from asictl.host.status import (
     MasterStatus,
     SlaveData,
     StoredProgram,
     flag_rows,
+    forced_text,
     hi_flag_text,
     profile_text,
     stop_text,
+    symbol_text,
     timer_text,
 )
+from asictl.host.symbols import Names
+from asictl.host.watch import Watched, watch_list
+from asictl.host.watch import value as watched_value
 from asictl.il.ast import OperandKind
+from asictl.monitor.keys import KEYS
 from asictl.monitor.program import Listing, heading, listing_of, render_rows
 from asictl.monitor.source import MonitorSource, Snapshot, toggle_start
 from asictl.observe.online import CycleLines
-from asictl.observe.operands import parse_assignment
+from asictl.observe.operands import Assignment, parse_assignment
 from asictl.platform.display import LEDS, Display
 from asictl.platform.master import IO_CODE_BITS, SLAVES
+from asictl.platform.pc2 import HiFlag
 
 #: Seconds between two refreshes.
 REFRESH_S = 0.25
-#: The grid: slaves 0..31 in rows of this many.
-COLUMNS = 8
 _LIST_LETTERS = {"LPS": "P", "LDS": "D", "LAS": "A", "LCS": "C", "LOS": "O"}
+#: The screen's layouts, by the terminal's size (``layout_for``).
+LAYOUTS = ("wide", "medium", "narrow")
+#: The right-hand panel's width (the flag bytes' hex dump and a border).
+PANEL_WIDTH = 62
+#: The grid's forms, the most compact first: slaves a row, and whether a slave's list
+#: letters stand beside its data (one line a row) or under it (two).
+GRID_FORMS = ((8, True), (8, False), (4, True), (4, False), (2, True), (2, False))
+_CELL = {True: len(" 0 0000/0000 PDACO"), False: len(" 0 0000/0000")}
+_GAP = {True: 2, False: 1}
+_LEGEND = "lists: P projected D detected A active C corrupted O offline"
+
+
+def layout_for(width: int, height: int) -> str:
+    """``wide``: the panel beside the grid and the slave's details (170 columns and
+    more); ``medium``: the grid across, the panel and the details under it (110 x 34 and
+    more); ``narrow`` (down to 80 x 24): the grid and the details, the panel in the data
+    view (``d``)."""
+    if width >= 170 and height >= 30:
+        return "wide"
+    if width >= 110 and height >= 34:
+        return "medium"
+    return "narrow"
+
+
+def grid_form(width: int) -> tuple[int, bool]:
+    """The most compact form of the grid that fits ``width`` columns: every slave 0..31
+    is always on the screen."""
+    for columns, beside in GRID_FORMS:
+        if columns * (_CELL[beside] + _GAP[beside]) - _GAP[beside] <= width:
+            return columns, beside
+    return GRID_FORMS[-1]
 
 Action = Callable[[Master], str | None]
 #: Keys of the slave view only: the program view keeps those that change what the
@@ -77,38 +124,63 @@ class MonitorApp(App[None]):
 
     TITLE = "asictl monitor"
     CSS = """
-    #top { height: 3; padding: 0 1; background: $boost; }
-    #middle { height: 1fr; }
-    #left { width: 2fr; }
-    #grid { height: 13; padding: 0 1; }
-    #detail { height: 1fr; padding: 0 1; border-top: solid $primary; }
-    #right { width: 1fr; min-width: 58; padding: 0 1; border-left: solid $primary; }
-    #program { height: 1fr; padding: 0 1; display: none; }
-    #middle.program #left, #middle.program #right { display: none; }
-    #middle.program #program { display: block; }
-    #log { height: 8; border-top: solid $primary; }
+    Screen { overflow: hidden; }
+    #top { height: auto; max-height: 6; padding: 0 1; background: $boost; }
+    #middle { height: auto; }
+    #middle.program { height: 3fr; }
+    #middle.gone { text-opacity: 50%; }
+    #slaves, #left, #lower { height: auto; }
+    #grid { height: auto; padding: 0 1; }
+    #lower { border-top: solid $primary; }
+    #detail { width: 1fr; height: auto; padding: 0 1; }
+    #right, #under { width: 62; height: auto; padding: 0 1; display: none; }
+    #right { border-left: solid $primary; }
+    #under { border-left: solid $primary; }
+    #program, #data, #watch { height: auto; padding: 0 1; display: none; }
+    #program { height: 1fr; }
+    #middle.program #slaves, #middle.data #slaves, #middle.watch #slaves { display: none; }
+    #middle.program #program, #middle.data #data, #middle.watch #watch { display: block; }
+    Screen.wide #right, Screen.medium #under { display: block; }
+    #log { height: 1fr; min-height: 2; border-top: solid $primary; }
     #prompt { dock: bottom; display: none; }
     #prompt.visible { display: block; }
     """
     BINDINGS: ClassVar[list[BindingType]] = [
+        Binding("question_mark", "help", "Help", key_display="?"),
+        Binding("f1", "help", "Help", show=False),
         Binding("q", "quit", "Quit"),
+        Binding("f10", "quit", "Quit", show=False),
         Binding("v", "show('program')", "Program view"),
         Binding("v", "show('slaves')", "Slave view"),
+        Binding("d", "show('data')", "Data view"),
+        Binding("d", "show('slaves')", "Slave view"),
+        Binding("w", "show('watch')", "Watch view"),
+        Binding("w", "show('slaves')", "Slave view"),
         Binding("left", "move(-1)", "Select", show=False, priority=True),
         Binding("right", "move(1)", "Select", show=False, priority=True),
-        Binding("up", "move(-8)", "Select", show=False, priority=True),
-        Binding("down", "move(8)", "Select", show=False, priority=True),
+        Binding("up", "move(-1, True)", "Select", show=False, priority=True),
+        Binding("down", "move(1, True)", "Select", show=False, priority=True),
         Binding("up", "scroll(-1)", "Scroll", show=False, priority=True),
         Binding("down", "scroll(1)", "Scroll", show=False, priority=True),
+        Binding("up", "watch_row(-1)", "Row", show=False, priority=True),
+        Binding("down", "watch_row(1)", "Row", show=False, priority=True),
         Binding("pageup", "page(-1)", "Scroll", show=False, priority=True),
         Binding("pagedown", "page(1)", "Scroll", key_display="↑↓ PgUp PgDn", priority=True),
         Binding("n", "next_file", "Next file"),
+        Binding("x", "hex", "Hex/decimal"),
+        Binding("plus", "prompt('watch')", "Add"),
+        Binding("minus", "unwatch", "Remove"),
+        Binding("equals_sign", "prompt('write')", "Write once"),
         Binding("0", "toggle_input(0)", "0-3 Input bit"),
         Binding("1", "toggle_input(1)", "Input bit 1", show=False),
         Binding("2", "toggle_input(2)", "Input bit 2", show=False),
         Binding("3", "toggle_input(3)", "Input bit 3", show=False),
         Binding("o", "prompt('output')", "Outputs"),
         Binding("f", "prompt('flag')", "Flags"),
+        Binding("F", "prompt('force')", "Force"),
+        Binding("R", "prompt('release')", "Release"),
+        Binding("P", "prompt('parameter')", "Parameter"),
+        Binding("h", "prompt('hiflags')", "Hi-flags"),
         Binding("s", "start_stop", "Start/stop"),
         Binding("b", "set_button", "Set button"),
         Binding("p", "prompt('plug')", "Plug"),
@@ -131,16 +203,30 @@ class MonitorApp(App[None]):
         "flag": "flag byte or bit: 'FY 10=0x12' or 'F 10.0=1'",
         "plug": "plug in at the selected address: profile such as iiio,1 or Bh,0",
         "address": "new address for the selected slave",
+        "parameter": "parameter for the selected slave: 0..15 (10, Ah, 0b1010)",
+        "force": "force OPERAND=VALUE or NAME=VALUE, held every cycle: 'Q 17.0=1', "
+                 "'I 4.0=0', 'FY 12=0x55'",
+        "release": "release OPERAND or NAME ('all': every force)",
+        "hiflags": "hi-flags: offline or online, data-exchange or no-data-exchange, "
+                   "auto-address or no-auto-address",
+        "watch": "operands or names to watch, comma-separated: 'F 10.0, FY 11, Motor'",
+        "write": "write once OPERAND=VALUE or NAME=VALUE: flags, outputs (program "
+                 "stopped), inputs of an emulated slave",
     }
 
-    def __init__(self, source: MonitorSource, *, note: str | None = None) -> None:
+    def __init__(self, source: MonitorSource) -> None:
         super().__init__()
         self.source = source
-        self.note = note
         self.selected = 1
         self.status: MasterStatus | None = None
+        #: why the master is gone (None: it answered the latest refresh); ``status`` is
+        #: then the last one seen, at ``seen_at``
         self.error: str | None = None
+        self.seen_at = 0.0
         self.emulated = False
+        #: who keeps an emulated board running, and when this monitor took it over
+        self.served_by: str | None = None
+        self.took_over: float | None = None
         #: refreshes shown so far (tests and the refresh-rate benchmark read it)
         self.refreshes = 0
         #: "slaves" or "program": what the middle of the screen shows
@@ -155,16 +241,30 @@ class MonitorApp(App[None]):
         self._program_rows = 1
         self._prompting: str | None = None
         self._shown: dict[str, Any] = {}
+        #: the grid's slaves a row, as last drawn (up and down move by a row)
+        self.columns = 8
+        #: which of ``LAYOUTS`` the screen has
+        self.layout_name = "wide"
+        #: the program view's values in hex (``x``)
+        self.hex_values = False
+        #: the watch view's list and its selected row
+        self.watched: list[Watched] = []
+        self.watch_row = 0
 
     # ------------------------------------------------------------------ layout
 
     def compose(self) -> ComposeResult:
         yield Static(id="top")
-        with Horizontal(id="middle"):
-            with Vertical(id="left"):
-                yield Static(id="grid")
-                yield Static(id="detail")
-            yield Static(id="right")
+        with Vertical(id="middle"):
+            with Horizontal(id="slaves"):
+                with Vertical(id="left"):
+                    yield Static(id="grid")
+                    with Horizontal(id="lower"):
+                        yield Static(id="detail")
+                        yield Static(id="under")  # the panel, under the grid (medium)
+                yield Static(id="right")  # the panel, beside (wide)
+            yield Static(id="data")
+            yield Static(id="watch")
             yield Static(id="program")
         yield RichLog(id="log", max_lines=500, wrap=True)
         yield Input(id="prompt", select_on_focus=False)
@@ -172,11 +272,27 @@ class MonitorApp(App[None]):
 
     def on_mount(self) -> None:
         self.query_one("#log", RichLog).can_focus = False  # the arrows select slaves
-        if self.note:
-            self.log_event(self.note)
+        self._fit(self.size)
         self.source.notify = lambda text: self.call_from_thread(self.log_event, text)
         self.refresh_now()
         self.set_interval(REFRESH_S, self.refresh_now)
+
+    def on_resize(self, event: events.Resize) -> None:
+        self._fit(event.size)
+
+    def _fit(self, size: Size) -> None:
+        """The layout for the terminal's size (``layout_for``) as the screen's class."""
+        wanted = layout_for(size.width, size.height)
+        for name in LAYOUTS:
+            self.screen.set_class(name == wanted, name)
+        self.layout_name = wanted
+        if self.status is not None:
+            self._shown.clear()
+            self._paint()
+
+    def action_help(self) -> None:
+        if not isinstance(self.screen, HelpScreen):
+            self.push_screen(HelpScreen())
 
     # ------------------------------------------------------------------ refreshing
 
@@ -194,23 +310,29 @@ class MonitorApp(App[None]):
         self._refreshing = False
         if not self.is_running:  # a refresh that ends while the screen closes
             return
-        old, self.status = self.status, snapshot.status
+        old = None if self.error else self.status
         was_error, self.error = self.error, snapshot.error
-        self.emulated = snapshot.emulated
+        if snapshot.status is not None:  # while gone: the last status seen, marked gone
+            self.status, self.seen_at = snapshot.status, time.time()
+            self.emulated = snapshot.emulated
+        self.served_by, self.took_over = snapshot.served_by, snapshot.took_over
+        for event in snapshot.events:
+            self.log_event(event, style="bold yellow" if event.startswith("took over") else "")
         if snapshot.program is not None and snapshot.program is not self.program:
             self.program = snapshot.program
             self.listing = listing_of(snapshot.program)
         self.lines, self.lines_note = snapshot.lines, snapshot.lines_note
         if snapshot.error and snapshot.error != was_error:
-            self.log_event(f"master gone: {snapshot.error}")
+            self.log_event(f"master gone: {snapshot.error}", style="bold red")
         elif not snapshot.error and was_error:
             self.log_event("master found again")
-        if (old is None) != (self.status is None) or (
-            old is not None and self.status is not None and old.panel != self.status.panel
+        if (old is None) != (snapshot.status is None) or (
+            old is not None and snapshot.status is not None
+            and old.panel != snapshot.status.panel
         ):
             self.refresh_bindings()  # the panel's keys come and go with the gateway
-        if old is not None and self.status is not None:
-            for event in _changes(old, self.status):
+        if old is not None and snapshot.status is not None:
+            for event in _changes(old, snapshot.status):
                 if self.emulated and event.startswith("configuration error"):
                     event += " (an emulated cable: 'asictl bus match' plugs in the [SETUP])"
                 self.log_event(event)
@@ -219,7 +341,7 @@ class MonitorApp(App[None]):
 
     def _set(self, widget: str, content: Text | str) -> None:
         """Update a widget only when its content changed: no flicker, little work."""
-        key = content.plain if isinstance(content, Text) else content
+        key = content.copy() if isinstance(content, Text) else content  # styles count too
         if self._shown.get(widget) != key:
             self._shown[widget] = key
             self.query_one(f"#{widget}", Static).update(content)
@@ -227,15 +349,28 @@ class MonitorApp(App[None]):
     def _paint(self) -> None:
         status = self.status
         if status is None:
-            self._set("top", Text(f"master not reachable: {self.error}", style="bold red"))
+            self._set("top", Text(f"master gone: {self.error}", style="bold red"))
             return
-        self._set("top", _top(status, gone=self.error))
+        self.query_one("#middle").set_class(self.error is not None, "gone")
+        self._set("top", _top(
+            status, gone=self.error, seen_at=self.seen_at, served_by=self.served_by,
+            took_over=self.took_over,
+        ))
         if self.view == "program":
             self._set("program", self._program_view(status))
             return
-        self._set("grid", _grid(status, self.selected))
+        if self.view == "data":
+            self._set("data", _right(status))
+            return
+        if self.view == "watch":
+            self._set("watch", _watch_view(status, self.watched, self.watch_row))
+            return
+        width = self.query_one("#grid", Static).content_size.width or self.size.width - 2
+        grid, self.columns = _grid(status, self.selected, width)
+        self._set("grid", grid)
         self._set("detail", _detail(status, self.selected))
-        self._set("right", _right(status))
+        if self.layout_name != "narrow":
+            self._set("right" if self.layout_name == "wide" else "under", _right(status))
 
     # ------------------------------------------------------------------ program view
 
@@ -266,13 +401,14 @@ class MonitorApp(App[None]):
         for note in filter(None, notes):
             text.append("\n" + note, style="yellow")
         text.append("\n")
-        text.append_text(heading(self.listing, width))
+        text.append_text(heading(self.listing, width, hex_values=self.hex_values))
         visible = max(1, size.height - text.plain.count("\n") - 1)
         self._program_rows = visible
         self.program_top = max(0, min(self.program_top, len(self.listing.lines) - visible))
         rows = render_rows(
             self.listing, lines, top=self.program_top, height=visible, width=width,
-            stop_line=status.stop_line,
+            stop_line=status.stop_line, hex_values=self.hex_values,
+            names={operand: name for name, operand in status.symbols.items()},
         )
         if rows:
             text.append("\n")
@@ -287,8 +423,13 @@ class MonitorApp(App[None]):
             return parameters[0] != self.view
         if action == "key":  # the front panel's keys, where a gateway serves the board
             return self.status is not None and self.status.panel == "gateway"
-        if action in ("scroll", "page", "next_file"):
+        if action in ("scroll", "page", "next_file", "hex"):
             return program
+        watch = self.view == "watch"
+        if action in ("watch_row", "unwatch") or parameters in (("watch",), ("write",)):
+            return watch
+        if action == "move" and watch:
+            return False
         if action in _SLAVE_VIEW_ONLY or parameters in (("plug",), ("address",)):
             return not program
         return True
@@ -297,6 +438,8 @@ class MonitorApp(App[None]):
         self.view = view
         middle = self.query_one("#middle")
         middle.set_class(view == "program", "program")
+        middle.set_class(view == "data", "data")
+        middle.set_class(view == "watch", "watch")
         self.source.watch_lines = view == "program"
         self.refresh_bindings()
         if self.status is not None:
@@ -314,19 +457,56 @@ class MonitorApp(App[None]):
     def action_page(self, pages: int) -> None:
         self._scroll_to(self.program_top + pages * max(1, self._program_rows - 1))
 
+    def action_hex(self) -> None:
+        """x: the program view's values in hex, or in decimal again."""
+        self.hex_values = not self.hex_values
+        if self.status is not None:
+            self._paint()
+
+    def action_watch_row(self, step: int) -> None:
+        if self.watched:
+            self.watch_row = (self.watch_row + step) % len(self.watched)
+            if self.status is not None:
+                self._paint()
+
+    def action_unwatch(self) -> None:
+        """-: the selected row leaves the watch list."""
+        if self.watched:
+            gone = self.watched.pop(self.watch_row)
+            self.watch_row = max(0, min(self.watch_row, len(self.watched) - 1))
+            self.log_event(f"no longer watching {gone.label}")
+            if self.status is not None:
+                self._paint()
+
+    def _watch_add(self, found: list[Watched]) -> None:
+        texts = {w.text for w in self.watched}
+        self.watched += [w for w in found if w.text not in texts]
+        if self.status is not None:
+            self._paint()
+
     def action_next_file(self) -> None:
         """The next file's header at the top (after the last, the first again)."""
         later = [row for row in self.listing.headers() if row > self.program_top]
         last_page = self.program_top >= len(self.listing.lines) - self._program_rows
         self._scroll_to(later[0] if later and not last_page else 0)
 
-    def log_event(self, text: str) -> None:
-        self.query_one("#log", RichLog).write(text)
+    def log_event(self, text: str, style: str = "") -> None:
+        stamp = time.strftime("%H:%M:%S ")
+        self.query_one("#log", RichLog).write(Text(stamp, style="dim") + Text(text, style=style))
+
+    def _refused(self, what: str) -> bool:
+        """A key that would act on the master, while it is gone: refused, and said so."""
+        if self.error is None:
+            return False
+        self.log_event(f"{what}: refused, the master is gone ({self.error})", style="red")
+        return True
 
     # ------------------------------------------------------------------ actions
 
     def _act(self, what: str, action: Action) -> None:
         """Run ``action`` in a worker; its outcome goes to the event log."""
+        if self._refused(what):
+            return
 
         def work() -> None:
             message = self.source.run(what, action)
@@ -338,14 +518,17 @@ class MonitorApp(App[None]):
         self.log_event(message)
         self.refresh_now()
 
-    def action_move(self, step: int) -> None:
+    def action_move(self, step: int, rows: bool = False) -> None:
+        """Select the next slave (``rows``: the one a grid row up or down)."""
         if self._prompting is not None:
             return
-        self.selected = (self.selected + step) % SLAVES
+        self.selected = (self.selected + step * (self.columns if rows else 1)) % SLAVES
         if self.status is not None:
             self._paint()
 
     def _emulated_only(self, what: str) -> bool:
+        if self._refused(what):
+            return False
         if not self.emulated:
             self.log_event(f"{what}: only an emulated board's cable can be changed from here")
         return self.emulated
@@ -413,12 +596,15 @@ class MonitorApp(App[None]):
     # ------------------------------------------------------------------ prompts
 
     def action_prompt(self, kind: str) -> None:
-        if kind in ("plug",) and not self._emulated_only("plug"):
+        if self._refused(kind) or (kind in ("plug",) and not self._emulated_only("plug")):
             return
         self._prompting = kind
         prompt = self.query_one("#prompt", Input)
         prompt.placeholder = self.PROMPTS[kind]
         prompt.value = "FY " if kind == "flag" else ""
+        if self.view == "watch" and self.watched and kind in ("force", "release", "write"):
+            row = self.watched[self.watch_row].text  # the selected row's operand
+            prompt.value = row if kind == "release" else f"{row}="
         prompt.cursor_position = len(prompt.value)
         prompt.add_class("visible")
         prompt.focus()
@@ -468,9 +654,76 @@ class MonitorApp(App[None]):
                 f"slave {address} now has address {new}",
                 lambda m: m.tools().change_address(address, new),
             )
+        elif kind == "parameter":
+            check_address(address, zero=False)
+            value = parse_number(text, "parameter", 15)
+
+            def parameter(master: Master) -> str:
+                answer = master.tools().write_parameter(address, value)
+                return f"slave {address} got parameter {value:X}h, answered {answer:X}h"
+
+            self._act(f"parameter {value:X}h to slave {address}", parameter)
+        elif kind == "force":
+            self._act(f"force {text}", lambda m: _forced(
+                force(m, [Names(m).assignment(text, example="Q 17.0=1")]), f"forced {text}"))
+        elif kind == "release":
+            self._act(f"release {text}", lambda m: _released(m, text))
+        elif kind == "hiflags":
+            wanted = _hi_flags(text)
+            self._act(f"hi-flags {text}", lambda m: _set_hi_flags(m, wanted))
+        elif kind == "watch":
+            items = [item.strip() for item in text.split(",") if item.strip()]
+
+            def add(master: Master) -> str:
+                found = watch_list(Names(master), items)
+                self.call_from_thread(self._watch_add, found)
+                return f"watching {', '.join(w.label for w in found)}"
+
+            self._act(f"watch {text}", add)
+        elif kind == "write":
+            self._act(f"write {text}", lambda m: _write_once(
+                m, Names(m).assignment(text, example="F 10.0=1")))
 
     def _slave(self, address: int) -> SlaveData | None:
         return None if self.status is None else self.status.slaves.get(str(address))
+
+
+class HelpScreen(ModalScreen[None]):
+    """``?`` and F1: every key of the monitor (``monitor.keys``), over the screen."""
+
+    DEFAULT_CSS = """
+    HelpScreen { align: center middle; }
+    #help { width: 100%; max-width: 110; height: 100%; max-height: 44;
+            border: round $primary; background: $surface; padding: 0 1; }
+    """
+    BINDINGS: ClassVar[list[BindingType]] = [
+        Binding("escape", "dismiss", "Close"),
+        Binding("q", "dismiss", "Close", show=False),
+        Binding("question_mark", "dismiss", "Close", show=False),
+        Binding("f1", "dismiss", "Close", show=False),
+    ]
+
+    def compose(self) -> ComposeResult:
+        table = Table.grid(padding=(0, 2))
+        table.add_column(style="bold cyan", no_wrap=True)
+        table.add_column()
+        for key in KEYS:
+            what = Text(key.what)
+            if key.where:
+                what.append(f"  ({key.where})", style="dim")
+            table.add_row(Text(key.label), what)
+        text = Group(
+            Text("asictl monitor: the keys   (Esc, q or ? closes this help)\n", style="bold"),
+            table,
+            Text(
+                "\nThe grid: each slave's input/output bits and its lists (P projected, "
+                "D detected, A active, C corrupted, O offline); green active, yellow not "
+                "active, red a configuration error, magenta forced. FORCE n on top: that "
+                "many operands are forced."
+            ),
+        )
+        with VerticalScroll(id="help"):
+            yield Static(text)
 
 
 # --------------------------------------------------------------------------- helpers
@@ -478,6 +731,67 @@ class MonitorApp(App[None]):
 
 def _inputs(master: Master, address: int, mask: int, bits: int) -> None:
     master.emulated("inputs", changes=[[address, mask, bits]])
+
+
+def _forced(entries: list[Entry], what: str) -> str:
+    return f"{what}: FORCE {len(forced_values(entries))}"
+
+
+def _released(master: Master, text: str) -> str:
+    """R: release one operand or name, or 'all'."""
+    if text.lower() == "all":
+        released, left = unforce(master, None)
+    else:
+        released, left = unforce(master, [(Names(master).operand(text), text)])
+    return _forced(left, f"released {text} ({released} released)")
+
+
+#: The hi-flags prompt's words (as 'asictl hiflags' names them): the bit, and whether
+#: the word sets it.
+_HI_WORDS = {
+    "offline": (HiFlag.OFFLINE, True), "online": (HiFlag.OFFLINE, False),
+    "data-exchange": (HiFlag.DATA_EXCHANGE_OFF, False),
+    "no-data-exchange": (HiFlag.DATA_EXCHANGE_OFF, True),
+    "auto-address": (HiFlag.AUTO_ADDRESS_OFF, False),
+    "no-auto-address": (HiFlag.AUTO_ADDRESS_OFF, True),
+}
+
+
+def _hi_flags(text: str) -> dict[HiFlag, bool]:
+    """'offline no-auto-address' (commas or blanks, '--' allowed): bit -> set."""
+    wanted = {}
+    for word in text.replace(",", " ").split():
+        entry = _HI_WORDS.get(word.lower().removeprefix("--"))
+        if entry is None:
+            raise UserError(f"'{word}': the hi-flags are {', '.join(_HI_WORDS)}")
+        wanted[entry[0]] = entry[1]
+    return wanted
+
+
+def _set_hi_flags(master: Master, wanted: dict[HiFlag, bool]) -> str:
+    tools = master.tools()
+    flags = tools.read_hi_flags()
+    for bit, on in wanted.items():
+        flags = flags | bit if on else flags & ~bit
+    tools.write_hi_flags(flags)
+    return f"hi-flags {flags:02X}h: {hi_flag_text(flags)}"
+
+
+def _write_once(master: Master, assignment: Assignment) -> str:
+    """=: an operand written once: flags, outputs (program stopped), an emulated slave's
+    inputs; the program may change it again in its next cycle (a force holds it)."""
+    kind = assignment.operand.node.kind
+    changes = image_changes(assignment)
+    if kind in (OperandKind.F, OperandKind.FY):
+        write_flags(master.tools(), changes)
+    elif kind in (OperandKind.Q, OperandKind.QB):
+        master.tools().write_outputs({n: (mask, bits) for n, mask, bits in changes})
+    elif kind in (OperandKind.I, OperandKind.IB):
+        master.emulated("inputs", changes=[list(change) for change in changes])
+    else:
+        raise UserError(f"'{assignment.written}' cannot be written: flags, outputs and "
+                        "inputs can")
+    return f"{assignment.written}: written"
 
 
 def _flag(text: str) -> list[Change]:
@@ -520,10 +834,25 @@ def _changes(old: MasterStatus, new: MasterStatus) -> list[str]:
     return events
 
 
-def _top(status: MasterStatus, *, gone: str | None) -> Text:
+def _top(
+    status: MasterStatus, *, gone: str | None, seen_at: float = 0.0,
+    served_by: str | None = None, took_over: float | None = None,
+) -> Text:
     s = status
     text = Text()
-    text.append(f"{s.master_name}  at {s.port}\n", style="bold")
+    if gone:
+        seen = time.strftime("%H:%M:%S", time.localtime(seen_at))
+        text.append(f"MASTER GONE: {gone}", style="bold white on red")
+        text.append(f"\nlast seen at {seen} (as below); keys that act on it are refused\n",
+                    style="bold red")
+    as_it_was = len(text)
+    text.append(f"{s.master_name}  at {s.port}", style="bold")
+    if took_over is not None:
+        since = time.strftime("%H:%M:%S", time.localtime(took_over))
+        text.append(f"   took over at {since}: served by this monitor", style="bold yellow")
+    elif served_by:
+        text.append(f"   served by {served_by}", style="dim")
+    text.append("\n")
     text.append(f"{s.phase}, {s.mode} mode, ")
     text.append(
         "config ok" if s.config_ok else "CONFIGURATION ERROR",
@@ -533,38 +862,52 @@ def _top(status: MasterStatus, *, gone: str | None) -> Text:
     stopped = stop_text(s)
     if stopped:
         text.append(f" ({stopped})", style="yellow")
+    if s.forced:  # the FORCE lamp
+        text.append("   ")
+        text.append(f" FORCE {len(s.forced)} ", style="bold white on magenta")
     text.append(f"\ncycle {s.cycle_time_ms:.1f} ms (max {s.max_cycle_time_ms:.1f} ms)   ")
     text.append(f"program {s.program.identity or s.program.problem or 'none'}")
     if gone:
-        text.append(f"   master gone: {gone}", style="bold red")
+        text.stylize("dim", as_it_was)
     return text
 
 
-def _grid(status: MasterStatus, selected: int) -> Text:
+def _grid(status: MasterStatus, selected: int, width: int) -> tuple[Text, int]:
+    """Slaves 0..31 with their input/output bits and list letters, in the most compact
+    form that fits ``width`` (``grid_form``); the text and its slaves a row."""
+    columns, beside = grid_form(width)
     problems = set(status.missing) | set(status.unexpected)
     problems |= {w.slave for w in status.wrong_profile}
-    text = Text("slave  in   out  PDACO  (P projected D detected A active C corrupted "
-                "O offline)\n", style="dim")
-    for row in range(0, SLAVES, COLUMNS):
-        for address in range(row, row + COLUMNS):
+    forced = _forced_slaves(status)
+    head = "slave in/out " + (_LEGEND if len(_LEGEND) + 13 <= width else "lists PDACO (? explains)")
+    lines = [Text(head, style="dim")]
+    gap = " " * _GAP[beside]
+    for row in range(0, SLAVES, columns):
+        line, letters = Text(), Text(style="dim")
+        for address in range(row, row + columns):
             slave = status.slaves.get(str(address))
             style = "dim"
             if slave is not None:
                 style = "green" if "LAS" in slave.lists else "yellow"
             if address in problems:
                 style = "bold red"
+            if address in forced:
+                style = "bold magenta"
             if address == selected:
                 style += " reverse"
-            if slave is None:
-                cell = f"{address:>2} ----/---- "
-            else:
-                cell = f"{address:>2} {slave.inputs:04b}/{slave.outputs:04b} "
-            text.append(cell, style=style)
-        text.append("\n")
-        for address in range(row, row + COLUMNS):
-            text.append(f"   {_lists(status.slaves.get(str(address)))}     ", style="dim")
-        text.append("\n")
-    return text
+            data = "----/----" if slave is None else f"{slave.inputs:04b}/{slave.outputs:04b}"
+            if address > row:
+                line.append(gap)
+                letters.append(gap)
+            line.append(f"{address:>2} {data}", style=style)
+            if beside:
+                line.append(f" {_lists(slave)}", style="dim")
+            letters.append(f"   {_lists(slave)}    ")
+        lines.append(line)
+        if not beside:
+            lines.append(letters)
+    text = Text("\n").join(lines)
+    return text, columns
 
 
 def _detail(status: MasterStatus, selected: int) -> Text:
@@ -581,7 +924,26 @@ def _detail(status: MasterStatus, selected: int) -> Text:
     )
     text.append(f"PP {slave.pp:X}h   PI {slave.pi:X}h   errors "
                 + ("-" if slave.errors is None else str(slave.errors)))
+    forced = [str(f) for f in status.forced or [] if _slave_of(f.operand) == selected]
+    if forced:
+        text.append("\nforced  " + ", ".join(forced), style="bold magenta")
+    names = [f"{name} = {operand}" for name, operand in status.symbols.items()
+             if _slave_of(operand) == selected]
+    if names:
+        text.append("\nnames   " + ", ".join(names), style="cyan")
     return text
+
+
+def _slave_of(operand: str) -> int | None:
+    """The slave an input or output operand's text names ('I 4.0', 'Q 17'), else None."""
+    kind, _, where = operand.partition(" ")
+    if kind not in ("I", "Q") or not where.split(".")[0].isdigit():
+        return None
+    return int(where.split(".")[0])
+
+
+def _forced_slaves(status: MasterStatus) -> set[int]:
+    return {n for f in status.forced or [] if (n := _slave_of(f.operand)) is not None}
 
 
 #: The LEDs' colours on the gateway's front.
@@ -620,8 +982,49 @@ def _right(status: MasterStatus) -> Text:
         f"hi-flags {s.hi_flags:02X}h {hi_flag_text(s.hi_flags)}",
         f"control flags {s.control_flags:02X}h {' '.join(flags) or '(none)'}",
         *timer_text(s),
+        *forced_text(s),
+        *symbol_text(s),
         "",
         "flag bytes F0..F127",
         *flag_rows(s.flags),
     ]
     return panel + Text("\n".join(lines))
+
+
+def _held(operand: str, forced: set[str]) -> bool:
+    """The operand is forced: itself, or the slave or flag byte its bit is in (``Q 17``
+    holds ``Q 17.3``, ``FY 10`` holds ``F 10.0``)."""
+    whole = operand.split(".")[0]
+    return operand in forced or whole in forced or whole.replace("F ", "FY ", 1) in forced
+
+
+def _watch_view(status: MasterStatus, watched: list[Watched], selected: int) -> Text:
+    """The watch list: each operand (and its name) in binary, decimal and hex, forced
+    ones marked."""
+    text = Text("watch view", style="bold")
+    text.append("   + add  - remove  = write once  F force  R release  (the selected row)\n",
+                style="dim")
+    if not watched:
+        text.append("nothing watched yet: + adds operands or names ('F 10.0, FY 11, Motor')",
+                    style="yellow")
+        return text
+    width = max(len(w.label) for w in watched) + 2
+    text.append(f"{'operand':<{width}}{'binary':>18}{'decimal':>9}{'hex':>7}\n", style="bold")
+    forced = {f.operand for f in status.forced or []}
+    for row, entry in enumerate(watched):
+        try:
+            value: int | None = watched_value(status, entry.operand)
+        except UserError:
+            value = None
+        held = _held(entry.text, forced)
+        style = "reverse" if row == selected else ""
+        if value is None:
+            cells = f"{'n/a':>18}{'':>9}{'':>7}"
+        else:
+            cells = f"{value:>18b}{value:>9}{value:>6X}h"
+        text.append(f"{entry.label:<{width}}{cells}", style=style)
+        if held:
+            text.append("  FORCED", style="bold magenta")
+        text.append("\n")
+    text.rstrip()
+    return text

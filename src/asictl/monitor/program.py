@@ -3,21 +3,25 @@ carries it, each line with its values from the latest cycle (STEP 7's "monitor b
 
 The listing is the main file, then each function-block file under a header line of its
 own, so one scrollable list holds every line the program can run. Each line with code
-shows the single-bit register (RLO), ACCU1, ACCU2 and the value of its operand as the
-line left them in the latest cycle; a line that did not run in it is grey with no
+shows the single-bit register (RLO), ACCU1, ACCU2, the constant register (KREG) and the
+value of its operand as the line left them in the latest cycle (in hex on request, as
+ASI_MON shows values); a line that did not run in it is grey with no
 values. An image without its source (``compile --no-source``, an uploaded [RAW] file)
 still has its line map: the view lists the lines with code by number, with their values.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import PurePath
 
 from rich.text import Text
 
+from asictl.build import program_of_image
 from asictl.host.status import StoredProgram
-from asictl.image.eeprom import ImageError
+from asictl.image.eeprom import ImageError, ProgramImage
+from asictl.observe.iltrace import line_operands
 from asictl.observe.online import NO_LINE_MAP, CycleLines, LineValues
 from asictl.runtime.line_map import SourceLine
 from asictl.source import decode
@@ -27,7 +31,7 @@ NO_SOURCE = (
     "the lines with code by number, without their operands"
 )
 #: Columns of the values, right of the source.
-VALUES_WIDTH = 30
+VALUES_WIDTH = 37
 MIN_SOURCE_WIDTH = 20
 
 
@@ -41,6 +45,8 @@ class ListedLine:
     text: str | None
     #: the line has code, so it can have values
     code: bool = False
+    #: the operand its value is of, as it prints ("Q 17.3"), to name it by the symbols
+    operand: str | None = None
 
     @property
     def where(self) -> SourceLine:
@@ -84,12 +90,15 @@ def listing_of(program: StoredProgram | None) -> Listing:
         damaged = ""
     rows: list[ListedLine] = []
     if sources:
+        operands = _operands(image)
         for name, raw in sources.items():
             file = PurePath(name).name
             rows.append(ListedLine(file, 0, ""))
             for number, text in enumerate(decode(raw).split("\n"), 1):
-                code = SourceLine(file, number) in with_code
-                rows.append(ListedLine(file, number, text.expandtabs(8), code))
+                where = SourceLine(file, number)
+                rows.append(ListedLine(
+                    file, number, text.expandtabs(8), where in with_code, operands.get(where)
+                ))
         if rows and rows[-1].text == "" and rows[-1].number:  # the final line end
             rows.pop()
     else:
@@ -107,11 +116,24 @@ def listing_of(program: StoredProgram | None) -> Listing:
     return Listing(tuple(rows), "; ".join(notes))
 
 
+def _operands(image: ProgramImage) -> dict[SourceLine, str]:
+    """Each line's operand as it prints (what the symbol table names); none from a
+    source that does not read."""
+    try:
+        found = line_operands(program_of_image(image))
+    except ImageError:
+        return {}
+    return {line: str(operand) for line, operand in found.items()}
+
+
 def render_rows(
     listing: Listing, lines: CycleLines | None, *, top: int, height: int, width: int,
-    stop_line: str | None = None,
+    stop_line: str | None = None, hex_values: bool = False,
+    names: Mapping[str, str] | None = None,
 ) -> Text:
-    """Rows ``top`` .. ``top + height`` of the listing, each with its values."""
+    """Rows ``top`` .. ``top + height`` of the listing, each with its values (in hex
+    with ``hex_values``: ASI_MON shows hex) and its operand's name in ``names``
+    (operand -> name, the board's symbol table)."""
     text = Text()
     source_width = listing.source_width(width)
     for row in listing.lines[top : top + height]:
@@ -129,7 +151,10 @@ def render_rows(
         source = row.text if row.text is not None else ""
         text.append(_fit(source, source_width), style="dim" if grey or not row.code else "")
         if row.code and values is not None:
-            _values(text, values)
+            _values(text, values, _hex if hex_values else str)
+        name = (names or {}).get(row.operand or "")
+        if name and values is not None and values.ran and values.operand is not None:
+            text.append(f" ({name})", style="cyan")
     return text
 
 
@@ -137,23 +162,28 @@ def _fit(text: str, width: int) -> str:
     return text[: width - 1] + "…" if len(text) > width else text.ljust(width)
 
 
-def _values(text: Text, values: LineValues) -> None:
+def _hex(value: int) -> str:
+    return f"{value:X}h"
+
+
+def _values(text: Text, values: LineValues, shown: Callable[[int], str]) -> None:
     if not values.ran:
-        text.append(f"{'-':>4}{'-':>7}{'-':>7}  not run", style="dim")
+        text.append(f"{'-':>4}{'-':>7}{'-':>7}{'-':>7}  not run", style="dim")
         return
     text.append(f"{values.rlo:>4}", style="bold green" if values.rlo else "bold")
-    text.append(f"{values.accu1:>7}{values.accu2:>7}")
+    accu1, accu2 = shown(values.accu1 or 0), shown(values.accu2 or 0)
+    text.append(f"{accu1:>7}{accu2:>7}{shown(values.constant or 0):>7}")
     if values.operand is not None:
-        text.append(f"  {values.operand}", style="cyan")
+        text.append(f"  {shown(values.operand)}", style="cyan")
     if values.runs > 1:
         text.append(f"  (ran {values.runs}x)", style="dim")
 
 
-def heading(listing: Listing, width: int) -> Text:
-    """The column titles above the rows."""
+def heading(listing: Listing, width: int, *, hex_values: bool = False) -> Text:
+    """The column titles above the rows (KREG: the constant register)."""
     source = "source" if any(line.text for line in listing.lines) else ""
     return Text(
         f"  {'line':>4} {source:<{listing.source_width(width)}}{'RLO':>4}{'ACCU1':>7}"
-        f"{'ACCU2':>7}  operand",
+        f"{'ACCU2':>7}{'KREG':>7}  operand" + ("  (hex)" if hex_values else ""),
         style="bold",
     )

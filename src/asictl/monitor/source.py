@@ -6,6 +6,14 @@ each action is one such connection too, so a monitor never holds a board between
 refreshes and other commands interleave with it. A master that cannot be reached is
 reported, not fatal: the next refresh tries again.
 
+An emulated board is only ever shown live: a board loaded from its state file for one
+refresh would not run, and the view would say "running" of a program nothing runs. So
+when no live server keeps the board (at the start, or because the one that did went
+away: stopped, killed, its place in the state folder taken), the source serves it itself
+from a thread (``background_live``): it *takes over*, and says so. When it cannot (the
+board's lock is held by another process), the master is *gone* until it can; the screen
+says so in red and refuses the keys that act on the board.
+
 The program image is read now and then and kept (``StoredProgram``): it names the IL
 line of a cycle time-out, and the program view shows its source. While the program view
 is open (``watch_lines``) each refresh also asks an emulated board for the IL lines of
@@ -14,18 +22,27 @@ its latest program cycle (``observe.online``); a real board or a gateway has non
 
 from __future__ import annotations
 
+import os
 import threading
+import time
 from collections.abc import Callable
+from contextlib import ExitStack
 from dataclasses import dataclass
 
 from asictl.errors import UserError
-from asictl.host.connection import MasterAddress, connect_master
+from asictl.host.boards import lock_file, parse_port, port_name, state_directory
+from asictl.host.connection import MasterAddress, NotServed, connect_master
+from asictl.host.live.server import background_live
+from asictl.host.locking import is_free, read_holder
 from asictl.host.master import Master
 from asictl.host.status import MasterStatus, StoredProgram, read_program
 from asictl.host.transfer import set_start
 from asictl.observe.online import CycleLines
 from asictl.platform.master import ControlFlag
 
+#: How the monitor's own live server names itself, and how the screen names it.
+OWN_SERVER = "asictl monitor"
+THIS_MONITOR = "this monitor"
 #: The program image is read again every this many refreshes (it changes only by a
 #: download, which the monitor sees as a change of identity anyway).
 PROGRAM_EVERY = 20
@@ -52,6 +69,12 @@ class Snapshot:
     lines: CycleLines | None = None
     #: why there are no per-line values (a real board, a gateway)
     lines_note: str | None = None
+    #: who keeps an emulated board running ("this monitor", "asictl serve (pid 7)")
+    served_by: str | None = None
+    #: when this monitor took over serving the board (None: it did not)
+    took_over: float | None = None
+    #: what happened to the serving since the last refresh, for the event log
+    events: tuple[str, ...] = ()
 
 
 class MonitorSource:
@@ -62,6 +85,11 @@ class MonitorSource:
     ) -> None:
         self.address = address
         self.notify = notify or (lambda text: None)
+        #: an emulated PC2 board: shown live only, served here when nobody else does
+        self.emulated_port = address.modbus is None and address.io == "emulated"
+        self._serving = ExitStack()
+        self._served_by: str | None = None
+        self._took_over: float | None = None
         self._program: StoredProgram | None = None
         self._refreshes = 0
         #: the program view is open: each refresh asks for the latest cycle's lines
@@ -70,21 +98,90 @@ class MonitorSource:
         self._turn = threading.Lock()
 
     def snapshot(self) -> Snapshot:
+        events: list[str] = []
         try:
-            with self._turn, connect_master(self.address, notify=self.notify) as master:
-                emulated = master.action is not None
-                status = self._status(master)
-                lines, note = self._lines(master) if self.watch_lines else (None, None)
+            with self._turn:
+                try:
+                    return self._read(events)
+                except NotServed:
+                    self._take_over(events)
+                    return self._read(events)
         except UserError as exc:
             self._program = None
-            return Snapshot(None, str(exc))
+            return Snapshot(None, str(exc), served_by=self._served_by,
+                            took_over=self._took_over, events=tuple(events))
+
+    def _read(self, events: list[str]) -> Snapshot:
+        """One refresh; ``NotServed`` if nobody keeps the emulated board running."""
+        with connect_master(
+            self.address, notify=self.notify, live_only=self.emulated_port
+        ) as master:
+            emulated = master.action is not None
+            served = master.action.live if master.action is not None else None
+            status = self._status(master)
+            lines, note = self._lines(master) if self.watch_lines else (None, None)
+        if served == f"{OWN_SERVER} (pid {os.getpid()})":
+            served = THIS_MONITOR
+        if served is not None and served != self._served_by:
+            if self._served_by is not None:
+                events.append(f"board {status.port} is served by {served} now")
+            self._served_by = served
         self._refreshes += 1
         program = self._program
         if lines is not None and program is not None and lines.identity != program.info.identity:
             self._program = None  # a download meanwhile: read the new image next time
         return Snapshot(
-            status, emulated=emulated, program=program, lines=lines, lines_note=note
+            status, emulated=emulated, program=program, lines=lines, lines_note=note,
+            served_by=self._served_by, took_over=self._took_over, events=tuple(events),
         )
+
+    def _take_over(self, events: list[str]) -> None:
+        """Serve the board from this process; ``UserError`` if another process holds it."""
+        self._serving.close()  # a server of ours that stopped by itself
+        directory = state_directory(self.address.state_dir)
+        base = parse_port(self.address.port)
+        name = port_name(base)
+        before = self._served_by
+        try:
+            self._serving.enter_context(background_live(
+                base, directory, identity={"command": OWN_SERVER, "port": name},
+            ))
+        except UserError as exc:
+            what = (
+                "the monitor's own live board stopped" if before == THIS_MONITOR
+                else f"{before} went away" if before else "no live board serves it"
+            )
+            lock = lock_file(directory, base)
+            if is_free(lock):
+                why = str(exc)
+            else:  # the monitor tries again each refresh: no hint to run anything again
+                holder = read_holder(lock)
+                by = f"process {holder.pid} ({holder.command})" if holder else "another process"
+                why = f"board {name} is in use by {by}; taken over once it is free"
+            raise UserError(f"{what}, and the monitor cannot take over: {why}") from None
+        self._served_by = THIS_MONITOR
+        if before is None:
+            events.append(
+                f"no live board was running for {name}: the monitor keeps it running "
+                "while it runs"
+            )
+            return
+        self._took_over = time.time()
+        events.append(
+            f"took over: {before} went away; this monitor serves board {name} now "
+            f"(quitting it stops the board: 'asictl serve' keeps it running)"
+        )
+
+    def close(self) -> None:
+        """Stop serving the board, if this monitor serves it."""
+        with self._turn:
+            self._serving.close()
+
+    def __enter__(self) -> MonitorSource:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
 
     def _status(self, master: Master) -> MasterStatus:
         """A PC2 board's status with the image kept (read again every ``PROGRAM_EVERY``
@@ -114,7 +211,9 @@ class MonitorSource:
     def run(self, what: str, action: Callable[[Master], str | None]) -> str:
         """Do ``action`` on the master; a line for the event log, failures included."""
         try:
-            with self._turn, connect_master(self.address, notify=self.notify) as master:
+            with self._turn, connect_master(
+                self.address, notify=self.notify, live_only=self.emulated_port
+            ) as master:
                 result = action(master)
         except UserError as exc:
             return f"{what}: {exc}"

@@ -37,6 +37,9 @@ class LineRow:
     #: the value of the line's operand after it ran (None: the line has none to show)
     operand: int | None
     source: str
+    #: the constant register (what L KT, L KC and L KP loaded last: they leave both
+    #: accumulators alone)
+    constant: int = 0
 
 
 def line_operands(program: Program | None) -> dict[SourceLine, Operand]:
@@ -126,6 +129,7 @@ class ILTracer:
         self.rows.append(LineRow(
             now, self.cycle, line, view.rlo, view.accu1, view.accu2,
             None if operand is None else view.read(operand), self.source(line),
+            view.constant,
         ))
 
 

@@ -15,7 +15,8 @@ runs, and it is the same cycle the skipped ones would have been.
 The answer is JSON (it crosses the live board's socket as an emulated-only action):
 ``{"identity": HEX or null, "state": "running", "master_ms": T or null, "note": TEXT,
 "lines": [{"file": NAME, "line": N, "ran": BOOL, "runs": N, "rlo": 0/1, "accu1": N,
-"accu2": N, "operand": N or null}, ...]}``: one entry per line with code; the values are
+"accu2": N, "constant": N, "operand": N or null}, ...]}`` (``constant``: the constant
+register L KT, L KC and L KP load): one entry per line with code; the values are
 null for a line that did not run, and a line that ran more than once (a loop, a block
 called twice) shows its last run. ``CycleLines.from_json`` reads it back.
 """
@@ -62,6 +63,8 @@ class LineValues:
     accu1: int | None = None
     accu2: int | None = None
     operand: int | None = None
+    #: the constant register (L KT, L KC, L KP)
+    constant: int | None = None
 
     @property
     def ran(self) -> bool:
@@ -90,6 +93,7 @@ class CycleLines:
                 lines[line] = LineValues(line) if not runs else LineValues(
                     line, runs, int(entry["rlo"]), int(entry["accu1"]), int(entry["accu2"]),
                     None if entry["operand"] is None else int(entry["operand"]),
+                    int(entry.get("constant", 0)),
                 )
             master_ms = data["master_ms"]
             return cls(
@@ -164,10 +168,11 @@ def _entries(lines: list[SourceLine], rows: list[LineRow]) -> list[dict[str, JSO
         entry: dict[str, JSON] = {
             "file": line.file, "line": line.line, "ran": row is not None,
             "runs": runs.get(line, 0), "rlo": None, "accu1": None, "accu2": None,
-            "operand": None,
+            "constant": None, "operand": None,
         }
         if row is not None:
-            entry.update(rlo=row.rlo, accu1=row.accu1, accu2=row.accu2, operand=row.operand)
+            entry.update(rlo=row.rlo, accu1=row.accu1, accu2=row.accu2,
+                         constant=row.constant, operand=row.operand)
         entries.append(entry)
     return entries
 

@@ -431,14 +431,33 @@ def background_live(
 ) -> Iterator[Path]:
     """The board at ``base`` served live from a thread of this process until the block
     ends (the monitor does this when no ``asictl serve`` runs); its socket path.
-    ``options`` go to ``LiveServer``."""
+    ``options`` go to ``LiveServer``.
+
+    Its place in the state folder is guarded as ``run_live`` guards it: should another
+    board take it meanwhile, this server stops (its socket goes, which is how its user,
+    the monitor, learns of it) and leaves that board alone."""
     refuse_if_served(directory, base)
     path = socket_path(directory, base)
+    name = f"board {port_name(base)}"
 
     @contextmanager
     def make() -> Iterator[LiveServer]:
-        with emulated_board(base, directory) as board:
-            yield _server(board, directory, base, identity, **options)
+        with emulated_board(base, directory, save=False) as board:
+            note = f"it keeps the board running live: commands reach it through {path}"
+            note_holder(lock_file(directory, base), note)
+            server = _server(board, directory, base, identity, **options)
+            keeper = server.keeper
+            assert keeper is not None
+            keeper.save()
+            place = StatePlace(directory, base, keeper, note)
+            server.on_watch = place.check
+            try:
+                yield server
+            finally:
+                try:
+                    keeper.final(name)
+                finally:
+                    place.close()
 
     def serve(server: LiveServer, ready: Callable[[], None]) -> Awaitable[None]:
         return server.serve(ready)
