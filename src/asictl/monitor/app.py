@@ -55,9 +55,9 @@ from asictl.host.status import (
     symbol_text,
     timer_text,
 )
+from asictl.host.status import operand_value as watched_value
 from asictl.host.symbols import Names
 from asictl.host.watch import Watched, watch_list
-from asictl.host.watch import value as watched_value
 from asictl.il.ast import OperandKind
 from asictl.monitor.keys import KEYS
 from asictl.monitor.program import Listing, heading, listing_of, render_rows
