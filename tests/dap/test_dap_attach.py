@@ -145,6 +145,25 @@ def test_attach_pause_inspect_set_step_and_let_it_run_on(served, tmp_path: Path)
     assert master_ms(state) > later
 
 
+def test_attach_without_the_program_names_by_the_boards_symbol_table(served, tmp_path: Path):
+    """The download stored latch.symbols.toml with the program: an editor that attaches
+    without the file at hand still gets the names."""
+    state, _ = served
+    client = DapClient(tmp_path)
+    try:
+        client.request("initialize", {"adapterID": "asictl"})
+        client.request("attach", {"port": "300h", "stateDir": str(state)})
+        client.wait_event("initialized")
+        client.request("configurationDone")
+        client.request("pause", {"threadId": 1})
+        assert client.stopped()["reason"] == "pause"
+        assert client.variables()["Symbols"] == {"Button": "0", "Lamp": "0"}
+        client.request("disconnect")
+        assert client.process.wait(timeout=10) == 0
+    finally:
+        client.close()
+
+
 def test_attach_without_a_live_board_says_how_to_start_one(tmp_path: Path):
     client = DapClient(tmp_path)
     try:

@@ -63,6 +63,15 @@ def test_the_table_survives_download_and_upload(program, tmp_path):
     assert written.read_bytes() == TABLE.encode()
 
 
+def test_an_upload_to_standard_output_leaves_the_table_out_and_says_so(program, tmp_path):
+    state = tmp_path / "state"
+    assert cli(state, "download", str(program)).exit_code == 0
+    result = cli(state, "upload", "-o", "-")
+    assert result.exit_code == 0, result.output
+    assert result.stdout.encode() == program.read_bytes()
+    assert "symbol table is written only beside a file" in result.stderr
+
+
 def test_online_commands_take_and_show_the_boards_names(program, tmp_path):
     state = tmp_path / "state"
     assert cli(state, "download", str(program), "--start").exit_code == 0
@@ -80,7 +89,9 @@ def test_online_commands_take_and_show_the_boards_names(program, tmp_path):
     assert status["flags"][10] & 1 == 0  # forced against Signal = 1
     assert status["slaves"]["2"]["outputs"] & 1 == 1
     text = cli(state, "status").stdout
-    assert "F 10.0 (Edge) = 0" in text and "symbols  Signal = I 1.0" in text
+    assert "F 10.0 (Edge) = 0" in text
+    assert "symbols  Signal (I 1.0) = 1, Edge (F 10.0) = 0, Count (FY 11) = " in text
+    assert "Lamp (Q 2.0) = 1" in text
     assert cli(state, "unforce", "Edge", "Lamp").exit_code == 0
     unknown = cli(state, "write", "Motor=1")
     assert unknown.exit_code == 2 and "'Motor' is not an operand" in unknown.output

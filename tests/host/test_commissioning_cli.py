@@ -4,12 +4,16 @@ state file: each command loads it, acts, saves it)."""
 from __future__ import annotations
 
 import json
+import re
+from dataclasses import fields
 from pathlib import Path
 
 import pytest
 from click.testing import CliRunner
 
 from asictl.cli import main
+from asictl.host.status import STATUS_SCHEMA, MasterStatus, ProgramInfo, render
+from asictl.platform.display import Display
 
 ROOT = Path(__file__).resolve().parents[2]
 BLINK = ROOT / "demos" / "blink.asi"
@@ -35,6 +39,52 @@ def test_status_json_schema(run):
                             "running": s["timers"][0]["running"]}]
     assert s["counters"] == [] and s["lcs"] is not None and s["los"] == []
     assert isinstance(s["hi_flags"], int)
+
+
+def _documented_status_keys() -> set[str]:
+    """The first column of the status table in docs/commissioning.md."""
+    text = (ROOT / "docs" / "commissioning.md").read_text()
+    table = text.split("## `asictl status`", 1)[1].split("| key | value |", 1)[1]
+    keys: set[str] = set()
+    for row in table.split("\n\n", 1)[0].splitlines()[1:]:
+        keys.update(re.findall(r"`([a-z_]+)`", row.split("|")[1]))
+    return keys
+
+
+def test_the_status_table_names_every_key_and_no_other(run):
+    """One table for every key (issue 28): the PC2 board's output, and the fields a
+    gateway's status fills (the same ``MasterStatus``)."""
+    documented = _documented_status_keys()
+    assert run("download", str(BLINK), "--start").exit_code == 0
+    shown = status(run)
+    assert shown["schema"] == STATUS_SCHEMA == 1
+    assert documented == set(shown)
+    assert documented == {"schema"} | {f.name for f in fields(MasterStatus)}
+
+
+def test_a_fresh_board_says_no_slaves_detected_yet_and_spells_out_its_letters(run):
+    text = run("status").stdout
+    assert "phase    start-up, configuration mode, no slaves detected yet" in text
+    assert "config   no slaves detected yet" in text and ", configuration error" not in text
+    assert "(c control program not running, B bus-capable," in text
+    assert "o online, A auto-address enabled, w watchdog off)" in text
+
+
+def test_a_gateway_without_cycle_times_says_n_a():
+    base = dict(port="tcp://x:502 unit 1", master_name="", version_id="",
+                installed_software="", ec_flags=0, phase="normal operation",
+                mode="protected", config_ok=True, power_fail=False, lps=[], lds=[1],
+                las=[1], missing=[], unexpected=[], wrong_profile=[],
+                display=Display.from_json({"code": None, "text": "", "blinking": False,
+                                           "meaning": ""}),
+                control_flags=0, start_flag=False, ignore_config_errors=False,
+                wait_for_set_button=False, map_counters=False, control_active=False,
+                control_state="idle", stop_reason=None, program_status="not loaded",
+                cycle_time_ms=0.0, max_cycle_time_ms=0.0,
+                program=ProgramInfo(present=False, valid=False))
+    assert "cycle    0.0 ms (max 0.0 ms)" in render(MasterStatus(**base))
+    gateway = render(MasterStatus(**base, cycle_times_known=False))
+    assert "cycle    n/a (the gateway does not report them)" in gateway
 
 
 def test_status_of_a_board_that_does_not_exist_says_so(run):

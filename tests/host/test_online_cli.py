@@ -98,6 +98,19 @@ def test_forces_outlast_the_command_on_a_board_kept_in_its_state_file(tmp_path):
     assert again.exit_code == 1 and "FY 12: not forced" in again.output
 
 
+def test_a_force_is_saved_before_it_is_acknowledged(tmp_path):
+    """Killed right after ``force`` answered, the live board's state file has the force."""
+    state = tmp_path / "state"
+    process = start_serve(state)
+    try:
+        assert cli(state, "force", "FY 20=0x33").exit_code == 0
+    finally:
+        process.kill()
+        process.wait(timeout=10)
+    listed = cli(state, "force", "--list")
+    assert listed.exit_code == 0 and listed.stdout == "FY 20 = 51\n"
+
+
 @pytest.mark.parametrize(("args", "message"), [
     (("T 1=1",), "'T 1' cannot be forced"),
     (("Q 0.0=1",), "slaves 1..31"),
@@ -163,6 +176,22 @@ def test_watch_prints_a_line_for_each_change_until_ctrl_c(edge_served):
     assert out == ""  # nothing changed since
 
 
+def test_watch_stops_when_the_live_board_is_no_longer_served(tmp_path):
+    state = tmp_path / "state"
+    process = start_serve(state)
+    try:
+        watcher = _watcher(state, "F 10.0", "--interval", "0.1s")
+        assert watcher.stdout is not None
+        assert "F 10.0" in watcher.stdout.readline()  # the watch has begun
+    finally:
+        assert stop(process) == 0
+    _, err = watcher.communicate(timeout=60)
+    assert watcher.returncode == 1, err
+    # between two reads, or (rarely) inside one, when the server closes the session
+    assert "the live board is no longer served" in err or "went away" in err, err
+    assert "Traceback" not in err
+
+
 def test_watch_reads_a_table_and_shows_each_value_three_ways(tmp_path):
     state = tmp_path / "state"
     assert cli(state, "download", str(EDGE), "--start").exit_code == 0
@@ -178,6 +207,20 @@ def test_watch_reads_a_table_and_shows_each_value_three_ways(tmp_path):
         ["Q", "2.0", "0", "0h", "0b"],
         ["F", "10.0", "0", "0h", "0b"],
     ]
+
+
+@pytest.mark.parametrize(("text", "where", "message"), [
+    ('watch = ["F 10.0",\n  oops ]\n', ":2:3: error: watch table is not valid TOML", "oops ]"),
+    ('# mine\nlist = ["F 10.0"]\n', ":2:1: error: a watch table is one list", "list = "),
+    ('watch = ["F 10.0", 3]\n', ":1:1: error: a watch table is one list", "watch = "),
+])
+def test_a_bad_watch_table_is_shown_at_its_line(tmp_path, text, where, message):
+    table = tmp_path / "bad.watch.toml"
+    table.write_text(text)
+    result = cli(tmp_path / "state", "watch", "--table", str(table), "--duration", "1s")
+    assert result.exit_code == 2
+    assert f"{table}{where}" in result.stderr and message in result.stderr
+    assert "^" in result.stderr and result.stdout == ""
 
 
 @pytest.mark.parametrize(("args", "message"), [

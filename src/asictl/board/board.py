@@ -95,6 +95,8 @@ class Pc2Board:
         self.bus = bus = state.bus
         #: the force list (board/forcing.py); change it through ``force`` and ``release``
         self.forces = state.forced
+        #: whether anything is forced: the cycle looks at this plain flag alone otherwise
+        self._forcing = bool(self.forces)
         self._now_us = self._power_up_us = now_us
         self._index = self._page = 0
         self._in_reset = False
@@ -324,7 +326,7 @@ class Pc2Board:
         if ec.exchange(self._outputs()):
             self._dpram.put(d.IDI, ec.idi)
             self._dpram.interrupt(InterruptSource.IDI_CHANGE)
-        if self.forces:  # a host's write to a forced flag never reaches the program
+        if self._forcing:  # a host's write to a forced flag never reaches the program
             self.forces.rewrite_flags(self._ram, d.FLAGS)
         if self._control.running and self._now_us >= self._program_ready_us:
             self._program_cycle()
@@ -335,9 +337,9 @@ class Pc2Board:
         """What the slaves receive: the program's outputs (the host's while it is
         stopped), forced bits in place."""
         runner = self._control.runner
-        if self._control.running and runner is not None:
-            return self.forces.outputs(runner.outputs)
-        return self.forces.outputs(self._host_outputs)
+        outputs = (runner.outputs if self._control.running and runner is not None
+                   else self._host_outputs)
+        return self.forces.outputs(outputs) if self._forcing else outputs
 
     def _read_host_images(self) -> None:
         """The images the master reads cyclically: ODI, PI, hi-flags, and its settings."""
@@ -391,7 +393,7 @@ class Pc2Board:
         calls = self._firmware.calls
         before = self._snapshot(runner) if probe else None
         try:
-            runner.cycle(self.forces.inputs(self._ec.idi))
+            runner.cycle(self.forces.inputs(self._ec.idi) if self._forcing else self._ec.idi)
         except CycleTimeout as exc:
             self._halt(StopReason.CYCLE_TIMEOUT, str(exc))
             return
@@ -406,7 +408,8 @@ class Pc2Board:
             ram = self._ram
             for address in _COUNTER_HIGH_BYTES:
                 ram[address] &= 0x0F
-        self.forces.rewrite_flags(self._ram, d.FLAGS)  # before the quiet check: held bits
+        if self._forcing:  # before the quiet check: a held flag is no change
+            self.forces.rewrite_flags(self._ram, d.FLAGS)
         duration = control.record_cycle(runner.last_cycles)
         self._program_ready_us = self._now_us + math.ceil(duration)
         if before is not None:
@@ -415,7 +418,8 @@ class Pc2Board:
         else:
             self._probe_wait -= 1
             self._quiet = False
-        odi = bytes(self.forces.outputs(runner.outputs)).translate(_INVERT)
+        sent = self.forces.outputs(runner.outputs) if self._forcing else runner.outputs
+        odi = bytes(sent).translate(_INVERT)
         if odi != self._odi_written:
             self._odi_written = odi
             dpram.put(d.ODI, odi)
@@ -479,6 +483,7 @@ class Pc2Board:
 
     def _forces_changed(self) -> None:
         """The next AS-i cycle runs the program and sends the outputs again."""
+        self._forcing = bool(self.forces)
         self.forces.rewrite_flags(self._ram, d.FLAGS)
         self._dpram.stirred = True
         self._quiet = False

@@ -140,19 +140,28 @@ def watch(
     A board that runs only during a command (not under 'asictl serve') runs its own
     time as fast as it can: --duration is then master time.
 
-    Exit status: 0 watched, 1 the master did not answer, 2 bad usage.
+    Exit status: 0 watched, 1 the master did not answer or the live board's server
+    ended, 2 bad usage.
 
     Example: asictl watch "F 10.0" Motor --format json --duration 10s
     """
     from asictl.cli.master import _address, _master_wait
+    from asictl.diagnostics import DiagnosticError, render_text
     from asictl.host.connection import connect_master
     from asictl.host.status import read_program
     from asictl.host.watch import read_table, watch_list
     from asictl.observe.operands import image_symbols
+    from asictl.source import read_source
 
     period = _seconds(interval, "--interval")
     limit = _seconds(duration, "--duration") if duration is not None else None
-    items = [*(read_table(table) if table else []), *operands]
+    try:
+        listed = read_table(read_source(table)) if table else []
+    except DiagnosticError as exc:
+        texts = {table: read_source(table).text} if table else {}
+        click.echo(render_text(exc.diagnostics, texts), nl=False, err=True)
+        raise click.exceptions.Exit(int(ExitCode.USAGE)) from None
+    items = [*listed, *operands]
     if not items:
         raise UserError("nothing to watch: name operands or give --table FILE.watch.toml",
                         ExitCode.USAGE)
@@ -175,10 +184,16 @@ def watch(
     # a live board, a real one, a gateway: one session a read, as the monitor's refresh,
     # so that other commands reach the board between reads
     address = _address(**board)
+    served = master.action is not None
     begun = time.monotonic()
     try:
         for reads in itertools.count():
             with connect_master(address) as master:
+                if served and (master.action is None or master.action.live is None):
+                    # the server ended: what the state file holds would be no live value
+                    raise UserError(f"{master.name}: the live board is no longer served "
+                                    "('asictl serve' ended); the watch stops",
+                                    ExitCode.FAILED)
                 now = _read(master, program, watched)
             lines.show(now, time.monotonic() - begun if reads else 0.0)
             due = (reads + 1) * period

@@ -5,6 +5,7 @@ from __future__ import annotations
 import concurrent.futures
 import json
 import sys
+import time
 from collections.abc import Iterator
 from pathlib import Path
 from xml.etree import ElementTree
@@ -102,11 +103,17 @@ def sim(
         prepared = prepare(program, scenario_path, lib=lib, sets=sets, duration_ms=duration_ms,
                            allow_partial=allow_partial)
         click.echo(prepared.notes, nl=False, err=True)
-        run = simulate(
-            prepared, trace=bool(vcd or csv_path or plot),
-            signals=[s.strip() for s in signals.split(",") if s.strip()] if signals else None,
-            il_trace=trace_il is not None, window=(start, end),
-        )
+        progress = _SimProgress()
+        try:
+            run = simulate(
+                prepared, trace=bool(vcd or csv_path or plot),
+                signals=[s.strip() for s in signals.split(",") if s.strip()] if signals
+                else None,
+                il_trace=trace_il is not None, window=(start, end),
+                progress=progress if progress.enabled else None,
+            )
+        finally:
+            progress.clear()
     except Invalid as exc:
         click.echo(exc.text, nl=False, err=True)
         ctx.exit(int(ExitCode.USAGE))
@@ -179,6 +186,33 @@ def _junit(outcomes: list[Outcome], path: Path, inputs: list[Path]) -> None:
                  + "\n", inputs=inputs)
 
 
+class _SimProgress:
+    """A long simulation's progress on a terminal's standard error: master time done of
+    the run's, shown once the run has taken a second, at most five times a second."""
+
+    def __init__(self) -> None:
+        self.enabled = sys.stderr.isatty()
+        self.begun = time.monotonic()
+        self.last = 0.0
+        self.shown = False
+
+    def __call__(self, now_ms: float, end_ms: float) -> None:
+        wall = time.monotonic()
+        if wall - self.begun < 1.0 or wall - self.last < 0.2:
+            return
+        self.last = wall
+        sys.stderr.write(f"\r\x1b[K[sim] {now_ms / 1000:.1f} s of {end_ms / 1000:.1f} s "
+                         f"master time ({100 * now_ms / end_ms if end_ms else 100:.0f}%)")
+        sys.stderr.flush()
+        self.shown = True
+
+    def clear(self) -> None:
+        if self.shown:
+            sys.stderr.write("\r\x1b[K")
+            sys.stderr.flush()
+            self.shown = False
+
+
 class _Progress:
     """One line on a terminal's standard error: scenarios done, failures so far."""
 
@@ -200,6 +234,17 @@ class _Progress:
         if self.shown:
             sys.stderr.write("\r\x1b[K")
             sys.stderr.flush()
+
+
+def _json(outcome: Outcome) -> dict[str, object]:
+    """One scenario of ``test --format json``."""
+    return {
+        "path": outcome.path, "status": outcome.status, "program": outcome.program or None,
+        "summary": outcome.summary, "message": outcome.message or None,
+        "events": outcome.events, "stops": outcome.stops,
+        "failures": [{"line": line, "text": text} for line, text in outcome.failures],
+        "seconds": round(outcome.seconds, 3),
+    }
 
 
 def _print(outcome: Outcome, progress: _Progress, fmt: str) -> None:
@@ -252,16 +297,18 @@ def _outcomes(paths: list[str], lib: tuple[str, ...], jobs: int) -> Iterator[Out
               help="Scenarios run at once, in worker processes (default: the number of "
               "cores; 1 runs them one after the other here).")
 @lib_option
-@click.option("--format", "fmt", type=click.Choice(["text", "github"]), default="text",
+@click.option("--format", "fmt", type=click.Choice(["text", "github", "json"]), default="text",
               show_default=True, help="github: also a GitHub Actions annotation at the "
-              "scenario line of each failed expectation.")
+              "scenario line of each failed expectation; json: one JSON document, "
+              '{"scenarios": [...], "summary": {...}}, each scenario written as it is done.')
 def test(paths: tuple[Path, ...], junit: Path | None, jobs: int | None,
          lib: tuple[str, ...], fmt: str) -> None:
     """Run every *.scenario.toml under PATHs (default: the current directory).
 
     A scenario without a 'program' line tests the program of the same name beside it
     (blink.scenario.toml tests blink.asi). Prints one line per scenario, in a stable
-    order whatever -j is, and a summary 'N passed, M failed'.
+    order whatever -j is, each as soon as it and the ones before it are done, and a
+    summary 'N passed, M failed'; --format json writes the same as one JSON document.
 
     Exit status: 0 all passed, 1 a scenario failed, 2 a scenario or program is invalid.
     """
@@ -271,13 +318,25 @@ def test(paths: tuple[Path, ...], junit: Path | None, jobs: int | None,
         raise UserError(f"no {SUFFIX} files found")
     progress = _Progress(len(scenarios))
     outcomes: list[Outcome] = []
+    if fmt == "json":
+        click.echo('{"scenarios": [')
     for outcome in _outcomes(scenarios, lib, jobs or default_jobs()):
         outcomes.append(outcome)
-        _print(outcome, progress, fmt)
+        if fmt == "json":
+            progress.clear()
+            click.echo(("  " if len(outcomes) == 1 else ", ") + json.dumps(_json(outcome)))
+        else:
+            _print(outcome, progress, fmt)
         progress.update(outcome)
     progress.clear()
     passed = sum(1 for o in outcomes if o.status == "PASS")
-    click.echo(f"{passed} passed, {len(outcomes) - passed} failed")
+    if fmt == "json":
+        errors = sum(1 for o in outcomes if o.status == "ERROR")
+        summary = {"total": len(outcomes), "passed": passed,
+                   "failed": len(outcomes) - passed - errors, "errors": errors}
+        click.echo(f'], "summary": {json.dumps(summary)}}}')
+    else:
+        click.echo(f"{passed} passed, {len(outcomes) - passed} failed")
     if junit:
         read = [Path(p) for p in (*scenarios, *(o.program for o in outcomes if o.program))]
         _junit(outcomes, junit, read)

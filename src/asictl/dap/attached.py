@@ -55,7 +55,8 @@ class AttachedTarget:
         self.inventory = Inventory(
             tuple(names.get("io", ())), tuple(names.get("flags", ())),
             tuple(names.get("timers_counters", ())),
-            tuple(name for name, _ in symbols.entries.values()))
+            tuple(name for name, _ in symbols.entries.values())
+            or tuple(names.get("symbols", ())))  # the board's table, without one here
 
     def _request(self, op: str, **fields: JSON) -> dict[str, Any]:
         with self._lock:

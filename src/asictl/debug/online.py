@@ -54,7 +54,7 @@ from asictl.image.eeprom import ImageError
 from asictl.mcs51.isa import SFRS
 from asictl.observe.hooks import LineHooks
 from asictl.observe.locate import call_chain, current_line
-from asictl.observe.operands import SETTABLE, Operand, parse_operand
+from asictl.observe.operands import SETTABLE, Operand, image_symbols, parse_operand
 from asictl.observe.symbols import SymbolTable
 from asictl.observe.view import ProgramView, host_write, read_on_board, wake
 from asictl.platform import pc2
@@ -290,7 +290,7 @@ class OnlineDebugger:
             program = program_of_image(self.image)
         except ImageError:
             program = None
-        inventory = Inventory.of(self.image, program, SymbolTable())
+        inventory = Inventory.of(self.image, program, self.symbols)
         return {"identity": self.image.identity_hex, "files": sorted(self.line_map.files),
                 "sources": sources, "inventory": inventory.as_json()}
 
@@ -392,9 +392,13 @@ async def _client(live: LiveBoard, reader: asyncio.StreamReader,
                     raise DebugError("a request is a JSON object")
                 if request.get("op") == "attach":
                     if debugger is None:
-                        debugger = OnlineDebugger(live, SymbolTable(entries={
+                        given = SymbolTable(entries={
                             key(str(name)): (str(name), str(operand))
-                            for name, operand in request.get("symbols") or []}))
+                            for name, operand in request.get("symbols") or []})
+                        # without a table of its own the client gets the board's, the
+                        # one the download stored with the program
+                        debugger = OnlineDebugger(
+                            live, given or image_symbols(live.board.loaded_image))
                     answer = {"ok": True, **debugger.describe()}
                 elif debugger is None:
                     raise DebugError("attach first")

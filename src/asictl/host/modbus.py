@@ -441,6 +441,7 @@ def read_status(transport: ModbusTransport) -> MasterStatus:
         program_status="not shown by the gateway",
         cycle_time_ms=0.0,
         max_cycle_time_ms=0.0,
+        cycle_times_known=False,
         program=program,
         slaves=slaves,
         hi_flags=transport.read_registers(g.HI_FLAGS, 1)[0] & 0x07,

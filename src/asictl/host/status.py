@@ -20,12 +20,14 @@ from dataclasses import asdict, dataclass, field
 from enum import IntEnum
 from typing import Any
 
+from asictl.errors import ExitCode, UserError
 from asictl.host.driver import Pc2Driver
 from asictl.host.forcing import ForcedValue, entries_from_json, forced_values
 from asictl.host.jobs import JobError, JobStatus
 from asictl.host.transfer import Pc2Transport, Transport, upload, upload_head
+from asictl.il import ast
 from asictl.image.eeprom import MAGIC, ProgramImage
-from asictl.observe.operands import image_symbols
+from asictl.observe.operands import Operand, image_symbols, parse_operand
 from asictl.platform.display import Display, derived, led_text
 from asictl.platform.display import leds as derived_leds
 from asictl.platform.master import SLAVES, ControlFlag
@@ -71,6 +73,9 @@ from asictl.platform.pc2 import (
     nibbles,
 )
 
+#: The version of ``status --json``'s object (its ``schema`` key): raised when a key
+#: changes its meaning or goes away, not when one is added.
+STATUS_SCHEMA = 1
 #: The slave lists a slave can be in, in ASI_MON's order.
 LISTS = ("LPS", "LDS", "LAS", "LCS", "LOS")
 #: What an emulated board's ``view`` action adds (None: not available on this master).
@@ -186,9 +191,13 @@ class MasterStatus:
     forced: list[ForcedValue] | None = None
     #: the symbol table the program on the master carries: name -> operand
     symbols: dict[str, str] = field(default_factory=dict)
+    #: whether the master reports its program cycle times (a gateway does not: 0 then)
+    cycle_times_known: bool = True
 
     def to_json(self) -> dict[str, Any]:
-        data = asdict(self)
+        """The object ``status --json`` prints (docs/commissioning.md has every key);
+        ``schema`` counts its incompatible changes."""
+        data = {"schema": STATUS_SCHEMA, **asdict(self)}
         data["display"] = self.display.to_json()
         return data
 
@@ -508,6 +517,81 @@ def timer_text(status: MasterStatus) -> list[str]:
     ]
 
 
+#: The installed-software letters (manual 10.2.5): position -> (capital, lower case).
+_SOFTWARE = {
+    0: ("control program running", "control program not running"),
+    1: ("bus-capable", ""), 2: ("error counters", ""), 3: ("EMC test mode", ""),
+    4: ("advanced diagnostics", ""), 5: ("offline on a configuration error", ""),
+    8: ("data exchange active", "data exchange off"), 9: ("offline", "online"),
+    10: ("auto-address enabled", "auto-address off"), 14: ("watchdog on", "watchdog off"),
+}
+
+
+def software_legend(letters: str) -> str:
+    """What the installed-software letters say (capital: yes): ``C control program
+    running, B bus-capable, ...``; the unused places are left out."""
+    parts = []
+    for place, (yes, no) in _SOFTWARE.items():
+        letter = letters[place : place + 1]
+        if not letter.isalpha():
+            continue
+        meaning = yes if letter.isupper() else no or f"no {yes}"
+        parts.append(f"{letter} {meaning}")
+    return ", ".join(parts)
+
+
+# --------------------------------------------------------------------------- operands
+
+K = ast.OperandKind
+#: The operand kinds a status shows the value of (``operand_value``).
+VISIBLE = (K.I, K.IB, K.Q, K.QB, K.F, K.FY, K.T, K.C)
+
+
+def operand_value(status: MasterStatus, operand: Operand) -> int:
+    """The operand's value in ``status``; ``UserError`` (exit 1) for a timer or counter on
+    a master that does not show them."""
+    node = operand.node
+    a, bit = node.address, node.bit
+    match node.kind:
+        case K.F:
+            return status.flags[a] >> bit & 1
+        case K.FY:
+            return status.flags[a]
+        case K.I | K.Q:
+            data = _data(status, a, node.kind is K.I)
+            return data >> bit & 1 if bit >= 0 else data
+        case K.IB | K.QB:
+            inputs = node.kind is K.IB
+            return _data(status, a, inputs) | _data(status, a + 1, inputs) << 4
+        case K.T | K.C:
+            return _timer_or_counter(status, operand)
+    raise AssertionError(f"{operand} is not shown by a status")  # callers check VISIBLE
+
+
+def _data(status: MasterStatus, slave: int, inputs: bool) -> int:
+    row: SlaveData | None = status.slaves.get(str(slave))
+    if row is None:
+        return 0
+    return row.inputs if inputs else row.outputs
+
+
+def _timer_or_counter(status: MasterStatus, operand: Operand) -> int:
+    node = operand.node
+    if node.kind is K.T:
+        if status.timers is None:
+            raise UserError(f"'{operand}': only an emulated board shows the program's timers",
+                            ExitCode.FAILED)
+        timer = next((t for t in status.timers if t.number == node.address), None)
+        remaining = timer.remaining_ms if timer else 0
+        return int(remaining != 0) if operand.is_bit else remaining
+    if status.counters is None:
+        raise UserError(f"'{operand}': only an emulated board shows the program's counters",
+                        ExitCode.FAILED)
+    counter = next((c for c in status.counters if c.number == node.address), None)
+    count = counter.value if counter else 0
+    return int(count != 0) if operand.is_bit else count
+
+
 def forced_text(status: MasterStatus) -> list[str]:
     """The force list as a PLC's FORCE lamp and force table show it: how many operands
     are forced, and each with its value (and name)."""
@@ -519,10 +603,18 @@ def forced_text(status: MasterStatus) -> list[str]:
 
 
 def symbol_text(status: MasterStatus) -> list[str]:
-    """The names the program on the master gives its operands."""
+    """The names the program on the master gives its operands, each with its value where
+    the status shows it: ``Lamp (Q 2.0) = 1``."""
     if not status.symbols:
         return []
-    return ["symbols  " + ", ".join(f"{name} = {text}" for name, text in status.symbols.items())]
+    parts = []
+    for name, text in status.symbols.items():
+        operand = parse_operand(text)
+        shown = operand.node.kind in VISIBLE and (
+            operand.node.kind not in (K.T, K.C) or status.timers is not None)
+        parts.append(f"{name} ({text})" + (f" = {operand_value(status, operand)}"
+                                           if shown else ""))
+    return ["symbols  " + ", ".join(parts)]
 
 
 def render(status: MasterStatus) -> str:
@@ -552,9 +644,11 @@ def render(status: MasterStatus) -> str:
         program = p.problem or "none"
     lines = [
         f"master   {s.master_name}  {s.version_id}  at {s.port}",
-        f"software {s.installed_software}",
+        f"software {s.installed_software}"
+        + (f"  ({legend})" if (legend := software_legend(s.installed_software)) else ""),
         f"phase    {s.phase}, {s.mode} mode, "
-        + ("config ok" if s.config_ok else "configuration error")
+        + ("config ok" if s.config_ok else "no slaves detected yet" if not s.lds
+           else "configuration error")
         + (", AS-i power fail" if s.power_fail else ""),
         f"ec-flags {s.ec_flags:02X}h",
         "slaves   " + "".join(str(n // 10) for n in range(SLAVES)),
@@ -564,7 +658,9 @@ def render(status: MasterStatus) -> str:
         "    " + _slave_row("LAS", s.las),
         *(["    " + _slave_row("LCS", s.lcs)] if s.lcs is not None else []),
         "    " + _slave_row("LOS", s.los),
-        "config   " + ("; ".join(problems) if problems else "no errors"),
+        "config   " + ("; ".join(problems) if problems else "no errors" if s.config_ok
+                         else "no slaves detected yet" if not s.lds
+                         else "the master reports a configuration error"),
         f"display  {s.display.shown()}"
         + ("" if s.panel == "gateway" else " (as a gateway shows this state)"),
         *([f"leds     {led_text(s.leds)}"] if s.leds is not None else []),
@@ -572,7 +668,8 @@ def render(status: MasterStatus) -> str:
         f"control  {control}",
         f"flags    {s.control_flags:02X}h " + (" ".join(set_flags) or "(none)"),
         f"program  {program} ({s.program_status})",
-        f"cycle    {s.cycle_time_ms:.1f} ms (max {s.max_cycle_time_ms:.1f} ms)",
+        (f"cycle    {s.cycle_time_ms:.1f} ms (max {s.max_cycle_time_ms:.1f} ms)"
+         if s.cycle_times_known else "cycle    n/a (the gateway does not report them)"),
         f"hi-flags {s.hi_flags:02X}h {hi_flag_text(s.hi_flags)}",
         *timer_text(s),
         *forced_text(s),

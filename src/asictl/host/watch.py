@@ -14,23 +14,23 @@ the list is read, not while it is watched.
 
 from __future__ import annotations
 
+import re
 import tomllib
 from collections.abc import Sequence
 from dataclasses import dataclass
-from pathlib import Path
+from typing import NoReturn
 
+from asictl.codes import ScenarioCode
+from asictl.diagnostics import Diagnostic, DiagnosticError, Severity, Span
 from asictl.errors import ExitCode, UserError
-from asictl.host.status import MasterStatus, SlaveData
+from asictl.host.status import VISIBLE, MasterStatus, operand_value
 from asictl.host.symbols import Names
-from asictl.il import ast
 from asictl.observe.operands import Operand
-from asictl.source import read_source
+from asictl.source import SourceText
 
-K = ast.OperandKind
 #: What a watch list may hold, as messages say it.
 WATCHABLE = ("inputs (I, IB), outputs (Q, QB), flags (F, FY), and on an emulated board "
              "timers and counters (T, C, TV, CV)")
-_VISIBLE = (K.I, K.IB, K.Q, K.QB, K.F, K.FY, K.T, K.C)
 
 
 @dataclass(frozen=True)
@@ -49,19 +49,29 @@ class Watched:
         return f"{self.text} ({self.symbol})" if self.symbol else self.text
 
 
-def read_table(path: str | Path) -> list[str]:
-    """The operands of a ``FILE.watch.toml`` (``watch = [...]``); ``UserError`` exit 2."""
-    source = read_source(path)
+def read_table(source: SourceText) -> list[str]:
+    """The operands of a ``FILE.watch.toml`` (``watch = [...]``); ``DiagnosticError`` at
+    the place that is wrong."""
+
+    def error(code: ScenarioCode, message: str, line: int = 1, column: int = 1) -> NoReturn:
+        raise DiagnosticError([Diagnostic(Severity.ERROR, code, message,
+                                          Span(source.name, line, column))])
+
     try:
         data = tomllib.loads(source.text)
     except tomllib.TOMLDecodeError as exc:
-        raise UserError(f"{source.name}: not a watch table: {exc}", ExitCode.USAGE) from None
+        where = re.search(r"line (\d+), column (\d+)", str(exc))
+        error(ScenarioCode.NOT_TOML, f"watch table is not valid TOML: {exc}",
+              *((int(where[1]), int(where[2])) if where else (1, 1)))
+    except RecursionError:
+        error(ScenarioCode.NOT_TOML, "watch table nested too deeply")
     items = data.get("watch")
     if not isinstance(items, list) or not all(isinstance(i, str) for i in items) or (
             set(data) - {"watch"}):
-        raise UserError(
-            f"{source.name}: a watch table is one list of operands or names: "
-            'watch = ["F 10.0", "Motor"]', ExitCode.USAGE)
+        line = next((n for n, text in enumerate(source.text.split("\n"), 1)
+                     if text.strip() and not text.lstrip().startswith("#")), 1)
+        error(ScenarioCode.INVALID, 'a watch table is one list of operands or names: '
+              'watch = ["F 10.0", "Motor"]', line)
     return list(items)
 
 
@@ -71,7 +81,7 @@ def watch_list(names: Names, items: Sequence[str]) -> list[Watched]:
     watched: list[Watched] = []
     for text in items:
         operand = names.operand(text)
-        if operand.node.kind not in _VISIBLE:
+        if operand.node.kind not in VISIBLE:
             raise UserError(f"'{text}' cannot be watched from the host: a watch shows "
                             f"{WATCHABLE}", ExitCode.USAGE)
         entry = Watched(operand, names.table.label(str(operand)) or None)
@@ -85,50 +95,5 @@ def watch_list(names: Names, items: Sequence[str]) -> list[Watched]:
     return watched
 
 
-def value(status: MasterStatus, operand: Operand) -> int:
-    """The operand's value in ``status``; ``UserError`` (exit 1) for a timer or counter on
-    a master that does not show them."""
-    node = operand.node
-    a, bit = node.address, node.bit
-    match node.kind:
-        case K.F:
-            return status.flags[a] >> bit & 1
-        case K.FY:
-            return status.flags[a]
-        case K.I | K.Q:
-            data = _data(status, a, node.kind is K.I)
-            return data >> bit & 1 if bit >= 0 else data
-        case K.IB | K.QB:
-            inputs = node.kind is K.IB
-            return _data(status, a, inputs) | _data(status, a + 1, inputs) << 4
-        case K.T | K.C:
-            return _timer_or_counter(status, operand)
-    raise AssertionError(f"{operand} is not watched")  # watch_list refuses the rest
-
-
-def _data(status: MasterStatus, slave: int, inputs: bool) -> int:
-    row: SlaveData | None = status.slaves.get(str(slave))
-    if row is None:
-        return 0
-    return row.inputs if inputs else row.outputs
-
-
-def _timer_or_counter(status: MasterStatus, operand: Operand) -> int:
-    node = operand.node
-    if node.kind is K.T:
-        if status.timers is None:
-            raise UserError(f"'{operand}': only an emulated board shows the program's timers",
-                            ExitCode.FAILED)
-        timer = next((t for t in status.timers if t.number == node.address), None)
-        remaining = timer.remaining_ms if timer else 0
-        return int(remaining != 0) if operand.is_bit else remaining
-    if status.counters is None:
-        raise UserError(f"'{operand}': only an emulated board shows the program's counters",
-                        ExitCode.FAILED)
-    counter = next((c for c in status.counters if c.number == node.address), None)
-    count = counter.value if counter else 0
-    return int(count != 0) if operand.is_bit else count
-
-
 def values(status: MasterStatus, watched: Sequence[Watched]) -> list[int]:
-    return [value(status, w.operand) for w in watched]
+    return [operand_value(status, w.operand) for w in watched]

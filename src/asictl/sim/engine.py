@@ -16,6 +16,7 @@ left by the cycles that started before T; at equal times sets come before checks
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import PurePath
 
@@ -49,6 +50,8 @@ _BEFORE_MS = 0.001
 _POWER_UP_MS = 100.0
 #: How long the master may take after the start command to run the first cycle.
 _START_WAIT_MS = 1000.0
+#: How much master time passes between two reports to a simulation's ``progress``.
+PROGRESS_MS = 1000.0
 
 
 @dataclass
@@ -157,7 +160,10 @@ class Simulation:
         symbols: SymbolTable | None = None,
         il_trace: bool = False,
         window: tuple[float, float | None] = (0.0, None),
+        progress: Callable[[float, float], None] | None = None,
     ) -> None:
+        """``progress(now_ms, end_ms)`` hears, every ``PROGRESS_MS`` of master time, how
+        far the run is (a long simulation's progress line)."""
         if build.image is None:
             raise ValueError("a simulation needs a build with an image")
         self.build = build
@@ -198,6 +204,7 @@ class Simulation:
         #: step times and trace window edges, in order; the next one to come
         self._events = sorted({*self._by_time, *marks})
         self._next_event = 0
+        self._progress = progress
         self._done_ms = -1.0
 
     # ------------------------------------------------------------------ reading
@@ -386,6 +393,12 @@ class Simulation:
             self._trace_lines(False)
 
     def _advance_to(self, t_ms: float) -> None:
+        progress = self._progress
+        if progress is not None:  # in slices, each reported (the board ends a slice
+            # exactly where one long advance would pass: the same cycles run)
+            while t_ms - self.now_ms() > PROGRESS_MS:
+                self.board.advance(PROGRESS_MS)
+                progress(self.now_ms(), self.end_ms)
         delta = t_ms - self.now_ms()
         if delta > 0:
             self.board.advance(delta)

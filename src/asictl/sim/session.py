@@ -14,7 +14,7 @@ from __future__ import annotations
 import contextlib
 import os
 import time
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -182,12 +182,16 @@ def simulate(
     signals: list[str] | None = None,
     il_trace: bool = False,
     window: tuple[float, float | None] = (0.0, None),
+    progress: Callable[[float, float], None] | None = None,
 ) -> Run:
+    """Run the prepared scenario; ``progress(now_ms, end_ms)`` hears how far it is, once
+    a second of master time."""
     start = time.perf_counter()
     try:
         simulation = Simulation(
             prepared.build, prepared.scenario, duration_ms=prepared.end_ms, trace=trace,
             signals=signals, symbols=prepared.symbols, il_trace=il_trace, window=window,
+            progress=progress,
         )
         result = simulation.run()
     except DiagnosticError as exc:
