@@ -50,6 +50,7 @@ from asictl.host.status import (
     flag_rows,
     forced_text,
     hi_flag_text,
+    operand_value,
     profile_text,
     stop_text,
     symbol_text,
@@ -57,7 +58,6 @@ from asictl.host.status import (
 )
 from asictl.host.symbols import Names
 from asictl.host.watch import Watched, watch_list
-from asictl.host.watch import value as watched_value
 from asictl.il.ast import OperandKind
 from asictl.monitor.keys import KEYS
 from asictl.monitor.program import Listing, heading, listing_of, render_rows
@@ -1013,7 +1013,7 @@ def _watch_view(status: MasterStatus, watched: list[Watched], selected: int) -> 
     forced = {f.operand for f in status.forced or []}
     for row, entry in enumerate(watched):
         try:
-            value: int | None = watched_value(status, entry.operand)
+            value: int | None = operand_value(status, entry.operand)
         except UserError:
             value = None
         held = _held(entry.text, forced)
