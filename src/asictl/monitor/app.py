@@ -50,6 +50,7 @@ from asictl.host.status import (
     flag_rows,
     forced_text,
     hi_flag_text,
+    operand_value,
     profile_text,
     stop_text,
     symbol_text,
@@ -1013,7 +1014,7 @@ def _watch_view(status: MasterStatus, watched: list[Watched], selected: int) -> 
     forced = {f.operand for f in status.forced or []}
     for row, entry in enumerate(watched):
         try:
-            value: int | None = watched_value(status, entry.operand)
+            value: int | None = operand_value(status, entry.operand)
         except UserError:
             value = None
         held = _held(entry.text, forced)
