@@ -51,6 +51,7 @@ LAYERS: tuple[tuple[tuple[str, str], ...], ...] = (
         ("debug", "the IL debugger on a simulation, and on a live board for an editor"),
         ("monitor", "the full-screen live view (Textual)"),
         ("lsp", "the language server for editors"),
+        ("prove", "properties proved on the symbolic cycle; two programs compared"),
     ),
     (("dap", "the debug adapter for editors: the Debug Adapter Protocol over debug/"),),
     (

@@ -98,6 +98,8 @@ class ScenarioCode(StrEnum):
     INVALID = "E401"
     NO_SUCH_SLAVE = "E402"
     SYMBOLS = "E403"
+    PROPERTIES = "E404"
+    UNMODELLED = "E405"
 
 
 class AssemblerCode(StrEnum):
@@ -173,6 +175,8 @@ TITLES: dict[str, str] = {
     "E401": "invalid scenario",
     "E402": "scenario sets a slave that is not on the bus",
     "E403": "invalid symbol table",
+    "E404": "invalid properties file",
+    "E405": "construct the prover cannot model",
     "E501": "syntax",
     "E502": "unknown mnemonic or directive",
     "E503": "operand not valid for the instruction",
