@@ -44,14 +44,14 @@ from asictl.runtime.runner import ProgramRunner
 from asictl.source import from_string
 
 EXAMPLES = int(os.environ.get("ASICTL_PROVE_EXAMPLES", "70"))
-#: long enough for the largest tick count a run draws (60) in one cycle
-CYCLE_US = 600_000
+#: cycle periods: 0 or 1, 2 or 3, and 60 or 61 ticks of the 10 ms clock between cycles
+PERIODS_US = (5_000, 25_000, 605_000)
 K = ast.OperandKind
 HOST = [ast.Operand.of(K.FY, n) for n in range(128)]
 runs = st.lists(
     st.tuples(
         st.binary(min_size=16, max_size=16),
-        st.sampled_from([0, 0, 1, 2, 5, 60]),
+        st.booleans(),  # the 10 ms clock's extra tick in this cycle
         st.none() | st.tuples(st.integers(0, 127), st.integers(0, 255)),
     ),
     min_size=120,
@@ -78,9 +78,11 @@ def _without_firmware(program: Program) -> Program:
                    sources=program.sources, fb_decls=program.fb_decls)
 
 
-def _ticks_before(ticks: int) -> int:
-    """The time to the next tick that makes ``ticks`` ticks fall into one cycle."""
-    return CYCLE_US + 1 if ticks == 0 else CYCLE_US - 10_000 * (ticks - 1)
+def _ticks_before(period_us: int, extra: bool) -> tuple[int, int]:
+    """The time to the next tick at a cycle's start that gives the previous cycle its
+    extra tick (or not), and the number of ticks."""
+    whole, rest = divmod(period_us, 10_000)
+    return (1, whole + 1) if extra else (rest + 1, whole)
 
 
 def _word(runner: ProgramRunner, address: int) -> int:
@@ -122,16 +124,18 @@ CYCLES = [0]
 
 @settings(max_examples=EXAMPLES, deadline=None,
           suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
-@given(checked_programs(asm=False, options=True), runs)
-def test_the_symbolic_cycle_agrees_with_the_simulator(program: Program, run) -> None:
+@given(checked_programs(asm=False, options=True), runs, st.sampled_from(PERIODS_US))
+def test_the_symbolic_cycle_agrees_with_the_simulator(program: Program, run,
+                                                      period_us: int) -> None:
     program = _without_firmware(program)
     compiled = compile_program(program)
     interp = Interpreter(program)
     runner = ProgramRunner(LoadedProgram(compiled.code, compiled.pmap, compiled.entry_points))
-    cycle = build_cycle(program, slaves=range(32), cycle_us=CYCLE_US, host_flags=HOST)
+    cycle = build_cycle(program, slaves=range(32), cycle_us=period_us, host_flags=HOST)
     concrete = Concrete(cycle)
-    for number, (inputs, ticks, host_write) in enumerate(run):
-        if ticks:
+    for number, (inputs, extra, host_write) in enumerate(run):
+        until, ticks = _ticks_before(period_us, extra)
+        if number and ticks:
             interp.tick(ticks)
             runner.tick(ticks)
         given_inputs = {f"in.{a}": inputs[a >> 1] >> (a & 1) * 4 & 0xF for a in range(32)}
@@ -141,14 +145,15 @@ def test_the_symbolic_cycle_agrees_with_the_simulator(program: Program, run) -> 
             interp.state.flags[n] = value
             runner.write(Location(Space.XDATA, 0x200 + n), value)
             flags[f"host.{n}"] = value
-        concrete.state[TICK] = _ticks_before(ticks)
+        if number:  # the first cycle has no cycle before it
+            concrete.state[TICK] = until
         try:
             interp.cycle(inputs)
         except InterpreterTimeout:
             return
         runner.cycle(inputs)
         after = concrete.step({**given_inputs, **flags})
-        assert concrete.state.get(TICK, 1) <= 10_000 or ticks == 0
+        assert 1 <= concrete.state.get(TICK, 1) <= 10_000
         expected = _expected(interp, runner, compiled)
         diverging = {cell: (after.get(cell, 0), value) for cell, value in expected.items()
                      if after.get(cell, 0) != value}

@@ -148,10 +148,10 @@ def _tokens(text: str) -> list[_Token]:
             start = len(text) - len(text[pos:].lstrip())
             raise _ExprError(f"unexpected character '{text[start]}'", start)
         kind = match.lastgroup or "word"
-        value = match[kind]
+        value, start = match[kind], match.start(kind)
         if kind == "word" and value.lower() in _KEYWORDS:
             kind = "key"
-        tokens.append(_Token(kind, value, match.start(kind)))
+        tokens.append(_Token(kind, value, start))
         pos = match.end()
     tokens.append(_Token("end", "", len(text)))
     return tokens

@@ -19,7 +19,10 @@ decide anything about it (``Cycle.overrun``).
 What the model leaves open, so that what it proves holds however it is resolved: the
 answers of firmware blocks (every PSeg byte after a call), and the phase of the master's
 10 ms clock (``Cycle.tick`` holds the time from a cycle's start to the next tick; its
-first value is free within one tick period).
+first value is free within one tick period). Between two cycle starts P apart the clock
+ticks P // 10 ms times, or once more when the next tick comes within P % 10 ms: exact as
+long as the time to the next tick is 1 us to 10 ms, which it always is after a cycle
+(the first cycle's value is set by the caller, as the phase).
 """
 
 from __future__ import annotations
@@ -43,7 +46,8 @@ from asictl.platform.master import TICK_US
 K = ast.OperandKind
 #: A memory cell: ("I", byte), ("I2", byte), ("Q", byte), ("F", byte), ("P", byte),
 #: ("V", name, byte), ("T", n), ("C", n), ("A1",), ("A2",), ("K",) (the constant
-#: register) and ("R",) (microseconds from the cycle's start to the next 10 ms tick).
+#: register) and ("R",) (microseconds from the cycle's start to the next 10 ms tick, 1 to
+#: 10,000).
 Key = tuple[str | int, ...]
 ACCU1: Key = ("A1",)
 ACCU2: Key = ("A2",)
@@ -63,11 +67,7 @@ class Unmodelled(Exception):
 
 
 def width(cell: Key) -> int:
-    if cell[0] in ("T", "C", "A1", "A2", "K"):
-        return 16
-    if cell[0] == "R":
-        return 32
-    return 8
+    return 16 if cell[0] in ("T", "C", "A1", "A2", "K", "R") else 8
 
 
 def cell_name(cell: Key) -> str:
@@ -119,8 +119,9 @@ class Cycle:
         return sorted(self.post, key=cell_name)
 
     def initial(self) -> dict[Key, z3.BitVecRef]:
-        """The cells after a reset (all 0), with the tick phase left to the caller."""
-        return {cell: z3.BitVecVal(0, width(cell)) for cell in self.post if cell != TICK}
+        """The cells after a reset (all 0; the tick phase is the caller's to set after
+        the first cycle)."""
+        return {cell: z3.BitVecVal(0, width(cell)) for cell in self.post}
 
 
 def _bv(value: int, bits: int) -> z3.BitVecRef:
@@ -596,11 +597,11 @@ def build_cycle(
     start = _State({}, z3.BoolVal(False))
     values = start.values
     if timers:  # the ticks of the 10 ms clock since the previous cycle started
-        until = builder.var(TICK)  # one tick at until, until + 10 ms, ... up to cycle_us
-        ticks = z3.Sum(*(z3.If(z3.ULE(until, cycle_us - TICK_US * j), _bv(1, 32), _bv(0, 32))
-                         for j in range(cycle_us // TICK_US + 1)))
-        values[TICK] = until - cycle_us + TICK_US * ticks
-        elapsed = z3.Extract(15, 0, ticks)
+        whole, rest = divmod(cycle_us, TICK_US)
+        until = builder.var(TICK)  # in 1..10 ms: a tick at until, until + 10 ms, ...
+        extra = z3.ULE(until, rest)
+        values[TICK] = z3.If(extra, until + (TICK_US - rest), until - rest)
+        elapsed = z3.If(extra, _bv(whole + 1, 16), _bv(whole, 16))
         for n in timers:
             remaining = builder.var(("T", n))
             values[("T", n)] = z3.If(z3.UGT(remaining, elapsed), remaining - elapsed, 0)
