@@ -108,6 +108,8 @@ class Outcome:
     seconds: float
     trace: list[Step] | None = None
     note: str = ""
+    #: the property's operands (as written) after the last cycle of the trace
+    values: dict[str, int] = field(default_factory=dict)
 
 
 def _value(expr: Expr, read: Callable[[ast.Operand], z3.BitVecRef]) -> z3.BitVecRef:
@@ -213,6 +215,33 @@ class _Path:
 
     def holds(self, expr: Expr, index: int) -> z3.BoolRef:
         return condition(expr, self.reader(index))
+
+
+class _Collector:
+    """Constraints gathered for Horn clauses instead of a solver."""
+
+    def __init__(self) -> None:
+        self.constraints: list[z3.BoolRef] = []
+
+    def add(self, *constraints: z3.BoolRef) -> None:
+        self.constraints.extend(constraints)
+
+
+def _constants(term: z3.ExprRef) -> set[z3.ExprRef]:
+    """The free constants of a term (the variables of a Horn clause)."""
+    found: set[z3.ExprRef] = set()
+    seen: set[int] = set()
+    todo = [term]
+    while todo:
+        node = todo.pop()
+        if node.get_id() in seen:
+            continue
+        seen.add(node.get_id())
+        if z3.is_const(node) and node.decl().kind() == z3.Z3_OP_UNINTERPRETED:
+            found.add(node)
+        else:
+            todo.extend(node.children())
+    return found
 
 
 def _at_most(cell: Key, bound: int) -> Callable[[_Path, int], z3.BoolRef]:
@@ -433,7 +462,8 @@ class Machine:
                                    f"more than {self.cycle.loops[0].bound} times, the most "
                                    "the model follows")
                 verdict = Verdict.REACHED if reach else Verdict.REFUTED
-                return Outcome(prop, verdict, k, time.monotonic() - start, trace, note)
+                return Outcome(prop, verdict, k, time.monotonic() - start, trace, note,
+                               self._values(prop, base, model, k))
             if result != z3.unsat:
                 return Outcome(prop, Verdict.UNKNOWN, k, time.monotonic() - start,
                                note=f"time limit ({timeout_s:g} s) after {k} cycles")
@@ -447,11 +477,77 @@ class Machine:
             if outcome != z3.sat:
                 return Outcome(prop, Verdict.UNKNOWN, k, time.monotonic() - start,
                                note=f"time limit ({timeout_s:g} s) after {k} cycles")
+        if self._pdr(prop, deadline) is True:
+            verdict = Verdict.UNREACHABLE if reach else Verdict.PROVED
+            return Outcome(prop, verdict, depth, time.monotonic() - start,
+                           note="by an inductive invariant (PDR), beyond k-induction")
         return Outcome(prop, Verdict.BOUNDED, depth, time.monotonic() - start)
+
+    def _pdr(self, prop: Property, deadline: float) -> bool | None:
+        """Property-directed reachability (z3's Spacer engine) on the cycle as Horn
+        clauses: True when it finds an inductive invariant that excludes every bad state,
+        None when it cannot say in the time left."""
+        left = int((deadline - time.monotonic()) * 1000)
+        if left < 100:
+            return None
+        first = _Collector()
+        start = _Path(self, first, "p0.", initial=True)
+        rules = _Collector()
+        path = _Path(self, rules, "p.", initial=False)
+        path.extend()
+        cells = sorted(self.cycle.post, key=cell_name)
+        response = prop.kind is Kind.RESPONSE
+
+        def arguments(which: _Path, index: int, tag: str) -> tuple[list[z3.ExprRef],
+                                                                  list[z3.BoolRef]]:
+            args: list[z3.ExprRef] = [which.states[index][c] for c in cells]
+            ties: list[z3.BoolRef] = []
+            if response:
+                monitor = which.monitors[index]
+                active, age = z3.Bool(f"{tag}active"), z3.BitVec(f"{tag}age", 16)
+                ties = [active == monitor["active"], age == monitor["age"]]
+                args += [active, age]
+            return args, ties
+
+        sorts = [z3.BitVecSort(width(c)) for c in cells]
+        if response:
+            sorts += [z3.BoolSort(), z3.BitVecSort(16)]
+        invariant = z3.Function("Inv", *sorts, z3.BoolSort())
+        error = z3.Function("Err", z3.BoolSort())
+        fp = z3.Fixedpoint()
+        fp.set(engine="spacer")
+        fp.set("timeout", left)
+        fp.register_relation(invariant, error)
+        head, ties = arguments(start, 0, "p0.m.")
+        before, ties0 = arguments(path, 0, "p.m0.")
+        after, ties1 = arguments(path, 1, "p.m1.")
+        facts = [fact(path, 0) for fact in self.invariants]
+        constants = {v for term in [*head, *before, *after, *ties, *ties0, *ties1,
+                                    *first.constraints, *rules.constraints]
+                     for v in _constants(term)}
+        fp.declare_var(*constants)
+        fp.rule(invariant(*head), [*first.constraints, *ties])
+        fp.rule(invariant(*after), [invariant(*before), *rules.constraints, *facts,
+                                    *ties0, *ties1])
+        fp.rule(error(), [invariant(*before), self.bad(path, 0), *ties0])
+        fp.rule(error(), [invariant(*before), *rules.constraints, *ties0,
+                          path.overruns[1]])
+        try:
+            result = fp.query(error())
+        except z3.Z3Exception:
+            return None
+        return True if result == z3.unsat else None
 
     def _strengthen(self, path: _Path, index: int) -> None:
         for fact in self.invariants:
             path.solver.add(fact(path, index))
+
+    def _values(self, prop: Property, path: _Path, model: z3.ModelRef,
+                index: int) -> dict[str, int]:
+        read = path.reader(index)
+        exprs = [prop.expr] + ([prop.then] if prop.then is not None else [])
+        return {ref.text: model.eval(read(ref.operand.node), model_completion=True).as_long()
+                for expr in exprs for ref in refs(expr)}
 
     def _trace(self, path: _Path, model: z3.ModelRef, last: int) -> list[Step]:
         steps = []
