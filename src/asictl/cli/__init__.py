@@ -78,6 +78,10 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "prove": (
         "asictl.cli.prove:prove", "Prove a program's properties for every input sequence."
     ),
+    "diff": (
+        "asictl.cli.diff:diff",
+        "Compare two versions of a program network by network; --equivalent proves it.",
+    ),
 }
 
 

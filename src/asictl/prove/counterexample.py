@@ -111,17 +111,43 @@ def scenario_text(props: Properties, program: Path, target: Path, prop: Property
     lines += [f"program = {_quote(relative)}", "", "[master]", f"cycle_ms = {cycle_ms:g}"]
     if props.slaves is not None:
         lines.append(f"slaves = {{ {_slaves_text(props.slaves)} }}")
+    return "\n".join(lines + steps_text(outcome.trace, masks, cycle_ms, expected))
+
+
+def steps_text(trace: list[Step], masks: dict[int, int], cycle_ms: float,
+               expected: list[Expectation]) -> list[str]:
+    """The ``[[step]]`` tables of a trace: a ``set`` of what changed at each cycle's start
+    and the ``expect`` just after the last cycle."""
+    lines: list[str] = []
     inputs: dict[int, int] = {}
     flags: dict[int, int] = {}
-    for index, step in enumerate(outcome.trace):
+    for index, step in enumerate(trace):
         sets = _changes(step, inputs, flags, masks)
         if sets:
             lines += ["", "[[step]]", f"at_ms = {_ms(index * cycle_ms)}",
                       f"set = {{ {', '.join(sets)} }}"]
-    at = _ms((cycles - 1) * cycle_ms + 0.001)
+    at = _ms((len(trace) - 1) * cycle_ms + 0.001)
     expect = ", ".join(f"{_quote(e.text)} = {e.value}" for e in expected)
-    lines += ["", "[[step]]", f"at_ms = {at}", f"expect = {{ {expect} }}", ""]
-    return "\n".join(lines)
+    return [*lines, "", "[[step]]", f"at_ms = {at}", f"expect = {{ {expect} }}", ""]
+
+
+def difference_text(old: Path, new: Path, target: Path, trace: list[Step],
+                    masks: dict[int, int], cycle_ms: float,
+                    differences: dict[str, tuple[int, int]],
+                    slaves: list[SlaveSpec] | None = None) -> str:
+    """The scenario that tells two programs apart: it expects what ``old`` does, so it
+    passes on ``old`` and fails on ``new`` at its last step."""
+    relative = Path(os.path.relpath(old.resolve(), target.resolve().parent)).as_posix()
+    lines = [
+        f"{MARK} a difference between {old.name} and {new.name}",
+        f"# passes on {old.name}; asictl sim {new.name} --scenario {target.name} fails at "
+        "the last step.",
+        f"program = {_quote(relative)}", "", "[master]", f"cycle_ms = {cycle_ms:g}",
+    ]
+    if slaves is not None:
+        lines.append(f"slaves = {{ {_slaves_text(slaves)} }}")
+    expected = [Expectation(text, first) for text, (first, _) in differences.items()]
+    return "\n".join(lines + steps_text(trace, masks, cycle_ms, expected))
 
 
 def _changes(step: Step, inputs: dict[int, int], flags: dict[int, int],

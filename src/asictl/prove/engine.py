@@ -244,6 +244,14 @@ def _constants(term: z3.ExprRef) -> set[z3.ExprRef]:
     return found
 
 
+def _equal(first: Key, second: Key) -> Callable[[_Path, int], z3.BoolRef]:
+    def fact(path: _Path, index: int) -> z3.BoolRef:
+        result: z3.BoolRef = path.states[index][first] == path.states[index][second]
+        return result
+
+    return fact
+
+
 def _at_most(cell: Key, bound: int) -> Callable[[_Path, int], z3.BoolRef]:
     def fact(path: _Path, index: int) -> z3.BoolRef:
         result: z3.BoolRef = z3.ULE(path.states[index][cell], bound)
@@ -264,8 +272,12 @@ class Machine:
     setup: Setup
     assume: list[Expr]
     properties: list[Property]
+    #: the cycle, when the caller built it (two programs side by side); else the program's
+    prebuilt: Cycle | None = None
     cycle: Cycle = field(init=False)
     map_counters: bool = field(init=False)
+    #: for two programs compared: the cells that must be equal after every cycle
+    observed: list[tuple[Key, Key]] = field(default_factory=list)
     #: proved facts about every reachable state, as functions of a state
     invariants: list[Callable[[_Path, int], z3.BoolRef]] = field(default_factory=list)
     invariant_names: list[str] = field(default_factory=list)
@@ -279,6 +291,9 @@ class Machine:
             exprs.append(prop.expr)
             if prop.then is not None:
                 exprs.append(prop.then)
+        if self.prebuilt is not None:
+            self.cycle = self.prebuilt
+            return
         self.cycle = build_cycle(
             self.program, slaves=self.setup.slaves, cycle_us=self.setup.cycle_us,
             host_flags=self.setup.host_flags,
@@ -337,6 +352,10 @@ class Machine:
         ``index``."""
         prop = self.current
         assert prop is not None
+        if self.observed:
+            state = path.states[index]
+            differs: z3.BoolRef = z3.Or(*(state[a] != state[b] for a, b in self.observed))
+            return differs
         if prop.kind is Kind.RESPONSE:
             monitor = path.monitors[index]
             result: z3.BoolRef = z3.And(monitor["active"],
@@ -370,6 +389,11 @@ class Machine:
             if cell[0] == "C":
                 found.append((f"counter {cell[1]} at most {TC_MAX_VALUE}",
                               _at_most(cell, TC_MAX_VALUE)))
+        if self.observed:  # two programs compared: the cells they share stay equal
+            for cell in cells:
+                twin = ("b", *cell[1:])
+                if cell[0] == "a" and twin in cells:
+                    found.append((f"{cell_name(cell[1:])} equal in both", _equal(cell, twin)))
         return found
 
     def _constants(self) -> set[int]:
@@ -544,6 +568,10 @@ class Machine:
 
     def _values(self, prop: Property, path: _Path, model: z3.ModelRef,
                 index: int) -> dict[str, int]:
+        if self.observed:
+            state = path.states[index]
+            return {cell_name(cell): model.eval(state[cell], model_completion=True).as_long()
+                    for pair in self.observed for cell in pair}
         read = path.reader(index)
         exprs = [prop.expr] + ([prop.then] if prop.then is not None else [])
         return {ref.text: model.eval(read(ref.operand.node), model_completion=True).as_long()

@@ -150,7 +150,7 @@ def prove(properties: Path, *, program: Path | None = None, lib: tuple[str, ...]
     names: list[str | Path] = [properties, program_path, *built.program.sources]
     inputs = {real_path(p) for p in names if str(p) != "<stdin>"}
     for target, _, _ in pending:
-        _check_target(target, inputs, force)
+        check_target(target, inputs, force)
     if pending:
         directory.mkdir(parents=True, exist_ok=True)
     for target, name, text in pending:
@@ -160,7 +160,7 @@ def prove(properties: Path, *, program: Path | None = None, lib: tuple[str, ...]
     return report
 
 
-def _check_target(target: Path, inputs: set[Path], force: bool) -> None:
+def check_target(target: Path, inputs: set[Path], force: bool) -> None:
     """Replace only what this command wrote before (its first line says so)."""
     if real_path(target) in inputs:
         raise UserError(f"{target}: is an input of this proof; not overwritten")

@@ -66,8 +66,13 @@ class Unmodelled(Exception):
         self.span = span
 
 
+#: The first part of a cell of one side of two programs compared (``product``).
+SIDES = ("a", "b")
+
+
 def width(cell: Key) -> int:
-    return 16 if cell[0] in ("T", "C", "A1", "A2", "K", "R") else 8
+    kind = cell[1] if cell[0] in SIDES else cell[0]
+    return 16 if kind in ("T", "C", "A1", "A2", "K", "R") else 8
 
 
 def cell_name(cell: Key) -> str:
@@ -685,3 +690,36 @@ def _one() -> z3.BitVecRef:
 
 def _zero() -> z3.BitVecRef:
     return _bv(0, 32)
+
+
+def product(first: Cycle, second: Cycle) -> Cycle:
+    """Two programs on one master, side by side: the cells of each under its side
+    (``("a", "Q", 1)``, ``("b", "Q", 1)``), the inputs shared (the same slaves, the same
+    host, the same firmware answers call for call) and one 10 ms clock. The two cycles
+    must have been built with different ``prefix`` es."""
+    shared = dict(first.inputs)
+    pairs = [(var, shared.setdefault(name, var)) for name, var in second.inputs.items()]
+    clock = first.pre.get(TICK, second.pre.get(TICK))
+    if clock is not None and TICK in second.pre:
+        pairs.append((second.pre[TICK], clock))
+
+    def moved(term: z3.ExprRef) -> z3.ExprRef:
+        return z3.substitute(term, *pairs) if pairs else term
+
+    pre: dict[Key, z3.BitVecRef] = {}
+    post: dict[Key, z3.BitVecRef] = {}
+    for side, cycle in zip(SIDES, (first, second), strict=True):
+        for cell, var in cycle.pre.items():
+            if cell == TICK:
+                assert clock is not None
+                pre[TICK] = clock
+            else:
+                pre[(side, *cell)] = var
+        for cell, term in cycle.post.items():
+            post[TICK if cell == TICK else (side, *cell)] = moved(term) if side == "b" else term
+    masks = dict(first.host_masks)
+    for n, mask in second.host_masks.items():
+        masks[n] = masks.get(n, 0) | mask
+    return Cycle(pre, post, shared, masks, z3.Or(first.overrun, moved(second.overrun)),
+                 [*first.loops, *second.loops], first.cycle_us, (),
+                 tuple(sorted({*first.slaves, *second.slaves})))
