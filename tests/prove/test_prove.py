@@ -229,7 +229,7 @@ within = "15 cycles"
 name = "off at once"
 never = "Q 2.0 and not I 1.0"
 """
-    report = prove(_files(tmp_path, ONDELAY, props), depth=25)
+    report = prove(_files(tmp_path, ONDELAY, props), depth=25, timeout_s=300)
     assert _verdicts(report) == {"on within 2.1 s": Verdict.PROVED,
                                  "on within 1.5 s": Verdict.REFUTED,
                                  "off at once": Verdict.PROVED}
@@ -257,7 +257,7 @@ reachable = "CV 1 >= 3"
 
 def test_an_invariant_that_needs_induction(tmp_path: Path):
     props = "[master]\ncycle_ms = 5\n[[property]]\nname = \"never one alone\"\nnever = \"Q 2.0\"\n"
-    report = prove(_files(tmp_path, LOCKSTEP, props))
+    report = prove(_files(tmp_path, LOCKSTEP, props), timeout_s=300)
     assert _verdicts(report) == {"never one alone": Verdict.PROVED}
 
 

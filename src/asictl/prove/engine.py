@@ -132,6 +132,10 @@ def condition(expr: Expr, read: Callable[[ast.Operand], z3.BitVecRef]) -> z3.Boo
         case Logic(op=op, left=left, right=right):
             a, b = condition(left, read), condition(right, read)
             return z3.And(a, b) if op == "and" else z3.Or(a, b) if op == "or" else z3.Xor(a, b)
+        case Comparison(op=op, left=left, right=right) if not (
+                isinstance(left, Ref | Number) and isinstance(right, Ref | Number)):
+            p, q = condition(left, read), condition(right, read)  # two conditions
+            return p == q if op == "==" else z3.Xor(p, q)
         case Comparison(op=op, left=left, right=right):
             x, y = _value(left, read), _value(right, read)
             compare = {"==": lambda: x == y, "!=": lambda: x != y, "<": lambda: z3.ULT(x, y),

@@ -5,8 +5,9 @@ The file is TOML; its ``program`` line and ``[master]`` table mean what they mea
 scenario (and the ``[master]`` table is read by the scenario reader itself, so the two
 cannot drift). Expressions are written in the scenario's operand names (``I 1.0``,
 ``QB 16``, ``CV 0``, ``TV 1``, symbols) with ``and or xor not``, parentheses, ``== !=
-< <= > >=`` on values, and numbers as ``read_number`` reads them (``12``, ``0x0C``,
-``0b1100``). Every mistake is a diagnostic at its line and column, with a caret.
+< <= > >=`` on values (``==`` and ``!=`` also on two conditions), and numbers as
+``read_number`` reads them (``12``, ``0x0C``, ``0b1100``). Every mistake is a
+diagnostic at its line and column, with a caret.
 
 Nothing here needs z3: a properties file is checked before the prover starts.
 """
@@ -220,10 +221,14 @@ class _Parser:
         op, offset = self.token.text, self.token.offset
         self.at += 1
         right = self.atom()
-        for side in (left, right):
-            if isinstance(side, Truth | Negation | Logic | Comparison):
-                raise _ExprError(f"'{op}' compares values (operands and numbers), not "
-                                 f"{show(side)}", start if side is left else offset + len(op))
+        if op in ("==", "!=") and is_condition(left) and is_condition(right):
+            pass  # two conditions: equal (the same truth) or not
+        else:
+            for side in (left, right):
+                if isinstance(side, Truth | Negation | Logic | Comparison):
+                    raise _ExprError(f"'{op}' compares values (operands and numbers), not "
+                                     f"{show(side)}",
+                                     start if side is left else offset + len(op))
         if self.token.kind == "rel":
             raise _ExprError("comparisons do not chain: combine them with 'and'",
                              self.token.offset)
