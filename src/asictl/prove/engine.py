@@ -168,10 +168,13 @@ class _Path:
         #: per state: the cycle that led to it followed a backward jump too often
         self.overruns: list[z3.BoolRef] = []
         self.phase: z3.BitVecRef | None = None
+        #: the cells followed: those the property depends on (its cone of influence)
+        self.cells = machine.scope if machine.scope is not None else frozenset(
+            machine.cycle.post)
         cycle = machine.cycle
         if initial:
             self._advance(cycle.initial())
-            if TICK in cycle.post:  # the first cycle: the phase of the 10 ms clock
+            if TICK in self.cells:  # the first cycle: the phase of the 10 ms clock
                 self.phase = self.states[0][TICK]
                 solver.add(z3.UGE(self.phase, 1), z3.ULE(self.phase, TICK_US))
             machine.start_monitors(self, 0)
@@ -184,19 +187,19 @@ class _Path:
 
     def _fresh(self, index: int) -> dict[Key, z3.BitVecRef]:
         return {cell: z3.BitVec(f"{self.tag}{cell_name(cell)}@{index}", width(cell))
-                for cell in self.machine.cycle.post}
+                for cell in self.cells}
 
     def _advance(self, before: dict[Key, z3.BitVecRef]) -> None:
         cycle = self.machine.cycle
         index = len(self.states)
         inputs = {name: z3.BitVec(f"{self.tag}{name}@{index}", var.size())
                   for name, var in cycle.inputs.items()}
-        pairs = [(var, before[cell]) for cell, var in cycle.pre.items()]
+        pairs = [(var, before[cell]) for cell, var in cycle.pre.items() if cell in self.cells]
         pairs += [(var, inputs[name]) for name, var in cycle.inputs.items()]
         after = self._fresh(index)
-        for cell, term in cycle.post.items():
+        for cell in self.cells:
             if not (index == 0 and cell == TICK):  # set as the phase
-                self.solver.add(after[cell] == z3.substitute(term, *pairs))
+                self.solver.add(after[cell] == z3.substitute(cycle.post[cell], *pairs))
         self.overruns.append(z3.substitute(cycle.overrun, *pairs))
         self.states.append(after)
         self.inputs.append(inputs)
@@ -282,11 +285,16 @@ class Machine:
     map_counters: bool = field(init=False)
     #: for two programs compared: the cells that must be equal after every cycle
     observed: list[tuple[Key, Key]] = field(default_factory=list)
-    #: proved facts about every reachable state, as functions of a state
-    invariants: list[Callable[[_Path, int], z3.BoolRef]] = field(default_factory=list)
+    #: proved facts about every reachable state, as functions of a state, with their cells
+    invariants: list[tuple[Callable[[_Path, int], z3.BoolRef], frozenset[Key]]] = field(
+        default_factory=list)
     invariant_names: list[str] = field(default_factory=list)
     #: the property being decided now (its monitor)
     current: Property | None = None
+    #: the cells paths follow now (None: all)
+    scope: frozenset[Key] | None = None
+    #: each cell -> the cells its value after a cycle depends on
+    depends: dict[Key, frozenset[Key]] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         self.map_counters = map_counters_of(self.program)
@@ -297,12 +305,41 @@ class Machine:
                 exprs.append(prop.then)
         if self.prebuilt is not None:
             self.cycle = self.prebuilt
-            return
-        self.cycle = build_cycle(
-            self.program, slaves=self.setup.slaves, cycle_us=self.setup.cycle_us,
-            host_flags=self.setup.host_flags,
-            watch=watched_cells(exprs, self.map_counters),
-        )
+        else:
+            self.cycle = build_cycle(
+                self.program, slaves=self.setup.slaves, cycle_us=self.setup.cycle_us,
+                host_flags=self.setup.host_flags,
+                watch=watched_cells(exprs, self.map_counters),
+            )
+        names = {var.decl().name(): cell for cell, var in self.cycle.pre.items()}
+        self.depends = {
+            cell: frozenset(names[c.decl().name()] for c in _constants(term)
+                            if c.decl().name() in names)
+            for cell, term in self.cycle.post.items()
+        }
+
+    def cone(self, prop: Property | None) -> frozenset[Key]:
+        """The cells a property (and the assumptions, and the loop bound) depends on,
+        after any number of cycles: the only ones a proof of it needs to follow."""
+        exprs: list[Expr] = [*self.assume]
+        if prop is not None:
+            exprs += [prop.expr] + ([prop.then] if prop.then is not None else [])
+        todo = set(watched_cells(exprs, self.map_counters))
+        todo |= {names for names in self._overrun_cells()}
+        todo |= {cell for pair in self.observed for cell in pair}
+        found: set[Key] = set()
+        while todo:
+            cell = todo.pop()
+            if cell in found or cell not in self.depends:
+                continue
+            found.add(cell)
+            todo |= self.depends[cell] - found
+        return frozenset(found)
+
+    def _overrun_cells(self) -> set[Key]:
+        names = {var.decl().name(): cell for cell, var in self.cycle.pre.items()}
+        return {names[c.decl().name()] for c in _constants(self.cycle.overrun)
+                if c.decl().name() in names}
 
     # -------------------------------------------------------------- response monitors
 
@@ -370,34 +407,39 @@ class Machine:
 
     # -------------------------------------------------------------- invariants
 
-    def candidates(self) -> list[tuple[str, Callable[[_Path, int], z3.BoolRef]]]:
-        """Facts that may hold in every reachable state, drawn from the program."""
-        found: list[tuple[str, Callable[[_Path, int], z3.BoolRef]]] = []
+    def candidates(self) -> list[tuple[str, Callable[[_Path, int], z3.BoolRef],
+                                       frozenset[Key]]]:
+        """Facts that may hold in every reachable state, drawn from the program, each
+        with the cells it reads."""
+        found: list[tuple[str, Callable[[_Path, int], z3.BoolRef], frozenset[Key]]] = []
         cells = self.cycle.post
         if TICK in cells:
             found.append(("the 10 ms clock's next tick within 10 ms", lambda p, i: z3.And(
-                z3.UGE(p.states[i][TICK], 1), z3.ULE(p.states[i][TICK], TICK_US))))
+                z3.UGE(p.states[i][TICK], 1), z3.ULE(p.states[i][TICK], TICK_US)),
+                frozenset({TICK})))
         constants = sorted(self._constants())
         if CONSTANT in cells:
             found.append(("the constant register holds a constant the program loads",
                           lambda p, i: z3.Or(*(p.states[i][CONSTANT] == c
-                                               for c in constants))))
+                                               for c in constants)),
+                          frozenset({CONSTANT})))
         presets = sorted({min(c, TC_MAX_VALUE) for c in constants})
         for n in self.cycle.timers:
             if ("T", n) not in cells:
                 continue
             for bound in presets:
                 found.append((f"timer {n} holds at most {bound * 10} ms",
-                              _at_most(("T", n), bound)))
+                              _at_most(("T", n), bound), frozenset({("T", n)})))
         for cell in cells:
             if cell[0] == "C":
                 found.append((f"counter {cell[1]} at most {TC_MAX_VALUE}",
-                              _at_most(cell, TC_MAX_VALUE)))
+                              _at_most(cell, TC_MAX_VALUE), frozenset({cell})))
         if self.observed:  # two programs compared: the cells they share stay equal
             for cell in cells:
                 twin = ("b", *cell[1:])
                 if cell[0] == "a" and twin in cells:
-                    found.append((f"{cell_name(cell[1:])} equal in both", _equal(cell, twin)))
+                    found.append((f"{cell_name(cell[1:])} equal in both", _equal(cell, twin),
+                                  frozenset({cell, twin})))
         return found
 
     def _constants(self) -> set[int]:
@@ -420,6 +462,7 @@ class Machine:
         """Houdini: drop every candidate a reachable state (the first one) or a step from
         states satisfying all remaining candidates violates, until none is violated."""
         self.current = None
+        self.scope = None
         remaining = self.candidates()
         if not remaining:
             return
@@ -429,11 +472,11 @@ class Machine:
                 solver.set("timeout", max(1, int((deadline - time.monotonic()) * 1000)))
                 path = _Path(self, solver, "h.", initial=initial)
                 if not initial:
-                    for _, fact in remaining:
+                    for _, fact, _ in remaining:
                         solver.add(fact(path, 0))
                     path.extend()
                 last = len(path.states) - 1
-                checks = [fact(path, last) for _, fact in remaining]
+                checks = [fact(path, last) for _, fact, _ in remaining]
                 solver.add(z3.Or(*(z3.Not(c) for c in checks)))
                 result = solver.check()
                 if result == z3.unsat:
@@ -445,8 +488,8 @@ class Machine:
                 remaining = [candidate for candidate, check in zip(remaining, checks,
                                                                    strict=True)
                              if z3.is_true(model.eval(check, model_completion=True))]
-        self.invariants = [fact for _, fact in remaining]
-        self.invariant_names = [name for name, _ in remaining]
+        self.invariants = [(fact, cells) for _, fact, cells in remaining]
+        self.invariant_names = [name for name, _, _ in remaining]
 
     # -------------------------------------------------------------- deciding
 
@@ -454,6 +497,9 @@ class Machine:
         start = time.monotonic()
         deadline = start + timeout_s
         self.current = prop
+        self.scope = self.cone(prop)
+        if prop.kind is Kind.RESPONSE:  # a response is judged over its whole window
+            depth = max(depth, self.window(prop) + 2)
         base_solver, step_solver = z3.Solver(), z3.Solver()
         base = _Path(self, base_solver, "b.", initial=True)
         step = _Path(self, step_solver, "s.", initial=False)
@@ -523,7 +569,7 @@ class Machine:
         rules = _Collector()
         path = _Path(self, rules, "p.", initial=False)
         path.extend()
-        cells = sorted(self.cycle.post, key=cell_name)
+        cells = sorted(path.cells, key=cell_name)
         response = prop.kind is Kind.RESPONSE
 
         def arguments(which: _Path, index: int, tag: str) -> tuple[list[z3.ExprRef],
@@ -549,7 +595,7 @@ class Machine:
         head, ties = arguments(start, 0, "p0.m.")
         before, ties0 = arguments(path, 0, "p.m0.")
         after, ties1 = arguments(path, 1, "p.m1.")
-        facts = [fact(path, 0) for fact in self.invariants]
+        facts = [fact(path, 0) for fact, cells in self.invariants if cells <= path.cells]
         constants = {v for term in [*head, *before, *after, *ties, *ties0, *ties1,
                                     *first.constraints, *rules.constraints]
                      for v in _constants(term)}
@@ -567,8 +613,9 @@ class Machine:
         return True if result == z3.unsat else None
 
     def _strengthen(self, path: _Path, index: int) -> None:
-        for fact in self.invariants:
-            path.solver.add(fact(path, index))
+        for fact, cells in self.invariants:
+            if cells <= path.cells:
+                path.solver.add(fact(path, index))
 
     def _values(self, prop: Property, path: _Path, model: z3.ModelRef,
                 index: int) -> dict[str, int]:
