@@ -115,3 +115,12 @@ def test_the_command_line_without_equivalent(tmp_path: Path, runner):
     result = runner.invoke(main, ["diff", str(old), str(old), "--equivalent"])
     assert result.exit_code == 0, result.output
     assert "equivalent: the same outputs" in result.output
+
+
+def test_an_image_with_its_source_compares_with_the_source(tmp_path: Path, runner):
+    old = _write(tmp_path, "old.asi", OLD)
+    image = tmp_path / "old.hex"
+    assert runner.invoke(main, ["compile", str(old), "-o", str(image)]).exit_code == 0
+    result = runner.invoke(main, ["diff", str(image), str(old), "--equivalent"])
+    assert result.exit_code == 0, result.output
+    assert "3 networks the same, 0 changed" in result.output

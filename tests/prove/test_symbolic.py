@@ -7,8 +7,7 @@ ticks between them. The symbolic cycle, evaluated on the concrete values, must a
 with the compiled 8051 code (what ``asictl sim`` runs) and with the interpreter on every
 output, flag, timer, counter, variable, PSeg byte and register after every cycle. With
 the default sizes (70 programs, 120 to 180 cycles each) the runs add up to more than
-10,000 cycles (``ASICTL_PROVE_EXAMPLES``
-changes the number of programs).
+10,000 cycles (``ASICTL_PROVE_EXAMPLES`` changes the number of programs).
 
 Firmware blocks and PARAM are left out of the generated programs: the prover lets their
 answers be anything (docs/prove.md), so there is no single answer to compare.
