@@ -83,7 +83,7 @@ def test_networks_are_paired_with_renamed_labels_and_moves_recognised(tmp_path: 
 def test_a_refactored_program_is_equivalent(tmp_path: Path):
     old = _program(_write(tmp_path, "old.asi", OLD))
     new = _program(_write(tmp_path, "new.asi", REFACTORED))
-    result = equivalent(old, new, timeout_s=20)
+    result = equivalent(old, new, timeout_s=300)
     assert result.verdict == "equivalent"
     assert result.trace is None
 
@@ -91,8 +91,8 @@ def test_a_refactored_program_is_equivalent(tmp_path: Path):
 def test_a_changed_program_is_told_apart_by_a_scenario(tmp_path: Path, runner):
     old = _write(tmp_path, "old.asi", OLD)
     new = _write(tmp_path, "new.asi", CHANGED)
-    assert equivalent(_program(old), _program(new)).verdict == "different"
-    result = runner.invoke(main, ["diff", str(old), str(new), "--equivalent"])
+    assert equivalent(_program(old), _program(new), timeout_s=300).verdict == "different"
+    result = runner.invoke(main, ["diff", str(old), str(new), "--equivalent", "--timeout", "300"])
     assert result.exit_code == 1, result.output
     assert "different after cycle" in result.output
     scenario_path = tmp_path / "new.differs.scenario.toml"
@@ -112,7 +112,7 @@ def test_the_command_line_without_equivalent(tmp_path: Path, runner):
     result = runner.invoke(main, ["diff", str(old), str(same)])
     assert result.exit_code == 1  # labels renamed: a change, if not of behaviour
     assert "only labels renamed" in result.output
-    result = runner.invoke(main, ["diff", str(old), str(old), "--equivalent"])
+    result = runner.invoke(main, ["diff", str(old), str(old), "--equivalent", "--timeout", "300"])
     assert result.exit_code == 0, result.output
     assert "equivalent: the same outputs" in result.output
 
@@ -121,6 +121,19 @@ def test_an_image_with_its_source_compares_with_the_source(tmp_path: Path, runne
     old = _write(tmp_path, "old.asi", OLD)
     image = tmp_path / "old.hex"
     assert runner.invoke(main, ["compile", str(old), "-o", str(image)]).exit_code == 0
-    result = runner.invoke(main, ["diff", str(image), str(old), "--equivalent"])
+    result = runner.invoke(main, ["diff", str(image), str(old), "--equivalent", "--timeout", "300"])
     assert result.exit_code == 0, result.output
     assert "3 networks the same, 0 changed" in result.output
+
+
+def test_renamed_flags_and_timers_are_still_equivalent(tmp_path: Path):
+    """Equal bits under other names: the invariant pairs a bit of one program with a bit
+    of the other (here the demo timer.asi with F 0.0 -> F 7.1 and T 6 -> T 9)."""
+    demo = (Path(__file__).resolve().parents[2] / "demos" / "timer.asi").read_text()
+    old = _program(_write(tmp_path, "old.asi", demo))
+    new = _program(_write(tmp_path, "new.asi",
+                          demo.replace("F 0.0", "F 7.1").replace("T 6", "T 9")))
+    result = equivalent(old, new, timeout_s=300, cycle_ms=100)
+    assert result.verdict == "equivalent"
+    changed = _program(_write(tmp_path, "changed.asi", demo.replace("KT 5000", "KT 4000")))
+    assert equivalent(old, changed, timeout_s=300, cycle_ms=500).verdict == "different"

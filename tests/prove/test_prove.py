@@ -12,7 +12,8 @@ import pytest
 from asictl.build import build_file
 from asictl.cli import main
 from asictl.prove.engine import Verdict
-from asictl.prove.session import Invalid, Report, prove
+from asictl.prove.session import Invalid, Report
+from asictl.prove.session import prove as prove_file
 from asictl.sim.engine import Simulation, variables_of
 from asictl.sim.scenario import load_scenario
 
@@ -150,6 +151,12 @@ LOCKSTEP = SETUP + """[PROGRAM]
 """
 
 
+def prove(props: Path, **options: object) -> Report:
+    """``prove`` with a time limit no load on the machine reaches: verdicts, not timing."""
+    options.setdefault("timeout_s", 300.0)
+    return prove_file(props, **options)  # type: ignore[arg-type]
+
+
 def _files(tmp_path: Path, program: str, properties: str, name: str = "p") -> Path:
     (tmp_path / f"{name}.asi").write_text(program)
     props = tmp_path / f"{name}.props.toml"
@@ -264,10 +271,10 @@ def test_an_invariant_that_needs_induction(tmp_path: Path):
 def test_the_command_line_exit_codes_and_json(tmp_path: Path, runner):
     good = _files(tmp_path, REVERSE, INTERLOCK, "good")
     bad = _files(tmp_path, RACE, INTERLOCK, "bad")
-    result = runner.invoke(main, ["prove", str(good)])
+    result = runner.invoke(main, ["prove", str(good), "--timeout", "300"])
     assert result.exit_code == 0, result.output
     assert "proved       never both directions" in result.output
-    result = runner.invoke(main, ["prove", str(bad), "--format", "json",
+    result = runner.invoke(main, ["prove", str(bad), "--format", "json", "--timeout", "300",
                                   "--counterexamples", str(tmp_path / "cex")])
     assert result.exit_code == 1, result.output
     data = json.loads(result.output)
@@ -283,7 +290,7 @@ def test_a_file_in_the_way_is_not_replaced(tmp_path: Path, runner):
     result = runner.invoke(main, ["prove", str(bad)])
     assert result.exit_code == 2
     assert "not overwritten (use --force)" in result.output
-    result = runner.invoke(main, ["prove", str(bad), "--force"])
+    result = runner.invoke(main, ["prove", str(bad), "--force", "--timeout", "300"])
     assert result.exit_code == 1
 
 

@@ -257,7 +257,7 @@ def equivalent(
     pairs = [(("a", *cell), ("b", *cell)) for cell in observed]
     same = Property("same outputs", Kind.ALWAYS, Truth(True), 0)
     machine = Machine(first, Setup(bus, cycle_us, tuple(host)), [], [], prebuilt=both,
-                      observed=pairs)
+                      observed=pairs, twins=_twins(first, second))
     machine.find_invariants(time.monotonic() + timeout_s)
     outcome: Outcome = machine.decide(same, depth=depth, timeout_s=max(
         0.1, timeout_s - (time.monotonic() - start)))
@@ -274,6 +274,45 @@ def equivalent(
         if x is not None and y is not None and x != y:
             result.differences[_operand_text(a[1:])] = (x, y)
     return result
+
+
+#: At most this many pairs of bits are tried as equal in both programs.
+_MOST_TWINS = 2000
+
+
+def _memory(program: Program) -> tuple[set[tuple[Key, int]], set[tuple[Key, int]]]:
+    """The flag and variable bits, and the timers and counters, a program uses."""
+    bits: set[tuple[Key, int]] = set()
+    words: set[tuple[Key, int]] = set()
+    for module in program.modules():
+        for section in module.sections:
+            for node in ast.nodes(section):
+                if not isinstance(node, ast.Statement | ast.GatingLine):
+                    continue
+                for operand, _ in ast.operands(node):
+                    if operand.kind is ast.OperandKind.F:
+                        bits.add((("a", "F", operand.address), operand.bit))
+                    elif operand.kind is ast.OperandKind.VAR and operand.bit >= 0:
+                        bits.add((("a", "V", key(operand.name), operand.address), operand.bit))
+                    elif operand.kind in (ast.OperandKind.T, ast.OperandKind.C):
+                        words.add((("a", operand.kind.value, operand.address), -1))
+    return bits, words
+
+
+def _twins(first: Program, second: Program) -> list[tuple[tuple[Key, int], tuple[Key, int]]]:
+    """Pairs of bits (and of timers, of counters) that a refactoring may have renamed:
+    each of the first program's with each of the second's of the same kind."""
+    bits_a, words_a = _memory(first)
+    bits_b, words_b = _memory(second)
+
+    def other(place: tuple[Key, int]) -> tuple[Key, int]:
+        return ("b", *place[0][1:]), place[1]
+
+    found = [(x, other(y)) for x in sorted(words_a, key=str) for y in sorted(words_b, key=str)
+             if x[0][1] == y[0][1] and x != y]
+    found += [(x, other(y)) for x in sorted(bits_a, key=str) for y in sorted(bits_b, key=str)
+              if x != y]
+    return found[:_MOST_TWINS]
 
 
 def _operand_text(cell: Key) -> str:

@@ -259,6 +259,19 @@ def _equal(first: Key, second: Key) -> Callable[[_Path, int], z3.BoolRef]:
     return fact
 
 
+def _same_bit(first: Key, i: int, second: Key, j: int) -> Callable[[_Path, int],
+                                                                    z3.BoolRef]:
+    def fact(path: _Path, index: int) -> z3.BoolRef:
+        x, y = path.states[index][first], path.states[index][second]
+        if i < 0:
+            whole: z3.BoolRef = x == y
+            return whole
+        result: z3.BoolRef = z3.Extract(i, i, x) == z3.Extract(j, j, y)
+        return result
+
+    return fact
+
+
 def _at_most(cell: Key, bound: int) -> Callable[[_Path, int], z3.BoolRef]:
     def fact(path: _Path, index: int) -> z3.BoolRef:
         result: z3.BoolRef = z3.ULE(path.states[index][cell], bound)
@@ -285,6 +298,9 @@ class Machine:
     map_counters: bool = field(init=False)
     #: for two programs compared: the cells that must be equal after every cycle
     observed: list[tuple[Key, Key]] = field(default_factory=list)
+    #: for two programs compared: bits that may always be equal, one of each program
+    #: (cell, bit); bit -1 for a whole word (a timer, a counter)
+    twins: list[tuple[tuple[Key, int], tuple[Key, int]]] = field(default_factory=list)
     #: proved facts about every reachable state, as functions of a state, with their cells
     invariants: list[tuple[Callable[[_Path, int], z3.BoolRef], frozenset[Key]]] = field(
         default_factory=list)
@@ -440,6 +456,11 @@ class Machine:
                 if cell[0] == "a" and twin in cells:
                     found.append((f"{cell_name(cell[1:])} equal in both", _equal(cell, twin),
                                   frozenset({cell, twin})))
+        for (a, i), (b, j) in self.twins:
+            if a in cells and b in cells:
+                found.append((f"{cell_name(a[1:])}{'' if i < 0 else f'.{i}'} in the first "
+                              f"equal to {cell_name(b[1:])}{'' if j < 0 else f'.{j}'} in the "
+                              "second", _same_bit(a, i, b, j), frozenset({a, b})))
         return found
 
     def _constants(self) -> set[int]:
