@@ -5,6 +5,7 @@ step, a reached one's must pass."""
 from __future__ import annotations
 
 import json
+import sys
 from pathlib import Path
 
 import pytest
@@ -329,3 +330,15 @@ def test_asm_is_refused_with_its_line(tmp_path: Path, runner):
     assert result.exit_code == 2
     assert "p.asi:6:" in result.output and "[E405]" in result.output
     assert "ASM line 'nop'" in result.output
+
+
+def test_without_z3_the_hint_names_the_extra(tmp_path: Path, runner, monkeypatch):
+    props = _files(tmp_path, REVERSE, INTERLOCK)
+    monkeypatch.setitem(sys.modules, "z3", None)  # import z3 fails as if not installed
+    result = runner.invoke(main, ["prove", str(props)])
+    assert result.exit_code == 2
+    assert "needs the 'prove' extra" in result.output
+    assert "pip install 'z3-solver>=4.12'" in result.output
+    old = tmp_path / "p.asi"
+    result = runner.invoke(main, ["diff", str(old), str(old), "--equivalent"])
+    assert result.exit_code == 2 and "needs the 'prove' extra" in result.output
