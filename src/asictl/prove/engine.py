@@ -38,9 +38,9 @@ from asictl.il.loader import Program
 from asictl.platform.master import TICK_US
 from asictl.prove.props import (
     Comparison,
+    Connective,
     Expr,
     Kind,
-    Logic,
     Negation,
     Number,
     Property,
@@ -129,7 +129,7 @@ def condition(expr: Expr, read: Callable[[ast.Operand], z3.BitVecRef]) -> z3.Boo
             return z3.BoolVal(value)
         case Negation(arg=arg):
             return z3.Not(condition(arg, read))
-        case Logic(op=op, left=left, right=right):
+        case Connective(op=op, left=left, right=right):
             a, b = condition(left, read), condition(right, read)
             return z3.And(a, b) if op == "and" else z3.Or(a, b) if op == "or" else z3.Xor(a, b)
         case Comparison(op=op, left=left, right=right) if not (

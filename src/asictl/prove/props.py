@@ -70,7 +70,7 @@ class Negation:
 
 
 @dataclass(frozen=True)
-class Logic:
+class Connective:
     op: str  # and, or, xor
     left: Expr
     right: Expr
@@ -83,7 +83,7 @@ class Comparison:
     right: Expr
 
 
-Expr = Ref | Number | Truth | Negation | Logic | Comparison
+Expr = Ref | Number | Truth | Negation | Connective | Comparison
 
 
 def is_condition(expr: Expr) -> bool:
@@ -102,7 +102,7 @@ def refs(expr: Expr) -> list[Ref]:
             return []
         case Negation(arg=arg):
             return refs(arg)
-        case Logic(left=left, right=right) | Comparison(left=left, right=right):
+        case Connective(left=left, right=right) | Comparison(left=left, right=right):
             return refs(left) + refs(right)
 
 
@@ -117,7 +117,7 @@ def show(expr: Expr) -> str:
             return "true" if value else "false"
         case Negation(arg=arg):
             return f"not {show(arg)}"
-        case Logic(op=op, left=left, right=right) | Comparison(op=op, left=left, right=right):
+        case Connective(op=op, left=left, right=right) | Comparison(op=op, left=left, right=right):
             return f"({show(left)} {op} {show(right)})"
 
 
@@ -201,7 +201,7 @@ class _Parser:
                 if not is_condition(side):
                     raise _ExprError(f"'{word}' combines conditions: compare the value "
                                      f"{show(side)} (such as {show(side)} == 1)", at)
-            left = Logic(word, left, right)
+            left = Connective(word, left, right)
 
     def negation(self) -> Expr:
         offset = self.token.offset
@@ -225,7 +225,7 @@ class _Parser:
             pass  # two conditions: equal (the same truth) or not
         else:
             for side in (left, right):
-                if isinstance(side, Truth | Negation | Logic | Comparison):
+                if isinstance(side, Truth | Negation | Connective | Comparison):
                     raise _ExprError(f"'{op}' compares values (operands and numbers), not "
                                      f"{show(side)}",
                                      start if side is left else offset + len(op))

@@ -285,37 +285,37 @@ class _Builder:
                     break
                 statement = statements[pc]
                 pc += 1
-                match statement:
-                    case ast.Jump(conditional=conditional, label=label):
-                        target = scope.labels[key(label)]
-                        go = z3.And(g, s.rlo) if conditional else g
-                        if target < pc:
-                            count = taken[pc] = taken.get(pc, 0) + 1
-                            line = statement.span.line if statement.span else 0
-                            self.loops[line] = Loop(line, self.unroll)
-                            if count > self.unroll:
-                                self.overrun.append(go)
-                            else:
-                                arrive(target, (go, s.copy()))
+                if isinstance(statement, ast.Jump):
+                    target = scope.labels[key(statement.label)]
+                    conditional = statement.conditional
+                    go = z3.And(g, s.rlo) if conditional else g
+                    if target < pc:
+                        count = taken[pc] = taken.get(pc, 0) + 1
+                        line = statement.span.line if statement.span else 0
+                        self.loops[line] = Loop(line, self.unroll)
+                        if count > self.unroll:
+                            self.overrun.append(go)
                         else:
                             arrive(target, (go, s.copy()))
-                        if not conditional:
-                            break
-                        g = z3.And(g, z3.Not(s.rlo))
-                    case ast.BlockEnd(kind=kind):
-                        if kind is not ast.EndKind.BEC:
-                            ended.append((g, s))
-                            break
-                        ended.append((z3.And(g, s.rlo), s.copy()))
-                        g = z3.And(g, z3.Not(s.rlo))
-                    case ast.CallFB(conditional=conditional, name=name):
-                        if conditional:
-                            called = self.call(name, z3.And(g, s.rlo), s.copy())
-                            s = self.merge([called, (z3.And(g, z3.Not(s.rlo)), s)])[1]
-                        else:
-                            s = self.call(name, g, s)[1]
-                    case _:
-                        self.step(statement, scope, pc - 1, s)
+                    else:
+                        arrive(target, (go, s.copy()))
+                    if not conditional:
+                        break
+                    g = z3.And(g, z3.Not(s.rlo))
+                elif isinstance(statement, ast.BlockEnd):
+                    if statement.kind is not ast.EndKind.BEC:
+                        ended.append((g, s))
+                        break
+                    ended.append((z3.And(g, s.rlo), s.copy()))
+                    g = z3.And(g, z3.Not(s.rlo))
+                elif isinstance(statement, ast.CallFB):
+                    if statement.conditional:
+                        called = self.call(statement.name, z3.And(g, s.rlo), s.copy())
+                        s = self.merge([called, (z3.And(g, z3.Not(s.rlo)), s)])[1]
+                    else:
+                        s = self.call(statement.name, g, s)[1]
+                else:
+                    self.step(statement, scope, pc - 1, s)
         if not ended:  # every path overran
             return z3.BoolVal(False), state
         return self.merge(ended)
@@ -436,8 +436,11 @@ class _Builder:
                 return image_cell(operand.kind, address), (address & 1) * 4 + bit
             case K.VAR:
                 return ("V", key(operand.name), address), bit
-            case _:
+            case (K.T | K.C | K.IB | K.I2B | K.QB | K.FY | K.PSEG | K.FW | K.KT | K.KC | K.KB
+                  | K.KW | K.KP):
                 raise AssertionError(f"{operand} is not kept in a byte")
+            case _:
+                assert_never(operand.kind)
 
     def read_bit(self, s: _State, operand: ast.Operand) -> z3.BoolRef:
         if operand.kind is K.T:
