@@ -39,7 +39,7 @@ class _Bad(Exception):
               help="Also decide whether both give the same outputs for every input sequence.")
 @click.option("--depth", type=click.IntRange(0, 10_000), default=20, show_default=True,
               help="Cycles the search for a difference goes to.")
-@click.option("--timeout", type=click.FloatRange(0.1, 86_400), default=10.0,
+@click.option("--timeout", type=click.FloatRange(0.1, 86_400), default=30.0,
               show_default=True, help="Seconds for --equivalent.")
 @click.option("--cycle-ms", type=click.FloatRange(0.1, 10_000),
               help="The program cycle [default: the AS-i cycle of the bus].")

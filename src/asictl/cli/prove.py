@@ -66,7 +66,7 @@ def _line(outcome: object, written: Path | None) -> str:
               help="The properties file [default: NAME.props.toml beside NAME.asi].")
 @click.option("--depth", type=click.IntRange(0, 10_000), default=20, show_default=True,
               help="Cycles the search for counterexamples and the induction go to.")
-@click.option("--timeout", type=click.FloatRange(0.1, 86_400), default=10.0,
+@click.option("--timeout", type=click.FloatRange(0.1, 86_400), default=30.0,
               show_default=True, help="Seconds for each property.")
 @click.option("--format", "fmt", type=_HELP_FORMAT, default="text", show_default=True)
 @click.option("--counterexamples", type=click.Path(file_okay=False, path_type=Path),

@@ -118,7 +118,7 @@ def _phase(props: Properties, built: Build, cycle_us: int) -> int | None:
 
 
 def prove(properties: Path, *, program: Path | None = None, lib: tuple[str, ...] = (),
-          depth: int = 20, timeout_s: float = 10.0, out_dir: Path | None = None,
+          depth: int = 20, timeout_s: float = 30.0, out_dir: Path | None = None,
           force: bool = False) -> Report:
     """Decide every property of a properties file; write what was found as scenarios."""
     start = time.monotonic()
