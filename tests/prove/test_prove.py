@@ -342,3 +342,32 @@ def test_without_z3_the_hint_names_the_extra(tmp_path: Path, runner, monkeypatch
     old = tmp_path / "p.asi"
     result = runner.invoke(main, ["diff", str(old), str(old), "--equivalent"])
     assert result.exit_code == 2 and "needs the 'prove' extra" in result.output
+
+
+LOOP = SETUP + """[PROGRAM]
+        L   KB 0
+        T   FY 10
+loop:   L   FY 10       ; FY 10 := 16, 32, ... until it equals IB 0 (I 1 times 16)
+        L   KB 16
+        +   F
+        T   FY 10
+        L   FY 10
+        L   IB 0
+        ><  F
+        JC  =loop
+        A   F 10.5
+        =   Q 2.0
+***
+"""
+
+
+def test_a_loop_beyond_its_bound_is_reported_and_a_higher_bound_decides(tmp_path: Path):
+    props = _files(tmp_path, LOOP, '[master]\ncycle_ms = 5\n[[property]]\nname = "q"\n'
+                   'never = "Q 2.0 and not I 1.1"\n')
+    report = prove(props)
+    assert report.loops == [(10 + 4, 8)]
+    outcome = report.outcomes[0]
+    assert outcome.verdict is Verdict.UNKNOWN
+    assert "line 14" in outcome.note and "more than 8 times" in outcome.note
+    report = prove(props, unroll=16)  # I 1 = 0: 16 times round (FY 10 wraps to 0)
+    assert _verdicts(report) == {"q": Verdict.PROVED}

@@ -6,7 +6,7 @@ map_counters) and runs of cycles with random inputs, host writes to the flags an
 ticks between them. The symbolic cycle, evaluated on the concrete values, must agree
 with the compiled 8051 code (what ``asictl sim`` runs) and with the interpreter on every
 output, flag, timer, counter, variable, PSeg byte and register after every cycle. With
-the default sizes (70 programs, 120 to 180 cycles each) the runs add up to more than
+the default sizes (70 programs, 150 to 180 cycles each) the runs add up to more than
 10,000 cycles (``ASICTL_PROVE_EXAMPLES`` changes the number of programs).
 
 Firmware blocks and PARAM are left out of the generated programs: the prover lets their
@@ -53,7 +53,7 @@ runs = st.lists(
         st.booleans(),  # the 10 ms clock's extra tick in this cycle
         st.none() | st.tuples(st.integers(0, 127), st.integers(0, 255)),
     ),
-    min_size=120,
+    min_size=150,
     max_size=180,
 )
 

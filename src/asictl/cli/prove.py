@@ -68,6 +68,8 @@ def _line(outcome: object, written: Path | None) -> str:
               help="Cycles the search for counterexamples and the induction go to.")
 @click.option("--timeout", type=click.FloatRange(0.1, 86_400), default=30.0,
               show_default=True, help="Seconds for each property.")
+@click.option("--unroll", type=click.IntRange(1, 1000), default=8, show_default=True,
+              help="How often a backward jump is followed in one cycle.")
 @click.option("--format", "fmt", type=_HELP_FORMAT, default="text", show_default=True)
 @click.option("--counterexamples", type=click.Path(file_okay=False, path_type=Path),
               help="Where to write counterexamples and witnesses [default: beside the "
@@ -76,7 +78,8 @@ def _line(outcome: object, written: Path | None) -> str:
               help="Replace files in the way that asictl prove did not write.")
 @lib_option
 def prove(files: tuple[Path, ...], properties: Path | None, depth: int, timeout: float,
-          fmt: str, counterexamples: Path | None, force: bool, lib: tuple[str, ...]) -> None:
+          unroll: int, fmt: str, counterexamples: Path | None, force: bool,
+          lib: tuple[str, ...]) -> None:
     """Prove a program's properties (NAME.props.toml) for every input sequence.
 
     FILES are programs (NAME.asi, with NAME.props.toml beside them) or properties files
@@ -99,7 +102,8 @@ def prove(files: tuple[Path, ...], properties: Path | None, depth: int, timeout:
     for props_path, program in _files(files, properties):
         try:
             report = prove_file(props_path, program=program, lib=lib, depth=depth,
-                                timeout_s=timeout, out_dir=counterexamples, force=force)
+                                timeout_s=timeout, out_dir=counterexamples, force=force,
+                                unroll=unroll)
         except Invalid as exc:
             click.echo(exc.text, nl=False, err=True)
             ctx.exit(int(ExitCode.USAGE))

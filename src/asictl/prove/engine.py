@@ -51,6 +51,7 @@ from asictl.prove.props import (
 from asictl.prove.symbolic import (
     CONSTANT,
     TICK,
+    UNROLL,
     Cycle,
     Key,
     build_cycle,
@@ -294,6 +295,8 @@ class Machine:
     properties: list[Property]
     #: the cycle, when the caller built it (two programs side by side); else the program's
     prebuilt: Cycle | None = None
+    #: how often a backward jump is followed in one cycle
+    unroll: int = UNROLL
     cycle: Cycle = field(init=False)
     map_counters: bool = field(init=False)
     #: for two programs compared: the cells that must be equal after every cycle
@@ -325,7 +328,7 @@ class Machine:
             self.cycle = build_cycle(
                 self.program, slaves=self.setup.slaves, cycle_us=self.setup.cycle_us,
                 host_flags=self.setup.host_flags,
-                watch=watched_cells(exprs, self.map_counters),
+                watch=watched_cells(exprs, self.map_counters), unroll=self.unroll,
             )
         names = {var.decl().name(): cell for cell, var in self.cycle.pre.items()}
         self.depends = {

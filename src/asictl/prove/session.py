@@ -22,7 +22,7 @@ from asictl.platform.master import TICK_US
 from asictl.prove.counterexample import MARK, expectations, file_name, scenario_text
 from asictl.prove.engine import Machine, Outcome, Setup, Verdict
 from asictl.prove.props import Properties, program_for, read_properties
-from asictl.prove.symbolic import Unmodelled
+from asictl.prove.symbolic import UNROLL, Unmodelled
 from asictl.sim.engine import Simulation, variables_of
 from asictl.sim.scenario import Scenario
 from asictl.source import read_source
@@ -119,14 +119,15 @@ def _phase(props: Properties, built: Build, cycle_us: int) -> int | None:
 
 def prove(properties: Path, *, program: Path | None = None, lib: tuple[str, ...] = (),
           depth: int = 20, timeout_s: float = 30.0, out_dir: Path | None = None,
-          force: bool = False) -> Report:
+          force: bool = False, unroll: int = UNROLL) -> Report:
     """Decide every property of a properties file; write what was found as scenarios."""
     start = time.monotonic()
     props, program_path, built = load(properties, program, lib)
     setup, cycle_ms = setup_of(props, built)
     assert built.program is not None
     try:
-        machine = Machine(built.program, setup, props.assume, props.properties)
+        machine = Machine(built.program, setup, props.assume, props.properties,
+                          unroll=unroll)
     except Unmodelled as exc:
         raise Invalid(render_text(
             [Diagnostic(Severity.ERROR, ScenarioCode.UNMODELLED, str(exc), exc.span)],
