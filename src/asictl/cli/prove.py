@@ -129,6 +129,17 @@ def prove(files: tuple[Path, ...], properties: Path | None, depth: int, timeout:
     ctx.exit(int(ExitCode.OK if all(r.passed for r in reports) else ExitCode.FAILED))
 
 
+def _says(outcome: object) -> str:
+    """The verdict in words, as the text output says it: ``holds up to 21 cycles``."""
+    from asictl.prove.engine import Outcome, Verdict
+
+    assert isinstance(outcome, Outcome)
+    if outcome.verdict is not Verdict.BOUNDED:
+        return outcome.verdict.value
+    shown = "not reached" if outcome.prop.kind.value == "reachable" else "holds"
+    return f"{shown} up to {outcome.depth + 1} cycles"
+
+
 def _json(report: object) -> dict[str, object]:
     from asictl.prove.session import Report
 
@@ -146,6 +157,7 @@ def _json(report: object) -> dict[str, object]:
                 "name": o.prop.name,
                 "property": o.prop.text(),
                 "verdict": o.verdict.value,
+                "says": _says(o),
                 "cycles": o.depth + 1,
                 "seconds": round(o.seconds, 3),
                 "scenario": str(report.written[o.prop.name])
