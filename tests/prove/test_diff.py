@@ -137,3 +137,19 @@ def test_renamed_flags_and_timers_are_still_equivalent(tmp_path: Path):
     assert result.verdict == "equivalent"
     changed = _program(_write(tmp_path, "changed.asi", demo.replace("KT 5000", "KT 4000")))
     assert equivalent(old, changed, timeout_s=300, cycle_ms=500).verdict == "different"
+
+
+def test_images_without_source_compare_by_their_code(tmp_path: Path, runner):
+    old = _write(tmp_path, "old.asi", OLD)
+    changed = _write(tmp_path, "changed.asi", CHANGED)
+    images = {}
+    for path in (old, changed):
+        images[path.stem] = tmp_path / f"{path.stem}.hex"
+        result = runner.invoke(main, ["compile", str(path), "--no-source", "-o",
+                                      str(images[path.stem])])
+        assert result.exit_code == 0, result.output
+    result = runner.invoke(main, ["diff", str(images["old"]), str(images["old"])])
+    assert result.exit_code == 0 and "identical code" in result.output
+    result = runner.invoke(main, ["diff", str(images["old"]), str(images["changed"]),
+                                  "--equivalent"])
+    assert result.exit_code == 1 and "the images differ in code" in result.output

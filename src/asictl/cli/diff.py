@@ -20,10 +20,33 @@ def _program(path: Path, lib: tuple[str, ...]) -> tuple[object, object]:
     built = build_file(path, lib=lib)
     if built.has_errors:
         raise _Bad(built.render())
-    program = built.source_program()
-    if program is None:
-        raise UserError(f"{path}: the image carries no IL source to compare")
-    return built, program
+    if built.image is None and built.source_program() is None:
+        raise UserError(f"{path}: no program in it")
+    return built, built.source_program()
+
+
+def _images_only(old: Path, new: Path, first: object, second: object) -> int:
+    """Two images one of which carries no IL source: only their code and setup can be
+    compared. The exit status: 0 identical, 1 not."""
+    from asictl.build import Build
+
+    assert isinstance(first, Build) and isinstance(second, Build)
+    a, b = first.image, second.image
+    if a is None or b is None:
+        raise UserError(f"{old if a is None else new}: no image to compare with an image "
+                        "without source")
+    same_code = a.code == b.code
+    same_setup = (a.flags, a.configuration) == (b.flags, b.configuration)
+    if same_code and same_setup:
+        click.echo("identical code, options and configuration (no IL source to compare "
+                   "network by network): equivalent")
+        return int(ExitCode.OK)
+    what = [w for w, same in (("code", same_code), ("options or configuration", same_setup))
+            if not same]
+    click.echo(f"the images differ in {' and '.join(what)} ({len(a.code)} and {len(b.code)} "
+               "bytes of code); without IL source neither networks nor behaviour can be "
+               "compared")
+    return int(ExitCode.FAILED)
 
 
 class _Bad(Exception):
@@ -72,11 +95,13 @@ def diff(old: Path, new: Path, equivalent: bool, depth: int, timeout: float,
 
     ctx = click.get_current_context()
     try:
-        _, first = _program(old, lib)
-        _, second = _program(new, lib)
+        built_old, first = _program(old, lib)
+        built_new, second = _program(new, lib)
     except _Bad as exc:
         click.echo(exc.text, nl=False, err=True)
         ctx.exit(int(ExitCode.USAGE))
+    if first is None or second is None:
+        ctx.exit(_images_only(old, new, built_old, built_new))
     assert isinstance(first, Program) and isinstance(second, Program)
     changes = compare(first, second)
     differ = [c for c in changes if c.kind != "same"]
