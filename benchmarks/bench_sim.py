@@ -6,7 +6,10 @@ cycles that would change nothing; this benchmark makes every cycle count). With 
 5 ms cycle an hour is 720,000 program cycles. awlsim (pip package ``awlsim``) runs the
 equivalent STL program with ``AwlSim.runCycle()`` for a fixed number of cycles. Usage:
 
-    python3 benchmarks/bench_sim.py [--hours 1] [--awlsim-cycles 50000]
+    python3 benchmarks/bench_sim.py [--hours 1] [--awlsim-cycles 50000] [--coverage]
+
+``--coverage`` runs the hour twice more, interleaved, without and with coverage collected
+(docs/testing.md), and prints what coverage costs in program cycles per CPU second.
 """
 
 from __future__ import annotations
@@ -60,14 +63,14 @@ def stl_program() -> str:
     return "\n".join(lines) + "\n"
 
 
-def run_asictl(hours: float) -> tuple[float, int, int]:
+def run_asictl(hours: float, coverage: bool = False) -> tuple[float, int, int, float]:
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "bench.asi"
         path.write_text(il_program())
         built = build_file(path)
     duration = hours * 3_600_000
     scenario = Scenario("<bench>", None, 5.0, None, [])
-    sim = Simulation(built, scenario, duration_ms=duration)
+    sim = Simulation(built, scenario, duration_ms=duration, coverage=coverage)
     sim.start()
     runner = sim.board.program
     executed = 0
@@ -83,8 +86,12 @@ def run_asictl(hours: float) -> tuple[float, int, int]:
     sim.board.advance(duration)
     wall, cpu = time.perf_counter() - start, time.process_time() - cpu
     rate = round(duration / 5) / cpu
-    print(f"asictl: {cpu:.1f} s of CPU time: {rate:,.0f} cycles per CPU second")
-    return wall, round(duration / 5), executed
+    label = "asictl with coverage" if coverage else "asictl"
+    print(f"{label}: {cpu:.1f} s of CPU time: {rate:,.0f} cycles per CPU second")
+    if coverage:
+        totals = sim.finish().coverage.totals()  # type: ignore[union-attr]
+        print("  " + ", ".join(f"{kind} {hit}/{count}" for kind, (hit, count) in totals.items()))
+    return wall, round(duration / 5), executed, rate
 
 
 def run_awlsim(cycles: int) -> float:
@@ -107,8 +114,18 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--hours", type=float, default=1.0)
     parser.add_argument("--awlsim-cycles", type=int, default=50_000)
+    parser.add_argument("--coverage", action="store_true",
+                        help="also measure what collecting coverage costs")
     args = parser.parse_args()
-    wall, cycles, executed = run_asictl(args.hours)
+    if args.coverage:
+        plain, covered = [], []
+        for _ in range(2):  # interleaved: the machine's load changes over minutes
+            plain.append(run_asictl(args.hours)[3])
+            covered.append(run_asictl(args.hours, coverage=True)[3])
+        cost = 1 - sum(covered) / sum(plain)
+        print(f"coverage costs {cost:.0%} of the cycles per CPU second (bar <= 25 %)")
+        return
+    wall, cycles, executed, _ = run_asictl(args.hours)
     ours = cycles / wall
     print(f"asictl: {args.hours:g} h of master time, {cycles} program cycles "
           f"({executed} executed) in {wall:.1f} s: {ours:,.0f} cycles/s")

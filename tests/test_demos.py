@@ -5,6 +5,7 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
+import pytest
 from click.testing import CliRunner
 
 from asictl.cli import main
@@ -45,3 +46,10 @@ def test_demo_docs_show_every_demo_and_its_diagram():
         assert f"## {name}" in text
         assert (ROOT / "docs" / "demos" / f"{name}.png").is_file()
         assert (DEMOS / f"{name}.asi").read_text().rstrip() in text
+
+
+def test_pytest_demos_runs_the_python_demo_test(pytester: pytest.Pytester):
+    """``pytest demos/`` (README): the Python test there passes, the fixture found."""
+    result = pytester.runpytest_inprocess(str(DEMOS / "test_sequence.py"), "-p",
+                                          "no:cacheprovider")
+    result.assert_outcomes(passed=2)

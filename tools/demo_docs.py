@@ -35,6 +35,8 @@ MANUAL = [
     ("timer", "Use a timer and test if it ran out."),
     ("1h_timer", "Timer for time ranges longer than 40 seconds."),
     ("blink", "(Not in the manual's list: its 1 Hz blink example of 3.4.2.)"),
+    ("sequence", "(Not in the manual's list: a sequence, tested closed loop against models "
+                 "of a cylinder and a conveyor; demos/test_sequence.py tests it from Python.)"),
 ]
 
 

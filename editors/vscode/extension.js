@@ -2,17 +2,21 @@
 // this file wires asictl into VS Code: the language server (`asictl lsp`: diagnostics,
 // hover, navigation, completion, formatting), the debugger (`asictl dap`: launch
 // configurations, breakpoints, the "step one program cycle" button) and the scenarios
-// in the Testing view (each *.scenario.toml a test, run and debugged from there).
+// in the Testing view (each *.scenario.toml a test, run, debugged and run with coverage
+// from there).
 // Plain JavaScript, so the extension needs no build step; the logic that needs no
 // `vscode` is in lib/ and unit-tested in Node (test/unit).
 "use strict";
 
 const childProcess = require("child_process");
+const fs = require("fs");
+const os = require("os");
 const path = require("path");
 const vscode = require("vscode");
 const { LanguageClient, TransportKind } = require("vscode-languageclient/node");
 
 const commands = require("./lib/commands");
+const coverage = require("./lib/coverage");
 const scenarios = require("./lib/scenarios");
 const startup = require("./lib/startup");
 
@@ -177,6 +181,41 @@ function runScenario(item, token) {
   });
 }
 
+/**
+ * After a coverage run's scenarios: `asictl test` of them all with an lcov report, in
+ * the workspace folder (the report's paths are relative to it), shown through VS Code's
+ * test coverage API. A report that cannot be made leaves the run without coverage and
+ * says why in its output.
+ */
+function addCoverage(items, run, token) {
+  if (!items.length) {
+    return Promise.resolve();
+  }
+  const s = currentSettings();
+  const folder = vscode.workspace.getWorkspaceFolder(items[0].uri);
+  const cwd = folder ? folder.uri.fsPath : path.dirname(items[0].uri.fsPath);
+  const scratch = fs.mkdtempSync(path.join(os.tmpdir(), "asictl-coverage-"));
+  const report = path.join(scratch, "coverage.info");
+  const { command, args } = commands.coverageCommand(s, items.map((item) => item.uri.fsPath), report);
+  return new Promise((resolve) => {
+    const child = childProcess.execFile(command, args, { cwd, maxBuffer: 64 << 20 }, (error, stdout, stderr) => {
+      try {
+        const text = fs.readFileSync(report, "utf8");
+        for (const record of coverage.parseLcov(text)) {
+          run.addCoverage(coverage.fileCoverage(vscode, record, (name) => vscode.Uri.file(path.resolve(cwd, name))));
+        }
+      } catch {
+        const why = error && error.code === "ENOENT" ? startup.notFound("a coverage run", s.command) : (stderr || stdout);
+        run.appendOutput(`asictl: no coverage report: ${why}`.replace(/\r?\n/g, "\r\n"));
+      } finally {
+        fs.rmSync(scratch, { recursive: true, force: true });
+        resolve();
+      }
+    });
+    token.onCancellationRequested(() => child.kill());
+  });
+}
+
 async function debugScenario(item, run) {
   const folder = vscode.workspace.getWorkspaceFolder(item.uri);
   const config = { type: "asictl", request: "launch", name: `Debug ${item.label}`, scenario: item.uri.fsPath };
@@ -240,9 +279,11 @@ function scenarioTests(context) {
     }
     return items.filter((item) => !(request.exclude || []).includes(item));
   };
-  // A profile runs the chosen scenarios one after the other; `each` runs one.
-  const profile = (label, kind, each) => controller.createRunProfile(label, kind, async (request, token) => {
+  // A profile runs the chosen scenarios one after the other; `each` runs one, `after`
+  // (if any) the ones that ran, together.
+  const profile = (label, kind, each, after) => controller.createRunProfile(label, kind, async (request, token) => {
     const run = controller.createTestRun(request);
+    const ran = [];
     for (const item of chosen(request)) {
       if (token.isCancellationRequested) {
         run.skipped(item);
@@ -250,14 +291,20 @@ function scenarioTests(context) {
       }
       run.started(item);
       await each(item, run, token);
+      ran.push(item);
+    }
+    if (after && !token.isCancellationRequested) {
+      await after(ran, run, token);
     }
     run.end();
   }, true);
-  profile("Run", vscode.TestRunProfileKind.Run, async (item, run, token) => {
+  const runOne = async (item, run, token) => {
     const { result, ms } = await runScenario(item, token);
     report(run, item, result, ms);
-  });
+  };
+  profile("Run", vscode.TestRunProfileKind.Run, runOne);
   profile("Debug", vscode.TestRunProfileKind.Debug, (item, run) => debugScenario(item, run));
+  profile("Run with Coverage", vscode.TestRunProfileKind.Coverage, runOne, addCoverage);
 }
 
 // ---------------------------------------------------------------- activation

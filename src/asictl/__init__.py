@@ -22,6 +22,7 @@ LAYERS: tuple[tuple[tuple[str, str], ...], ...] = (
         ("diagnostics", "`file:line:col: error: ...` with source line and caret, JSON, GitHub"),
         ("codes", "every diagnostic code, one enumeration per stage"),
         ("platform", "hardware facts, each defined once: the master, the PC2, the gateway"),
+        ("framing", "the Content-Length frames of the editor protocols (LSP, DAP)"),
     ),
     (
         ("source", "reading DOS-era text (UTF-8, CP850, Latin-1; CR LF; Ctrl-Z)"),
@@ -46,11 +47,15 @@ LAYERS: tuple[tuple[tuple[str, str], ...], ...] = (
     (
         ("gateway", "the emulated AS-i/Modbus gateway in front of a board"),
         ("sim", "scenarios in virtual time, traces"),
+        ("fleet", "a plant's masters: the inventory, backup into git, verify, status"),
+        ("opcua", "the OPC UA server on a live board (asyncua)"),
     ),
     (
         ("debug", "the IL debugger on a simulation, and on a live board for an editor"),
         ("monitor", "the full-screen live view (Textual)"),
         ("lsp", "the language server for editors"),
+        ("testing", "the Python test API: a program on an emulated master, from code"),
+        ("mutate", "mutation testing: one-change mutants of programs against their scenarios"),
         ("prove", "properties proved on the symbolic cycle; two programs compared"),
     ),
     (("dap", "the debug adapter for editors: the Debug Adapter Protocol over debug/"),),

@@ -92,14 +92,16 @@ class CompileCode(StrEnum):
 
 
 class ScenarioCode(StrEnum):
-    """Reading and running scenarios (``sim``), and the symbol tables they use."""
+    """Reading and running scenarios (``sim``), the symbol tables they use, and the other
+    TOML inputs (a plant's inventory, ``fleet``)."""
 
     NOT_TOML = "E400"
     INVALID = "E401"
     NO_SUCH_SLAVE = "E402"
     SYMBOLS = "E403"
-    PROPERTIES = "E404"
-    UNMODELLED = "E405"
+    INVENTORY = "E404"
+    PROPERTIES = "E405"
+    UNMODELLED = "E406"
 
 
 class AssemblerCode(StrEnum):
@@ -175,8 +177,9 @@ TITLES: dict[str, str] = {
     "E401": "invalid scenario",
     "E402": "scenario sets a slave that is not on the bus",
     "E403": "invalid symbol table",
-    "E404": "invalid properties file",
-    "E405": "construct the prover cannot model",
+    "E404": "invalid plant inventory",
+    "E405": "invalid properties file",
+    "E406": "construct the prover cannot model",
     "E501": "syntax",
     "E502": "unknown mnemonic or directive",
     "E503": "operand not valid for the instruction",

@@ -40,6 +40,7 @@ EXTRAS: dict[str, tuple[str, ...]] = {
     "modbus": ("pymodbus==3.16.*", "pyserial>=3.5"),
     "lsp": ("pygls>=2.0,<3",),
     "monitor": ("textual>=8,<9",),
+    "opcua": ("asyncua>=2.1,<3",),
     "prove": ("z3-solver>=4.12",),
 }
 

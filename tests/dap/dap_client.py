@@ -5,7 +5,6 @@ does. Events are kept in arrival order; ``wait_event`` takes the next one of a k
 from __future__ import annotations
 
 import contextlib
-import json
 import os
 import queue
 import subprocess
@@ -14,6 +13,8 @@ import threading
 import time
 from pathlib import Path
 from typing import Any
+
+from jsonrpc_framing import framed, read_messages
 
 SRC = Path(__file__).resolve().parents[2] / "src"
 TIMEOUT = 60.0
@@ -35,27 +36,16 @@ class DapClient:
         #: every event, in order (output events included)
         self.seen: list[dict[str, Any]] = []
         self.seq = 0
-        threading.Thread(target=self._read, daemon=True).start()
+        assert self.process.stdout is not None
+        threading.Thread(target=read_messages, args=(self.process.stdout, self._deliver),
+                         daemon=True).start()
 
-    def _read(self) -> None:
-        stream = self.process.stdout
-        assert stream is not None
-        while True:
-            headers: dict[str, str] = {}
-            while True:
-                line = stream.readline()
-                if not line:
-                    return
-                if line in (b"\r\n", b"\n"):
-                    break
-                name, _, value = line.decode("ascii").partition(":")
-                headers[name.strip().lower()] = value.strip()
-            message = json.loads(stream.read(int(headers["content-length"])))
-            if message["type"] == "event":
-                self.seen.append(message)
-                self.events.put(message)
-            else:
-                self.responses.put(message)
+    def _deliver(self, message: dict[str, Any]) -> None:
+        if message["type"] == "event":
+            self.seen.append(message)
+            self.events.put(message)
+        else:
+            self.responses.put(message)
 
     def send_raw(self, data: bytes) -> None:
         stdin = self.process.stdin
@@ -65,9 +55,8 @@ class DapClient:
 
     def send(self, command: str, arguments: dict[str, Any] | None = None) -> int:
         self.seq += 1
-        body = json.dumps({"seq": self.seq, "type": "request", "command": command,
-                           "arguments": arguments or {}}).encode()
-        self.send_raw(b"Content-Length: %d\r\n\r\n" % len(body) + body)
+        self.send_raw(framed({"seq": self.seq, "type": "request", "command": command,
+                               "arguments": arguments or {}}))
         return self.seq
 
     def response(self, seq: int) -> dict[str, Any]:

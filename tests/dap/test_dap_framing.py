@@ -12,12 +12,9 @@ import pytest
 from dap_client import DapClient
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from jsonrpc_framing import frame
 
-from asictl.dap.framing import MAX_BODY, Malformed, Reader, Writer
-
-
-def frame(body: bytes) -> bytes:
-    return b"Content-Length: %d\r\n\r\n" % len(body) + body
+from asictl.framing import MAX_BODY, Malformed, Reader, Writer
 
 
 def request(seq: int, command: str, **arguments: object) -> bytes:

@@ -8,6 +8,7 @@ and the same syntax errors, on valid programs, on broken ones and on noise.
 
 from __future__ import annotations
 
+import threading
 from collections.abc import Iterator
 from copy import copy
 from pathlib import Path
@@ -148,3 +149,23 @@ def test_lean_actions_refuse_terminal_callbacks() -> None:
     table = parser._reader().parser.parser.parse_table
     with pytest.raises(ValueError, match="terminal callbacks"):
         lean_actions(table, {"NAME": lambda children: children})  # type: ignore[dict-item]
+
+
+def test_threads_parse_at_once_each_with_its_own_reader():
+    """The language server parses on two threads: each gets what one thread alone gets."""
+    texts = ["[PROGRAM]\n" + "".join(f" A F {n}.{k % 8}\n x{k}\n" for k in range(300))
+             for n in range(4)]
+    alone = [parser.parse_text(text, f"/t{n}.asi") for n, text in enumerate(texts)]
+    found: dict[int, object] = {}
+
+    def work(n: int) -> None:
+        for _ in range(3):
+            found[n] = parser.parse_text(texts[n], f"/t{n}.asi")
+
+    threads = [threading.Thread(target=work, args=(n,)) for n in range(4)]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join()
+    assert [found[n] for n in range(4)] == alone
+    assert all(d.span.file == f"/t{n}.asi" for n, (_, ds) in enumerate(alone) for d in ds)

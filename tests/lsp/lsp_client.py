@@ -3,7 +3,6 @@ over its stdin and stdout with JSON-RPC in Content-Length frames, as an editor d
 
 from __future__ import annotations
 
-import json
 import os
 import queue
 import subprocess
@@ -13,6 +12,8 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
+
+from jsonrpc_framing import framed, read_messages
 
 SRC = Path(__file__).resolve().parents[2] / "src"
 TIMEOUT = 30.0
@@ -28,43 +29,41 @@ class LspClient:
         self.messages: queue.Queue[dict[str, Any]] = queue.Queue()
         self.notifications: list[dict[str, Any]] = []
         self.next_id = 0
-        threading.Thread(target=self._read, daemon=True).start()
+        assert self.process.stdout is not None
+        threading.Thread(target=read_messages, args=(self.process.stdout, self.messages.put),
+                         daemon=True).start()
 
-    def _read(self) -> None:
-        stream = self.process.stdout
-        assert stream is not None
-        while True:
-            headers: dict[str, str] = {}
-            while True:
-                line = stream.readline()
-                if not line:
-                    return
-                if line in (b"\r\n", b"\n"):
-                    break
-                name, _, value = line.decode("ascii").partition(":")
-                headers[name.strip().lower()] = value.strip()
-            body = stream.read(int(headers["content-length"]))
-            self.messages.put(json.loads(body))
-
-    def send(self, message: dict[str, Any]) -> None:
-        body = json.dumps({"jsonrpc": "2.0", **message}).encode("utf-8")
+    def send_raw(self, data: bytes) -> None:
         stdin = self.process.stdin
         assert stdin is not None
-        stdin.write(b"Content-Length: %d\r\n\r\n" % len(body) + body)
+        stdin.write(data)
         stdin.flush()
+
+    def send(self, content: dict[str, Any]) -> None:
+        self.send_raw(framed({"jsonrpc": "2.0", **content}))
 
     def notify(self, method: str, params: dict[str, Any] | None = None) -> None:
         self.send({"method": method, "params": params or {}})
 
     def request(self, method: str, params: dict[str, Any] | None = None) -> Any:
-        self.next_id += 1
-        ident = self.next_id
-        self.send({"id": ident, "method": method, "params": params or {}})
+        answer = self.answer({"method": method, "params": params or {}})
+        assert "error" not in answer, answer["error"]
+        return answer.get("result")
+
+    def answer(self, content: dict[str, Any], ident: object = None) -> dict[str, Any]:
+        """The whole response to a request (``content`` without its id: the next number,
+        unless ``ident`` is given), the messages before it kept."""
+        if ident is None:
+            self.next_id += 1
+            ident = self.next_id
+        self.send({"id": ident, **content})
+        return self.response(ident)
+
+    def response(self, ident: object) -> dict[str, Any]:
         while True:
             message = self._next()
             if message.get("id") == ident and "method" not in message:
-                assert "error" not in message, message["error"]
-                return message.get("result")
+                return message
             self._keep(message)
 
     def _next(self, deadline: float | None = None) -> dict[str, Any]:
@@ -93,6 +92,7 @@ class LspClient:
                         message["params"]["uri"] == uri and until(
                         message["params"]["diagnostics"]):
                     return list(message["params"]["diagnostics"])
+            after = len(self.notifications)  # each message is looked at once
             self._keep(self._next(deadline))
 
     def close(self) -> int:

@@ -99,7 +99,8 @@ def test_a_block_file_is_analysed_as_part_of_the_program_beside_it():
 def labels_at(text: str, line: int, col: int, name: str = "/c.asi") -> list[str]:
     documents = Documents()
     documents.open(name, text)
-    return [i.label for i in completion.complete(documents.analyse(name), name, text, line, col)]
+    items = completion.complete(documents.analyse(name), name, text.split("\n"), line, col)
+    return [i.label for i in items]
 
 
 PROGRAM = ("[OPTIONS]\nauto_start: yes\n\n[SETUP]\n4: iiio, 0\n6: oooo, 0\n[DECL]\n"

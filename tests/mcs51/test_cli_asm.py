@@ -119,6 +119,17 @@ def test_disasm_to_file(runner, tmp_path):
     assert (tmp_path / "p.a51").read_text().splitlines()[-1].strip() == "NOP"
 
 
+def test_disasm_does_not_write_over_a_source_unless_forced(runner, tmp_path):
+    image = write(tmp_path, "p.hex", ":0100000000FF\n:00000001FF\n")
+    source = write(tmp_path, "p.a51", "start: NOP ; the hand-written source\n")
+    result = runner.invoke(main, ["disasm", str(image), "-o", str(source)])
+    assert result.exit_code == 2
+    assert "exists; not overwritten (use --force)" in result.stderr
+    assert source.read_text() == "start: NOP ; the hand-written source\n"
+    assert runner.invoke(main, ["disasm", str(image), "-o", str(source), "--force"]).exit_code == 0
+    assert source.read_text().splitlines()[-1].strip() == "NOP"
+
+
 @pytest.mark.parametrize(
     "content", [None, "this is no hex\n", ":020000040001F9\n:0100000000FF\n:00000001FF\n"]
 )

@@ -328,7 +328,7 @@ def test_asm_is_refused_with_its_line(tmp_path: Path, runner):
                    '[[property]]\nname = "x"\nnever = "Q 2.0"\n')
     result = runner.invoke(main, ["prove", str(props)])
     assert result.exit_code == 2
-    assert "p.asi:6:" in result.output and "[E405]" in result.output
+    assert "p.asi:6:" in result.output and "[E406]" in result.output
     assert "ASM line 'nop'" in result.output
 
 

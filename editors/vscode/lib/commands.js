@@ -37,6 +37,18 @@ function scenarioCommand(s, scenario) {
   return { command: s.command, args: ["sim", "--scenario", scenario, "--json", ...libArgs(s.lib)] };
 }
 
+/**
+ * `asictl test FILE... -j 1 --coverage REPORT --coverage-format lcov`: the chosen
+ * scenarios of a coverage run, their IL coverage written to REPORT.
+ */
+function coverageCommand(s, scenarioFiles, report) {
+  return {
+    command: s.command,
+    args: ["test", ...scenarioFiles, "-j", "1", "--coverage", report, "--coverage-format", "lcov",
+      ...libArgs(s.lib)],
+  };
+}
+
 const IL_FILE = /\.(asi|fb)$/i;
 const SCENARIO_FILE = /\.scenario\.toml$/i;
 
@@ -63,4 +75,6 @@ function resolveLaunch(config, activeFile) {
   return { error: "open an .asi program or a .scenario.toml file to debug it, or add an asictl configuration to launch.json" };
 }
 
-module.exports = { settings, serverCommand, adapterCommand, scenarioCommand, resolveLaunch, SCENARIO_FILE };
+module.exports = {
+  settings, serverCommand, adapterCommand, scenarioCommand, coverageCommand, resolveLaunch, SCENARIO_FILE,
+};

@@ -57,6 +57,7 @@ class Pc2Board:
     #: called after every AS-i cycle that ran (not after the ones skipped as idle)
     observer: Callable[[], None] | None = None
     _cycle_period_us: int | None = None
+    _pause: bool = False
 
     def __init__(self, *, bus: AsiBus | None = None) -> None:
         self._boot(Nonvolatile(bus=bus if bus is not None else AsiBus()), now_us=0)
@@ -237,11 +238,22 @@ class Pc2Board:
                 if observer is not None:
                     observer()
                 period = self._cycle_period_us or self._period()
+                if self._pause:  # the observer has news for the caller: no cycle skipped
+                    self._pause = False
+                    self._next_cycle_us = now + period
+                    self._now_us = now
+                    return
                 skip = self._idle_cycles(now, period, end) if self._idle() else 0
                 if skip:
                     self._ec.count_idle_cycles(skip)
                 self._next_cycle_us = now + (skip + 1) * period
         self._now_us = end
+
+    def pause(self) -> None:
+        """From the observer: ``advance`` returns after this AS-i cycle, master time at
+        the cycle, so that its caller can act before the next one (a simulation's plant
+        model that will change an input sooner than the caller planned for)."""
+        self._pause = True
 
     def _period(self) -> int:
         """About 150 us per active slave plus one call: 300 us (1 slave) to 4.8 ms (31)."""

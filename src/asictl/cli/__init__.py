@@ -52,6 +52,13 @@ COMMANDS: dict[str, tuple[str, str]] = {
         "Serve the emulated AS-i/Modbus gateway (Modbus TCP/RTU); its front panel and keys.",
     ),
     "test": ("asictl.cli.sim:test", "Run every *.scenario.toml and report N passed, M failed."),
+    "record": (
+        "asictl.cli.record:record", "Record a running master's inputs and outputs as a scenario."
+    ),
+    "mutate": (
+        "asictl.cli.mutate:mutate", "Mutation testing: would the scenarios notice a changed "
+        "program?"
+    ),
     "serve": (
         "asictl.cli.live:serve", "Keep an emulated board running in real time (a live board)."
     ),
@@ -81,6 +88,9 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "diff": (
         "asictl.cli.diff:diff",
         "Compare two versions of a program network by network; --equivalent proves it.",
+    ),
+    "fleet": (
+        "asictl.cli.fleet:fleet", "A plant's masters at once: back up into git, verify, status."
     ),
 }
 

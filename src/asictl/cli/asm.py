@@ -9,7 +9,7 @@ import click
 from asictl.cli.hex_images import code_hex, describe, program_image
 from asictl.diagnostics import DiagnosticError, render_text
 from asictl.errors import ExitCode, UserError
-from asictl.files import write_output
+from asictl.files import refuse_inputs, write_output
 from asictl.mcs51.assembler import assemble, load_relative
 from asictl.mcs51.disassembler import disassemble
 from asictl.mcs51.hexfile import read_hex
@@ -61,7 +61,8 @@ def asm(source: str, output: str | None, listing: str | None, symbols: str | Non
 @click.command()
 @click.argument("image", metavar="FILE.hex")
 @click.option("-o", "--output", type=_OUTPUT, help="Write the source here [default: stdout].")
-def disasm(image: str, output: str | None) -> None:
+@click.option("--force", is_flag=True, help="Overwrite an existing -o file.")
+def disasm(image: str, output: str | None, force: bool) -> None:
     """Disassemble an Intel HEX image (- for stdin) into 8051 source.
 
     The source reassembles with 'asictl asm' to exactly the same bytes: gaps become
@@ -74,7 +75,11 @@ def disasm(image: str, output: str | None) -> None:
     header, program map and source are data and are left out, so the source reassembles
     to the image's code.
 
-    Exit status: 0 done, 2 bad usage or an unreadable or malformed HEX file.
+    An existing -o file is not overwritten without --force: it may be the source the
+    image was assembled from.
+
+    Exit status: 0 done, 2 bad usage, an unreadable or malformed HEX file, or an -o file
+    that exists.
     """
     hex_file = read_hex(image)
     for warning in hex_file.warnings:
@@ -88,6 +93,9 @@ def disasm(image: str, output: str | None) -> None:
     else:
         text = "\n".join(describe(image, program)) + "\n\n" + disassemble(code_hex(program))
     if output:
+        refuse_inputs(output, [image])
+        if output != "-" and Path(output).is_file() and not force:
+            raise UserError(f"{output}: exists; not overwritten (use --force)")
         write_output(output, text, inputs=[image])
     else:
         click.echo(text, nl=False)

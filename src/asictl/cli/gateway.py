@@ -19,6 +19,7 @@ from typing import Any
 import click
 from click.core import ParameterSource
 
+from asictl.cli.opcua_options import opcua_attachment, opcua_options
 from asictl.cli.serial_options import serial_options, unit_option
 from asictl.errors import ExitCode, UserError, missing_extra
 from asictl.host.boards import lock_file, port_name, state_directory
@@ -26,7 +27,7 @@ from asictl.host.live.board import LiveBoard
 from asictl.host.live.client import LiveClient, open_live, served_by
 from asictl.host.live.protocol import socket_path
 from asictl.host.live.saver import SAVE_INTERVAL_S
-from asictl.host.live.server import run_live
+from asictl.host.live.server import run_live, together
 from asictl.host.locking import note_holder
 from asictl.host.search import resolve_port
 from asictl.host.target import check_serial_setting, port_number
@@ -85,10 +86,13 @@ def gateway() -> None:
 @click.option("--save-interval", type=click.FloatRange(min=0.1), default=SAVE_INTERVAL_S,
               show_default=True, metavar="SECONDS",
               help="How often the board's state is saved while serving.")
+@opcua_options
 def serve(
     tcp: str | None, rtu: str | None, baud: str, parity: str, stopbits: str, unit: int,
     port: str, state_dir: str | None, wait: bool, verbose: bool, max_connections: int,
-    idle_timeout: float, frame_timeout: float, save_interval: float,
+    idle_timeout: float, frame_timeout: float, save_interval: float, opcua: str | None,
+    opcua_writable: bool, opcua_user: str | None, opcua_interval: float,
+    opcua_symbols: str | None,
 ) -> None:
     """Serve the board over Modbus until Ctrl-C; its state is saved periodically and at exit.
 
@@ -102,10 +106,14 @@ def serve(
     are used from then on and by the next 'gateway serve' of this board, unless --unit,
     --baud, --parity or --stopbits say otherwise.
 
+    With --opcua the same board is served over OPC UA too (docs/opcua.md), as the
+    current AS-i gateways do.
+
     \b
     Example:
       asictl gateway serve --tcp 127.0.0.1:5020 --port 300h &
       asictl gateway press mode --hold 6      # into configuration mode
+      asictl gateway serve --opcua 127.0.0.1:4840
     """
     try:
         from asictl.gateway.interface_file import interface_file, load_interface, save_interface
@@ -130,6 +138,9 @@ def serve(
         if rtu else None
     )
     live_at = socket_path(directory, base)
+    opcua_server = opcua_attachment(
+        opcua, opcua_writable, opcua_user, opcua_interval, opcua_symbols, port, _notify
+    )
 
     def gateway_for(live: LiveBoard) -> tuple[Awaitable[None], Callable[[], None]]:
         slave = GatewaySlave(live.board, interface.unit, sync=live.sync, interface=interface)
@@ -181,7 +192,8 @@ def serve(
     run_live(
         base, directory,
         identity={"command": "asictl gateway serve", "port": port, "front_panel": True},
-        attach=gateway_for, wait=wait, notify=_notify, save_interval=save_interval,
+        attach=gateway_for if opcua_server is None else together(gateway_for, opcua_server),
+        wait=wait, notify=_notify, save_interval=save_interval,
     )
     click.echo("asictl: gateway stopped", err=True)
 

@@ -15,6 +15,7 @@ import click
 from click.core import ParameterSource
 
 from asictl.cli.master import _board_options, _BoardOptions, _connect
+from asictl.cli.opcua_options import opcua_attachment, opcua_options
 from asictl.errors import ExitCode, UserError
 from asictl.host.boards import port_name, state_directory
 from asictl.host.commissioning import image_changes
@@ -48,9 +49,11 @@ from asictl.observe.operands import parse_assignment
     show_default=True, metavar="SECONDS",
     help="End a command's hold on the board when it sends nothing this long (0: never).",
 )
+@opcua_options
 def serve(
     port: str, state_dir: str | None, wait: bool, max_connections: int,
-    session_timeout: float,
+    session_timeout: float, opcua: str | None, opcua_writable: bool, opcua_user: str | None,
+    opcua_interval: float, opcua_symbols: str | None,
 ) -> None:
     """Keep the emulated board running in real time until Ctrl-C or SIGTERM.
 
@@ -62,16 +65,21 @@ def serve(
     the cable) is saved before the command hears it is done; the rest every 10 s and at
     the end. 'asictl gateway serve' is the same live board with Modbus in front. A
     debugger attaches to the running program through a second socket ('asictl dap',
-    attach).
+    attach). With --opcua an OPC UA server shows the master, its slaves, flags, timers
+    and counters to HMI and SCADA clients (docs/opcua.md), read-only unless
+    --opcua-writable.
 
-    Example: asictl serve --port 300h & asictl download demos/blink.asi
+    \b
+    Example:
+      asictl serve --port 300h & asictl download demos/blink.asi
+      asictl serve --port 300h --opcua 127.0.0.1:4840
 
     Exit status: 0 stopped by a signal, 1 the board is already served or held by another
     process (it is named; --wait waits for it), or its state could not be saved at the
     end (what is lost is said), 2 bad usage.
     """
     from asictl.debug.online import debug_socket_path, debugging
-    from asictl.host.live.server import run_live
+    from asictl.host.live.server import run_live, together
     from asictl.host.search import resolve_port
 
     def notify(text: str) -> None:
@@ -80,6 +88,12 @@ def serve(
     directory = state_directory(state_dir)
     base = resolve_port(port, "emulated", directory, notify)
     name = port_name(base)
+    attach = debugging(debug_socket_path(directory, base))
+    server = opcua_attachment(
+        opcua, opcua_writable, opcua_user, opcua_interval, opcua_symbols, name, notify
+    )
+    if server is not None:
+        attach = together(attach, server)
 
     def started(path: object) -> None:
         click.echo(f"asictl: board {name} live at {path} (Ctrl-C stops)", err=True)
@@ -87,7 +101,7 @@ def serve(
     run_live(
         base, directory, identity={"command": "asictl serve", "port": name},
         started=started, wait=wait, notify=notify, max_connections=max_connections,
-        session_timeout=session_timeout, attach=debugging(debug_socket_path(directory, base)),
+        session_timeout=session_timeout, attach=attach,
     )
     click.echo(f"asictl: board {name} stopped; its state is saved", err=True)
 

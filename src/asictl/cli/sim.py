@@ -15,8 +15,11 @@ from asictl.cli.options import lib_option
 from asictl.diagnostics import github_command
 from asictl.errors import ExitCode, UserError
 from asictl.files import refuse_inputs, write_output
+from asictl.observe.coverage import Coverage
 from asictl.observe.iltrace import to_csv as rows_csv
 from asictl.sim import SUFFIX
+from asictl.sim.coverage import FORMATS, format_for, percent, render
+from asictl.sim.coverage import summary as coverage_summary
 from asictl.sim.engine import line_map_of
 from asictl.sim.scenario import parse_duration
 from asictl.sim.session import (
@@ -26,6 +29,7 @@ from asictl.sim.session import (
     default_jobs,
     events,
     final_lines,
+    find_scenarios,
     prepare,
     run_file,
     scenario_for,
@@ -145,18 +149,6 @@ def sim(
 # ---------------------------------------------------------------------- asictl test
 
 
-def _find(paths: tuple[Path, ...]) -> list[Path]:
-    found: list[Path] = []
-    for path in paths or (Path(),):
-        if path.is_dir():
-            found.extend(sorted(p for p in path.rglob(f"*{SUFFIX}") if p.is_file()))
-        elif path.is_file():
-            found.append(path)
-        else:
-            raise UserError(f"{path}: no such file or directory")
-    return found
-
-
 def _junit(outcomes: list[Outcome], path: Path, inputs: list[Path]) -> None:
     suite = ElementTree.Element(
         "testsuite", name="asictl", tests=str(len(outcomes)),
@@ -231,15 +223,17 @@ def _annotations(outcome: Outcome) -> list[str]:
     return lines
 
 
-def _outcomes(paths: list[str], lib: tuple[str, ...], jobs: int) -> Iterator[Outcome]:
+def _outcomes(
+    paths: list[str], lib: tuple[str, ...], jobs: int, coverage: bool = False
+) -> Iterator[Outcome]:
     """Each scenario's outcome in the order of ``paths`` as soon as it and every one
     before it are done; worker processes when ``jobs`` > 1."""
     if jobs <= 1 or len(paths) <= 1:
         for path in paths:
-            yield run_file(path, lib)
+            yield run_file(path, lib, coverage)
         return
     with concurrent.futures.ProcessPoolExecutor(max_workers=min(jobs, len(paths))) as pool:
-        futures = [pool.submit(run_file, path, lib) for path in paths]
+        futures = [pool.submit(run_file, path, lib, coverage) for path in paths]
         for future in futures:
             yield future.result()
 
@@ -255,34 +249,67 @@ def _outcomes(paths: list[str], lib: tuple[str, ...], jobs: int) -> Iterator[Out
 @click.option("--format", "fmt", type=click.Choice(["text", "github"]), default="text",
               show_default=True, help="github: also a GitHub Actions annotation at the "
               "scenario line of each failed expectation.")
+@click.option("--coverage", "coverage_path", type=click.Path(dir_okay=False, path_type=Path),
+              help="Write the IL coverage of all scenarios (lines, branches, conditions).")
+@click.option("--coverage-format", type=click.Choice(FORMATS), default=None,
+              help="Format of --coverage (default: by its suffix, .json json, .info or "
+              ".lcov lcov, else cobertura; sonarqube: its generic coverage XML).")
+@click.option("--coverage-fail-under", type=click.FloatRange(0, 100), metavar="PERCENT",
+              help="Exit 1 when less than PERCENT of the statement lines ran.")
 def test(paths: tuple[Path, ...], junit: Path | None, jobs: int | None,
-         lib: tuple[str, ...], fmt: str) -> None:
+         lib: tuple[str, ...], fmt: str, coverage_path: Path | None,
+         coverage_format: str | None, coverage_fail_under: float | None) -> None:
     """Run every *.scenario.toml under PATHs (default: the current directory).
 
     A scenario without a 'program' line tests the program of the same name beside it
     (blink.scenario.toml tests blink.asi). Prints one line per scenario, in a stable
     order whatever -j is, and a summary 'N passed, M failed'.
 
-    Exit status: 0 all passed, 1 a scenario failed, 2 a scenario or program is invalid.
+    With --coverage (or --coverage-fail-under) the simulator also records which IL
+    lines ran, which way each JC and BEC went and which values each bit operand of a
+    condition had, over all scenarios, and prints a line 'coverage: lines 93%
+    (112/120), branches 80% (8/10), conditions 75% (30/40)' (docs/testing.md).
+
+    Example: asictl test demos --coverage coverage.xml --coverage-fail-under 80
+
+    Exit status: 0 all passed, 1 a scenario failed (or coverage is below
+    --coverage-fail-under), 2 a scenario or program is invalid.
     """
     ctx = click.get_current_context()
-    scenarios = [str(p) for p in _find(paths)]
+    scenarios = [str(p) for p in find_scenarios(paths)]
     if not scenarios:
         raise UserError(f"no {SUFFIX} files found")
     progress = _Progress(len(scenarios))
     outcomes: list[Outcome] = []
-    for outcome in _outcomes(scenarios, lib, jobs or default_jobs()):
+    collect = coverage_path is not None or coverage_fail_under is not None
+    for outcome in _outcomes(scenarios, lib, jobs or default_jobs(), collect):
         outcomes.append(outcome)
         _print(outcome, progress, fmt)
         progress.update(outcome)
     progress.clear()
     passed = sum(1 for o in outcomes if o.status == "PASS")
     click.echo(f"{passed} passed, {len(outcomes) - passed} failed")
+    read = [Path(p) for p in (*scenarios, *(o.program for o in outcomes if o.program))]
     if junit:
-        read = [Path(p) for p in (*scenarios, *(o.program for o in outcomes if o.program))]
         _junit(outcomes, junit, read)
+    below = False
+    if collect:
+        coverage = Coverage()
+        for outcome in outcomes:
+            if outcome.coverage is not None:
+                coverage.merge(outcome.coverage)
+        click.echo(coverage_summary(coverage))
+        if coverage_path is not None:
+            text = render(coverage, format_for(str(coverage_path), coverage_format))
+            write_output(coverage_path, text, inputs=[*read, *coverage.files_read()])
+        if coverage_fail_under is not None:
+            lines = percent(*coverage.totals()["lines"])
+            below = lines < coverage_fail_under
+            if below:
+                click.echo(f"asictl: error: line coverage {lines:.2f}% is below "
+                           f"--coverage-fail-under {coverage_fail_under:g}%", err=True)
     if any(o.bug for o in outcomes):
         ctx.exit(int(ExitCode.BUG))
     if any(o.status == "ERROR" for o in outcomes):
         ctx.exit(int(ExitCode.USAGE))
-    ctx.exit(int(ExitCode.OK if passed == len(outcomes) else ExitCode.FAILED))
+    ctx.exit(int(ExitCode.OK if passed == len(outcomes) and not below else ExitCode.FAILED))

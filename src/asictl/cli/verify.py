@@ -16,32 +16,7 @@ from asictl.cli.options import lib_option
 from asictl.errors import ExitCode
 from asictl.host.jobs import JobError, JobStatus
 from asictl.host.transfer import upload
-from asictl.image.eeprom import ProgramImage
-
-
-def differences(mine: ProgramImage, theirs: ProgramImage) -> list[str]:
-    """What differs between two images, in the words of the program's sections."""
-    found = []
-    if mine.code != theirs.code or mine.entry_points != theirs.entry_points:
-        found.append("code ([PROGRAM])")
-    if mine.configuration != theirs.configuration:
-        mine_slaves, their_slaves = mine.configuration.slaves(), theirs.configuration.slaves()
-        changed = sorted(
-            {s.address for s in mine_slaves} ^ {s.address for s in their_slaves}
-            | {a.address for a, b in zip(mine_slaves, their_slaves, strict=False) if a != b}
-        )
-        found.append(
-            "configuration ([SETUP]"
-            + (f": slaves {', '.join(map(str, changed))}" if changed else "")
-            + ")"
-        )
-    if mine.flags != theirs.flags:
-        found.append("options ([OPTIONS])")
-    if mine.pmap != theirs.pmap and "code ([PROGRAM])" not in found:
-        found.append("memory layout")
-    if not found and mine.to_bytes() != theirs.to_bytes():
-        found.append("source text or file names only (the program's identity differs)")
-    return found
+from asictl.image.eeprom import ProgramImage, differences
 
 
 @click.command("verify")

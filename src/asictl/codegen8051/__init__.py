@@ -1,5 +1,6 @@
-"""IL -> 8051 assembly: memory allocation, instruction selection, the runtime contract.
+"""IL -> 8051 code: memory allocation, instruction selection, the output stream.
 
-``layout`` holds the addresses both sides of the contract agree on (docs/runtime.md),
-``allocate`` places the program's data, ``emitter`` writes the assembly.
+``allocate`` places the program's data, ``emitter`` selects instructions as objects and
+``generate`` walks the program with it, ``stream`` turns the objects into bytes, listing
+lines and the line map, ``compiler`` runs the steps, ``listing`` writes the listing.
 """

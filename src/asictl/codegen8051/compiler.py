@@ -1,36 +1,29 @@
-"""The compile pipeline: checked program -> allocation -> assembly -> machine code.
+"""The compile pipeline: checked program -> allocation -> instructions -> machine code.
 
-Conditional jumps are first written in their short form (``JC rel``, 2 bytes); when the
-assembler finds one out of reach, that jump alone is rewritten as ``JNC skip / LJMP``
-and the program assembled again, so code stays compact without guessing distances.
+The instructions go into an output stream (``stream``), which chooses the form of each
+conditional jump from the layout and assembles the objects as they are.
 """
 
 from __future__ import annotations
 
-import re
 from collections.abc import Mapping
 from dataclasses import dataclass
 from functools import cached_property
 
 from asictl.codegen8051.allocate import allocate
-from asictl.codegen8051.emitter import Emitter, Line, firmware_symbol
+from asictl.codegen8051.emitter import firmware_symbol
 from asictl.codegen8051.generate import generate, symbols
+from asictl.codegen8051.stream import GENERATED, Line
 from asictl.codes import CompileCode
 from asictl.diagnostics import Diagnostic, DiagnosticError, Severity
-from asictl.il.ast import key
 from asictl.il.loader import Program
-from asictl.mcs51.asm_errors import Code
-from asictl.mcs51.assembler import assemble
 from asictl.mcs51.assembly import Assembly
 from asictl.platform.master import Options
 from asictl.runtime import layout
 from asictl.runtime.line_map import LineMap
 from asictl.runtime.program_map import ProgramMap
-from asictl.source import SourceText, from_string
 
-#: The name generated assembly goes by in listings and internal diagnostics.
-GENERATED = "<generated>"
-_MAX_RELAXATIONS = 16
+__all__ = ["GENERATED", "Compiled", "compile_program"]
 
 
 @dataclass(frozen=True)
@@ -44,6 +37,8 @@ class Compiled:
     #: the generated assembly, line by line, with the IL span each line implements
     lines: tuple[Line, ...]
     entry_points: Mapping[str, int]
+    #: upper-case names of the symbols the code refers to (``OutputStream.references``)
+    references: frozenset[str]
     #: assembler warnings, reported at the IL lines whose code they concern
     diagnostics: tuple[Diagnostic, ...] = ()
 
@@ -74,13 +69,10 @@ class Compiled:
 
         A master whose firmware has these blocks at these addresses can run the program.
         """
-        code = "\n".join(line.text.partition(";")[0] for line in self.lines)
-        names = "|".join(re.escape(firmware_symbol(name)) for name in self.entry_points)
-        used = {key(m) for m in re.findall(rf"(?<![\w?])(?:{names})(?![\w?])", code, re.I)}
         return {
             name: address
             for name, address in sorted(self.entry_points.items())
-            if key(firmware_symbol(name)) in used
+            if firmware_symbol(name).upper() in self.references
         }
 
 
@@ -97,32 +89,12 @@ def compile_program(
             f"the program's data needs {pmap.data_end - layout.DATA_BASE} bytes of RAM, "
             f"{layout.DATA_LIMIT - layout.DATA_BASE} are available"
         )])
-    predefined = symbols(program, pmap, entry_points)
-    long_jumps: frozenset[int] = frozenset()
-    for _ in range(_MAX_RELAXATIONS):
-        emitter = generate(program, pmap, entry_points, long_jumps)
-        source = _source(emitter)
-        try:
-            assembly = assemble(source, predefined=predefined)
-        except DiagnosticError as exc:
-            far = {
-                emitter.jump_lines[d.span.line - 1]
-                for d in exc.diagnostics
-                if d.code == Code.JUMP_TOO_FAR
-                and d.span is not None
-                and d.span.file == GENERATED
-                and d.span.line - 1 in emitter.jump_lines
-            }
-            if far - long_jumps:
-                long_jumps |= far
-                continue
-            raise DiagnosticError(_map_back(exc.diagnostics, emitter.lines)) from None
-        break
-    else:  # pragma: no cover - each round makes at least one more jump long
-        raise AssertionError("jump relaxation did not settle")
+    output = generate(program, pmap, entry_points).assemble(
+        symbols(program, pmap, entry_points)
+    )
     compiled = Compiled(
-        program, options, pmap, assembly, tuple(emitter.lines), entry_points,
-        tuple(_map_back(list(assembly.diagnostics), emitter.lines)),
+        program, options, pmap, output.assembly, output.lines, entry_points,
+        output.references, output.diagnostics,
     )
     end = layout.CODE_BASE + len(compiled.code)
     if end > layout.CODE_LIMIT:
@@ -134,25 +106,5 @@ def compile_program(
     return compiled
 
 
-def _source(emitter: Emitter) -> SourceText:
-    return from_string(GENERATED, "".join(f"{line.text}\n" for line in emitter.lines))
-
-
 def _error(code: CompileCode, message: str) -> Diagnostic:
     return Diagnostic(Severity.ERROR, code, message, None)
-
-
-def _map_back(
-    diagnostics: list[Diagnostic], lines: tuple[Line, ...] | list[Line]
-) -> list[Diagnostic]:
-    """Assembler findings on generated lines, reported at the IL line that produced them."""
-    mapped: list[Diagnostic] = []
-    for d in diagnostics:
-        span = d.span
-        if span is not None and span.file == GENERATED and 0 < span.line <= len(lines):
-            line = lines[span.line - 1]
-            message = f"{d.message} (in the assembly line '{line.text.strip()}')"
-            mapped.append(Diagnostic(d.severity, d.code, message, line.span))
-        else:
-            mapped.append(d)
-    return mapped

@@ -4,17 +4,43 @@ The IL machine maps onto the 8051 directly: the single-bit register is the carry
 so A/AN/O/ON/= are single ``MOV/ANL/ORL C,bit`` instructions on bit-addressable cells;
 ACCU1/ACCU2 and the constant register are register pairs of bank 0. The emitter tracks
 what ACC and DPTR hold along straight-line code, so a run of operations on one byte reads
-it once. Every emitted line remembers the IL statement it implements, for the listing
-and for mapping assembler errors back to IL source.
+it once. Every instruction is built as an object (``stream.Insn``) with the IL span it
+implements and written into the output stream, which applies the peephole rules, lays
+the code out and assembles it.
 """
 
 from __future__ import annotations
 
 from collections.abc import Iterable
-from dataclasses import dataclass, field
-from typing import assert_never
+from dataclasses import dataclass, field, replace
+from typing import Literal, assert_never
 
 from asictl.codegen8051.allocate import bit_cell, byte_cell
+from asictl.codegen8051.stream import (
+    AT_DPTR,
+    DPH,
+    DPL,
+    DPTR,
+    R0,
+    R1,
+    R2,
+    R3,
+    R4,
+    R5,
+    R6,
+    R7,
+    A,
+    Bit,
+    C,
+    Direct,
+    Imm,
+    Insn,
+    Operand,
+    OutputStream,
+    Ref,
+    Reg,
+    acc_bit,
+)
 from asictl.diagnostics import Span
 from asictl.il import ast
 from asictl.il.ast import key
@@ -24,11 +50,6 @@ from asictl.runtime.firmware import FIRMWARE_BLOCKS
 from asictl.runtime.program_map import CellKind, Location, ProgramMap, Space, timer_status
 
 K = ast.OperandKind
-
-
-def _hex(value: int) -> str:
-    """An assembler number: 0A5h style, always starting with a digit."""
-    return f"0{value:X}h"
 
 
 def label_symbol(scope: str | None, name: str) -> str:
@@ -54,50 +75,30 @@ def counter_symbol(n: int) -> str:
 
 PSEG_SYMBOL = "_?PSeg_"
 ENTRY_SYMBOL = "?MAIN"
-
-
-@dataclass
-class Line:
-    """One line of generated assembly and the IL source it implements."""
-
-    text: str
-    span: Span | None
+#: What a bit is written with: the carry, 1 or 0.
+BitValue = Literal["C", "1", "0"]
 
 
 @dataclass
 class Emitter:
-    """Writes the assembly of a whole program."""
+    """Selects the instructions of a whole program and writes them into ``out``."""
 
     pmap: ProgramMap
-    #: conditional jumps (by their number) that must take the long form
-    long_jumps: frozenset[int] = frozenset()
-    lines: list[Line] = field(default_factory=list)
-    #: which conditional jump each line holds, for relaxation after an out-of-range error
-    jump_lines: dict[int, int] = field(default_factory=dict)
+    out: OutputStream = field(default_factory=OutputStream)
+    #: the IL span the instructions emitted now implement
     span: Span | None = None
     _acc: Location | None = None
     _dptr: int | None = None
     _local: int = 0
-    _jumps: int = 0
     _helpers: set[str] = field(default_factory=set)
 
     # ----------------------------------------------------------------- plumbing
 
-    def emit(self, text: str) -> None:
-        """Append an instruction, with the peephole rules that need only the previous line:
-        a ``CLR C`` overwritten by ``MOV C,bit`` goes, and so does a second ``RET``."""
-        last = self.lines[-1].text.strip() if self.lines else ""
-        if last == "CLR C" and text.startswith("MOV C,"):
-            self.lines.pop()
-        elif last == "RET" and text == "RET":
-            return
-        self.lines.append(Line(f"        {text}", self.span))
+    def emit(self, mnemonic: str, *operands: Operand) -> None:
+        self.out.emit(Insn(mnemonic, operands, self.span))
 
     def label(self, name: str) -> None:
-        """Place a label; a ``LJMP`` to it from the line just before is dropped."""
-        if self.lines and self.lines[-1].text.strip() == f"LJMP {name}":
-            self.lines.pop()
-        self.lines.append(Line(f"{name}:", self.span))
+        self.out.label(name, self.span)
         self.forget()
 
     def forget(self) -> None:
@@ -111,7 +112,7 @@ class Emitter:
 
     def dptr(self, address: int) -> None:
         if self._dptr != address:
-            self.emit(f"MOV DPTR,#{_hex(address)}")
+            self.emit("MOV", DPTR, Imm(address))
             self._dptr = address
 
     def load_acc(self, location: Location) -> None:
@@ -119,18 +120,18 @@ class Emitter:
         if self._acc == location:
             return
         if location.space is Space.IRAM:
-            self.emit(f"MOV A,{_hex(location.address)}")
+            self.emit("MOV", A, Direct(location.address))
         else:
             self.dptr(location.address)
-            self.emit("MOVX A,@DPTR")
+            self.emit("MOVX", A, AT_DPTR)
         self._acc = location
 
     def store_acc(self, location: Location) -> None:
         if location.space is Space.IRAM:
-            self.emit(f"MOV {_hex(location.address)},A")
+            self.emit("MOV", Direct(location.address), A)
         else:
             self.dptr(location.address)
-            self.emit("MOVX @DPTR,A")
+            self.emit("MOVX", AT_DPTR, A)
         self._acc = location
 
     def acc_changed(self) -> None:
@@ -139,7 +140,7 @@ class Emitter:
     def skip_unless_rlo(self) -> str:
         """Emit JNC over the code that follows; return the label to place after it."""
         skip = self.local()
-        self.emit(f"JNC {skip}")
+        self.emit("JNC", Ref(skip))
         return skip
 
     def end_skip(self, skip: str) -> None:
@@ -169,52 +170,62 @@ class Emitter:
             case _:
                 assert_never(operand.kind)
 
-    def bit_source(self, operand: ast.Operand) -> str:
-        """Prepare a bit operand for MOV/ANL/ORL C,bit and return its bit name."""
+    def bit_source(self, operand: ast.Operand) -> Bit:
+        """Prepare a bit operand for MOV/ANL/ORL C,bit and return the bit to name."""
         placed = self.bit_location(operand)
         if placed is None:
             self.counter_status(operand.address)
-            return _hex(layout.STATUS_BIT)
+            return Bit(layout.STATUS_BIT)
         location, bit = placed
         if location.bit_addressable:
-            return _hex(location.bit_address(bit))
+            return Bit(location.bit_address(bit))
         self.load_acc(location)
-        return f"ACC.{bit}"
+        return acc_bit(bit)
 
     def counter_status(self, n: int) -> None:
         """PSW.1 := (count of counter n is not 0), leaving the carry alone."""
         self.dptr(self.pmap.counters[n])
         zero = self.local()
-        self.emit("MOVX A,@DPTR")
-        self.emit("MOV R0,A")
-        self.emit("INC DPTR")
-        self.emit("MOVX A,@DPTR")
-        self.emit("ANL A,#0Fh")
-        self.emit("ORL A,R0")
-        self.emit(f"CLR {_hex(layout.STATUS_BIT)}")
-        self.emit(f"JZ {zero}")
-        self.emit(f"SETB {_hex(layout.STATUS_BIT)}")
+        self.emit("MOVX", A, AT_DPTR)
+        self.emit("MOV", R0, A)
+        self.emit("INC", DPTR)
+        self.emit("MOVX", A, AT_DPTR)
+        self.emit("ANL", A, Imm(0x0F))
+        self.emit("ORL", A, R0)
+        self.emit("CLR", Bit(layout.STATUS_BIT))
+        self.emit("JZ", Ref(zero))
+        self.emit("SETB", Bit(layout.STATUS_BIT))
         self.label(zero)
 
-    def write_bit(self, location: Location, bit: int, value: str) -> None:
+    def write_bit(self, location: Location, bit: int, value: BitValue) -> None:
         """operand bit := carry ('C'), 1 ('1') or 0 ('0'); the carry is kept."""
         if location.bit_addressable:
-            name = _hex(location.bit_address(bit))
-            self.emit({"C": f"MOV {name},C", "1": f"SETB {name}", "0": f"CLR {name}"}[value])
+            self._set_bit(Bit(location.bit_address(bit)), value)
             if self._acc == location:
                 self.acc_changed()
             return
         if location.space is Space.IRAM and value != "C":
-            op = f"ORL {_hex(location.address)},#{_hex(1 << bit)}" if value == "1" else (
-                f"ANL {_hex(location.address)},#{_hex(~(1 << bit) & 0xFF)}"
-            )
-            self.emit(op)
+            if value == "1":
+                self.emit("ORL", Direct(location.address), Imm(1 << bit))
+            else:
+                self.emit("ANL", Direct(location.address), Imm(~(1 << bit) & 0xFF))
             if self._acc == location:
                 self.acc_changed()
             return
         self.load_acc(location)
-        self.emit({"C": f"MOV ACC.{bit},C", "1": f"SETB ACC.{bit}", "0": f"CLR ACC.{bit}"}[value])
+        self._set_bit(acc_bit(bit), value)
         self.store_acc(location)
+
+    def _set_bit(self, target: Bit, value: BitValue) -> None:
+        match value:
+            case "C":
+                self.emit("MOV", target, C)
+            case "1":
+                self.emit("SETB", target)
+            case "0":
+                self.emit("CLR", target)
+            case _:
+                assert_never(value)
 
     # ----------------------------------------------------------------- statements
 
@@ -222,13 +233,12 @@ class Emitter:
         source = self.bit_source(operand)
         inverted = op in (ast.LogicOp.AN, ast.LogicOp.ON)
         if first:
-            self.emit(f"MOV C,{source}")
+            self.emit("MOV", C, source)
             if inverted:
-                self.emit("CPL C")
-        elif op in (ast.LogicOp.A, ast.LogicOp.AN):
-            self.emit(f"ANL C,{'/' if inverted else ''}{source}")
+                self.emit("CPL", C)
         else:
-            self.emit(f"ORL C,{'/' if inverted else ''}{source}")
+            mnemonic = "ANL" if op in (ast.LogicOp.A, ast.LogicOp.AN) else "ORL"
+            self.emit(mnemonic, C, replace(source, negated=inverted))
 
     def store(self, op: ast.StoreOp, operand: ast.Operand) -> None:
         if operand.kind is K.T:
@@ -256,7 +266,7 @@ class Emitter:
 
     # --- timers and counters
 
-    def timer_status_write(self, n: int, value: str) -> None:
+    def timer_status_write(self, n: int, value: BitValue) -> None:
         cell, bit = timer_status(n)
         self.write_bit(self.pmap.cells[cell], bit, value)
 
@@ -265,33 +275,37 @@ class Emitter:
         skip = self.skip_unless_rlo()
         self.dptr(self.pmap.timers[n])
         if op is ast.StoreOp.SET:
-            self.write_word_from("R2", "R3")
-            self.emit("ORL A,R2")
+            self.write_word_from(R2, R3)
+            self.emit("ORL", A, R2)
             self.status_from_acc(n)
         else:
-            self.emit("CLR A")
-            self.emit("MOVX @DPTR,A")
-            self.emit("INC DPTR")
-            self.emit("MOVX @DPTR,A")
+            self.clear_word()
             self.timer_status_write(n, "0")
         self.end_skip(skip)
 
-    def write_word_from(self, low: str, high: str) -> None:
+    def clear_word(self) -> None:
+        """The word at DPTR := 0."""
+        self.emit("CLR", A)
+        self.emit("MOVX", AT_DPTR, A)
+        self.emit("INC", DPTR)
+        self.emit("MOVX", AT_DPTR, A)
+
+    def write_word_from(self, low: Reg, high: Reg) -> None:
         """Write two registers, low byte first, at DPTR; leaves ACC = the high byte."""
-        self.emit(f"MOV A,{low}")
-        self.emit("MOVX @DPTR,A")
-        self.emit("INC DPTR")
-        self.emit(f"MOV A,{high}")
-        self.emit("MOVX @DPTR,A")
+        self.emit("MOV", A, low)
+        self.emit("MOVX", AT_DPTR, A)
+        self.emit("INC", DPTR)
+        self.emit("MOV", A, high)
+        self.emit("MOVX", AT_DPTR, A)
         self._dptr = None if self._dptr is None else self._dptr + 1
         self.acc_changed()
 
     def status_from_acc(self, n: int) -> None:
         """Timer n's status := ACC is not 0 (without touching the carry)."""
         zero, done = self.local(), self.local()
-        self.emit(f"JZ {zero}")
+        self.emit("JZ", Ref(zero))
         self.timer_status_write(n, "1")
-        self.emit(f"SJMP {done}")
+        self.emit("SJMP", Ref(done))
         self.label(zero)
         self.timer_status_write(n, "0")
         self.label(done)
@@ -300,12 +314,9 @@ class Emitter:
         skip = self.skip_unless_rlo()
         self.dptr(self.pmap.counters[n])
         if op is ast.StoreOp.SET:
-            self.write_word_from("R2", "R3")
+            self.write_word_from(R2, R3)
         else:
-            self.emit("CLR A")
-            self.emit("MOVX @DPTR,A")
-            self.emit("INC DPTR")
-            self.emit("MOVX @DPTR,A")
+            self.clear_word()
         self.end_skip(skip)
 
     def count(self, op: ast.CountOp, n: int) -> None:
@@ -313,25 +324,25 @@ class Emitter:
         address = self.pmap.counters[n]
         if op is ast.CountOp.STP:
             down, done = self.local(), self.local()
-            self.emit(f"MOV DPTR,#{_hex(address)}")
-            self.emit(f"JNC {down}")
-            self.emit("LCALL ?CUP")
-            self.emit(f"SJMP {done}")
+            self.emit("MOV", DPTR, Imm(address))
+            self.emit("JNC", Ref(down))
+            self.emit("LCALL", Ref("?CUP"))
+            self.emit("SJMP", Ref(done))
             self.label(down)
-            self.emit("LCALL ?CDN")
+            self.emit("LCALL", Ref("?CDN"))
             self.label(done)
             return
         skip = self.skip_unless_rlo()
-        self.emit(f"MOV DPTR,#{_hex(address)}")
-        self.emit("LCALL ?CUP" if op is ast.CountOp.CU else "LCALL ?CDN")
+        self.emit("MOV", DPTR, Imm(address))
+        self.emit("LCALL", Ref("?CUP" if op is ast.CountOp.CU else "?CDN"))
         self.end_skip(skip)
 
     # --- accumulators
 
     def push_accu(self) -> None:
         """ACCU2 := ACCU1."""
-        self.emit(f"MOV R5,{_hex(layout.ACCU1_LO)}")
-        self.emit(f"MOV R4,{_hex(layout.ACCU1_HI)}")
+        self.emit("MOV", R5, Direct(layout.ACCU1_LO))
+        self.emit("MOV", R4, Direct(layout.ACCU1_HI))
 
     def byte_location(self, operand: ast.Operand) -> Location:
         n = operand.address
@@ -350,20 +361,20 @@ class Emitter:
             case _:
                 assert_never(operand.kind)
 
-    def read_to(self, register: str, location: Location) -> None:
+    def read_to(self, register: Reg, location: Location) -> None:
         if location.space is Space.IRAM:
-            self.emit(f"MOV {register},{_hex(location.address)}")
+            self.emit("MOV", register, Direct(location.address))
         else:
             self.load_acc(location)
-            self.emit(f"MOV {register},A")
+            self.emit("MOV", register, A)
 
-    def write_from(self, register: str, location: Location) -> None:
+    def write_from(self, register: Reg, location: Location) -> None:
         if location.space is Space.IRAM:
-            self.emit(f"MOV {_hex(location.address)},{register}")
+            self.emit("MOV", Direct(location.address), register)
             if self._acc == location:
                 self.acc_changed()
         else:
-            self.emit(f"MOV A,{register}")
+            self.emit("MOV", A, register)
             self.store_acc(location)
 
     def load(self, operand: ast.Operand) -> None:
@@ -380,18 +391,18 @@ class Emitter:
         self.push_accu()
         match operand.kind:
             case K.KB | K.KW:
-                self.emit(f"MOV R7,#{_hex(n & 0xFF)}")
-                self.emit(f"MOV R6,#{_hex(n >> 8)}")
+                self.emit("MOV", R7, Imm(n & 0xFF))
+                self.emit("MOV", R6, Imm(n >> 8))
             case K.FW:
-                self.read_to("R6", self.pmap.flag(n))
-                self.read_to("R7", self.pmap.flag(n + 1))
+                self.read_to(R6, self.pmap.flag(n))
+                self.read_to(R7, self.pmap.flag(n + 1))
             case K.T:
                 self.read_word(self.pmap.timers[n], mask_high=False)
             case K.C:
                 self.read_word(self.pmap.counters[n], mask_high=True)
             case K.IB | K.I2B | K.QB | K.FY | K.PSEG | K.VAR:
-                self.read_to("R7", self.byte_location(operand))
-                self.emit("MOV R6,#0")
+                self.read_to(R7, self.byte_location(operand))
+                self.emit("MOV", R6, Imm(0))
             case K.I | K.I2 | K.Q | K.F | K.KT | K.KC | K.KP:
                 raise AssertionError(f"L {operand} loads no word")
             case _:
@@ -399,40 +410,40 @@ class Emitter:
 
     def read_word(self, address: int, *, mask_high: bool) -> None:
         self.dptr(address)
-        self.emit("MOVX A,@DPTR")
-        self.emit("MOV R7,A")
-        self.emit("INC DPTR")
-        self.emit("MOVX A,@DPTR")
+        self.emit("MOVX", A, AT_DPTR)
+        self.emit("MOV", R7, A)
+        self.emit("INC", DPTR)
+        self.emit("MOVX", A, AT_DPTR)
         if mask_high:
-            self.emit("ANL A,#0Fh")
-        self.emit("MOV R6,A")
+            self.emit("ANL", A, Imm(0x0F))
+        self.emit("MOV", R6, A)
         self._dptr = address + 1
         self.acc_changed()
 
     def constant(self, value: int) -> None:
-        self.emit(f"MOV R2,#{_hex(value & 0xFF)}")
-        self.emit(f"MOV R3,#{_hex(value >> 8)}")
+        self.emit("MOV", R2, Imm(value & 0xFF))
+        self.emit("MOV", R3, Imm(value >> 8))
 
     def transfer(self, operand: ast.Operand) -> None:
         n = operand.address
         match operand.kind:
             case K.FW:
-                self.write_from("R6", self.pmap.flag(n))
-                self.write_from("R7", self.pmap.flag(n + 1))
+                self.write_from(R6, self.pmap.flag(n))
+                self.write_from(R7, self.pmap.flag(n + 1))
             case K.T:
                 self._helpers.add("?CLAMP")
-                self.emit("LCALL ?CLAMP")
+                self.emit("LCALL", Ref("?CLAMP"))
                 self.dptr(self.pmap.timers[n])
-                self.write_word_from("R0", "R1")
-                self.emit("ORL A,R0")
+                self.write_word_from(R0, R1)
+                self.emit("ORL", A, R0)
                 self.status_from_acc(n)
             case K.C:
                 self._helpers.add("?CLAMP")
-                self.emit("LCALL ?CLAMP")
+                self.emit("LCALL", Ref("?CLAMP"))
                 self.dptr(self.pmap.counters[n])
-                self.write_word_from("R0", "R1")
+                self.write_word_from(R0, R1)
             case K.IB | K.I2B | K.QB | K.FY | K.PSEG | K.VAR:
-                self.write_from("R7", self.byte_location(operand))
+                self.write_from(R7, self.byte_location(operand))
             case K.I | K.I2 | K.Q | K.F | K.KT | K.KC | K.KB | K.KW | K.KP:
                 raise AssertionError(f"T {operand} writes no word")
             case _:
@@ -440,61 +451,51 @@ class Emitter:
 
     def arith(self, op: ast.ArithOp) -> None:
         """ACCU1 := ACCU2 +/- ACCU1 on bytes; the register survives in PSW.F0."""
-        self.emit(f"MOV {_hex(layout.SAVED_RLO_BIT)},C")
-        self.emit("MOV A,R5")
+        self.emit("MOV", Bit(layout.SAVED_RLO_BIT), C)
+        self.emit("MOV", A, R5)
         if op is ast.ArithOp.ADD:
-            self.emit("ADD A,R7")
+            self.emit("ADD", A, R7)
         else:
-            self.emit("CLR C")
-            self.emit("SUBB A,R7")
-        self.emit("MOV R7,A")
-        self.emit("MOV R6,#0")
-        self.emit(f"MOV C,{_hex(layout.SAVED_RLO_BIT)}")
+            self.emit("CLR", C)
+            self.emit("SUBB", A, R7)
+        self.emit("MOV", R7, A)
+        self.emit("MOV", R6, Imm(0))
+        self.emit("MOV", C, Bit(layout.SAVED_RLO_BIT))
         self.acc_changed()
 
     def compare(self, op: ast.CompareOp) -> None:
         """register := ACCU2 op ACCU1, bytes unsigned, computed in the carry."""
         if op in (ast.CompareOp.EQ, ast.CompareOp.NE):
-            self.emit("MOV A,R5")
-            self.emit("XRL A,R7")
-            self.emit("ADD A,#0FFh")  # carry := bytes differ
+            self.emit("MOV", A, R5)
+            self.emit("XRL", A, R7)
+            self.emit("ADD", A, Imm(0xFF))  # carry := bytes differ
             if op is ast.CompareOp.EQ:
-                self.emit("CPL C")
+                self.emit("CPL", C)
         else:
-            left, right = ("R5", "R7") if op in (ast.CompareOp.LT, ast.CompareOp.GE) else (
-                "R7", "R5"
-            )
-            self.emit(f"MOV A,{left}")
-            self.emit("CLR C")
-            self.emit(f"SUBB A,{right}")  # carry := left < right
+            left, right = (R5, R7) if op in (ast.CompareOp.LT, ast.CompareOp.GE) else (R7, R5)
+            self.emit("MOV", A, left)
+            self.emit("CLR", C)
+            self.emit("SUBB", A, right)  # carry := left < right
             if op in (ast.CompareOp.GE, ast.CompareOp.LE):
-                self.emit("CPL C")
+                self.emit("CPL", C)
         self.acc_changed()
 
     # --- execution control
 
     def jump(self, conditional: bool, target: str) -> None:
-        if not conditional:
-            self.emit(f"LJMP {target}")
-            return
-        self._jumps += 1
-        number = self._jumps
-        self.jump_lines[len(self.lines)] = number
-        if number in self.long_jumps:
-            skip = self.local()
-            self.emit(f"JNC {skip}")
-            self.emit(f"LJMP {target}")
-            self.label(skip)
+        """JU is a long jump; JC is left to the stream, which relaxes it to its reach."""
+        if conditional:
+            self.out.branch(target, self.span)
         else:
-            self.emit(f"JC {target}")
+            self.emit("LJMP", Ref(target))
 
     def call(self, conditional: bool, name: str, user_blocks: Iterable[str]) -> None:
         skip = self.skip_unless_rlo() if conditional else None
         if key(name) in user_blocks:
-            self.emit(f"LCALL {block_symbol(name)}")
+            self.emit("LCALL", Ref(block_symbol(name)))
         else:
-            self.emit(f"MOV DPTR,#{PSEG_SYMBOL}")
-            self.emit(f"LCALL {firmware_symbol(name)}")
+            self.emit("MOV", DPTR, Imm(PSEG_SYMBOL))
+            self.emit("LCALL", Ref(firmware_symbol(name)))
         self.forget()
         if skip:
             self.end_skip(skip)
@@ -502,7 +503,7 @@ class Emitter:
     def block_end(self, kind: ast.EndKind) -> None:
         if kind is ast.EndKind.BEC:
             skip = self.local()
-            self.emit(f"JNC {skip}")
+            self.emit("JNC", Ref(skip))
             self.emit("RET")
             self.label(skip)
         else:
@@ -511,7 +512,7 @@ class Emitter:
     def param(self) -> None:
         self._helpers.add("?PARAM")
         skip = self.skip_unless_rlo()
-        self.emit("LCALL ?PARAM")
+        self.emit("LCALL", Ref("?PARAM"))
         self.end_skip(skip)
         self.forget()
 
@@ -527,7 +528,7 @@ class Emitter:
 
     def raw(self, text: str) -> None:
         """An ASM line or [ASSEMBLY] line: passed on; afterwards nothing is known."""
-        self.lines.append(Line(text, self.span))
+        self.out.raw(text, self.span)
         self.forget()
 
     # ------------------------------------------------------------ runtime helpers
@@ -542,14 +543,14 @@ class Emitter:
             self._counter_helper("?CDN", up=False)
         if "?CLAMP" in self._helpers:
             self.label("?CLAMP")  # R1:R0 := min(ACCU1, 4095); keeps the carry
-            self.emit("MOV A,R7")
-            self.emit("MOV R0,A")
-            self.emit("MOV A,R6")
-            self.emit("MOV R1,A")
-            self.emit("ANL A,#0F0h")
-            self.emit("JZ ?CLAMP1")
-            self.emit("MOV R0,#0FFh")
-            self.emit("MOV R1,#0Fh")
+            self.emit("MOV", A, R7)
+            self.emit("MOV", R0, A)
+            self.emit("MOV", A, R6)
+            self.emit("MOV", R1, A)
+            self.emit("ANL", A, Imm(0xF0))
+            self.emit("JZ", Ref("?CLAMP1"))
+            self.emit("MOV", R0, Imm(0xFF))
+            self.emit("MOV", R1, Imm(0x0F))
             self.label("?CLAMP1")
             self.emit("RET")
         if "?PARAM" in self._helpers:
@@ -558,77 +559,77 @@ class Emitter:
     def _counter_helper(self, name: str, *, up: bool) -> None:
         """Count the 12-bit counter at DPTR one step, saturating; keeps the carry."""
         self.label(name)
-        self.emit(f"MOV {_hex(layout.SAVED_RLO_BIT)},C")
-        self.emit("MOVX A,@DPTR")
-        self.emit("MOV R0,A")
-        self.emit("INC DPTR")
-        self.emit("MOVX A,@DPTR")
-        self.emit("ANL A,#0Fh")
-        self.emit("MOV R1,A")
+        self.emit("MOV", Bit(layout.SAVED_RLO_BIT), C)
+        self.emit("MOVX", A, AT_DPTR)
+        self.emit("MOV", R0, A)
+        self.emit("INC", DPTR)
+        self.emit("MOVX", A, AT_DPTR)
+        self.emit("ANL", A, Imm(0x0F))
+        self.emit("MOV", R1, A)
         if up:
-            self.emit(f"CJNE R0,#0FFh,{name}1")
-            self.emit(f"CJNE R1,#0Fh,{name}1")
-            self.emit(f"SJMP {name}3")  # 4095 stays 4095
+            self.emit("CJNE", R0, Imm(0xFF), Ref(f"{name}1"))
+            self.emit("CJNE", R1, Imm(0x0F), Ref(f"{name}1"))
+            self.emit("SJMP", Ref(f"{name}3"))  # 4095 stays 4095
             self.label(f"{name}1")
-            self.emit("INC R0")
-            self.emit(f"CJNE R0,#0,{name}3")
-            self.emit("INC R1")
+            self.emit("INC", R0)
+            self.emit("CJNE", R0, Imm(0), Ref(f"{name}3"))
+            self.emit("INC", R1)
         else:
-            self.emit("ORL A,R0")
-            self.emit(f"JZ {name}3")  # 0 stays 0
-            self.emit("MOV A,R0")
-            self.emit(f"JNZ {name}2")
-            self.emit("DEC R1")
+            self.emit("ORL", A, R0)
+            self.emit("JZ", Ref(f"{name}3"))  # 0 stays 0
+            self.emit("MOV", A, R0)
+            self.emit("JNZ", Ref(f"{name}2"))
+            self.emit("DEC", R1)
             self.label(f"{name}2")
-            self.emit("DEC R0")
+            self.emit("DEC", R0)
         self.label(f"{name}3")
-        self.emit("MOV A,R1")
-        self.emit("MOVX @DPTR,A")
-        self.emit("MOV A,DPL")
-        self.emit(f"JNZ {name}4")
-        self.emit("DEC DPH")
+        self.emit("MOV", A, R1)
+        self.emit("MOVX", AT_DPTR, A)
+        self.emit("MOV", A, DPL)
+        self.emit("JNZ", Ref(f"{name}4"))
+        self.emit("DEC", DPH)
         self.label(f"{name}4")
-        self.emit("DEC DPL")
-        self.emit("MOV A,R0")
-        self.emit("MOVX @DPTR,A")
-        self.emit(f"MOV C,{_hex(layout.SAVED_RLO_BIT)}")
+        self.emit("DEC", DPL)
+        self.emit("MOV", A, R0)
+        self.emit("MOVX", AT_DPTR, A)
+        self.emit("MOV", C, Bit(layout.SAVED_RLO_BIT))
         self.emit("RET")
 
     def _param_helper(self) -> None:
         """PARAM: SendPrm with the constant register (a*16+d); answer into flag byte 127."""
         self.label("?PARAM")
-        self.emit(f"MOV DPTR,#{PSEG_SYMBOL}")
-        self.emit("MOV A,R2")
-        self.emit("SWAP A")
-        self.emit("ANL A,#0Fh")
-        self.emit("MOV R0,A")
-        self.emit("MOV A,R3")
-        self.emit("SWAP A")
-        self.emit("ORL A,R0")
-        self.emit("ANL A,#1Fh")
-        self.emit("MOVX @DPTR,A")
-        self.emit("INC DPTR")
-        self.emit("MOV A,R2")
-        self.emit("ANL A,#0Fh")
-        self.emit("MOVX @DPTR,A")
-        self.emit(f"MOV DPTR,#{PSEG_SYMBOL}")
-        self.emit(f"LCALL {firmware_symbol('SendPrm')}")
-        self.emit(f"MOV DPTR,#{PSEG_SYMBOL}")
-        self.emit("MOVX A,@DPTR")
-        self.emit("JNZ ?PARAM1")
-        self.emit("INC DPTR")
-        self.emit("MOVX A,@DPTR")
-        self.emit("ANL A,#0Fh")
-        self.emit("ORL A,#80h")
-        self.emit("SJMP ?PARAM2")
+        self.emit("MOV", DPTR, Imm(PSEG_SYMBOL))
+        self.emit("MOV", A, R2)
+        self.emit("SWAP", A)
+        self.emit("ANL", A, Imm(0x0F))
+        self.emit("MOV", R0, A)
+        self.emit("MOV", A, R3)
+        self.emit("SWAP", A)
+        self.emit("ORL", A, R0)
+        self.emit("ANL", A, Imm(0x1F))
+        self.emit("MOVX", AT_DPTR, A)
+        self.emit("INC", DPTR)
+        self.emit("MOV", A, R2)
+        self.emit("ANL", A, Imm(0x0F))
+        self.emit("MOVX", AT_DPTR, A)
+        self.emit("MOV", DPTR, Imm(PSEG_SYMBOL))
+        self.emit("LCALL", Ref(firmware_symbol("SendPrm")))
+        self.emit("MOV", DPTR, Imm(PSEG_SYMBOL))
+        self.emit("MOVX", A, AT_DPTR)
+        self.emit("JNZ", Ref("?PARAM1"))
+        self.emit("INC", DPTR)
+        self.emit("MOVX", A, AT_DPTR)
+        self.emit("ANL", A, Imm(0x0F))
+        self.emit("ORL", A, Imm(0x80))
+        self.emit("SJMP", Ref("?PARAM2"))
         self.label("?PARAM1")
-        self.emit("CLR A")
+        self.emit("CLR", A)
         self.label("?PARAM2")
-        self.emit("MOV R0,A")
+        self.emit("MOV", R0, A)
         flag = self.pmap.flag(PARAM_FLAG)
         self.load_acc(flag)
-        self.emit("ANL A,#70h")
-        self.emit("ORL A,R0")
+        self.emit("ANL", A, Imm(0x70))
+        self.emit("ORL", A, R0)
         self.store_acc(flag)
-        self.emit("SETB C")
+        self.emit("SETB", C)
         self.emit("RET")

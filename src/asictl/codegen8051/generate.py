@@ -1,4 +1,4 @@
-"""Walk a checked program and write its 8051 assembly.
+"""Walk a checked program and write its 8051 instructions into an output stream.
 
 The layout of the generated source: symbol definitions (the manual's 3.6.1 names, so
 hand-written assembly can use them), the main program at ``CODE_BASE`` entered each
@@ -14,13 +14,12 @@ from asictl.codegen8051.emitter import (
     ENTRY_SYMBOL,
     PSEG_SYMBOL,
     Emitter,
-    Line,
-    _hex,
     block_symbol,
     counter_symbol,
     label_symbol,
     timer_symbol,
 )
+from asictl.codegen8051.stream import C, Comment, End, Org, OutputStream, hex_number
 from asictl.il import ast
 from asictl.il.loader import Program
 from asictl.runtime import layout
@@ -28,26 +27,22 @@ from asictl.runtime.firmware import FIRMWARE_BLOCKS
 from asictl.runtime.program_map import ProgramMap
 
 
-def generate(
-    program: Program,
-    pmap: ProgramMap,
-    entry_points: Mapping[str, int],
-    long_jumps: frozenset[int] = frozenset(),
-) -> Emitter:
-    out = Emitter(pmap=pmap, long_jumps=long_jumps)
-    _symbol_comments(out, symbols(program, pmap, entry_points))
+def generate(program: Program, pmap: ProgramMap, entry_points: Mapping[str, int]) -> OutputStream:
+    out = Emitter(pmap=pmap)
+    for name, value in symbols(program, pmap, entry_points).items():
+        out.out.add(Comment(f"{name} = {hex_number(value)}"))
     out.span = None
-    out.emit(f"ORG {_hex(layout.CODE_BASE)}")
+    out.out.add(Org(layout.CODE_BASE))
     out.label(ENTRY_SYMBOL)
-    out.emit("CLR C")  # the register starts every cycle at 0
+    out.emit("CLR", C)  # the register starts every cycle at 0
     _body(out, program.main, None, set(program.blocks))
     for name, module in program.blocks.items():
         out.span = None
         out.label(block_symbol(name))
         _body(out, module, name, set(program.blocks))
     out.helpers()
-    out.emit("END")
-    return out
+    out.out.add(End())
+    return out.out
 
 
 def symbols(
@@ -64,11 +59,6 @@ def symbols(
     table.update({counter_symbol(n): address for n, address in pmap.counters.items()})
     table.update({v.name: v.address for v in pmap.variables.values()})
     return table
-
-
-def _symbol_comments(out: Emitter, table: Mapping[str, int]) -> None:
-    for name, value in table.items():
-        out.lines.append(Line(f"; {name} = {_hex(value)}", None))
 
 
 def _body(out: Emitter, module: ast.Module, scope: str | None, user_blocks: set[str]) -> None:
@@ -105,7 +95,7 @@ def _statements(
             case ast.Store(op=op, operand=operand):
                 out.store(op, operand)
             case ast.Not():
-                out.emit("CPL C")
+                out.emit("CPL", C)
             case ast.Load(operand=operand):
                 out.load(operand)
             case ast.Transfer(operand=operand):

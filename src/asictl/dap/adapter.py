@@ -18,10 +18,10 @@ from pathlib import Path, PurePath
 from typing import Any, BinaryIO
 
 from asictl import __version__
-from asictl.dap.framing import JSON, Malformed, Reader, Writer
 from asictl.dap.targets import HOW, Frame, Placed, Stop, Target, Variable, Wanted
 from asictl.debug.debugger import DebugError
 from asictl.errors import UserError
+from asictl.framing import JSON, Malformed, Reader, Writer
 
 #: The one thread: the control program.
 THREAD = 1

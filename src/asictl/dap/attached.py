@@ -19,7 +19,6 @@ from pathlib import Path
 from typing import Any
 
 from asictl.dap.adapter import resolve
-from asictl.dap.framing import JSON
 from asictl.dap.targets import Frame, Placed, Scope, Stop, Wanted
 from asictl.dap.variables import scopes
 from asictl.debug.debugger import DebugError
@@ -27,6 +26,7 @@ from asictl.debug.inventory import Inventory
 from asictl.debug.online import debug_socket_path
 from asictl.diagnostics import DiagnosticError, render_text
 from asictl.errors import UserError
+from asictl.framing import JSON
 from asictl.host.boards import parse_port, port_name, state_directory
 from asictl.host.live.client import LiveClient
 from asictl.observe.operands import parse_operand

@@ -8,9 +8,9 @@ from collections.abc import Callable
 from typing import BinaryIO
 
 from asictl.dap.adapter import Adapter
-from asictl.dap.framing import JSON
 from asictl.dap.simulated import launch
 from asictl.dap.targets import Target
+from asictl.framing import JSON
 
 
 def run(requests: BinaryIO, replies: BinaryIO, lib: tuple[str, ...] = ()) -> None:

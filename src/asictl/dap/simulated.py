@@ -12,12 +12,12 @@ from collections.abc import Callable
 from pathlib import Path, PurePath
 
 from asictl.dap.adapter import resolve
-from asictl.dap.framing import JSON
 from asictl.dap.targets import Frame, Placed, Scope, Stop, Wanted
 from asictl.dap.variables import scopes
 from asictl.debug.debugger import DebugError, Debugger, Pause
 from asictl.debug.inventory import Inventory
 from asictl.errors import UserError
+from asictl.framing import JSON
 from asictl.observe.locate import call_chain
 from asictl.runtime.line_map import SourceLine
 from asictl.sim.engine import source_texts

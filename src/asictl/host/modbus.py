@@ -398,6 +398,17 @@ def control_summary(transport: ModbusTransport) -> str:
     return state_summary(*_control_state(transport, transport.control_flags()))
 
 
+def read_data(transport: ModbusTransport, *, flags: bool = True
+              ) -> tuple[bytes, bytes, list[int]]:
+    """Each slave's input and output data (one value a slave, 0..31) and the flag bytes
+    (empty without ``flags``): what ``asictl record`` samples, in three requests where a
+    status takes many."""
+    inputs = data_nibbles(transport.read_registers(g.INPUTS_MIRROR + g.INPUT_DATA, 8))
+    outputs = data_nibbles(transport.read_registers(g.OUTPUT_DATA, 8))
+    memory = [r & 0xFF for r in transport.read_registers(g.MEMORY_BYTES, 128)] if flags else []
+    return inputs, outputs, memory
+
+
 def read_status(transport: ModbusTransport) -> MasterStatus:
     """The status screen's fields from the gateway's registers and function 65.
 

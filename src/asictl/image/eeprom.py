@@ -494,3 +494,29 @@ def _hex_bytes(text: str) -> bytes:
         raise ImageError(f"the Intel HEX holds {len(addresses)} bytes; the EEPROM {EEPROM_SIZE}")
     data: bytes = hex_image.tobinstr()
     return data
+
+
+def differences(mine: ProgramImage, theirs: ProgramImage) -> list[str]:
+    """What differs between two images, in the words of the program's sections (``verify``
+    and ``fleet verify`` say it so)."""
+    found = []
+    if mine.code != theirs.code or mine.entry_points != theirs.entry_points:
+        found.append("code ([PROGRAM])")
+    if mine.configuration != theirs.configuration:
+        mine_slaves, their_slaves = mine.configuration.slaves(), theirs.configuration.slaves()
+        changed = sorted(
+            {s.address for s in mine_slaves} ^ {s.address for s in their_slaves}
+            | {a.address for a, b in zip(mine_slaves, their_slaves, strict=False) if a != b}
+        )
+        found.append(
+            "configuration ([SETUP]"
+            + (f": slaves {', '.join(map(str, changed))}" if changed else "")
+            + ")"
+        )
+    if mine.flags != theirs.flags:
+        found.append("options ([OPTIONS])")
+    if mine.pmap != theirs.pmap and "code ([PROGRAM])" not in found:
+        found.append("memory layout")
+    if not found and mine.to_bytes() != theirs.to_bytes():
+        found.append("source text or file names only (the program's identity differs)")
+    return found

@@ -56,10 +56,10 @@ def section_at(lines: list[str], line: int) -> str | None:
     return None
 
 
-def complete(analysis: Analysis | None, file: str, text: str, line: int, column: int
+def complete(analysis: Analysis | None, file: str, lines: list[str], line: int, column: int
              ) -> list[Item]:
-    """The items for the cursor before 1-based ``column`` of 1-based ``line``."""
-    lines = text.split("\n")
+    """The items for the cursor before 1-based ``column`` of 1-based ``line`` of the
+    text's ``lines``."""
     before = lines[line - 1][: column - 1] if 0 < line <= len(lines) else ""
     if ";" in before:
         return []  # in a comment

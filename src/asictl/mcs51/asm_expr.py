@@ -15,7 +15,7 @@ the assembler never finishes; without the second, deep nesting exhausts Python's
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 
 from asictl.mcs51.asm_errors import AsmError, Code
@@ -187,6 +187,23 @@ def operator_count(expr: Expr) -> int:
             return 1 + operator_count(byte) + operator_count(bit)
         case _:
             return 0
+
+
+def symbol_names(expr: Expr) -> Iterator[str]:
+    """The names of the symbols an expression refers to, as written."""
+    match expr:
+        case SymbolRef(name=name):
+            yield name
+        case Unary(operand=operand):
+            yield from symbol_names(operand)
+        case Binary(left=left, right=right):
+            yield from symbol_names(left)
+            yield from symbol_names(right)
+        case BitSelect(byte=byte, bit=bit):
+            yield from symbol_names(byte)
+            yield from symbol_names(bit)
+        case _:
+            pass
 
 
 def format_hex(value: int, width: int = 1) -> str:

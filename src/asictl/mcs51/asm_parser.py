@@ -8,11 +8,12 @@ statements so that nothing downstream knows which dialect a line was written in.
 
 from __future__ import annotations
 
+from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 from enum import Enum
 
 from asictl.mcs51.asm_errors import AsmError, Code
-from asictl.mcs51.asm_expr import Expr, ExprParser
+from asictl.mcs51.asm_expr import Expr, ExprParser, symbol_names
 from asictl.mcs51.asm_lexer import Token, TokenKind, tokenize
 from asictl.mcs51.isa import Operand
 from asictl.mcs51.words import DEFINITION_WORDS, DIRECTIVES, MNEMONICS, RESERVED
@@ -109,6 +110,22 @@ _INDIRECT = {
     "A+PC": Operand.AT_A_PC,
     "PC+A": Operand.AT_A_PC,
 }
+
+
+def referenced_symbols(line: ParsedLine) -> Iterator[str]:
+    """The names of the symbols a line's statement refers to (not the label it defines)."""
+    statement = line.statement
+    if isinstance(statement, Instruction):
+        expressions: Iterable[Expr | DataString | None] = (op.expr for op in statement.operands)
+    elif isinstance(statement, Directive):
+        expressions = statement.args
+    elif isinstance(statement, Definition):
+        expressions = (statement.expr,)
+    else:
+        expressions = ()
+    for expr in expressions:
+        if isinstance(expr, Expr):
+            yield from symbol_names(expr)
 
 
 def parse_line(text: str) -> ParsedLine:

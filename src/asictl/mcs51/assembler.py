@@ -6,6 +6,11 @@ size everything and place the labels, and the second only evaluates and encodes.
 Symbols defined with EQU and its relatives are evaluated when first needed, which
 lets them refer forward to labels and to each other in any order.
 
+A program that builds its code as objects (the IL compiler) hands it over parsed
+already (``ParsedSource``): its lines are assembled as they are, not written out and
+read back, and ``locate`` runs the first pass alone, so such a program can see where
+its code lands before choosing the forms of its jumps.
+
 All problems of all files are collected and raised together as one
 ``DiagnosticError``; nothing is returned when any of them is an error.
 """
@@ -43,7 +48,16 @@ from asictl.mcs51.isa import OPCODES, REGISTERS, SFR_BITS, SFRS, OpcodeInfo, Ope
 from asictl.mcs51.words import RESERVED
 from asictl.source import SourceText, from_string, read_source
 
-__all__ = ["Assembly", "ListingEntry", "Symbol", "assemble", "assemble_text"]
+__all__ = [
+    "Assembly",
+    "Layout",
+    "ListingEntry",
+    "ParsedSource",
+    "Symbol",
+    "assemble",
+    "assemble_text",
+    "locate",
+]
 
 #: Loads an included file: (name as written, the including source) -> its text.
 IncludeLoader = Callable[[str, SourceText], SourceText]
@@ -133,6 +147,35 @@ def _describe(kinds: set[Operand]) -> str:
         if name not in names:
             names.append(name)
     return ", ".join(names)
+
+
+@dataclass(frozen=True)
+class ParsedSource:
+    """A source whose lines a program has parsed already, one per line of its text: the
+    text is what the listing and the diagnostics show, ``lines`` what is assembled."""
+
+    source: SourceText
+    lines: Sequence[ParsedLine]
+
+
+@dataclass
+class Layout:
+    """Where the first pass put things: the address of each line of the first source (up
+    to its END) and the value of every label, by its upper-case name.
+
+    ``assemble`` finishes the assembly from here (once), so a caller that accepts the
+    layout it sees does not run the first pass again."""
+
+    addresses: tuple[int, ...]
+    labels: Mapping[str, int]
+    _assembler: _Assembler | None = field(default=None, repr=False)
+
+    def assemble(self) -> Assembly:
+        """The second pass over what was located. Raises ``DiagnosticError``."""
+        if self._assembler is None:
+            raise RuntimeError("this layout has been assembled already")
+        asm, self._assembler = self._assembler, None
+        return _second_pass(asm)
 
 
 @dataclass(slots=True)
@@ -283,13 +326,22 @@ class _Assembler:
 
     # ----- pass 1: parse, size, place labels -----
 
-    def read(self, source: SourceText, including: tuple[str, ...] = ()) -> None:
-        """Pass 1 over one file; ``including`` are the files whose includes led here."""
+    def read(
+        self,
+        source: SourceText,
+        including: tuple[str, ...] = (),
+        parsed: Sequence[ParsedLine] | None = None,
+    ) -> None:
+        """Pass 1 over one file; ``including`` are the files whose includes led here, and
+        ``parsed`` its lines when the caller has parsed them already."""
         text_lines = source.text.split("\n")
         if text_lines and text_lines[-1] == "":
             text_lines.pop()
+        if parsed is not None and len(parsed) != len(text_lines):
+            raise ValueError(f"{source.name}: {len(parsed)} parsed lines for {len(text_lines)}")
         for number, text in enumerate(text_lines, start=1):
-            line = _Line(source, number, text, parse_line(text), self.location)
+            read = parse_line(text) if parsed is None else parsed[number - 1]
+            line = _Line(source, number, text, read, self.location)
             self.lines.append(line)
             if line.parsed.error is not None:
                 self.report(line, line.parsed.error)
@@ -626,19 +678,15 @@ def load_relative(name: str, including: SourceText) -> SourceText:
     return read_source(Path(including.name).parent / name)
 
 
-def assemble(
-    sources: SourceText | Sequence[SourceText],
-    *,
-    predefined: Mapping[str, int] | None = None,
-    include: IncludeLoader = load_relative,
-) -> Assembly:
-    """Assemble one source, or several as one unit (in order, sharing symbols).
+Source = SourceText | ParsedSource
 
-    ``predefined`` adds symbols (e.g. addresses the caller has laid out); they may
-    replace SFR names but not reserved words. ``END`` ends the file it is in.
-    Raises ``DiagnosticError`` with every problem found if any is an error.
-    """
-    if isinstance(sources, SourceText):
+
+def _first_pass(
+    sources: Source | Sequence[Source],
+    predefined: Mapping[str, int] | None,
+    include: IncludeLoader,
+) -> _Assembler:
+    if isinstance(sources, SourceText | ParsedSource):
         sources = [sources]
     asm = _Assembler(include)
     asm.predefine(SFRS, "SFR")
@@ -649,7 +697,53 @@ def assemble(
             raise ValueError(f"reserved words cannot be predefined: {', '.join(reserved)}")
         asm.predefine(predefined, "predefined")
     for source in sources:
-        asm.read(source)
+        if isinstance(source, ParsedSource):
+            asm.read(source.source, parsed=source.lines)
+        else:
+            asm.read(source)
+    return asm
+
+
+def locate(
+    sources: Source | Sequence[Source],
+    *,
+    predefined: Mapping[str, int] | None = None,
+    include: IncludeLoader = load_relative,
+) -> Layout:
+    """The first pass alone: where each line of the first source goes, and every label.
+
+    Problems are not reported here (``assemble`` reports them); a line that has one
+    takes no room.
+    """
+    asm = _first_pass(sources, predefined, include)
+    first = asm.lines[0].source if asm.lines else None
+    return Layout(
+        addresses=tuple(line.address for line in asm.lines if line.source is first),
+        labels={
+            name: entry.value
+            for name, entry in asm.symbols.items()
+            if entry.kind == "label" and entry.value is not None
+        },
+        _assembler=asm,
+    )
+
+
+def assemble(
+    sources: Source | Sequence[Source],
+    *,
+    predefined: Mapping[str, int] | None = None,
+    include: IncludeLoader = load_relative,
+) -> Assembly:
+    """Assemble one source, or several as one unit (in order, sharing symbols).
+
+    ``predefined`` adds symbols (e.g. addresses the caller has laid out); they may
+    replace SFR names but not reserved words. ``END`` ends the file it is in.
+    Raises ``DiagnosticError`` with every problem found if any is an error.
+    """
+    return _second_pass(_first_pass(sources, predefined, include))
+
+
+def _second_pass(asm: _Assembler) -> Assembly:
     asm.settle_definitions()
     asm.emit_all()
     if asm.reporter.has_errors:

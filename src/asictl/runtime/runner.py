@@ -32,6 +32,9 @@ from asictl.runtime.program_map import (
     timer_status,
 )
 
+#: called after each instruction with the emulator and the instruction's address
+Trace = Callable[[Emulator, int], None]
+
 _RET = 0x22
 _SP, _PSW = 0x81, 0xD0
 
@@ -81,6 +84,10 @@ class ProgramRunner:
         ]
         #: machine cycles the last program cycle took
         self.last_cycles = 0
+        #: what watches the cycles (coverage): called before each cycle with its inputs,
+        #: it answers the function the emulator then calls after every instruction of the
+        #: cycle (which runs in the interpreter), or None to run it at full speed
+        self.watch: Callable[[bytes | bytearray | None], Trace | None] | None = None
 
     def _cells_of(self, kind: CellKind) -> list[tuple[int, Location]]:
         return sorted((i, loc) for (k, i), loc in self.pmap.cells.items() if k is kind)
@@ -117,6 +124,7 @@ class ProgramRunner:
     def cycle(self, inputs: bytes | bytearray | None = None) -> None:
         """One program cycle; raises ``CycleTimeout`` when the budget runs out."""
         cpu = self.cpu
+        trace = self.watch(inputs) if self.watch is not None else None
         io = self._io if cpu.xdata.plain else None  # the copies assume plain XDATA RAM
         flags: Sequence[int]
         if io is not None:
@@ -125,7 +133,7 @@ class ProgramRunner:
             flags = self._copy_in(inputs)
         self.enter()
         start = cpu.cycles
-        reason = cpu.run(max_cycles=self.budget)
+        reason = cpu.run(max_cycles=self.budget, trace=trace)
         self.last_cycles = cpu.cycles - start
         if reason is not StopReason.TRAP:
             jumps = looping_jumps(cpu)

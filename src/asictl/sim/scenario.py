@@ -24,6 +24,8 @@ from asictl.il.parser import parse_text
 from asictl.il.suggest import did_you_mean
 from asictl.observe.operands import Operand, check_value, parse_operand
 from asictl.observe.symbols import SymbolTable
+from asictl.sim.condition import Condition, parse_condition
+from asictl.sim.plant import Model, Plant, read_model
 from asictl.source import SourceText, read_source
 
 _DURATION = re.compile(r"^\s*(\d+(?:\.\d+)?)\s*(ms|s|m|min|h)?\s*$", re.IGNORECASE)
@@ -82,6 +84,9 @@ class Step:
     remove_slaves: list[int] = field(default_factory=list)
     power_fail: bool | None = None
     press_set_button: bool = False
+    #: the expectations' tolerance: each holds if its value is seen within this long
+    #: before or after ``at_ms`` (0: exactly at ``at_ms``)
+    within_ms: float = 0.0
 
 
 @dataclass
@@ -93,10 +98,13 @@ class Scenario:
     steps: list[Step]
     #: test markers (``markers = ["slow"]``) for test runners
     markers: list[str] = field(default_factory=list)
+    #: the ``[[plant]]`` models, as read (a simulation runs copies)
+    plants: list[Model] = field(default_factory=list)
 
     @property
     def end_ms(self) -> float:
-        return max((s.at_ms for s in self.steps), default=0.0)
+        """The last step's time, or the end of the last tolerance window."""
+        return max((s.at_ms + s.within_ms for s in self.steps), default=0.0)
 
     def ordered(self) -> list[Step]:
         """Steps by time; at equal times the file's order (sets are applied before checks
@@ -104,10 +112,10 @@ class Scenario:
         return sorted(self.steps, key=lambda s: s.at_ms)
 
 
-_TOP_KEYS = ("program", "master", "step", "markers")
+_TOP_KEYS = ("program", "master", "step", "markers", "plant")
 _MASTER_KEYS = ("cycle_ms", "slaves")
 _STEP_KEYS = {"at_ms", "at", "set", "expect", "add_slaves", "remove_slaves", "power_fail",
-              "press_set_button"}
+              "press_set_button", "within_ms"}
 
 
 class _Reader:
@@ -122,6 +130,8 @@ class _Reader:
         layout = _scan(source.text)
         self.too_deep = layout.too_deep
         self.step_lines = layout.step_lines
+        self.plant_lines = layout.plant_lines
+        self.headers = layout.headers
 
     def span(self, line: int, column: int = 1) -> Span:
         return Span(self.source.name, line, column)
@@ -156,18 +166,25 @@ class _Reader:
 
 def _slave(reader: _Reader, address: object, spec: object, line: int) -> SlaveSpec | None:
     try:
+        return parse_slave(address, spec)
+    except ValueError as exc:
+        reader.error(str(exc), line)
+        return None
+
+
+def parse_slave(address: object, spec: object) -> SlaveSpec:
+    """A slave as ``[master] slaves`` names it: address 1..31 and ``"iiio,1"`` (I/O code,
+    ID, optional parameter, as in [SETUP]); ``ValueError`` says what is wrong."""
+    try:
         number = int(str(address))  # TOML keys are strings
     except ValueError:
-        reader.error(f"slave address '{address}' is not a number", line)
-        return None
+        raise ValueError(f"slave address '{address}' is not a number") from None
     if not isinstance(spec, str):
-        reader.error(f"slave {number}: expected a string like \"iiio,1\", got {spec!r}", line)
-        return None
+        raise ValueError(f"slave {number}: expected a string like \"iiio,1\", got {spec!r}")
     module, diagnostics = parse_text(f"[SETUP]\n{number}: {spec}\n", "<slave>")
     setup = module.sections_of(ast.SetupSection)
     if diagnostics or not setup or not setup[0].slaves:
-        reader.error(f"slave {number}: '{spec}' is not 'I/O code, ID[, parameter]'", line)
-        return None
+        raise ValueError(f"slave {number}: '{spec}' is not 'I/O code, ID[, parameter]'")
     slave = setup[0].slaves[0]
     problems = [
         what for what, value in (("I/O code", slave.io_code), ("ID", slave.id_code),
@@ -175,9 +192,8 @@ def _slave(reader: _Reader, address: object, spec: object, line: int) -> SlaveSp
         if value is not None and not 0 <= value <= 0xF
     ]
     if not 1 <= number <= 31 or problems:
-        reader.error(f"slave {number}: address 1..31 and {', '.join(problems) or 'codes'} "
-                     "0..F expected", line)
-        return None
+        raise ValueError(f"slave {number}: address 1..31 and {', '.join(problems) or 'codes'} "
+                         "0..F expected")
     parameter = 0xF if slave.parameter is None else slave.parameter
     return SlaveSpec(number, slave.io_code, slave.id_code, parameter)
 
@@ -284,6 +300,19 @@ def _step(reader: _Reader, index: int, data: object) -> Step | None:
                          reader.key_line("remove_slaves", line, end))
         else:
             step.remove_slaves = list(removed)
+    if "within_ms" in data:
+        within = check_time(data["within_ms"])
+        where = reader.key_line("within_ms", line, end)
+        if within is None:
+            reader.error(f"within_ms is a time in milliseconds from 0 to {MAX_TIME_MS:.0f}, "
+                         f"not {_show(data['within_ms'])}", where)
+        elif "expect" not in data:
+            reader.error("within_ms is the tolerance of the step's expect, and the step has "
+                         "none", where)
+        elif at + within > MAX_TIME_MS:
+            reader.error("the tolerance window ends after the longest simulation, 24h", where)
+        else:
+            step.within_ms = within
     for flag in ("power_fail", "press_set_button"):
         if flag in data:
             if not isinstance(data[flag], bool):
@@ -407,9 +436,63 @@ def read_scenario(
         reader.error("steps are [[step]] tables", 1)
         raw_steps = []
     steps = [s for i, d in enumerate(raw_steps) if (s := _step(reader, i, d))]
+    plants = _plants(reader, data.get("plant", []), steps)
     if reader.report.has_errors:
         raise DiagnosticError(reader.report.diagnostics)
-    return Scenario(source.name, program_path, cycle_ms, slaves, steps, list(markers))
+    return Scenario(source.name, program_path, cycle_ms, slaves, steps, list(markers), plants)
+
+
+class _PlantPlace:
+    """A ``[[plant]]`` table's lines, for ``plant.read_model``'s problems."""
+
+    def __init__(self, reader: _Reader, line: int, end: int) -> None:
+        self.reader = reader
+        self.line = line
+        self.end = end
+
+    def problem(self, message: str, key: str | None = None) -> None:
+        line, column = self.reader.key_at(key, self.line, self.end) if key else (self.line, 1)
+        self.reader.error(message, line, column)
+
+    def operand(self, text: str) -> Operand:
+        return parse_operand(text, self.reader.variables, self.reader.symbols)
+
+    def condition(self, text: str) -> Condition:
+        return parse_condition(text, self.reader.variables, self.reader.symbols)
+
+
+def _plants(reader: _Reader, raw: object, steps: list[Step]) -> list[Model]:
+    """The ``[[plant]]`` models; a model writing an input another one writes, or that a
+    step sets, is an error (at that step's key)."""
+    lines = reader.plant_lines
+    if not isinstance(raw, list) or not all(isinstance(t, dict) for t in raw):
+        reader.error("plant models are [[plant]] tables", lines[0] if lines else 1)
+        return []
+    plant = Plant()
+    counts: dict[str, int] = {}
+    for index, table in enumerate(raw):
+        line = lines[index] if index < len(lines) else 1
+        later = [h for h in (*reader.headers, *lines) if h > line]
+        place = _PlantPlace(reader, line, min(later, default=len(reader.lines) + 1) - 1)
+        kind = str(table.get("type", "plant"))
+        counts[kind] = counts.get(kind, 0) + 1
+        model = read_model(table, f"{kind}{counts[kind]}", place)
+        if model is None:
+            continue
+        model.line = line
+        try:
+            plant.add(model)
+        except ValueError as exc:
+            place.problem(str(exc))
+    for step in steps:
+        for operand, _, line in step.set:
+            driver = plant.driver_of(operand)
+            if driver is not None:
+                written = step.written.get((line, str(operand)), str(operand))
+                at, column = reader.key_at(written, line, line)
+                reader.error(f"'{written}' is driven by the plant model {driver.name}: a step "
+                             "cannot set it", at, column)
+    return plant.models
 
 
 def load_scenario(
@@ -446,10 +529,17 @@ class _Layout:
 
     step_lines: list[int]
     too_deep: int = 0
+    #: each ``[[plant]]`` table's first line (or its ``{`` in a ``plant = [...]`` array)
+    plant_lines: list[int] = field(default_factory=list)
+    #: the line of every table header (``[master]``, ``[[step]]``, ...), where a table ends
+    headers: list[int] = field(default_factory=list)
 
 
 _STEP_HEADER = re.compile(r"\s*\[\[\s*step\s*\]\]")
 _STEP_ARRAY = re.compile(r"\s*step\s*=\s*\[")
+_PLANT_HEADER = re.compile(r"\s*\[\[\s*plant\s*\]\]")
+_PLANT_ARRAY = re.compile(r"\s*plant\s*=\s*\[")
+_HEADER = re.compile(r"\s*\[")
 
 
 def _scan(text: str) -> _Layout:
@@ -462,6 +552,7 @@ def _scan(text: str) -> _Layout:
     layout = _Layout([])
     depth = 0
     array_depth = -1  # the bracket depth inside an inline step array, while in one
+    array_lines = layout.step_lines  # where that array's elements are noted
     line = 1
     i, n = 0, len(text)
     at_line_start = True
@@ -472,8 +563,14 @@ def _scan(text: str) -> _Layout:
             rest = text[i : n if end < 0 else end]
             if _STEP_HEADER.match(rest):
                 layout.step_lines.append(line)
-            elif _STEP_ARRAY.match(rest):
+            elif _PLANT_HEADER.match(rest):
+                layout.plant_lines.append(line)
+            elif _STEP_ARRAY.match(rest) or _PLANT_ARRAY.match(rest):
                 array_depth = 1
+                array_lines = layout.step_lines if _STEP_ARRAY.match(rest) \
+                    else layout.plant_lines
+            if _HEADER.match(rest):
+                layout.headers.append(line)
         at_line_start = False
         if c == "\n":
             line += 1
@@ -490,7 +587,7 @@ def _scan(text: str) -> _Layout:
             if depth > MAX_NESTING and not layout.too_deep:
                 layout.too_deep = line
             if c == "{" and array_depth >= 0 and depth == array_depth + 1:
-                layout.step_lines.append(line)
+                array_lines.append(line)
         elif c in "]}":
             depth = max(0, depth - 1)
             if array_depth >= 0 and depth < array_depth:

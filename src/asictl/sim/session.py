@@ -23,10 +23,12 @@ from asictl import __version__
 from asictl.build import Build, build_file
 from asictl.diagnostics import DiagnosticError, render_text
 from asictl.errors import UserError
+from asictl.observe.coverage import Coverage
 from asictl.observe.operands import SETTABLE, parse_assignment, parse_operand
 from asictl.observe.symbols import SymbolTable, symbols_for
 from asictl.sim import SUFFIX
 from asictl.sim.engine import SimResult, Simulation, variables_of
+from asictl.sim.plant import Plant
 from asictl.sim.scenario import (
     Scenario,
     Step,
@@ -127,6 +129,13 @@ def prepare(
         scenario = Scenario("<command line>", program, None, None, [])
     extra = _command_line_sets(sets, variables, symbols)
     if extra.set:
+        plant = Plant(scenario.plants)
+        for operand, _, _ in extra.set:
+            driver = plant.driver_of(operand)
+            if driver is not None:
+                written = extra.written.get((0, str(operand)), str(operand))
+                raise UserError(f"--set '{written}': driven by the plant model {driver.name} "
+                                "of the scenario")
         scenario.steps.append(extra)
     last = scenario.end_ms
     if duration_ms is None:
@@ -182,20 +191,37 @@ def simulate(
     signals: list[str] | None = None,
     il_trace: bool = False,
     window: tuple[float, float | None] = (0.0, None),
+    coverage: bool = False,
+    coverage_counts: bool = True,
+    fail_fast: bool = False,
 ) -> Run:
     start = time.perf_counter()
     try:
         simulation = Simulation(
             prepared.build, prepared.scenario, duration_ms=prepared.end_ms, trace=trace,
             signals=signals, symbols=prepared.symbols, il_trace=il_trace, window=window,
+            coverage=coverage, coverage_counts=coverage_counts, fail_fast=fail_fast,
         )
         result = simulation.run()
+        if any(f.step.within_ms for f in result.failures):
+            _name_writers(prepared, result)
     except DiagnosticError as exc:
         raise _invalid(exc, {**prepared.build.texts, **_texts(Path(prepared.scenario.file))}) \
             from None
     note = f"asictl: note: {prepared.program}: {simulation.untraced}\n" if simulation.untraced \
         else ""
     return Run(prepared, result, time.perf_counter() - start, note)
+
+
+def _name_writers(prepared: Prepared, result: SimResult) -> None:
+    """Run once more, watching the lines that write what the tolerance windows expect,
+    to name the line that last wrote each failed one (the run is deterministic: the
+    failures are the same, and the first run's traces stay as they were)."""
+    again = Simulation(prepared.build, prepared.scenario, duration_ms=prepared.end_ms,
+                       symbols=prepared.symbols, track_writers=True).run()
+    writers = {(f.line, str(f.operand)): f.writer for f in again.failures}
+    for failure in result.failures:
+        failure.writer = writers.get((failure.line, str(failure.operand)), "")
 
 
 def events(run: Run) -> list[str]:
@@ -250,7 +276,9 @@ def as_json(run: Run) -> dict[str, Any]:
         "checked": r.checked,
         "failures": [
             {"line": f.line, "at_ms": f.at_ms, "operand": f.written or str(f.operand),
-             "expected": f.expected, "got": f.got}
+             "expected": f.expected, "got": f.got,
+             **({"within_ms": f.step.within_ms, "last_written_by": f.writer}
+                if f.step.within_ms else {})}
             for f in r.failures
         ],
         "stops": [{"at_ms": s.at_ms, "reason": s.reason, "where": s.where} for s in r.stops],
@@ -286,13 +314,15 @@ class Outcome:
     stops: list[str] = field(default_factory=list)
     #: the program file the scenario ran (none for an ERROR row)
     program: str = ""
+    #: what the scenario reached of its program, when asked for
+    coverage: Coverage | None = None
 
 
-def run_file(path: str, lib: tuple[str, ...] = ()) -> Outcome:
+def run_file(path: str, lib: tuple[str, ...] = (), coverage: bool = False) -> Outcome:
     """Run one scenario file; whatever goes wrong is in the outcome, nothing is raised."""
     try:
         prepared = prepare(None, Path(path), lib=lib)
-        run = simulate(prepared)
+        run = simulate(prepared, coverage=coverage)
     except Invalid as exc:
         return Outcome(path, "ERROR", stderr=exc.text, message=exc.message)
     except UserError as exc:
@@ -308,8 +338,22 @@ def run_file(path: str, lib: tuple[str, ...] = ()) -> Outcome:
         prepared.notes + run.note, seconds=run.seconds, markers=list(prepared.scenario.markers),
         failures=[(f.line, str(f)) for f in run.result.failures],
         stops=[f"at {s.at_ms:g} ms: program stopped: {s.text}" for s in run.result.stops],
-        program=str(prepared.program),
+        program=str(prepared.program), coverage=run.result.coverage,
     )
+
+
+def find_scenarios(paths: Iterable[Path]) -> list[Path]:
+    """The scenario files PATHs name: files as given, folders searched (default: the
+    current folder); raises ``UserError`` for a path that is not there."""
+    found: list[Path] = []
+    for path in list(paths) or [Path()]:
+        if path.is_dir():
+            found.extend(sorted(p for p in path.rglob(f"*{SUFFIX}") if p.is_file()))
+        elif path.is_file():
+            found.append(path)
+        else:
+            raise UserError(f"{path}: no such file or directory")
+    return found
 
 
 def default_jobs() -> int:

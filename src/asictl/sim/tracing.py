@@ -36,11 +36,13 @@ Sample = Callable[[], int]
 
 class Signals:
     """The signals of a trace and how each is sampled; ``read`` gives an operand's
-    value, ``running`` whether the program runs (1) or not (0)."""
+    value, ``running`` whether the program runs (1) or not (0); ``extra`` are lanes of
+    their own (plant models' state), ``inputs`` operands to trace besides the program's."""
 
     def __init__(
         self, program: Program | None, image: ProgramImage, symbols: SymbolTable,
         patterns: list[str] | None, read: Callable[[Operand], int], running: Sample,
+        extra: list[tuple[Signal, Sample]] | None = None, inputs: list[str] | None = None,
     ) -> None:
         self.symbols = symbols
         self._read = read
@@ -57,7 +59,10 @@ class Signals:
                 "in internal RAM, its timers and counters), not the flags it keeps in "
                 "the communication memory"
             )
-        self.sampled = _select(self._make_signals(names), patterns)
+        if inputs:  # the inputs plant models drive, whether the program reads them or not
+            known = set(names)
+            names = [*(n for n in inputs if n not in known), *names]
+        self.sampled = _select(self._make_signals(names) + list(extra or []), patterns)
 
     def _make_signals(self, names: list[str]) -> list[tuple[Signal, Sample]]:
         signals: list[tuple[Signal, Sample]] = []

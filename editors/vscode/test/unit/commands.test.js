@@ -17,6 +17,9 @@ test("the settings give the command lines of the server, the adapter and a scena
   assert.deepEqual(commands.adapterCommand(s), { command: "/venv/bin/asictl", args: ["dap", "--lib", "blocks"] });
   assert.deepEqual(commands.scenarioCommand(s, "/w/a.scenario.toml").args,
     ["sim", "--scenario", "/w/a.scenario.toml", "--json", "--lib", "blocks"]);
+  assert.deepEqual(commands.coverageCommand(s, ["/w/a.scenario.toml", "/w/b.scenario.toml"], "/t/c.info").args,
+    ["test", "/w/a.scenario.toml", "/w/b.scenario.toml", "-j", "1", "--coverage", "/t/c.info",
+      "--coverage-format", "lcov", "--lib", "blocks"]);
 });
 
 test("an empty asictl.path falls back to asictl on the PATH", () => {

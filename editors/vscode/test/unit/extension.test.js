@@ -10,7 +10,7 @@ const os = require("os");
 const path = require("path");
 
 function fakeVscode(settings) {
-  const log = { errors: [], registered: {}, profiles: [], results: [], executables: [] };
+  const log = { errors: [], registered: {}, profiles: [], results: [], executables: [], coverage: [], output: [] };
   class Disposable { dispose() {} }
   class Uri {
     constructor(fsPath) { this.fsPath = fsPath; this.scheme = "file"; }
@@ -31,6 +31,8 @@ function fakeVscode(settings) {
       passed(item) { log.results.push(["passed", item.label]); },
       failed(item, messages) { log.results.push(["failed", item.label, messages]); },
       errored(item, messages) { log.results.push(["errored", item.label, messages]); },
+      addCoverage(file) { log.coverage.push(file); },
+      appendOutput(text) { log.output.push(text); },
       end() {},
     }),
     dispose() {},
@@ -40,6 +42,9 @@ function fakeVscode(settings) {
     Position: class { constructor(line, character) { this.line = line; this.character = character; } },
     Location: class { constructor(uri, position) { this.uri = uri; this.range = position; } },
     TestMessage: class { constructor(message) { this.message = message; } },
+    BranchCoverage: class { constructor(executed, location, label) { Object.assign(this, { executed, location, label }); } },
+    StatementCoverage: class { constructor(executed, location, branches) { Object.assign(this, { executed, location, branches }); } },
+    FileCoverage: { fromDetails: (uri, details) => ({ uri, details }) },
     TestRunProfileKind: { Run: 1, Debug: 2, Coverage: 3 },
     DebugAdapterExecutable: class {
       constructor(command, args, options) { Object.assign(this, { command, args, options }); log.executables.push(this); }
@@ -98,7 +103,8 @@ test("without asictl the extension says to set asictl.path, for the server and t
   const { extension, log } = loadExtension({ path: "/nonexistent/asictl" });
   await extension.activate(context);
   assert.ok(log.registered["asictl.stepCycle"]);
-  assert.equal(log.profiles.map((p) => p.label).join(","), "Run,Debug");
+  assert.equal(log.profiles.map((p) => p.label).join(","), "Run,Debug,Run with Coverage");
+  assert.deepEqual(log.profiles.map((p) => p.kind), [1, 2, 3]);
   assert.match(log.errors[0], /language server cannot start: '\/nonexistent\/asictl'.*asictl\.path/);
   const descriptor = log.registered.factory.createDebugAdapterDescriptor({ workspaceFolder: undefined });
   assert.equal(descriptor, undefined);
@@ -142,4 +148,26 @@ test("a scenario of the Testing view runs, and its failure is at its line", { sk
   assert.equal(message.message, "at 20 ms: Q 2.0 expected 1, got 0");
   assert.equal(message.location.uri.fsPath, bad);
   assert.equal(message.location.range.line, 3); // line 4 of the file, 0-based
+});
+
+test("a coverage run shows the lines and branches the scenarios reached", { skip: !command && "ASICTL_TEST_COMMAND is not set (the Python suite sets it)" }, async () => {
+  const folder = fs.mkdtempSync(path.join(os.tmpdir(), "asictl-coverage-"));
+  fs.writeFileSync(path.join(folder, "lamp.asi"),
+    "[SETUP]\n1: iiii, 0\n2: oooo, 0\n[PROGRAM]\n        A   I 1.0\n        JC  = lit\n        BE\nlit:    =   Q 2.0\n");
+  const scenario = path.join(folder, "lamp.scenario.toml");
+  fs.writeFileSync(scenario, "[[step]]\nat_ms = 20\nexpect = { \"Q 2.0\" = 0 }\n");
+  const { extension, log, vscode, controller } = loadExtension({ path: command });
+  await extension.activate(context);
+  controller.items.add(controller.createTestItem(scenario, "lamp.scenario.toml", vscode.Uri.file(scenario)));
+  const profile = log.profiles.find((p) => p.label === "Run with Coverage");
+  await profile.handler({ include: undefined, exclude: [] }, { isCancellationRequested: false, onCancellationRequested() {} });
+  assert.deepEqual(log.results.map((r) => r.slice(0, 2)), [["passed", "lamp.scenario.toml"]]);
+  assert.deepEqual(log.output, []);
+  const [file] = log.coverage;
+  assert.equal(file.uri.fsPath, path.join(folder, "lamp.asi"));
+  // lines 5-8 (0-based 4-7): 'lit: = Q 2.0' never runs, the JC is never taken
+  const hits = file.details.map((d) => [d.location.line, d.executed > 0]);
+  assert.deepEqual(hits, [[4, true], [5, true], [6, true], [7, false]]);
+  const jc = file.details[1].branches.map((b) => b.executed > 0);
+  assert.deepEqual(jc, [false, true]);
 });

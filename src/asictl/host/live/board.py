@@ -43,6 +43,10 @@ class LiveBoard:
         #: after a request of a server attached to the board, before its answer; False
         #: if it could not (the answer must then not acknowledge the change)
         self.save_changes: Callable[[], bool] = lambda: True
+        #: whether a command holds the board through the socket (a session): a server
+        #: attached to the board that runs host commands of its own between the command's
+        #: requests (the OPC UA server's refresh) waits until it is over
+        self.in_session: Callable[[], bool] = lambda: False
 
     def advance(self, ms: float) -> None:
         """Let ``ms`` of master time pass, through the hold if there is one."""

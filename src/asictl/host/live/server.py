@@ -88,6 +88,7 @@ class LiveServer:
         log: Callable[[str], None] | None = None,
     ) -> None:
         self.live = live
+        live.in_session = lambda: self._owner is not None
         self.path = path
         self.identity = identity or {}
         self.on_tick = on_tick
@@ -296,6 +297,33 @@ class LiveServer:
 Attachment = Callable[[LiveBoard], tuple[Awaitable[None], Callable[[], None]]]
 
 
+def together(*attachments: Attachment) -> Attachment:
+    """Several servers attached to one live board (the debug socket and an OPC UA
+    server; the gateway and an OPC UA server): run together, stopped together."""
+
+    def attach(live: LiveBoard) -> tuple[Awaitable[None], Callable[[], None]]:
+        started = [attachment(live) for attachment in attachments]
+
+        async def serving() -> None:
+            tasks = [asyncio.ensure_future(coroutine) for coroutine, _ in started]
+            for task in tasks:  # one that fails stops the others
+                task.add_done_callback(
+                    lambda done: stop() if not done.cancelled() and done.exception() else None
+                )
+            results = await asyncio.gather(*tasks, return_exceptions=True)
+            for result in results:
+                if isinstance(result, BaseException):
+                    raise result
+
+        def stop() -> None:
+            for _, stop_one in started:
+                stop_one()
+
+        return serving(), stop
+
+    return attach
+
+
 def _server(
     board: Pc2Board, directory: Path, base: int, identity: dict[str, JSON], *,
     interval: float = SAVE_INTERVAL_S, notify: Callable[[str], None] | None = None,
@@ -374,7 +402,12 @@ def run_live(
             # ends the servers attached to it too
             serving = asyncio.ensure_future(server.serve(on_started))
             serving.add_done_callback(lambda _: stop_all())
-            results = await asyncio.gather(serving, *tasks, return_exceptions=True)
+            attached = [asyncio.ensure_future(task) for task in tasks]
+            for task in attached:  # an attached server that fails ends the others too
+                task.add_done_callback(
+                    lambda done: stop_all() if not done.cancelled() and done.exception() else None
+                )
+            results = await asyncio.gather(serving, *attached, return_exceptions=True)
             for result in results:
                 if isinstance(result, BaseException):
                     stop_all()

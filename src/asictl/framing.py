@@ -1,12 +1,13 @@
-"""The Debug Adapter Protocol's base protocol: JSON messages in ``Content-Length`` frames.
+"""The editor protocols' base protocol: JSON messages in ``Content-Length`` frames.
 
-Hand-written, as the language server's framing is not (pygls does it there): the
-frames are a header block (``Content-Length: N``, other headers ignored, a blank line)
-and N bytes of UTF-8 JSON, nothing more, and no library on PyPI would take away more
-than these lines. What a library would not give is the robustness an editor's client
-can rely on: nothing a client sends crashes or wedges the adapter. A frame with no or
-a bad ``Content-Length``, a body that is not a JSON object, or one larger than
-``MAX_BODY`` is reported (``Malformed``) and skipped; the reader then looks for the next
+The Debug Adapter Protocol and the Language Server Protocol frame their messages alike:
+a header block (``Content-Length: N``, other headers ignored, a blank line) and N bytes
+of UTF-8 JSON, nothing more. ``dap`` and ``lsp`` both read them here rather than with a
+library (pygls's reader, for one, loses every later message after one frame without a
+length), because what no library gives is the robustness an editor's client can rely
+on: nothing a client sends crashes or wedges the server. A frame with no or a bad
+``Content-Length``, a body that is not a JSON object, or one larger than the reader's
+``max_body`` is reported (``Malformed``) and skipped; the reader then looks for the next
 header line, so it never waits for the bytes a huge length announces and never holds
 more than one line of ``MAX_LINE`` bytes of a message it will not read.
 """
@@ -20,7 +21,7 @@ from typing import Any, BinaryIO
 
 JSON = Any
 
-#: The largest message body read (DAP messages are a few kilobytes).
+#: The largest message body the debug adapter reads (DAP messages are a few kilobytes).
 MAX_BODY = 1 << 20
 #: Header lines (and the lines of skipped text) are read at most this long at a time.
 MAX_LINE = 4096

@@ -1,0 +1,152 @@
+"""``asictl mutate``: mutation testing of programs against their scenarios."""
+
+from __future__ import annotations
+
+import json
+import os
+from collections import defaultdict
+from pathlib import Path, PurePath
+
+import click
+
+import asictl.mutate as mutation
+from asictl.cli.options import lib_option
+from asictl.errors import ExitCode, UserError
+from asictl.mutate import PROVE_HINT, Result, Target, mutants_of, run_all, score
+from asictl.sim import SUFFIX
+from asictl.sim.session import (
+    Invalid,
+    Prepared,
+    default_jobs,
+    find_scenarios,
+    prepare,
+    simulate,
+)
+
+
+def _shown(path: str) -> str:
+    try:
+        return PurePath(os.path.relpath(path)).as_posix()
+    except ValueError:  # another drive
+        return path
+
+
+def _targets(paths: tuple[Path, ...], lib: tuple[str, ...]) -> list[Target]:
+    """The programs the scenarios under ``paths`` test, each with its scenarios; every
+    scenario must pass on the original program (else no mutant can be judged)."""
+    by_program: dict[Path, list[tuple[Path, Prepared]]] = defaultdict(list)
+    scenarios = find_scenarios(paths)
+    if not scenarios:
+        raise UserError(f"no {SUFFIX} files found")
+    for scenario in scenarios:
+        try:
+            prepared = prepare(None, scenario, lib=lib)
+        except Invalid as exc:
+            raise UserError(f"{scenario}: {exc.message}\n{exc.text.rstrip()}") from None
+        by_program[prepared.program.resolve()].append((scenario, prepared))
+    targets = []
+    for key, tested in by_program.items():
+        target = Target(Path(_shown(str(key))), [])
+        for scenario, prepared in tested:
+            run = simulate(prepared, coverage=True, coverage_counts=False)
+            if not run.result.passed:
+                raise UserError(
+                    f"{scenario} fails on the unchanged program: mutation testing needs "
+                    f"passing scenarios (see 'asictl test {scenario}')", ExitCode.FAILED,
+                )
+            target.scenarios.append(prepared)
+            target.seconds += run.seconds
+            if run.result.coverage is not None:
+                target.reached |= run.result.coverage.reached()
+        program = target.scenarios[0].build.program
+        assert program is not None
+        target.mutants = mutants_of(program)
+        targets.append(target)
+    return targets
+
+
+def _line(result: Result) -> str:
+    m = result.mutant
+    detail = f" ({result.detail})" if result.detail else ""
+    return f"{_shown(m.file)}:{m.line}:{m.column}: {result.verdict}: {m.change}{detail}"
+
+
+def _summary(results: list[Result]) -> str:
+    killed, counted = score(results)
+    counts = {v: sum(1 for r in results if r.verdict == v)
+              for v in ("killed", "timeout", "survived", "equivalent", "invalid")}
+    share = 100.0 * killed / counted if counted else 100.0
+    parts = ", ".join(f"{n} {v}" for v, n in counts.items() if n)
+    return f"{len(results)} mutants: {parts or 'none'}; score {share:.1f}% ({killed}/{counted})"
+
+
+@click.command()
+@click.argument("paths", nargs=-1, type=click.Path(path_type=Path))
+@click.option("-j", "--jobs", type=click.IntRange(min=1), default=None,
+              help="Mutants run at once, each in a worker process (default: the number "
+              "of cores).")
+@click.option("--format", "fmt", type=click.Choice(["text", "json"]), default="text",
+              show_default=True, help="json: one object with every mutant and the score.")
+@click.option("--min-score", type=click.FloatRange(0, 100), metavar="PERCENT",
+              help="Exit 1 when the score is below PERCENT.")
+@click.option("--timeout", "timeout_s", type=click.FloatRange(min=0, min_open=True),
+              metavar="SECONDS", help="Time limit of one mutant (default: 10 s plus five "
+              "times what its program's scenarios take unchanged).")
+@lib_option
+def mutate(paths: tuple[Path, ...], jobs: int | None, fmt: str, min_score: float | None,
+           timeout_s: float | None, lib: tuple[str, ...]) -> None:
+    """Mutation testing: change each program the scenarios under PATHs test (default:
+    the current directory) in one place at a time, and run its scenarios.
+
+    The changes: A<->AN, O<->ON, S<->R, an assignment removed, JC made unconditional
+    or removed, BEC removed, L KT / L KC one step off, a comparison negated, a bit
+    operand moved to its neighbour, L KB one off, a [GATING] term negated. A mutant a
+    scenario fails on is killed (one that runs past its time limit: timeout, killed
+    too); one all pass on survived: a scenario is missing (docs/testing.md). Prints
+    each mutant as FILE:LINE:COL: VERDICT: CHANGE and the score, killed / (mutants -
+    equivalent - invalid).
+
+    Example: asictl mutate demos -j 2 --min-score 80
+
+    Exit status: 0 done (and the score reaches --min-score), 1 below --min-score or a
+    scenario fails on the unchanged program, 2 bad input.
+    """
+    ctx = click.get_current_context()
+    targets = _targets(paths, lib)
+    order = {id(m): i for i, m in enumerate(m for t in targets for m in t.mutants)}
+    finished: dict[int, Result] = {}
+    shown = 0
+
+    def done(result: Result) -> None:
+        """Text lines in the mutants' order, each as soon as it and those before it are."""
+        nonlocal shown
+        finished[order[id(result.mutant)]] = result
+        while fmt == "text" and shown in finished:
+            click.echo(_line(finished[shown]))
+            shown += 1
+
+    results = run_all(targets, jobs=jobs or default_jobs(), timeout_s=timeout_s, done=done)
+    checked = mutation.prove_available()
+    killed, counted = score(results)
+    share = 100.0 * killed / counted if counted else 100.0
+    if fmt == "json":
+        report = {
+            "mutants": [
+                {"file": _shown(r.mutant.file), "line": r.mutant.line,
+                 "column": r.mutant.column, "change": r.mutant.change, "verdict": r.verdict,
+                 "detail": r.detail, "seconds": round(r.seconds, 3)}
+                for r in results
+            ],
+            "killed": killed, "counted": counted, "score": round(share, 2),
+            "equivalence_checked": checked,
+        }
+        click.echo(json.dumps(report, indent=2))
+    else:
+        click.echo(_summary(results))
+        if not checked and any(r.verdict == "survived" for r in results):
+            click.echo(f"note: {PROVE_HINT}")
+    below = min_score is not None and share < min_score
+    if below:
+        click.echo(f"asictl: error: mutation score {share:.1f}% is below --min-score "
+                   f"{min_score:g}%", err=True)
+    ctx.exit(int(ExitCode.FAILED if below else ExitCode.OK))

@@ -1,0 +1,246 @@
+"""The fleet's archive: a folder per master in a git repository (docs/fleet.md).
+
+``DIR/<name>/`` holds what an upload of the master writes (its source files, or [RAW]
+records; its symbol table where the upload gives one), ``image.hex`` (the EEPROM image
+exactly, what ``fleet verify`` compares the master with), ``identity.json`` (the master
+and its program) and ``status.json`` (the state that stays put while the program runs:
+phase, mode, lists, configuration, control state; not the data, flags, timers or cycle
+times, which change every cycle and would make every backup a change). A run commits
+what changed in one commit whose message lists it; a run that changed nothing commits
+nothing. git runs as a subprocess with its author and committer given, so an archive
+works on a machine without a git identity, and with the user's hooks and signing off.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import subprocess
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from asictl.errors import ExitCode, UserError
+from asictl.files import write_together
+from asictl.fleet.inventory import FleetMaster
+from asictl.host.jobs import JobError, JobStatus
+from asictl.host.master import Master
+from asictl.host.program_files import uploaded_files
+from asictl.host.status import MasterStatus
+from asictl.host.transfer import upload
+from asictl.image.eeprom import ProgramImage
+
+IMAGE_FILE = "image.hex"
+IDENTITY_FILE = "identity.json"
+STATUS_FILE = "status.json"
+#: The main file's name when the image carries no source (or a name unfit for a file).
+RAW_NAME = "program.asi"
+#: A symbol table beside a program file ``NAME.asi`` (observe/symbols.py's naming).
+SYMBOLS_SUFFIX = ".symbols.toml"
+#: Who commits, whatever the machine's git configuration says.
+AUTHOR = {"name": "asictl fleet backup", "email": "asictl@localhost"}
+
+
+@dataclass(frozen=True)
+class Snapshot:
+    """What a backup read from one master: its program image (None: the EEPROM holds
+    none) and its status."""
+
+    image: ProgramImage | None
+    status: MasterStatus
+
+
+def take_snapshot(_: FleetMaster, master: Master) -> Snapshot:
+    """Upload the master's program (as ``asictl upload`` does) and read its status."""
+    try:
+        image: ProgramImage | None = upload(master.transport)
+    except JobError as exc:
+        if exc.status is not JobStatus.EEPROM_ERROR:
+            raise
+        image = None
+    return Snapshot(image, master.status())
+
+
+def main_name(image: ProgramImage) -> str:
+    """The main file's name as compiled (it is part of the program's identity), or
+    ``RAW_NAME`` for an image without source or with a name that is no plain file name."""
+    name = next(iter(image.sources()), RAW_NAME)
+    plain = name.isprintable() and Path(name).name == name and name not in ("", ".", "..")
+    return name if plain and not name.startswith(".") and name not in _OWN_FILES else RAW_NAME
+
+
+_OWN_FILES = (IMAGE_FILE, IDENTITY_FILE, STATUS_FILE)
+
+
+def _stable_status(status: MasterStatus) -> dict[str, Any]:
+    data = status.to_json()
+    kept = (
+        "phase", "mode", "config_ok", "power_fail", "lps", "lds", "las", "missing",
+        "unexpected", "wrong_profile", "control_state", "stop_reason", "program_status",
+        "start_flag", "ignore_config_errors", "wait_for_set_button", "map_counters",
+        "control_active", "stop_line", "los",
+    )
+    out = {key: data[key] for key in kept}
+    out["slaves"] = {
+        address: {key: slave[key] for key in ("pcd", "cdi", "pp", "lists")}
+        for address, slave in data["slaves"].items()
+    }
+    return out
+
+
+def snapshot_files(master: FleetMaster, snapshot: Snapshot) -> dict[str, bytes]:
+    """The archive folder's files for one master: name -> exact bytes."""
+    image, status = snapshot.image, snapshot.status
+    files: dict[str, bytes] = {}
+    program: dict[str, Any] | None = None
+    if image is not None:
+        uploaded = uploaded_files(image, main_name(image))
+        files.update({path.name: data for path, data in uploaded})
+        files[IMAGE_FILE] = image.to_hex().encode("ascii")
+        names = [path.name for path, _ in uploaded]
+        program = {
+            "identity": image.identity_hex, "size": len(image.to_bytes()),
+            "code_size": len(image.code), "source_included": bool(image.source),
+            "files": names,
+            "symbols": next((n for n in names if n.endswith(SYMBOLS_SUFFIX)), None),
+        }
+    identity = {
+        "master": master.name, "reached": master.reached, "line": master.line,
+        "groups": list(master.groups), "master_name": status.master_name,
+        "version_id": status.version_id, "installed_software": status.installed_software,
+        "program": program,
+    }
+    files[IDENTITY_FILE] = _json(identity)
+    files[STATUS_FILE] = _json(_stable_status(status))
+    return files
+
+
+def _json(data: object) -> bytes:
+    return (json.dumps(data, indent=2, sort_keys=True) + "\n").encode("utf-8")
+
+
+class Archive:
+    """The archive folder and its git repository."""
+
+    def __init__(self, root: Path) -> None:
+        self.root = root
+
+    def open(self) -> None:
+        """Make the folder and its repository if there are none yet. A folder with other
+        content that is no repository is not taken over (its files would be committed)."""
+        if self.root.exists() and not self.root.is_dir():
+            raise UserError(f"{self.root}: exists and is not a folder")
+        if (self.root / ".git").exists():
+            return
+        if self.root.exists() and any(self.root.iterdir()):
+            raise UserError(
+                f"{self.root}: a folder with files in it and no git repository is not an "
+                "archive: give a new or empty folder, or one a backup made"
+            )
+        self.root.mkdir(parents=True, exist_ok=True)
+        self.git("init", "--quiet")
+
+    def git(self, *args: str) -> str:
+        if shutil.which("git") is None:
+            raise UserError("the archive is a git repository: install git", ExitCode.FAILED)
+        env = {
+            **os.environ,
+            "GIT_AUTHOR_NAME": AUTHOR["name"], "GIT_AUTHOR_EMAIL": AUTHOR["email"],
+            "GIT_COMMITTER_NAME": AUTHOR["name"], "GIT_COMMITTER_EMAIL": AUTHOR["email"],
+            "GIT_CONFIG_NOSYSTEM": "1",
+        }
+        result = subprocess.run(
+            ["git", "-c", "commit.gpgsign=false", "-c", "core.hooksPath=/dev/null",
+             "-c", "init.defaultBranch=main", "-C", str(self.root), *args],
+            capture_output=True, text=True, env=env, check=False,
+        )
+        if result.returncode != 0:
+            raise UserError(
+                f"{self.root}: git {args[0]} failed: {result.stderr.strip() or result.stdout}",
+                ExitCode.FAILED,
+            )
+        return result.stdout
+
+    def folder(self, name: str) -> Path:
+        return self.root / name
+
+    def write(self, name: str, files: dict[str, bytes]) -> None:
+        """The master's folder holds exactly ``files`` afterwards (each written atomically;
+        files of an earlier program that this one has not are removed)."""
+        folder = self.folder(name)
+        folder.mkdir(exist_ok=True)
+        for old in folder.iterdir():
+            if old.is_file() and old.name not in files:
+                old.unlink()
+        changed = [
+            (folder / file, data) for file, data in files.items()
+            if not (folder / file).is_file() or (folder / file).read_bytes() != data
+        ]
+        write_together(changed)
+
+    def commit(
+        self, names: list[str], failed: dict[str, str], programs: dict[str, str] | None = None
+    ) -> tuple[str | None, list[str]]:
+        """Commit the folders of ``names``; returns the commit (None: nothing changed) and
+        the masters whose folder changed. ``failed`` (name -> why) and ``programs`` (name
+        -> how its program changed) go in the message."""
+        if not names:
+            return None, []
+        self.git("add", "--all", "--", *names)
+        changes = self.git("diff", "--cached", "--name-status", "--", *names)
+        by_master: dict[str, list[str]] = {}
+        for line in changes.splitlines():
+            status, _, path = line.partition("\t")
+            master, _, file = path.partition("/")
+            by_master.setdefault(master, []).append(f"{_VERBS.get(status[:1], status)} {file}")
+        if not by_master:
+            return None, []
+        changed = [name for name in names if name in by_master]
+        title = (
+            f"fleet backup: {len(changed)} master{'' if len(changed) == 1 else 's'} changed"
+            f" ({', '.join(changed[:5])}{', ...' if len(changed) > 5 else ''})"
+        )
+        programs = programs or {}
+        body = [
+            f"{name}: " + "; ".join(filter(None, [programs.get(name), ", ".join(by_master[name])]))
+            for name in changed
+        ]
+        if failed:
+            body += ["", "not backed up:"] + [f"{name}: {why}" for name, why in failed.items()]
+        # only the masters' folders: whatever else the user has staged stays staged
+        self.git("commit", "--quiet", "-m", title, "-m", "\n".join(body), "--", *changed)
+        return self.git("rev-parse", "HEAD").strip(), changed
+
+
+_VERBS = {"A": "added", "M": "changed", "D": "removed"}
+
+
+def archived_image(archive: Path, name: str) -> Path | None:
+    """The archived image of master ``name``; None when the archive has none for it."""
+    path = archive / name / IMAGE_FILE
+    return path if path.is_file() else None
+
+
+def program_change(archive: Path, name: str, files: dict[str, bytes]) -> str | None:
+    """How a master's program changes from what ``archive`` holds to the identity.json in
+    ``files``: ``program 20d70c72b6d2 -> 217f990c9624``; None when it stays."""
+
+    def identity(data: dict[str, Any] | None) -> str:
+        program = (data or {}).get("program")
+        found = program.get("identity") if isinstance(program, dict) else None
+        return str(found)[:12] if found else "none"
+
+    before = identity(archived_identity(archive, name))
+    after = identity(json.loads(files[IDENTITY_FILE]))
+    return None if before == after else f"program {before} -> {after}"
+
+
+def archived_identity(archive: Path, name: str) -> dict[str, Any] | None:
+    """A master's identity.json in the archive; None without one (or an unreadable one)."""
+    path = archive / name / IDENTITY_FILE
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+    return data if isinstance(data, dict) else None

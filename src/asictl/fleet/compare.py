@@ -1,0 +1,86 @@
+"""``fleet verify`` and ``fleet status`` on one master: is it what the archive holds, and
+what is it doing.
+
+Verifying is ``asictl verify`` with the archived image as the file: the image is built
+as ``download`` would build it (asictl.build, against the master's own entry points),
+then compared with the one in the master's EEPROM in the words of the program's sections
+(image.eeprom.differences).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+from asictl.build import build_file
+from asictl.fleet.archive import archived_image
+from asictl.fleet.inventory import FleetMaster
+from asictl.host.jobs import JobError, JobStatus
+from asictl.host.master import Master
+from asictl.host.status import program_info
+from asictl.host.transfer import upload
+from asictl.image.eeprom import ProgramImage, differences
+
+
+@dataclass(frozen=True)
+class Verdict:
+    """How the master's program compares with the archive's: ``identical``,
+    ``different`` (with what differs), ``no program`` (in the master) or ``not archived``."""
+
+    state: str
+    archived: str | None = None
+    running: str | None = None
+    details: tuple[str, ...] = ()
+
+    @property
+    def drift(self) -> bool:
+        return self.state != "identical"
+
+    def describe(self) -> str:
+        if self.state == "identical":
+            return f"identical ({self.running})"
+        if self.state == "different":
+            return (f"different: the master runs {self.running}, the archive holds "
+                    f"{self.archived}; they differ in {', '.join(self.details)}")
+        if self.state == "no program":
+            return f"no program in the master (the archive holds {self.archived})"
+        return "not in the archive (back it up first)"
+
+
+def verify_master(archive: Path, fleet_master: FleetMaster, master: Master) -> Verdict:
+    """Compare the master's program with the image archived for it (the work of
+    ``fleet verify``, with ``archive`` bound, for ``survey.each_master``)."""
+    entry_points = master.transport.entry_points()  # the master answers, archived or not
+    path = archived_image(archive, fleet_master.name)
+    if path is None:
+        return Verdict("not archived")
+    built = build_file(str(path), entry_points=entry_points)
+    mine = built.image
+    if built.has_errors or mine is None:
+        first = next((d.message for d in built.diagnostics if d.is_error), "no image")
+        return Verdict("different", "an unreadable image", None, (f"the archive: {first}",))
+    try:
+        theirs: ProgramImage | None = upload(master.transport)
+    except JobError as exc:
+        if exc.status is not JobStatus.EEPROM_ERROR:
+            raise
+        theirs = None
+    if theirs is None:
+        return Verdict("no program", mine.identity_hex)
+    found = differences(mine, theirs)
+    if found:
+        return Verdict("different", mine.identity_hex, theirs.identity_hex, tuple(found))
+    return Verdict("identical", mine.identity_hex, theirs.identity_hex)
+
+
+@dataclass(frozen=True)
+class Glance:
+    """A master in one line: what its control program does, and which program it holds."""
+
+    summary: str
+    program: str | None
+
+
+def glance(_: FleetMaster, master: Master) -> Glance:
+    info = program_info(master.transport)
+    return Glance(master.summary(), info.identity if info.valid else None)

@@ -1,0 +1,364 @@
+"""Mutation testing: would the scenarios notice if the program were slightly wrong?
+
+A mutant is the program with one change made on its syntax tree (the operators are in
+``mutations``): ``A`` for ``AN``, ``S`` for ``R``, an assignment or a ``BEC`` removed, a
+``JC`` made unconditional or removed, a timer or counter constant one step off, a
+comparison negated, a bit operand moved to its neighbour, a byte constant one off.
+The mutant is compiled from the changed tree (no text is parsed) and run against the
+scenarios that test its program, each until its first failed expectation: the first
+scenario that fails kills it. A mutant whose 8051 code is the original's is
+``equivalent`` without running; one that runs past its time limit (a loop the master
+does not end, a simulation that no longer skips idle cycles) is ``timeout``, which
+counts as killed. A mutant that survives is either a gap in the scenarios or a change
+that makes no difference; when the ``prove`` extra is installed, ``prove_equivalent``
+asks the prover, and a proved one is ``equivalent`` too. The score is killed /
+(mutants - equivalent - invalid).
+
+Each mutant runs in a process of its own, forked from this one (it inherits the
+parsed programs and scenarios; nothing but its verdict is sent back), at most ``jobs``
+at once; a process past its time limit is killed.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import importlib
+import multiprocessing
+import multiprocessing.connection
+import os
+import time
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, assert_never
+
+from asictl.build import Build, Origin, build_image
+from asictl.diagnostics import DiagnosticError
+from asictl.il import ast
+from asictl.il.loader import Program
+from asictl.observe.coverage import LineKey
+from asictl.sim.session import Prepared, simulate
+
+#: what a verdict may be; killed and timeout count as killed
+VERDICTS = ("killed", "timeout", "survived", "equivalent", "invalid")
+#: the install hint when equivalence cannot be checked (asictl is not on PyPI: the hint
+#: names the package, and the extra for a checkout, as ``errors.missing_extra`` does)
+PROVE_HINT = ("equivalence not checked (install the prove extra: pip install 'z3-solver', "
+              "or in an asictl checkout pip install '.[prove]')")
+
+_K = ast.OperandKind
+#: the highest bit of each bit operand kind a mutant may move to
+_TOP_BIT = {_K.I: 3, _K.I2: 3, _K.Q: 3, _K.F: 7, _K.VAR: 7}
+_NEGATED = {
+    ast.CompareOp.EQ: ast.CompareOp.NE, ast.CompareOp.NE: ast.CompareOp.EQ,
+    ast.CompareOp.GT: ast.CompareOp.LE, ast.CompareOp.LE: ast.CompareOp.GT,
+    ast.CompareOp.GE: ast.CompareOp.LT, ast.CompareOp.LT: ast.CompareOp.GE,
+}
+_SWAPPED_LOGIC = {ast.LogicOp.A: ast.LogicOp.AN, ast.LogicOp.AN: ast.LogicOp.A,
+                  ast.LogicOp.O: ast.LogicOp.ON, ast.LogicOp.ON: ast.LogicOp.O}
+#: constants, their range and one step (a timer constant is kept in 10 ms ticks)
+_CONSTANTS = {_K.KT: (40950, 10), _K.KC: (4095, 1), _K.KB: (255, 1)}
+
+Node = ast.Statement | ast.GatingLine
+
+
+@dataclass(frozen=True)
+class Mutant:
+    """One change: where (the module, its section, the node's index there), what the
+    node becomes (None: removed) and how the report shows it."""
+
+    file: str
+    line: int
+    column: int
+    #: ``A I 1.0 -> AN I 1.0``
+    change: str
+    module: int
+    section: int
+    index: int
+    replacement: Node | None
+
+
+@dataclass
+class Result:
+    mutant: Mutant
+    verdict: str
+    #: the scenario that killed it, the reason it is invalid or equivalent
+    detail: str = ""
+    seconds: float = 0.0
+
+
+def _moved(operand: ast.Operand) -> ast.Operand | None:
+    """The neighbouring bit (the next one, the one before at the top)."""
+    top = _TOP_BIT.get(operand.kind)
+    if top is None or operand.width is not ast.Width.BIT or operand.bit < 0:
+        return None
+    bit = operand.bit + 1 if operand.bit < top else operand.bit - 1
+    return dataclasses.replace(operand, bit=bit)
+
+
+def _stepped(operand: ast.Operand) -> list[ast.Operand]:
+    limit = _CONSTANTS.get(operand.kind)
+    if limit is None:
+        return []
+    top, step = limit
+    return [dataclasses.replace(operand, address=value)
+            for value in (operand.address - step, operand.address + step) if 0 <= value <= top]
+
+
+def mutations(node: Node) -> Iterator[Node | None]:
+    """Every one-change mutant of a node (None: the node removed)."""
+    match node:
+        case ast.Logic():
+            yield dataclasses.replace(node, op=_SWAPPED_LOGIC[node.op])
+            moved = _moved(node.operand)
+            if moved is not None:
+                yield dataclasses.replace(node, operand=moved)
+        case ast.Store():
+            if node.op is ast.StoreOp.ASSIGN:
+                yield None
+            else:
+                other = ast.StoreOp.RESET if node.op is ast.StoreOp.SET else ast.StoreOp.SET
+                yield dataclasses.replace(node, op=other)
+            moved = _moved(node.operand)
+            if moved is not None:
+                yield dataclasses.replace(node, operand=moved)
+        case ast.Jump() | ast.CallFB():
+            if node.conditional:
+                yield dataclasses.replace(node, conditional=False)
+                yield None
+        case ast.BlockEnd():
+            if node.kind is ast.EndKind.BEC:
+                yield None
+        case ast.Load():
+            for operand in _stepped(node.operand):
+                yield dataclasses.replace(node, operand=operand)
+        case ast.Compare():
+            yield dataclasses.replace(node, op=_NEGATED[node.op])
+        case ast.GatingLine():
+            yield None
+            for i, term in enumerate(node.terms):
+                terms = list(node.terms)
+                terms[i] = dataclasses.replace(term, negated=not term.negated)
+                yield dataclasses.replace(node, terms=tuple(terms))
+                moved = _moved(term.operand)
+                if moved is not None:
+                    terms[i] = dataclasses.replace(term, operand=moved)
+                    yield dataclasses.replace(node, terms=tuple(terms))
+        case (ast.Not() | ast.Transfer() | ast.Arith() | ast.Count() | ast.SegmentEnd()
+              | ast.Param() | ast.Asm() | ast.Label()):
+            pass
+        case _:
+            assert_never(node)
+
+
+def _body(section: ast.Section) -> tuple[Node, ...]:
+    if isinstance(section, ast.ProgramSection):
+        return section.statements
+    if isinstance(section, ast.GatingSection):
+        return section.lines
+    return ()
+
+
+def mutants_of(program: Program) -> list[Mutant]:
+    """Every mutant of every module of a program, in file and line order."""
+    found: list[Mutant] = []
+    for m, module in enumerate(program.modules()):
+        for s, section in enumerate(module.sections):
+            for i, node in enumerate(_body(section)):
+                if node.span is None:
+                    continue
+                for replacement in mutations(node):
+                    after = "removed" if replacement is None else replacement.to_source()
+                    found.append(Mutant(
+                        node.span.file, node.span.line, node.span.column,
+                        f"{node.to_source()} -> {after}", m, s, i, replacement,
+                    ))
+    return found
+
+
+def apply(program: Program, mutant: Mutant) -> Program:
+    """The program with the mutant's change (the original is left as it is)."""
+    module = program.modules()[mutant.module]
+    sections = list(module.sections)
+    section = sections[mutant.section]
+    body = list(_body(section))
+    if mutant.replacement is None:
+        del body[mutant.index]
+    else:
+        body[mutant.index] = mutant.replacement
+    if isinstance(section, ast.ProgramSection):
+        statements = tuple(n for n in body if not isinstance(n, ast.GatingLine))
+        sections[mutant.section] = dataclasses.replace(section, statements=statements)
+    elif isinstance(section, ast.GatingSection):
+        lines = tuple(n for n in body if isinstance(n, ast.GatingLine))
+        sections[mutant.section] = dataclasses.replace(section, lines=lines)
+    changed = dataclasses.replace(module, sections=tuple(sections))
+    if mutant.module == 0:
+        return dataclasses.replace(program, main=changed)
+    blocks = dict(program.blocks)
+    name = list(blocks)[mutant.module - 1]
+    blocks[name] = changed
+    return dataclasses.replace(program, blocks=blocks)
+
+
+def build_mutant(original: Build, mutant: Mutant) -> Build:
+    """The mutant compiled; raises ``DiagnosticError`` when the compiler refuses it."""
+    from asictl.codegen8051.compiler import compile_program
+
+    assert original.program is not None
+    program = apply(original.program, mutant)
+    compiled = compile_program(program)
+    built = Build(original.name, Origin.SOURCE, texts=original.texts, program=program,
+                  compiled=compiled)
+    built.image = build_image(compiled, with_source=False)
+    return built
+
+
+# ---------------------------------------------------------------------- running
+
+
+@dataclass
+class Target:
+    """A program and the scenarios that test it, prepared once in this process."""
+
+    program: Path
+    scenarios: list[Prepared]
+    #: how long the scenarios take the original, in seconds
+    seconds: float = 0.0
+    mutants: list[Mutant] = field(default_factory=list)
+    #: the statement lines the scenarios run (observe/coverage.py): a mutant elsewhere
+    #: changes nothing they run, so it survives without being run
+    reached: set[LineKey] = field(default_factory=set)
+
+    def runs(self, mutant: Mutant) -> bool:
+        return (os.path.abspath(mutant.file), mutant.line) in self.reached
+
+
+def verdict(target: Target, mutant: Mutant) -> tuple[str, str]:
+    """Run one mutant against its scenarios (in the worker process)."""
+    original = target.scenarios[0].build
+    try:
+        built = build_mutant(original, mutant)
+    except DiagnosticError as exc:
+        return "invalid", exc.diagnostics[0].message if exc.diagnostics else "not compiled"
+    assert original.compiled is not None and built.compiled is not None
+    if built.compiled.code == original.compiled.code and \
+            built.compiled.pmap == original.compiled.pmap:
+        return "equivalent", "the same 8051 code"
+    for prepared in target.scenarios:
+        run = simulate(dataclasses.replace(prepared, build=built), fail_fast=True)
+        if run.result.failures:
+            failure = run.result.failures[0]
+            return "killed", f"{prepared.scenario.file}:{failure.line}: {failure}"
+    proved = prove_equivalent(original, built)
+    if proved is not None:
+        return proved
+    return "survived", ""
+
+
+def prove_available() -> bool:
+    """Is the prover there (the ``prove`` extra: asictl.prove and z3)?"""
+    try:
+        importlib.import_module("z3")
+        importlib.import_module("asictl.prove")
+    except ImportError:
+        return False
+    return True
+
+
+def prove_equivalent(original: Build, mutant: Build) -> tuple[str, str] | None:
+    """Ask the prover whether a surviving mutant behaves as the original; None when it
+    is not installed or cannot tell."""
+    if not prove_available():
+        return None
+    prove: Any = importlib.import_module("asictl.prove")
+    answer = prove.equivalent(original, mutant, timeout_s=10.0)
+    if answer.verdict == "equivalent":
+        return "equivalent", "proved equivalent"
+    return None
+
+
+def run_all(
+    targets: list[Target], *, jobs: int, timeout_s: float | None = None,
+    done: Callable[[Result], None] | None = None,
+) -> list[Result]:
+    """Every mutant of every target, ``jobs`` processes at once; results in the order of
+    the mutants, ``done`` called as each finishes."""
+    context = multiprocessing.get_context("fork")
+    queue = [(target, mutant) for target in targets for mutant in target.mutants]
+    results: dict[int, Result] = {}
+    for index, (target, mutant) in enumerate(queue):
+        if not target.runs(mutant):
+            results[index] = Result(mutant, "survived", "no scenario runs this line")
+            if done is not None:
+                done(results[index])
+    pending = [index for index in range(len(queue)) if index not in results]
+    # the mutants of the slowest programs first: the others fill the workers meanwhile
+    pending.sort(key=lambda index: -queue[index][0].seconds)
+    running: dict[int, tuple[Any, Any, float, float]] = {}  # index -> process, pipe, start, limit
+    try:
+        _run_pending(context, queue, pending, jobs, timeout_s, results, done, running)
+    finally:  # interrupted: no worker outlives the run
+        for process, _, _, _ in running.values():
+            process.kill()
+    return [results[i] for i in range(len(queue))]
+
+
+def _run_pending(
+    context: Any, queue: list[tuple[Target, Mutant]], pending: list[int], jobs: int,
+    timeout_s: float | None, results: dict[int, Result],
+    done: Callable[[Result], None] | None, running: dict[int, tuple[Any, Any, float, float]],
+) -> None:
+    position = 0
+    while position < len(pending) or running:
+        while position < len(pending) and len(running) < max(1, jobs):
+            index = pending[position]
+            position += 1
+            target, mutant = queue[index]
+            receive, send = context.Pipe(duplex=False)
+            process = context.Process(target=_child, args=(target, mutant, send), daemon=True)
+            process.start()
+            send.close()
+            limit = timeout_s if timeout_s is not None else 10.0 + 5 * target.seconds
+            running[index] = (process, receive, time.monotonic(), limit)
+        now = time.monotonic()
+        wait = min(start + limit for _, _, start, limit in running.values()) - now
+        multiprocessing.connection.wait([r for _, r, _, _ in running.values()],
+                                        timeout=max(0.0, wait))
+        for index, (process, receive, start, limit) in list(running.items()):
+            mutant = queue[index][1]
+            elapsed = time.monotonic() - start
+            if receive.poll():
+                try:
+                    kind, detail = receive.recv()
+                except EOFError:  # the process died without a word
+                    kind, detail = "invalid", "the worker process ended without an answer"
+            elif not process.is_alive():
+                kind, detail = "invalid", "the worker process ended without an answer"
+            elif elapsed > limit:
+                process.kill()
+                kind, detail = "timeout", f"still running after {limit:g} s"
+            else:
+                continue
+            process.join()
+            receive.close()
+            del running[index]
+            results[index] = Result(mutant, kind, detail, elapsed)
+            if done is not None:
+                done(results[index])
+
+
+def _child(target: Target, mutant: Mutant, send: Any) -> None:
+    try:
+        answer = verdict(target, mutant)
+    except Exception as exc:  # a bug: reported as the mutant's detail, never a hang
+        answer = ("invalid", f"internal error: {type(exc).__name__}: {exc}")
+    send.send(answer)
+    send.close()
+
+
+def score(results: list[Result]) -> tuple[int, int]:
+    """(killed, counted): timeouts are killed; equivalent and invalid mutants not counted."""
+    killed = sum(1 for r in results if r.verdict in ("killed", "timeout"))
+    counted = sum(1 for r in results if r.verdict in ("killed", "timeout", "survived"))
+    return killed, counted
