@@ -153,3 +153,13 @@ def test_images_without_source_compare_by_their_code(tmp_path: Path, runner):
     result = runner.invoke(main, ["diff", str(images["old"]), str(images["changed"]),
                                   "--equivalent"])
     assert result.exit_code == 1 and "the images differ in code" in result.output
+
+
+def test_the_api_takes_builds_as_mutation_testing_passes_them(tmp_path: Path):
+    old = build_file(_write(tmp_path, "old.asi", OLD))
+    new = build_file(_write(tmp_path, "new.asi", REFACTORED))
+    assert equivalent(old, new, timeout_s=300).verdict == "equivalent"
+    asm = build_file(_write(tmp_path, "asm.asi", OLD.replace("***\n", "    ASM nop\n***\n", 1)))
+    result = equivalent(old, asm, timeout_s=300)
+    assert result.verdict == "unknown" and result.refused is not None
+    assert "nop" in result.note

@@ -143,7 +143,6 @@ def _equivalence(first: object, second: object, old: Path, new: Path, depth: int
     from asictl.prove.counterexample import difference_text
     from asictl.prove.diff import equivalent as decide
     from asictl.prove.session import check_target
-    from asictl.prove.symbolic import Unmodelled
 
     assert isinstance(first, Program) and isinstance(second, Program)
     extra = []
@@ -153,12 +152,12 @@ def _equivalence(first: object, second: object, old: Path, new: Path, depth: int
                 extra.append(parse_operand(text.strip()).node)
             except ValueError as exc:
                 raise click.BadParameter(str(exc), param_hint="--observe") from None
-    try:
-        result = decide(first, second, timeout_s=timeout, depth=depth, cycle_ms=cycle_ms,
-                        observe=extra)
-    except Unmodelled as exc:
-        where = f"{exc.span.file}:{exc.span.line}: " if exc.span else ""
-        raise UserError(f"{where}{exc}") from None
+    result = decide(first, second, timeout_s=timeout, depth=depth, cycle_ms=cycle_ms,
+                    observe=extra)
+    if result.refused is not None:
+        span = result.refused.span
+        where = f"{span.file}:{span.line}: " if span else ""
+        raise UserError(f"{where}{result.refused}")
     entry: dict[str, object] = {"verdict": result.verdict, "cycles": result.cycles,
                                 "seconds": round(result.seconds, 3), "scenario": None}
     lines: list[str] = []

@@ -24,13 +24,21 @@ from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from asictl.build import Build
 from asictl.il import ast
 from asictl.il.ast import key
 from asictl.il.loader import Program
 from asictl.il.pragmas import read_directives
 from asictl.prove.engine import Machine, Outcome, Setup, Step, Verdict
 from asictl.prove.props import Kind, Property, Truth
-from asictl.prove.symbolic import Key, build_cycle, cell_name, host_masks, product
+from asictl.prove.symbolic import (
+    Key,
+    Unmodelled,
+    build_cycle,
+    cell_name,
+    host_masks,
+    product,
+)
 
 #: The AS-i cycle without a cycle time: 150 us per active slave plus one.
 _TRANSACTION_US = 150
@@ -217,6 +225,8 @@ class Equivalence:
     cycle_ms: float = 0.0
     host_masks: dict[int, int] = field(default_factory=dict)
     note: str = ""
+    #: the construct that could not be modelled, when that made the verdict "unknown"
+    refused: Unmodelled | None = None
 
 
 def _observed(first: Program, second: Program, extra: Iterable[ast.Operand]) -> list[Key]:
@@ -229,8 +239,8 @@ def _observed(first: Program, second: Program, extra: Iterable[ast.Operand]) -> 
 
 
 def equivalent(
-    first: Program,
-    second: Program,
+    first: Program | Build,
+    second: Program | Build,
     *,
     timeout_s: float = 10.0,
     depth: int = 20,
@@ -239,10 +249,30 @@ def equivalent(
     observe: Iterable[ast.Operand] = (),
 ) -> Equivalence:
     """Do two programs give the same outputs (and host flags, and ``observe``) after every
-    cycle, for every input sequence? ``slaves`` default to both programs' [SETUP],
-    ``cycle_ms`` to the AS-i cycle of that bus. Raises ``symbolic.Unmodelled`` for a
-    construct either program cannot be modelled with."""
+    cycle, for every input sequence? ``first`` and ``second`` are programs, or builds
+    of them (``asictl.build``: their IL program is taken). ``slaves`` default to both
+    programs' [SETUP], ``cycle_ms`` to the AS-i cycle of that bus. A construct either
+    program cannot be modelled with (or a build without IL source) makes the verdict
+    "unknown", with the reason in ``note`` and the refusal in ``refused``."""
     start = time.monotonic()
+    programs = [_program_of(side) for side in (first, second)]
+    if programs[0] is None or programs[1] is None:
+        return Equivalence("unknown", 0, 0.0, note="a build without IL source")
+    try:
+        return _equivalent(programs[0], programs[1], start, timeout_s=timeout_s,
+                           depth=depth, slaves=slaves, cycle_ms=cycle_ms, observe=observe)
+    except Unmodelled as exc:
+        return Equivalence("unknown", 0, time.monotonic() - start, note=str(exc),
+                           refused=exc)
+
+
+def _program_of(side: Program | Build) -> Program | None:
+    return side.source_program() if isinstance(side, Build) else side
+
+
+def _equivalent(first: Program, second: Program, start: float, *, timeout_s: float,
+                depth: int, slaves: Iterable[int] | None, cycle_ms: float | None,
+                observe: Iterable[ast.Operand]) -> Equivalence:
     bus = tuple(sorted(set(slaves) if slaves is not None else
                        {s.address for p in (first, second) for s in p.slaves}))
     cycle_us = (round(cycle_ms * 1000) if cycle_ms is not None
