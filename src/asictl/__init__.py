@@ -56,6 +56,7 @@ LAYERS: tuple[tuple[tuple[str, str], ...], ...] = (
         ("lsp", "the language server for editors"),
         ("testing", "the Python test API: a program on an emulated master, from code"),
         ("mutate", "mutation testing: one-change mutants of programs against their scenarios"),
+        ("prove", "properties proved on the symbolic cycle; two programs compared"),
     ),
     (("dap", "the debug adapter for editors: the Debug Adapter Protocol over debug/"),),
     (

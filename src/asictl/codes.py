@@ -100,6 +100,8 @@ class ScenarioCode(StrEnum):
     NO_SUCH_SLAVE = "E402"
     SYMBOLS = "E403"
     INVENTORY = "E404"
+    PROPERTIES = "E405"
+    UNMODELLED = "E406"
 
 
 class AssemblerCode(StrEnum):
@@ -176,6 +178,8 @@ TITLES: dict[str, str] = {
     "E402": "scenario sets a slave that is not on the bus",
     "E403": "invalid symbol table",
     "E404": "invalid plant inventory",
+    "E405": "invalid properties file",
+    "E406": "construct the prover cannot model",
     "E501": "syntax",
     "E502": "unknown mnemonic or directive",
     "E503": "operand not valid for the instruction",

@@ -41,6 +41,7 @@ EXTRAS: dict[str, tuple[str, ...]] = {
     "lsp": ("pygls>=2.0,<3",),
     "monitor": ("textual>=8,<9",),
     "opcua": ("asyncua>=2.1,<3",),
+    "prove": ("z3-solver>=4.12",),
 }
 
 

@@ -206,6 +206,16 @@ class Pc2Board:
     # ------------------------------------------------------------------ time
 
     @property
+    def next_tick_us(self) -> int:
+        """Master time of the next 10 ms tick (the clock's phase, for the prover's
+        counterexamples)."""
+        return self._next_tick_us
+
+    @property
+    def now_us(self) -> int:
+        return self._now_us
+
+    @property
     def now_ms(self) -> float:
         return self._now_us / 1000
 

@@ -93,6 +93,13 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "verify": ("asictl.cli.verify:verify", "Compare a program with the one the master runs."),
     "monitor": ("asictl.cli.monitor:monitor", "A live full-screen view of the master (ASI_MON)."),
     "debug": ("asictl.cli.debug:debug", "Debug a program at the IL level on an emulated master."),
+    "prove": (
+        "asictl.cli.prove:prove", "Prove a program's properties for every input sequence."
+    ),
+    "diff": (
+        "asictl.cli.diff:diff",
+        "Compare two versions of a program network by network; --equivalent proves it.",
+    ),
     "fleet": (
         "asictl.cli.fleet:fleet", "A plant's masters at once: back up into git, verify, status."
     ),

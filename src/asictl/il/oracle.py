@@ -59,7 +59,7 @@ def _set_image_bit(image: bytearray, address: int, bit: int, value: bool) -> Non
 
 
 @dataclass
-class _Scope:
+class Scope:
     """One executable body: the main program or a function block."""
 
     statements: list[ast.Statement | ast.GatingLine]
@@ -67,7 +67,7 @@ class _Scope:
     first_check: set[int]
 
 
-def _scope(module: ast.Module) -> _Scope:
+def scope_of(module: ast.Module) -> Scope:
     """Flatten PROGRAM and GATING sections in source order; find labels and first checks.
 
     A first check is an A/AN/O/ON that loads the register: the first one of the block,
@@ -91,7 +91,7 @@ def _scope(module: ast.Module) -> _Scope:
                     first = False
                 statements.append(statement)
     labels = {key(s.name): i for i, s in enumerate(statements) if isinstance(s, ast.Label)}
-    return _Scope(statements, labels, first_check)
+    return Scope(statements, labels, first_check)
 
 
 class Interpreter:
@@ -115,8 +115,8 @@ class Interpreter:
                 for o in s.options
             )
         self.map_counters = map_counters
-        self.main = _scope(program.main)
-        self.blocks = {name: _scope(module) for name, module in program.blocks.items()}
+        self.main = scope_of(program.main)
+        self.blocks = {name: scope_of(module) for name, module in program.blocks.items()}
         self.sizes = {
             key(d.name): d.size
             for m in program.modules()
@@ -157,7 +157,7 @@ class Interpreter:
 
     # ------------------------------------------------------------------ execution
 
-    def _run(self, scope: _Scope) -> None:
+    def _run(self, scope: Scope) -> None:
         state = self.state
         statements = scope.statements
         pc = 0

@@ -56,7 +56,6 @@ from asictl.host.status import (
     symbol_text,
     timer_text,
 )
-from asictl.host.status import operand_value as watched_value
 from asictl.host.symbols import Names
 from asictl.host.watch import Watched, watch_list
 from asictl.il.ast import OperandKind

@@ -1,0 +1,189 @@
+"""Counterexamples and witnesses as scenario files.
+
+A counterexample is the input sequence the engine found, one ``set`` step per program
+cycle (only what changed), and at the end one ``expect`` of what the property wanted:
+the operands of the property at values that would have satisfied it, so that ``asictl
+sim`` of the file fails at that step and its trace, ``--plot``, ``--trace-il`` and
+``asictl debug`` show why. A witness of a ``reachable`` property expects what the
+program reached there, so it passes.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+import z3
+
+from asictl.il import ast
+from asictl.prove.engine import Outcome, Step, Verdict, condition
+from asictl.prove.props import Expr, Kind, Negation, Properties, Property, refs
+from asictl.sim.scenario import SlaveSpec
+
+K = ast.OperandKind
+#: The first line of every file written here (what may be replaced without --force).
+MARK = "# asictl prove:"
+
+
+@dataclass(frozen=True)
+class Expectation:
+    #: the operand as the property wrote it, and the value expected of it
+    text: str
+    value: int
+
+
+def _goal(prop: Property) -> Expr:
+    """What the last state should have satisfied."""
+    if prop.kind is Kind.RESPONSE:
+        assert prop.then is not None
+        return prop.then
+    if prop.kind is Kind.NEVER:
+        return Negation(prop.expr)
+    return prop.expr
+
+
+def expectations(prop: Property, outcome: Outcome, values: dict[str, int]) -> list[Expectation]:
+    """The ``expect`` of the last step: for a refuted property, the fewest operands
+    changed from what the program left (``values``, by operand text) so that the
+    property would hold; for a reached one, what the program left."""
+    goal = _goal(prop)
+    seen: dict[str, ast.Operand] = {}
+    maxima: dict[str, int] = {}
+    for ref in refs(goal):
+        seen.setdefault(ref.text, ref.operand.node)
+        maxima[ref.text] = ref.operand.maximum
+    names = list(seen)
+    if outcome.verdict is Verdict.REACHED:
+        return [Expectation(name, values[name]) for name in names]
+    variables = {name: z3.BitVec(f"x.{name}", 32) for name in names}
+    by_node = {seen[name]: variables[name] for name in names}
+    wanted = condition(goal, by_node.__getitem__)
+    bounds = [z3.ULE(variables[name], maxima[name]) for name in names]
+    for changed in [[name] for name in names] + [names]:
+        solver = z3.Optimize()
+        solver.add(wanted, *bounds)
+        for name in names:
+            if name not in changed:
+                solver.add(variables[name] == values[name])
+            else:  # the value nearest to what the program left
+                x, was = variables[name], values[name]
+                solver.minimize(z3.If(z3.UGT(x, was), x - was, was - x))
+        if solver.check() == z3.sat:
+            model = solver.model()
+            found = [Expectation(name, model.eval(variables[name]).as_long())
+                     for name in changed]
+            return [e for e in found if e.value != values[e.text]] or found
+    # the property holds in no state: expect the first operand to differ
+    first = names[0]
+    return [Expectation(first, 0 if values[first] else 1)]
+
+
+def _set_text(operand: str, value: int, bits: int) -> str:
+    shown = f"0b{value:0{bits}b}" if bits == 4 else f"0x{value:02X}" if bits == 8 else str(value)
+    return f'"{operand}" = {shown}'
+
+
+def _slaves_text(slaves: list[SlaveSpec]) -> str:
+    return ", ".join(f'{s.address} = "{s.io_code:X}h,{s.id_code:X}h,{s.parameter:X}h"'
+                     for s in slaves)
+
+
+def scenario_text(props: Properties, program: Path, target: Path, prop: Property,
+                  outcome: Outcome, masks: dict[int, int], cycle_ms: float,
+                  expected: list[Expectation]) -> str:
+    """The scenario of one counterexample or witness, to be written at ``target``."""
+    assert outcome.trace is not None
+    what = "witness" if outcome.verdict is Verdict.REACHED else "counterexample"
+    source = Path(props.file).name
+    cycles = len(outcome.trace)
+    fate = ("passes" if outcome.verdict is Verdict.REACHED
+            else "fails at the last step")
+    lines = [
+        f"{MARK} {what} for property '{prop.name}' of {source}",
+        f"# {prop.text()}",
+        f"# {cycles} program cycle{'s' if cycles != 1 else ''}; asictl sim --scenario "
+        f"{target.name} {fate}.",
+    ]
+    if outcome.note:
+        lines.append(f"# note: {outcome.note}")
+    relative = Path(os.path.relpath(program.resolve(), target.resolve().parent)).as_posix()
+    lines += [f"program = {_quote(relative)}", "", "[master]", f"cycle_ms = {cycle_ms:g}"]
+    if props.slaves is not None:
+        lines.append(f"slaves = {{ {_slaves_text(props.slaves)} }}")
+    return "\n".join(lines + steps_text(outcome.trace, masks, cycle_ms, expected))
+
+
+def steps_text(trace: list[Step], masks: dict[int, int], cycle_ms: float,
+               expected: list[Expectation]) -> list[str]:
+    """The ``[[step]]`` tables of a trace: a ``set`` of what changed at each cycle's start
+    and the ``expect`` just after the last cycle."""
+    lines: list[str] = []
+    inputs: dict[int, int] = {}
+    flags: dict[int, int] = {}
+    for index, step in enumerate(trace):
+        sets = _changes(step, inputs, flags, masks)
+        if sets:
+            lines += ["", "[[step]]", f"at_ms = {_ms(index * cycle_ms)}",
+                      f"set = {{ {', '.join(sets)} }}"]
+    at = _ms((len(trace) - 1) * cycle_ms + 0.001)
+    expect = ", ".join(f"{_quote(e.text)} = {e.value}" for e in expected)
+    return [*lines, "", "[[step]]", f"at_ms = {at}", f"expect = {{ {expect} }}", ""]
+
+
+def difference_text(old: Path, new: Path, target: Path, trace: list[Step],
+                    masks: dict[int, int], cycle_ms: float,
+                    differences: dict[str, tuple[int, int]],
+                    slaves: list[SlaveSpec] | None = None) -> str:
+    """The scenario that tells two programs apart: it expects what ``old`` does, so it
+    passes on ``old`` and fails on ``new`` at its last step."""
+    relative = Path(os.path.relpath(old.resolve(), target.resolve().parent)).as_posix()
+    lines = [
+        f"{MARK} a difference between {old.name} and {new.name}",
+        f"# passes on {old.name}; asictl sim {new.name} --scenario {target.name} fails at "
+        "the last step.",
+        f"program = {_quote(relative)}", "", "[master]", f"cycle_ms = {cycle_ms:g}",
+    ]
+    if slaves is not None:
+        lines.append(f"slaves = {{ {_slaves_text(slaves)} }}")
+    expected = [Expectation(text, first) for text, (first, _) in differences.items()]
+    return "\n".join(lines + steps_text(trace, masks, cycle_ms, expected))
+
+
+def _changes(step: Step, inputs: dict[int, int], flags: dict[int, int],
+             masks: dict[int, int]) -> list[str]:
+    sets = []
+    for address, value in sorted(step.inputs.items()):
+        if inputs.get(address, 0) != value:
+            sets.append(_set_text(f"I {address}", value, 4))
+            inputs[address] = value
+    for n, value in sorted(step.host.items()):
+        mask = masks[n]
+        value &= mask
+        if flags.get(n, 0) == value:
+            continue
+        if mask == 0xFF:
+            sets.append(_set_text(f"FY {n}", value, 8))
+        else:
+            old = flags.get(n, 0)
+            sets += [_set_text(f"F {n}.{b}", value >> b & 1, 1)
+                     for b in range(8) if mask >> b & 1 and (old ^ value) >> b & 1]
+        flags[n] = value
+    return sets
+
+
+def _ms(value: float) -> str:
+    """Milliseconds to the microsecond, without trailing zeros (``:g`` would round
+    2000.001 to 2000)."""
+    return f"{value:.3f}".rstrip("0").rstrip(".")
+
+
+def _quote(text: str) -> str:
+    return '"' + text.replace("\\", "\\\\").replace('"', '\\"') + '"'
+
+
+def file_name(props_path: Path, prop: Property) -> str:
+    """``NAME.cex.<slug>.scenario.toml`` for ``NAME.props.toml``."""
+    name = props_path.name
+    stem = name[: -len(".props.toml")] if name.endswith(".props.toml") else props_path.stem
+    return f"{stem}.cex.{prop.slug}.scenario.toml"

@@ -1,0 +1,351 @@
+"""Two versions of a program: what changed, network by network, and whether they behave
+the same.
+
+A network is what a program section holds between two ``***`` (and each [GATING] line);
+function blocks are compared by name. Networks are compared as their statements with
+label names replaced by their place in the network, so a renamed label is no change;
+a network found unchanged at another place is reported as moved.
+
+``equivalent`` runs both programs side by side on one symbolic master (the same slaves,
+the same host writes, the same firmware answers call for call, one 10 ms clock) and asks
+whether any input sequence makes their outputs (and the flags the host writes, which it
+also reads) differ after some cycle: ``equivalent`` when k-induction (with the invariant
+that every cell both programs keep is equal) or PDR proves they never do, ``different``
+with the distinguishing input sequence, ``unknown`` when time runs out first.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import difflib
+import re
+import time
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from asictl.build import Build
+from asictl.il import ast
+from asictl.il.ast import key
+from asictl.il.loader import Program
+from asictl.il.pragmas import read_directives
+from asictl.prove.engine import Machine, Outcome, Setup, Step, Verdict
+from asictl.prove.props import Kind, Property, Truth
+from asictl.prove.symbolic import (
+    Key,
+    Unmodelled,
+    build_cycle,
+    cell_name,
+    host_masks,
+    product,
+)
+
+#: The AS-i cycle without a cycle time: 150 us per active slave plus one.
+_TRANSACTION_US = 150
+
+
+# ---------------------------------------------------------------------- networks
+
+
+@dataclass(frozen=True)
+class Network:
+    """One network: where it is, its statements' source lines, and its canonical form."""
+
+    module: str
+    index: int
+    first_line: int
+    last_line: int
+    lines: tuple[str, ...]
+    canonical: str
+
+
+def _source_line(program: Program, node: ast.Statement | ast.GatingLine) -> str:
+    if isinstance(node, ast.Label):  # its line may hold the next statement too
+        return f"{node.name}:"
+    span = node.span
+    if span is None:
+        return repr(dataclasses.replace(node, span=None))
+    source = program.sources.get(span.file)
+    if source is None:
+        return repr(dataclasses.replace(node, span=None))
+    text = source.text.split("\n")[span.line - 1].split(";", 1)[0]
+    label = re.match(r"\s*[A-Za-z_][A-Za-z0-9_]*\s*:(?!=)", text)
+    return " ".join(text[label.end() if label else 0:].split())
+
+
+def _canonical(nodes: Sequence[ast.Statement | ast.GatingLine]) -> str:
+    labels: dict[str, str] = {}
+
+    def place(name: str) -> str:
+        return labels.setdefault(key(name), f"L{len(labels)}")
+
+    parts = []
+    for node in nodes:
+        if isinstance(node, ast.Label):
+            node = dataclasses.replace(node, name=place(node.name))
+        elif isinstance(node, ast.Jump):
+            node = dataclasses.replace(node, label=place(node.label))
+        parts.append(repr(dataclasses.replace(node, span=None)))
+    return "\n".join(parts)
+
+
+def _network(program: Program, module: str, index: int,
+             nodes: list[ast.Statement | ast.GatingLine]) -> Network | None:
+    kept = [n for n in nodes if not isinstance(n, ast.SegmentEnd)]
+    if not kept:
+        return None
+    lines = [n.span.line for n in kept if n.span is not None] or [0]
+    return Network(module, index, min(lines), max(lines),
+                   tuple(_source_line(program, n) for n in kept), _canonical(kept))
+
+
+def networks(program: Program) -> list[Network]:
+    """Every network of the program and of its function blocks, in source order."""
+    found: list[Network] = []
+    for module in program.modules():
+        name = Path(module.file).name
+        groups: list[list[ast.Statement | ast.GatingLine]] = [[]]
+        for section in module.sections:
+            if isinstance(section, ast.GatingSection):
+                for line in section.lines:
+                    groups += [[line], []]
+            elif isinstance(section, ast.ProgramSection):
+                for statement in section.statements:
+                    groups[-1].append(statement)
+                    if isinstance(statement, ast.SegmentEnd):
+                        groups.append([])
+                groups.append([])
+        count = 0
+        for group in groups:
+            network = _network(program, name, count + 1, group)
+            if network is not None:
+                count += 1
+                found.append(network)
+    return found
+
+
+@dataclass(frozen=True)
+class Change:
+    #: same, moved, changed, added, removed
+    kind: str
+    old: Network | None
+    new: Network | None
+
+    def lines(self) -> list[str]:
+        old, new = self.old, self.new
+        if self.kind == "added":
+            assert new is not None
+            return [f"added    {_where(new)}", *(f"  + {line}" for line in new.lines)]
+        if self.kind == "removed":
+            assert old is not None
+            return [f"removed  {_where(old)}", *(f"  - {line}" for line in old.lines)]
+        assert old is not None and new is not None
+        if self.kind == "same":
+            return [f"same     {_where(old)} -> {_where(new)}"]
+        if self.kind == "moved":
+            return [f"moved    {_where(old)} -> {_where(new)}"]
+        if self.kind == "renamed":
+            return [f"labels   {_where(old)} -> {_where(new)}: only labels renamed"]
+        body = [f"  {line}" for line in difflib.unified_diff(
+            old.lines, new.lines, lineterm="", n=1)][2:]
+        return [f"changed  {_where(old)} -> {_where(new)}", *body]
+
+
+def _where(network: Network) -> str:
+    span = (f"line {network.first_line}" if network.first_line == network.last_line
+            else f"lines {network.first_line}-{network.last_line}")
+    return f"{network.module} network {network.index} ({span})"
+
+
+def compare(old: Program, new: Program) -> list[Change]:
+    """The networks of two programs paired: unchanged ones in order, moved ones found
+    anywhere, the rest as changed (the most alike pairs first) or added/removed; in the
+    order of the new program."""
+    a, b = networks(old), networks(new)
+    matcher = difflib.SequenceMatcher(a=[n.canonical for n in a], b=[n.canonical for n in b],
+                                      autojunk=False)
+    changes: list[Change] = []
+    loose_old: list[Network] = []
+    loose_new: list[Network] = []
+    for tag, i1, i2, j1, j2 in matcher.get_opcodes():
+        if tag == "equal":
+            for x, y in zip(a[i1:i2], b[j1:j2], strict=True):
+                kind = "same" if x.lines == y.lines else "renamed"
+                changes.append(Change(kind, x, y))
+        else:
+            loose_old += a[i1:i2]
+            loose_new += b[j1:j2]
+    for x in list(loose_old):  # the same network elsewhere: moved
+        twin = next((y for y in loose_new if y.canonical == x.canonical), None)
+        if twin is not None:
+            changes.append(Change("moved", x, twin))
+            loose_old.remove(x)
+            loose_new.remove(twin)
+    scored = sorted(
+        ((difflib.SequenceMatcher(a=x.lines, b=y.lines).ratio(), i, j)
+         for i, x in enumerate(loose_old) for j, y in enumerate(loose_new)),
+        reverse=True)
+    paired_old: set[int] = set()
+    paired_new: set[int] = set()
+    for ratio, i, j in scored:  # the most alike first: changed
+        if ratio >= 0.5 and i not in paired_old and j not in paired_new:
+            changes.append(Change("changed", loose_old[i], loose_new[j]))
+            paired_old.add(i)
+            paired_new.add(j)
+    changes += [Change("removed", x, None) for i, x in enumerate(loose_old)
+                if i not in paired_old]
+    changes += [Change("added", None, y) for j, y in enumerate(loose_new)
+                if j not in paired_new]
+    return sorted(changes, key=_order)
+
+
+def _order(change: Change) -> tuple[int, int]:
+    network = change.new or change.old
+    assert network is not None
+    return (0 if change.new is not None else 1, network.first_line)
+
+
+# ---------------------------------------------------------------------- behaviour
+
+
+@dataclass
+class Equivalence:
+    """What ``equivalent`` found: ``verdict`` is "equivalent", "different" or
+    "unknown"."""
+
+    verdict: str
+    #: cycles the search went to, or the induction depth of the proof
+    cycles: int
+    seconds: float
+    #: for "different": the input of every cycle up to the one where they differ
+    trace: list[Step] | None = None
+    #: for "different": each observed operand's value in the first and second program
+    differences: dict[str, tuple[int, int]] = field(default_factory=dict)
+    slaves: tuple[int, ...] = ()
+    cycle_ms: float = 0.0
+    host_masks: dict[int, int] = field(default_factory=dict)
+    note: str = ""
+    #: the construct that could not be modelled, when that made the verdict "unknown"
+    refused: Unmodelled | None = None
+
+
+def _observed(first: Program, second: Program, extra: Iterable[ast.Operand]) -> list[Key]:
+    cells: list[Key] = [("Q", n) for n in range(16)]
+    flags = [operand for program in (first, second)
+             for operand, _ in read_directives(program.sources).host_flags]
+    for n in sorted(host_masks([*flags, *extra])):
+        cells.append(("F", n))
+    return cells
+
+
+def equivalent(
+    first: Program | Build,
+    second: Program | Build,
+    *,
+    timeout_s: float = 10.0,
+    depth: int = 20,
+    slaves: Iterable[int] | None = None,
+    cycle_ms: float | None = None,
+    observe: Iterable[ast.Operand] = (),
+) -> Equivalence:
+    """Do two programs give the same outputs (and host flags, and ``observe``) after every
+    cycle, for every input sequence? ``first`` and ``second`` are programs, or builds
+    of them (``asictl.build``: their IL program is taken). ``slaves`` default to both
+    programs' [SETUP], ``cycle_ms`` to the AS-i cycle of that bus. A construct either
+    program cannot be modelled with (or a build without IL source) makes the verdict
+    "unknown", with the reason in ``note`` and the refusal in ``refused``."""
+    start = time.monotonic()
+    programs = [_program_of(side) for side in (first, second)]
+    if programs[0] is None or programs[1] is None:
+        return Equivalence("unknown", 0, 0.0, note="a build without IL source")
+    try:
+        return _equivalent(programs[0], programs[1], start, timeout_s=timeout_s,
+                           depth=depth, slaves=slaves, cycle_ms=cycle_ms, observe=observe)
+    except Unmodelled as exc:
+        return Equivalence("unknown", 0, time.monotonic() - start, note=str(exc),
+                           refused=exc)
+
+
+def _program_of(side: Program | Build) -> Program | None:
+    return side.source_program() if isinstance(side, Build) else side
+
+
+def _equivalent(first: Program, second: Program, start: float, *, timeout_s: float,
+                depth: int, slaves: Iterable[int] | None, cycle_ms: float | None,
+                observe: Iterable[ast.Operand]) -> Equivalence:
+    bus = tuple(sorted(set(slaves) if slaves is not None else
+                       {s.address for p in (first, second) for s in p.slaves}))
+    cycle_us = (round(cycle_ms * 1000) if cycle_ms is not None
+                else _TRANSACTION_US * (max(len(bus), 1) + 1))
+    host = [operand for program in (first, second)
+            for operand, _ in read_directives(program.sources).host_flags]
+    observed = _observed(first, second, observe)
+    cycles = [build_cycle(program, slaves=bus, cycle_us=cycle_us, host_flags=host,
+                          watch=observed, prefix=f"{side}.")
+              for side, program in (("a", first), ("b", second))]
+    both = product(*cycles)
+    pairs = [(("a", *cell), ("b", *cell)) for cell in observed]
+    same = Property("same outputs", Kind.ALWAYS, Truth(True), 0)
+    machine = Machine(first, Setup(bus, cycle_us, tuple(host)), [], [], prebuilt=both,
+                      observed=pairs, twins=_twins(first, second))
+    machine.find_invariants(time.monotonic() + timeout_s)
+    outcome: Outcome = machine.decide(same, depth=depth, timeout_s=max(
+        0.1, timeout_s - (time.monotonic() - start)))
+    verdict = {Verdict.PROVED: "equivalent", Verdict.REFUTED: "different"}.get(
+        outcome.verdict, "unknown")
+    result = Equivalence(verdict, outcome.depth + 1 if outcome.trace else outcome.depth,
+                         time.monotonic() - start, outcome.trace, slaves=bus,
+                         cycle_ms=cycle_us / 1000, host_masks=both.host_masks,
+                         note=outcome.note)
+    if outcome.verdict is Verdict.BOUNDED:
+        result.note = f"no difference within {depth + 1} cycles, and no proof"
+    for a, b in pairs:
+        x, y = outcome.values.get(cell_name(a)), outcome.values.get(cell_name(b))
+        if x is not None and y is not None and x != y:
+            result.differences[_operand_text(a[1:])] = (x, y)
+    return result
+
+
+#: At most this many pairs of bits are tried as equal in both programs.
+_MOST_TWINS = 2000
+
+
+def _memory(program: Program) -> tuple[set[tuple[Key, int]], set[tuple[Key, int]]]:
+    """The flag and variable bits, and the timers and counters, a program uses."""
+    bits: set[tuple[Key, int]] = set()
+    words: set[tuple[Key, int]] = set()
+    for module in program.modules():
+        for section in module.sections:
+            for node in ast.nodes(section):
+                if not isinstance(node, ast.Statement | ast.GatingLine):
+                    continue
+                for operand, _ in ast.operands(node):
+                    if operand.kind is ast.OperandKind.F:
+                        bits.add((("a", "F", operand.address), operand.bit))
+                    elif operand.kind is ast.OperandKind.VAR and operand.bit >= 0:
+                        bits.add((("a", "V", key(operand.name), operand.address), operand.bit))
+                    elif operand.kind in (ast.OperandKind.T, ast.OperandKind.C):
+                        words.add((("a", operand.kind.value, operand.address), -1))
+    return bits, words
+
+
+def _twins(first: Program, second: Program) -> list[tuple[tuple[Key, int], tuple[Key, int]]]:
+    """Pairs of bits (and of timers, of counters) that a refactoring may have renamed:
+    each of the first program's with each of the second's of the same kind."""
+    bits_a, words_a = _memory(first)
+    bits_b, words_b = _memory(second)
+
+    def other(place: tuple[Key, int]) -> tuple[Key, int]:
+        return ("b", *place[0][1:]), place[1]
+
+    found = [(x, other(y)) for x in sorted(words_a, key=str) for y in sorted(words_b, key=str)
+             if x[0][1] == y[0][1] and x != y]
+    found += [(x, other(y)) for x in sorted(bits_a, key=str) for y in sorted(bits_b, key=str)
+              if x != y]
+    return found[:_MOST_TWINS]
+
+
+def _operand_text(cell: Key) -> str:
+    if cell[0] == "Q":
+        return f"QB {2 * int(cell[1])}"
+    return f"FY {cell[1]}"

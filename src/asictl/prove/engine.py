@@ -1,0 +1,664 @@
+"""Deciding properties on the symbolic cycle: bounded model checking and k-induction.
+
+A run of the program is the reset state followed by one ``Cycle`` per program cycle;
+a property is judged on the state after every cycle (what a scenario's ``expect``
+sees). For each property the engine alternates, for k = 0, 1, ... up to the depth:
+
+- **the base case** (bounded model checking): is there an input sequence of k+1 cycles,
+  every cycle within ``[assume]``, that ends in a bad state (or, for ``reachable``, the
+  target)? Then the property is refuted (reached) and the model is the counterexample
+  (witness).
+- **the induction step**: from *any* k+1 consecutive states that satisfy the invariants
+  below and are good, is the next one good? Then, with the base case clean up to k, the
+  property holds after any number of cycles: proved.
+
+Plain k-induction fails on states no run reaches (a timer holding more than any preset,
+the 10 ms clock's phase out of its range). The engine strengthens the induction step
+with invariants it proves first (``invariants``): candidates drawn from the program (the
+most each timer can hold, the values the constant register can take, the range of the
+tick phase, each response monitor's age) are filtered by Houdini's algorithm until what
+remains is inductive; only proved facts are assumed.
+
+A ``when A then B within N`` property is checked as a safety property with a monitor:
+the age of the oldest trigger not yet answered; it is bad when it reaches N.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass, field
+from enum import StrEnum
+
+import z3
+
+from asictl.il import ast
+from asictl.il.language import TC_MAX_VALUE
+from asictl.il.loader import Program
+from asictl.platform.master import TICK_US
+from asictl.prove.props import (
+    Comparison,
+    Connective,
+    Expr,
+    Kind,
+    Negation,
+    Number,
+    Property,
+    Ref,
+    Truth,
+    refs,
+)
+from asictl.prove.symbolic import (
+    CONSTANT,
+    TICK,
+    UNROLL,
+    Cycle,
+    Key,
+    build_cycle,
+    cell_name,
+    map_counters_of,
+    operand_cells,
+    operand_value,
+    width,
+)
+
+K = ast.OperandKind
+
+
+class Verdict(StrEnum):
+    PROVED = "proved"
+    REFUTED = "refuted"
+    REACHED = "reached"
+    UNREACHABLE = "unreachable"
+    #: no counterexample within the depth, and no proof
+    BOUNDED = "bounded"
+    #: the time limit ran out
+    UNKNOWN = "unknown"
+
+    @property
+    def good(self) -> bool:
+        return self in (Verdict.PROVED, Verdict.REACHED)
+
+
+@dataclass(frozen=True)
+class Setup:
+    """The master a program runs on, as the prover sees it."""
+
+    slaves: tuple[int, ...]
+    cycle_us: int
+    host_flags: tuple[ast.Operand, ...] = ()
+    #: the simulator's time from time 0 to the first 10 ms tick (counterexamples use it,
+    #: so that they replay); None: only the free phase
+    phase_us: int | None = None
+
+
+@dataclass
+class Step:
+    """One program cycle of a counterexample: what the slaves and the host gave it."""
+
+    inputs: dict[int, int]
+    host: dict[int, int]
+
+
+@dataclass
+class Outcome:
+    prop: Property
+    verdict: Verdict
+    #: cycles checked by the base case, or the induction depth of a proof
+    depth: int
+    seconds: float
+    trace: list[Step] | None = None
+    note: str = ""
+    #: the property's operands (as written) after the last cycle of the trace
+    values: dict[str, int] = field(default_factory=dict)
+
+
+def _value(expr: Expr, read: Callable[[ast.Operand], z3.BitVecRef]) -> z3.BitVecRef:
+    if isinstance(expr, Number):
+        return z3.BitVecVal(expr.value & 0xFFFFFFFF, 32)
+    assert isinstance(expr, Ref)
+    return read(expr.operand.node)
+
+
+def condition(expr: Expr, read: Callable[[ast.Operand], z3.BitVecRef]) -> z3.BoolRef:
+    """An expression of a properties file on one state (``read`` gives an operand's value)."""
+    match expr:
+        case Ref():
+            result: z3.BoolRef = read(expr.operand.node) == 1
+            return result
+        case Truth(value=value):
+            return z3.BoolVal(value)
+        case Negation(arg=arg):
+            return z3.Not(condition(arg, read))
+        case Connective(op=op, left=left, right=right):
+            a, b = condition(left, read), condition(right, read)
+            return z3.And(a, b) if op == "and" else z3.Or(a, b) if op == "or" else z3.Xor(a, b)
+        case Comparison(op=op, left=left, right=right) if not (
+                isinstance(left, Ref | Number) and isinstance(right, Ref | Number)):
+            p, q = condition(left, read), condition(right, read)  # two conditions
+            return p == q if op == "==" else z3.Xor(p, q)
+        case Comparison(op=op, left=left, right=right):
+            x, y = _value(left, read), _value(right, read)
+            compare = {"==": lambda: x == y, "!=": lambda: x != y, "<": lambda: z3.ULT(x, y),
+                       "<=": lambda: z3.ULE(x, y), ">": lambda: z3.UGT(x, y),
+                       ">=": lambda: z3.UGE(x, y)}
+            return compare[op]()
+        case Number():
+            raise AssertionError("a number is no condition")
+
+
+def watched_cells(exprs: Iterable[Expr], map_counters: bool) -> list[Key]:
+    return [cell for expr in exprs for ref in refs(expr)
+            for cell in operand_cells(ref.operand.node, map_counters)]
+
+
+# ---------------------------------------------------------------------- unrolling
+
+
+class _Path:
+    """States after consecutive cycles, as solver variables, with the constraints that
+    tie each to the one before."""
+
+    def __init__(self, machine: Machine, solver: z3.Solver, tag: str, *, initial: bool) -> None:
+        self.machine = machine
+        self.solver = solver
+        self.tag = tag
+        self.states: list[dict[Key, z3.BitVecRef]] = []
+        self.inputs: list[dict[str, z3.BitVecRef]] = []
+        self.monitors: list[dict[str, z3.ExprRef]] = []
+        #: per state: the cycle that led to it followed a backward jump too often
+        self.overruns: list[z3.BoolRef] = []
+        self.phase: z3.BitVecRef | None = None
+        #: the cells followed: those the property depends on (its cone of influence)
+        self.cells = machine.scope if machine.scope is not None else frozenset(
+            machine.cycle.post)
+        cycle = machine.cycle
+        if initial:
+            self._advance(cycle.initial())
+            if TICK in self.cells:  # the first cycle: the phase of the 10 ms clock
+                self.phase = self.states[0][TICK]
+                solver.add(z3.UGE(self.phase, 1), z3.ULE(self.phase, TICK_US))
+            machine.start_monitors(self, 0)
+        else:
+            self.states.append(self._fresh(0))
+            self.inputs.append({})
+            self.overruns.append(z3.BoolVal(False))
+            machine.free_monitors(self, 0)
+        self._assume(0)
+
+    def _fresh(self, index: int) -> dict[Key, z3.BitVecRef]:
+        return {cell: z3.BitVec(f"{self.tag}{cell_name(cell)}@{index}", width(cell))
+                for cell in self.cells}
+
+    def _advance(self, before: dict[Key, z3.BitVecRef]) -> None:
+        cycle = self.machine.cycle
+        index = len(self.states)
+        inputs = {name: z3.BitVec(f"{self.tag}{name}@{index}", var.size())
+                  for name, var in cycle.inputs.items()}
+        pairs = [(var, before[cell]) for cell, var in cycle.pre.items() if cell in self.cells]
+        pairs += [(var, inputs[name]) for name, var in cycle.inputs.items()]
+        after = self._fresh(index)
+        for cell in self.cells:
+            if not (index == 0 and cell == TICK):  # set as the phase
+                self.solver.add(after[cell] == z3.substitute(cycle.post[cell], *pairs))
+        self.overruns.append(z3.substitute(cycle.overrun, *pairs))
+        self.states.append(after)
+        self.inputs.append(inputs)
+
+    def extend(self) -> int:
+        self._advance(self.states[-1])
+        index = len(self.states) - 1
+        self.machine.step_monitors(self, index)
+        self._assume(index)
+        return index
+
+    def _assume(self, index: int) -> None:
+        for assumption in self.machine.assume:
+            self.solver.add(condition(assumption, self.reader(index)))
+
+    def reader(self, index: int) -> Callable[[ast.Operand], z3.BitVecRef]:
+        state = self.states[index]
+        return lambda operand: operand_value(operand, state.__getitem__,
+                                             self.machine.map_counters)
+
+    def holds(self, expr: Expr, index: int) -> z3.BoolRef:
+        return condition(expr, self.reader(index))
+
+
+class _Collector:
+    """Constraints gathered for Horn clauses instead of a solver."""
+
+    def __init__(self) -> None:
+        self.constraints: list[z3.BoolRef] = []
+
+    def add(self, *constraints: z3.BoolRef) -> None:
+        self.constraints.extend(constraints)
+
+
+def _constants(term: z3.ExprRef) -> set[z3.ExprRef]:
+    """The free constants of a term (the variables of a Horn clause)."""
+    found: set[z3.ExprRef] = set()
+    seen: set[int] = set()
+    todo = [term]
+    while todo:
+        node = todo.pop()
+        if node.get_id() in seen:
+            continue
+        seen.add(node.get_id())
+        if z3.is_const(node) and node.decl().kind() == z3.Z3_OP_UNINTERPRETED:
+            found.add(node)
+        else:
+            todo.extend(node.children())
+    return found
+
+
+def _equal(first: Key, second: Key) -> Callable[[_Path, int], z3.BoolRef]:
+    def fact(path: _Path, index: int) -> z3.BoolRef:
+        result: z3.BoolRef = path.states[index][first] == path.states[index][second]
+        return result
+
+    return fact
+
+
+def _same_bit(first: Key, i: int, second: Key, j: int) -> Callable[[_Path, int],
+                                                                    z3.BoolRef]:
+    def fact(path: _Path, index: int) -> z3.BoolRef:
+        x, y = path.states[index][first], path.states[index][second]
+        if i < 0:
+            whole: z3.BoolRef = x == y
+            return whole
+        result: z3.BoolRef = z3.Extract(i, i, x) == z3.Extract(j, j, y)
+        return result
+
+    return fact
+
+
+def _at_most(cell: Key, bound: int) -> Callable[[_Path, int], z3.BoolRef]:
+    def fact(path: _Path, index: int) -> z3.BoolRef:
+        result: z3.BoolRef = z3.ULE(path.states[index][cell], bound)
+        return result
+
+    return fact
+
+
+# ---------------------------------------------------------------------- the machine
+
+
+@dataclass
+class Machine:
+    """A program's cycle with what every property of one file shares: the assumptions
+    and the invariants proved about it."""
+
+    program: Program
+    setup: Setup
+    assume: list[Expr]
+    properties: list[Property]
+    #: the cycle, when the caller built it (two programs side by side); else the program's
+    prebuilt: Cycle | None = None
+    #: how often a backward jump is followed in one cycle
+    unroll: int = UNROLL
+    cycle: Cycle = field(init=False)
+    map_counters: bool = field(init=False)
+    #: for two programs compared: the cells that must be equal after every cycle
+    observed: list[tuple[Key, Key]] = field(default_factory=list)
+    #: for two programs compared: bits that may always be equal, one of each program
+    #: (cell, bit); bit -1 for a whole word (a timer, a counter)
+    twins: list[tuple[tuple[Key, int], tuple[Key, int]]] = field(default_factory=list)
+    #: proved facts about every reachable state, as functions of a state, with their cells
+    invariants: list[tuple[Callable[[_Path, int], z3.BoolRef], frozenset[Key]]] = field(
+        default_factory=list)
+    invariant_names: list[str] = field(default_factory=list)
+    #: the property being decided now (its monitor)
+    current: Property | None = None
+    #: the cells paths follow now (None: all)
+    scope: frozenset[Key] | None = None
+    #: each cell -> the cells its value after a cycle depends on
+    depends: dict[Key, frozenset[Key]] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        self.map_counters = map_counters_of(self.program)
+        exprs: list[Expr] = [*self.assume]
+        for prop in self.properties:
+            exprs.append(prop.expr)
+            if prop.then is not None:
+                exprs.append(prop.then)
+        if self.prebuilt is not None:
+            self.cycle = self.prebuilt
+        else:
+            self.cycle = build_cycle(
+                self.program, slaves=self.setup.slaves, cycle_us=self.setup.cycle_us,
+                host_flags=self.setup.host_flags,
+                watch=watched_cells(exprs, self.map_counters), unroll=self.unroll,
+            )
+        names = {var.decl().name(): cell for cell, var in self.cycle.pre.items()}
+        self.depends = {
+            cell: frozenset(names[c.decl().name()] for c in _constants(term)
+                            if c.decl().name() in names)
+            for cell, term in self.cycle.post.items()
+        }
+
+    def cone(self, prop: Property | None) -> frozenset[Key]:
+        """The cells a property (and the assumptions, and the loop bound) depends on,
+        after any number of cycles: the only ones a proof of it needs to follow."""
+        exprs: list[Expr] = [*self.assume]
+        if prop is not None:
+            exprs += [prop.expr] + ([prop.then] if prop.then is not None else [])
+        todo = set(watched_cells(exprs, self.map_counters))
+        todo |= {names for names in self._overrun_cells()}
+        todo |= {cell for pair in self.observed for cell in pair}
+        found: set[Key] = set()
+        while todo:
+            cell = todo.pop()
+            if cell in found or cell not in self.depends:
+                continue
+            found.add(cell)
+            todo |= self.depends[cell] - found
+        return frozenset(found)
+
+    def _overrun_cells(self) -> set[Key]:
+        names = {var.decl().name(): cell for cell, var in self.cycle.pre.items()}
+        return {names[c.decl().name()] for c in _constants(self.cycle.overrun)
+                if c.decl().name() in names}
+
+    # -------------------------------------------------------------- response monitors
+
+    def window(self, prop: Property) -> int:
+        if prop.within_cycles is not None:
+            return prop.within_cycles
+        assert prop.within_ms is not None
+        return int(prop.within_ms * 1000 // self.setup.cycle_us)
+
+    def start_monitors(self, path: _Path, index: int) -> None:
+        prop = self.current
+        if prop is None or prop.kind is not Kind.RESPONSE:
+            path.monitors.append({})
+            return
+        trigger, answer = self._response(path, index)
+        active = z3.And(trigger, z3.Not(answer))
+        path.monitors.append({"active": active, "age": z3.BitVecVal(0, 16)})
+
+    def free_monitors(self, path: _Path, index: int) -> None:
+        prop = self.current
+        if prop is None or prop.kind is not Kind.RESPONSE:
+            path.monitors.append({})
+            return
+        active = z3.Bool(f"{path.tag}active@{index}")
+        age = z3.BitVec(f"{path.tag}age@{index}", 16)
+        window = self.window(prop)
+        path.solver.add(z3.ULE(age, window), z3.Implies(z3.Not(active), age == 0))
+        path.solver.add(z3.Implies(active, z3.Not(self._response(path, index)[1])))
+        path.monitors.append({"active": active, "age": age})
+
+    def step_monitors(self, path: _Path, index: int) -> None:
+        before = path.monitors[-1]
+        if not before:
+            path.monitors.append({})
+            return
+        trigger, answer = self._response(path, index)
+        active, age = before["active"], before["age"]
+        path.monitors.append({
+            "active": z3.And(z3.Not(answer), z3.Or(active, trigger)),
+            "age": z3.If(answer, z3.BitVecVal(0, 16),
+                         z3.If(active, age + 1, z3.BitVecVal(0, 16))),
+        })
+
+    def _response(self, path: _Path, index: int) -> tuple[z3.BoolRef, z3.BoolRef]:
+        prop = self.current
+        assert prop is not None and prop.then is not None
+        return path.holds(prop.expr, index), path.holds(prop.then, index)
+
+    def bad(self, path: _Path, index: int) -> z3.BoolRef:
+        """The current property violated (or, for reachable, its target) after cycle
+        ``index``."""
+        prop = self.current
+        assert prop is not None
+        if self.observed:
+            state = path.states[index]
+            differs: z3.BoolRef = z3.Or(*(state[a] != state[b] for a, b in self.observed))
+            return differs
+        if prop.kind is Kind.RESPONSE:
+            monitor = path.monitors[index]
+            result: z3.BoolRef = z3.And(monitor["active"],
+                                        z3.UGE(monitor["age"], self.window(prop)))
+            return result
+        holds = path.holds(prop.expr, index)
+        return z3.Not(holds) if prop.kind is Kind.ALWAYS else holds
+
+    # -------------------------------------------------------------- invariants
+
+    def candidates(self) -> list[tuple[str, Callable[[_Path, int], z3.BoolRef],
+                                       frozenset[Key]]]:
+        """Facts that may hold in every reachable state, drawn from the program, each
+        with the cells it reads."""
+        found: list[tuple[str, Callable[[_Path, int], z3.BoolRef], frozenset[Key]]] = []
+        cells = self.cycle.post
+        if TICK in cells:
+            found.append(("the 10 ms clock's next tick within 10 ms", lambda p, i: z3.And(
+                z3.UGE(p.states[i][TICK], 1), z3.ULE(p.states[i][TICK], TICK_US)),
+                frozenset({TICK})))
+        constants = sorted(self._constants())
+        if CONSTANT in cells:
+            found.append(("the constant register holds a constant the program loads",
+                          lambda p, i: z3.Or(*(p.states[i][CONSTANT] == c
+                                               for c in constants)),
+                          frozenset({CONSTANT})))
+        presets = sorted({min(c, TC_MAX_VALUE) for c in constants})
+        for n in self.cycle.timers:
+            if ("T", n) not in cells:
+                continue
+            for bound in presets:
+                found.append((f"timer {n} holds at most {bound * 10} ms",
+                              _at_most(("T", n), bound), frozenset({("T", n)})))
+        for cell in cells:
+            if cell[0] == "C":
+                found.append((f"counter {cell[1]} at most {TC_MAX_VALUE}",
+                              _at_most(cell, TC_MAX_VALUE), frozenset({cell})))
+        if self.observed:  # two programs compared: the cells they share stay equal
+            for cell in cells:
+                twin = ("b", *cell[1:])
+                if cell[0] == "a" and twin in cells:
+                    found.append((f"{cell_name(cell[1:])} equal in both", _equal(cell, twin),
+                                  frozenset({cell, twin})))
+        for (a, i), (b, j) in self.twins:
+            if a in cells and b in cells:
+                found.append((f"{cell_name(a[1:])}{'' if i < 0 else f'.{i}'} in the first "
+                              f"equal to {cell_name(b[1:])}{'' if j < 0 else f'.{j}'} in the "
+                              "second", _same_bit(a, i, b, j), frozenset({a, b})))
+        return found
+
+    def _constants(self) -> set[int]:
+        """Every value the constant register can be loaded with (and its reset value)."""
+        values = {0}
+        for module in self.program.modules():
+            for section in module.sections:
+                for node in ast.nodes(section):
+                    if isinstance(node, ast.Load):
+                        operand = node.operand
+                        if operand.kind is K.KT:
+                            values.add((operand.address + 9) // 10)
+                        elif operand.kind is K.KC:
+                            values.add(operand.address)
+                        elif operand.kind is K.KP:
+                            values.add(operand.address << 4 | operand.bit)
+        return values
+
+    def find_invariants(self, deadline: float) -> None:
+        """Houdini: drop every candidate a reachable state (the first one) or a step from
+        states satisfying all remaining candidates violates, until none is violated."""
+        self.current = None
+        self.scope = None
+        remaining = self.candidates()
+        if not remaining:
+            return
+        for initial in (True, False):
+            while remaining:
+                solver = z3.Solver()
+                solver.set("timeout", max(1, int((deadline - time.monotonic()) * 1000)))
+                path = _Path(self, solver, "h.", initial=initial)
+                if not initial:
+                    for _, fact, _ in remaining:
+                        solver.add(fact(path, 0))
+                    path.extend()
+                last = len(path.states) - 1
+                checks = [fact(path, last) for _, fact, _ in remaining]
+                solver.add(z3.Or(*(z3.Not(c) for c in checks)))
+                result = solver.check()
+                if result == z3.unsat:
+                    break
+                if result != z3.sat:
+                    remaining = []  # out of time: assume nothing
+                    break
+                model = solver.model()
+                remaining = [candidate for candidate, check in zip(remaining, checks,
+                                                                   strict=True)
+                             if z3.is_true(model.eval(check, model_completion=True))]
+        self.invariants = [(fact, cells) for _, fact, cells in remaining]
+        self.invariant_names = [name for name, _, _ in remaining]
+
+    # -------------------------------------------------------------- deciding
+
+    def decide(self, prop: Property, *, depth: int, timeout_s: float) -> Outcome:
+        start = time.monotonic()
+        deadline = start + timeout_s
+        self.current = prop
+        self.scope = self.cone(prop)
+        if prop.kind is Kind.RESPONSE:  # a response is judged over its whole window
+            depth = max(depth, self.window(prop) + 2)
+        base_solver, step_solver = z3.Solver(), z3.Solver()
+        base = _Path(self, base_solver, "b.", initial=True)
+        step = _Path(self, step_solver, "s.", initial=False)
+        self._strengthen(step, 0)
+        reach = prop.kind is Kind.REACHABLE
+        fixed = z3.Bool("b.simulator_phase")
+        phase = self.setup.phase_us
+        if phase is not None and base.phase is not None:
+            base_solver.add(z3.Implies(fixed, base.phase == phase))
+
+        def left_ms() -> int:
+            return max(1, int((deadline - time.monotonic()) * 1000))
+
+        for k in range(depth + 1):
+            if k:
+                base.extend()
+                step.extend()
+                self._strengthen(step, k)
+            bad = z3.Or(self.bad(base, k), base.overruns[k])
+            base_solver.set("timeout", left_ms())
+            result = base_solver.check(bad, fixed)
+            note = ""
+            if result == z3.unsat and phase is not None:
+                result = base_solver.check(bad)
+                note = ("found only for another phase of the 10 ms clock than the "
+                        "simulator's: the scenario may not show it")
+            if result == z3.sat:
+                model = base_solver.model()
+                trace = self._trace(base, model, k)
+                if z3.is_true(model.eval(base.overruns[k], model_completion=True)):
+                    loops = ", ".join(f"line {loop.line}" for loop in self.cycle.loops)
+                    return Outcome(prop, Verdict.UNKNOWN, k, time.monotonic() - start, trace,
+                                   f"in cycle {k + 1} a backward jump ({loops}) is taken "
+                                   f"more than {self.cycle.loops[0].bound} times, the most "
+                                   "the model follows")
+                verdict = Verdict.REACHED if reach else Verdict.REFUTED
+                return Outcome(prop, verdict, k, time.monotonic() - start, trace, note,
+                               self._values(prop, base, model, k))
+            if result != z3.unsat:
+                return Outcome(prop, Verdict.UNKNOWN, k, time.monotonic() - start,
+                               note=f"time limit ({timeout_s:g} s) after {k} cycles")
+            step_solver.set("timeout", left_ms())
+            step_bad = z3.Or(self.bad(step, k), step.overruns[k])
+            outcome = step_solver.check(step_bad)
+            if outcome == z3.unsat:
+                verdict = Verdict.UNREACHABLE if reach else Verdict.PROVED
+                return Outcome(prop, verdict, k, time.monotonic() - start)
+            step_solver.add(z3.Not(step_bad))
+            if outcome != z3.sat:
+                return Outcome(prop, Verdict.UNKNOWN, k, time.monotonic() - start,
+                               note=f"time limit ({timeout_s:g} s) after {k} cycles")
+        if self._pdr(prop, deadline) is True:
+            verdict = Verdict.UNREACHABLE if reach else Verdict.PROVED
+            return Outcome(prop, verdict, depth, time.monotonic() - start,
+                           note="by an inductive invariant (PDR), beyond k-induction")
+        return Outcome(prop, Verdict.BOUNDED, depth, time.monotonic() - start)
+
+    def _pdr(self, prop: Property, deadline: float) -> bool | None:
+        """Property-directed reachability (z3's Spacer engine) on the cycle as Horn
+        clauses: True when it finds an inductive invariant that excludes every bad state,
+        None when it cannot say in the time left."""
+        left = int((deadline - time.monotonic()) * 1000)
+        if left < 100:
+            return None
+        first = _Collector()
+        start = _Path(self, first, "p0.", initial=True)
+        rules = _Collector()
+        path = _Path(self, rules, "p.", initial=False)
+        path.extend()
+        cells = sorted(path.cells, key=cell_name)
+        response = prop.kind is Kind.RESPONSE
+
+        def arguments(which: _Path, index: int, tag: str) -> tuple[list[z3.ExprRef],
+                                                                  list[z3.BoolRef]]:
+            args: list[z3.ExprRef] = [which.states[index][c] for c in cells]
+            ties: list[z3.BoolRef] = []
+            if response:
+                monitor = which.monitors[index]
+                active, age = z3.Bool(f"{tag}active"), z3.BitVec(f"{tag}age", 16)
+                ties = [active == monitor["active"], age == monitor["age"]]
+                args += [active, age]
+            return args, ties
+
+        sorts = [z3.BitVecSort(width(c)) for c in cells]
+        if response:
+            sorts += [z3.BoolSort(), z3.BitVecSort(16)]
+        invariant = z3.Function("Inv", *sorts, z3.BoolSort())
+        error = z3.Function("Err", z3.BoolSort())
+        fp = z3.Fixedpoint()
+        fp.set(engine="spacer")
+        fp.set("timeout", left)
+        fp.register_relation(invariant, error)
+        head, ties = arguments(start, 0, "p0.m.")
+        before, ties0 = arguments(path, 0, "p.m0.")
+        after, ties1 = arguments(path, 1, "p.m1.")
+        facts = [fact(path, 0) for fact, cells in self.invariants if cells <= path.cells]
+        constants = {v for term in [*head, *before, *after, *ties, *ties0, *ties1,
+                                    *first.constraints, *rules.constraints]
+                     for v in _constants(term)}
+        fp.declare_var(*constants)
+        fp.rule(invariant(*head), [*first.constraints, *ties])
+        fp.rule(invariant(*after), [invariant(*before), *rules.constraints, *facts,
+                                    *ties0, *ties1])
+        fp.rule(error(), [invariant(*before), self.bad(path, 0), *ties0])
+        fp.rule(error(), [invariant(*before), *rules.constraints, *ties0,
+                          path.overruns[1]])
+        try:
+            result = fp.query(error())
+        except z3.Z3Exception:
+            return None
+        return True if result == z3.unsat else None
+
+    def _strengthen(self, path: _Path, index: int) -> None:
+        for fact, cells in self.invariants:
+            if cells <= path.cells:
+                path.solver.add(fact(path, index))
+
+    def _values(self, prop: Property, path: _Path, model: z3.ModelRef,
+                index: int) -> dict[str, int]:
+        if self.observed:
+            state = path.states[index]
+            return {cell_name(cell): model.eval(state[cell], model_completion=True).as_long()
+                    for pair in self.observed for cell in pair}
+        read = path.reader(index)
+        exprs = [prop.expr] + ([prop.then] if prop.then is not None else [])
+        return {ref.text: model.eval(read(ref.operand.node), model_completion=True).as_long()
+                for expr in exprs for ref in refs(expr)}
+
+    def _trace(self, path: _Path, model: z3.ModelRef, last: int) -> list[Step]:
+        steps = []
+        for index in range(last + 1):
+            inputs = path.inputs[index]
+            slaves = {a: model.eval(inputs[f"in.{a}"], model_completion=True).as_long()
+                      for a in self.cycle.slaves}
+            host = {n: model.eval(inputs[f"host.{n}"], model_completion=True).as_long()
+                    for n in self.cycle.host_masks}
+            steps.append(Step(slaves, host))
+        return steps

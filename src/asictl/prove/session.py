@@ -1,0 +1,177 @@
+"""One ``asictl prove`` of one properties file: load the program and its properties,
+find the master's setup and the simulator's clock phase, decide every property and
+write the counterexamples and witnesses.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from asictl.build import Build, build_file
+from asictl.codes import ScenarioCode
+from asictl.diagnostics import Diagnostic, DiagnosticError, Severity, render_text
+from asictl.errors import UserError
+from asictl.files import real_path, write_atomic
+from asictl.il.pragmas import read_directives
+from asictl.observe.operands import parse_operand
+from asictl.observe.symbols import symbols_for
+from asictl.platform.master import TICK_US
+from asictl.prove.counterexample import MARK, expectations, file_name, scenario_text
+from asictl.prove.engine import Machine, Outcome, Setup, Verdict
+from asictl.prove.props import Properties, program_for, read_properties
+from asictl.prove.symbolic import UNROLL, Unmodelled
+from asictl.sim.engine import Simulation, variables_of
+from asictl.sim.scenario import Scenario
+from asictl.source import read_source
+
+#: The AS-i cycle the board runs without a cycle_ms: 150 us per active slave plus one.
+_TRANSACTION_US = 150
+
+
+class Invalid(Exception):
+    """Bad input: ``text`` holds the rendered diagnostics."""
+
+    def __init__(self, text: str) -> None:
+        super().__init__(text)
+        self.text = text
+
+
+@dataclass
+class Report:
+    properties: Path
+    program: Path
+    cycle_ms: float
+    slaves: tuple[int, ...]
+    invariants: list[str]
+    loops: list[tuple[int, int]]
+    outcomes: list[Outcome] = field(default_factory=list)
+    #: property name -> the scenario written for it
+    written: dict[str, Path] = field(default_factory=dict)
+    seconds: float = 0.0
+
+    @property
+    def passed(self) -> bool:
+        return all(o.verdict.good for o in self.outcomes)
+
+
+def _texts(*paths: Path) -> dict[str, str]:
+    texts = {}
+    for path in paths:
+        with contextlib.suppress(UserError):
+            texts[str(path)] = read_source(path).text
+    return texts
+
+
+def load(properties: Path, program: Path | None, lib: tuple[str, ...]) -> tuple[
+        Properties, Path, Build]:
+    """The properties file and the program it is about, both checked."""
+    source = read_source(properties)
+    try:
+        first = read_properties(source)  # the program line, before variables are known
+    except DiagnosticError as exc:
+        raise Invalid(render_text(exc.diagnostics, _texts(properties))) from None
+    program = program or first.program or program_for(properties)
+    built = build_file(program, lib=lib)
+    if built.has_errors or built.program is None:
+        raise Invalid(built.render() or f"{program}: no IL program (an image has no source "
+                                         "to prove)\n")
+    variables = {} if built.image is None else variables_of(built.image.pmap)
+    try:
+        symbols = symbols_for(program, lambda text: str(parse_operand(text, variables)))
+        props = read_properties(source, variables, symbols)
+    except DiagnosticError as exc:
+        raise Invalid(render_text(exc.diagnostics, _texts(properties, program))) from None
+    return props, program, built
+
+
+def setup_of(props: Properties, built: Build) -> tuple[Setup, float]:
+    """The bus, the cycle time and the host-written flags; and the cycle in ms."""
+    program = built.program
+    assert program is not None
+    if props.slaves is not None:
+        slaves = tuple(sorted(s.address for s in props.slaves))
+    else:
+        slaves = tuple(sorted({s.address for s in program.slaves}))
+    cycle_us = (round(props.cycle_ms * 1000) if props.cycle_ms is not None
+                else _TRANSACTION_US * (max(len(slaves), 1) + 1))
+    directives = read_directives(program.sources)
+    host = tuple(operand for operand, _ in directives.host_flags)
+    return Setup(slaves, cycle_us, host, _phase(props, built, cycle_us)), cycle_us / 1000
+
+
+def _phase(props: Properties, built: Build, cycle_us: int) -> int | None:
+    """The time from time 0 to the first 10 ms tick in ``asictl sim`` of this program
+    and master, so that counterexamples about timers replay tick for tick."""
+    if built.image is None:
+        return None
+    scenario = Scenario("<phase>", None, cycle_us / 1000, props.slaves, [])
+    simulation = Simulation(built, scenario)
+    simulation.start()
+    if not simulation.started:
+        return None
+    board = simulation.board
+    phase = board.next_tick_us - board.now_us + round(simulation.now_ms() * 1000)
+    return phase if 1 <= phase <= TICK_US else None
+
+
+def prove(properties: Path, *, program: Path | None = None, lib: tuple[str, ...] = (),
+          depth: int = 20, timeout_s: float = 30.0, out_dir: Path | None = None,
+          force: bool = False, unroll: int = UNROLL) -> Report:
+    """Decide every property of a properties file; write what was found as scenarios."""
+    start = time.monotonic()
+    props, program_path, built = load(properties, program, lib)
+    setup, cycle_ms = setup_of(props, built)
+    assert built.program is not None
+    try:
+        machine = Machine(built.program, setup, props.assume, props.properties,
+                          unroll=unroll)
+    except Unmodelled as exc:
+        raise Invalid(render_text(
+            [Diagnostic(Severity.ERROR, ScenarioCode.UNMODELLED, str(exc), exc.span)],
+            built.texts)) from None
+    machine.find_invariants(time.monotonic() + timeout_s)
+    report = Report(properties, program_path, cycle_ms, setup.slaves,
+                    list(machine.invariant_names),
+                    [(loop.line, loop.bound) for loop in machine.cycle.loops])
+    directory = out_dir if out_dir is not None else properties.parent
+    pending: list[tuple[Path, str, str]] = []
+    for prop in props.properties:
+        outcome = machine.decide(prop, depth=depth, timeout_s=timeout_s)
+        report.outcomes.append(outcome)
+        if outcome.trace is not None and outcome.verdict in (Verdict.REFUTED,
+                                                             Verdict.REACHED):
+            target = directory / file_name(properties, prop)
+            expected = expectations(prop, outcome, outcome.values)
+            text = scenario_text(props, program_path, target, prop, outcome,
+                                 machine.cycle.host_masks, cycle_ms, expected)
+            pending.append((target, prop.name, text))
+    names: list[str | Path] = [properties, program_path, *built.program.sources]
+    inputs = {real_path(p) for p in names if str(p) != "<stdin>"}
+    for target, _, _ in pending:
+        check_target(target, inputs, force)
+    if pending:
+        directory.mkdir(parents=True, exist_ok=True)
+    for target, name, text in pending:
+        write_atomic(target, text)
+        report.written[name] = target
+    report.seconds = time.monotonic() - start
+    return report
+
+
+def check_target(target: Path, inputs: set[Path], force: bool) -> None:
+    """Replace only what this command wrote before (its first line says so)."""
+    if real_path(target) in inputs:
+        raise UserError(f"{target}: is an input of this proof; not overwritten")
+    if force or not target.is_file():
+        return
+    try:
+        with target.open("rb") as existing:
+            first = existing.readline(200).decode("latin-1")
+    except OSError as exc:
+        raise UserError(f"{target}: cannot read: {exc.strerror or exc}") from None
+    if not first.startswith(MARK):
+        raise UserError(f"{target}: exists and is not a scenario asictl prove wrote; not "
+                        "overwritten (use --force)")
