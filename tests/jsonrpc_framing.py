@@ -1,7 +1,7 @@
 """The ``Content-Length`` frames of the editor protocols (LSP, DAP) for the test clients
 (imported explicitly: ``from jsonrpc_framing import framed, read_messages``).
 
-Written once for both clients, and on purpose independent of ``asictl.framing``, which
+Written once for both clients, and on purpose independent of ``asictl.lsp.framing``, which
 the servers read with: a server's frames are checked by a reader that is not its own.
 This one is strict, as an editor is: a frame it cannot read fails the test.
 """

@@ -9,11 +9,11 @@ from pathlib import Path
 import pytest
 from click.testing import CliRunner
 
-import asictl.mutate as mutation
+import asictl.quality.mutate as mutation
 from asictl.cli import main
 from asictl.il import ast
 from asictl.il.parser import parse_text
-from asictl.mutate import mutations
+from asictl.quality.mutate import mutations
 
 PROGRAM = """\
 [SETUP]

@@ -22,7 +22,6 @@ LAYERS: tuple[tuple[tuple[str, str], ...], ...] = (
         ("diagnostics", "`file:line:col: error: ...` with source line and caret, JSON, GitHub"),
         ("codes", "every diagnostic code, one enumeration per stage"),
         ("platform", "hardware facts, each defined once: the master, the PC2, the gateway"),
-        ("framing", "the Content-Length frames of the editor protocols (LSP, DAP)"),
     ),
     (
         ("source", "reading DOS-era text (UTF-8, CP850, Latin-1; CR LF; Ctrl-Z)"),
@@ -55,7 +54,7 @@ LAYERS: tuple[tuple[tuple[str, str], ...], ...] = (
         ("monitor", "the full-screen live view (Textual)"),
         ("lsp", "the language server for editors"),
         ("testing", "the Python test API: a program on an emulated master, from code"),
-        ("mutate", "mutation testing: one-change mutants of programs against their scenarios"),
+        ("quality", "how good the tests are: mutants of programs against their scenarios"),
         ("prove", "properties proved on the symbolic cycle; two programs compared"),
     ),
     (("dap", "the debug adapter for editors: the Debug Adapter Protocol over debug/"),),

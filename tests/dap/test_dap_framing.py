@@ -14,7 +14,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from jsonrpc_framing import frame
 
-from asictl.framing import MAX_BODY, Malformed, Reader, Writer
+from asictl.lsp.framing import MAX_BODY, Malformed, Reader, Writer
 
 
 def request(seq: int, command: str, **arguments: object) -> bytes:

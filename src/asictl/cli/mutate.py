@@ -9,10 +9,10 @@ from pathlib import Path, PurePath
 
 import click
 
-import asictl.mutate as mutation
+import asictl.quality.mutate as mutation
 from asictl.cli.options import lib_option
 from asictl.errors import ExitCode, UserError
-from asictl.mutate import PROVE_HINT, Result, Target, mutants_of, run_all, score
+from asictl.quality.mutate import PROVE_HINT, Result, Target, mutants_of, run_all, score
 from asictl.sim import SUFFIX
 from asictl.sim.session import (
     Invalid,

@@ -21,7 +21,7 @@ from asictl import __version__
 from asictl.dap.targets import HOW, Frame, Placed, Stop, Target, Variable, Wanted
 from asictl.debug.debugger import DebugError
 from asictl.errors import UserError
-from asictl.framing import JSON, Malformed, Reader, Writer
+from asictl.lsp.framing import JSON, Malformed, Reader, Writer
 
 #: The one thread: the control program.
 THREAD = 1

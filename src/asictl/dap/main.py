@@ -10,7 +10,7 @@ from typing import BinaryIO
 from asictl.dap.adapter import Adapter
 from asictl.dap.simulated import launch
 from asictl.dap.targets import Target
-from asictl.framing import JSON
+from asictl.lsp.framing import JSON
 
 
 def run(requests: BinaryIO, replies: BinaryIO, lib: tuple[str, ...] = ()) -> None:

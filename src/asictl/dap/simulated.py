@@ -17,7 +17,7 @@ from asictl.dap.variables import scopes
 from asictl.debug.debugger import DebugError, Debugger, Pause
 from asictl.debug.inventory import Inventory
 from asictl.errors import UserError
-from asictl.framing import JSON
+from asictl.lsp.framing import JSON
 from asictl.observe.locate import call_chain
 from asictl.runtime.line_map import SourceLine
 from asictl.sim.engine import source_texts

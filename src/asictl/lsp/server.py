@@ -6,7 +6,7 @@ LSP positions (0-based, counted in the editor's code units, UTF-16 by default) t
 front end's 1-based lines and character columns and back, and results to LSP types.
 
 It also keeps the server answering whatever the client does. The messages are read by
-``asictl.framing`` (a frame without a length or with bad JSON is skipped, and the next
+``asictl.lsp.framing`` (a frame without a length or with bad JSON is skipped, and the next
 one is read), and a request whose parameters are ill-typed is answered -32602. Checks
 run on a worker thread, never on the message loop: while a megabyte program is checked,
 hovers on it and other files are answered, and the diagnostics of a version the editor
@@ -35,10 +35,10 @@ from pygls.lsp.server import LanguageServer
 
 from asictl import __version__
 from asictl.diagnostics import Diagnostic, DiagnosticError, Severity, Span
-from asictl.framing import Malformed, Reader
 from asictl.il.format import FormatError, format_text
 from asictl.lsp import completion, hover, navigation
 from asictl.lsp.documents import Analysis, Documents, normal
+from asictl.lsp.framing import Malformed, Reader
 from asictl.source import MAX_SOURCE_BYTES
 
 #: How long the server waits after the last change before it checks again.
