@@ -184,3 +184,55 @@ def test_gating_terms():
     found = [None if m is None else m.to_source() for m in mutations(node)]
     assert found == [None, "Q 2.0 = not I 1.0 and not I 1.3", "Q 2.0 = I 1.1 and not I 1.3",
                      "Q 2.0 = I 1.0 and I 1.3", "Q 2.0 = I 1.0 and not I 1.2"]
+
+
+#: F 5.0 is written and never read: removing its assignment changes the code, not what
+#: the master does; the scenario cannot notice, the prover can tell that it is equivalent.
+UNREAD_FLAG = """\
+[SETUP]
+1: iiii, 0
+2: oooo, 0
+
+[PROGRAM]
+        A   I 1.0
+        =   Q 2.0
+        =   F 5.0
+        BE
+"""
+
+FOLLOWS = """\
+[master]
+cycle_ms = 5
+[[step]]
+at_ms = 0
+set = { "I 1.0" = 1 }
+[[step]]
+at_ms = 20
+expect = { "Q 2.0" = 1 }
+set = { "I 1.0" = 0 }
+[[step]]
+at_ms = 40
+expect = { "Q 2.0" = 0 }
+"""
+
+
+def test_with_the_prover_a_surviving_mutant_that_changes_nothing_is_equivalent(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "flag.asi").write_text(UNREAD_FLAG)
+    (tmp_path / "flag.scenario.toml").write_text(FOLLOWS)
+    code, output = _mutate(".", "--format", "json")
+    assert code == 0, output
+    report = json.loads(output)
+    assert report["equivalence_checked"] is True
+    by_change = {(m["line"], m["change"]): m for m in report["mutants"]}
+    removed = by_change[(8, "= F 5.0 -> removed")]
+    assert removed["verdict"] == "equivalent", removed
+    assert "proved" in removed["detail"]
+    assert by_change[(7, "= Q 2.0 -> removed")]["verdict"] == "killed"
+    monkeypatch.setattr(mutation, "prove_available", lambda: False)
+    report = json.loads(_mutate(".", "--format", "json")[1])
+    assert report["equivalence_checked"] is False
+    assert {(m["line"], m["change"]): m["verdict"] for m in report["mutants"]}[
+        (8, "= F 5.0 -> removed")] == "survived"
