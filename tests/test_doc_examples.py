@@ -15,6 +15,7 @@ output; tests/test_tutorial.py and tests/test_debugging_doc.py run those.
 from __future__ import annotations
 
 import contextlib
+import fcntl
 import os
 import re
 import shutil
@@ -22,6 +23,7 @@ import signal
 import socket
 import subprocess
 import sys
+import tempfile
 import time
 from collections.abc import Iterator
 from dataclasses import dataclass
@@ -90,6 +92,10 @@ def _served(served_by: tuple[str, int] | None, folder: Path, tmp_path: Path) -> 
         yield
         return
     command, port = served_by
+    # One at a time on this machine: examples name their server's port as a reader uses
+    # it, and pytest-xdist's workers would otherwise start two servers on it.
+    lock = (Path(tempfile.gettempdir()) / f"asictl-doc-example-{port}.lock").open("w")
+    fcntl.flock(lock, fcntl.LOCK_EX)
     process = subprocess.Popen(
         [sys.executable, "-m", "asictl", *command.split()[1:]], cwd=folder,
         env=_environment(tmp_path), stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
@@ -109,6 +115,7 @@ def _served(served_by: tuple[str, int] | None, folder: Path, tmp_path: Path) -> 
         with contextlib.suppress(ProcessLookupError):
             os.killpg(process.pid, signal.SIGTERM)
         process.wait()
+        lock.close()
 
 
 def _run(example_or_script: str, language: str, folder: Path, tmp_path: Path) -> None:
