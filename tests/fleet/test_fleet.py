@@ -95,6 +95,7 @@ def test_twelve_gateways_one_commit_then_exactly_the_changed_one(
     assert report["drift"] == ["gw-07"]
     gw07 = report["masters"][7]
     assert gw07["result"] == "different" and "code ([PROGRAM])" in gw07["differences"]
+    assert gw07["networks"] and all("network" in line for line in gw07["networks"])
     assert all(m["result"] == "identical" for m in report["masters"] if m["master"] != "gw-07")
 
     second = asictl("fleet", "backup", str(inventory), "--into", str(archive))
@@ -222,3 +223,22 @@ def test_a_progress_line_on_a_terminal_only(tmp_path: Path):
     assert re.search(r"\rbackup 2/2: pc-[12] ok", text)
     assert text.endswith("\r")  # the line cleared: the table starts at the margin
     assert b"backup 1/2" not in result.stdout and result.stdout.startswith(b"master ")
+
+
+def test_a_different_program_is_reported_network_by_network(tmp_path: Path):
+    """The archive holds blink.asi; the master runs it with the second network changed
+    (the output inverted the other way): verify names that network alone."""
+    from asictl.build import build_file
+    from asictl.fleet.compare import network_changes
+
+    blink = (ROOT / "demos" / "blink.asi").read_text()
+    changed = tmp_path / "blink.asi"
+    changed.write_text(blink.replace("        AN  Q 31.0", "        A   Q 31.0"))
+    archived, running = build_file(ROOT / "demos" / "blink.asi").image, build_file(changed).image
+    assert archived is not None and running is not None
+    lines = network_changes(archived, running)
+    assert len(lines) == 1 and lines[0].startswith("changed blink.asi network 2"), lines
+    assert network_changes(archived, archived) == ()
+    bare = build_file(changed, with_source=False).image
+    assert bare is not None and network_changes(archived, bare) == ()
+

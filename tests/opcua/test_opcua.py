@@ -158,6 +158,7 @@ def test_gateway_serve_writable_with_a_login(state: Path):
         async with client:
             ns = await client.get_namespace_index(NAMESPACE)
             assert await node(client, ns, "FY 12").read_value() == 42
+            assert await node(client, ns, "Symbol.answer").read_value() == 42  # the board's
             await node(client, ns, "FY 13").write_value(ua.Variant(0x5A, ua.VariantType.Byte))
             await node(client, ns, "F 14.3").write_value(ua.Variant(True, ua.VariantType.Boolean))
             await node(client, ns, "Slave.1.Inputs").write_value(
@@ -171,6 +172,10 @@ def test_gateway_serve_writable_with_a_login(state: Path):
             assert refused.value.code == ua.StatusCodes.BadTypeMismatch
             await node(client, ns, "Master").call_method(ua.NodeId("Master.Stop", ns))
 
+    # the symbol table beside the program goes onto the board with it, and from there
+    # into the address space without --opcua-symbols
+    (state / "flag.symbols.toml").write_text('answer = "FY 12"\n')
+    asictl(state, "download", str(state / "flag.asi"), "--start")
     env = {"ASICTL_OPCUA_PASSWORD": "secret"}
     with served(state, "gateway", "serve", "--tcp", "127.0.0.1:0", "--opcua-writable",
                 "--opcua-user", "hmi", env=env) as url:

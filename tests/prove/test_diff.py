@@ -10,8 +10,8 @@ from pathlib import Path
 
 from asictl.build import build_file
 from asictl.cli import main
+from asictl.il.networks import compare
 from asictl.prove import equivalent
-from asictl.prove.diff import compare
 from asictl.sim.engine import Simulation, variables_of
 from asictl.sim.scenario import load_scenario
 

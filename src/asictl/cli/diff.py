@@ -91,7 +91,7 @@ def diff(old: Path, new: Path, equivalent: bool, depth: int, timeout: float,
     undecided), 2 bad input.
     """
     from asictl.il.loader import Program
-    from asictl.prove.diff import compare
+    from asictl.il.networks import compare
 
     ctx = click.get_current_context()
     try:

@@ -227,6 +227,7 @@ def verify(
             "archived": None if verdict is None else verdict.archived,
             "running": None if verdict is None else verdict.running,
             "differences": [] if verdict is None else list(verdict.details),
+            "networks": [] if verdict is None else list(verdict.networks),
             "error": outcome.error,
             "text": f"unreachable: {outcome.error}" if verdict is None else verdict.describe(),
         })

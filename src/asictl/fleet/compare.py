@@ -12,13 +12,14 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-from asictl.build import build_file
+from asictl.build import build_file, program_of_image
 from asictl.fleet.archive import archived_image
 from asictl.fleet.inventory import FleetMaster
 from asictl.host.jobs import JobError, JobStatus
 from asictl.host.master import Master
 from asictl.host.status import program_info
 from asictl.host.transfer import upload
+from asictl.il.networks import compare
 from asictl.image.eeprom import ProgramImage, differences
 
 
@@ -31,6 +32,9 @@ class Verdict:
     archived: str | None = None
     running: str | None = None
     details: tuple[str, ...] = ()
+    #: for ``different`` when both images carry their IL source: what changed, network by
+    #: network (``asictl diff``'s lines), so the report says where and not only that
+    networks: tuple[str, ...] = ()
 
     @property
     def drift(self) -> bool:
@@ -40,8 +44,9 @@ class Verdict:
         if self.state == "identical":
             return f"identical ({self.running})"
         if self.state == "different":
+            where = f" ({'; '.join(self.networks)})" if self.networks else ""
             return (f"different: the master runs {self.running}, the archive holds "
-                    f"{self.archived}; they differ in {', '.join(self.details)}")
+                    f"{self.archived}; they differ in {', '.join(self.details)}{where}")
         if self.state == "no program":
             return f"no program in the master (the archive holds {self.archived})"
         return "not in the archive (back it up first)"
@@ -69,7 +74,8 @@ def verify_master(archive: Path, fleet_master: FleetMaster, master: Master) -> V
         return Verdict("no program", mine.identity_hex)
     found = differences(mine, theirs)
     if found:
-        return Verdict("different", mine.identity_hex, theirs.identity_hex, tuple(found))
+        return Verdict("different", mine.identity_hex, theirs.identity_hex, tuple(found),
+                       network_changes(mine, theirs))
     return Verdict("identical", mine.identity_hex, theirs.identity_hex)
 
 
@@ -84,3 +90,14 @@ class Glance:
 def glance(_: FleetMaster, master: Master) -> Glance:
     info = program_info(master.transport)
     return Glance(master.summary(), info.identity if info.valid else None)
+
+
+def network_changes(archived: ProgramImage, running: ProgramImage) -> tuple[str, ...]:
+    """The networks that differ, as ``asictl diff ARCHIVED RUNNING`` names them (first
+    line each); none when either image has no IL source to compare."""
+    old, new = program_of_image(archived), program_of_image(running)
+    if old is None or new is None:
+        return ()
+    return tuple(" ".join(change.lines()[0].split()) for change in compare(old, new)
+                 if change.kind not in ("same", "renamed"))
+

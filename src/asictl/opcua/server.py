@@ -47,7 +47,7 @@ from asictl.host.live.board import LiveBoard
 from asictl.host.pc2_master import Pc2Master
 from asictl.host.status import MasterStatus, StoredProgram, read_program
 from asictl.host.transfer import set_start
-from asictl.observe.operands import Operand, parse_operand
+from asictl.observe.operands import Operand, image_symbols, parse_operand
 from asictl.observe.symbols import SymbolTable
 from asictl.observe.view import host_write, read_on_board, wake
 from asictl.platform import pc2
@@ -201,7 +201,8 @@ class BoardSpace:
         self.timers = await objects.add_folder(self.node_id("Timers"), "Timers")
         self.counters = await objects.add_folder(self.node_id("Counters"), "Counters")
         await self._timers_and_counters(status)
-        table = self.options.symbols
+        # --opcua-symbols, else the table the download stored with the program
+        table = self.options.symbols or image_symbols(self.program.image if self.program else None)
         if table:
             folder = await objects.add_folder(self.node_id("Symbols"), "Symbols")
             for name, text in table.entries.values():
