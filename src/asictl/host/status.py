@@ -18,7 +18,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 from enum import IntEnum
-from typing import Any
+from typing import Any, assert_never
 
 from asictl.errors import ExitCode, UserError
 from asictl.host.driver import Pc2Driver
@@ -565,7 +565,10 @@ def operand_value(status: MasterStatus, operand: Operand) -> int:
             return _data(status, a, inputs) | _data(status, a + 1, inputs) << 4
         case K.T | K.C:
             return _timer_or_counter(status, operand)
-    raise AssertionError(f"{operand} is not shown by a status")  # callers check VISIBLE
+        case (K.I2 | K.I2B | K.PSEG | K.FW | K.VAR | K.KT | K.KC | K.KB | K.KW | K.KP):
+            raise AssertionError(f"{operand} is not shown by a status")  # callers check VISIBLE
+        case _:
+            assert_never(node.kind)
 
 
 def _data(status: MasterStatus, slave: int, inputs: bool) -> int:
