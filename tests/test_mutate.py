@@ -4,7 +4,9 @@ missing scenario kills it, and the score and its bar; each operator on the AST."
 from __future__ import annotations
 
 import json
+import time
 from pathlib import Path
+from typing import Any
 
 import pytest
 from click.testing import CliRunner
@@ -125,8 +127,17 @@ def test_the_missing_scenario_kills_the_survivors(project: Path):
     assert "survived" not in verdicts.values()
 
 
-def test_a_mutant_past_its_time_limit_is_a_timeout_and_counts_as_killed(project: Path):
-    code, output = _mutate(".", "--format", "json", "--timeout", "0.01")
+def test_a_mutant_past_its_time_limit_is_a_timeout_and_counts_as_killed(
+    project: Path, monkeypatch: pytest.MonkeyPatch
+):
+    real = mutation.simulate
+
+    def endless(*args: Any, **kwargs: Any) -> Any:  # as a mutant that loops would run
+        time.sleep(120)
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(mutation, "simulate", endless)  # the mutants' runs (forks inherit it)
+    code, output = _mutate(".", "--format", "json", "--timeout", "0.5")
     assert code == 0
     report = json.loads(output)
     ran = [m for m in report["mutants"] if m["detail"] != "no scenario runs this line"]
