@@ -13,6 +13,19 @@ from asictl.cli import main
 from asictl.host.live.server import background_live
 from asictl.monitor.app import MonitorApp
 
+#: Q 17.3 follows I 4.0: a slave a key sets and one whose output shows it
+PROGRAM = """\
+[SETUP]
+4: iiii, 0
+17: oooo, 0
+
+[PROGRAM]
+        A   I 4.0
+        =   Q 17.3
+        BE
+[END]
+"""
+
 
 def cli(state: Path, *args: str) -> str:
     result = CliRunner().invoke(main, [*args, "--state-dir", str(state)])

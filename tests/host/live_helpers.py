@@ -21,6 +21,20 @@ from asictl.host.live.protocol import LENGTH, socket_path
 
 ROOT = Path(__file__).resolve().parents[2]
 BLINK = ROOT / "demos" / "blink.asi"
+#: Q 17.3 = I 4.0 or I 5.0: an output that follows inputs a command sets
+OR_PROGRAM = """\
+[SETUP]
+4: iiii, 0
+5: iiii, 0
+17: oooo, 0
+
+[PROGRAM]
+        O   I 4.0
+        O   I 5.0
+        =   Q 17.3
+        BE
+[END]
+"""
 
 
 def cli(state: Path, *args: str) -> Result:

@@ -19,7 +19,7 @@ from pathlib import Path
 
 import pytest
 from click.testing import Result
-from live_helpers import BLINK, cli, start_serve, stop, wait_for
+from live_helpers import BLINK, OR_PROGRAM, cli, start_serve, stop, wait_for
 
 from asictl.board.board import Pc2Board
 from asictl.host.driver import EmulatedPort, Pc2Driver
@@ -27,20 +27,6 @@ from asictl.host.live.client import LiveClient, LivePort, open_live
 from asictl.host.live.protocol import encode, socket_path
 from asictl.host.live.server import background_live
 from asictl.platform.pc2 import PROGRAM_BUFFER, Command
-
-OR_PROGRAM = """\
-[SETUP]
-4: iiii, 0
-5: iiii, 0
-17: oooo, 0
-
-[PROGRAM]
-        O   I 4.0
-        O   I 5.0
-        =   Q 17.3
-        BE
-[END]
-"""
 
 
 class Served:

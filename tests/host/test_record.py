@@ -12,24 +12,10 @@ import time
 from pathlib import Path
 
 from click.testing import CliRunner
-from live_helpers import ROOT, cli, start_serve, stop
+from live_helpers import OR_PROGRAM, ROOT, cli, start_serve, stop
 from served_gateway import serve_gateway
 
 from asictl.cli import main
-
-OR_PROGRAM = """\
-[SETUP]
-4: iiii, 0
-5: iiii, 0
-17: oooo, 0
-
-[PROGRAM]
-        O   I 4.0
-        O   I 5.0
-        =   Q 17.3
-        BE
-[END]
-"""
 
 
 def test_a_recording_replays_against_its_program_and_not_a_changed_one(tmp_path: Path):

@@ -12,7 +12,7 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
-from monitor_harness import cli, live, settle
+from monitor_harness import PROGRAM, cli, live, settle
 
 from asictl.host.connection import MasterAddress
 from asictl.monitor.app import MonitorApp
@@ -20,17 +20,6 @@ from asictl.monitor.source import MonitorSource
 
 ROOT = Path(__file__).resolve().parents[2]
 BLINK = ROOT / "demos" / "blink.asi"
-PROGRAM = """\
-[SETUP]
-4: iiii, 0
-17: oooo, 0
-
-[PROGRAM]
-        A   I 4.0
-        =   Q 17.3
-        BE
-[END]
-"""
 
 
 def status(state: Path) -> dict:

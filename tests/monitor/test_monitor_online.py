@@ -11,23 +11,12 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
-from monitor_harness import cli, live, settle
+from monitor_harness import PROGRAM, cli, live, settle
 
 from asictl.host.connection import MasterAddress
 from asictl.monitor.app import MonitorApp
 from asictl.monitor.source import MonitorSource
 
-PROGRAM = """\
-[SETUP]
-4: iiii, 0
-17: oooo, 0
-
-[PROGRAM]
-        A   I 4.0
-        =   Q 17.3
-        BE
-[END]
-"""
 SYMBOLS = 'Start = "I 4.0"\nLamp = "Q 17.3"\nMark = "F 10.0"\n'
 
 
