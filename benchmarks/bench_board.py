@@ -33,10 +33,14 @@ BLINK = """[PROGRAM]
         =   Q 2.0
 end:    BE
 """
+#: the same blinker, also copying its timer's remaining time to a flag word: the master
+#: must then count every tick (the image says that the program reads the time)
+BLINK_READ = BLINK.replace("end:    BE", "***\n        L   T 0\n        T   FW 10\nend:    BE")
 TOGGLE = "[PROGRAM]\n        AN Q 2.0\n        = Q 2.0\n"
 CASES = [
     ("follows inputs (idle), 2 slaves", FOLLOW, 2),
     ("500 ms blinker, 2 slaves", BLINK, 2),
+    ("500 ms blinker reading its timer, 2 slaves", BLINK_READ, 2),
     ("output toggling every cycle, 31 slaves", TOGGLE, 31),
     ("output toggling every cycle, 2 slaves", TOGGLE, 2),
 ]

@@ -13,6 +13,7 @@ from click.testing import CliRunner
 
 import asictl.quality.mutate as mutation
 from asictl.cli import main
+from asictl.diagnostics import DiagnosticError
 from asictl.il import ast
 from asictl.il.parser import parse_text
 from asictl.quality.mutate import mutations
@@ -247,3 +248,107 @@ def test_with_the_prover_a_surviving_mutant_that_changes_nothing_is_equivalent(
     assert report["equivalence_checked"] is False
     assert {(m["line"], m["change"]): m["verdict"] for m in report["mutants"]}[
         (8, "= F 5.0 -> removed")] == "survived"
+
+
+#: the scenario checks Q 2.0 only after 400 ms: a timer constant one step off survives it
+DELAY = """\
+[SETUP]
+1: iiii, 0
+2: oooo, 0
+
+[PROGRAM]
+        L   KT 300
+        A   I 1.0
+        S   T 1
+***
+        A   T 1
+        =   Q 2.0
+***
+        A   I 1.1
+        =   Q 2.1
+        BE
+"""
+
+DELAY_SCENARIO = """\
+[master]
+cycle_ms = 5
+[[step]]
+at_ms = 0
+set = { "I 1.0" = 1, "I 1.1" = 1 }
+[[step]]
+at_ms = 100
+expect = { "Q 2.0" = 1, "Q 2.1" = 1 }
+set = { "I 1.0" = 0 }
+[[step]]
+at_ms = 500
+expect = { "Q 2.0" = 0 }
+"""
+
+
+def _delay_project(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "delay.asi").write_text(DELAY)
+    (tmp_path / "delay.scenario.toml").write_text(DELAY_SCENARIO)
+
+
+def test_a_survivor_seen_to_differ_on_random_inputs_is_not_given_to_the_prover(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+):
+    """The timer constants one step off survive the scenario; random inputs show them
+    different (so the prover is not asked, a test of its own below agrees), and the
+    report says where they differ."""
+    _delay_project(tmp_path, monkeypatch)
+    code, output = _mutate(".", "--format", "json")
+    assert code == 0, output
+    by_change = {m["change"]: m for m in json.loads(output)["mutants"]}
+    for change in ("L KT 300 -> L KT 290", "L KT 300 -> L KT 310"):
+        assert by_change[change]["verdict"] == "survived"
+        assert by_change[change]["detail"].startswith("not equivalent: QB 2 differs")
+        assert by_change[change]["seconds"] < mutation.PROVE_SECONDS  # no proof was tried
+
+
+def test_what_the_random_search_calls_different_the_prover_does_not_call_equivalent():
+    """The independent check: each difference the search finds on the demos' mutants is
+    one the prover, asked, does not prove away (and finds itself where it is shallow)."""
+    pytest.importorskip("z3")
+    from asictl.build import build_file
+    from asictl.prove import equivalent
+    from asictl.quality.refute import find_difference
+
+    root = Path(__file__).resolve().parent.parent
+    checked = 0
+    for name in ("oscil.asi", "flipflop.asi", "edge.asi"):
+        original = build_file(root / "demos" / name)
+        assert original.program is not None
+        for mutant in mutation.mutants_of(original.program):
+            try:
+                built = mutation.build_mutant(original, mutant)
+            except DiagnosticError:  # a mutant the compiler refuses
+                continue
+            difference = find_difference(original, built)
+            if difference is None or difference.at_ms > 6:  # within the prover's depth
+                continue
+            answer = equivalent(original, built, timeout_s=20.0)
+            assert answer.verdict == "different", (name, mutant.change, answer)
+            checked += 1
+    assert checked >= 10
+
+
+def test_the_proof_has_a_time_limit_of_its_own_and_leaves_a_survivor(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+):
+    """``--timeout`` limits the scenarios; a proof that runs out of its own time makes the
+    mutant a survivor, never a timeout (which would count as killed)."""
+    _delay_project(tmp_path, monkeypatch)
+
+    def slow_proof(*args: Any) -> Any:
+        time.sleep(60)
+
+    monkeypatch.setattr(mutation, "prove_equivalent", slow_proof)  # forks inherit it
+    monkeypatch.setattr(mutation, "PROOF_MARGIN", 0.3)
+    code, output = _mutate(".", "--format", "json", "--timeout", "5", "--proof-timeout", "0.2")
+    assert code == 0, output
+    survivors = [m for m in json.loads(output)["mutants"] if m["verdict"] == "survived"]
+    assert {m["change"] for m in survivors} >= {"L KT 300 -> L KT 290", "L KT 300 -> L KT 310"}
+    assert all(m["detail"] == "the proof of equivalence ran out of time" for m in survivors)
+    assert "timeout" not in {m["verdict"] for m in json.loads(output)["mutants"]}

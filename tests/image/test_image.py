@@ -27,6 +27,7 @@ from asictl.image.eeprom import (
     Configuration,
     ImageError,
     ProgramImage,
+    TIMER_UNREAD,
     SlaveConfig,
     program_identity,
 )
@@ -77,7 +78,7 @@ def test_header_fields_at_their_documented_offsets(blink: Compiled, blink_bytes:
     data = blink_bytes
     image = ProgramImage.from_bytes(data)
     assert data[0:4] == MAGIC == b"ASI2"
-    assert data[4] == 2  # format version
+    assert data[4] == 3  # format version
     assert data[5] == 0x01  # source included
     assert struct.unpack_from("<H", data, 6)[0] == len(data)
     crc = struct.unpack_from("<I", data, 8)[0]
@@ -292,8 +293,8 @@ def test_hex_garbage_is_an_image_error(text: str):
 
 def test_other_version_and_foreign_data_messages(blink_bytes: bytes):
     newer = bytearray(blink_bytes)
-    newer[4] = 3
-    with pytest.raises(ImageError, match="format version 3; this asictl reads versions 1, 2"):
+    newer[4] = 4
+    with pytest.raises(ImageError, match="format version 4; this asictl reads versions 1, 2, 3"):
         ProgramImage.from_bytes(with_fixed_crc(newer))
     with pytest.raises(ImageError, match=r"starts with 3a 31 30 30; asictl's images start with"):
         ProgramImage.from_bytes(b":10000000")
@@ -426,16 +427,56 @@ def test_the_line_map_names_every_il_line_with_code(blink: Compiled, blink_bytes
         assert (found.line if found else None) == (span.line if span else None)
 
 
+def _without_timer_flags(image: ProgramImage) -> ProgramImage:
+    return replace(image, pmap=replace(image.pmap, unread_timers=set()))
+
+
 def test_a_version_1_image_still_reads_and_keeps_its_bytes(blink_bytes: bytes):
     image = ProgramImage.from_bytes(blink_bytes)
-    old = replace(image, line_map=LineMap(), format_version=1)
+    old = replace(_without_timer_flags(image), line_map=LineMap(), format_version=1)
     data = old.to_bytes()
     assert data[4] == 1 and len(data) < len(blink_bytes)
     again = ProgramImage.from_bytes(data)
     assert again.to_bytes() == data and not again.line_map
     assert again.loaded_program().code == image.code
     with pytest.raises(ImageError, match="version 1 cannot carry a line map"):
-        replace(image, format_version=1).to_bytes()
+        replace(_without_timer_flags(image), format_version=1).to_bytes()
+
+
+def test_a_version_2_image_reads_with_every_timer_ticking_one_by_one(blink_bytes: bytes):
+    """Version 2 has no timer flags: read back, no timer is one the master may step over."""
+    image = ProgramImage.from_bytes(blink_bytes)
+    assert image.pmap.timers and image.pmap.unread_timers == set(image.pmap.timers)
+    with pytest.raises(ImageError, match="version 2 cannot say which timers"):
+        replace(image, format_version=2).to_bytes()
+    data = replace(_without_timer_flags(image), format_version=2).to_bytes()
+    assert data[4] == 2 and len(data) == len(blink_bytes) - len(image.pmap.timers)
+    again = ProgramImage.from_bytes(data)
+    assert again.to_bytes() == data and again.pmap.unread_timers == set()
+    assert again.pmap.timers == image.pmap.timers and again.line_map == image.line_map
+
+
+def test_timer_flags_name_the_timers_whose_remaining_time_the_program_reads():
+    """``L T n`` reads a timer's remaining time, ``A T n`` only its status; any ASM line
+    may read anything. The image says so, and refuses flags it does not know."""
+    status_only = build(from_string("p.asi", "[PROGRAM]\n A I 1.0\n L KT 500\n S T 1\n"
+                                    " A T 1\n = Q 2.0\n L T 2\n T FW 10\n R T 2\n"))
+    assert status_only.image is not None and not status_only.has_errors
+    pmap = ProgramImage.from_bytes(status_only.image.to_bytes()).pmap
+    assert pmap.timers.keys() == {1, 2} and pmap.unread_timers == {1}
+    asm = build(from_string("p.asi", "[PROGRAM]\n A I 1.0\n L KT 500\n S T 1\n"
+                            "[ASSEMBLY]\n NOP\n"))
+    assert asm.image is not None and not asm.has_errors, asm.render()
+    assert asm.image.pmap.timers.keys() == {1} and asm.image.pmap.unread_timers == set()
+    inline = build(from_string("p.asi", "[PROGRAM]\n A I 1.0\n L KT 500\n S T 1\n ASM NOP\n"))
+    assert inline.image is not None and not inline.has_errors, inline.render()
+    assert inline.image.pmap.unread_timers == set()
+    data = bytearray(status_only.image.to_bytes())
+    at = data.find(struct.pack("<HH", 1, pmap.timers[1]) + bytes([TIMER_UNREAD]))
+    assert at > 0
+    data[at + 4] = 0x81
+    with pytest.raises(ImageError, match="timer 1 has unknown flags 81h"):
+        ProgramImage.from_bytes(with_fixed_crc(data))
 
 
 @given(st.lists(st.tuples(st.integers(1, 40), st.none() | st.tuples(

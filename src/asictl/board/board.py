@@ -12,7 +12,11 @@ Speed: ``advance`` jumps over stretches in which nothing can change. An AS-i cyc
 host access, no bus change and no due timer does nothing but the program cycle, and a
 program cycle that left the whole machine state (internal RAM, SFRs, XDATA) as it found
 it, calling no firmware block, will do so again until something external changes: such
-cycles are skipped, and so are AS-i cycles with nothing left to do.
+cycles are skipped, and so are AS-i cycles with nothing left to do. The 10 ms ticks of
+running timers whose remaining time the program never reads (the image says which) change
+only that time until one runs out: an idle board counts them down in one step, to the
+tick before the first runs out, unless someone watches a timer's remaining time
+(``tick_exactly``).
 """
 
 from __future__ import annotations
@@ -126,6 +130,14 @@ class Pc2Board:
         self._odi_written: bytes | None = None
         self._program_ready_us = 0
         self._timer_addresses: list[int] = []
+        #: per timer of the program, its address and whether its ticks may be counted
+        #: down in one step (nobody reads its remaining time)
+        self._timer_places: list[tuple[int, bool]] = []
+        self._exact_timers: set[int] = set()
+        #: the last quiet cycle's starting state, and whether the one before it started
+        #: from the same state but for the remaining times of the running unread timers
+        self._seen: bytes | None = None
+        self._leap_ok = False
         self._quiet = False
         self._probe_wait = 0
         for slave in bus:
@@ -145,11 +157,29 @@ class Pc2Board:
         eeprom = bytes(self._eeprom)
         loaded = self._control.load(eeprom)
         self._copied = (self._now_us, image_length(eeprom))
-        runner = self._control.runner
-        self._timer_addresses = sorted(runner.pmap.timers.values()) if runner else []
+        self._place_timers()
         self._quiet = False
         self._dpram.stirred = True
         return loaded
+
+    def tick_exactly(self, timers: set[int]) -> None:
+        """Count these timers down tick by tick even where the program never reads their
+        remaining time: an observer samples it after the cycles that run (a trace, a
+        tolerance window, a plant rule), and a step over many ticks would hide the
+        values between."""
+        self._exact_timers = set(timers)
+        self._place_timers()
+
+    def _place_timers(self) -> None:
+        runner = self._control.runner
+        pmap = runner.pmap if runner is not None else None
+        self._timer_addresses = sorted(pmap.timers.values()) if pmap is not None else []
+        self._timer_places = [] if pmap is None else [
+            (address, n in pmap.unread_timers and n not in self._exact_timers)
+            for n, address in sorted(pmap.timers.items())
+        ]
+        self._unread_addresses = sorted(a for a, unread in self._timer_places if unread)
+        self._seen, self._leap_ok = None, False
 
     # ------------------------------------------------------------------ the port
 
@@ -291,19 +321,49 @@ class Pc2Board:
     def _idle_cycles(self, now: int, period: int, end: int) -> int:
         """How many AS-i cycles after ``now`` can be skipped, and skip the ticks among them.
 
-        Cycles before the next tick can always go; when the ticks themselves change
-        nothing (watchdog off, no program timer running) everything up to ``end`` can.
+        Cycles before the next tick can always go; so can those before the first tick
+        that changes something the program could tell (``_quiet_ticks``), up to ``end``.
         """
-        ticks_idle = not self._ram[d.WATCHDOG_ENABLE] and not (
-            self._control.running and self._timers_running()
-        )
-        if not ticks_idle:
-            return max(0, min((self._next_tick_us - now - 1) // period, (end - now) // period))
-        skip = max(0, (end - now) // period)
+        quiet = self._quiet_ticks()
+        limit = end if quiet is None else min(end, self._next_tick_us + quiet * TICK_US - 1)
+        skip = max(0, (limit - now) // period)
         last = now + skip * period
         if self._next_tick_us <= last:
-            self._next_tick_us += ((last - self._next_tick_us) // TICK_US + 1) * TICK_US
+            ticks = (last - self._next_tick_us) // TICK_US + 1
+            self._next_tick_us += ticks * TICK_US
+            if quiet is not None:  # unread timers run: they count down as the ticks would
+                self._count_down(ticks)
         return skip
+
+    def _quiet_ticks(self) -> int | None:
+        """How many of the coming ticks change nothing a program cycle could tell: all
+        (None) with the watchdog off and no program timer running; with only timers
+        running whose remaining time nobody reads, those before the first runs out (its
+        status bit changes with that tick); else none."""
+        ram = self._ram
+        if ram[_WATCHDOG_ENABLE]:
+            return 0
+        if not self._control.running:
+            return None
+        least: int | None = None
+        for address, unread in self._timer_places:
+            remaining = ram[address] | ram[address + 1] << 8
+            if remaining:
+                if not unread or not self._leap_ok:
+                    return 0
+                least = remaining if least is None else min(least, remaining)
+        return None if least is None else least - 1
+
+    def _count_down(self, ticks: int) -> None:
+        """``ticks`` ticks of the program's timers at once (none of them runs out)."""
+        runner = self._control.runner
+        if runner is None:
+            return
+        try:
+            runner.tick(ticks)
+        except Exception as exc:  # as in ``_tick``: never out of ``advance``
+            self._halt(StopReason.PROGRAM_FAULT, _fault(exc))
+        self._dpram.stirred = True
 
     def _tick(self) -> None:
         """The 10 ms clock: watchdog, program timers."""
@@ -437,9 +497,12 @@ class Pc2Board:
         if before is not None:
             self._quiet = calls == self._firmware.calls and self._unchanged(runner, before)
             self._probe_wait = 0 if self._quiet else 16
+            if self._unread_addresses:
+                self._note_quiet(runner, before if self._quiet else None)
         else:
             self._probe_wait -= 1
             self._quiet = False
+            self._seen, self._leap_ok = None, False
         sent = self.forces.outputs(runner.outputs) if self._forcing else runner.outputs
         odi = bytes(sent).translate(_INVERT)
         if odi != self._odi_written:
@@ -463,6 +526,27 @@ class Pc2Board:
         return (
             bytes(cpu.iram) + bytes(cpu.sfr) + inputs + bytes(cpu.xdata.ram[: layout.DATA_LIMIT])
         )
+
+    def _note_quiet(self, runner: ProgramRunner, snapshot: bytes | None) -> None:
+        """May the ticks of the running unread timers be counted down in one step? Only
+        after two quiet cycles from one state but for those timers' remaining times,
+        which differed in each: a cycle's writes cannot depend on a time it never reads,
+        and it writes a timer's time only as a whole word (S T, R T, T T), so a cycle
+        that left two different times as they were writes none of them; it would leave
+        every time until the first runs out as it was (``ProgramMap.unread_timers``)."""
+        previous, self._seen, self._leap_ok = self._seen, snapshot, False
+        if snapshot is None or previous is None or len(previous) != len(snapshot):
+            return
+        offset = 512 + (len(runner.inputs) if runner.reads_previous_inputs else 0)
+        start = 0
+        for address in self._unread_addresses:
+            at = offset + address
+            if snapshot[at] or snapshot[at + 1]:  # running: its time must differ
+                if previous[start:at] != snapshot[start:at] or \
+                        previous[at : at + 2] == snapshot[at : at + 2]:
+                    return
+                start = at + 2
+        self._leap_ok = start > 0 and previous[start:] == snapshot[start:]
 
     @staticmethod
     def _unchanged(runner: ProgramRunner, snapshot: bytes) -> bool:

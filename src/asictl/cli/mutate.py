@@ -92,9 +92,13 @@ def _summary(results: list[Result]) -> str:
 @click.option("--timeout", "timeout_s", type=click.FloatRange(min=0, min_open=True),
               metavar="SECONDS", help="Time limit of one mutant (default: 10 s plus five "
               "times what its program's scenarios take unchanged).")
+@click.option("--proof-timeout", "prove_s", type=click.FloatRange(min=0, min_open=True),
+              default=mutation.PROVE_SECONDS, show_default=True, metavar="SECONDS",
+              help="Time the prover (the prove extra) may spend on one surviving mutant's "
+              "proof of equivalence; out of time, the mutant stays a survivor.")
 @lib_option
 def mutate(paths: tuple[Path, ...], jobs: int | None, fmt: str, min_score: float | None,
-           timeout_s: float | None, lib: tuple[str, ...]) -> None:
+           timeout_s: float | None, prove_s: float, lib: tuple[str, ...]) -> None:
     """Mutation testing: change each program the scenarios under PATHs test (default:
     the current directory) in one place at a time, and run its scenarios.
 
@@ -125,7 +129,8 @@ def mutate(paths: tuple[Path, ...], jobs: int | None, fmt: str, min_score: float
             click.echo(_line(finished[shown]))
             shown += 1
 
-    results = run_all(targets, jobs=jobs or default_jobs(), timeout_s=timeout_s, done=done)
+    results = run_all(targets, jobs=jobs or default_jobs(), timeout_s=timeout_s,
+                      prove_s=prove_s, done=done)
     checked = mutation.prove_available()
     killed, counted = score(results)
     share = 100.0 * killed / counted if counted else 100.0

@@ -55,6 +55,10 @@ class _Usage:
     bit_uses: Counter[Cell] = field(default_factory=Counter)
     byte_uses: Counter[Cell] = field(default_factory=Counter)
     timers: set[int] = field(default_factory=set)
+    #: the timers whose remaining time the code reads (``L T n``)
+    read_timers: set[int] = field(default_factory=set)
+    #: whether the program has ASM lines or [ASSEMBLY] sections, which may read anything
+    asm: bool = False
     counters: set[int] = field(default_factory=set)
 
     def bit(self, cell: Cell) -> None:
@@ -67,12 +71,15 @@ class _Usage:
 def _usage(program: Program) -> _Usage:
     """How often the program's code uses each cell as bits and as bytes, and which timers
     and counters it has. A [PROGRAM] statement on a timer (status bit or word) uses its
-    status byte; a gating line only its status bit."""
+    status byte; a gating line only its status bit. Which timers' remaining time it
+    reads is noted for the image (``ProgramMap.unread_timers``)."""
     usage = _Usage()
     for module in program.modules():
+        usage.asm = usage.asm or any(module.sections_of(ast.AssemblySection))
         for node in module.code():
             statement = not isinstance(node, ast.GatingLine)
-            for operand, _ in ast.operands(node):
+            usage.asm = usage.asm or isinstance(node, ast.Asm)
+            for operand, access in ast.operands(node):
                 n = operand.address
                 match operand.kind:
                     case K.I | K.I2 | K.Q | K.F:
@@ -88,6 +95,8 @@ def _usage(program: Program) -> _Usage:
                             usage.bit(timer_status(n)[0])
                         if statement:
                             usage.byte(timer_status(n)[0])
+                        if operand.width is not ast.Width.BIT and access is not ast.Access.WRITE:
+                            usage.read_timers.add(n)
                     case K.C:
                         usage.counters.add(n)
                     case K.PSEG | K.VAR | K.KT | K.KC | K.KB | K.KW | K.KP:
@@ -149,4 +158,6 @@ def allocate(program: Program, *, map_counters: bool) -> ProgramMap:
     for cell in sorted(c for c in used if c not in result.cells and c[0] is not CellKind.F):
         result.cells[cell] = Location(Space.XDATA, take(1))
     result.data_end = cursor
+    if not usage.asm:
+        result.unread_timers = usage.timers - usage.read_timers
     return result

@@ -53,10 +53,13 @@ from asictl.runtime.program_map import (
 from asictl.source import SYMBOLS_SUFFIX
 
 MAGIC = b"ASI2"
-#: Version 2 added the line map; images of version 1 (without it) still read and keep
-#: their version when written again.
-FORMAT_VERSION = 2
-READABLE_VERSIONS = (1, 2)
+#: Version 2 added the line map, version 3 a flags byte per timer (whether the program
+#: reads its remaining time); older images still read and keep their version when
+#: written again.
+FORMAT_VERSION = 3
+READABLE_VERSIONS = (1, 2, 3)
+#: Timer flags (version 3): the program never reads the timer's remaining time.
+TIMER_UNREAD = 0x01
 
 # Header layout (all little-endian); docs/image-format.md has the table.
 _HEADER = struct.Struct("<4sBBHIB16s4s32s16sHHHH")
@@ -233,7 +236,10 @@ class ProgramImage:
         return self.identity.hex()
 
     def to_bytes(self) -> bytes:
-        program_map = _encode_map(self.pmap, self.entry_points)
+        if self.format_version < 3 and self.pmap.unread_timers:
+            raise ImageError(f"an image of format version {self.format_version} cannot say "
+                             "which timers the program reads")
+        program_map = _encode_map(self.pmap, self.entry_points, self.format_version)
         if self.format_version >= 2:
             program_map += self.line_map.to_bytes(self.code_base)
         elif self.line_map:
@@ -309,7 +315,7 @@ class ProgramImage:
         code_end = HEADER_SIZE + code_size
         pmap, entry_points, line_map = _decode_map(
             data[code_end : code_end + map_size], bool(flags & ControlFlag.MAP_COUNTERS),
-            code_base=code_base, with_lines=version >= 2,
+            code_base=code_base, version=version,
         )
         image = cls(
             flags=flags,
@@ -387,7 +393,7 @@ class ProgramImage:
 # --------------------------------------------------------------------------- program map
 
 
-def _encode_map(pmap: ProgramMap, entry_points: Mapping[str, int]) -> bytes:
+def _encode_map(pmap: ProgramMap, entry_points: Mapping[str, int], version: int) -> bytes:
     out = bytearray(struct.pack("<HH", pmap.pseg, pmap.data_end))
     cells = sorted(pmap.cells.items(), key=lambda item: (_CELL_KINDS.index(item[0][0]), item[0][1]))
     out += struct.pack("<H", len(cells))
@@ -398,6 +404,8 @@ def _encode_map(pmap: ProgramMap, entry_points: Mapping[str, int]) -> bytes:
         out += struct.pack("<H", len(table))
         for number, address in sorted(table.items()):
             out += struct.pack("<HH", number, address)
+            if table is pmap.timers and version >= 3:
+                out.append(TIMER_UNREAD if number in pmap.unread_timers else 0)
     variables = sorted(pmap.variables.values(), key=lambda v: v.address)
     out += struct.pack("<H", len(variables))
     for variable in variables:
@@ -409,7 +417,7 @@ def _encode_map(pmap: ProgramMap, entry_points: Mapping[str, int]) -> bytes:
 
 
 def _decode_map(
-    data: bytes, map_counters: bool, *, code_base: int, with_lines: bool
+    data: bytes, map_counters: bool, *, code_base: int, version: int
 ) -> tuple[ProgramMap, dict[str, int], LineMap]:
     reader = _Reader(data, "program map")
     pmap = ProgramMap(pseg=reader.u16(), data_end=reader.u16(), map_counters=map_counters)
@@ -423,6 +431,13 @@ def _decode_map(
         for _ in range(reader.u16()):
             number, address = reader.unpack("<HH")
             table[number] = address
+            if table is pmap.timers and version >= 3:
+                flags = reader.u8()
+                if flags & ~TIMER_UNREAD:
+                    raise ImageError(f"image program map: timer {number} has unknown flags "
+                                     f"{flags:02X}h")
+                if flags & TIMER_UNREAD:
+                    pmap.unread_timers.add(number)
     for _ in range(reader.u16()):
         address, size = reader.unpack("<HB")
         name = reader.name()
@@ -435,7 +450,7 @@ def _decode_map(
             raise ImageError(f"image calls firmware block '{name}', which this asictl lacks")
         entry_points[name] = address
     line_map = LineMap()
-    if with_lines:
+    if version >= 2:
         try:
             line_map = LineMap.from_bytes(reader.rest(), code_base)
         except LineMapError as exc:

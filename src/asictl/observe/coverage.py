@@ -10,7 +10,8 @@ How it is counted without slowing the simulation much: a program cycle is a func
 of the machine's state at its start (internal RAM, SFRs, the communication memory, the
 program's data, the input images) as long as it calls no firmware block; the remaining
 time of a running timer, which the 10 ms clock counts down, is left out unless the
-program loads it (``L T n``): the program sees only the timer's status. The first
+program reads it (``L T n``, or ASM: the image says which): the program sees only the
+timer's status. The first
 cycle from each state runs in the emulator's interpreter with a function called after
 every instruction; that sees each IL line's first instruction run (its first address in
 the line map), the single-bit register at each branch (the first instruction of a JC or
@@ -177,15 +178,13 @@ class Collector:
                     continue  # no code of its own
                 self._points[start] = self._point(path, node)
         #: the timers' remaining counts, which the tick changes every 10 ms: a cycle does
-        #: not depend on them (only on the status bits) unless the program loads one
-        loaded = {
-            node.operand.address for module in program.modules() for node in module.code()
-            if isinstance(node, ast.Load) and node.operand.kind is ast.OperandKind.T
-        }
+        #: not depend on them (only on the status bits) unless the program reads one (the
+        #: image says which: ``ProgramMap.unread_timers``)
         pmap = runner.pmap
         self._data = (layout.DATA_BASE, pmap.data_end)
         self._unread = [address - layout.DATA_BASE for n, address in pmap.timers.items()
-                        if n not in loaded and layout.DATA_BASE <= address < pmap.data_end - 1]
+                        if n in pmap.unread_timers
+                        and layout.DATA_BASE <= address < pmap.data_end - 1]
         self._records: dict[bytes, _Record] = {}
         #: what the cycles that called firmware blocks did, added up (never reused)
         self._once = _Record()

@@ -11,12 +11,15 @@ scenario that fails kills it. A mutant whose 8051 code is the original's is
 does not end, a simulation that no longer skips idle cycles) is ``timeout``, which
 counts as killed. A mutant that survives is either a gap in the scenarios or a change
 that makes no difference; when the ``prove`` extra is installed, ``prove_equivalent``
-asks the prover, and a proved one is ``equivalent`` too. The score is killed /
-(mutants - equivalent - invalid).
+asks the prover, and a proved one is ``equivalent`` too (after a quick search for
+inputs on which the two differ, quality/refute.py, which spares the prover the
+survivors it could never prove). The score is killed / (mutants - equivalent - invalid).
 
 Each mutant runs in a process of its own, forked from this one (it inherits the
 parsed programs and scenarios; nothing but its verdict is sent back), at most ``jobs``
-at once; a process past its time limit is killed.
+at once; a process past its time limit is killed. The limit is on the scenarios; the
+proof of a mutant that passed them all has ``prove_s`` of its own, and one out of
+time leaves the mutant a survivor.
 """
 
 from __future__ import annotations
@@ -37,8 +40,16 @@ from asictl.diagnostics import DiagnosticError
 from asictl.il import ast
 from asictl.il.loader import Program
 from asictl.observe.coverage import LineKey
+from asictl.quality.refute import find_difference
 from asictl.sim.session import Prepared, simulate
 
+#: how long the prover may look for a survivor's proof of equivalence, by default: the
+#: proofs the demos' equivalent mutants need take under 2 s
+PROVE_SECONDS = 5.0
+#: how much longer than that its worker may take (z3 does not stop to the millisecond)
+PROOF_MARGIN = 5.0
+#: the message of a worker whose mutant passed every scenario: its proof begins
+_PROVING = "proving"
 #: what a verdict may be; killed and timeout count as killed
 VERDICTS = ("killed", "timeout", "survived", "equivalent", "invalid")
 #: the install hint when equivalence cannot be checked (asictl is not on PyPI: the hint
@@ -234,8 +245,11 @@ class Target:
         return (os.path.abspath(mutant.file), mutant.line) in self.reached
 
 
-def verdict(target: Target, mutant: Mutant) -> tuple[str, str]:
-    """Run one mutant against its scenarios (in the worker process)."""
+def verdict(target: Target, mutant: Mutant, proving: Callable[[], None] | None = None,
+            prove_s: float = PROVE_SECONDS) -> tuple[str, str]:
+    """Run one mutant against its scenarios (in the worker process); ``proving`` hears
+    that they all passed and the question of equivalence begins, which has a time
+    limit of its own."""
     original = target.scenarios[0].build
     try:
         built = build_mutant(original, mutant)
@@ -250,7 +264,9 @@ def verdict(target: Target, mutant: Mutant) -> tuple[str, str]:
         if run.result.failures:
             failure = run.result.failures[0]
             return "killed", f"{prepared.scenario.file}:{failure.line}: {failure}"
-    proved = prove_equivalent(original, built)
+    if proving is not None:
+        proving()
+    proved = prove_equivalent(original, built, prove_s)
     if proved is not None:
         return proved
     return "survived", ""
@@ -266,24 +282,44 @@ def prove_available() -> bool:
     return True
 
 
-def prove_equivalent(original: Build, mutant: Build) -> tuple[str, str] | None:
+def prove_equivalent(original: Build, mutant: Build,
+                     prove_s: float = PROVE_SECONDS) -> tuple[str, str] | None:
     """Ask the prover whether a surviving mutant behaves as the original; None when it
-    is not installed or cannot tell."""
+    is not installed or cannot tell. A survivor seen to differ from the original on
+    random inputs first (quality/refute.py) is one no proof can make equivalent: it is
+    ``survived`` at once, the difference its detail."""
     if not prove_available():
         return None
+    difference = find_difference(original, mutant)
+    if difference is not None:
+        return "survived", str(difference)
     prove: Any = importlib.import_module("asictl.prove")
-    answer = prove.equivalent(original, mutant, timeout_s=10.0)
+    answer = prove.equivalent(original, mutant, timeout_s=prove_s)
     if answer.verdict == "equivalent":
         return "equivalent", "proved equivalent"
     return None
 
 
+@dataclass
+class _Worker:
+    """A worker process and its mutant: when it started, its time limit in seconds, and
+    whether its mutant passed every scenario and the proof runs (on a limit of its own:
+    a proof out of time leaves a survivor, not a timeout)."""
+
+    process: Any
+    pipe: Any
+    start: float
+    limit: float
+    proving: bool = False
+
+
 def run_all(
     targets: list[Target], *, jobs: int, timeout_s: float | None = None,
-    done: Callable[[Result], None] | None = None,
+    prove_s: float = PROVE_SECONDS, done: Callable[[Result], None] | None = None,
 ) -> list[Result]:
     """Every mutant of every target, ``jobs`` processes at once; results in the order of
-    the mutants, ``done`` called as each finishes."""
+    the mutants, ``done`` called as each finishes. ``timeout_s`` limits a mutant's
+    scenarios, ``prove_s`` the proof of one that passes them all."""
     context = multiprocessing.get_context("fork")
     queue = [(target, mutant) for target in targets for mutant in target.mutants]
     results: dict[int, Result] = {}
@@ -295,20 +331,22 @@ def run_all(
     pending = [index for index in range(len(queue)) if index not in results]
     # the mutants of the slowest programs first: the others fill the workers meanwhile
     pending.sort(key=lambda index: -queue[index][0].seconds)
-    running: dict[int, tuple[Any, Any, float, float]] = {}  # index -> process, pipe, start, limit
+    running: dict[int, _Worker] = {}
     try:
-        _run_pending(context, queue, pending, jobs, timeout_s, results, done, running)
+        _run_pending(context, queue, pending, jobs, (timeout_s, prove_s), results, done,
+                     running)
     finally:  # interrupted: no worker outlives the run
-        for process, _, _, _ in running.values():
-            process.kill()
+        for worker in running.values():
+            worker.process.kill()
     return [results[i] for i in range(len(queue))]
 
 
 def _run_pending(
     context: Any, queue: list[tuple[Target, Mutant]], pending: list[int], jobs: int,
-    timeout_s: float | None, results: dict[int, Result],
-    done: Callable[[Result], None] | None, running: dict[int, tuple[Any, Any, float, float]],
+    limits: tuple[float | None, float], results: dict[int, Result],
+    done: Callable[[Result], None] | None, running: dict[int, _Worker],
 ) -> None:
+    timeout_s, prove_s = limits
     position = 0
     while position < len(pending) or running:
         while position < len(pending) and len(running) < max(1, jobs):
@@ -316,41 +354,46 @@ def _run_pending(
             position += 1
             target, mutant = queue[index]
             receive, send = context.Pipe(duplex=False)
-            process = context.Process(target=_child, args=(target, mutant, send), daemon=True)
+            process = context.Process(target=_child, args=(target, mutant, send, prove_s),
+                                      daemon=True)
             process.start()
             send.close()
             limit = timeout_s if timeout_s is not None else 10.0 + 5 * target.seconds
-            running[index] = (process, receive, time.monotonic(), limit)
+            running[index] = _Worker(process, receive, time.monotonic(), limit)
         now = time.monotonic()
-        wait = min(start + limit for _, _, start, limit in running.values()) - now
-        multiprocessing.connection.wait([r for _, r, _, _ in running.values()],
+        wait = min(w.start + w.limit for w in running.values()) - now
+        multiprocessing.connection.wait([w.pipe for w in running.values()],
                                         timeout=max(0.0, wait))
-        for index, (process, receive, start, limit) in list(running.items()):
+        for index, worker in list(running.items()):
             mutant = queue[index][1]
-            elapsed = time.monotonic() - start
-            if receive.poll():
+            elapsed = time.monotonic() - worker.start
+            if worker.pipe.poll():
                 try:
-                    kind, detail = receive.recv()
+                    kind, detail = worker.pipe.recv()
                 except EOFError:  # the process died without a word
                     kind, detail = "invalid", "the worker process ended without an answer"
-            elif not process.is_alive():
+                if kind == _PROVING:  # the scenarios passed: the proof's own time limit
+                    worker.proving, worker.limit = True, elapsed + prove_s + PROOF_MARGIN
+                    continue
+            elif not worker.process.is_alive():
                 kind, detail = "invalid", "the worker process ended without an answer"
-            elif elapsed > limit:
-                process.kill()
-                kind, detail = "timeout", f"still running after {limit:g} s"
+            elif elapsed > worker.limit:
+                worker.process.kill()
+                kind, detail = ("survived", "the proof of equivalence ran out of time") \
+                    if worker.proving else ("timeout", f"still running after {worker.limit:g} s")
             else:
                 continue
-            process.join()
-            receive.close()
+            worker.process.join()
+            worker.pipe.close()
             del running[index]
             results[index] = Result(mutant, kind, detail, elapsed)
             if done is not None:
                 done(results[index])
 
 
-def _child(target: Target, mutant: Mutant, send: Any) -> None:
+def _child(target: Target, mutant: Mutant, send: Any, prove_s: float) -> None:
     try:
-        answer = verdict(target, mutant)
+        answer = verdict(target, mutant, lambda: send.send((_PROVING, "")), prove_s)
     except Exception as exc:  # a bug: reported as the mutant's detail, never a hang
         answer = ("invalid", f"internal error: {type(exc).__name__}: {exc}")
     send.send(answer)

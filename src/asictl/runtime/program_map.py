@@ -69,6 +69,11 @@ class ProgramMap:
     pseg: int = layout.DATA_BASE
     data_end: int = layout.DATA_BASE
     map_counters: bool = False
+    #: the timers whose remaining time the program never reads (no ``L T n``, no ASM):
+    #: it sees only their status bits, so the ticks before one runs out change nothing
+    #: it could tell, and an idle master may count them down in one go. Empty where an
+    #: image does not say (format versions 1 and 2): every timer then ticks one by one.
+    unread_timers: set[int] = field(default_factory=set)
 
     def flag(self, n: int) -> Location:
         """Flag byte n: its cell if allocated, else its home in the communication memory."""

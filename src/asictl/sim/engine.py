@@ -231,6 +231,8 @@ class Simulation:
         self._limit = math.inf
         self._paused = False
         self._signals: list[tuple[Signal, Sample]] = []
+        #: the operands the trace samples after every cycle that runs
+        self._traced: list[Operand] = []
         self._trace = trace
         #: how often a trace samples a moving model between its changes
         self._sample_ms = (scenario.cycle_ms or _SAMPLE_MS) if trace else None
@@ -241,6 +243,7 @@ class Simulation:
                              lambda: int(self._running), lanes,
                              [str(o) for m in self.plant.models for o in m.driven()])
             self._signals, self.untraced = traced.sampled, traced.untraced
+            self._traced = traced.operands
         #: collects the IL coverage (observe/coverage.py) once the program is loaded
         self.coverage = coverage
         #: exact hit counts (every cycle run, none skipped as a repeat of the last)
@@ -280,6 +283,17 @@ class Simulation:
         self._next_event = 0
         self._progress = progress
         self._done_ms = -1.0
+        self._tick_exactly()
+
+    def _tick_exactly(self) -> None:
+        """The timers whose remaining time is sampled after every cycle that runs (by the
+        trace, a tolerance window, a plant model) tick one by one on the board: a step
+        over the ticks of an unread timer would hide the values between."""
+        sampled = [*self._traced, *(o for m in self.plant.models for o in m.sensed()),
+                   *(o for steps in self._opens.values() for s in steps for o, _, _ in s.expect)]
+        self.board.tick_exactly({o.node.address for o in sampled
+                                 if o.node.kind is ast.OperandKind.T
+                                 and o.node.width is not ast.Width.BIT})
 
     # ------------------------------------------------------------------ reading
 
@@ -350,6 +364,7 @@ class Simulation:
                                           functools.partial(self.read, operand)))
             self._signals += [(Signal(lane.name, lane.width, operand=lane.name), lane.sample)
                               for lane in model.lanes()]
+        self._tick_exactly()
         return model
 
     def evaluate_plant(self) -> None:

@@ -91,6 +91,10 @@ class Model:
         """The inputs this model writes."""
         return [operand for operand, _ in self._inputs()]
 
+    def sensed(self) -> list[Operand]:
+        """The operands this model reads (after every cycle that runs)."""
+        return []
+
     def lanes(self) -> list[Lane]:
         return []
 
@@ -155,6 +159,9 @@ class Cylinder(Model):
     def position(self) -> float:
         """How far out, 0.0 (in) to 1.0 (the end of the stroke)."""
         return self.travel / self.stroke
+
+    def sensed(self) -> list[Operand]:
+        return [o for o in (self.extend, self.retract) if o is not None]
 
     def lanes(self) -> list[Lane]:
         return [Lane(f"{self.name} position", 7, lambda: round(100 * self.position))]
@@ -227,6 +234,9 @@ class Conveyor(Model):
 
     def position_mm(self, run: int) -> float:
         return run * self.speed / 1_000_000
+
+    def sensed(self) -> list[Operand]:
+        return [o for o in (self.motor, self.part_on) if o is not None]
 
     def lanes(self) -> list[Lane]:
         return [
@@ -303,6 +313,9 @@ class Tank(Model):
         self.switches = list(switches)
         self.rate = 0.0  # per microsecond
 
+    def sensed(self) -> list[Operand]:
+        return [o for o in (self.fill, self.drain) if o is not None]
+
     def lanes(self) -> list[Lane]:
         return [Lane(f"{self.name} level", 16, lambda: round(self.level))]
 
@@ -365,6 +378,9 @@ class Motor(Model):
             return 0
         return 2 if self._t - self.on_since >= self.start else 1
 
+    def sensed(self) -> list[Operand]:
+        return [self.contactor]
+
     def lanes(self) -> list[Lane]:
         return [Lane(f"{self.name} state", 2, lambda: self.state)]
 
@@ -416,6 +432,9 @@ class Rule(Model):
 
     def driven(self) -> list[Operand]:
         return list({**self.values, **self.otherwise})
+
+    def sensed(self) -> list[Operand]:
+        return list(self.when.operands)
 
     def lanes(self) -> list[Lane]:
         return [Lane(f"{self.name} active", 1, lambda: int(self.active))]

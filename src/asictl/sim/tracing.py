@@ -62,7 +62,10 @@ class Signals:
         if inputs:  # the inputs plant models drive, whether the program reads them or not
             known = set(names)
             names = [*(n for n in inputs if n not in known), *names]
+        self._operands: dict[int, Operand] = {}
         self.sampled = _select(self._make_signals(names) + list(extra or []), patterns)
+        #: the operands the sampled signals read
+        self.operands = [self._operands[id(s)] for s, _ in self.sampled if id(s) in self._operands]
 
     def _make_signals(self, names: list[str]) -> list[tuple[Signal, Sample]]:
         signals: list[tuple[Signal, Sample]] = []
@@ -72,6 +75,7 @@ class Signals:
                 continue
             operand = parse_operand(name)
             signal = Signal(self.symbols.label(name), operand.width, operand=name)
+            self._operands[id(signal)] = operand
             signals.append((signal, functools.partial(self._read, operand)))
         return signals
 

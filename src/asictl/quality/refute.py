@@ -1,0 +1,129 @@
+"""A quick search for inputs on which a surviving mutant and its original differ, made
+before the prover is asked whether the mutant is equivalent.
+
+The prover can only prove a mutant equivalent; for one that is not (nearly every
+survivor: a timer constant one step off, a neighbouring output that no scenario checks)
+it searches until its time runs out, ten seconds a survivor. Running both programs'
+compiled code side by side on the same inputs, drawn at random and held for random
+stretches (a timer needs its input held to run out), with the master's 10 ms clock
+ticking between the cycles as the prover models it, finds most such differences in a
+fraction of that. Outputs that differ after some cycle make the two programs different
+by the prover's own definition (the same outputs after every cycle, for every input
+sequence and every phase of the clock), so the proof is not tried: the verdict is the
+same, only sooner. Programs whose code depends on what this cannot give, the answers of
+firmware blocks and anything [ASSEMBLY] code may read, are left to the prover.
+"""
+
+from __future__ import annotations
+
+import random
+from dataclasses import dataclass
+
+from asictl.build import Build
+from asictl.il import ast
+from asictl.il.loader import Program
+from asictl.platform.master import TICK_US
+from asictl.runtime import layout
+from asictl.runtime.runner import CycleTimeout, ProgramRunner
+
+#: How many program cycles each search runs at most (both programs: twice as many).
+CYCLES = 20_000
+#: How much master time it covers at most, in microseconds: cycles that would repeat
+#: the last exactly (inputs held, no tick due, memory left as it was) are not run.
+MASTER_TIME_US = 300_000_000
+#: The longest stretch an input is held, in microseconds (a timer runs out in 41 s).
+LONGEST_HOLD_US = 45_000_000
+#: One AS-i transaction: the cycle time is this per slave, plus one (as the prover's).
+_TRANSACTION_US = 150
+
+
+@dataclass(frozen=True)
+class Difference:
+    """Where two programs were seen to differ: the output byte, and when (ms of random
+    inputs)."""
+
+    output: int
+    at_ms: int
+
+    def __str__(self) -> str:
+        return (f"not equivalent: QB {2 * self.output} differs from the original's after "
+                f"{self.at_ms} ms of random inputs")
+
+
+def _searchable(program: Program) -> bool:
+    """No firmware block calls, no PARAM, no ASM: the code runs alone."""
+    for module in program.modules():
+        if any(module.sections_of(ast.AssemblySection)):
+            return False
+        for node in module.code():
+            if isinstance(node, ast.Asm | ast.Param):
+                return False
+            if isinstance(node, ast.CallFB) and ast.key(node.name) not in program.blocks:
+                return False
+    return True
+
+
+def find_difference(original: Build, mutant: Build, *, seed: int = 0) -> Difference | None:
+    """The first cycle after which the two builds' outputs differ on one random run, or
+    None when none did (or the programs cannot be searched so)."""
+    programs = (original.source_program(), mutant.source_program())
+    images = (original.image, mutant.image)
+    if None in programs or None in images or not all(
+            _searchable(p) for p in programs if p is not None):
+        return None
+    bus = sorted({s.address for p in programs if p is not None for s in p.slaves})
+    cycle_us = _TRANSACTION_US * (max(len(bus), 1) + 1)
+    runners = [ProgramRunner(image.loaded_program()) for image in images if image is not None]
+    rng = random.Random(seed)
+    until_tick = rng.randint(1, TICK_US)  # from the first cycle's start: the clock's phase
+    inputs = bytearray(16)
+    held = dict.fromkeys(bus, 0)  # how many more cycles each slave's inputs stay
+    now = cycle = 0
+    while cycle < CYCLES and now < MASTER_TIME_US:
+        for address in bus:
+            if held[address] <= 0:
+                nibble = rng.randrange(16)
+                shift = (address & 1) * 4
+                inputs[address >> 1] = inputs[address >> 1] & ~(0xF << shift) | nibble << shift
+                hold_us = rng.randint(1, 5) * cycle_us if rng.random() < 0.5 else \
+                    rng.randint(cycle_us, LONGEST_HOLD_US)
+                held[address] = -(-hold_us // cycle_us)
+        before = [_memory(runner) for runner in runners]
+        try:
+            for runner in runners:
+                runner.cycle(inputs)
+        except CycleTimeout:  # a loop the master would end: the prover's to judge
+            return None
+        cycle += 1
+        first, second = runners[0].outputs, runners[1].outputs
+        if first != second:
+            byte = next(i for i in range(16) if first[i] != second[i])
+            return Difference(byte, now // 1000)
+        # the cycles before the next tick repeat this one if it changed nothing and no
+        # input changes: they are not run
+        repeats = 0
+        if all(b == _memory(r) for b, r in zip(before, runners, strict=True)):
+            repeats = min([(until_tick - 1) // cycle_us, *(held[a] - 1 for a in bus)])
+        steps = 1 + max(0, repeats)
+        for address in bus:
+            held[address] -= steps
+        now += steps * cycle_us
+        until_tick -= steps * cycle_us
+        ticks = 0  # the ticks until the next cycle starts (one at its start included)
+        while until_tick <= 0:
+            ticks += 1
+            until_tick += TICK_US
+        if ticks:
+            for runner in runners:
+                runner.tick(ticks)
+    return None
+
+
+def _memory(runner: ProgramRunner) -> bytes:
+    """What a cycle of compiled IL can change: internal RAM, SFRs, the flags, the
+    program's data, and the input image that becomes I2."""
+    cpu, pmap = runner.cpu, runner.pmap
+    xdata = cpu.xdata.ram
+    return (bytes(cpu.iram) + bytes(cpu.sfr) + bytes(runner.inputs)
+            + xdata[layout.FLAGS_BASE : layout.FLAGS_BASE + 128]
+            + xdata[layout.DATA_BASE : pmap.data_end])
