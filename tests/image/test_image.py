@@ -24,10 +24,10 @@ from asictl.il.checks import check_source
 from asictl.image.eeprom import (
     HEADER_SIZE,
     MAGIC,
+    TIMER_UNREAD,
     Configuration,
     ImageError,
     ProgramImage,
-    TIMER_UNREAD,
     SlaveConfig,
     program_identity,
 )

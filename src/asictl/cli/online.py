@@ -17,7 +17,8 @@ import click
 
 from asictl.cli.master import _board_options, _BoardOptions, _connect
 from asictl.errors import ExitCode, UserError
-from asictl.host.forcing import Entry, ForcedValue, forced, forced_values
+from asictl.host.force_list import Entry, ForcedValue, forced_values
+from asictl.host.forcing import forced
 from asictl.host.master import Master
 from asictl.host.status import StoredProgram
 from asictl.host.symbols import Names

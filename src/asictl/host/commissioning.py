@@ -13,8 +13,9 @@ Refusals are ``JobError``s with the ASI_CTRL STATUS word (host/jobs.py).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Protocol
+from typing import Protocol
 
 from asictl.errors import ExitCode, UserError
 from asictl.host.driver import Pc2Driver
@@ -44,9 +45,6 @@ from asictl.platform.pc2 import (
     list_bytes,
     slave_list,
 )
-
-if TYPE_CHECKING:
-    from asictl.host.modbus import ModbusTransport
 
 
 class NotOffered(UserError):
@@ -271,10 +269,25 @@ class Pc2Commissioning:
         self.driver.write(ODI, bytes(0xFF - b for b in odi))
 
 
+class GatewayRegisters(Protocol):
+    """What commissioning needs of a gateway's Modbus connection (host.modbus's
+    ``ModbusTransport`` is the one): its registers and the replies of its execution
+    control. Named here so that commissioning does not depend on the transport."""
+
+    name: str
+    unit: int
+
+    def read_registers(self, address: int, count: int) -> list[int]: ...
+    def write_registers(self, address: int, values: Sequence[int]) -> None: ...
+    def execution_result(self, register: int, value: int, what: str) -> int: ...
+    def write_configuration(self, configuration: Configuration) -> None: ...
+    def control_flags(self) -> int: ...
+
+
 class ModbusCommissioning:
     """Over the gateway's execution-control registers 1000..1009 (gateway manual 7.3)."""
 
-    def __init__(self, transport: ModbusTransport) -> None:
+    def __init__(self, transport: GatewayRegisters) -> None:
         self.transport = transport
         self.name = f"{transport.name} unit {transport.unit}"
 

@@ -8,24 +8,22 @@ turns them into image changes (``host.commissioning.image_changes``). Only an em
 board forces: a real PC2 board and a gateway are refused with ``NotForcing``, because
 their firmware has no force list.
 
-The list comes back from the board as entries per slave or flag byte; ``forced_values``
-names them again as operands: a whole flag byte as ``FY n``, a slave's four bits as
-``I n``/``Q n``, anything less bit by bit (``F 10.0``, ``Q 2.1``).
+The list comes back from the board as entries per slave or flag byte (host/force_list.py
+reads them and names them again as operands).
 """
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Sequence
-from dataclasses import dataclass
+from collections.abc import Sequence
 from typing import Any
 
 from asictl.board.forcing import Area
 from asictl.errors import ExitCode, UserError
 from asictl.host.commissioning import image_changes
+from asictl.host.force_list import FULL, Entry, entries_from_json
 from asictl.host.master import Master
 from asictl.il.ast import OperandKind as K
 from asictl.observe.operands import Assignment, Operand
-from asictl.observe.symbols import SymbolTable
 from asictl.platform.master import SLAVES
 
 #: The operand kinds a force takes, and the area each is in.
@@ -33,12 +31,6 @@ AREAS = {K.I: Area.INPUTS, K.IB: Area.INPUTS, K.Q: Area.OUTPUTS, K.QB: Area.OUTP
          K.F: Area.FLAGS, K.FY: Area.FLAGS}
 #: What can be forced, as messages say it.
 FORCEABLE = "inputs (I, IB), outputs (Q, QB) and flags (F, FY)"
-#: How many bits an index of each area holds.
-_FULL = {Area.INPUTS: 0xF, Area.OUTPUTS: 0xF, Area.FLAGS: 0xFF}
-_LETTER = {Area.INPUTS: "I", Area.OUTPUTS: "Q", Area.FLAGS: "F"}
-
-#: One entry of the board's force list: [area, index, mask, bits]
-Entry = tuple[Area, int, int, int]
 
 
 class NotForcing(UserError):
@@ -47,21 +39,7 @@ class NotForcing(UserError):
     exit_code = ExitCode.FAILED
 
 
-@dataclass(frozen=True)
-class ForcedValue:
-    """One forced operand as ``force --list``, ``status`` and the monitor show it."""
-
-    operand: str
-    value: int
-    #: its name in the program's symbol table, if it has one
-    symbol: str | None = None
-
-    def __str__(self) -> str:
-        name = f" ({self.symbol})" if self.symbol else ""
-        return f"{self.operand}{name} = {self.value}"
-
-
-def forceentries_from_json(assignment: Assignment) -> list[Entry]:
+def force_entries(assignment: Assignment) -> list[Entry]:
     """The force list entries of ``OPERAND=VALUE``; ``UserError`` (exit 2) for an
     operand that cannot be forced."""
     area = _area(assignment.operand, assignment.written)
@@ -71,7 +49,7 @@ def forceentries_from_json(assignment: Assignment) -> list[Entry]:
     return [(area, n, mask, bits) for n, mask, bits in changes]
 
 
-def releaseentries_from_json(operand: Operand, written: str = "") -> list[tuple[Area, int, int]]:
+def release_entries(operand: Operand, written: str = "") -> list[tuple[Area, int, int]]:
     """What releasing ``operand`` releases: [area, index, mask]."""
     area = _area(operand, written or str(operand))
     node = operand.node
@@ -79,7 +57,7 @@ def releaseentries_from_json(operand: Operand, written: str = "") -> list[tuple[
         return [(area, node.address, 1 << node.bit)]
     if node.kind in (K.IB, K.QB):
         return [(area, node.address, 0xF), (area, node.address + 1, 0xF)]
-    return [(area, node.address, _FULL[area])]
+    return [(area, node.address, FULL[area])]
 
 
 def _area(operand: Operand, written: str) -> Area:
@@ -101,7 +79,7 @@ def _board(master: Master) -> Any:
 
 def force(master: Master, assignments: Sequence[Assignment]) -> list[Entry]:
     """Force all of ``assignments`` (all or none); the board's force list after it."""
-    changes = [list(e) for a in assignments for e in forceentries_from_json(a)]
+    changes = [list(e) for a in assignments for e in force_entries(a)]
     return entries_from_json(_board(master).run("force", {"changes": changes}))
 
 
@@ -113,7 +91,7 @@ def unforce(
     if operands is None:
         args: dict[str, Any] = {"all": True}
     else:
-        args = {"changes": [list(e) for o, w in operands for e in releaseentries_from_json(o, w)]}
+        args = {"changes": [list(e) for o, w in operands for e in release_entries(o, w)]}
     answer = _board(master).run("unforce", args)
     return int(answer["released"]), entries_from_json(answer["forced"])
 
@@ -121,29 +99,3 @@ def unforce(
 def forced(master: Master) -> list[Entry]:
     """The board's force list (refused, as ``force``, on a master without one)."""
     return entries_from_json(_board(master).run("forced", {}))
-
-
-def entries_from_json(rows: Iterable[Any]) -> list[Entry]:
-    """The board's ``forced`` answer (JSON rows) as entries."""
-    return [(Area(str(a)), int(i), int(m), int(b)) for a, i, m, b in rows]
-
-
-def forced_values(
-    entries: Iterable[Entry], symbols: SymbolTable | None = None
-) -> list[ForcedValue]:
-    """The force list as operands and values, named by ``symbols`` where they have a
-    name."""
-    values = []
-    for area, index, mask, bits in entries:
-        letter = _LETTER[area]
-        if mask == _FULL[area]:
-            text = f"FY {index}" if area is Area.FLAGS else f"{letter} {index}"
-            values.append((text, bits))
-            continue
-        for bit in range(8):
-            if mask >> bit & 1:
-                values.append((f"{letter} {index}.{bit}", bits >> bit & 1))
-    return [
-        ForcedValue(text, value, symbols.name_of(text) if symbols else None)
-        for text, value in values
-    ]

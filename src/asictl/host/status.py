@@ -22,7 +22,7 @@ from typing import Any, assert_never
 
 from asictl.errors import ExitCode, UserError
 from asictl.host.driver import Pc2Driver
-from asictl.host.forcing import ForcedValue, entries_from_json, forced_values
+from asictl.host.force_list import ForcedValue, entries_from_json, forced_values
 from asictl.host.jobs import JobError, JobStatus
 from asictl.host.transfer import Pc2Transport, Transport, upload, upload_head
 from asictl.il import ast

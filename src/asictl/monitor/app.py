@@ -41,7 +41,8 @@ from textual.widgets import Footer, Input, RichLog, Static
 from asictl.errors import UserError
 from asictl.host.commissioning import Change, check_address, image_changes, write_flags
 from asictl.host.emulated import parse_address, parse_number, parse_profile
-from asictl.host.forcing import Entry, force, forced_values, unforce
+from asictl.host.force_list import Entry, forced_values
+from asictl.host.forcing import force, unforce
 from asictl.host.master import Master
 from asictl.host.status import (
     MasterStatus,
