@@ -96,6 +96,11 @@ def test_forces_outlast_the_command_on_a_board_kept_in_its_state_file(tmp_path):
     assert result.stdout == "Q 2.1 = 1\n"
     again = cli(state, "unforce", "FY 12")
     assert again.exit_code == 1 and "FY 12: not forced" in again.output
+    assert "the others" not in again.output
+    partly = cli(state, "unforce", "Q 2.1", "I 1.0", "F 12.3")  # only Q 2.1 is forced
+    assert partly.exit_code == 1, partly.output
+    assert "I 1.0, F 12.3: not forced (the others are released)" in partly.output
+    assert status(state)["forced"] == []
 
 
 def test_a_force_is_saved_before_it_is_acknowledged(tmp_path):

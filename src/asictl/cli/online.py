@@ -82,11 +82,12 @@ def unforce(operands: tuple[str, ...], all_: bool, **board: Unpack[_BoardOptions
     them with --all; the program's own values take over in its next cycle. What is still
     forced is listed on stdout.
 
-    Exit status: 0 released, 1 refused (a real board, a gateway) or nothing of it was
-    forced, 2 bad usage.
+    Exit status: 0 released, 1 refused (a real board, a gateway) or an operand named was
+    not forced (the others are released), 2 bad usage.
 
     Example: asictl unforce --all
     """
+    from asictl.host.forcing import not_forced
     from asictl.host.forcing import unforce as release
 
     if bool(operands) == all_:
@@ -94,10 +95,12 @@ def unforce(operands: tuple[str, ...], all_: bool, **board: Unpack[_BoardOptions
     with _connect(**board) as master:
         names = Names(master)
         parsed = None if all_ else [(names.operand(text), text) for text in operands]
+        missing = not_forced(forced(master), parsed) if parsed is not None else []
         released, entries = release(master, parsed)
         _show(master, entries, names, False)
-    if not released and not all_:
-        raise UserError(f"{', '.join(operands)}: not forced", ExitCode.FAILED)
+    if missing:
+        others = " (the others are released)" if released else ""
+        raise UserError(f"{', '.join(missing)}: not forced{others}", ExitCode.FAILED)
 
 
 # --------------------------------------------------------------------------- watch

@@ -96,6 +96,14 @@ def unforce(
     return int(answer["released"]), entries_from_json(answer["forced"])
 
 
+def not_forced(entries: Sequence[Entry], operands: Sequence[tuple[Operand, str]]) -> list[str]:
+    """The operands (as written) of which no bit is in the force list ``entries``."""
+    held = {(area, index): mask for area, index, mask, _ in entries}
+    return [written for operand, written in operands
+            if not any(held.get((area, index), 0) & mask
+                       for area, index, mask in release_entries(operand, written))]
+
+
 def forced(master: Master) -> list[Entry]:
     """The board's force list (refused, as ``force``, on a master without one)."""
     return entries_from_json(_board(master).run("forced", {}))
