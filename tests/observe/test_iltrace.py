@@ -68,11 +68,11 @@ def test_trace_rows_agree_with_the_reference_interpreter(files: dict[str, str], 
                       view=ProgramView(runner, lambda operand: 0))
     tracer.hooks.install()
     interp = Interpreter(built.program, firmware=ModelFirmware())
-    events: list[tuple[SourceLine | None, tuple[int, int, int]]] = []
+    events: list[tuple[SourceLine | None, tuple[int, int, int, int]]] = []
 
-    def registers() -> tuple[int, int, int]:
+    def registers() -> tuple[int, int, int, int]:
         s = interp.state
-        return int(s.rlo), s.accu1, s.accu2
+        return int(s.rlo), s.accu1, s.accu2, s.constant
 
     interp.on_statement = lambda statement: events.append((_line(statement), registers()))
     for cycle, inputs in enumerate(runs, 1):
@@ -89,7 +89,7 @@ def test_trace_rows_agree_with_the_reference_interpreter(files: dict[str, str], 
         ]
         tracer.rows.clear()
         runner.cycle(inputs)
-        got = [(row.line, row.rlo, row.accu1, row.accu2) for row in tracer.rows]
+        got = [(row.line, row.rlo, row.accu1, row.accu2, row.constant) for row in tracer.rows]
         assert all(row.cycle == cycle for row in tracer.rows)
         assert got == expected, f"cycle {cycle}"
 
@@ -122,7 +122,8 @@ def test_trace_il_rows_of_a_logic_program_have_the_rlo_its_inputs_imply(tmp_path
     result = CliRunner().invoke(main, ["sim", str(tmp_path / "logic.asi"), "--trace-il", str(out)])
     assert result.exit_code == 0, result.output
     rows = [line.split(",") for line in out.read_text().splitlines()]
-    assert rows[0][:7] == ["time_ms", "file", "line", "rlo", "accu1", "accu2", "source"]
+    assert rows[0] == ["time_ms", "file", "line", "rlo", "accu1", "accu2", "source", "cycle",
+                       "operand", "constant"]
     by_time: dict[str, list[tuple[str, str, str]]] = {}
     for row in rows[1:]:
         by_time.setdefault(row[0], []).append((row[2], row[3], row[6]))

@@ -23,7 +23,8 @@ from asictl.observe.view import ProgramView
 from asictl.runtime.line_map import LineMap, SourceLine
 from asictl.runtime.runner import ProgramRunner
 
-COLUMNS = ("time_ms", "file", "line", "rlo", "accu1", "accu2", "source", "cycle", "operand")
+COLUMNS = ("time_ms", "file", "line", "rlo", "accu1", "accu2", "source", "cycle", "operand",
+           "constant")
 
 
 @dataclass(frozen=True)
@@ -134,13 +135,15 @@ class ILTracer:
 
 
 def to_csv(rows: list[LineRow]) -> str:
-    """``time_ms,file,line,rlo,accu1,accu2,source,cycle,operand``, one row a line."""
+    """``time_ms,file,line,rlo,accu1,accu2,source,cycle,operand,constant``, one row a
+    line (the constant register last, so that the columns before it stay where they
+    were)."""
     buffer = io.StringIO()
     writer = csv.writer(buffer, lineterminator="\n")
     writer.writerow(COLUMNS)
     for row in rows:
         writer.writerow([
             f"{row.time_ms:g}", row.line.file, row.line.line, row.rlo, row.accu1, row.accu2,
-            row.source, row.cycle, "" if row.operand is None else row.operand,
+            row.source, row.cycle, "" if row.operand is None else row.operand, row.constant,
         ])
     return buffer.getvalue()
