@@ -17,6 +17,7 @@ firmware blocks and anything [ASSEMBLY] code may read, are left to the prover.
 from __future__ import annotations
 
 import random
+import time
 from dataclasses import dataclass
 
 from asictl.build import Build
@@ -31,6 +32,8 @@ CYCLES = 20_000
 #: How much master time it covers at most, in microseconds: cycles that would repeat
 #: the last exactly (inputs held, no tick due, memory left as it was) are not run.
 MASTER_TIME_US = 300_000_000
+#: How long a search may take, in seconds of wall time.
+SECONDS = 2.0
 #: The longest stretch an input is held, in microseconds (a timer runs out in 41 s).
 LONGEST_HOLD_US = 45_000_000
 #: One AS-i transaction: the cycle time is this per slave, plus one (as the prover's).
@@ -63,9 +66,12 @@ def _searchable(program: Program) -> bool:
     return True
 
 
-def find_difference(original: Build, mutant: Build, *, seed: int = 0) -> Difference | None:
+def find_difference(original: Build, mutant: Build, *, seed: int = 0,
+                    budget_s: float = SECONDS) -> Difference | None:
     """The first cycle after which the two builds' outputs differ on one random run, or
-    None when none did (or the programs cannot be searched so)."""
+    None when none did within the budget (or the programs cannot be searched so). The
+    budget is wall time: a large program's cycles cost more, and what the search does
+    not find the prover may still; either way no verdict changes, only how soon."""
     programs = (original.source_program(), mutant.source_program())
     images = (original.image, mutant.image)
     if None in programs or None in images or not all(
@@ -79,7 +85,10 @@ def find_difference(original: Build, mutant: Build, *, seed: int = 0) -> Differe
     inputs = bytearray(16)
     held = dict.fromkeys(bus, 0)  # how many more cycles each slave's inputs stay
     now = cycle = 0
+    deadline = time.monotonic() + budget_s
     while cycle < CYCLES and now < MASTER_TIME_US:
+        if cycle % 256 == 255 and time.monotonic() > deadline:
+            return None
         for address in bus:
             if held[address] <= 0:
                 nibble = rng.randrange(16)
