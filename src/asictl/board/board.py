@@ -37,13 +37,17 @@ from asictl.board.services import MasterFirmware
 from asictl.image.eeprom import ProgramImage, image_length
 from asictl.mcs51.emulator import EmulatorError, UndefinedOpcode
 from asictl.platform import pc2 as d
-from asictl.platform.master import COUNTER_HIGH_FLAGS, SLAVES, TICK_US, ControlFlag
+from asictl.platform.master import (
+    COUNTER_HIGH_FLAGS,
+    SLAVES,
+    TICK_US,
+    ControlFlag,
+    asi_cycle_us,
+)
 from asictl.platform.pc2 import ControlState, HiFlag, InterruptSource, StopReason, nibbles
 from asictl.runtime import layout
 from asictl.runtime.runner import CycleTimeout, ProgramRunner
 
-#: One AS-i transaction (master call, pauses, slave answer) and the cycle's management call.
-TRANSACTION_US = 150
 #: The ODI is stored inverted (manual 7.3).
 _INVERT = bytes(255 - b for b in range(256))
 _ASI_CYCLE = int(InterruptSource.ASI_CYCLE)
@@ -129,7 +133,6 @@ class Pc2Board:
         self._command_pending = False
         self._odi_written: bytes | None = None
         self._program_ready_us = 0
-        self._timer_addresses: list[int] = []
         #: per timer of the program, its address and whether its ticks may be counted
         #: down in one step (nobody reads its remaining time)
         self._timer_places: list[tuple[int, bool]] = []
@@ -173,7 +176,6 @@ class Pc2Board:
     def _place_timers(self) -> None:
         runner = self._control.runner
         pmap = runner.pmap if runner is not None else None
-        self._timer_addresses = sorted(pmap.timers.values()) if pmap is not None else []
         self._timer_places = [] if pmap is None else [
             (address, n in pmap.unread_timers and n not in self._exact_timers)
             for n, address in sorted(pmap.timers.items())
@@ -292,10 +294,10 @@ class Pc2Board:
         self._pause = True
 
     def _period(self) -> int:
-        """About 150 us per active slave plus one call: 300 us (1 slave) to 4.8 ms (31)."""
+        """The AS-i cycle: fixed, or by the number of active slaves (``asi_cycle_us``)."""
         if self._cycle_period_us is not None:
             return self._cycle_period_us
-        return TRANSACTION_US * (max(self._ec.active_count, 1) + 1)
+        return asi_cycle_us(self._ec.active_count)
 
     @property
     def cycle_period_us(self) -> int | None:
@@ -389,7 +391,7 @@ class Pc2Board:
 
     def _timers_running(self) -> bool:
         ram = self._ram
-        return any(ram[address] or ram[address + 1] for address in self._timer_addresses)
+        return any(ram[address] or ram[address + 1] for address, _ in self._timer_places)
 
     # ------------------------------------------------------------------ the AS-i cycle
 
@@ -537,7 +539,7 @@ class Pc2Board:
         previous, self._seen, self._leap_ok = self._seen, snapshot, False
         if snapshot is None or previous is None or len(previous) != len(snapshot):
             return
-        offset = 512 + (len(runner.inputs) if runner.reads_previous_inputs else 0)
+        offset = self._xdata_at(runner)
         start = 0
         for address in self._unread_addresses:
             at = offset + address
@@ -549,18 +551,21 @@ class Pc2Board:
         self._leap_ok = start > 0 and previous[start:] == snapshot[start:]
 
     @staticmethod
-    def _unchanged(runner: ProgramRunner, snapshot: bytes) -> bool:
+    def _xdata_at(runner: ProgramRunner) -> int:
+        """Where XDATA starts in a ``_snapshot``: after internal RAM, the SFRs and the
+        input image when it is part of the state."""
+        return 512 + (len(runner.inputs) if runner.reads_previous_inputs else 0)
+
+    @classmethod
+    def _unchanged(cls, runner: ProgramRunner, snapshot: bytes) -> bool:
         """Is the machine as ``_snapshot`` found it? (Compared in place: no copy of XDATA.)"""
         cpu = runner.cpu
-        start = 512
-        if runner.reads_previous_inputs:
-            if not snapshot.startswith(runner.inputs, start):
-                return False
-            start += len(runner.inputs)
+        if runner.reads_previous_inputs and not snapshot.startswith(runner.inputs, 512):
+            return False
         return (
             snapshot.startswith(cpu.iram)
             and snapshot.startswith(cpu.sfr, 256)
-            and cpu.xdata.ram.startswith(memoryview(snapshot)[start:])
+            and cpu.xdata.ram.startswith(memoryview(snapshot)[cls._xdata_at(runner):])
         )
 
     def safe_outputs(self) -> None:

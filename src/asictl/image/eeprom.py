@@ -400,12 +400,14 @@ def _encode_map(pmap: ProgramMap, entry_points: Mapping[str, int], version: int)
     for (kind, index), location in cells:
         space = _SPACE_BIT if location.space is Space.XDATA else 0
         out += struct.pack("<BBH", _CELL_KINDS.index(kind) | space, index, location.address)
-    for table in (pmap.timers, pmap.counters):
-        out += struct.pack("<H", len(table))
-        for number, address in sorted(table.items()):
-            out += struct.pack("<HH", number, address)
-            if table is pmap.timers and version >= 3:
-                out.append(TIMER_UNREAD if number in pmap.unread_timers else 0)
+    out += struct.pack("<H", len(pmap.timers))
+    for number, address in sorted(pmap.timers.items()):
+        out += struct.pack("<HH", number, address)
+        if version >= 3:
+            out.append(TIMER_UNREAD if number in pmap.unread_timers else 0)
+    out += struct.pack("<H", len(pmap.counters))
+    for number, address in sorted(pmap.counters.items()):
+        out += struct.pack("<HH", number, address)
     variables = sorted(pmap.variables.values(), key=lambda v: v.address)
     out += struct.pack("<H", len(variables))
     for variable in variables:
@@ -427,17 +429,17 @@ def _decode_map(
             raise ImageError(f"image program map: unknown cell kind {code & ~_SPACE_BIT}")
         space = Space.XDATA if code & _SPACE_BIT else Space.IRAM
         pmap.cells[_CELL_KINDS[code & ~_SPACE_BIT], index] = Location(space, address)
-    for table in (pmap.timers, pmap.counters):
-        for _ in range(reader.u16()):
-            number, address = reader.unpack("<HH")
-            table[number] = address
-            if table is pmap.timers and version >= 3:
-                flags = reader.u8()
-                if flags & ~TIMER_UNREAD:
-                    raise ImageError(f"image program map: timer {number} has unknown flags "
-                                     f"{flags:02X}h")
-                if flags & TIMER_UNREAD:
-                    pmap.unread_timers.add(number)
+    for _ in range(reader.u16()):
+        number, address = reader.unpack("<HH")
+        pmap.timers[number] = address
+        flags = reader.u8() if version >= 3 else 0
+        if flags & ~TIMER_UNREAD:
+            raise ImageError(f"image program map: timer {number} has unknown flags {flags:02X}h")
+        if flags & TIMER_UNREAD:
+            pmap.unread_timers.add(number)
+    for _ in range(reader.u16()):
+        number, address = reader.unpack("<HH")
+        pmap.counters[number] = address
     for _ in range(reader.u16()):
         address, size = reader.unpack("<HB")
         name = reader.name()

@@ -29,6 +29,14 @@ TICK_MS = 10
 TICK_US = TICK_MS * 1000
 #: A program cycle longer than this is an endless loop: the master stops the program.
 CYCLE_TIMEOUT_MS = 200
+#: One AS-i transaction (master call, pauses, slave answer) and the cycle's management call.
+TRANSACTION_US = 150
+
+
+def asi_cycle_us(slaves: int) -> int:
+    """The AS-i cycle with ``slaves`` active slaves: a transaction each, plus one call
+    (300 us with one slave, 4.8 ms with 31); the emulated master's, the prover's."""
+    return TRANSACTION_US * (max(slaves, 1) + 1)
 
 #: AS-i Control II has 1024 timers and 1024 counters, 0..1023 (programming manual 2).
 MAX_TC = 1023

@@ -20,6 +20,7 @@ from asictl.il import ast
 from asictl.il.ast import key
 from asictl.il.loader import Program
 from asictl.il.pragmas import read_directives
+from asictl.platform.master import asi_cycle_us
 from asictl.prove.engine import Machine, Outcome, Setup, Step, Verdict
 from asictl.prove.props import Kind, Property, Truth
 from asictl.prove.symbolic import (
@@ -30,10 +31,6 @@ from asictl.prove.symbolic import (
     host_masks,
     product,
 )
-
-#: The AS-i cycle without a cycle time: 150 us per active slave plus one.
-_TRANSACTION_US = 150
-
 
 # ---------------------------------------------------------------------- behaviour
 
@@ -106,7 +103,7 @@ def _equivalent(first: Program, second: Program, start: float, *, timeout_s: flo
     bus = tuple(sorted(set(slaves) if slaves is not None else
                        {s.address for p in (first, second) for s in p.slaves}))
     cycle_us = (round(cycle_ms * 1000) if cycle_ms is not None
-                else _TRANSACTION_US * (max(len(bus), 1) + 1))
+                else asi_cycle_us(len(bus)))
     host = [operand for program in (first, second)
             for operand, _ in read_directives(program.sources).host_flags]
     observed = _observed(first, second, observe)

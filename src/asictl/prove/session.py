@@ -18,7 +18,7 @@ from asictl.files import real_path, write_atomic
 from asictl.il.pragmas import read_directives
 from asictl.observe.operands import parse_operand
 from asictl.observe.symbols import symbols_for
-from asictl.platform.master import TICK_US
+from asictl.platform.master import TICK_US, asi_cycle_us
 from asictl.prove.counterexample import MARK, expectations, file_name, scenario_text
 from asictl.prove.engine import Machine, Outcome, Setup, Verdict
 from asictl.prove.props import Properties, program_for, read_properties
@@ -26,9 +26,6 @@ from asictl.prove.symbolic import UNROLL, Unmodelled
 from asictl.sim.engine import Simulation, variables_of
 from asictl.sim.scenario import Scenario
 from asictl.source import read_source
-
-#: The AS-i cycle the board runs without a cycle_ms: 150 us per active slave plus one.
-_TRANSACTION_US = 150
 
 
 class Invalid(Exception):
@@ -96,7 +93,7 @@ def setup_of(props: Properties, built: Build) -> tuple[Setup, float]:
     else:
         slaves = tuple(sorted({s.address for s in program.slaves}))
     cycle_us = (round(props.cycle_ms * 1000) if props.cycle_ms is not None
-                else _TRANSACTION_US * (max(len(slaves), 1) + 1))
+                else asi_cycle_us(len(slaves)))
     directives = read_directives(program.sources)
     host = tuple(operand for operand, _ in directives.host_flags)
     return Setup(slaves, cycle_us, host, _phase(props, built, cycle_us)), cycle_us / 1000

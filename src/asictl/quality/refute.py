@@ -23,7 +23,7 @@ from dataclasses import dataclass
 from asictl.build import Build
 from asictl.il import ast
 from asictl.il.loader import Program
-from asictl.platform.master import TICK_US
+from asictl.platform.master import TICK_US, asi_cycle_us
 from asictl.runtime import layout
 from asictl.runtime.runner import CycleTimeout, ProgramRunner
 
@@ -36,8 +36,6 @@ MASTER_TIME_US = 300_000_000
 SECONDS = 2.0
 #: The longest stretch an input is held, in microseconds (a timer runs out in 41 s).
 LONGEST_HOLD_US = 45_000_000
-#: One AS-i transaction: the cycle time is this per slave, plus one (as the prover's).
-_TRANSACTION_US = 150
 
 
 @dataclass(frozen=True)
@@ -72,14 +70,14 @@ def find_difference(original: Build, mutant: Build, *, seed: int = 0,
     None when none did within the budget (or the programs cannot be searched so). The
     budget is wall time: a large program's cycles cost more, and what the search does
     not find the prover may still; either way no verdict changes, only how soon."""
-    programs = (original.source_program(), mutant.source_program())
-    images = (original.image, mutant.image)
-    if None in programs or None in images or not all(
-            _searchable(p) for p in programs if p is not None):
+    first, second = original.source_program(), mutant.source_program()
+    if first is None or second is None or original.image is None or mutant.image is None \
+            or not (_searchable(first) and _searchable(second)):
         return None
-    bus = sorted({s.address for p in programs if p is not None for s in p.slaves})
-    cycle_us = _TRANSACTION_US * (max(len(bus), 1) + 1)
-    runners = [ProgramRunner(image.loaded_program()) for image in images if image is not None]
+    bus = sorted({s.address for program in (first, second) for s in program.slaves})
+    cycle_us = asi_cycle_us(len(bus))
+    runners = [ProgramRunner(original.image.loaded_program()),
+               ProgramRunner(mutant.image.loaded_program())]
     rng = random.Random(seed)
     until_tick = rng.randint(1, TICK_US)  # from the first cycle's start: the clock's phase
     inputs = bytearray(16)
@@ -104,9 +102,9 @@ def find_difference(original: Build, mutant: Build, *, seed: int = 0,
         except CycleTimeout:  # a loop the master would end: the prover's to judge
             return None
         cycle += 1
-        first, second = runners[0].outputs, runners[1].outputs
-        if first != second:
-            byte = next(i for i in range(16) if first[i] != second[i])
+        ours, theirs = runners[0].outputs, runners[1].outputs
+        if ours != theirs:
+            byte = next(i for i in range(16) if ours[i] != theirs[i])
             return Difference(byte, now // 1000)
         # the cycles before the next tick repeat this one if it changed nothing and no
         # input changes: they are not run
