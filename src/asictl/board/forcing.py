@@ -38,9 +38,10 @@ class Area(StrEnum):
     FLAGS = "flags"
 
 
-#: Per area: the largest index, and the bits one index holds.
-_SHAPE = {Area.INPUTS: (SLAVES - 1, 0xF), Area.OUTPUTS: (SLAVES - 1, 0xF),
-          Area.FLAGS: (FLAGS_SIZE - 1, 0xFF)}
+#: Per area: the bits one index holds (a slave's four data bits, a flag byte).
+BITS = {Area.INPUTS: 0xF, Area.OUTPUTS: 0xF, Area.FLAGS: 0xFF}
+#: Per area: the largest index.
+_LARGEST = {Area.INPUTS: SLAVES - 1, Area.OUTPUTS: SLAVES - 1, Area.FLAGS: FLAGS_SIZE - 1}
 
 
 class ForceError(ValueError):
@@ -147,7 +148,7 @@ class Forces:
 
 
 def _check(area: Area, index: int, mask: int) -> None:
-    largest, bits = _SHAPE[area]
+    largest, bits = _LARGEST[area], BITS[area]
     first = 0 if area is Area.FLAGS else 1
     if not first <= index <= largest:
         what = "flag byte" if area is Area.FLAGS else "slave"

@@ -154,7 +154,6 @@ def watch(
     from asictl.host.connection import connect_master
     from asictl.host.status import read_program
     from asictl.host.watch import read_table, watch_list
-    from asictl.observe.operands import image_symbols
     from asictl.source import read_source
 
     period = _seconds(interval, "--interval")
@@ -176,7 +175,7 @@ def watch(
                 f"{master.name} runs only during a command: give --duration, or keep it "
                 "running with 'asictl serve'", ExitCode.USAGE)
         program = read_program(master.transport)
-        watched = watch_list(Names(master, image_symbols(program.image)), items)
+        watched = watch_list(Names(master, program.symbols), items)
         lines = _WatchLines(watched, format_)
         if loaded:  # the board runs only in this command: master time passes as it waits
             wait = _master_wait(master)

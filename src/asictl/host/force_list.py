@@ -13,11 +13,9 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import Any
 
-from asictl.board.forcing import Area
+from asictl.board.forcing import BITS, Area
 from asictl.observe.symbols import SymbolTable
 
-#: How many bits an index of each area holds.
-FULL = {Area.INPUTS: 0xF, Area.OUTPUTS: 0xF, Area.FLAGS: 0xFF}
 _LETTER = {Area.INPUTS: "I", Area.OUTPUTS: "Q", Area.FLAGS: "F"}
 
 #: One entry of the board's force list: [area, index, mask, bits]
@@ -51,7 +49,7 @@ def forced_values(
     values = []
     for area, index, mask, bits in entries:
         letter = _LETTER[area]
-        if mask == FULL[area]:
+        if mask == BITS[area]:
             text = f"FY {index}" if area is Area.FLAGS else f"{letter} {index}"
             values.append((text, bits))
             continue

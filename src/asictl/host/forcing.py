@@ -20,7 +20,7 @@ from typing import Any
 from asictl.board.forcing import Area
 from asictl.errors import ExitCode, UserError
 from asictl.host.commissioning import image_changes
-from asictl.host.force_list import FULL, Entry, entries_from_json
+from asictl.host.force_list import Entry, entries_from_json
 from asictl.host.master import Master
 from asictl.il.ast import OperandKind as K
 from asictl.observe.operands import Assignment, Operand
@@ -50,14 +50,11 @@ def force_entries(assignment: Assignment) -> list[Entry]:
 
 
 def release_entries(operand: Operand, written: str = "") -> list[tuple[Area, int, int]]:
-    """What releasing ``operand`` releases: [area, index, mask]."""
-    area = _area(operand, written or str(operand))
-    node = operand.node
-    if node.bit >= 0:
-        return [(area, node.address, 1 << node.bit)]
-    if node.kind in (K.IB, K.QB):
-        return [(area, node.address, 0xF), (area, node.address + 1, 0xF)]
-    return [(area, node.address, FULL[area])]
+    """What releasing ``operand`` releases: [area, index, mask], the bits a force of it
+    holds."""
+    written = written or str(operand)
+    area = _area(operand, written)
+    return [(area, n, mask) for n, mask, _ in image_changes(Assignment(operand, 0, written))]
 
 
 def _area(operand: Operand, written: str) -> Area:

@@ -15,7 +15,8 @@ neither), and a detected slave whose configuration (CDI) differs from the projec
 
 from __future__ import annotations
 
-from collections.abc import Callable
+import functools
+from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass, field
 from enum import IntEnum
 from typing import Any, assert_never
@@ -28,6 +29,7 @@ from asictl.host.transfer import Pc2Transport, Transport, upload, upload_head
 from asictl.il import ast
 from asictl.image.eeprom import MAGIC, ProgramImage
 from asictl.observe.operands import Operand, image_symbols, parse_operand
+from asictl.observe.symbols import SymbolTable
 from asictl.platform.display import Display, derived, led_text
 from asictl.platform.display import leds as derived_leds
 from asictl.platform.master import SLAVES, ControlFlag
@@ -240,6 +242,12 @@ class StoredProgram:
     info: ProgramInfo
     image: ProgramImage | None = None
 
+    @functools.cached_property
+    def symbols(self) -> SymbolTable:
+        """The image's symbol table, parsed once: a monitor reads the status every
+        refresh with the same program."""
+        return image_symbols(self.image)
+
 
 def program_info(transport: Transport) -> ProgramInfo:
     return read_program(transport).info
@@ -382,7 +390,7 @@ def read_status(
     )
     if program is None:
         program = read_program(Pc2Transport(driver))
-    symbols = image_symbols(program.image)
+    symbols = program.symbols
     return MasterStatus(
         port=port,
         master_name=_text(driver.read(MASTER_NAME, MASTER_NAME_SIZE)),
@@ -580,19 +588,15 @@ def _data(status: MasterStatus, slave: int, inputs: bool) -> int:
 
 def _timer_or_counter(status: MasterStatus, operand: Operand) -> int:
     node = operand.node
-    if node.kind is K.T:
-        if status.timers is None:
-            raise UserError(f"'{operand}': only an emulated board shows the program's timers",
-                            ExitCode.FAILED)
-        timer = next((t for t in status.timers if t.number == node.address), None)
-        remaining = timer.remaining_ms if timer else 0
-        return int(remaining != 0) if operand.is_bit else remaining
-    if status.counters is None:
-        raise UserError(f"'{operand}': only an emulated board shows the program's counters",
+    is_timer = node.kind is K.T
+    rows: Sequence[Timer | Counter] | None = status.timers if is_timer else status.counters
+    what = "timers" if is_timer else "counters"
+    if rows is None:
+        raise UserError(f"'{operand}': only an emulated board shows the program's {what}",
                         ExitCode.FAILED)
-    counter = next((c for c in status.counters if c.number == node.address), None)
-    count = counter.value if counter else 0
-    return int(count != 0) if operand.is_bit else count
+    row = next((r for r in rows if r.number == node.address), None)
+    value = 0 if row is None else row.remaining_ms if isinstance(row, Timer) else row.value
+    return int(value != 0) if operand.is_bit else value
 
 
 def forced_text(status: MasterStatus) -> list[str]:

@@ -16,7 +16,6 @@ from asictl.host.status import read_program
 from asictl.observe.operands import (
     Assignment,
     Operand,
-    image_symbols,
     parse_assignment,
     parse_operand,
 )
@@ -25,7 +24,7 @@ from asictl.observe.symbols import SymbolTable
 
 def board_symbols(master: Master) -> SymbolTable:
     """The symbol table of the program in the master's EEPROM (empty without one)."""
-    return image_symbols(read_program(master.transport).image)
+    return read_program(master.transport).symbols
 
 
 class Names:
@@ -73,7 +72,3 @@ class Names:
         if self._table is not None and not self._table:
             return message + " (and the program on the master has no symbol table)"
         return message
-
-    def label(self, operand: str) -> str | None:
-        """The name of an operand (as it prints), if the board's table has one."""
-        return self.table.name_of(operand)

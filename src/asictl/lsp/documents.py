@@ -139,9 +139,6 @@ class Documents:
             text = self.buffers.get(normal(str(path)))
         return _source(normal(str(path)), text)
 
-    def exists(self, path: Path) -> bool:
-        return normal(str(path)) in self.buffers or path.is_file()
-
     def text(self, path: str) -> str:
         try:
             return self.source(path).text
@@ -176,9 +173,6 @@ class Documents:
         """One analysis per main program of the open buffers."""
         return self.view().analyse_open()
 
-    def main_of(self, path: str) -> str:
-        return self.view().main_of(normal(path), fresh=True)
-
     def cached(self, path: str) -> Analysis | None:
         """``analyse(path)`` if that needs no check (every analysis it takes is kept)."""
         try:
@@ -189,23 +183,26 @@ class Documents:
     def is_current(self, analysis: Analysis) -> bool:
         """Whether no file the analysis read has changed since."""
         with self._lock:
-            return all(self._versions.get(path, 0) == version
-                       for path, version in analysis.reads.items())
+            return _unchanged(analysis.reads, self._versions)
 
     def _kept(self, main: str, versions: Mapping[str, int]) -> Analysis | None:
         with self._lock:
             found = self._analyses.get(main)
-        if found is not None and all(versions.get(path, 0) == version
-                                     for path, version in found.reads.items()):
+        if found is not None and _unchanged(found.reads, versions):
             return found
         return None
 
     def _keep(self, analysis: Analysis) -> None:
         with self._lock:
             self._files[analysis.main] = frozenset(analysis.files)
-            if all(self._versions.get(path, 0) == version
-                   for path, version in analysis.reads.items()):
+            if _unchanged(analysis.reads, self._versions):
                 self._analyses[analysis.main] = analysis
+
+
+def _unchanged(reads: Mapping[str, int], versions: Mapping[str, int]) -> bool:
+    """Whether every file an analysis read is still at the version it read (a file never
+    opened is at version 0), so that the analysis still holds."""
+    return all(versions.get(path, 0) == version for path, version in reads.items())
 
 
 class _NotCached(Exception):
@@ -225,7 +222,7 @@ class View:
     def analyse(self, path: str, *, check: bool = True) -> Analysis:
         self.check = check
         path = normal(path)
-        analysis = self._analyse_main(self.main_of(path, fresh=False))
+        analysis = self._analyse_main(self.main_of(path))
         return analysis if path in analysis.files else self._analyse_main(path)
 
     def analyse_open(self) -> list[Analysis]:
@@ -241,13 +238,12 @@ class View:
             or self._unread_main(path) for path in self.buffers)
         return [self._analyse_main(main) for main in mains]
 
-    def main_of(self, path: str, *, fresh: bool) -> str:
+    def main_of(self, path: str) -> str:
         """The main program ``path`` is analysed in: an open one that reads it (by its
-        current analysis if ``fresh``, else by its last), else a neighbour that declares
-        it, else itself."""
+        last analysis, current or not, so that a request does not wait for another
+        program's check), else a neighbour that declares it, else itself."""
         for other in self.buffers:
-            if other != path and not _is_block_file(other) and path in self._files_of(
-                    other, fresh):
+            if other != path and not _is_block_file(other) and path in self._files_of(other):
                 return other
         return self._unread_main(path)
 
@@ -260,13 +256,11 @@ class View:
                     return candidate
         return path
 
-    def _files_of(self, main: str, fresh: bool) -> frozenset[str]:
-        if not fresh:
-            with self.documents._lock:
-                known = self.documents._files.get(main)
-            if known is not None:
-                return known
-        return frozenset(self._analyse_main(main).files)
+    def _files_of(self, main: str) -> frozenset[str]:
+        """The files ``main``'s last analysis read; a program not analysed yet is now."""
+        with self.documents._lock:
+            known = self.documents._files.get(main)
+        return known if known is not None else frozenset(self._analyse_main(main).files)
 
     def _analyse_main(self, main: str) -> Analysis:
         kept = self.documents._kept(main, self.versions)

@@ -28,7 +28,7 @@ import hmac
 import ipaddress
 import logging
 from collections.abc import Awaitable, Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 from asyncua import ua
@@ -402,7 +402,7 @@ async def _serve(
     await server.start()
     assert server.bserver is not None
     if started is not None:
-        started(f"opc.tcp://{options.host}:{server.bserver.port}/asictl/")
+        started(replace(options, port=server.bserver.port).url)
     try:
         while not stop.is_set():
             try:
