@@ -20,9 +20,10 @@ def _program(path: Path, lib: tuple[str, ...]) -> tuple[object, object]:
     built = build_file(path, lib=lib)
     if built.has_errors:
         raise _Bad(built.render())
-    if built.image is None and built.source_program() is None:
+    program = built.source_program()
+    if built.image is None and program is None:
         raise UserError(f"{path}: no program in it")
-    return built, built.source_program()
+    return built, program
 
 
 def _images_only(old: Path, new: Path, first: object, second: object) -> int:

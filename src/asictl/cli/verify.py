@@ -14,9 +14,8 @@ import click
 from asictl.cli.master import _board_options, _BoardOptions, _connect
 from asictl.cli.options import lib_option
 from asictl.errors import ExitCode
-from asictl.host.jobs import JobError, JobStatus
-from asictl.host.transfer import upload
-from asictl.image.eeprom import ProgramImage, differences
+from asictl.host.status import read_program
+from asictl.image.eeprom import differences
 
 
 @click.command("verify")
@@ -40,12 +39,7 @@ def verify(file: str, lib: tuple[str, ...], **board: Unpack[_BoardOptions]) -> N
         if built.has_errors or built.image is None:
             ctx.exit(int(ExitCode.FAILED))
         mine = built.image
-        try:
-            theirs: ProgramImage | None = upload(master.transport)
-        except JobError as exc:
-            if exc.status is not JobStatus.EEPROM_ERROR:
-                raise
-            theirs = None
+        theirs = read_program(master.transport).image
         status = master.status() if theirs is not None else None
     if theirs is None:
         click.echo(f"{master.name}: no program in the master (nothing to compare {file} with)")

@@ -24,20 +24,17 @@ from typing import Any
 from asictl.errors import ExitCode, UserError
 from asictl.files import write_together
 from asictl.fleet.inventory import FleetMaster
-from asictl.host.jobs import JobError, JobStatus
 from asictl.host.master import Master
 from asictl.host.program_files import uploaded_files
-from asictl.host.status import MasterStatus
-from asictl.host.transfer import upload
+from asictl.host.status import MasterStatus, read_program
 from asictl.image.eeprom import ProgramImage
+from asictl.source import SYMBOLS_SUFFIX
 
 IMAGE_FILE = "image.hex"
 IDENTITY_FILE = "identity.json"
 STATUS_FILE = "status.json"
 #: The main file's name when the image carries no source (or a name unfit for a file).
 RAW_NAME = "program.asi"
-#: A symbol table beside a program file ``NAME.asi`` (observe/symbols.py's naming).
-SYMBOLS_SUFFIX = ".symbols.toml"
 #: Who commits, whatever the machine's git configuration says.
 AUTHOR = {"name": "asictl fleet backup", "email": "asictl@localhost"}
 
@@ -53,13 +50,9 @@ class Snapshot:
 
 def take_snapshot(_: FleetMaster, master: Master) -> Snapshot:
     """Upload the master's program (as ``asictl upload`` does) and read its status."""
-    try:
-        image: ProgramImage | None = upload(master.transport)
-    except JobError as exc:
-        if exc.status is not JobStatus.EEPROM_ERROR:
-            raise
-        image = None
-    return Snapshot(image, master.status())
+    program = read_program(master.transport)
+    status = master.quick_status(program) if master.quick_status is not None else master.status()
+    return Snapshot(program.image, status)
 
 
 def main_name(image: ProgramImage) -> str:

@@ -15,10 +15,8 @@ from pathlib import Path
 from asictl.build import build_file, program_of_image
 from asictl.fleet.archive import archived_image
 from asictl.fleet.inventory import FleetMaster
-from asictl.host.jobs import JobError, JobStatus
 from asictl.host.master import Master
-from asictl.host.status import program_info
-from asictl.host.transfer import upload
+from asictl.host.status import program_info, read_program
 from asictl.il.networks import compare
 from asictl.image.eeprom import ProgramImage, differences
 
@@ -64,12 +62,7 @@ def verify_master(archive: Path, fleet_master: FleetMaster, master: Master) -> V
     if built.has_errors or mine is None:
         first = next((d.message for d in built.diagnostics if d.is_error), "no image")
         return Verdict("different", "an unreadable image", None, (f"the archive: {first}",))
-    try:
-        theirs: ProgramImage | None = upload(master.transport)
-    except JobError as exc:
-        if exc.status is not JobStatus.EEPROM_ERROR:
-            raise
-        theirs = None
+    theirs = read_program(master.transport).image
     if theirs is None:
         return Verdict("no program", mine.identity_hex)
     found = differences(mine, theirs)

@@ -33,16 +33,16 @@ class Network:
     canonical: str
 
 
-def _source_line(program: Program, node: ast.Statement | ast.GatingLine) -> str:
+def _source_line(texts: dict[str, list[str]], node: ast.Statement | ast.GatingLine) -> str:
     if isinstance(node, ast.Label):  # its line may hold the next statement too
         return f"{node.name}:"
     span = node.span
     if span is None:
         return repr(dataclasses.replace(node, span=None))
-    source = program.sources.get(span.file)
+    source = texts.get(span.file)
     if source is None:
         return repr(dataclasses.replace(node, span=None))
-    text = source.text.split("\n")[span.line - 1].split(";", 1)[0]
+    text = source[span.line - 1].split(";", 1)[0]
     label = re.match(r"\s*[A-Za-z_][A-Za-z0-9_]*\s*:(?!=)", text)
     return " ".join(text[label.end() if label else 0:].split())
 
@@ -63,19 +63,20 @@ def _canonical(nodes: Sequence[ast.Statement | ast.GatingLine]) -> str:
     return "\n".join(parts)
 
 
-def _network(program: Program, module: str, index: int,
+def _network(texts: dict[str, list[str]], module: str, index: int,
              nodes: list[ast.Statement | ast.GatingLine]) -> Network | None:
     kept = [n for n in nodes if not isinstance(n, ast.SegmentEnd)]
     if not kept:
         return None
     lines = [n.span.line for n in kept if n.span is not None] or [0]
     return Network(module, index, min(lines), max(lines),
-                   tuple(_source_line(program, n) for n in kept), _canonical(kept))
+                   tuple(_source_line(texts, n) for n in kept), _canonical(kept))
 
 
 def networks(program: Program) -> list[Network]:
     """Every network of the program and of its function blocks, in source order."""
     found: list[Network] = []
+    texts = {name: source.text.split("\n") for name, source in program.sources.items()}
     for module in program.modules():
         name = Path(module.file).name
         groups: list[list[ast.Statement | ast.GatingLine]] = [[]]
@@ -91,7 +92,7 @@ def networks(program: Program) -> list[Network]:
                 groups.append([])
         count = 0
         for group in groups:
-            network = _network(program, name, count + 1, group)
+            network = _network(texts, name, count + 1, group)
             if network is not None:
                 count += 1
                 found.append(network)

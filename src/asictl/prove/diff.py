@@ -56,11 +56,9 @@ class Equivalence:
     refused: Unmodelled | None = None
 
 
-def _observed(first: Program, second: Program, extra: Iterable[ast.Operand]) -> list[Key]:
+def _observed(host: Iterable[ast.Operand], extra: Iterable[ast.Operand]) -> list[Key]:
     cells: list[Key] = [("Q", n) for n in range(16)]
-    flags = [operand for program in (first, second)
-             for operand, _ in read_directives(program.sources).host_flags]
-    for n in sorted(host_masks([*flags, *extra])):
+    for n in sorted(host_masks([*host, *extra])):
         cells.append(("F", n))
     return cells
 
@@ -106,7 +104,7 @@ def _equivalent(first: Program, second: Program, start: float, *, timeout_s: flo
                 else asi_cycle_us(len(bus)))
     host = [operand for program in (first, second)
             for operand, _ in read_directives(program.sources).host_flags]
-    observed = _observed(first, second, observe)
+    observed = _observed(host, observe)
     cycles = [build_cycle(program, slaves=bus, cycle_us=cycle_us, host_flags=host,
                           watch=observed, prefix=f"{side}.")
               for side, program in (("a", first), ("b", second))]

@@ -56,7 +56,6 @@ from asictl.prove.symbolic import (
     Key,
     build_cycle,
     cell_name,
-    map_counters_of,
     operand_cells,
     operand_value,
     width,
@@ -252,14 +251,6 @@ def _constants(term: z3.ExprRef) -> set[z3.ExprRef]:
     return found
 
 
-def _equal(first: Key, second: Key) -> Callable[[_Path, int], z3.BoolRef]:
-    def fact(path: _Path, index: int) -> z3.BoolRef:
-        result: z3.BoolRef = path.states[index][first] == path.states[index][second]
-        return result
-
-    return fact
-
-
 def _same_bit(first: Key, i: int, second: Key, j: int) -> Callable[[_Path, int],
                                                                     z3.BoolRef]:
     def fact(path: _Path, index: int) -> z3.BoolRef:
@@ -299,6 +290,8 @@ class Machine:
     unroll: int = UNROLL
     cycle: Cycle = field(init=False)
     map_counters: bool = field(init=False)
+    #: the cells the loop bound (the cycle's overrun) depends on
+    overrun_cells: frozenset[Key] = field(init=False)
     #: for two programs compared: the cells that must be equal after every cycle
     observed: list[tuple[Key, Key]] = field(default_factory=list)
     #: for two programs compared: bits that may always be equal, one of each program
@@ -316,7 +309,7 @@ class Machine:
     depends: dict[Key, frozenset[Key]] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        self.map_counters = map_counters_of(self.program)
+        self.map_counters = self.program.options.map_counters
         exprs: list[Expr] = [*self.assume]
         for prop in self.properties:
             exprs.append(prop.expr)
@@ -336,6 +329,9 @@ class Machine:
                             if c.decl().name() in names)
             for cell, term in self.cycle.post.items()
         }
+        self.overrun_cells = frozenset(
+            names[c.decl().name()] for c in _constants(self.cycle.overrun)
+            if c.decl().name() in names)
 
     def cone(self, prop: Property | None) -> frozenset[Key]:
         """The cells a property (and the assumptions, and the loop bound) depends on,
@@ -344,7 +340,7 @@ class Machine:
         if prop is not None:
             exprs += [prop.expr] + ([prop.then] if prop.then is not None else [])
         todo = set(watched_cells(exprs, self.map_counters))
-        todo |= {names for names in self._overrun_cells()}
+        todo |= self.overrun_cells
         todo |= {cell for pair in self.observed for cell in pair}
         found: set[Key] = set()
         while todo:
@@ -354,11 +350,6 @@ class Machine:
             found.add(cell)
             todo |= self.depends[cell] - found
         return frozenset(found)
-
-    def _overrun_cells(self) -> set[Key]:
-        names = {var.decl().name(): cell for cell, var in self.cycle.pre.items()}
-        return {names[c.decl().name()] for c in _constants(self.cycle.overrun)
-                if c.decl().name() in names}
 
     # -------------------------------------------------------------- response monitors
 
@@ -457,8 +448,8 @@ class Machine:
             for cell in cells:
                 twin = ("b", *cell[1:])
                 if cell[0] == "a" and twin in cells:
-                    found.append((f"{cell_name(cell[1:])} equal in both", _equal(cell, twin),
-                                  frozenset({cell, twin})))
+                    found.append((f"{cell_name(cell[1:])} equal in both",
+                                  _same_bit(cell, -1, twin, -1), frozenset({cell, twin})))
         for (a, i), (b, j) in self.twins:
             if a in cells and b in cells:
                 found.append((f"{cell_name(a[1:])}{'' if i < 0 else f'.{i}'} in the first "

@@ -559,14 +559,6 @@ class _Builder:
             self.set_counter(s, n, up if op is ast.CountOp.CU else down, rlo)
 
 
-def map_counters_of(program: Program) -> bool:
-    return any(
-        key(o.name) == "map_counters" and o.value
-        for s in program.main.sections_of(ast.OptionsSection)
-        for o in s.options
-    )
-
-
 def host_masks(flags: Iterable[ast.Operand]) -> dict[int, int]:
     """The bits of each flag byte a host writes (``; asictl: host F 10.0, FY 11, FW 12``)."""
     masks: dict[int, int] = {}
@@ -598,7 +590,7 @@ def build_cycle(
     def fresh(name: str, bits: int) -> z3.BitVecRef:
         return z3.BitVec(prefix + name, bits)
 
-    builder = _Builder(program, map_counters=map_counters_of(program), unroll=unroll,
+    builder = _Builder(program, map_counters=program.options.map_counters, unroll=unroll,
                        fresh=fresh)
     on_bus = tuple(sorted(set(slaves)))
     timers = timers_of(program)
