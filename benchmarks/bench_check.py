@@ -98,6 +98,12 @@ def timed_with_cpu(command: list[str], runs: int) -> tuple[float, float]:
     return statistics.median(walls), statistics.median(cpus)
 
 
+def cpu_seconds(pid: int) -> float:
+    """User and system time of a process so far (/proc/PID/stat, fields 14 and 15)."""
+    fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
 def console_script() -> str | None:
     """The ``asictl`` script of this Python's environment, else the first on the PATH."""
     beside = Path(sys.executable).parent / "asictl"

@@ -34,6 +34,7 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
+from bench_check import cpu_seconds
 from bench_compile import largest_fitting
 
 from asictl.build import build
@@ -117,12 +118,6 @@ BUSY = """[SETUP]
         BE
 [END]
 """
-
-
-def cpu_seconds(pid: int) -> float:
-    """User and system time of a process so far (/proc/PID/stat, fields 14 and 15)."""
-    fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
-    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
 
 
 def server_share(pid: int, seconds: float, work: Callable[[], None] | None) -> float:

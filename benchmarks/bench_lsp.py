@@ -20,7 +20,6 @@ compare versions. Usage:
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 import tempfile
 import time
@@ -30,6 +29,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(ROOT / "tests"), str(ROOT / "tests" / "lsp")]
 
 import lsp_client  # noqa: E402 - after the path is set
+from bench_check import cpu_seconds  # noqa: E402
 from lsp_client import LspClient  # noqa: E402
 
 SMALL = "[SETUP]\n1: iiii, 0\n2: oooo, 0\n[PROGRAM]\n A I 1.0\n = Q 2.1\n"
@@ -40,12 +40,6 @@ def program(size: int) -> str:
     line = " A I 1.0            ; a comment that makes the line longer"
     body = [line if n % 10 else " L KB 999" for n in range(size // (len(line) + 1))]
     return "\n".join(["[SETUP]", "1: iiii, 0", "[PROGRAM]", *body, " BE", ""])
-
-
-def cpu(client: LspClient) -> float:
-    """The server's CPU time so far (user + system), from /proc."""
-    fields = Path(f"/proc/{client.process.pid}/stat").read_text().rsplit(")", 1)[1].split()
-    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
 
 
 def started(folder: Path) -> LspClient:
@@ -71,10 +65,10 @@ def diagnostics(folder: Path, size: int) -> tuple[float, float, int]:
     client = started(folder)
     try:
         uri = (folder / f"d{size}.asi").as_uri()
-        before, start = cpu(client), time.perf_counter()
+        before, start = cpu_seconds(client.process.pid), time.perf_counter()
         open_doc(client, uri, program(size))
         found = client.diagnostics(uri, until=bool)
-        return time.perf_counter() - start, cpu(client) - before, len(found)
+        return time.perf_counter() - start, cpu_seconds(client.process.pid) - before, len(found)
     finally:
         client.close()
 

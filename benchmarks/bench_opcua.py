@@ -24,6 +24,8 @@ import tempfile
 import time
 from pathlib import Path
 
+from bench_check import cpu_seconds
+
 PROGRAM = "[SETUP]\n1: iiii, 0\n\n[PROGRAM]\n        L   KB 42\n        T   FY 12\n        BE\n"
 
 
@@ -40,14 +42,9 @@ def served(state: Path, extra: list[str]) -> tuple[float, float]:
         assert line, "the server ended"
     ready = time.perf_counter() - started
 
-    def cpu() -> float:
-        with open(f"/proc/{process.pid}/stat") as stat:
-            fields = stat.read().rsplit(")", 1)[1].split()
-        return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
-
-    before, wall = cpu(), time.perf_counter()
+    before, wall = cpu_seconds(process.pid), time.perf_counter()
     time.sleep(10)
-    share = (cpu() - before) / (time.perf_counter() - wall) * 100
+    share = (cpu_seconds(process.pid) - before) / (time.perf_counter() - wall) * 100
     process.send_signal(signal.SIGINT)
     process.wait(timeout=30)
     return ready, share

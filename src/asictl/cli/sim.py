@@ -178,7 +178,20 @@ def _junit(outcomes: list[Outcome], path: Path, inputs: list[Path]) -> None:
                  + "\n", inputs=inputs)
 
 
-class _SimProgress:
+class _StatusLine:
+    """A line on a terminal's standard error, to be erased before other output, which
+    would otherwise go on from its end."""
+
+    shown = False
+
+    def clear(self) -> None:
+        if self.shown:
+            sys.stderr.write("\r\x1b[K")
+            sys.stderr.flush()
+            self.shown = False
+
+
+class _SimProgress(_StatusLine):
     """A long simulation's progress on a terminal's standard error: master time done of
     the run's, shown once the run has taken a second, at most five times a second."""
 
@@ -186,7 +199,6 @@ class _SimProgress:
         self.enabled = sys.stderr.isatty()
         self.begun = time.monotonic()
         self.last = 0.0
-        self.shown = False
 
     def __call__(self, now_ms: float, end_ms: float) -> None:
         wall = time.monotonic()
@@ -198,21 +210,14 @@ class _SimProgress:
         sys.stderr.flush()
         self.shown = True
 
-    def clear(self) -> None:
-        if self.shown:
-            sys.stderr.write("\r\x1b[K")
-            sys.stderr.flush()
-            self.shown = False
 
-
-class _Progress:
+class _Progress(_StatusLine):
     """One line on a terminal's standard error: scenarios done, failures so far."""
 
     def __init__(self, total: int) -> None:
         self.total = total
         self.enabled = total > 1 and sys.stderr.isatty()
         self.done = self.failed = 0
-        self.shown = False
 
     def update(self, outcome: Outcome) -> None:
         self.done += 1
@@ -221,11 +226,6 @@ class _Progress:
             sys.stderr.write(f"\r\x1b[K[{self.done}/{self.total}] {self.failed} failed")
             sys.stderr.flush()
             self.shown = True
-
-    def clear(self) -> None:
-        if self.shown:
-            sys.stderr.write("\r\x1b[K")
-            sys.stderr.flush()
 
 
 def _json(outcome: Outcome) -> dict[str, object]:

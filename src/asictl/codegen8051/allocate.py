@@ -57,8 +57,6 @@ class _Usage:
     timers: set[int] = field(default_factory=set)
     #: the timers whose remaining time the code reads (``L T n``)
     read_timers: set[int] = field(default_factory=set)
-    #: whether the program has ASM lines or [ASSEMBLY] sections, which may read anything
-    asm: bool = False
     counters: set[int] = field(default_factory=set)
 
     def bit(self, cell: Cell) -> None:
@@ -75,10 +73,8 @@ def _usage(program: Program) -> _Usage:
     reads is noted for the image (``ProgramMap.unread_timers``)."""
     usage = _Usage()
     for module in program.modules():
-        usage.asm = usage.asm or any(module.sections_of(ast.AssemblySection))
         for node in module.code():
             statement = not isinstance(node, ast.GatingLine)
-            usage.asm = usage.asm or isinstance(node, ast.Asm)
             for operand, access in ast.operands(node):
                 n = operand.address
                 match operand.kind:
@@ -158,6 +154,7 @@ def allocate(program: Program, *, map_counters: bool) -> ProgramMap:
     for cell in sorted(c for c in used if c not in result.cells and c[0] is not CellKind.F):
         result.cells[cell] = Location(Space.XDATA, take(1))
     result.data_end = cursor
-    if not usage.asm:
+    # hand-written assembly may read any timer's remaining time
+    if not any(module.has_assembly() for module in program.modules()):
         result.unread_timers = usage.timers - usage.read_timers
     return result

@@ -89,9 +89,8 @@ def compile_program(
             f"the program's data needs {pmap.data_end - layout.DATA_BASE} bytes of RAM, "
             f"{layout.DATA_LIMIT - layout.DATA_BASE} are available"
         )])
-    output = generate(program, pmap, entry_points).assemble(
-        symbols(program, pmap, entry_points)
-    )
+    table = symbols(program, pmap, entry_points)
+    output = generate(program, pmap, table).assemble(table)
     compiled = Compiled(
         program, options, pmap, output.assembly, output.lines, entry_points,
         output.references, output.diagnostics,

@@ -186,11 +186,7 @@ class Emitter:
         """PSW.1 := (count of counter n is not 0), leaving the carry alone."""
         self.dptr(self.pmap.counters[n])
         zero = self.local()
-        self.emit("MOVX", A, AT_DPTR)
-        self.emit("MOV", R0, A)
-        self.emit("INC", DPTR)
-        self.emit("MOVX", A, AT_DPTR)
-        self.emit("ANL", A, Imm(0x0F))
+        self.read_word_at_dptr(R0, mask_high=True)
         self.emit("ORL", A, R0)
         self.emit("CLR", Bit(layout.STATUS_BIT))
         self.emit("JZ", Ref(zero))
@@ -297,6 +293,18 @@ class Emitter:
         self.emit("INC", DPTR)
         self.emit("MOV", A, high)
         self.emit("MOVX", AT_DPTR, A)
+        self._dptr = None if self._dptr is None else self._dptr + 1
+        self.acc_changed()
+
+    def read_word_at_dptr(self, low: Reg, *, mask_high: bool) -> None:
+        """The word at DPTR: its low byte into ``low``, its high byte into ACC, DPTR left
+        on the high byte (a counter counts in 12 bits: ``mask_high`` reads only those)."""
+        self.emit("MOVX", A, AT_DPTR)
+        self.emit("MOV", low, A)
+        self.emit("INC", DPTR)
+        self.emit("MOVX", A, AT_DPTR)
+        if mask_high:
+            self.emit("ANL", A, Imm(0x0F))
         self._dptr = None if self._dptr is None else self._dptr + 1
         self.acc_changed()
 
@@ -410,15 +418,8 @@ class Emitter:
 
     def read_word(self, address: int, *, mask_high: bool) -> None:
         self.dptr(address)
-        self.emit("MOVX", A, AT_DPTR)
-        self.emit("MOV", R7, A)
-        self.emit("INC", DPTR)
-        self.emit("MOVX", A, AT_DPTR)
-        if mask_high:
-            self.emit("ANL", A, Imm(0x0F))
+        self.read_word_at_dptr(R7, mask_high=mask_high)
         self.emit("MOV", R6, A)
-        self._dptr = address + 1
-        self.acc_changed()
 
     def constant(self, value: int) -> None:
         self.emit("MOV", R2, Imm(value & 0xFF))
@@ -560,11 +561,7 @@ class Emitter:
         """Count the 12-bit counter at DPTR one step, saturating; keeps the carry."""
         self.label(name)
         self.emit("MOV", Bit(layout.SAVED_RLO_BIT), C)
-        self.emit("MOVX", A, AT_DPTR)
-        self.emit("MOV", R0, A)
-        self.emit("INC", DPTR)
-        self.emit("MOVX", A, AT_DPTR)
-        self.emit("ANL", A, Imm(0x0F))
+        self.read_word_at_dptr(R0, mask_high=True)
         self.emit("MOV", R1, A)
         if up:
             self.emit("CJNE", R0, Imm(0xFF), Ref(f"{name}1"))

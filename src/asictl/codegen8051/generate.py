@@ -27,9 +27,11 @@ from asictl.runtime.firmware import FIRMWARE_BLOCKS
 from asictl.runtime.program_map import ProgramMap
 
 
-def generate(program: Program, pmap: ProgramMap, entry_points: Mapping[str, int]) -> OutputStream:
+def generate(program: Program, pmap: ProgramMap, table: Mapping[str, int]) -> OutputStream:
+    """``table`` is the program's ``symbols``, taken rather than built here: the caller
+    gives the assembler the same one."""
     out = Emitter(pmap=pmap)
-    for name, value in symbols(program, pmap, entry_points).items():
+    for name, value in table.items():
         out.out.add(Comment(f"{name} = {hex_number(value)}"))
     out.span = None
     out.out.add(Org(layout.CODE_BASE))

@@ -34,10 +34,6 @@ class Verdict:
     #: network (``asictl diff``'s lines), so the report says where and not only that
     networks: tuple[str, ...] = ()
 
-    @property
-    def drift(self) -> bool:
-        return self.state != "identical"
-
     def describe(self) -> str:
         if self.state == "identical":
             return f"identical ({self.running})"

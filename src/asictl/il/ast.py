@@ -696,3 +696,8 @@ class Module:
                 yield from section.statements
             elif isinstance(section, GatingSection):
                 yield from section.lines
+
+    def has_assembly(self) -> bool:
+        """Whether it holds hand-written assembly, which may read or write anything."""
+        return any(self.sections_of(AssemblySection)) \
+            or any(isinstance(node, Asm) for node in self.code())

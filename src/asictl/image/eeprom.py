@@ -376,18 +376,25 @@ class ProgramImage:
         """The program's symbol table stored with its source (``NAME.symbols.toml``, the
         container's last file when there is one): its name and raw bytes."""
         sources = self.sources()
-        last = next(reversed(sources), None) if sources else None
-        if last is None or len(sources) < 2 or not last.endswith(SYMBOLS_SUFFIX):
-            return None
-        return last, sources[last]
+        name = _symbols_name(sources)
+        return None if name is None else (name, sources[name])
 
     def program_sources(self) -> dict[str, bytes]:
         """``sources`` without the symbol table: the IL files, main file first."""
         sources = self.sources()
-        table = self.symbols()
-        if table is not None:
-            del sources[table[0]]
+        name = _symbols_name(sources)
+        if name is not None:
+            del sources[name]
         return sources
+
+
+def _symbols_name(sources: dict[str, bytes]) -> str | None:
+    """The symbol table's name in a source container, or None: a lone file is the program
+    itself, whatever its name."""
+    last = next(reversed(sources), None)
+    if last is None or len(sources) < 2 or not last.endswith(SYMBOLS_SUFFIX):
+        return None
+    return last
 
 
 # --------------------------------------------------------------------------- program map

@@ -220,11 +220,6 @@ class Collector:
     def attach(self) -> None:
         self.runner.watch = self.watch
 
-    def detach(self) -> None:
-        self._close()
-        if self.runner.watch == self.watch:
-            self.runner.watch = None
-
     def watch(self, inputs: bytes | bytearray | None) -> Trace | None:
         """Before each cycle (``ProgramRunner.watch``): the trace for a cycle from a new
         state, None for one whose record is known."""

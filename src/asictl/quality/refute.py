@@ -54,10 +54,10 @@ class Difference:
 def _searchable(program: Program) -> bool:
     """No firmware block calls, no PARAM, no ASM: the code runs alone."""
     for module in program.modules():
-        if any(module.sections_of(ast.AssemblySection)):
+        if module.has_assembly():
             return False
         for node in module.code():
-            if isinstance(node, ast.Asm | ast.Param):
+            if isinstance(node, ast.Param):
                 return False
             if isinstance(node, ast.CallFB) and ast.key(node.name) not in program.blocks:
                 return False
