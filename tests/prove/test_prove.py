@@ -312,6 +312,14 @@ def test_mistakes_in_expressions_point_at_their_column(tmp_path: Path, runner, t
     assert "^" in result.output
 
 
+def test_a_properties_file_nested_too_deeply_is_a_source_error(tmp_path: Path, runner):
+    props = _files(tmp_path, REVERSE, "a = " + "[" * 5000 + "]" * 5000 + "\n")
+    result = runner.invoke(main, ["prove", str(props)])
+    assert result.exit_code == 2
+    assert "p.props.toml:1:1: error: not valid TOML: nested too deeply" in result.output
+    assert "Traceback" not in result.output
+
+
 def test_unknown_keys_and_missing_parts(tmp_path: Path):
     props = _files(tmp_path, REVERSE, '[[property]]\nname = "x"\nnevr = "Q 2.0"\n'
                    '[[property]]\nname = "y"\nwhen = "I 1.0"\n')

@@ -412,6 +412,10 @@ def read_properties(
         raise DiagnosticError([Diagnostic(Severity.ERROR, ScenarioCode.PROPERTIES,
                                           f"not valid TOML: {message}",
                                           Span(source.name, line, column))]) from None
+    except RecursionError:  # tomllib recurses per nested array or inline table
+        raise DiagnosticError([Diagnostic(Severity.ERROR, ScenarioCode.PROPERTIES,
+                                          "not valid TOML: nested too deeply",
+                                          Span(source.name, 1, 1))]) from None
     reader.unknown(data, _TOP_KEYS, "", 1, len(reader.lines))
     program = data.get("program")
     program_path = None
