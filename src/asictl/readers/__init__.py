@@ -1,0 +1,2 @@
+"""Reading what users write by hand, one way for every file and option: durations with
+their units (``units``)."""
