@@ -26,7 +26,7 @@ LAYERS: tuple[tuple[tuple[str, str], ...], ...] = (
     (
         ("source", "reading DOS-era text (UTF-8, CP850, Latin-1; CR LF; Ctrl-Z)"),
         ("files", "writing outputs atomically, never over an input"),
-        ("readers", "what users write by hand, read one way: durations with units"),
+        ("readers", "what users write by hand, read one way: TOML with places, durations, hints"),
     ),
     (("mcs51", "the 8051: one instruction table, assembler, disassembler, emulator"),),
     (

@@ -102,6 +102,7 @@ class ScenarioCode(StrEnum):
     INVENTORY = "E404"
     PROPERTIES = "E405"
     UNMODELLED = "E406"
+    UNKNOWN_KEY = "E407"
 
 
 class AssemblerCode(StrEnum):
@@ -173,13 +174,14 @@ TITLES: dict[str, str] = {
     "E301": "program data too large",
     "E302": "program code too large",
     "E303": "image too large for the EEPROM",
-    "E400": "scenario is not valid TOML",
+    "E400": "file is not valid TOML",
     "E401": "invalid scenario",
     "E402": "scenario sets a slave that is not on the bus",
     "E403": "invalid symbol table",
     "E404": "invalid plant inventory",
     "E405": "invalid properties file",
     "E406": "construct the prover cannot model",
+    "E407": "unknown key in a TOML file",
     "E501": "syntax",
     "E502": "unknown mnemonic or directive",
     "E503": "operand not valid for the instruction",

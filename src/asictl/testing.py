@@ -30,10 +30,11 @@ from asictl.files import refuse_inputs, write_output
 from asictl.il.ast import key
 from asictl.observe.operands import SETTABLE, Operand, check_value, parse_operand
 from asictl.observe.symbols import SymbolTable, load_symbols, symbols_for
+from asictl.readers.units import duration_ms
 from asictl.sim.condition import Condition, parse_condition
 from asictl.sim.engine import Simulation, variables_of
 from asictl.sim.plant import Model, read_model
-from asictl.sim.scenario import Scenario, parse_duration, parse_slave
+from asictl.sim.scenario import MAX_TIME_MS, Scenario, parse_slave
 from asictl.sim.trace import Trace, to_csv, to_vcd, write_plot
 from asictl.source import read_source, symbols_path
 
@@ -74,14 +75,9 @@ class TimedOut(ExpectationFailed):
 
 
 def _ms(value: str | float, what: str) -> float:
-    """A duration: ``"250ms"``, ``"2s"`` or a number of milliseconds."""
-    if isinstance(value, str):
-        return parse_duration(value)
-    if isinstance(value, bool) or not isinstance(value, int | float) or not (
-            0 <= value <= 24 * 3_600_000):
-        raise ValueError(f"{what} is a duration such as '250ms' or a number of milliseconds "
-                         f"up to 24 h, not {value!r}")
-    return float(value)
+    """A duration: ``"250ms"``, ``"2s"`` or a number of milliseconds (as in a scenario
+    file: ``readers.units.duration_ms``), at most 24 h."""
+    return duration_ms(value, what=f"a {what}", limit_ms=MAX_TIME_MS)
 
 
 def _caller() -> str:

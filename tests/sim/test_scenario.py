@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 
 from asictl.diagnostics import DiagnosticError
-from asictl.sim.scenario import SlaveSpec, parse_duration, read_scenario
+from asictl.sim.scenario import SlaveSpec, read_scenario
 from asictl.source import from_string
 
 GOOD = """\
@@ -55,13 +55,36 @@ def test_steps_in_any_order_are_run_by_time():
     assert [s.at_ms for s in read_scenario(from_string("s.toml", text)).ordered()] == [10, 20]
 
 
-def test_durations():
-    assert parse_duration("250ms") == 250
-    assert parse_duration("10s") == 10_000
-    assert parse_duration("1h") == 3_600_000
-    assert parse_duration("2") == 2000
-    with pytest.raises(ValueError):
-        parse_duration("soon")
+def _times(step: str) -> list[float]:
+    return [s.at_ms for s in read_scenario(from_string("s.toml", f"[[step]]\n{step}\n")).steps]
+
+
+def test_at_is_a_number_of_milliseconds_or_a_text_with_its_unit():
+    assert _times("at = 16") == [16]
+    assert _times('at = "16ms"') == [16]
+    assert _times('at = "16s"') == [16_000]
+    assert _times('at = "1.5min"') == [90_000]
+    assert _times("at_ms = 250") == [250]
+
+
+def test_at_without_a_unit_in_a_text_shows_both_readings():
+    assert errors('[[step]]\nat = "16"\n') == [
+        (2, 6, "at: '16' has no unit: give a unit: 16ms or 16s")]
+
+
+def test_at_ms_is_always_milliseconds_and_refuses_a_text():
+    ((line, column, message),) = errors('[[step]]\nat_ms = "16s"\n')
+    assert (line, column) == (2, 9)
+    assert message.startswith("at_ms is a time in milliseconds") and 'at = "16s"' in message
+    ((_, _, message),) = errors('[[step]]\nat_ms = "16"\n')
+    assert "at_ms is a time in milliseconds" in message
+
+
+def test_within_takes_a_unit_as_at_does():
+    text = '[[step]]\nat = "1s"\nwithin = "50ms"\nexpect = { "Q 1.0" = 1 }\n'
+    assert read_scenario(from_string("s.toml", text)).steps[0].within_ms == 50
+    ((_, _, message),) = errors('[[step]]\nat = 5\nwithin = "5"\nexpect = { "Q 1.0" = 1 }\n')
+    assert message == "within: '5' has no unit: give a unit: 5ms or 5s"
 
 
 def test_unknown_operand_and_out_of_range_values_point_at_the_key():
@@ -94,10 +117,10 @@ def test_missing_time_unknown_keys_and_bad_slaves():
         "[[step]]\nset = {}\n[[step]]\nat_ms = 5\nwhen = 3\n"
     )
     found = errors(text)
-    assert (2, 1, "cycle_ms is a time in milliseconds from 0.1 to 10000, not 0") in found
+    assert (2, 12, "cycle_ms is a time in milliseconds from 0.1 to 10000, not 0") in found
     assert any(line == 3 and "slave 40" in m for line, _, m in found)
     assert any(line == 3 and "slave 3" in m for line, _, m in found)
-    assert (4, 1, "each step needs at_ms = <milliseconds, 0 or more>") in found
+    assert (4, 1, 'each step needs a time: at = "2s" (or at_ms = 2000)') in found
     assert any(line == 8 and "unknown key 'when'" in m for line, _, m in found)
 
 
@@ -114,8 +137,8 @@ def test_a_time_given_twice_and_a_slave_given_twice_are_errors():
     text = ('[master]\nslaves = { 31 = "oooo,0", "031" = "iiii,0" }\n'
             '[[step]]\nat_ms = 10\nat = "20ms"\n')
     found = errors(text)
-    assert (2, 1, "slave 31 is given twice ('031')") in found
-    assert (5, 1, "a step has one time: at_ms or at, not both") in found
+    assert (2, 27, "slave 31 is given twice ('031')") in found
+    assert (5, 1, "a step's time is at_ms or at, not both") in found
 
 
 def test_invalid_toml_gives_its_line():

@@ -32,7 +32,7 @@ def sim(tmp_path: Path, scenario: str, *args: str):
     ("[[step]]\nat_ms = 1e12\n", 3, "(24 h)"),
     ("[[step]]\nat_ms = " + "9" * 400 + "\n", 3, "not 999999"),
     ('[[step]]\nat = "' + "9" * 400 + 's"\n', 3, "is not a duration"),
-    ('[[step]]\nat = "25h"\n', 3, "longer than the longest simulation, 24h"),
+    ('[[step]]\nat = "25h"\n', 3, "longer than the longest allowed, 24 h"),
     ("[master]\ncycle_ms = 0.0001\n", 3, "cycle_ms is a time in milliseconds from 0.1 to 10000"),
     ("[master]\ncycle_ms = inf\n", 3, "not inf"),
     ("[master]\ncycle_ms = nan\n", 3, "not nan"),

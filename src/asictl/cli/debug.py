@@ -8,10 +8,10 @@ from pathlib import Path
 
 import click
 
-from asictl.cli.options import lib_option
+from asictl.cli.options import Duration, lib_option
 from asictl.debug.debugger import DebugError, Debugger
 from asictl.errors import ExitCode, UserError
-from asictl.sim.scenario import parse_duration
+from asictl.sim.scenario import MAX_TIME_MS
 from asictl.sim.session import Invalid, prepare, scenario_for
 from asictl.source import read_source
 
@@ -31,14 +31,15 @@ def _history_file() -> Path:
 @click.option("--no-scenario", is_flag=True, help="Do not use the scenario beside the program.")
 @click.option("--set", "sets", multiple=True, metavar='"OPERAND=VALUE"',
               help='Set an input or flag at time 0 (repeatable).')
-@click.option("--duration", help="Master time the session may run (default: the scenario's "
+@click.option("--duration", type=Duration(limit_ms=MAX_TIME_MS),
+              help="Master time the session may run (default: the scenario's "
               "last step; 10s without a scenario).")
 @click.option("--batch", type=click.Path(dir_okay=False, path_type=Path),
               help="Read the commands from this file ('-': standard input) instead of a "
               "terminal; each is echoed after the prompt.")
 @lib_option
 def debug(program: Path, scenario_path: Path | None, no_scenario: bool, sets: tuple[str, ...],
-          duration: str | None, batch: Path | None, lib: tuple[str, ...]) -> None:
+          duration: float | None, batch: Path | None, lib: tuple[str, ...]) -> None:
     """Debug PROGRAM at the IL level on an emulated master in virtual time.
 
     Breakpoints on IL lines (break 12, break blink.asi:12 if RLO=1), step, next,
@@ -48,10 +49,7 @@ def debug(program: Path, scenario_path: Path | None, no_scenario: bool, sets: tu
     Exit status: 0; with --batch, 1 if a command was refused; 2 bad input.
     """
     ctx = click.get_current_context()
-    try:
-        duration_ms = parse_duration(duration) if duration else None
-    except ValueError as exc:
-        raise click.BadParameter(str(exc), param_hint="--duration") from None
+    duration_ms = duration
     if scenario_path is None and not no_scenario and scenario_for(program).is_file():
         scenario_path = scenario_for(program)
     try:

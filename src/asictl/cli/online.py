@@ -16,6 +16,7 @@ from typing import Unpack
 import click
 
 from asictl.cli.master import _board_options, _BoardOptions, _connect
+from asictl.cli.options import Duration
 from asictl.errors import ExitCode, UserError
 from asictl.host.force_list import Entry, ForcedValue, forced_values
 from asictl.host.forcing import forced
@@ -106,31 +107,19 @@ def unforce(operands: tuple[str, ...], all_: bool, **board: Unpack[_BoardOptions
 # --------------------------------------------------------------------------- watch
 
 
-def _seconds(text: str, option: str) -> float:
-    from asictl.sim.scenario import parse_duration
-
-    try:
-        seconds = parse_duration(text) / 1000
-    except ValueError as exc:
-        raise click.BadParameter(str(exc), param_hint=option) from None
-    if seconds <= 0:
-        raise click.BadParameter(f"'{text}' is no time at all", param_hint=option)
-    return seconds
-
-
 @click.command("watch")
 @click.argument("operands", nargs=-1)
 @click.option("--table", "table", type=click.Path(dir_okay=False), metavar="FILE.watch.toml",
               help='A watch table: watch = ["F 10.0", "Motor", ...] (added to OPERANDS).')
-@click.option("--interval", default="0.2s", show_default=True,
+@click.option("--interval", type=Duration(positive=True), default="0.2s", show_default=True,
               help="How often the values are read (250ms, 1s, ...).")
-@click.option("--duration", default=None,
+@click.option("--duration", type=Duration(positive=True), default=None,
               help="Stop after this long (10s, 2m); default: until Ctrl-C.")
 @click.option("--format", "format_", type=click.Choice(["text", "json"]), default="text",
               show_default=True, help="json: one JSON object a line.")
 @_board_options
 def watch(
-    operands: tuple[str, ...], table: str | None, interval: str, duration: str | None,
+    operands: tuple[str, ...], table: str | None, interval: float, duration: float | None,
     format_: str, **board: Unpack[_BoardOptions],
 ) -> None:
     """Watch operands on the master: a line for each value at the start, then one for
@@ -156,8 +145,8 @@ def watch(
     from asictl.host.watch import read_table, watch_list
     from asictl.source import read_source
 
-    period = _seconds(interval, "--interval")
-    limit = _seconds(duration, "--duration") if duration is not None else None
+    period = interval / 1000
+    limit = duration / 1000 if duration is not None else None
     try:
         listed = read_table(read_source(table)) if table else []
     except DiagnosticError as exc:

@@ -4,9 +4,38 @@ from __future__ import annotations
 
 import click
 
+from asictl.readers.units import UnitError, parse_duration
+
 #: ``--lib DIR`` (repeatable): where the loader looks for function-block files besides the
 #: program's folder; every command that builds a program takes it.
 lib_option = click.option(
     "--lib", "lib", multiple=True, type=click.Path(file_okay=False),
     help="Also look for function-block files here (repeatable; also $ASICTL_LIB).",
 )
+
+
+class Duration(click.ParamType[float]):
+    """A time on the command line, in milliseconds: a number with its unit (``250ms``,
+    ``10s``, ``2min``, ``1h``), read by ``readers.units`` as every file's time is.
+
+    A bare number is refused with both readings ("give a unit: 16ms or 16s"): ``sim
+    --duration 16`` once meant 16 s while a scenario's 16 meant 16 ms, so no bare
+    number is guessed (docs/simulation.md, "Durations")."""
+
+    name = "duration"
+
+    def __init__(self, *, limit_ms: float | None = None, positive: bool = False) -> None:
+        self.limit_ms = limit_ms
+        self.positive = positive
+
+    def convert(self, value: object, param: click.Parameter | None,
+                ctx: click.Context | None) -> float:
+        if isinstance(value, float):  # a default already in milliseconds
+            return value
+        try:
+            ms = parse_duration(str(value), limit_ms=self.limit_ms)
+        except UnitError as exc:
+            self.fail(str(exc), param, ctx)
+        if self.positive and ms <= 0:
+            self.fail(f"'{value}' is no time at all", param, ctx)
+        return ms

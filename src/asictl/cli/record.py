@@ -15,13 +15,13 @@ from typing import Unpack
 import click
 
 from asictl.cli.master import _board_options, _BoardOptions, _connect
+from asictl.cli.options import Duration
 from asictl.errors import UserError
 from asictl.files import real_path, write_output
 from asictl.host.master import Master
 from asictl.host.status import MasterStatus, StoredProgram
 from asictl.sim import SUFFIX
 from asictl.sim.recording import Sample, choose, slave_operands, to_scenario
-from asictl.sim.scenario import parse_duration
 
 #: The default tolerance window of a recording's expectations.
 DEFAULT_TOLERANCE_MS = 100
@@ -105,7 +105,7 @@ class _Reader:
 
 @click.command("record")
 @_board_options
-@click.option("--duration", required=True,
+@click.option("--duration", required=True, type=Duration(limit_ms=24 * 3_600_000, positive=True),
               help="How long to record, e.g. 60s, 2m (at most 24h).")
 @click.option("-o", "--output", required=True, type=click.Path(dir_okay=False, path_type=Path),
               help=f"The scenario to write (NAME{SUFFIX}).")
@@ -119,7 +119,7 @@ class _Reader:
               "the sampling interval if that is longer].")
 @click.option("--program", "program", type=click.Path(dir_okay=False, path_type=Path),
               help="Name this program in the scenario ('program = ...', relative to it).")
-def record(duration: str, output: Path, force: bool, signals: str | None,
+def record(duration: float, output: Path, force: bool, signals: str | None,
            tolerance_ms: float | None, program: Path | None,
            **board: Unpack[_BoardOptions]) -> None:
     """Record a running master (a served emulated board, a real board or a gateway) as
@@ -133,10 +133,7 @@ def record(duration: str, output: Path, force: bool, signals: str | None,
 
     Exit status: 0 recorded, 1 the master did not answer, 2 bad usage.
     """
-    try:
-        seconds = parse_duration(duration) / 1000
-    except ValueError as exc:
-        raise click.BadParameter(str(exc), param_hint="--duration") from None
+    seconds = duration / 1000
     if output.is_file() and not force:
         raise UserError(f"{output}: exists; not overwritten (use --force)")
     patterns = [p for p in signals.split(",") if p.strip()] if signals else None

@@ -12,7 +12,7 @@ from xml.etree import ElementTree
 
 import click
 
-from asictl.cli.options import lib_option
+from asictl.cli.options import Duration, lib_option
 from asictl.diagnostics import github_command
 from asictl.errors import ExitCode, UserError
 from asictl.files import refuse_inputs, write_output
@@ -22,7 +22,7 @@ from asictl.sim import SUFFIX
 from asictl.sim.coverage import FORMATS, format_for, percent, render
 from asictl.sim.coverage import summary as coverage_summary
 from asictl.sim.engine import line_map_of
-from asictl.sim.scenario import parse_duration
+from asictl.sim.scenario import MAX_TIME_MS
 from asictl.sim.session import (
     Invalid,
     Outcome,
@@ -40,15 +40,6 @@ from asictl.sim.session import (
 from asictl.sim.trace import to_csv, to_vcd, write_plot
 
 
-def _duration(text: str | None, option: str) -> float | None:
-    if text is None:
-        return None
-    try:
-        return parse_duration(text)
-    except ValueError as exc:
-        raise click.BadParameter(str(exc), param_hint=option) from None
-
-
 @click.command()
 @click.argument("program", required=False, type=click.Path(dir_okay=False, path_type=Path))
 @click.option("--scenario", "scenario_path", type=click.Path(dir_okay=False, path_type=Path),
@@ -58,7 +49,8 @@ def _duration(text: str | None, option: str) -> float | None:
               help="Do not use the scenario beside the program.")
 @click.option("--set", "sets", multiple=True, metavar='"OPERAND=VALUE"',
               help='Set an input or flag at time 0, e.g. --set "I 1.0=1" (repeatable).')
-@click.option("--duration", help="Master time to run, e.g. 10s, 250ms, 1h (default: until "
+@click.option("--duration", type=Duration(limit_ms=MAX_TIME_MS),
+              help="Master time to run, e.g. 10s, 250ms, 1h (default: until "
               "the scenario's last step; 10s without a scenario; at most 24h).")
 @click.option("--allow-partial", is_flag=True,
               help="Allow a --duration that ends before the scenario's last step.")
@@ -72,16 +64,17 @@ def _duration(text: str | None, option: str) -> float | None:
               'or shell patterns, e.g. "Q 2.*,CV 0".')
 @click.option("--trace-il", "trace_il", type=click.Path(dir_okay=False, path_type=Path),
               help="Write one CSV row per executed IL line: time, line, RLO, ACCU1, ACCU2.")
-@click.option("--from", "from_", metavar="TIME",
+@click.option("--from", "from_", type=Duration(limit_ms=MAX_TIME_MS), metavar="TIME",
               help="Traces start here (e.g. 250ms, 2s; default 0).")
-@click.option("--to", metavar="TIME", help="Traces end here (default: the end of the run).")
+@click.option("--to", type=Duration(limit_ms=MAX_TIME_MS), metavar="TIME",
+              help="Traces end here (default: the end of the run).")
 @click.option("--json", "as_json_", is_flag=True, help="Print the result as JSON.")
 @lib_option
 def sim(
     program: Path | None, scenario_path: Path | None, no_scenario: bool, sets: tuple[str, ...],
-    duration: str | None, allow_partial: bool, vcd: Path | None, csv_path: Path | None,
-    plot: Path | None, signals: str | None, trace_il: Path | None, from_: str | None,
-    to: str | None, as_json_: bool, lib: tuple[str, ...],
+    duration: float | None, allow_partial: bool, vcd: Path | None, csv_path: Path | None,
+    plot: Path | None, signals: str | None, trace_il: Path | None, from_: float | None,
+    to: float | None, as_json_: bool, lib: tuple[str, ...],
 ) -> None:
     """Run PROGRAM on a fresh emulated master in virtual time.
 
@@ -93,9 +86,7 @@ def sim(
     Exit status: 0 all expectations hold, 1 one failed, 2 bad input.
     """
     ctx = click.get_current_context()
-    duration_ms = _duration(duration, "--duration")
-    start = _duration(from_, "--from") or 0.0
-    end = _duration(to, "--to")
+    duration_ms, start, end = duration, from_ or 0.0, to
     if end is not None and end < start:
         raise click.BadParameter("--to comes before --from", param_hint="--to")
     if scenario_path is None and program is not None and not no_scenario:

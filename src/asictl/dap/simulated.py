@@ -19,9 +19,10 @@ from asictl.debug.inventory import Inventory
 from asictl.errors import UserError
 from asictl.lsp.framing import JSON
 from asictl.observe.locate import call_chain
+from asictl.readers.units import UnitError
+from asictl.readers.units import duration_ms as read_duration
 from asictl.runtime.line_map import SourceLine
 from asictl.sim.engine import source_texts
-from asictl.sim.scenario import parse_duration
 from asictl.sim.session import Invalid, Prepared, prepare, scenario_for
 
 #: Console commands that only look (the others run the program, which the editor's
@@ -185,8 +186,8 @@ def launch(args: dict[str, JSON], out: Callable[[str], None]) -> SimulatedTarget
         scenario = scenario_for(program)
     duration = args.get("duration")
     try:
-        duration_ms = parse_duration(str(duration)) if duration not in (None, "") else None
-    except ValueError as exc:
+        duration_ms = read_duration(duration) if duration not in (None, "") else None
+    except UnitError as exc:
         raise UserError(f"duration: {exc}") from None
     try:
         prepared = prepare(program, scenario, lib=_strings(args, "lib"),

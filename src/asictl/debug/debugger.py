@@ -32,9 +32,9 @@ from asictl.observe.operands import (
 )
 from asictl.observe.view import ProgramView
 from asictl.platform.pc2 import STOP_ADDRESS, STOPS_AT_AN_ADDRESS
+from asictl.readers.units import UnitError, parse_duration
 from asictl.runtime.line_map import LineMap, SourceLine
 from asictl.sim.engine import Simulation, source_texts, variables_of
-from asictl.sim.scenario import parse_duration
 from asictl.sim.session import Prepared
 
 _SP = SFRS["SP"]
@@ -353,9 +353,9 @@ class Debugger:
     def _time(self, rest: str) -> None:
         text = rest.strip()
         try:
-            ms = float(text) if re.fullmatch(r"\d+(\.\d+)?", text) else parse_duration(text)
-        except ValueError as exc:
-            raise DebugError(f"{exc}; a bare number is milliseconds") from None
+            ms = parse_duration(text)
+        except UnitError as exc:
+            raise DebugError(str(exc)) from None
         self._resume(Mode.TIME, self.now() + ms)
 
     def _print(self, rest: str) -> None:

@@ -22,8 +22,8 @@ from asictl.errors import UserError
 from asictl.host.boards import IO_BACKENDS, parse_port, port_name
 from asictl.host.connection import MasterAddress
 from asictl.host.target import DEFAULT_RETRIES, DEFAULT_TIMEOUT_S, parse_target
-from asictl.il.suggest import did_you_mean
 from asictl.platform.gateway import UNITS
+from asictl.readers.suggest import did_you_mean
 from asictl.source import SourceText
 
 #: A master's name is a folder of the archive: letters, digits and ``-_.``, not hidden.

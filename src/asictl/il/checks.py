@@ -32,9 +32,9 @@ from asictl.il.language import (
 from asictl.il.loader import Program, Reader, calls, load_program
 from asictl.il.pragmas import read_directives
 from asictl.il.register import check_register
-from asictl.il.suggest import did_you_mean
 from asictl.mcs51.words import RESERVED as ASSEMBLER_RESERVED
 from asictl.platform.master import Options
+from asictl.readers.suggest import did_you_mean
 from asictl.runtime.firmware import FIRMWARE_BLOCKS
 from asictl.source import SourceText, read_source
 

@@ -17,8 +17,8 @@ from asictl.codes import SyntaxCode
 from asictl.diagnostics import Diagnostic, Severity, Span
 from asictl.il.ast import SectionKind
 from asictl.il.foreign import operand_hint, operator_hint
-from asictl.il.suggest import closest, did_you_mean
 from asictl.platform.master import IO_CODE_BITS
+from asictl.readers.suggest import closest, did_you_mean
 
 #: Punctuation the language reads as a blank (3: only some punctuation is significant).
 IGNORED_PUNCTUATION = "\"#$%&',/?@\\^`{|}~"

@@ -2,8 +2,8 @@
 eventually do, and what its environment guarantees.
 
 The file is TOML; its ``program`` line and ``[master]`` table mean what they mean in a
-scenario (and the ``[master]`` table is read by the scenario reader itself, so the two
-cannot drift). Expressions are written in the scenario's operand names (``I 1.0``,
+scenario (``sim.scenario.read_master`` reads ``[master]`` for both, so the two cannot
+drift). Expressions are written in the scenario's operand names (``I 1.0``,
 ``QB 16``, ``CV 0``, ``TV 1``, symbols) with ``and or xor not``, parentheses, ``== !=
 < <= > >=`` on values (``==`` and ``!=`` also on two conditions), and numbers as
 ``read_number`` reads them (``12``, ``0x0C``, ``0b1100``). Every mistake is a
@@ -15,19 +15,19 @@ Nothing here needs z3: a properties file is checked before the prover starts.
 from __future__ import annotations
 
 import re
-import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass
 from enum import StrEnum
 from pathlib import Path
 
 from asictl.codes import ScenarioCode
-from asictl.diagnostics import Diagnostic, DiagnosticError, Reporter, Severity, Span
-from asictl.il.suggest import did_you_mean
+from asictl.diagnostics import DiagnosticError, Reporter, Span
 from asictl.observe.operands import Operand, parse_operand, read_number
 from asictl.observe.symbols import SymbolTable
-from asictl.sim.scenario import SlaveSpec, parse_duration, read_scenario
-from asictl.source import SourceText, from_string
+from asictl.readers.tomlfile import Document, KeyPath, read_toml
+from asictl.readers.units import UnitError, parse_duration
+from asictl.sim.scenario import SlaveSpec, read_master
+from asictl.source import SourceText
 
 SUFFIX = ".props.toml"
 _TOP_KEYS = ("program", "master", "assume", "property")
@@ -317,83 +317,24 @@ class Properties:
     properties: list[Property]
 
 
-class _Reader:
-    def __init__(self, source: SourceText) -> None:
-        self.source = source
-        self.lines = source.text.split("\n")
-        self.report = Reporter()
-        self.property_lines = [i + 1 for i, line in enumerate(self.lines)
-                               if re.match(r"\s*\[\[\s*property\s*\]\]", line)]
+@dataclass
+class _Reading:
+    """A properties file being read: its document and what is wrong so far."""
 
-    def error(self, message: str, line: int, column: int = 1) -> None:
-        self.report.error(ScenarioCode.PROPERTIES, message, Span(self.source.name, line, column))
+    document: Document
+    report: Reporter
 
-    def section(self, name: str) -> tuple[int, int]:
-        """The lines of a ``[name]`` table: from its header to the next header."""
-        start = next((i + 1 for i, line in enumerate(self.lines)
-                      if re.match(rf"\s*\[\s*{name}\s*\]", line)), 1)
-        return start, self.next_header(start)
+    def error(self, message: str, path: KeyPath, *, at_value: bool = False) -> None:
+        self.report.diagnostics.append(
+            self.document.error(ScenarioCode.PROPERTIES, message, path, at_value=at_value))
 
-    def next_header(self, start: int) -> int:
-        for number in range(start + 1, len(self.lines) + 1):
-            if re.match(r"\s*\[", self.lines[number - 1]):
-                return number - 1
-        return len(self.lines)
-
-    def key_at(self, key: str, start: int, end: int) -> tuple[int, int]:
-        """Line and column of ``key =`` between two lines, else the first of them."""
-        bare = re.compile(rf"(?:^|[\s{{,])(?P<key>{re.escape(key)}|\"{re.escape(key)}\")\s*=")
-        for number in range(start, min(end, len(self.lines)) + 1):
-            found = bare.search(self.lines[number - 1])
-            if found:
-                return number, found.start("key") + 1
-        return start, 1
-
-    def value_at(self, key: str, start: int, end: int, nth: int = 0) -> tuple[int, int]:
-        """Where the text of a key's string value starts (the ``nth`` string of a list,
-        which may run over several lines)."""
-        line, column = self.key_at(key, start, end)
-        first = self.lines[line - 1] if 0 < line <= len(self.lines) else ""
-        pos = first.find("=", column - 1) + 1
-        count = 0
-        for number in range(line, min(max(end, line), len(self.lines)) + 1):
-            text = self.lines[number - 1]
-            while True:
-                quotes = [i for i in (text.find('"', pos), text.find("'", pos)) if i >= 0]
-                if not quotes:
-                    break
-                quote = min(quotes)
-                if count == nth:
-                    return number, quote + 2
-                count += 1
-                close = text.find(text[quote], quote + 1)
-                if close < 0:
-                    break
-                pos = close + 1
-            pos = 0
-        return line, column
-
-    def unknown(self, table: Mapping[str, object], known: tuple[str, ...], where: str,
-                start: int, end: int) -> None:
-        for name in sorted(set(table) - set(known)):
-            line, column = self.key_at(name, start, end)
-            self.error(f"unknown key '{name}'{where}{did_you_mean(name, list(known))} "
-                       f"(known: {', '.join(known)})", line, column)
-
-
-def _master(reader: _Reader, source: SourceText) -> tuple[float | None, list[SlaveSpec] | None]:
-    """The ``[master]`` table, read by the scenario reader at its own lines."""
-    start, end = reader.section("master")
-    if not any(re.match(r"\s*\[\s*master\s*\]", line) for line in reader.lines):
-        return None, None
-    kept = [line if start <= number <= end else ""
-            for number, line in enumerate(reader.lines, 1)]
-    try:
-        scenario = read_scenario(from_string(source.name, "\n".join(kept)))
-    except DiagnosticError as exc:
-        reader.report.diagnostics.extend(exc.diagnostics)
-        return None, None
-    return scenario.cycle_ms, scenario.slaves
+    def text_at(self, path: KeyPath) -> tuple[int, int]:
+        """Line and column of the first character inside the string at ``path``."""
+        span = self.document.value(path)
+        lines = self.document.text.split("\n")
+        line = lines[span.line - 1] if 0 < span.line <= len(lines) else ""
+        quote = 3 if line[span.column - 1 : span.column + 2] in ('"""', "'''") else 1
+        return span.line, span.column + quote
 
 
 def read_properties(
@@ -402,131 +343,127 @@ def read_properties(
     symbols: SymbolTable | None = None,
 ) -> Properties:
     """Parse and check a properties file; ``DiagnosticError`` with every mistake."""
-    reader = _Reader(source)
-    try:
-        data = tomllib.loads(source.text)
-    except tomllib.TOMLDecodeError as exc:
-        where = re.search(r"line (\d+), column (\d+)", str(exc))
-        line, column = (int(where[1]), int(where[2])) if where else (1, 1)
-        message = re.sub(r"\s*\(at line \d+, column \d+\)", "", str(exc))
-        raise DiagnosticError([Diagnostic(Severity.ERROR, ScenarioCode.PROPERTIES,
-                                          f"not valid TOML: {message}",
-                                          Span(source.name, line, column))]) from None
-    except RecursionError:  # tomllib recurses per nested array or inline table
-        raise DiagnosticError([Diagnostic(Severity.ERROR, ScenarioCode.PROPERTIES,
-                                          "not valid TOML: nested too deeply",
-                                          Span(source.name, 1, 1))]) from None
-    reader.unknown(data, _TOP_KEYS, "", 1, len(reader.lines))
+    document = read_toml(source.name, source.text)
+    data = document.data
+    reading = _Reading(document, Reporter())
+    reading.report.extend(document.unknown_keys((), data, _TOP_KEYS))
     program = data.get("program")
     program_path = None
     if program is not None:
         if isinstance(program, str) and program and "\0" not in program:
             program_path = Path(source.name).parent / program
         else:
-            reader.error("program is a file name", *reader.key_at("program", 1, len(reader.lines)))
-    cycle_ms, slaves = _master(reader, source)
+            reading.error("program is a file name", ("program",))
+    cycle_ms, slaves = read_master(document, reading.report, ScenarioCode.PROPERTIES)
 
-    def expression(value: object, key: str, start: int, end: int, nth: int = 0,
-                   condition: bool = True) -> Expr | None:
-        line, column = reader.value_at(key, start, end, nth)
+    def expression(value: object, path: KeyPath, condition: bool = True) -> Expr | None:
+        key = next(str(p) for p in reversed(path) if isinstance(p, str))
         if not isinstance(value, str):
-            reader.error(f"{key} is an expression in quotes, such as \"Q 2.0 and not I 1.2\"",
-                         *reader.key_at(key, start, end))
+            reading.error(f"{key} is an expression in quotes, such as \"Q 2.0 and not I 1.2\"",
+                          path)
             return None
+        line, column = reading.text_at(path)
         try:
             expr = parse_expression(value, variables, symbols)
         except ValueError as exc:
             offset = exc.args[1] if len(exc.args) > 1 else 0
-            reader.error(str(exc.args[0]), line, column + offset)
+            reading.report.error(ScenarioCode.PROPERTIES, str(exc.args[0]),
+                                 Span(source.name, line, column + offset))
             return None
         if condition and not is_condition(expr):
-            reader.error(f"{key} is a condition, not the value {show(expr)} (compare it: "
-                         f"{show(expr)} == 1)", line, column)
+            reading.report.error(ScenarioCode.PROPERTIES,
+                                 f"{key} is a condition, not the value {show(expr)} (compare "
+                                 f"it: {show(expr)} == 1)", Span(source.name, line, column))
             return None
         return expr
 
     assume: list[Expr] = []
     table = data.get("assume", {})
-    start, end = reader.section("assume")
     if not isinstance(table, dict):
-        reader.error("[assume] is a table: always = [\"not (I 1.0 and I 1.1)\"]", start)
+        reading.error("[assume] is a table: always = [\"not (I 1.0 and I 1.1)\"]", ("assume",))
         table = {}
-    reader.unknown(table, _ASSUME_KEYS, " in [assume]", start, end)
+    reading.report.extend(document.unknown_keys(("assume",), table, _ASSUME_KEYS,
+                                                "in [assume]"))
     always = table.get("always", [])
     for index, text in enumerate(always if isinstance(always, list) else [always]):
-        expr = expression(text, "always", start, end, index)
+        path: KeyPath = ("assume", "always", index) if isinstance(always, list) \
+            else ("assume", "always")
+        expr = expression(text, path)
         if expr is not None:
             assume.append(expr)
 
     properties: list[Property] = []
     raw = data.get("property", [])
     if not isinstance(raw, list):
-        reader.error("properties are [[property]] tables", 1)
+        reading.error("properties are [[property]] tables", ("property",))
         raw = []
     names: set[str] = set()
     for index, entry in enumerate(raw):
-        start = reader.property_lines[index] if index < len(reader.property_lines) else 1
-        end = reader.next_header(start)
         if not isinstance(entry, dict):
-            reader.error("a property is a table", start)
+            reading.error("a property is a table", ("property", index))
             continue
-        found = _property(reader, entry, start, end, expression, names)
+        found = _property(reading, ("property", index), entry, expression, names)
         if found is not None:
             properties.append(found)
-    if reader.report.has_errors:
-        raise DiagnosticError(reader.report.diagnostics)
+    if reading.report.has_errors:
+        raise DiagnosticError(reading.report.diagnostics)
     return Properties(source.name, program_path, cycle_ms, slaves, assume, properties)
 
 
-def _property(reader: _Reader, entry: dict[str, object], start: int, end: int,
+def _property(reading: _Reading, path: KeyPath, entry: dict[str, object],
               expression: object, names: set[str]) -> Property | None:
     assert callable(expression)
-    reader.unknown(entry, _PROPERTY_KEYS, " in [[property]]", start, end)
+    reading.report.extend(reading.document.unknown_keys(path, entry, _PROPERTY_KEYS,
+                                                        "in [[property]]"))
+    start = reading.document.key(path).line
     name = entry.get("name")
     if not isinstance(name, str) or not name.strip():
-        reader.error('a property needs a name = "..."', *reader.key_at("name", start, end))
+        reading.error('a property needs a name = "..."', (*path, "name"))
         return None
     if name in names:
-        reader.error(f"two properties are named '{name}'", *reader.key_at("name", start, end))
+        reading.error(f"two properties are named '{name}'", (*path, "name"))
         return None
     names.add(name)
     kinds = [k for k in ("never", "always", "reachable", "when") if k in entry]
     if len(kinds) != 1:
-        reader.error(f"property '{name}' needs exactly one of never, always, reachable or "
-                     "when (with then and within)", start)
+        reading.error(f"property '{name}' needs exactly one of never, always, reachable or "
+                      "when (with then and within)", path)
         return None
     kind = Kind(kinds[0])
-    expr = expression(entry[kind.value], kind.value, start, end)
+    expr = expression(entry[kind.value], (*path, kind.value))
     if kind is not Kind.RESPONSE:
         for extra in ("then", "within"):
             if extra in entry:
-                reader.error(f"'{extra}' belongs to a when/then property",
-                             *reader.key_at(extra, start, end))
+                reading.error(f"'{extra}' belongs to a when/then property", (*path, extra))
                 return None
         return Property(name, kind, expr, start) if expr is not None else None
     if "then" not in entry or "within" not in entry:
-        reader.error(f"property '{name}': when needs then and within (\"3 cycles\" or "
-                     "\"50ms\")", start)
+        reading.error(f"property '{name}': when needs then and within (\"3 cycles\" or "
+                      "\"50ms\")", path)
         return None
-    then = expression(entry["then"], "then", start, end)
-    within = entry["within"]
-    cycles = ms = None
-    if isinstance(within, int) and not isinstance(within, bool) and 0 <= within <= 10_000:
-        cycles = within
-    elif isinstance(within, str) and (match := _WITHIN.match(within)):
-        cycles = int(match[1])
-    elif isinstance(within, str):
-        try:
-            ms = parse_duration(within)
-        except ValueError:
-            ms = None
-    if (cycles is None and ms is None) or (cycles is not None and cycles > 10_000):
-        reader.error('within is "N cycles" (0..10000) or a time such as "50ms"',
-                     *reader.value_at("within", start, end))
+    then = expression(entry["then"], (*path, "then"))
+    try:
+        cycles, ms = _within(entry["within"])
+    except UnitError as exc:
+        reading.error(f"within: {exc}", (*path, "within"), at_value=True)
         return None
     if expr is None or then is None:
         return None
     return Property(name, kind, expr, start, then, cycles, ms)
+
+
+def _within(value: object) -> tuple[int | None, float | None]:
+    """A response's bound: ``"3 cycles"`` (0..10000) or a time with its unit; a bare
+    number could be either, and is refused with both readings."""
+    if isinstance(value, str) and (match := _WITHIN.match(value)):
+        if int(match[1]) > 10_000:
+            raise UnitError("at most 10000 cycles")
+        return int(match[1]), None
+    if isinstance(value, str):
+        return None, parse_duration(value, what='"N cycles" or a time such as "50ms"')
+    if isinstance(value, int | float) and not isinstance(value, bool):
+        raise UnitError(f"give a unit: \"{value} cycles\" or \"{value}ms\"")
+    raise UnitError('"N cycles" (0..10000) or a time such as "50ms"')
 
 
 def properties_for(program: Path) -> Path:

@@ -617,7 +617,7 @@ def read_model(data: Mapping[str, object], name: str, place: Place) -> Model | N
     to ``place``; ``name`` names its lanes when the table has no ``name``."""
     kind = data.get("type")
     if not isinstance(kind, str) or kind not in _KEYS:
-        from asictl.il.suggest import did_you_mean
+        from asictl.readers.suggest import did_you_mean
 
         hint = did_you_mean(kind, list(TYPES)) if isinstance(kind, str) else ""
         place.problem(f"a plant model has a type: {', '.join(TYPES)}"
@@ -627,7 +627,7 @@ def read_model(data: Mapping[str, object], name: str, place: Place) -> Model | N
     keys = _KEYS[kind]
     unknown = sorted(set(data) - set(keys) - {"type", "name"})
     if unknown:
-        from asictl.il.suggest import did_you_mean
+        from asictl.readers.suggest import did_you_mean
 
         for key in unknown:
             place.problem(f"unknown key '{key}' in a {kind}{did_you_mean(key, list(keys))} "
