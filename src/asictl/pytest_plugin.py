@@ -20,13 +20,14 @@ The fixture ``asictl_plc`` is a factory of ``asictl.testing.Plc`` (docs/testing.
 
 from __future__ import annotations
 
-import tomllib
 from collections.abc import Callable, Generator, Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import pytest
 
+from asictl.diagnostics import DiagnosticError
+from asictl.readers.tomlfile import read_toml
 from asictl.sim import SUFFIX
 
 if TYPE_CHECKING:
@@ -110,8 +111,8 @@ def _markers(path: Path) -> list[str]:
     """The scenario's ``markers``, read without simulating (a broken file has none here;
     running it reports what is wrong)."""
     try:
-        markers = tomllib.loads(path.read_text(encoding="utf-8")).get("markers", [])
-    except (OSError, ValueError, RecursionError):
+        markers = read_toml(str(path), path.read_text(encoding="utf-8")).data.get("markers", [])
+    except (OSError, ValueError, DiagnosticError):
         return []
     return [m for m in markers if isinstance(m, str) and m.isidentifier()] \
         if isinstance(markers, list) else []

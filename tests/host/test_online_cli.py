@@ -215,9 +215,11 @@ def test_watch_reads_a_table_and_shows_each_value_three_ways(tmp_path):
 
 
 @pytest.mark.parametrize(("text", "where", "message"), [
-    ('watch = ["F 10.0",\n  oops ]\n', ":2:3: error: watch table is not valid TOML", "oops ]"),
-    ('# mine\nlist = ["F 10.0"]\n', ":2:1: error: a watch table is one list", "list = "),
-    ('watch = ["F 10.0", 3]\n', ":1:1: error: a watch table is one list", "watch = "),
+    ('watch = ["F 10.0",\n  oops ]\n', ":2:3: error: not valid TOML: invalid value [E400]",
+     "oops ]"),
+    ('# mine\nlist = ["F 10.0"]\n', ":2:1: error: unknown key 'list' (known: watch) [E407]",
+     "list = "),
+    ('watch = ["F 10.0", 3]\n', ":1:20: error: a watch table is one list", "watch = "),
 ])
 def test_a_bad_watch_table_is_shown_at_its_line(tmp_path, text, where, message):
     table = tmp_path / "bad.watch.toml"

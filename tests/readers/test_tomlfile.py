@@ -136,9 +136,17 @@ def test_every_key_and_value_is_found_where_it_was_written(
     document = read_toml("gen.toml", writer.text)
     assert document.data == tomllib.loads(writer.text) == data
     for path, place in writer.keys.items():
-        assert document.keys.get(path) == place, (path, writer.text)
+        assert document.keys[path][:2] == place, (path, writer.text)
     for path, place in writer.values.items():
-        assert document.values.get(path) == place, (path, writer.text)
+        assert document.values[path][:2] == place, (path, writer.text)
+
+
+def test_a_key_spans_its_text_as_written() -> None:
+    document = read_toml("f.toml", '[masters."press 1"]\nretries = 3\na . "b" = 1\n')
+    assert document.keys[("masters", "press 1")] == (1, 10, 9)
+    assert document.keys[("masters", "press 1", "retries")] == (2, 1, 7)
+    assert document.keys[("masters", "press 1", "a", "b")] == (3, 5, 3)
+    assert str(document.value(("masters", "press 1"))) == "f.toml:1:1"
 
 
 # --------------------------------------------------------------------- errors

@@ -39,7 +39,7 @@ def test_scenarios_are_items_with_their_failures_as_scenario_lines(folder: pytes
         "*wrong.scenario.toml::wrong FAILED*",
     ])
     result.stdout.fnmatch_lines(["*wrong.scenario.toml:6: at 250 ms: Q 31.0 expected 0, got 1"])
-    result.stdout.fnmatch_lines(["*broken.scenario.toml:3:1: error: at_ms is a time*"])
+    result.stdout.fnmatch_lines(["*broken.scenario.toml:3:9: error: at_ms is a time*"])
 
 
 def test_selection_by_keyword_and_marker(folder: pytest.Pytester):

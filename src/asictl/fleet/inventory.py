@@ -3,16 +3,14 @@
 Every master becomes a ``MasterAddress`` (host.connection), the same record the board
 options of ``download``/``upload`` make, so a fleet command reaches a master exactly as
 those commands do. Every problem is a diagnostic at its line and column with the source
-line and a caret: tomllib keeps no positions, so each ``[masters.NAME]`` header is found
-in the text and a key by its text inside its table (as the scenario reader does).
+line and a caret, at the key or table (``readers.tomlfile`` keeps their places).
 """
 
 from __future__ import annotations
 
 import math
 import re
-import tomllib
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -24,6 +22,7 @@ from asictl.host.connection import MasterAddress
 from asictl.host.target import DEFAULT_RETRIES, DEFAULT_TIMEOUT_S, parse_target
 from asictl.platform.gateway import UNITS
 from asictl.readers.suggest import did_you_mean
+from asictl.readers.tomlfile import Document, read_toml
 from asictl.source import SourceText
 
 #: A master's name is a folder of the archive: letters, digits and ``-_.``, not hidden.
@@ -36,7 +35,6 @@ MASTER_KEYS = (
     "timeout", "retries", "attempts", "line", "groups",
 )
 _TOP_KEYS = ("defaults", "masters")
-_HEADER = re.compile(r"^\s*\[\s*([^\[\]]*?)\s*\]\s*(#.*)?$")
 
 
 @dataclass(frozen=True)
@@ -80,69 +78,32 @@ class Inventory:
         ]
 
 
-class _Reader:
-    """The inventory's text, and where its tables and keys are."""
+@dataclass
+class _Reading:
+    """The inventory's document and what is wrong with it so far. A table is named by
+    its dotted path as headers write it: ``""`` the top, ``defaults``, ``masters.NAME``."""
 
-    def __init__(self, source: SourceText) -> None:
-        self.source = source
-        self.lines = source.text.split("\n")
-        self.problems: list[Diagnostic] = []
-        #: table name as written in its header (``masters.press-1``) -> its first line
-        self.tables: dict[str, int] = {}
-        for number, text in enumerate(self.lines, 1):
-            match = _HEADER.match(text)
-            if match:
-                name = re.sub(r"\s*\.\s*", ".", match[1]).replace('"', "").replace("'", "")
-                self.tables.setdefault(name, number)
-
-    def table_range(self, name: str) -> tuple[int, int]:
-        """The lines of table ``name``: its header to the next header (the whole file when
-        it has no header of its own, as for an inline or dotted table)."""
-        first = self.tables.get(name)
-        if first is None:
-            return 1, len(self.lines)
-        later = [n for n in self.tables.values() if n > first]
-        return first, (min(later) - 1 if later else len(self.lines))
+    document: Document
+    problems: list[Diagnostic] = field(default_factory=list)
 
     def key_span(self, key: str, table: str) -> Span:
-        first, last = self.table_range(table)
-        pattern = re.compile(rf"^\s*(\"?{re.escape(key)}\"?)\s*=")
-        for number in range(first, last + 1):
-            match = pattern.match(self.lines[number - 1])
-            if match:
-                return Span(self.source.name, number, match.start(1) + 1, len(match[1]))
-        return self.header_span(table)
+        return self.document.key((*_path(table), key))
 
     def header_span(self, table: str) -> Span:
-        number = self.tables.get(table)
-        if number is None:
-            return Span(self.source.name, 1, 1)
-        text = self.lines[number - 1]
-        start = len(text) - len(text.lstrip())
-        return Span(self.source.name, number, start + 1, max(1, len(text.rstrip()) - start))
+        return self.document.value(_path(table))
 
     def error(self, message: str, span: Span) -> None:
         self.problems.append(Diagnostic(Severity.ERROR, ScenarioCode.INVENTORY, message, span))
 
 
+def _path(table: str) -> tuple[str, ...]:
+    return tuple(table.split(".", 1)) if table else ()
+
+
 def read_inventory(source: SourceText) -> Inventory:
     """Parse and check ``plant.toml``; raises ``DiagnosticError`` with every problem."""
-    reader = _Reader(source)
-    try:
-        data = tomllib.loads(source.text)
-    except tomllib.TOMLDecodeError as exc:
-        at = re.search(r"line (\d+), column (\d+)", str(exc))
-        line, column = (int(at[1]), int(at[2])) if at else (1, 1)
-        message = re.sub(r"\s*\(at line \d+, column \d+\)", "", str(exc))
-        raise DiagnosticError([Diagnostic(
-            Severity.ERROR, ScenarioCode.INVENTORY, f"not valid TOML: {message}",
-            Span(source.name, line, column),
-        )]) from None
-    except RecursionError:
-        raise DiagnosticError([Diagnostic(
-            Severity.ERROR, ScenarioCode.INVENTORY, "not valid TOML: nested too deeply",
-            Span(source.name, 1, 1),
-        )]) from None
+    reader = _Reading(read_toml(source.name, source.text))
+    data = reader.document.data
     _unknown(reader, data, _TOP_KEYS, "", "")
     defaults = data.get("defaults", {})
     if not isinstance(defaults, dict):
@@ -209,17 +170,14 @@ def _reach(master: FleetMaster) -> tuple[object, ...]:
 
 
 def _unknown(
-    reader: _Reader, table: dict[str, Any], known: tuple[str, ...], where: str, place: str
+    reader: _Reading, table: dict[str, Any], known: tuple[str, ...], where: str, place: str
 ) -> None:
-    for key in sorted(set(table) - set(known)):
-        reader.error(
-            f"unknown key '{key}'{place}{did_you_mean(key, known)} (known: {', '.join(known)})",
-            reader.key_span(key, where),
-        )
+    reader.problems.extend(reader.document.unknown_keys(_path(where), table, known,
+                                                       place.strip()))
 
 
 def _master(
-    reader: _Reader, name: str, values: dict[str, Any], own: dict[str, Any], base: Path
+    reader: _Reading, name: str, values: dict[str, Any], own: dict[str, Any], base: Path
 ) -> FleetMaster | None:
     """One master's settings (``values``: its own over ``[defaults]``) as a ``FleetMaster``;
     None after reporting what is wrong."""

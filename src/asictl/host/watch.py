@@ -14,18 +14,16 @@ the list is read, not while it is watched.
 
 from __future__ import annotations
 
-import re
-import tomllib
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import NoReturn
 
 from asictl.codes import ScenarioCode
-from asictl.diagnostics import Diagnostic, DiagnosticError, Severity, Span
+from asictl.diagnostics import DiagnosticError
 from asictl.errors import ExitCode, UserError
 from asictl.host.status import VISIBLE, MasterStatus, operand_value
 from asictl.host.symbols import Names
 from asictl.observe.operands import Operand
+from asictl.readers.tomlfile import read_toml
 from asictl.source import SourceText
 
 #: What a watch list may hold, as messages say it.
@@ -53,25 +51,19 @@ def read_table(source: SourceText) -> list[str]:
     """The operands of a ``FILE.watch.toml`` (``watch = [...]``); ``DiagnosticError`` at
     the place that is wrong."""
 
-    def error(code: ScenarioCode, message: str, line: int = 1, column: int = 1) -> NoReturn:
-        raise DiagnosticError([Diagnostic(Severity.ERROR, code, message,
-                                          Span(source.name, line, column))])
-
-    try:
-        data = tomllib.loads(source.text)
-    except tomllib.TOMLDecodeError as exc:
-        where = re.search(r"line (\d+), column (\d+)", str(exc))
-        error(ScenarioCode.NOT_TOML, f"watch table is not valid TOML: {exc}",
-              *((int(where[1]), int(where[2])) if where else (1, 1)))
-    except RecursionError:
-        error(ScenarioCode.NOT_TOML, "watch table nested too deeply")
+    document = read_toml(source.name, source.text)
+    data = document.data
+    unknown = document.unknown_keys((), data, ("watch",))
+    if unknown:
+        raise DiagnosticError(unknown)
     items = data.get("watch")
-    if not isinstance(items, list) or not all(isinstance(i, str) for i in items) or (
-            set(data) - {"watch"}):
-        line = next((n for n, text in enumerate(source.text.split("\n"), 1)
-                     if text.strip() and not text.lstrip().startswith("#")), 1)
-        error(ScenarioCode.INVALID, 'a watch table is one list of operands or names: '
-              'watch = ["F 10.0", "Motor"]', line)
+    if not isinstance(items, list) or not all(isinstance(i, str) for i in items):
+        wrong = next((i for i, item in enumerate(items) if not isinstance(item, str)), None) \
+            if isinstance(items, list) else None
+        raise DiagnosticError([document.error(
+            ScenarioCode.INVALID, 'a watch table is one list of operands or names: '
+            'watch = ["F 10.0", "Motor"]', ("watch",) if wrong is None else ("watch", wrong),
+            at_value=True)])
     return list(items)
 
 

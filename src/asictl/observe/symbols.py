@@ -16,14 +16,14 @@ symbol. One module serves all of them (and any later tool that shows operands).
 from __future__ import annotations
 
 import re
-import tomllib
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from asictl.codes import ScenarioCode
-from asictl.diagnostics import Diagnostic, DiagnosticError, Severity, Span
+from asictl.diagnostics import Diagnostic, DiagnosticError
 from asictl.il.ast import key
+from asictl.readers.tomlfile import read_toml
 from asictl.source import SYMBOLS_SUFFIX, SourceText, read_source, symbols_path
 
 SUFFIX = SYMBOLS_SUFFIX
@@ -91,36 +91,13 @@ def read_symbols(
 ) -> SymbolTable:
     """Parse a symbol table; ``check(text)`` returns an operand's printed form or raises
     ``ValueError`` (the scenario reader's operand parser). Raises ``DiagnosticError``."""
-    lines = source.text.split("\n")
-
-    def line_of(name: str) -> tuple[int, int]:
-        for number, line in enumerate(lines, 1):
-            column = line.find(name)
-            if column >= 0 and line[:column].strip() in ("", '"', "'"):
-                return number, column + 1
-        return 1, 1
-
+    document = read_toml(source.name, source.text)
     problems: list[Diagnostic] = []
 
     def error(message: str, name: str) -> None:
-        line, column = line_of(name)
-        problems.append(Diagnostic(Severity.ERROR, ScenarioCode.SYMBOLS, message,
-                                   Span(source.name, line, column)))
+        problems.append(document.error(ScenarioCode.SYMBOLS, message, (name,)))
 
-    try:
-        data = tomllib.loads(source.text)
-    except tomllib.TOMLDecodeError as exc:
-        where = re.search(r"line (\d+), column (\d+)", str(exc))
-        line, column = (int(where[1]), int(where[2])) if where else (1, 1)
-        raise DiagnosticError([Diagnostic(
-            Severity.ERROR, ScenarioCode.SYMBOLS, f"symbol table is not valid TOML: {exc}",
-            Span(source.name, line, column),
-        )]) from None
-    except RecursionError:
-        raise DiagnosticError([Diagnostic(
-            Severity.ERROR, ScenarioCode.SYMBOLS, "symbol table nested too deeply",
-            Span(source.name, 1, 1),
-        )]) from None
+    data = document.data
     entries: dict[str, tuple[str, str]] = {}
     for name, value in data.items():
         if not _NAME.fullmatch(name):

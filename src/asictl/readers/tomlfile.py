@@ -32,6 +32,9 @@ from asictl.readers.suggest import did_you_mean
 #: A place in the data: table keys and array indexes from the top.
 KeyPath = tuple[str | int, ...]
 
+#: Line, column (both from 1) and length of a key or value in the text.
+Place = tuple[int, int, int]
+
 #: Arrays and inline tables nested deeper than this are refused (no file needs 4).
 MAX_NESTING = 32
 
@@ -43,8 +46,10 @@ class Document:
     name: str
     text: str
     data: dict[str, object]
-    keys: dict[KeyPath, tuple[int, int]] = field(default_factory=dict)
-    values: dict[KeyPath, tuple[int, int]] = field(default_factory=dict)
+    #: line, column and length of each key as written (of its name, for a header's table)
+    keys: dict[KeyPath, Place] = field(default_factory=dict)
+    #: line, column (and 1) where each value starts (the ``[`` of a header's table)
+    values: dict[KeyPath, Place] = field(default_factory=dict)
 
     def key(self, path: KeyPath) -> Span:
         """Where the key of ``path`` is written (a table's header for a table); else its
@@ -60,8 +65,8 @@ class Document:
         """Whether ``path`` is written in the text (a key, a value or a header)."""
         return path in self.keys or path in self.values
 
-    def _span(self, path: KeyPath, first: Mapping[KeyPath, tuple[int, int]],
-              then: Mapping[KeyPath, tuple[int, int]]) -> Span:
+    def _span(self, path: KeyPath, first: Mapping[KeyPath, Place],
+              then: Mapping[KeyPath, Place]) -> Span:
         while path:
             found = first.get(path) or then.get(path)
             if found:
@@ -108,7 +113,7 @@ def read_toml(name: str, text: str) -> Document:
     return document
 
 
-def _not_toml(name: str, message: str, place: tuple[int, int]) -> DiagnosticError:
+def _not_toml(name: str, message: str, place: tuple[int, ...]) -> DiagnosticError:
     return DiagnosticError([Diagnostic(Severity.ERROR, ScenarioCode.NOT_TOML,
                                        f"not valid TOML: {message}", Span(name, *place))])
 
@@ -128,7 +133,7 @@ def _decode_error(text: str, source: str) -> tuple[str, tuple[int, int]]:
     return message, (len(lines), len(lines[-1]) + 1)
 
 
-def _too_deep(text: str) -> tuple[int, int] | None:
+def _too_deep(text: str) -> Place | None:
     """Where brackets first nest deeper than ``MAX_NESTING`` (strings and comments
     skipped), in any text, valid TOML or not."""
     depth = 0
@@ -160,7 +165,7 @@ class _Scanner:
         self.i = 0
         self.line_starts = [0] + [m.end() for m in re.finditer("\n", text)]
 
-    def place(self, at: int | None = None) -> tuple[int, int]:
+    def place(self, at: int | None = None, length: int = 1) -> Place:
         """1-based line and column of offset ``at`` (default: here)."""
         offset = self.i if at is None else at
         lo, hi = 0, len(self.line_starts) - 1
@@ -170,7 +175,7 @@ class _Scanner:
                 lo = mid
             else:
                 hi = mid - 1
-        return lo + 1, offset - self.line_starts[lo] + 1
+        return lo + 1, offset - self.line_starts[lo] + 1, length
 
     def peek(self) -> str:
         return self.text[self.i] if self.i < len(self.text) else ""
@@ -251,7 +256,7 @@ class _Walker(_Scanner):
             else:
                 self.key_value(table)
 
-    def resolve(self, names: list[tuple[str, tuple[int, int]]]) -> KeyPath:
+    def resolve(self, names: list[tuple[str, Place]]) -> KeyPath:
         """The path of dotted header names: into the last table of each array of tables."""
         path: KeyPath = ()
         for name, place in names:
@@ -279,19 +284,19 @@ class _Walker(_Scanner):
         self.i = self.text.index("]]" if array else "]", self.i) + (2 if array else 1)
         return path
 
-    def dotted_key(self) -> list[tuple[str, tuple[int, int]]]:
+    def dotted_key(self) -> list[tuple[str, Place]]:
         """``a."b c".d``: each part with its place; stops before ``=`` or ``]``."""
         parts = []
         while True:
             self.skip_blank(newlines=False)
-            place = self.place()
+            start = self.i
             if self.peek() in "\"'":
-                parts.append((self.string(), place))
+                name = self.string()
             else:
                 found = _BARE_KEY.match(self.text, self.i)
                 assert found, "tomllib accepted the text: a key starts here"
-                parts.append((found[0], place))
-                self.i = found.end()
+                name, self.i = found[0], found.end()
+            parts.append((name, self.place(start, self.i - start)))
             self.skip_blank(newlines=False)
             if self.peek() != ".":
                 return parts
