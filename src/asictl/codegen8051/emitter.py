@@ -45,6 +45,7 @@ from asictl.diagnostics import Span
 from asictl.il import ast
 from asictl.il.ast import key
 from asictl.il.language import PARAM_FLAG
+from asictl.readers.units import timer_ticks
 from asictl.runtime import layout
 from asictl.runtime.firmware import FIRMWARE_BLOCKS
 from asictl.runtime.program_map import CellKind, Location, ProgramMap, Space, timer_status
@@ -388,7 +389,7 @@ class Emitter:
     def load(self, operand: ast.Operand) -> None:
         n = operand.address
         if operand.kind is K.KT:
-            self.constant((n + 9) // 10)
+            self.constant(timer_ticks(n))
             return
         if operand.kind is K.KC:
             self.constant(n)

@@ -35,6 +35,7 @@ from asictl.il.register import check_register
 from asictl.mcs51.words import RESERVED as ASSEMBLER_RESERVED
 from asictl.platform.master import Options
 from asictl.readers.suggest import did_you_mean
+from asictl.readers.units import TICK_MS, timer_ticks
 from asictl.runtime.firmware import FIRMWARE_BLOCKS
 from asictl.source import SourceText, read_source
 
@@ -356,7 +357,7 @@ def _check_code(module: ast.Module, scope: _Scope, report: Reporter) -> None:
         if isinstance(node, ast.Load) and node.operand.kind is ast.OperandKind.KT:
             const = node.operand
             if const.address % 10 and const.address <= MAX_KT_MS:
-                rounded = (const.address + 9) // 10 * 10
+                rounded = timer_ticks(const.address) * TICK_MS
                 report.warning(
                     CheckCode.TIME_ROUNDED,
                     f"timers count in 10 ms steps: KT {const.address} is rounded up to "

@@ -18,6 +18,7 @@ from asictl.il.ast import key
 from asictl.il.language import COUNTER_FLAG_BASE, MAPPED_COUNTERS, PARAM_FLAG
 from asictl.il.language import TC_MAX_VALUE as TC_MAX
 from asictl.il.loader import Program
+from asictl.readers.units import timer_ticks
 from asictl.runtime.firmware import FirmwareServices
 
 #: The operand kinds, as the patterns below name them.
@@ -310,7 +311,7 @@ class Interpreter:
         state = self.state
         kind = operand.kind  # KT, KC and KP load the constant register, the rest ACCU1
         if kind is K.KT:
-            state.constant = (operand.address + 9) // 10
+            state.constant = timer_ticks(operand.address)
         elif kind is K.KC:
             state.constant = operand.address
         elif kind is K.KP:

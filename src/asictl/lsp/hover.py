@@ -23,6 +23,7 @@ from asictl.lsp.texts import (
 )
 from asictl.observe.operands import operand_text
 from asictl.observe.symbols import symbols_for
+from asictl.readers.units import TICK_MS, timer_ticks
 from asictl.runtime.firmware import FIRMWARE_BLOCKS
 from asictl.runtime.layout import FLAGS_BASE
 from asictl.source import symbols_path
@@ -82,7 +83,7 @@ def _constant(constant: ast.Operand) -> str:
     head = f"**{constant}**: {_mark(constant)}"
     value = constant.address
     if constant.kind is ast.OperandKind.KT:
-        return f"{head}\n\n{value} ms = {(value + 9) // 10} ticks of 10 ms"
+        return f"{head}\n\n{value} ms = {timer_ticks(value)} ticks of {TICK_MS} ms"
     return f"{head}\n\n= {value} = {value:X}h"
 
 

@@ -60,6 +60,7 @@ from asictl.prove.symbolic import (
     operand_value,
     width,
 )
+from asictl.readers.units import timer_ticks
 
 K = ast.OperandKind
 
@@ -466,7 +467,7 @@ class Machine:
                     if isinstance(node, ast.Load):
                         operand = node.operand
                         if operand.kind is K.KT:
-                            values.add((operand.address + 9) // 10)
+                            values.add(timer_ticks(operand.address))
                         elif operand.kind is K.KC:
                             values.add(operand.address)
                         elif operand.kind is K.KP:

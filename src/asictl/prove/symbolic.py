@@ -42,6 +42,7 @@ from asictl.il.language import TC_MAX_VALUE as TC_MAX
 from asictl.il.loader import Program
 from asictl.il.oracle import Scope, scope_of
 from asictl.platform.master import TICK_US
+from asictl.readers.units import timer_ticks
 
 K = ast.OperandKind
 #: A memory cell: ("I", byte), ("I2", byte), ("Q", byte), ("F", byte), ("P", byte),
@@ -474,7 +475,7 @@ class _Builder:
     def load(self, s: _State, operand: ast.Operand) -> None:
         kind = operand.kind  # KT, KC and KP load the constant register, the rest ACCU1
         if kind is K.KT:
-            s.values[CONSTANT] = _bv((operand.address + 9) // 10, 16)
+            s.values[CONSTANT] = _bv(timer_ticks(operand.address), 16)
         elif kind is K.KC:
             s.values[CONSTANT] = _bv(operand.address, 16)
         elif kind is K.KP:
