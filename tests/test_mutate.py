@@ -138,7 +138,7 @@ def test_a_mutant_past_its_time_limit_is_a_timeout_and_counts_as_killed(
         return real(*args, **kwargs)
 
     monkeypatch.setattr(mutation, "simulate", endless)  # the mutants' runs (forks inherit it)
-    code, output = _mutate(".", "--format", "json", "--timeout", "0.5")
+    code, output = _mutate(".", "--format", "json", "--timeout", "500ms")
     assert code == 0
     report = json.loads(output)
     ran = [m for m in report["mutants"] if m["detail"] != "no scenario runs this line"]
@@ -346,7 +346,7 @@ def test_the_proof_has_a_time_limit_of_its_own_and_leaves_a_survivor(
 
     monkeypatch.setattr(mutation, "prove_equivalent", slow_proof)  # forks inherit it
     monkeypatch.setattr(mutation, "PROOF_MARGIN", 0.3)
-    code, output = _mutate(".", "--format", "json", "--timeout", "5", "--proof-timeout", "0.2")
+    code, output = _mutate(".", "--format", "json", "--timeout", "5s", "--proof-timeout", "200ms")
     assert code == 0, output
     survivors = [m for m in json.loads(output)["mutants"] if m["verdict"] == "survived"]
     assert {m["change"] for m in survivors} >= {"L KT 300 -> L KT 290", "L KT 300 -> L KT 310"}

@@ -180,7 +180,7 @@ def test_fewer_registers_than_asked_is_an_interface_error(gateway_address):
 def test_cli_status_on_a_bad_gateway_exits_1_with_8383h(gateway_address, mangle):
     with mangling_proxy(gateway_address, [mangle] * 20) as url:
         result = CliRunner().invoke(
-            main, ["status", "--modbus", url, "--timeout", "0.2", "--retries", "0"]
+            main, ["status", "--modbus", url, "--timeout", "200ms", "--retries", "0"]
         )
     assert result.exit_code == 1, result.output
     assert "8383h" in result.stderr

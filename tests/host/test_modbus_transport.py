@@ -226,13 +226,13 @@ def test_cli_refuses_modbus_with_port_and_an_unreachable_gateway(tmp_path):
     runner = CliRunner()
     both = runner.invoke(main, ["stop", "--modbus", "tcp://127.0.0.1:1", "--port", "304h"])
     assert both.exit_code == 2 and "exclude each other" in both.output
-    gone = runner.invoke(main, ["stop", "--modbus", "tcp://127.0.0.1:1", "--timeout", "0.1"])
+    gone = runner.invoke(main, ["stop", "--modbus", "tcp://127.0.0.1:1", "--timeout", "100ms"])
     assert gone.exit_code == 1 and "Traceback" not in gone.output
     assert "127.0.0.1:1" in gone.output
 
 
 def test_a_url_without_port_says_it_tried_502():
-    gone = CliRunner().invoke(main, ["status", "--modbus", "tcp://127.0.0.1", "--timeout", "0.2"])
+    gone = CliRunner().invoke(main, ["status", "--modbus", "tcp://127.0.0.1", "--timeout", "200ms"])
     assert gone.exit_code == 1, gone.output
     assert "cannot open the Modbus connection to tcp://127.0.0.1 (port 502, the Modbus/TCP " \
         "default" in gone.stderr

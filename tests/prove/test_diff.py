@@ -92,7 +92,7 @@ def test_a_changed_program_is_told_apart_by_a_scenario(tmp_path: Path, runner):
     old = _write(tmp_path, "old.asi", OLD)
     new = _write(tmp_path, "new.asi", CHANGED)
     assert equivalent(_program(old), _program(new), timeout_s=300).verdict == "different"
-    result = runner.invoke(main, ["diff", str(old), str(new), "--equivalent", "--timeout", "300"])
+    result = runner.invoke(main, ["diff", str(old), str(new), "--equivalent", "--timeout", "300s"])
     assert result.exit_code == 1, result.output
     assert "different after cycle" in result.output
     scenario_path = tmp_path / "new.differs.scenario.toml"
@@ -112,7 +112,7 @@ def test_the_command_line_without_equivalent(tmp_path: Path, runner):
     result = runner.invoke(main, ["diff", str(old), str(same)])
     assert result.exit_code == 1  # labels renamed: a change, if not of behaviour
     assert "only labels renamed" in result.output
-    result = runner.invoke(main, ["diff", str(old), str(old), "--equivalent", "--timeout", "300"])
+    result = runner.invoke(main, ["diff", str(old), str(old), "--equivalent", "--timeout", "300s"])
     assert result.exit_code == 0, result.output
     assert "equivalent: the same outputs" in result.output
 
@@ -121,7 +121,7 @@ def test_an_image_with_its_source_compares_with_the_source(tmp_path: Path, runne
     old = _write(tmp_path, "old.asi", OLD)
     image = tmp_path / "old.hex"
     assert runner.invoke(main, ["compile", str(old), "-o", str(image)]).exit_code == 0
-    result = runner.invoke(main, ["diff", str(image), str(old), "--equivalent", "--timeout", "300"])
+    result = runner.invoke(main, ["diff", str(image), str(old), "--equivalent", "--timeout", "300s"])
     assert result.exit_code == 0, result.output
     assert "3 networks the same, 0 changed" in result.output
 

@@ -272,10 +272,10 @@ def test_an_invariant_that_needs_induction(tmp_path: Path):
 def test_the_command_line_exit_codes_and_json(tmp_path: Path, runner):
     good = _files(tmp_path, REVERSE, INTERLOCK, "good")
     bad = _files(tmp_path, RACE, INTERLOCK, "bad")
-    result = runner.invoke(main, ["prove", str(good), "--timeout", "300"])
+    result = runner.invoke(main, ["prove", str(good), "--timeout", "300s"])
     assert result.exit_code == 0, result.output
     assert "proved       never both directions" in result.output
-    result = runner.invoke(main, ["prove", str(bad), "--format", "json", "--timeout", "300",
+    result = runner.invoke(main, ["prove", str(bad), "--format", "json", "--timeout", "300s",
                                   "--counterexamples", str(tmp_path / "cex")])
     assert result.exit_code == 1, result.output
     data = json.loads(result.output)
@@ -291,7 +291,7 @@ def test_a_file_in_the_way_is_not_replaced(tmp_path: Path, runner):
     result = runner.invoke(main, ["prove", str(bad)])
     assert result.exit_code == 2
     assert "not overwritten (use --force)" in result.output
-    result = runner.invoke(main, ["prove", str(bad), "--force", "--timeout", "300"])
+    result = runner.invoke(main, ["prove", str(bad), "--force", "--timeout", "300s"])
     assert result.exit_code == 1
 
 
@@ -380,3 +380,17 @@ def test_a_loop_beyond_its_bound_is_reported_and_a_higher_bound_decides(tmp_path
     assert "line 14" in outcome.note and "more than 8 times" in outcome.note
     report = prove(props, unroll=16)  # I 1 = 0: 16 times round (FY 10 wraps to 0)
     assert _verdicts(report) == {"q": Verdict.PROVED}
+
+
+def test_depth_as_a_time_is_cycles_of_the_program(tmp_path: Path, runner):
+    props = _files(tmp_path, RACE, "[master]\ncycle_ms = 5\n" + INTERLOCK)
+    result = runner.invoke(main, ["prove", str(props), "--depth", "1h"])
+    assert result.exit_code == 2
+    assert "--depth: 1 h 0 min is 720000 cycles of 5 ms, more than 10000" in result.stderr
+    result = runner.invoke(main, ["prove", str(props), "--depth", "soon"])
+    assert result.exit_code == 2 and "'soon' is not a number of cycles or a time" in result.stderr
+    result = runner.invoke(main, ["prove", str(props), "--depth", "25ms", "--format", "json",
+                                  "--timeout", "300s"])
+    assert result.exit_code == 1, result.output
+    results = {r["name"]: r for r in json.loads(result.output)["files"][0]["results"]}
+    assert results["never both directions"]["verdict"] == "refuted"

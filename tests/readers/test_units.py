@@ -8,9 +8,11 @@ from hypothesis import strategies as st
 
 from asictl.readers.units import (
     UNIT_MS,
+    Cycles,
     UnitError,
     duration_ms,
     format_duration,
+    parse_cycles,
     parse_duration,
     timer_ticks,
 )
@@ -70,3 +72,22 @@ def test_every_unit_reads_back_its_own_value(number: int, unit: str) -> None:
 ])
 def test_format_duration(ms: float, text: str) -> None:
     assert format_duration(ms) == text
+
+
+@pytest.mark.parametrize(("text", "found"), [
+    ("25", Cycles(count=25)), ("25 cycles", Cycles(count=25)), ("1 cycle", Cycles(count=1)),
+    ("25s", Cycles(ms=25_000)), ("250ms", Cycles(ms=250)),
+])
+def test_a_depth_is_cycles_or_a_time(text: str, found: Cycles) -> None:
+    assert parse_cycles(text) == found
+
+
+def test_a_time_is_turned_into_cycles_rounded_up() -> None:
+    assert parse_cycles("25s").of(5) == 5000
+    assert parse_cycles("26ms").of(5) == 6
+    assert parse_cycles("0.3s").of(0.1) == 3000  # no float error adds a cycle
+    assert parse_cycles("25").of(5) == 25
+    with pytest.raises(UnitError, match="25 s is 5000 cycles of 5 ms, more than 1000"):
+        parse_cycles("25s").of(5, most=1000)
+    with pytest.raises(UnitError, match="not a number of cycles or a time"):
+        parse_cycles("soon")

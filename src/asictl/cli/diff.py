@@ -8,8 +8,10 @@ from pathlib import Path
 
 import click
 
-from asictl.cli.options import lib_option
+from asictl.cli.options import CycleCount, Duration, lib_option
 from asictl.errors import ExitCode, UserError, missing_extra
+from asictl.prove import MAX_DEPTH
+from asictl.readers.units import Cycles
 
 
 def _program(path: Path, lib: tuple[str, ...]) -> tuple[object, object]:
@@ -61,10 +63,10 @@ class _Bad(Exception):
 @click.argument("new", type=click.Path(dir_okay=False, path_type=Path))
 @click.option("--equivalent", is_flag=True,
               help="Also decide whether both give the same outputs for every input sequence.")
-@click.option("--depth", type=click.IntRange(0, 10_000), default=20, show_default=True,
+@click.option("--depth", type=CycleCount(MAX_DEPTH), default="20", show_default=True,
               help="Cycles the search for a difference goes to.")
-@click.option("--timeout", type=click.FloatRange(0.1, 86_400), default=30.0,
-              show_default=True, help="Seconds for --equivalent.")
+@click.option("--timeout", type=Duration(limit_ms=86_400_000, positive=True), default="30s",
+              show_default=True, help="Time for --equivalent (30s, 5min).")
 @click.option("--cycle-ms", type=click.FloatRange(0.1, 10_000),
               help="The program cycle [default: the AS-i cycle of the bus].")
 @click.option("--observe", metavar="LIST",
@@ -77,7 +79,7 @@ class _Bad(Exception):
 @click.option("--format", "fmt", type=click.Choice(["text", "json"]), default="text",
               show_default=True)
 @lib_option
-def diff(old: Path, new: Path, equivalent: bool, depth: int, timeout: float,
+def diff(old: Path, new: Path, equivalent: bool, depth: Cycles, timeout: float,
          cycle_ms: float | None, observe: str | None, scenario_path: Path | None,
          force: bool, fmt: str, lib: tuple[str, ...]) -> None:
     """Compare two versions of a program network by network (renamed labels and moved
@@ -122,14 +124,14 @@ def diff(old: Path, new: Path, equivalent: bool, depth: int, timeout: float,
                    "changed, moved, added or removed")
     failed = bool(differ)
     if equivalent:
-        failed = _equivalence(first, second, old, new, depth, timeout, cycle_ms, observe,
+        failed = _equivalence(first, second, old, new, depth, timeout / 1000, cycle_ms, observe,
                               scenario_path, force, fmt, report)
     if fmt == "json":
         click.echo(json.dumps(report, indent=2))
     ctx.exit(int(ExitCode.FAILED if failed else ExitCode.OK))
 
 
-def _equivalence(first: object, second: object, old: Path, new: Path, depth: int,
+def _equivalence(first: object, second: object, old: Path, new: Path, depth: Cycles,
                  timeout: float, cycle_ms: float | None, observe: str | None,
                  scenario_path: Path | None, force: bool, fmt: str,
                  report: dict[str, object]) -> bool:

@@ -22,7 +22,7 @@ import click
 from click.core import ParameterSource
 
 from asictl.build import build_file
-from asictl.cli.options import lib_option
+from asictl.cli.options import Duration, lib_option
 from asictl.cli.serial_options import serial_options, unit_option
 from asictl.errors import ExitCode, UserError
 from asictl.files import STDOUT, shown_name, write_output
@@ -59,7 +59,7 @@ class _BoardOptions(TypedDict):
     baud: str
     parity: str
     stopbits: str
-    timeout: float
+    timeout: float  # milliseconds, as --timeout reads it
     retries: int
 
 
@@ -95,8 +95,9 @@ def _board_options(command: _Callback) -> _Callback:
         unit_option("The gateway's Modbus slave address (with --modbus)."),
         serial_options("Serial --modbus"),
         click.option(
-            "--timeout", type=click.FloatRange(0.01, 60), default=DEFAULT_TIMEOUT_S,
-            show_default=True, help="--modbus: seconds to wait for each answer.",
+            "--timeout", type=Duration(limit_ms=60_000, positive=True),
+            default=f"{DEFAULT_TIMEOUT_S:g}s", show_default=True,
+            help="--modbus: how long to wait for each answer (500ms, 2s).",
         ),
         click.option(
             "--retries", type=click.IntRange(0, 20), default=DEFAULT_RETRIES,
@@ -126,8 +127,8 @@ def _address(
         if clash:
             raise UserError(f"--modbus and {', '.join(clash)} exclude each other")
     return MasterAddress(
-        port, io, state_dir, modbus, unit, int(baud), parity, int(stopbits), timeout, retries,
-        wait,
+        port, io, state_dir, modbus, unit, int(baud), parity, int(stopbits), timeout / 1000,
+        retries, wait,
     )
 
 

@@ -10,7 +10,7 @@ from pathlib import Path, PurePath
 import click
 
 import asictl.quality.mutate as mutation
-from asictl.cli.options import lib_option
+from asictl.cli.options import Duration, lib_option
 from asictl.errors import ExitCode, UserError
 from asictl.quality.mutate import PROVE_HINT, Result, Target, mutants_of, run_all, score
 from asictl.sim import SUFFIX
@@ -89,16 +89,16 @@ def _summary(results: list[Result]) -> str:
               show_default=True, help="json: one object with every mutant and the score.")
 @click.option("--min-score", type=click.FloatRange(0, 100), metavar="PERCENT",
               help="Exit 1 when the score is below PERCENT.")
-@click.option("--timeout", "timeout_s", type=click.FloatRange(min=0, min_open=True),
-              metavar="SECONDS", help="Time limit of one mutant (default: 10 s plus five "
+@click.option("--timeout", "timeout_ms", type=Duration(positive=True),
+              metavar="TIME", help="Time limit of one mutant (default: 10 s plus five "
               "times what its program's scenarios take unchanged).")
-@click.option("--proof-timeout", "prove_s", type=click.FloatRange(min=0, min_open=True),
-              default=mutation.PROVE_SECONDS, show_default=True, metavar="SECONDS",
+@click.option("--proof-timeout", "prove_ms", type=Duration(positive=True),
+              default=f"{mutation.PROVE_SECONDS:g}s", show_default=True, metavar="TIME",
               help="Time the prover (the prove extra) may spend on one surviving mutant's "
               "proof of equivalence; out of time, the mutant stays a survivor.")
 @lib_option
 def mutate(paths: tuple[Path, ...], jobs: int | None, fmt: str, min_score: float | None,
-           timeout_s: float | None, prove_s: float, lib: tuple[str, ...]) -> None:
+           timeout_ms: float | None, prove_ms: float, lib: tuple[str, ...]) -> None:
     """Mutation testing: change each program the scenarios under PATHs test (default:
     the current directory) in one place at a time, and run its scenarios.
 
@@ -129,8 +129,9 @@ def mutate(paths: tuple[Path, ...], jobs: int | None, fmt: str, min_score: float
             click.echo(_line(finished[shown]))
             shown += 1
 
-    results = run_all(targets, jobs=jobs or default_jobs(), timeout_s=timeout_s,
-                      prove_s=prove_s, done=done)
+    results = run_all(targets, jobs=jobs or default_jobs(),
+                      timeout_s=None if timeout_ms is None else timeout_ms / 1000,
+                      prove_s=prove_ms / 1000, done=done)
     checked = mutation.prove_available()
     killed, counted = score(results)
     share = 100.0 * killed / counted if counted else 100.0

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from asictl.readers.units import UnitError, parse_duration
+from asictl.readers.units import Cycles, UnitError, parse_cycles, parse_duration
 
 #: ``--lib DIR`` (repeatable): where the loader looks for function-block files besides the
 #: program's folder; every command that builds a program takes it.
@@ -39,3 +39,25 @@ class Duration(click.ParamType[float]):
         if self.positive and ms <= 0:
             self.fail(f"'{value}' is no time at all", param, ctx)
         return ms
+
+
+class CycleCount(click.ParamType[Cycles]):
+    """A number of program cycles: a whole number (``25``) is cycles, a time with its
+    unit (``25s``) is turned into cycles with the program's cycle time (``--depth``)."""
+
+    name = "cycles"
+
+    def __init__(self, most: int) -> None:
+        self.most = most
+
+    def convert(self, value: object, param: click.Parameter | None,
+                ctx: click.Context | None) -> Cycles:
+        if isinstance(value, Cycles):
+            return value
+        try:
+            found = parse_cycles(str(value))
+        except UnitError as exc:
+            self.fail(str(exc), param, ctx)
+        if found.count is not None and found.count > self.most:
+            self.fail(f"{found.count} is more than {self.most} cycles", param, ctx)
+        return found

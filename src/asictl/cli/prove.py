@@ -7,8 +7,10 @@ from pathlib import Path
 
 import click
 
-from asictl.cli.options import lib_option
+from asictl.cli.options import CycleCount, Duration, lib_option
 from asictl.errors import ExitCode, missing_extra
+from asictl.prove import MAX_DEPTH
+from asictl.readers.units import Cycles
 
 _HELP_FORMAT = click.Choice(["text", "json"])
 
@@ -64,10 +66,10 @@ def _line(outcome: object, written: Path | None) -> str:
 @click.argument("files", nargs=-1, type=click.Path(dir_okay=False, path_type=Path))
 @click.option("--properties", type=click.Path(dir_okay=False, path_type=Path),
               help="The properties file [default: NAME.props.toml beside NAME.asi].")
-@click.option("--depth", type=click.IntRange(0, 10_000), default=20, show_default=True,
+@click.option("--depth", type=CycleCount(MAX_DEPTH), default="20", show_default=True,
               help="Cycles the search for counterexamples and the induction go to.")
-@click.option("--timeout", type=click.FloatRange(0.1, 86_400), default=30.0,
-              show_default=True, help="Seconds for each property.")
+@click.option("--timeout", type=Duration(limit_ms=86_400_000, positive=True), default="30s",
+              show_default=True, help="Time for each property (30s, 5min).")
 @click.option("--unroll", type=click.IntRange(1, 1000), default=8, show_default=True,
               help="How often a backward jump is followed in one cycle.")
 @click.option("--format", "fmt", type=_HELP_FORMAT, default="text", show_default=True)
@@ -77,7 +79,7 @@ def _line(outcome: object, written: Path | None) -> str:
 @click.option("--force", is_flag=True,
               help="Replace files in the way that asictl prove did not write.")
 @lib_option
-def prove(files: tuple[Path, ...], properties: Path | None, depth: int, timeout: float,
+def prove(files: tuple[Path, ...], properties: Path | None, depth: Cycles, timeout: float,
           unroll: int, fmt: str, counterexamples: Path | None, force: bool,
           lib: tuple[str, ...]) -> None:
     """Prove a program's properties (NAME.props.toml) for every input sequence.
@@ -102,7 +104,7 @@ def prove(files: tuple[Path, ...], properties: Path | None, depth: int, timeout:
     for props_path, program in _files(files, properties):
         try:
             report = prove_file(props_path, program=program, lib=lib, depth=depth,
-                                timeout_s=timeout, out_dir=counterexamples, force=force,
+                                timeout_s=timeout / 1000, out_dir=counterexamples, force=force,
                                 unroll=unroll)
         except Invalid as exc:
             click.echo(exc.text, nl=False, err=True)

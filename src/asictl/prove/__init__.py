@@ -16,6 +16,9 @@ if TYPE_CHECKING:
 
 __all__ = ["Equivalence", "equivalent"]
 
+#: The most cycles a search or an induction goes to (``--depth``).
+MAX_DEPTH = 10_000
+
 
 def __getattr__(name: str) -> object:
     """``equivalent`` and ``Equivalence`` (the API mutation testing calls), imported on

@@ -23,6 +23,7 @@ from asictl.il.pragmas import read_directives
 from asictl.platform.master import asi_cycle_us
 from asictl.prove.engine import Machine, Outcome, Setup, Step, Verdict
 from asictl.prove.props import Kind, Property, Truth
+from asictl.prove.session import cycles_of
 from asictl.prove.symbolic import (
     Key,
     Unmodelled,
@@ -31,6 +32,7 @@ from asictl.prove.symbolic import (
     host_masks,
     product,
 )
+from asictl.readers.units import Cycles
 
 # ---------------------------------------------------------------------- behaviour
 
@@ -68,7 +70,7 @@ def equivalent(
     second: Program | Build,
     *,
     timeout_s: float = 10.0,
-    depth: int = 20,
+    depth: int | Cycles = 20,
     slaves: Iterable[int] | None = None,
     cycle_ms: float | None = None,
     observe: Iterable[ast.Operand] = (),
@@ -96,12 +98,13 @@ def _program_of(side: Program | Build) -> Program | None:
 
 
 def _equivalent(first: Program, second: Program, start: float, *, timeout_s: float,
-                depth: int, slaves: Iterable[int] | None, cycle_ms: float | None,
+                depth: int | Cycles, slaves: Iterable[int] | None, cycle_ms: float | None,
                 observe: Iterable[ast.Operand]) -> Equivalence:
     bus = tuple(sorted(set(slaves) if slaves is not None else
                        {s.address for p in (first, second) for s in p.slaves}))
     cycle_us = (round(cycle_ms * 1000) if cycle_ms is not None
                 else asi_cycle_us(len(bus)))
+    depth = cycles_of(depth, cycle_us / 1000)
     host = [operand for program in (first, second)
             for operand, _ in read_directives(program.sources).host_flags]
     observed = _observed(host, observe)

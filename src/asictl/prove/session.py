@@ -19,10 +19,12 @@ from asictl.il.pragmas import read_directives
 from asictl.observe.operands import parse_operand
 from asictl.observe.symbols import symbols_for
 from asictl.platform.master import TICK_US, asi_cycle_us
+from asictl.prove import MAX_DEPTH
 from asictl.prove.counterexample import MARK, expectations, file_name, scenario_text
 from asictl.prove.engine import Machine, Outcome, Setup, Verdict
 from asictl.prove.props import Properties, program_for, read_properties
 from asictl.prove.symbolic import UNROLL, Unmodelled
+from asictl.readers.units import Cycles, UnitError
 from asictl.sim.engine import Simulation, variables_of
 from asictl.sim.scenario import Scenario
 from asictl.source import read_source
@@ -114,13 +116,25 @@ def _phase(props: Properties, built: Build, cycle_us: int) -> int | None:
     return phase if 1 <= phase <= TICK_US else None
 
 
+def cycles_of(depth: int | Cycles, cycle_ms: float) -> int:
+    """``depth`` in cycles of ``cycle_ms``; more than ``MAX_DEPTH`` is a ``UserError``."""
+    if isinstance(depth, int):
+        return depth
+    try:
+        return depth.of(cycle_ms, most=MAX_DEPTH)
+    except UnitError as exc:
+        raise UserError(f"--depth: {exc}") from None
+
+
 def prove(properties: Path, *, program: Path | None = None, lib: tuple[str, ...] = (),
-          depth: int = 20, timeout_s: float = 30.0, out_dir: Path | None = None,
+          depth: int | Cycles = 20, timeout_s: float = 30.0, out_dir: Path | None = None,
           force: bool = False, unroll: int = UNROLL) -> Report:
-    """Decide every property of a properties file; write what was found as scenarios."""
+    """Decide every property of a properties file; write what was found as scenarios.
+    ``depth`` is cycles, or a time the program's cycle time turns into cycles."""
     start = time.monotonic()
     props, program_path, built = load(properties, program, lib)
     setup, cycle_ms = setup_of(props, built)
+    depth = cycles_of(depth, cycle_ms)
     assert built.program is not None
     try:
         machine = Machine(built.program, setup, props.assume, props.properties,

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import math
 import re
+from dataclasses import dataclass
 
 #: Milliseconds per unit. ``m`` is the minute (as systemd's time spans read it).
 UNIT_MS: dict[str, float] = {
@@ -100,3 +101,40 @@ def format_duration(ms: float) -> str:
 
 def _short(text: str) -> str:
     return text if len(text) <= 40 else text[:37] + "..."
+
+
+@dataclass(frozen=True)
+class Cycles:
+    """A number of program cycles, given as a count (``25``, ``25 cycles``) or as a time
+    with its unit (``25s``) that the program's cycle time turns into a count."""
+
+    count: int | None = None
+    ms: float | None = None
+
+    def of(self, cycle_ms: float, *, most: int | None = None) -> int:
+        """The count; a time is divided by ``cycle_ms`` and rounded up. More than
+        ``most`` is a ``UnitError``."""
+        if self.count is not None:
+            count = self.count
+        else:
+            assert self.ms is not None
+            count = math.ceil(round(self.ms / cycle_ms, 9))
+        if most is not None and count > most:
+            raise UnitError(f"{self} is {count} cycles of {cycle_ms:g} ms, more than {most}")
+        return count
+
+    def __str__(self) -> str:
+        return f"{self.count} cycles" if self.count is not None else format_duration(
+            self.ms or 0.0)
+
+
+def parse_cycles(text: str) -> Cycles:
+    """A whole number (or ``N cycles``) is a count of cycles; anything else is a time with
+    its unit, as ``parse_duration`` reads it."""
+    match = _CYCLES.match(text) if len(text) < 100 else None
+    if match:
+        return Cycles(count=int(match[1]))
+    return Cycles(ms=parse_duration(text, what="a number of cycles or a time"))
+
+
+_CYCLES = re.compile(r"^\s*(\d+)\s*(?:cycles?)?\s*$", re.IGNORECASE)
