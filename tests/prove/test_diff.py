@@ -121,7 +121,8 @@ def test_an_image_with_its_source_compares_with_the_source(tmp_path: Path, runne
     old = _write(tmp_path, "old.asi", OLD)
     image = tmp_path / "old.hex"
     assert runner.invoke(main, ["compile", str(old), "-o", str(image)]).exit_code == 0
-    result = runner.invoke(main, ["diff", str(image), str(old), "--equivalent", "--timeout", "300s"])
+    result = runner.invoke(main, ["diff", str(image), str(old), "--equivalent",
+                                  "--timeout", "300s"])
     assert result.exit_code == 0, result.output
     assert "3 networks the same, 0 changed" in result.output
 

@@ -50,7 +50,7 @@ def test_a_window_at_the_start_sees_the_first_cycles(tmp_path: Path):
 
 def test_a_bad_window_is_an_error_at_its_line(tmp_path: Path):
     code, out = sim(tmp_path, '[[step]]\nat_ms = 60\nwithin_ms = -1\nexpect = { "Q 2.0" = 0 }\n')
-    assert code == 2 and "w.scenario.toml:9:1: error: within_ms is a time" in out, out
+    assert code == 2 and "w.scenario.toml:9:13: error: within_ms is a time" in out, out
     code, out = sim(tmp_path, '[[step]]\nat_ms = 60\nwithin_ms = 5\n')
     assert code == 2 and "the step has none" in out, out
 

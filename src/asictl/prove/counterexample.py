@@ -20,10 +20,12 @@ from asictl.il import ast
 from asictl.prove.engine import Outcome, Step, Verdict, condition
 from asictl.prove.props import Expr, Kind, Negation, Properties, Property, refs
 from asictl.sim.scenario import SlaveSpec
+from asictl.sim.scenario_writer import ScenarioWriter
 
 K = ast.OperandKind
 #: The first line of every file written here (what may be replaced without --force).
-MARK = "# asictl prove:"
+_MARKED = "asictl prove:"
+MARK = f"# {_MARKED}"
 
 
 @dataclass(frozen=True)
@@ -79,14 +81,8 @@ def expectations(prop: Property, outcome: Outcome, values: dict[str, int]) -> li
     return [Expectation(first, 0 if values[first] else 1)]
 
 
-def _set_text(operand: str, value: int, bits: int) -> str:
-    shown = f"0b{value:0{bits}b}" if bits == 4 else f"0x{value:02X}" if bits == 8 else str(value)
-    return f'"{operand}" = {shown}'
-
-
-def _slaves_text(slaves: list[SlaveSpec]) -> str:
-    return ", ".join(f'{s.address} = "{s.io_code:X}h,{s.id_code:X}h,{s.parameter:X}h"'
-                     for s in slaves)
+def _number(value: int, bits: int) -> str:
+    return f"0b{value:0{bits}b}" if bits == 4 else f"0x{value:02X}" if bits == 8 else str(value)
 
 
 def scenario_text(props: Properties, program: Path, target: Path, prop: Property,
@@ -99,36 +95,31 @@ def scenario_text(props: Properties, program: Path, target: Path, prop: Property
     cycles = len(outcome.trace)
     fate = ("passes" if outcome.verdict is Verdict.REACHED
             else "fails at the last step")
-    lines = [
-        f"{MARK} {what} for property '{prop.name}' of {source}",
-        f"# {prop.text()}",
-        f"# {cycles} program cycle{'s' if cycles != 1 else ''}; asictl sim --scenario "
-        f"{target.name} {fate}.",
-    ]
+    out = ScenarioWriter()
+    out.comment(f"{_MARKED} {what} for property '{prop.name}' of {source}\n"
+                f"{prop.text()}\n"
+                f"{cycles} program cycle{'s' if cycles != 1 else ''}; asictl sim --scenario "
+                f"{target.name} {fate}.")
     if outcome.note:
-        lines.append(f"# note: {outcome.note}")
-    relative = Path(os.path.relpath(program.resolve(), target.resolve().parent)).as_posix()
-    lines += [f"program = {_quote(relative)}", "", "[master]", f"cycle_ms = {cycle_ms:g}"]
-    if props.slaves is not None:
-        lines.append(f"slaves = {{ {_slaves_text(props.slaves)} }}")
-    return "\n".join(lines + steps_text(outcome.trace, masks, cycle_ms, expected))
+        out.comment(f"note: {outcome.note}")
+    out.program(Path(os.path.relpath(program.resolve(), target.resolve().parent)).as_posix())
+    out.master(cycle_ms, props.slaves)
+    _steps(out, outcome.trace, masks, cycle_ms, expected)
+    return out.text()
 
 
-def steps_text(trace: list[Step], masks: dict[int, int], cycle_ms: float,
-               expected: list[Expectation]) -> list[str]:
-    """The ``[[step]]`` tables of a trace: a ``set`` of what changed at each cycle's start
-    and the ``expect`` just after the last cycle."""
-    lines: list[str] = []
+def _steps(out: ScenarioWriter, trace: list[Step], masks: dict[int, int], cycle_ms: float,
+           expected: list[Expectation]) -> None:
+    """The steps of a trace: a ``set`` of what changed at each cycle's start and the
+    ``expect`` just after the last cycle."""
     inputs: dict[int, int] = {}
     flags: dict[int, int] = {}
     for index, step in enumerate(trace):
         sets = _changes(step, inputs, flags, masks)
         if sets:
-            lines += ["", "[[step]]", f"at_ms = {_ms(index * cycle_ms)}",
-                      f"set = {{ {', '.join(sets)} }}"]
-    at = _ms((len(trace) - 1) * cycle_ms + 0.001)
-    expect = ", ".join(f"{_quote(e.text)} = {e.value}" for e in expected)
-    return [*lines, "", "[[step]]", f"at_ms = {at}", f"expect = {{ {expect} }}", ""]
+            out.step(index * cycle_ms, set=sets)
+    out.step((len(trace) - 1) * cycle_ms + 0.001,
+             expect={e.text: e.value for e in expected})
 
 
 def difference_text(old: Path, new: Path, target: Path, trace: list[Step],
@@ -137,25 +128,23 @@ def difference_text(old: Path, new: Path, target: Path, trace: list[Step],
                     slaves: list[SlaveSpec] | None = None) -> str:
     """The scenario that tells two programs apart: it expects what ``old`` does, so it
     passes on ``old`` and fails on ``new`` at its last step."""
-    relative = Path(os.path.relpath(old.resolve(), target.resolve().parent)).as_posix()
-    lines = [
-        f"{MARK} a difference between {old.name} and {new.name}",
-        f"# passes on {old.name}; asictl sim {new.name} --scenario {target.name} fails at "
-        "the last step.",
-        f"program = {_quote(relative)}", "", "[master]", f"cycle_ms = {cycle_ms:g}",
-    ]
-    if slaves is not None:
-        lines.append(f"slaves = {{ {_slaves_text(slaves)} }}")
-    expected = [Expectation(text, first) for text, (first, _) in differences.items()]
-    return "\n".join(lines + steps_text(trace, masks, cycle_ms, expected))
+    out = ScenarioWriter()
+    out.comment(f"{_MARKED} a difference between {old.name} and {new.name}\n"
+                f"passes on {old.name}; asictl sim {new.name} --scenario {target.name} "
+                "fails at the last step.")
+    out.program(Path(os.path.relpath(old.resolve(), target.resolve().parent)).as_posix())
+    out.master(cycle_ms, slaves)
+    _steps(out, trace, masks, cycle_ms,
+           [Expectation(text, first) for text, (first, _) in differences.items()])
+    return out.text()
 
 
 def _changes(step: Step, inputs: dict[int, int], flags: dict[int, int],
-             masks: dict[int, int]) -> list[str]:
-    sets = []
+             masks: dict[int, int]) -> dict[str, str]:
+    sets = {}
     for address, value in sorted(step.inputs.items()):
         if inputs.get(address, 0) != value:
-            sets.append(_set_text(f"I {address}", value, 4))
+            sets[f"I {address}"] = _number(value, 4)
             inputs[address] = value
     for n, value in sorted(step.host.items()):
         mask = masks[n]
@@ -163,23 +152,13 @@ def _changes(step: Step, inputs: dict[int, int], flags: dict[int, int],
         if flags.get(n, 0) == value:
             continue
         if mask == 0xFF:
-            sets.append(_set_text(f"FY {n}", value, 8))
+            sets[f"FY {n}"] = _number(value, 8)
         else:
             old = flags.get(n, 0)
-            sets += [_set_text(f"F {n}.{b}", value >> b & 1, 1)
-                     for b in range(8) if mask >> b & 1 and (old ^ value) >> b & 1]
+            sets.update({f"F {n}.{b}": _number(value >> b & 1, 1)
+                         for b in range(8) if mask >> b & 1 and (old ^ value) >> b & 1})
         flags[n] = value
     return sets
-
-
-def _ms(value: float) -> str:
-    """Milliseconds to the microsecond, without trailing zeros (``:g`` would round
-    2000.001 to 2000)."""
-    return f"{value:.3f}".rstrip("0").rstrip(".")
-
-
-def _quote(text: str) -> str:
-    return '"' + text.replace("\\", "\\\\").replace('"', '\\"') + '"'
 
 
 def file_name(props_path: Path, prop: Property) -> str:

@@ -16,6 +16,7 @@ from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 
 from asictl.platform.master import IO_CODE_BITS
+from asictl.sim.scenario_writer import ScenarioWriter
 
 #: The number of flag bytes a recording may choose bits from.
 FLAG_BYTES = 128
@@ -65,9 +66,10 @@ def to_scenario(
 ) -> str:
     """The scenario of a recording (TOML text). Times are whole milliseconds since the
     first sample."""
-    out = [f"# {line}" for line in comment.splitlines()]
+    out = ScenarioWriter()
+    out.comment(comment)
     if program is not None:
-        out.append(f"program = {_quote(program)}")
+        out.program(program)
     last: dict[str, int] = {}
     for index, sample in enumerate(samples):
         sets = {n: sample.values[n] for n in inputs if n in sample.values
@@ -77,17 +79,5 @@ def to_scenario(
         last.update(sample.values)
         if not sets and not expects and index:
             continue
-        out += ["", "[[step]]", f"at_ms = {round(sample.at_ms)}"]
-        if sets:
-            out.append(f"set = {_table(sets)}")
-        if expects:
-            out += [f"expect = {_table(expects)}", f"within_ms = {tolerance_ms:g}"]
-    return "\n".join(out) + "\n"
-
-
-def _table(values: Mapping[str, int]) -> str:
-    return "{ " + ", ".join(f"{_quote(k)} = {v}" for k, v in values.items()) + " }"
-
-
-def _quote(text: str) -> str:
-    return '"' + text.replace("\\", "\\\\").replace('"', '\\"') + '"'
+        out.step(round(sample.at_ms), set=sets, expect=expects, within_ms=tolerance_ms)
+    return out.text()
