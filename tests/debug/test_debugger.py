@@ -312,3 +312,10 @@ def test_print_shows_the_constant_register(tmp_path: Path):
         assert session.debugger.value("KREG") == 50
     finally:
         session.debugger.close()
+
+
+def test_time_takes_a_unit_as_every_duration_does(counter: Session):
+    """``time 100`` could be 100 ms or 100 s: refused with both readings, as a scenario's
+    ``at = "100"`` and ``sim --duration 100`` are."""
+    assert counter.do("time 100") == ["error: '100' has no unit: give a unit: 100ms or 100s"]
+    assert "master time 20 ms" in " ".join(counter.do("time 20ms"))

@@ -132,3 +132,12 @@ def test_random_scenarios_never_exit_3(tmp_path_factory, text: str):
     assert "internal error" not in result.output and "Traceback" not in result.output
     if result.exit_code in (0, 1):
         json.loads(result.stdout)
+
+
+@pytest.mark.parametrize("option", ["--duration", "--from", "--to"])
+def test_a_bare_number_on_the_command_line_shows_both_readings(tmp_path, option):
+    result, _ = sim(tmp_path, "[[step]]\nat_ms = 5\n", option, "16")
+    assert result.exit_code == 2, result.output
+    assert "'16' has no unit: give a unit: 16ms or 16s" in result.stderr
+    result, _ = sim(tmp_path, "[[step]]\nat_ms = 5\n", option, "16ms")
+    assert result.exit_code == 0, result.output
