@@ -61,7 +61,7 @@ def gateways(tmp_path_factory: pytest.TempPathFactory) -> Iterator[list[int]]:
 
 def plant(path: Path, ports: list[int], extra: str = "") -> Path:
     path.write_text(
-        "[defaults]\ntimeout = 2\n\n" + "".join(
+        "[defaults]\ntimeout = \"2s\"\n\n" + "".join(
             f'[masters.gw-{n:02}]\nmodbus = "tcp://127.0.0.1:{port}"\nline = "line-{n % 2}"\n\n'
             for n, port in enumerate(ports)
         ) + extra
@@ -132,10 +132,10 @@ def test_one_master_that_does_not_answer_stops_no_other(tmp_path: Path):
     inventory = tmp_path / "plant.toml"
     inventory.write_text(
         '[masters.pc-1]\nport = "300h"\nstate_dir = "boards"\n\n'
-        '[masters.gone]\nmodbus = "tcp://127.0.0.1:9"\ntimeout = 0.2\nretries = 0\n\n'
+        '[masters.gone]\nmodbus = "tcp://127.0.0.1:9"\ntimeout = "200ms"\nretries = 0\n\n'
         '[masters.pc-2]\nport = "304h"\nstate_dir = "boards"\n\n'
         f'[masters.silent]\nmodbus = "tcp://127.0.0.1:{silent.getsockname()[1]}"\n'
-        "timeout = 0.2\nretries = 1\nattempts = 1\n"
+        "timeout = \"200ms\"\nretries = 1\nattempts = 1\n"
     )
     archive = tmp_path / "archive"
     archive.mkdir()

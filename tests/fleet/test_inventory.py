@@ -14,7 +14,7 @@ from asictl.source import from_bytes
 
 GOOD = """\
 [defaults]
-timeout = 0.5
+timeout = "500ms"
 retries = 1
 
 [masters.press-1]
@@ -109,7 +109,8 @@ def test_names_that_cannot_be_folders_and_names_equal_but_for_case():
 
 
 def test_no_masters_and_not_toml():
-    assert problems("[defaults]\ntimeout = 1\n")[0][2].startswith("the inventory names no masters")
+    found = problems('[defaults]\ntimeout = "1s"\n')
+    assert found[0][2].startswith("the inventory names no masters")
     line, column, message = problems('[masters.a]\nport = "300h\n')[0]
     assert (line, column) == (2, 13) and message.startswith("not valid TOML")
 
@@ -138,3 +139,13 @@ def test_one_master_twice_is_refused():
         (6, "master 'c' is reached as 'a' is (tcp"),
         (12, "master 'e' is reached as 'd' is (port 300h)"),
     ]
+
+
+def test_a_timeout_takes_a_unit_and_a_bare_number_shows_both_readings():
+    base = '[masters.a]\nmodbus = "tcp://127.0.0.1:1"\n'
+    assert problems(base + "timeout = 2\n") == [
+        (3, 1, 'timeout: give a unit: "2s" or "2ms"')]
+    assert problems(base + 'timeout = "2min"\n') == [
+        (3, 1, "timeout: '2min' is longer than the longest allowed, 1 min 0 s")]
+    inventory = read_inventory(from_bytes("plant.toml", (base + 'timeout = "250ms"\n').encode()))
+    assert inventory.masters[0].address.timeout == 0.25

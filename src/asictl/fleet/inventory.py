@@ -23,6 +23,7 @@ from asictl.host.target import DEFAULT_RETRIES, DEFAULT_TIMEOUT_S, parse_target
 from asictl.platform.gateway import UNITS
 from asictl.readers.suggest import did_you_mean
 from asictl.readers.tomlfile import Document, read_toml
+from asictl.readers.units import UnitError, parse_duration
 from asictl.source import SourceText
 
 #: A master's name is a folder of the archive: letters, digits and ``-_.``, not hidden.
@@ -176,6 +177,24 @@ def _unknown(
                                                        place.strip()))
 
 
+def _timeout(reader: _Reading, value: object, span: Span) -> float:
+    """A gateway's time-out in seconds, written as a time with its unit (``"500ms"``); a
+    bare number is refused with both readings, as it was once seconds while a number in
+    every other file is milliseconds."""
+    if value is None:
+        return DEFAULT_TIMEOUT_S
+    try:
+        if isinstance(value, int | float) and not isinstance(value, bool):
+            raise UnitError(f"give a unit: \"{value:g}s\" or \"{value:g}ms\"")
+        ms = parse_duration(value, limit_ms=60_000) if isinstance(value, str) else math.nan
+        if not ms >= 10:
+            raise UnitError('a time from 10ms to 60s, such as "500ms"')
+    except UnitError as exc:
+        reader.error(f"timeout: {exc}", span)
+        return DEFAULT_TIMEOUT_S
+    return ms / 1000
+
+
 def _master(
     reader: _Reading, name: str, values: dict[str, Any], own: dict[str, Any], base: Path
 ) -> FleetMaster | None:
@@ -214,7 +233,7 @@ def _master(
             reader.header_span(table),
         )
     unit = int(number("unit", UNITS[0], UNITS[-1], 1, True))
-    timeout = number("timeout", 0.01, 60, DEFAULT_TIMEOUT_S, False)
+    timeout = _timeout(reader, values.get("timeout"), span("timeout"))
     retries = int(number("retries", 0, 20, DEFAULT_RETRIES, True))
     attempts = int(number("attempts", 1, 10, DEFAULT_ATTEMPTS, True))
     baud = int(number("baud", 1, 10**6, 9600, True))
