@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import re
 import tomllib
-from collections.abc import Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 
 from asictl.codes import ScenarioCode
@@ -327,30 +327,26 @@ class _Walker(_Scanner):
             self.i = found.end()
 
     def array(self, path: KeyPath) -> None:
+        self.items("]", lambda index: self.value((*path, index)))
+
+    def inline_table(self, path: KeyPath) -> None:
+        self.items("}", lambda _: self.key_value(path))
+
+    def items(self, close: str, item: Callable[[int], None]) -> None:
+        """The items of an array or inline table, up to ``close``: ``item(index)`` reads
+        each (comments and newlines between them skipped)."""
         self.i += 1
         index = 0
         while True:
             self.skip_blank(newlines=True)
-            if self.peek() == "]":
+            if self.peek() == close:
                 self.i += 1
                 return
             if self.peek() == ",":
                 self.i += 1
                 continue
-            self.value((*path, index))
+            item(index)
             index += 1
-
-    def inline_table(self, path: KeyPath) -> None:
-        self.i += 1
-        while True:
-            self.skip_blank(newlines=True)
-            if self.peek() == "}":
-                self.i += 1
-                return
-            if self.peek() == ",":
-                self.i += 1
-                continue
-            self.key_value(path)
 
 
 def toml_string(text: str) -> str:
