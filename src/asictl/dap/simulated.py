@@ -23,6 +23,7 @@ from asictl.readers.units import UnitError
 from asictl.readers.units import duration_ms as read_duration
 from asictl.runtime.line_map import SourceLine
 from asictl.sim.engine import source_texts
+from asictl.sim.scenario import MAX_TIME_MS
 from asictl.sim.session import Invalid, Prepared, prepare, scenario_for
 
 #: Console commands that only look (the others run the program, which the editor's
@@ -186,7 +187,8 @@ def launch(args: dict[str, JSON], out: Callable[[str], None]) -> SimulatedTarget
         scenario = scenario_for(program)
     duration = args.get("duration")
     try:
-        duration_ms = read_duration(duration) if duration not in (None, "") else None
+        duration_ms = (read_duration(duration, limit_ms=MAX_TIME_MS)
+                       if duration not in (None, "") else None)
     except UnitError as exc:
         raise UserError(f"duration: {exc}") from None
     try:
