@@ -12,7 +12,8 @@ from click.testing import CliRunner
 from asictl.build import build_file
 from asictl.cli import main
 from asictl.sim.engine import SimResult, Simulation, variables_of
-from asictl.sim.scenario import load_scenario
+from asictl.sim.scenario import load_scenario, read_scenario
+from asictl.source import from_string
 
 #: Slave 3's inputs are what the scenario sets; the program copies them to slave 2's
 #: outputs, which drive the models; the models drive slave 1's inputs.
@@ -317,6 +318,16 @@ BAD = [
     ('type = "tank"\nfill = "Q 2.0"\nswitches = [ { input = "I 1.0", at = 500 } ]', 4, 1,
      "at is a number above 0 up to 100"),
     ('type = "motor"\ncontactor = "Q 2.0"\ntrip_at_ms = 5', 4, 1, "needs an overload"),
+    ('type = "cylinder"\nextend = "Q 2.0"\nextended = "I 1.0"\nstroke = "300"', 5, 1,
+     "stroke: '300' has no unit: give a unit: 300ms or 300s"),
+    ('type = "cylinder"\nextend = "Q 2.0"\nextended = "I 1.0"\nstroke_ms = "3s"', 5, 1,
+     'stroke_ms is a number of milliseconds; for a time with a unit write stroke = "3s"'),
+    ('type = "cylinder"\nextend = "Q 2.0"\nextended = "I 1.0"\nstroke = "3s"\n'
+     'stroke_ms = 3', 5, 1, "stroke_ms or stroke, not both"),
+    ('type = "conveyor"\nmotor = "Q 2.1"\nlength_mm = 100\nspeed_mm_s = 10\n'
+     'parts_at = ["1s", "2"]', 6, 1, "parts_at: '2' has no unit"),
+    ('type = "rule"\nwhen = "Q 2.0"\nset = { "I 1.0" = 1 }\nafter = true', 5, 1,
+     "after: the time is a number of milliseconds or a text with a unit, not true/false"),
 ]
 
 
@@ -362,3 +373,13 @@ def test_a_model_driving_a_slave_that_is_not_on_the_bus_is_an_error(tmp_path: Pa
     result = CliRunner().invoke(main, ["sim", "--scenario", str(path)])
     assert result.exit_code == 2, result.output
     assert "p.scenario.toml:3:1: error: rule1 drives 'I 9.0' of slave 9" in result.output
+
+
+def test_model_times_take_a_unit_as_every_duration_does(tmp_path: Path):
+    """``stroke = "2s"`` is ``stroke_ms = 2000``; a number there is milliseconds."""
+    def model(times: str) -> object:
+        text = (f'[[plant]]\ntype = "motor"\ncontactor = "Q 2.0"\nrunning = "I 1.0"\n'
+                f'{times}\n[[step]]\nat_ms = 0\n')
+        return read_scenario(from_string("s.toml", text)).plants[0]
+    a, b = model('start = "1.5s"\ntrip_at = "1min"'), model("start_ms = 1500\ntrip_at = 60000")
+    assert (a.start, a.trip_at) == (b.start, b.trip_at) == (1_500_000, 60_000_000)

@@ -26,6 +26,7 @@ from typing import ClassVar, Protocol
 
 from asictl.il import ast
 from asictl.observe.operands import Operand, check_value
+from asictl.readers.units import UnitError, duration_ms
 from asictl.sim.condition import Condition
 
 #: The longest time a model takes (its stroke, a delay): a day, as the longest simulation.
@@ -541,12 +542,15 @@ class _Bad(Exception):
 
 
 class _Table:
-    def __init__(self, data: Mapping[str, object], place: Place) -> None:
+    def __init__(self, data: Mapping[str, object], place: Place,
+                 written: Mapping[str, str] | None = None) -> None:
         self.data = data
         self.place = place
+        #: key -> the key the file wrote it as (``stroke`` for ``stroke_ms``)
+        self.written = written or {}
 
     def fail(self, message: str, key: str | None) -> _Bad:
-        self.place.problem(message, key)
+        self.place.problem(message, self.written.get(key, key) if key else None)
         return _Bad()
 
     def operand(self, key: str, *, output: bool) -> Operand | None:
@@ -583,6 +587,9 @@ class _Table:
         ok = not isinstance(value, bool) and isinstance(value, int | float)
         number = float(value) if ok and abs(value) <= 1e300 else math.nan  # type: ignore[arg-type]
         if not (low < number <= high if above else low <= number <= high):
+            if isinstance(value, str) and key.endswith("_ms"):
+                raise self.fail(f"{key} is a number of milliseconds; for a time with a unit "
+                                f"write {key[:-3]} = \"{value[:20]}\"", key)
             raise self.fail(f"{label or key} is a number {'above' if above else 'from'} {low:g} "
                             f"{'up ' if above else ''}to {high:g}, not {value!r}"[:120], key)
         return number
@@ -625,6 +632,10 @@ def read_model(data: Mapping[str, object], name: str, place: Place) -> Model | N
                       "type" if "type" in data else None)
         return None
     keys = _KEYS[kind]
+    timed, written = _times(data, keys, place)
+    if timed is None:
+        return None
+    data = timed
     unknown = sorted(set(data) - set(keys) - {"type", "name"})
     if unknown:
         from asictl.readers.suggest import did_you_mean
@@ -642,9 +653,36 @@ def read_model(data: Mapping[str, object], name: str, place: Place) -> Model | N
         place.problem("name is a text of 1 to 40 characters", "name")
         return None
     try:
-        return _READERS[kind](_Table(data, place), label.strip())
+        return _READERS[kind](_Table(data, place, written), label.strip())
     except _Bad:
         return None
+
+
+def _times(data: Mapping[str, object], keys: Mapping[str, bool], place: Place
+           ) -> tuple[Mapping[str, object] | None, dict[str, str]]:
+    """``data`` with each time written by its unit-bearing name (``stroke = "2s"``: a
+    text with its unit or a number of milliseconds, docs/simulation.md, Durations) as
+    its ``_ms`` key in milliseconds, and which keys were so written; None after a
+    problem."""
+    found = dict(data)
+    written: dict[str, str] = {}
+    for key in (k for k in keys if k.endswith("_ms")):
+        name = key[:-3]
+        if name not in data:
+            continue
+        if key in data:
+            place.problem(f"{key} or {name}, not both", name)
+            return None, written
+        value = found.pop(name)
+        try:
+            found[key] = ([duration_ms(v, what="each time", limit_ms=MAX_MS)
+                           for v in value] if isinstance(value, list)
+                          else duration_ms(value, what="the time", limit_ms=MAX_MS))
+        except UnitError as exc:
+            place.problem(f"{name}: {exc}", name)
+            return None, written
+        written[key] = name
+    return found, written
 
 
 def _cylinder(t: _Table, name: str) -> Model:
