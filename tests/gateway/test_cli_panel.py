@@ -52,7 +52,7 @@ def test_mode_held_6_s_configures_a_short_press_protects_and_the_lock_stops_both
     assert status["mode"] == "protected" and status["lps"] == []
     assert status["panel"] == "gateway" and status["leds"]["prj_mode"] is False
 
-    panel = served.press("mode", "--hold", "6")
+    panel = served.press("mode", "--hold", "6s")
     assert panel["leds"]["prj_mode"] is True
     status = served.status()
     assert status["mode"] == "configuration" and status["leds"]["prj_mode"] is True
@@ -71,7 +71,7 @@ def test_mode_held_6_s_configures_a_short_press_protects_and_the_lock_stops_both
     assert client.connect()
     assert not client.write_register(1007, 1, device_id=1).isError()
     client.close()
-    panel = served.press("mode", "--hold", "6")
+    panel = served.press("mode", "--hold", "6s")
     assert panel["display"]["code"] == 82 and panel["keys_locked"] is True
     status = served.status()
     assert status["mode"] == "protected" and status["display"]["code"] == 82
@@ -123,7 +123,7 @@ def test_the_first_commissioning_of_the_manuals_appendix(served):
     assert served.run("gateway", "panel", "--json").stdout.count('"code": 0') == 1
     panel = served.press("set")
     assert panel["display"]["code"] == 1 and not panel["display"]["blinking"]
-    panel = served.press("set", "--hold", "6")
+    panel = served.press("set", "--hold", "6s")
     assert panel["display"] == {
         "code": 1, "text": "01", "blinking": True,
         "meaning": "target address 1: set programs the slave with address 0 to it",
@@ -131,7 +131,7 @@ def test_the_first_commissioning_of_the_manuals_appendix(served):
     served.press("set")
     cable = json.loads(served.run("bus", "--json").stdout)
     assert [s["address"] for s in cable["slaves"]] == [1]
-    served.press("mode", "--hold", "6")
+    served.press("mode", "--hold", "6s")
     status = served.status()
     assert status["mode"] == "protected" and status["lps"] == [1] and status["config_ok"]
     assert status["display"]["code"] is None  # protected mode without errors: blank
@@ -161,7 +161,7 @@ def test_a_board_served_without_the_gateway_has_no_panel(tmp_path: Path):
 def test_both_keys_give_the_gateway_another_modbus_address_it_keeps(served):
     """5.6: both keys 5 s, set counts the address up, mode stores it; then the serial
     setting. The gateway answers to the new address at once, and after a restart."""
-    panel = served.press("--both", "--hold", "6")
+    panel = served.press("--both", "--hold", "6s")
     assert panel["menu"] == "address" and panel["display"]["code"] == 1
     assert not panel["leds"]["asi_active"], "the AS-i circuit is offline meanwhile"
     served.press("set")

@@ -122,7 +122,7 @@ def test_still_serving_after_400_idle_connections_under_ulimit_256(tmp_path):
 
 def test_still_serving_after_the_state_directory_is_removed_which_is_made_again(tmp_path):
     state = tmp_path / "state"
-    with gateway_process(state, "--save-interval", "0.2") as gateway:
+    with gateway_process(state, "--save-interval", "200ms") as gateway:
         assert served(gateway.port)
         shutil.rmtree(state)
         assert gateway.wait_for("was removed while board 300h is served live: made it again")

@@ -28,19 +28,19 @@ def counts(result) -> dict:
 
 def test_the_emulated_master_counts_a_test(run):
     assert run("download", str(BLINK), "--start").exit_code == 0
-    good = counts(run("emc", "31", "--for", "1", "--json"))
+    good = counts(run("emc", "31", "--for", "1s", "--json"))
     # the commands that start and end the test take a few ms of polling themselves
     assert good["failures"] == 0 and abs(good["requests"] - CYCLES_PER_S) <= 15
     assert good["slaves"] == [31] and good["running"] is False
-    missing = counts(run("emc", "30", "--for", "0.5", "--repetitions", "--json"))
+    missing = counts(run("emc", "30", "--for", "500ms", "--repetitions", "--json"))
     assert missing["requests"] == missing["failures"]
     assert abs(missing["requests"] - 2 * CYCLES_PER_S / 2) <= 30, "each one sent twice"
-    checked = counts(run("emc", "31", "--expect", "1", "--for", "0.5", "--json"))
+    checked = counts(run("emc", "31", "--expect", "1", "--for", "500ms", "--json"))
     assert checked["failures"] == checked["requests"] > 0, "slave 31 answers 0, not 1"
-    long = counts(run("emc", "31", "--for", "60", "--json"))
+    long = counts(run("emc", "31", "--for", "60s", "--json"))
     # read every 5 s (the 16-bit counters hold ~20 s), each read a few ms of polling
     assert abs(long["requests"] - 60 * CYCLES_PER_S) <= 13 * 15, "beyond the 16 bits"
-    text = run("emc", "31", "--for", "0.1").stdout
+    text = run("emc", "31", "--for", "100ms").stdout
     assert text.startswith("300h: EMC test of slave 31 for 0.1 s: ")
     assert text.rstrip().endswith("0 failed (0.00 %)")
 
@@ -48,7 +48,7 @@ def test_the_emulated_master_counts_a_test(run):
 def test_a_test_left_running_on_a_live_board_is_ended_by_off(run):
     assert run("download", str(BLINK), "--start").exit_code == 0
     with background_live(0x300, run.state_dir, identity={"command": "test"}):
-        assert counts(run("emc", "31", "--for", "0.1", "--keep", "--json"))["running"]
+        assert counts(run("emc", "31", "--for", "100ms", "--keep", "--json"))["running"]
         status = json.loads(run("status", "--json").stdout)
         assert status["slaves"]["31"]["outputs"] == 0 or status["control_active"]
         ended = run("emc", "off")
@@ -74,7 +74,7 @@ def test_130_is_passed_through_to_a_real_board(run, tmp_path: Path, monkeypatch,
     path = tmp_path / "port"
     path.write_bytes(bytes(0x10000))
     monkeypatch.setattr(boards, "DevPort", lambda base: WiredDevPort(base, str(path), scripted))
-    result = run("emc", "1,2", "--request", "13h", "--expect", "3", "--for", "0.01",
+    result = run("emc", "1,2", "--request", "13h", "--expect", "3", "--for", "10ms",
                  "--io", "devport")
     if answer == d.ACK:
         assert result.exit_code == 0, result.output

@@ -216,7 +216,7 @@ def test_a_client_stopped_with_sigstop_holds_the_board_no_longer_than_the_timeou
     tmp_path, wait
 ):
     state = tmp_path / "state"
-    process = start_serve(state, "--session-timeout", "1")
+    process = start_serve(state, "--session-timeout", "1s")
     stopped = subprocess.Popen(
         [sys.executable, "-c", CLIENT_HOLDING_A_SESSION, str(state)], stdout=subprocess.PIPE,
         text=True, env={**os.environ, "PYTHONPATH": str(ROOT / "src")},

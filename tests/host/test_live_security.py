@@ -135,7 +135,7 @@ def test_the_server_serves_its_owner_only(open_folder):
 BOARD_COMMANDS = {
     "bus inputs": ["4", "0b0001"], "bus match": [], "bus plug": ["4", "0,0"],
     "bus show": [], "bus unplug": ["4"], "diag": [], "download": [str(BLINK)],
-    "emc": ["1", "--for", "1"], "gateway panel": [], "gateway press": ["mode"],
+    "emc": ["1", "--for", "1s"], "gateway panel": [], "gateway press": ["mode"],
     "gateway serve": ["--tcp", "127.0.0.1:0"], "mode": [], "monitor": [],
     "record": ["--duration", "1s", "-o", "run.scenario.toml"], "reset": [],
     "serve": [], "setup": [str(BLINK)], "slave address": ["4", "5"],

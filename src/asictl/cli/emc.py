@@ -10,6 +10,7 @@ from typing import Unpack
 import click
 
 from asictl.cli.master import _board_options, _BoardOptions, _connect, _master_wait
+from asictl.cli.options import Duration
 from asictl.errors import ExitCode, UserError
 from asictl.host.emulated import parse_address, parse_number
 
@@ -39,14 +40,14 @@ def _slaves(text: str) -> list[int]:
               "failed. Without it only missing answers do.")
 @click.option("--repetitions", is_flag=True,
               help="Allow the master to repeat a failed request once.")
-@click.option("--for", "seconds", type=click.FloatRange(0.01, 3600), default=1.0,
-              show_default=True, metavar="SECONDS", help="How long the test runs.")
+@click.option("--for", "for_ms", type=Duration(least_ms=10, limit_ms=3_600_000), default="1s",
+              show_default=True, metavar="TIME", help="How long the test runs.")
 @click.option("--keep", is_flag=True,
               help="Leave the test running after the report ('asictl emc off' ends it).")
 @click.option("--json", "as_json", is_flag=True, help="The counts as one JSON object.")
 @_board_options
 def emc(
-    slaves: str, request: str, expect: str | None, repetitions: bool, seconds: float,
+    slaves: str, request: str, expect: str | None, repetitions: bool, for_ms: float,
     keep: bool, as_json: bool, **board: Unpack[_BoardOptions],
 ) -> None:
     """Run the EMC test mode (command 130) on SLAVES: for --for seconds the master sends
@@ -58,7 +59,7 @@ def emc(
 
     \\b
     Examples:
-      asictl emc 1-4 --for 10                  # missing answers of slaves 1..4 in 10 s
+      asictl emc 1-4 --for 10s                 # missing answers of slaves 1..4 in 10 s
       asictl emc 5 --request 3 --expect 6 --repetitions
 
     Exit status: 0 tested, 1 the master has no EMC test mode or did not answer (a gateway
@@ -83,11 +84,11 @@ def emc(
         else:
             counts = emc_test(
                 master.driver, addresses, bits, expected=expected, repetitions=repetitions,
-                seconds=seconds, keep=keep,
+                seconds=for_ms / 1000, keep=keep,
                 wait=_master_wait(master),
             )
             what = f"EMC test of slave{'s' if len(addresses) > 1 else ''} " + ", ".join(
-                map(str, addresses)) + f" for {seconds:g} s" + (" (still running)" if keep
+                map(str, addresses)) + f" for {for_ms / 1000:g} s" + (" (still running)" if keep
                                                                 else "")
     if as_json:
         click.echo(json.dumps({**asdict(counts), "slaves": addresses, "running": keep}))

@@ -20,6 +20,7 @@ import click
 from click.core import ParameterSource
 
 from asictl.cli.opcua_options import opcua_attachment, opcua_options
+from asictl.cli.options import Duration
 from asictl.cli.serial_options import serial_options, unit_option
 from asictl.errors import ExitCode, UserError, missing_extra
 from asictl.host.boards import lock_file, port_name, state_directory
@@ -77,14 +78,14 @@ def gateway() -> None:
               "(answer, exception code, or why there is none).")
 @click.option("--max-connections", type=click.IntRange(1, 1000), default=32, show_default=True,
               help="TCP connections served at once; further ones are closed at once.")
-@click.option("--idle-timeout", type=click.FloatRange(min=0), default=60.0, show_default=True,
-              metavar="SECONDS", help="Close a TCP connection silent this long (0: never).")
-@click.option("--frame-timeout", type=click.FloatRange(min=0.01), default=0.5,
-              show_default=True, metavar="SECONDS",
+@click.option("--idle-timeout", type=Duration(), default="60s", show_default=True,
+              metavar="TIME", help="Close a TCP connection silent this long (0: never).")
+@click.option("--frame-timeout", type=Duration(least_ms=10), default="500ms",
+              show_default=True, metavar="TIME",
               help="Close a TCP connection whose frame has not arrived whole this long after "
               "its first byte.")
-@click.option("--save-interval", type=click.FloatRange(min=0.1), default=SAVE_INTERVAL_S,
-              show_default=True, metavar="SECONDS",
+@click.option("--save-interval", type=Duration(least_ms=100), default=f"{SAVE_INTERVAL_S:g}s",
+              show_default=True, metavar="TIME",
               help="How often the board's state is saved while serving.")
 @opcua_options
 def serve(
@@ -112,7 +113,7 @@ def serve(
     \b
     Example:
       asictl gateway serve --tcp 127.0.0.1:5020 --port 300h &
-      asictl gateway press mode --hold 6      # into configuration mode
+      asictl gateway press mode --hold 6s     # into configuration mode
       asictl gateway serve --opcua 127.0.0.1:4840
     """
     try:
@@ -139,7 +140,7 @@ def serve(
     )
     live_at = socket_path(directory, base)
     opcua_server = opcua_attachment(
-        opcua, opcua_writable, opcua_user, opcua_interval, opcua_symbols, port, _notify
+        opcua, opcua_writable, opcua_user, opcua_interval / 1000, opcua_symbols, port, _notify
     )
 
     def gateway_for(live: LiveBoard) -> tuple[Awaitable[None], Callable[[], None]]:
@@ -147,8 +148,8 @@ def serve(
         if verbose:
             slave.request_log = _notify
         server = GatewayServer(
-            slave, max_connections=max_connections, idle_timeout=idle_timeout,
-            frame_timeout=frame_timeout, on_request=live.save_changes, log=_notify,
+            slave, max_connections=max_connections, idle_timeout=idle_timeout / 1000,
+            frame_timeout=frame_timeout / 1000, on_request=live.save_changes, log=_notify,
         )
         live.actions.update(panel_actions(slave))
 
@@ -193,7 +194,7 @@ def serve(
         base, directory,
         identity={"command": "asictl gateway serve", "port": port, "front_panel": True},
         attach=gateway_for if opcua_server is None else together(gateway_for, opcua_server),
-        wait=wait, notify=_notify, save_interval=save_interval,
+        wait=wait, notify=_notify, save_interval=save_interval / 1000,
     )
     click.echo("asictl: gateway stopped", err=True)
 
@@ -308,8 +309,9 @@ def panel(port: str, state_dir: str | None, as_json: bool) -> None:
 
 @gateway.command("press")
 @click.argument("key", required=False, type=click.Choice(["mode", "set"]))
-@click.option("--hold", type=click.FloatRange(0.05, 20), default=0.2, show_default=True,
-              metavar="SECONDS", help="How long the key is held (5 s or more: a long press).")
+@click.option("--hold", type=Duration(least_ms=50, limit_ms=20_000), default="200ms",
+              show_default=True, metavar="TIME",
+              help="How long the key is held (5 s or more: a long press).")
 @click.option("--both", is_flag=True, help="Press mode and set together.")
 @_panel_options
 def press(
@@ -330,9 +332,9 @@ def press(
 
     \b
     Examples:
-      asictl gateway press mode --hold 6     # protected -> configuration mode
+      asictl gateway press mode --hold 6s    # protected -> configuration mode
       asictl gateway press mode              # configuration -> protected, not stored
-      asictl gateway press --both --hold 6   # the interface settings
+      asictl gateway press --both --hold 6s  # the interface settings
 
     Exit status: 0 pressed, 1 no gateway serves the board, 2 bad usage.
     """
@@ -341,7 +343,7 @@ def press(
     keys = ["mode", "set"] if both else [key]
     client = _served_gateway(port, state_dir)
     try:
-        view = client.action("press", keys=keys, hold_ms=hold * 1000)
+        view = client.action("press", keys=keys, hold_ms=hold)
     finally:
         client.close()
     click.echo(json.dumps(view, indent=2) if as_json else panel_text(view), nl=as_json)

@@ -16,6 +16,7 @@ from click.core import ParameterSource
 
 from asictl.cli.master import _board_options, _BoardOptions, _connect
 from asictl.cli.opcua_options import opcua_attachment, opcua_options
+from asictl.cli.options import Duration
 from asictl.errors import ExitCode, UserError
 from asictl.host.boards import port_name, state_directory
 from asictl.host.commissioning import image_changes
@@ -45,8 +46,8 @@ from asictl.il.ast import OperandKind as K
     show_default=True, help="Clients connected at once; further ones are closed at once.",
 )
 @click.option(
-    "--session-timeout", type=click.FloatRange(min=0), default=DEFAULT_SESSION_TIMEOUT_S,
-    show_default=True, metavar="SECONDS",
+    "--session-timeout", type=Duration(), default=f"{DEFAULT_SESSION_TIMEOUT_S:g}s",
+    show_default=True, metavar="TIME",
     help="End a command's hold on the board when it sends nothing this long (0: never).",
 )
 @opcua_options
@@ -90,7 +91,7 @@ def serve(
     name = port_name(base)
     attach = debugging(debug_socket_path(directory, base))
     server = opcua_attachment(
-        opcua, opcua_writable, opcua_user, opcua_interval, opcua_symbols, name, notify
+        opcua, opcua_writable, opcua_user, opcua_interval / 1000, opcua_symbols, name, notify
     )
     if server is not None:
         attach = together(attach, server)
@@ -101,7 +102,7 @@ def serve(
     run_live(
         base, directory, identity={"command": "asictl serve", "port": name},
         started=started, wait=wait, notify=notify, max_connections=max_connections,
-        session_timeout=session_timeout, attach=attach,
+        session_timeout=session_timeout / 1000, attach=attach,
     )
     click.echo(f"asictl: board {name} stopped; its state is saved", err=True)
 

@@ -9,6 +9,7 @@ from typing import TYPE_CHECKING, TypeVar
 
 import click
 
+from asictl.cli.options import Duration
 from asictl.diagnostics import DiagnosticError, render_text
 from asictl.errors import ExitCode, UserError, missing_extra
 from asictl.host.target import port_number
@@ -35,8 +36,8 @@ def opcua_options(command: F) -> F:
         click.option("--opcua-user", metavar="NAME",
                      help=f"Only this user may connect, with the password in ${PASSWORD_ENV} "
                      "(needed on an address other than loopback)."),
-        click.option("--opcua-interval", type=click.FloatRange(0.01, 10), default=0.1,
-                     show_default=True, metavar="SECONDS",
+        click.option("--opcua-interval", type=Duration(least_ms=10, limit_ms=10_000),
+                     default="100ms", show_default=True, metavar="TIME",
                      help="How often the values are read from the board (the rate "
                      "subscriptions see changes at)."),
         click.option("--opcua-symbols", type=click.Path(dir_okay=False, exists=True),

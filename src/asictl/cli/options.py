@@ -4,7 +4,13 @@ from __future__ import annotations
 
 import click
 
-from asictl.readers.units import Cycles, UnitError, parse_cycles, parse_duration
+from asictl.readers.units import (
+    Cycles,
+    UnitError,
+    format_duration,
+    parse_cycles,
+    parse_duration,
+)
 
 #: ``--lib DIR`` (repeatable): where the loader looks for function-block files besides the
 #: program's folder; every command that builds a program takes it.
@@ -24,9 +30,11 @@ class Duration(click.ParamType[float]):
 
     name = "duration"
 
-    def __init__(self, *, limit_ms: float | None = None, positive: bool = False) -> None:
+    def __init__(self, *, limit_ms: float | None = None, positive: bool = False,
+                 least_ms: float = 0.0) -> None:
         self.limit_ms = limit_ms
         self.positive = positive
+        self.least_ms = least_ms
 
     def convert(self, value: object, param: click.Parameter | None,
                 ctx: click.Context | None) -> float:
@@ -38,6 +46,8 @@ class Duration(click.ParamType[float]):
             self.fail(str(exc), param, ctx)
         if self.positive and ms <= 0:
             self.fail(f"'{value}' is no time at all", param, ctx)
+        if ms < self.least_ms:
+            self.fail(f"'{value}' is shorter than {format_duration(self.least_ms)}", param, ctx)
         return ms
 
 
