@@ -25,7 +25,7 @@ from asictl.diagnostics import DiagnosticError, Reporter, Span
 from asictl.observe.operands import Operand, parse_operand, read_number
 from asictl.observe.symbols import SymbolTable
 from asictl.readers.tomlfile import Document, KeyPath, read_toml
-from asictl.readers.units import UnitError, parse_duration
+from asictl.readers.units import UnitError, parse_cycles
 from asictl.sim.scenario import SlaveSpec, read_master
 from asictl.source import SourceText
 
@@ -33,7 +33,6 @@ SUFFIX = ".props.toml"
 _TOP_KEYS = ("program", "master", "assume", "property")
 _ASSUME_KEYS = ("always",)
 _PROPERTY_KEYS = ("name", "never", "always", "reachable", "when", "then", "within")
-_WITHIN = re.compile(r"^\s*(\d+)\s*cycles?\s*$", re.IGNORECASE)
 
 
 class Kind(StrEnum):
@@ -453,17 +452,18 @@ def _property(reading: _Reading, path: KeyPath, entry: dict[str, object],
 
 
 def _within(value: object) -> tuple[int | None, float | None]:
-    """A response's bound: ``"3 cycles"`` (0..10000) or a time with its unit; a bare
-    number could be either, and is refused with both readings."""
-    if isinstance(value, str) and (match := _WITHIN.match(value)):
-        if int(match[1]) > 10_000:
-            raise UnitError("at most 10000 cycles")
-        return int(match[1]), None
-    if isinstance(value, str):
-        return None, parse_duration(value, what='"N cycles" or a time such as "50ms"')
-    if isinstance(value, int | float) and not isinstance(value, bool):
-        raise UnitError(f"give a unit: \"{value} cycles\" or \"{value}ms\"")
-    raise UnitError('"N cycles" (0..10000) or a time such as "50ms"')
+    """A response's bound: ``"3 cycles"`` (0..10000) or a time with its unit
+    (``readers.units.parse_cycles``); a bare number could be either, and is refused with
+    both readings."""
+    if isinstance(value, bool) or not isinstance(value, int | float | str):
+        raise UnitError('"N cycles" (0..10000) or a time such as "50ms"')
+    text = str(value).strip()
+    if not isinstance(value, str) or text.isdigit():
+        raise UnitError(f"give a unit: \"{text} cycles\" or \"{text}ms\"")
+    found = parse_cycles(text)
+    if found.count is not None and found.count > 10_000:
+        raise UnitError("at most 10000 cycles")
+    return found.count, found.ms
 
 
 def properties_for(program: Path) -> Path:
