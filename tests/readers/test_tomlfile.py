@@ -201,3 +201,10 @@ def test_a_missing_place_falls_back_to_the_enclosing_one() -> None:
 def test_toml_string_reads_back_as_the_same_text(text: str) -> None:
     assert tomllib.loads(f"k = {toml_string(text)}")["k"] == text
     assert tomllib.loads(f"{toml_key(text)} = 1") == {text: 1}
+
+
+def test_inside_a_string_is_past_its_quotes() -> None:
+    document = read_toml("f.toml", 'a = "xy"\nb = \'\'\'z\'\'\'\nc = [1, "q"]\n')
+    assert str(document.inside(("a",))) == "f.toml:1:6"
+    assert str(document.inside(("b",))) == "f.toml:2:8"
+    assert str(document.inside(("c", 1))) == "f.toml:3:10"

@@ -327,14 +327,6 @@ class _Reading:
         self.report.diagnostics.append(
             self.document.error(ScenarioCode.PROPERTIES, message, path, at_value=at_value))
 
-    def text_at(self, path: KeyPath) -> tuple[int, int]:
-        """Line and column of the first character inside the string at ``path``."""
-        span = self.document.value(path)
-        lines = self.document.text.split("\n")
-        line = lines[span.line - 1] if 0 < span.line <= len(lines) else ""
-        quote = 3 if line[span.column - 1 : span.column + 2] in ('"""', "'''") else 1
-        return span.line, span.column + quote
-
 
 def read_properties(
     source: SourceText,
@@ -361,7 +353,8 @@ def read_properties(
             reading.error(f"{key} is an expression in quotes, such as \"Q 2.0 and not I 1.2\"",
                           path)
             return None
-        line, column = reading.text_at(path)
+        start = document.inside(path)
+        line, column = start.line, start.column
         try:
             expr = parse_expression(value, variables, symbols)
         except ValueError as exc:

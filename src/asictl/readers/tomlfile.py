@@ -61,9 +61,15 @@ class Document:
         else the nearest enclosing place."""
         return self._span(path, self.values, self.keys)
 
-    def has(self, path: KeyPath) -> bool:
-        """Whether ``path`` is written in the text (a key, a value or a header)."""
-        return path in self.keys or path in self.values
+    def inside(self, path: KeyPath) -> Span:
+        """Where the text of the string at ``path`` starts, past its opening quote(s), so
+        that a place inside the string is this column plus its offset (one line, no
+        escapes before it)."""
+        span = self.value(path)
+        lines = self.text.split("\n")
+        line = lines[span.line - 1] if 0 < span.line <= len(lines) else ""
+        quotes = 3 if line[span.column - 1 : span.column + 2] in ('"""', "'''") else 1
+        return Span(self.name, span.line, span.column + quotes)
 
     def _span(self, path: KeyPath, first: Mapping[KeyPath, Place],
               then: Mapping[KeyPath, Place]) -> Span:
