@@ -158,7 +158,7 @@ def test_bad_input(project: Path):
     assert code == 2 and "no .scenario.toml files found" in output
     (project / "machine.scenario.toml").write_text("[[step]]\nat_ms = -1\n")
     code, output = _mutate(".")
-    assert code == 2 and "machine.scenario.toml:2:1: error: at_ms is a time" in output
+    assert code == 2 and "machine.scenario.toml:2:9: error: at_ms is a time" in output
     assert "Traceback" not in output
 
 
