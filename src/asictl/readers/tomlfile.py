@@ -52,8 +52,9 @@ class Document:
     values: dict[KeyPath, Place] = field(default_factory=dict)
 
     def key(self, path: KeyPath) -> Span:
-        """Where the key of ``path`` is written (a table's header for a table); else its
-        value, else the nearest enclosing place."""
+        """Where the key of ``path`` is written (a header's table: its name in the header,
+        an element of ``[[name]]``: its header); else its value, else the nearest
+        enclosing place."""
         return self._span(path, self.keys, self.values)
 
     def value(self, path: KeyPath) -> Span:
