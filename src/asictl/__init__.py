@@ -49,6 +49,7 @@ LAYERS: tuple[tuple[tuple[str, str], ...], ...] = (
         ("sim", "scenarios in virtual time, traces"),
         ("fleet", "a plant's masters: the inventory, backup into git, verify, status"),
         ("opcua", "the OPC UA server on a live board (asyncua)"),
+        ("web", "the web page and REST API on a live board (Starlette, uvicorn)"),
     ),
     (
         ("debug", "the IL debugger on a simulation, and on a live board for an editor"),

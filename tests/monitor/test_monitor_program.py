@@ -21,9 +21,9 @@ from monitor_harness import cli, live, settle
 from asictl.cli import main
 from asictl.host import connection
 from asictl.host.connection import MasterAddress
+from asictl.host.listing import NO_SOURCE
 from asictl.monitor import source as monitor_source
 from asictl.monitor.app import MonitorApp
-from asictl.monitor.program import NO_SOURCE
 from asictl.monitor.source import NO_LINES_GATEWAY, NO_LINES_REAL, MonitorSource
 from asictl.runtime.line_map import SourceLine
 

@@ -19,15 +19,9 @@ import click
 from asictl.cli.master import _board_options, _BoardOptions, _connect
 from asictl.cli.options import lib_option
 from asictl.errors import ExitCode, UserError
-from asictl.host.commissioning import Change, image_changes, write_flags
+from asictl.host.commissioning import image_writes, write_flags
 from asictl.host.emulated import parse_address, parse_number
 from asictl.host.symbols import Names
-from asictl.il.ast import OperandKind as K
-from asictl.observe.operands import Assignment
-from asictl.platform.master import SLAVES
-
-#: What ``asictl write`` writes: the flags and the output image.
-_WRITABLE = (K.F, K.FY, K.Q, K.QB)
 
 # --------------------------------------------------------------------------- slave
 
@@ -254,32 +248,6 @@ def diag(as_json: bool, set_los: str | None, **board: Unpack[_BoardOptions]) -> 
 # --------------------------------------------------------------------------- write
 
 
-def _image_writes(
-    assignments: list[Assignment],
-) -> tuple[list[Change], dict[int, tuple[int, int]]]:
-    """The flag changes and the output changes (slave -> (mask, bits)) of a ``write``;
-    ``UserError`` (exit 2) for an operand ``write`` does not write."""
-    flags: list[Change] = []
-    outputs: dict[int, tuple[int, int]] = {}
-    for assignment in assignments:
-        kind = assignment.operand.node.kind
-        if kind not in _WRITABLE:
-            raise UserError(
-                f"'{assignment.written}' cannot be written: write sets flags (F, FY) and "
-                "outputs (Q, QB)", ExitCode.USAGE)
-        changes = image_changes(assignment)
-        if kind in (K.F, K.FY):
-            flags += changes
-            continue
-        for number, mask, bits in changes:
-            if not 1 <= number < SLAVES:
-                raise UserError(f"'{assignment.written}': slaves 1..31 have outputs",
-                                ExitCode.USAGE)
-            old_mask, old_value = outputs.get(number, (0, 0))
-            outputs[number] = (old_mask | mask, old_value & ~mask | bits)
-    return flags, outputs
-
-
 @click.command("write")
 @click.argument("assignments", nargs=-1, required=True)
 @_board_options
@@ -297,7 +265,7 @@ def write(assignments: tuple[str, ...], **board: Unpack[_BoardOptions]) -> None:
     """
     with _connect(**board) as master:
         names = Names(master)
-        flags, outputs = _image_writes(
+        flags, outputs = image_writes(
             [names.assignment(text, example="F 10.0=1") for text in assignments])
         tools = master.tools()
         if flags:

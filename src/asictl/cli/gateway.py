@@ -21,6 +21,7 @@ from click.core import ParameterSource
 
 from asictl.cli.opcua_options import opcua_attachment, opcua_options
 from asictl.cli.serial_options import serial_options, unit_option
+from asictl.cli.web_options import web_attachment, web_options
 from asictl.errors import ExitCode, UserError, missing_extra
 from asictl.host.boards import lock_file, port_name, state_directory
 from asictl.host.live.board import LiveBoard
@@ -87,12 +88,14 @@ def gateway() -> None:
               show_default=True, metavar="SECONDS",
               help="How often the board's state is saved while serving.")
 @opcua_options
+@web_options
 def serve(
     tcp: str | None, rtu: str | None, baud: str, parity: str, stopbits: str, unit: int,
     port: str, state_dir: str | None, wait: bool, verbose: bool, max_connections: int,
     idle_timeout: float, frame_timeout: float, save_interval: float, opcua: str | None,
     opcua_writable: bool, opcua_user: str | None, opcua_interval: float,
-    opcua_symbols: str | None,
+    opcua_symbols: str | None, http: str | None, http_writable: bool,
+    http_token_file: str | None, http_interval: float,
 ) -> None:
     """Serve the board over Modbus until Ctrl-C; its state is saved periodically and at exit.
 
@@ -106,14 +109,15 @@ def serve(
     are used from then on and by the next 'gateway serve' of this board, unless --unit,
     --baud, --parity or --stopbits say otherwise.
 
-    With --opcua the same board is served over OPC UA too (docs/opcua.md), as the
-    current AS-i gateways do.
+    With --opcua the same board is served over OPC UA too (docs/opcua.md), and with
+    --http as a web page and REST API (docs/web.md), as the current AS-i gateways do.
 
     \b
     Example:
       asictl gateway serve --tcp 127.0.0.1:5020 --port 300h &
       asictl gateway press mode --hold 6      # into configuration mode
       asictl gateway serve --opcua 127.0.0.1:4840
+      asictl gateway serve --http 127.0.0.1:8080
     """
     try:
         from asictl.gateway.interface_file import interface_file, load_interface, save_interface
@@ -141,6 +145,7 @@ def serve(
     opcua_server = opcua_attachment(
         opcua, opcua_writable, opcua_user, opcua_interval, opcua_symbols, port, _notify
     )
+    page = web_attachment(http, http_writable, http_token_file, http_interval, port, _notify)
 
     def gateway_for(live: LiveBoard) -> tuple[Awaitable[None], Callable[[], None]]:
         slave = GatewaySlave(live.board, interface.unit, sync=live.sync, interface=interface)
@@ -192,7 +197,7 @@ def serve(
     run_live(
         base, directory,
         identity={"command": "asictl gateway serve", "port": port, "front_panel": True},
-        attach=gateway_for if opcua_server is None else together(gateway_for, opcua_server),
+        attach=together(gateway_for, *(a for a in (opcua_server, page) if a is not None)),
         wait=wait, notify=_notify, save_interval=save_interval,
     )
     click.echo("asictl: gateway stopped", err=True)

@@ -16,6 +16,7 @@ from click.core import ParameterSource
 
 from asictl.cli.master import _board_options, _BoardOptions, _connect
 from asictl.cli.opcua_options import opcua_attachment, opcua_options
+from asictl.cli.web_options import web_attachment, web_options
 from asictl.errors import ExitCode, UserError
 from asictl.host.boards import port_name, state_directory
 from asictl.host.commissioning import image_changes
@@ -50,10 +51,12 @@ from asictl.il.ast import OperandKind as K
     help="End a command's hold on the board when it sends nothing this long (0: never).",
 )
 @opcua_options
+@web_options
 def serve(
     port: str, state_dir: str | None, wait: bool, max_connections: int,
     session_timeout: float, opcua: str | None, opcua_writable: bool, opcua_user: str | None,
-    opcua_interval: float, opcua_symbols: str | None,
+    opcua_interval: float, opcua_symbols: str | None, http: str | None, http_writable: bool,
+    http_token_file: str | None, http_interval: float,
 ) -> None:
     """Keep the emulated board running in real time until Ctrl-C or SIGTERM.
 
@@ -67,12 +70,14 @@ def serve(
     debugger attaches to the running program through a second socket ('asictl dap',
     attach). With --opcua an OPC UA server shows the master, its slaves, flags, timers
     and counters to HMI and SCADA clients (docs/opcua.md), read-only unless
-    --opcua-writable.
+    --opcua-writable. With --http a web page and REST API show the same (docs/web.md),
+    read-only unless --http-writable.
 
     \b
     Example:
       asictl serve --port 300h & asictl download demos/blink.asi
       asictl serve --port 300h --opcua 127.0.0.1:4840
+      asictl serve --port 300h --http 127.0.0.1:8080
 
     Exit status: 0 stopped by a signal, 1 the board is already served or held by another
     process (it is named; --wait waits for it), or its state could not be saved at the
@@ -94,6 +99,9 @@ def serve(
     )
     if server is not None:
         attach = together(attach, server)
+    page = web_attachment(http, http_writable, http_token_file, http_interval, name, notify)
+    if page is not None:
+        attach = together(attach, page)
 
     def started(path: object) -> None:
         click.echo(f"asictl: board {name} live at {path} (Ctrl-C stops)", err=True)

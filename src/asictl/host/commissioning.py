@@ -105,6 +105,8 @@ HI_FLAGS_MASK = 0x07
 #: A change of the master's images: (flag byte or slave, mask, bits): the bits under the
 #: mask become the bits (a slave's data bits are the low four).
 Change = tuple[int, int, int]
+#: What ``asictl write`` writes: flags and outputs.
+WRITABLE = (K.F, K.FY, K.Q, K.QB)
 
 
 def image_changes(assignment: Assignment) -> list[Change]:
@@ -124,6 +126,32 @@ def image_changes(assignment: Assignment) -> list[Change]:
         return [(n, 0xF, value & 0xF), (n + 1, 0xF, value >> 4)]
     raise UserError(f"'{assignment.written}' is the program's own: only flags, inputs and "
                     "outputs can be written", ExitCode.USAGE)
+
+
+def image_writes(
+    assignments: list[Assignment],
+) -> tuple[list[Change], dict[int, tuple[int, int]]]:
+    """The flag changes and the output changes (slave -> (mask, bits)) of a ``write``;
+    ``UserError`` (exit 2) for an operand ``write`` does not write."""
+    flags: list[Change] = []
+    outputs: dict[int, tuple[int, int]] = {}
+    for assignment in assignments:
+        kind = assignment.operand.node.kind
+        if kind not in WRITABLE:
+            raise UserError(
+                f"'{assignment.written}' cannot be written: write sets flags (F, FY) and "
+                "outputs (Q, QB)", ExitCode.USAGE)
+        changes = image_changes(assignment)
+        if kind in (K.F, K.FY):
+            flags += changes
+            continue
+        for number, mask, bits in changes:
+            if not 1 <= number < SLAVES:
+                raise UserError(f"'{assignment.written}': slaves 1..31 have outputs",
+                                ExitCode.USAGE)
+            old_mask, old_value = outputs.get(number, (0, 0))
+            outputs[number] = (old_mask | mask, old_value & ~mask | bits)
+    return flags, outputs
 
 
 def write_flags(tools: Commissioning, changes: list[Change]) -> None:

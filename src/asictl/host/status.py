@@ -624,6 +624,36 @@ def symbol_text(status: MasterStatus) -> list[str]:
     return ["symbols  " + ", ".join(parts)]
 
 
+def status_events(old: MasterStatus, new: MasterStatus) -> list[str]:
+    """What changed between two readings, as the monitor's and the web page's event logs
+    say it."""
+    events = []
+    if old.phase != new.phase:
+        events.append(f"phase: {new.phase}")
+    if old.mode != new.mode:
+        events.append(f"{new.mode} mode")
+    if old.config_ok != new.config_ok:
+        if new.config_ok:
+            events.append("config ok")
+        else:
+            why = [f"{n} missing" for n in new.missing]
+            why += [f"{n} not projected" for n in new.unexpected]
+            why += [f"{w.slave} wrong profile" for w in new.wrong_profile]
+            events.append("configuration error" + (f": {', '.join(why)}" if why else ""))
+    if (old.control_state, stop_text(old)) != (new.control_state, stop_text(new)):
+        stopped = stop_text(new)
+        events.append(f"control program {new.control_state}" + (f" ({stopped})" if stopped else ""))
+    joined = sorted(set(new.lds) - set(old.lds))
+    left = sorted(set(old.lds) - set(new.lds))
+    if joined:
+        events.append(f"slaves detected: {', '.join(map(str, joined))}")
+    if left:
+        events.append(f"slaves lost: {', '.join(map(str, left))}")
+    if old.program.identity != new.program.identity and new.program.present:
+        events.append(f"program {new.program.identity or 'invalid'}")
+    return events
+
+
 def render(status: MasterStatus) -> str:
     """A text screen: flags on top, the slave lists below, the control program last."""
     s = status

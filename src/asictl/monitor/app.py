@@ -43,6 +43,7 @@ from asictl.host.commissioning import Change, check_address, image_changes, writ
 from asictl.host.emulated import parse_address, parse_number, parse_profile
 from asictl.host.force_list import Entry, forced_values
 from asictl.host.forcing import force, unforce
+from asictl.host.listing import Listing, listing_of
 from asictl.host.master import Master
 from asictl.host.status import (
     MasterStatus,
@@ -53,6 +54,7 @@ from asictl.host.status import (
     hi_flag_text,
     operand_value,
     profile_text,
+    status_events,
     stop_text,
     symbol_text,
     timer_text,
@@ -61,7 +63,7 @@ from asictl.host.symbols import Names
 from asictl.host.watch import Watched, watch_list
 from asictl.il.ast import OperandKind
 from asictl.monitor.keys import KEYS
-from asictl.monitor.program import Listing, heading, listing_of, render_rows
+from asictl.monitor.program import heading, render_rows
 from asictl.monitor.source import MonitorSource, Snapshot, toggle_start
 from asictl.observe.online import CycleLines
 from asictl.observe.operands import Assignment, parse_assignment
@@ -333,7 +335,7 @@ class MonitorApp(App[None]):
         ):
             self.refresh_bindings()  # the panel's keys come and go with the gateway
         if old is not None and snapshot.status is not None:
-            for event in _changes(old, snapshot.status):
+            for event in status_events(old, snapshot.status):
                 if self.emulated and event.startswith("configuration error"):
                     event += " (an emulated cable: 'asictl bus match' plugs in the [SETUP])"
                 self.log_event(event)
@@ -804,35 +806,6 @@ def _flag(text: str) -> list[Change]:
     if assignment.operand.node.kind not in (OperandKind.F, OperandKind.FY):
         raise UserError(f"'{assignment.written}' is no flag: 'FY 10=0x12' or 'F 10.0=1'")
     return image_changes(assignment)
-
-
-def _changes(old: MasterStatus, new: MasterStatus) -> list[str]:
-    """What the event log says between two refreshes."""
-    events = []
-    if old.phase != new.phase:
-        events.append(f"phase: {new.phase}")
-    if old.mode != new.mode:
-        events.append(f"{new.mode} mode")
-    if old.config_ok != new.config_ok:
-        if new.config_ok:
-            events.append("config ok")
-        else:
-            why = [f"{n} missing" for n in new.missing]
-            why += [f"{n} not projected" for n in new.unexpected]
-            why += [f"{w.slave} wrong profile" for w in new.wrong_profile]
-            events.append("configuration error" + (f": {', '.join(why)}" if why else ""))
-    if (old.control_state, stop_text(old)) != (new.control_state, stop_text(new)):
-        stopped = stop_text(new)
-        events.append(f"control program {new.control_state}" + (f" ({stopped})" if stopped else ""))
-    joined = sorted(set(new.lds) - set(old.lds))
-    left = sorted(set(old.lds) - set(new.lds))
-    if joined:
-        events.append(f"slaves detected: {', '.join(map(str, joined))}")
-    if left:
-        events.append(f"slaves lost: {', '.join(map(str, left))}")
-    if old.program.identity != new.program.identity and new.program.present:
-        events.append(f"program {new.program.identity or 'invalid'}")
-    return events
 
 
 def _top(

@@ -1,0 +1,111 @@
+"""``serve --http`` and ``gateway serve --http`` as a user starts them: the options'
+refusals, and the event stream hearing a change of the cable made by ``asictl bus
+inputs`` from another process."""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import signal
+import subprocess
+import sys
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+
+import httpx
+import pytest
+from click.testing import CliRunner
+from web_program import TOKEN, downloaded
+
+from asictl.cli import main
+
+
+def asictl(state: Path, *args: str) -> None:
+    result = subprocess.run(
+        [sys.executable, "-m", "asictl", *args], capture_output=True, text=True, timeout=60,
+        env={**os.environ, "ASICTL_STATE_DIR": str(state)},
+    )
+    assert result.returncode == 0, (args, result.stdout, result.stderr)
+
+
+@contextmanager
+def served(state: Path, *command: str, env: dict[str, str] | None = None) -> Iterator[str]:
+    """``asictl COMMAND... --http 127.0.0.1:0`` in its own process; yields the URL."""
+    process = subprocess.Popen(
+        [sys.executable, "-m", "asictl", *command, "--http", "127.0.0.1:0"],
+        stderr=subprocess.PIPE, text=True,
+        env={**os.environ, "ASICTL_STATE_DIR": str(state), **(env or {})},
+    )
+    assert process.stderr is not None
+    try:
+        lines: list[str] = []
+        url = None
+        while url is None:
+            line = process.stderr.readline()
+            assert line, "".join(lines) + "the server ended"
+            lines.append(line)
+            found = re.search(r"web page for board 300h at (http://\S+)", line)
+            url = found.group(1) if found else None
+        yield url
+    finally:
+        process.send_signal(signal.SIGINT)
+        assert process.wait(timeout=30) == 0
+
+
+@pytest.mark.parametrize(("args", "env", "message"), [
+    (["--http-writable"], {}, "--http-writable without --http HOST:PORT"),
+    (["--http", "nowhere"], {}, "--http 'nowhere': expected HOST:PORT"),
+    (["--http", "127.0.0.1:0", "--http-writable"], {},
+     "--http-writable needs a token: --http-token-file FILE or $ASICTL_HTTP_TOKEN"),
+    (["--http", "127.0.0.1:0", "--http-writable"], {"ASICTL_HTTP_TOKEN": "short"},
+     "the HTTP token is 5 characters long"),
+    (["--http", "127.0.0.1:0", "--http-token-file", "/nonexistent/token"], {},
+     "--http-token-file /nonexistent/token: cannot read it"),
+])
+def test_bad_web_options_are_refused_before_anything_is_served(
+    tmp_path: Path, args: list[str], env: dict[str, str], message: str,
+):
+    result = CliRunner().invoke(main, ["serve", "--state-dir", str(tmp_path), *args], env=env)
+    assert result.exit_code == 2
+    assert message in result.output
+    assert "Traceback" not in result.output
+    assert not list(tmp_path.glob("*.sock"))
+
+
+def test_the_event_stream_hears_an_input_changed_by_another_command(tmp_path: Path):
+    state = downloaded(tmp_path)
+    with served(state, "serve") as url, httpx.Client(base_url=url, timeout=20) as web:
+        assert web.get("/api/status").json()["phase"] == "normal operation"
+        seen: list[int] = []
+        with web.stream("GET", "/api/events", params={"watch": ["Lamp", "Nobody"]}) as events:
+            for line in events.iter_lines():
+                if not line.startswith("data: "):
+                    continue
+                data = json.loads(line[len("data: "):])
+                lamp, nobody = data["watch"]
+                assert nobody["exit"] == 2 and "'Nobody'" in nobody["error"]
+                seen.append(lamp["value"])
+                if len(seen) == 1:
+                    asictl(state, "bus", "inputs", "Start=1")
+                if lamp["value"] == 1:
+                    break
+        assert seen[0] == 0 and seen[-1] == 1
+        refused = web.post("/api/force", json={"assignments": ["Start=0"]})
+        assert refused.status_code == 403 and refused.json()["exit"] == 1
+
+
+def test_gateway_serve_has_the_page_too_and_takes_writes_with_the_token(tmp_path: Path):
+    state = downloaded(tmp_path)
+    token = tmp_path / "token"
+    token.write_text(TOKEN + "\n")
+    command = ("gateway", "serve", "--tcp", "127.0.0.1:0", "--http-writable",
+               "--http-token-file", str(token))
+    with served(state, *command) as url, httpx.Client(base_url=url, timeout=20) as web:
+        assert web.get("/").text.lower().startswith("<!doctype html>")
+        bearer = {"Authorization": f"Bearer {TOKEN}"}
+        forced = web.post("/api/force", json={"assignments": ["Answer=7"]}, headers=bearer)
+        assert forced.json() == {"forced": [{"operand": "FY 12", "value": 7,
+                                             "symbol": "Answer"}]}
+        assert web.get("/api/operands/FY 12").json()["value"] == 7
