@@ -46,7 +46,7 @@ def served(state: Path, *command: str, env: dict[str, str] | None = None) -> Ite
             line = process.stderr.readline()
             assert line, "".join(lines) + "the server ended"
             lines.append(line)
-            found = re.search(r"web page for board 300h at (http://\S+)", line)
+            found = re.search(r"web page for board \S+ at (http://\S+)", line)
             url = found.group(1) if found else None
         yield url
     finally:

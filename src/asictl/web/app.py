@@ -208,9 +208,11 @@ def create_app(
                     news = [e for e in hub.events if e["id"] > last_event]
                     last_event = hub.serial
                     rows = board.watch(reading.status, watch) if watch else []
+                    named = board.watch(reading.status, list(reading.status.symbols))
                     yield (
                         f'event: status\ndata: {{"status":{reading.text},'
-                        f'"watch":{json.dumps(rows)},"events":{json.dumps(news)},'
+                        f'"watch":{json.dumps(rows)},"symbols":{json.dumps(named)},'
+                        f'"events":{json.dumps(news)},'
                         f'"read_at":{reading.at},"sent_at":{time.time()}}}\n\n'
                     )
             finally:

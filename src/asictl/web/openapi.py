@@ -105,7 +105,7 @@ def openapi(writable: bool) -> dict[str, Any]:
             }},
             "/api/events": {"get": {
                 "summary": "Server-sent events: the status at every change, the watch "
-                "list's values and the event log",
+                "list's values, every symbol's value and the event log",
                 "parameters": [{"name": "watch", "in": "query", "required": False,
                                 "schema": {"type": "array", "items": {"type": "string"}},
                                 "explode": True}],

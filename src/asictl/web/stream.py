@@ -67,7 +67,10 @@ class Hub:
         text = json.dumps(status.to_json(), separators=(",", ":"))
         if self.latest is not None and self.latest.text == text:
             return
-        if self.latest is not None:
+        if self.latest is None:
+            self.event(f"{status.phase}, {status.mode} mode, control program "
+                       f"{status.control_state}")
+        else:
             for event in status_events(self.latest.status, status):
                 self.event(event)
         self.latest = Reading(status, text, time.time())
