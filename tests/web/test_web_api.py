@@ -178,8 +178,10 @@ def test_hostile_requests_get_json_refusals_and_change_nothing(board: WebBoard):
     assert web.get("/api/status").json()["forced"] == []
     assert web.get("/static/../board.py").status_code == 404
     assert web.get("/static/%2e%2e/board.py").status_code == 404
-    rebinding = web.get("/api/status", headers={"Host": "attacker.example"})
+    rebinding = web.get("/api/status", headers={"Host": "attacker.example:80"})
     assert rebinding.status_code == 400
+    assert "for this machine only, not for 'attacker.example:80'" in rebinding.json()["error"]
+    assert web.get("/api/status", headers={"Host": "localhost:8080"}).status_code == 200
     script = web.get("/api/operands/<script>alert(1)</script>")
     assert script.status_code == 400
     assert script.headers["content-type"] == "application/json"

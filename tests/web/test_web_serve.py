@@ -4,12 +4,15 @@ inputs`` from another process."""
 
 from __future__ import annotations
 
+import asyncio
 import json
 import os
 import re
 import signal
+import socket
 import subprocess
 import sys
+import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -109,3 +112,43 @@ def test_gateway_serve_has_the_page_too_and_takes_writes_with_the_token(tmp_path
         assert forced.json() == {"forced": [{"operand": "FY 12", "value": 7,
                                              "symbol": "Answer"}]}
         assert web.get("/api/operands/FY 12").json()["value"] == 7
+
+
+def test_clients_that_never_read_hold_up_neither_the_board_nor_other_clients(tmp_path: Path):
+    state = downloaded(tmp_path)
+    env = {"ASICTL_HTTP_TOKEN": TOKEN}
+    bearer = {"Authorization": f"Bearer {TOKEN}"}
+    with served(state, "serve", "--http-writable", env=env) as url, \
+            httpx.Client(base_url=url, timeout=20) as web:
+        host, port = url.removeprefix("http://").rstrip("/").rsplit(":", 1)
+        silent = []
+        for _ in range(20):  # each asks for the stream, then never reads a byte of it
+            hostile = socket.create_connection((host, int(port)))
+            hostile.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 1024)
+            hostile.sendall(b"GET /api/events?watch=FY%2020 HTTP/1.1\r\nHost: 127.0.0.1\r\n\r\n")
+            silent.append(hostile)
+        try:
+            started = time.monotonic()
+            for value in range(200):  # a change at every write: a reading for every listener
+                written = web.post("/api/write", json={"assignments": [f"FY 20={value}"]},
+                                   headers=bearer)
+                assert written.status_code == 200
+            took = time.monotonic() - started
+            assert web.get("/api/operands/FY 20").json()["value"] == 199
+            asictl(state, "status")  # the board's own socket answers meanwhile
+        finally:
+            for hostile in silent:
+                hostile.close()
+        assert took < 30, took
+
+
+def test_a_listener_keeps_only_the_newest_reading():
+    from asictl.web.stream import Listener, Reading
+
+    listener = Listener()
+    readings = [Reading(None, str(n), float(n)) for n in range(1000)]  # type: ignore[arg-type]
+    for reading in readings:
+        listener.offer(reading)
+    assert listener.latest is readings[-1]
+    assert asyncio.run(listener.next(1.0)) is readings[-1]
+    assert asyncio.run(listener.next(0.01)) is None

@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING, TypeVar
 import click
 
 from asictl.errors import ExitCode, UserError, missing_extra
-from asictl.host.target import port_number
+from asictl.host.target import is_loopback, listen_address
 
 if TYPE_CHECKING:
     from asictl.host.live.server import Attachment
@@ -43,16 +43,6 @@ def web_options(command: F) -> F:
     return command
 
 
-def _address(text: str) -> tuple[str, int]:
-    host, sep, port = text.rpartition(":")
-    number = port_number(port)
-    if not sep or number is None:
-        shown = text if len(text) <= 40 else f"{text[:37]}..."
-        raise UserError(f"--http '{shown}': expected HOST:PORT, e.g. 127.0.0.1:8080",
-                        ExitCode.USAGE)
-    return host.strip("[]") or "127.0.0.1", number
-
-
 def _token(token_file: str | None) -> str | None:
     if token_file is None:
         return os.environ.get(TOKEN_ENV) or None
@@ -79,9 +69,9 @@ def web_attachment(
         if given:
             raise UserError(f"{', '.join(given)} without --http HOST:PORT", ExitCode.USAGE)
         return None
-    host, port = _address(http)
+    host, port = listen_address(http, "--http", "127.0.0.1:8080")
     try:
-        from asictl.web.access import check_token, is_loopback
+        from asictl.web.access import check_token
         from asictl.web.server import WebOptions
         from asictl.web.server import web_attachment as attachment
     except ImportError as exc:

@@ -25,7 +25,6 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import hmac
-import ipaddress
 import logging
 from collections.abc import Awaitable, Callable
 from dataclasses import dataclass, replace
@@ -45,6 +44,7 @@ from asictl.host.emulated import run_action
 from asictl.host.live.board import LiveBoard
 from asictl.host.live.status_reader import LiveStatus
 from asictl.host.status import MasterStatus, StoredProgram
+from asictl.host.target import is_loopback
 from asictl.host.transfer import set_start
 from asictl.observe.operands import Operand, image_symbols, parse_operand
 from asictl.observe.symbols import SymbolTable
@@ -81,15 +81,6 @@ class OpcUaOptions:
     def url(self) -> str:
         host = f"[{self.host}]" if ":" in self.host else self.host
         return f"opc.tcp://{host}:{self.port}/asictl/"
-
-
-def is_loopback(host: str) -> bool:
-    if host == "localhost":
-        return True
-    try:
-        return ipaddress.ip_address(host).is_loopback
-    except ValueError:
-        return False
 
 
 def check_access(options: OpcUaOptions) -> None:

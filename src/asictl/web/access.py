@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import hashlib
 import hmac
-import ipaddress
 import secrets
 from collections import OrderedDict
 from dataclasses import dataclass, field
@@ -31,15 +30,6 @@ TOKEN_ENV = "ASICTL_HTTP_TOKEN"
 MAX_SESSIONS = 64
 #: A token shorter than this is refused: it could be guessed.
 MIN_TOKEN = 16
-
-
-def is_loopback(host: str) -> bool:
-    if host == "localhost":
-        return True
-    try:
-        return ipaddress.ip_address(host).is_loopback
-    except ValueError:
-        return False
 
 
 def check_token(token: str | None, *, writable: bool) -> None:

@@ -17,9 +17,9 @@ from importlib import resources
 from typing import Any
 
 from starlette.applications import Starlette
+from starlette.datastructures import Headers
 from starlette.exceptions import HTTPException
 from starlette.middleware import Middleware
-from starlette.middleware.trustedhost import TrustedHostMiddleware
 from starlette.requests import Request
 from starlette.responses import JSONResponse, Response, StreamingResponse
 from starlette.routing import Mount, Route
@@ -47,6 +47,8 @@ HEADERS = {
     "cache-control": "no-store",
 }
 _STATUS = {ExitCode.USAGE: 400, ExitCode.FAILED: 409}
+#: The names a loopback server answers to (the Host header, without its port).
+LOOPBACK_NAMES = ("localhost", "127.0.0.1", "[::1]")
 
 
 class Refused(UserError):
@@ -62,10 +64,12 @@ def error(message: str, exit_code: int, status: int) -> JSONResponse:
 
 
 class Secured:
-    """The security headers on every answer (pure ASGI: streams are not buffered)."""
+    """The security headers on every answer (pure ASGI: streams are not buffered), and
+    on a loopback server only requests addressed to this machine by name: a page
+    elsewhere whose name an attacker points at 127.0.0.1 (DNS rebinding) is refused."""
 
-    def __init__(self, app: ASGIApp) -> None:
-        self.app = app
+    def __init__(self, app: ASGIApp, loopback: bool) -> None:
+        self.app, self.loopback = app, loopback
 
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
         if scope["type"] != "http":
@@ -81,6 +85,13 @@ class Secured:
                 ]
             await send(message)
 
+        host = Headers(scope=scope).get("host", "")
+        name = host.rpartition(":")[0] if host.rpartition(":")[2].isdigit() else host
+        if self.loopback and name not in LOOPBACK_NAMES:
+            refusal = error(f"this server answers requests for this machine only, not for "
+                            f"'{host[:60]}'", int(ExitCode.USAGE), 400)
+            await refusal(scope, receive, secured)
+            return
         await self.app(scope, receive, secured)
 
 
@@ -254,10 +265,9 @@ def create_app(
         Route("/api/stop", control(False), methods=["POST"]),
         Mount("/static", StaticFiles(packages=[("asictl.web", "static")]), name="static"),
     ]
-    hosts = ["localhost", "127.0.0.1", "::1", "[::1]"] if loopback else ["*"]
     return Starlette(
         routes=routes,
-        middleware=[Middleware(Secured), Middleware(TrustedHostMiddleware, allowed_hosts=hosts)],
+        middleware=[Middleware(Secured, loopback=loopback)],
         exception_handlers={UserError: user_error, HTTPException: http_error, Exception: bug},
     )
 
