@@ -189,3 +189,34 @@ def test_hostile_requests_get_json_refusals_and_change_nothing(board: WebBoard):
     policy = page.headers["content-security-policy"]
     assert "script-src 'self'" in policy and "unsafe-inline" not in policy
     assert page.headers["x-content-type-options"] == "nosniff"
+
+
+def test_mode_store_and_a_slaves_address_and_parameter(board: WebBoard):
+    web = client(board)
+    document = web.get("/openapi.json").json()
+
+    def post(path: str, body: dict[str, Any], template: str = "") -> dict[str, Any]:
+        answer = web.post(path, json=body, headers=BEARER)
+        assert answer.status_code == 200, answer.text
+        conforms(document, template or path, "post", 200, answer.json())
+        board.live.board.advance(50)
+        return dict(answer.json())
+
+    assert post("/api/mode", {"mode": "configuration"}) == {"mode": "configuration"}
+    parameter = post("/api/slaves/1/parameter", {"value": 10}, "/api/slaves/{address}/parameter")
+    assert parameter["slave"] == 1 and parameter["parameter"] == 10
+    assert web.get("/api/status").json()["slaves"]["1"]["pi"] == 10
+    post("/api/store", {"what": "parameters"})
+    assert web.get("/api/status").json()["slaves"]["1"]["pp"] == 10
+    post("/api/slaves/1/address", {"new": 5}, "/api/slaves/{address}/address")
+    assert 5 in web.get("/api/status").json()["lds"]
+    post("/api/store", {"what": "configuration"})
+    assert web.get("/api/status").json()["lps"] == [5]
+    assert post("/api/mode", {"mode": "protected"}) == {"mode": "protected"}
+
+    taken = web.post("/api/slaves/5/address", json={"new": 40}, headers=BEARER)
+    assert taken.status_code == 400 and taken.json()["exit"] == 2
+    assert web.post("/api/mode", json={"mode": "fast"}, headers=BEARER).status_code == 400
+    store = web.post("/api/store", json={"what": "everything"}, headers=BEARER)
+    assert store.status_code == 400
+    assert store.json()["error"] == "store 'everything': configuration or parameters"

@@ -27,6 +27,7 @@ from starlette.staticfiles import StaticFiles
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 from asictl.errors import ExitCode, UserError
+from asictl.host.emulated import parse_address, parse_number
 from asictl.web.access import COOKIE, CSRF_HEADER, Access
 from asictl.web.board import WebBoard
 from asictl.web.openapi import openapi
@@ -199,6 +200,39 @@ def create_app(
 
         return endpoint
 
+    async def mode(request: Request) -> Response:
+        authorize(request)
+        wanted = (await _body(request)).get("mode")
+        if wanted not in ("protected", "configuration"):
+            raise Refused("'mode' must be \"protected\" or \"configuration\"", 400,
+                          ExitCode.USAGE)
+        now = board.mode(configuration=wanted == "configuration")
+        read()
+        return JSONResponse({"mode": now})
+
+    async def store(request: Request) -> Response:
+        authorize(request)
+        what = (await _body(request)).get("what")
+        board.store(str(what))
+        read()
+        return JSONResponse({"stored": what})
+
+    async def slave_address(request: Request) -> Response:
+        authorize(request)
+        old = parse_address(request.path_params["address"])
+        new = parse_address(str((await _body(request)).get("new")))
+        board.slave_address(old, new)
+        read()
+        return JSONResponse({"slave": old, "address": new})
+
+    async def slave_parameter(request: Request) -> Response:
+        authorize(request)
+        where = parse_address(request.path_params["address"], zero=False)
+        value = parse_number(str((await _body(request)).get("value")), "parameter", 15)
+        answer = board.slave_parameter(where, value)
+        read()
+        return JSONResponse({"slave": where, "parameter": value, "answer": answer})
+
     async def events(request: Request) -> Response:
         watch = request.query_params.getlist("watch")[:MAX_WATCH]
         listener = Listener()
@@ -263,6 +297,10 @@ def create_app(
         Route("/api/write", write, methods=["POST"]),
         Route("/api/start", control(True), methods=["POST"]),
         Route("/api/stop", control(False), methods=["POST"]),
+        Route("/api/mode", mode, methods=["POST"]),
+        Route("/api/store", store, methods=["POST"]),
+        Route("/api/slaves/{address}/address", slave_address, methods=["POST"]),
+        Route("/api/slaves/{address}/parameter", slave_parameter, methods=["POST"]),
         Mount("/static", StaticFiles(packages=[("asictl.web", "static")]), name="static"),
     ]
     return Starlette(

@@ -156,6 +156,38 @@ class WebBoard:
         self._saved()
         return self.master.summary()
 
+    def mode(self, *, configuration: bool) -> str:
+        """``asictl mode``: the mode after the switch."""
+        self._changing("switching the mode")
+        self.master.tools().set_mode(configuration=configuration)
+        self._saved()
+        return self.status().mode
+
+    def store(self, what: str) -> None:
+        """``asictl store configuration|parameters``."""
+        self._changing("storing")
+        tools = self.master.tools()
+        if what == "configuration":
+            tools.store_configuration()
+        elif what == "parameters":
+            tools.store_parameters()
+        else:
+            raise UserError(f"store '{what}': configuration or parameters", ExitCode.USAGE)
+        self._saved()
+
+    def slave_address(self, old: int, new: int) -> None:
+        """``asictl slave address OLD NEW``."""
+        self._changing("changing a slave's address")
+        self.master.tools().change_address(old, new)
+        self._saved()
+
+    def slave_parameter(self, address: int, value: int) -> int:
+        """``asictl slave parameter ADDRESS VALUE``: the slave's answer."""
+        self._changing("writing a parameter")
+        answer = self.master.tools().write_parameter(address, value)
+        self._saved()
+        return answer
+
     def program(self) -> dict[str, Any]:
         """The program's listing (host/listing.py) with each operand's name."""
         stored = self.reader.stored_program()

@@ -64,6 +64,13 @@ def _write(summary: str, body: dict[str, Any] | None, answer: dict[str, Any]) ->
     return {"post": operation}
 
 
+def _slave(path: dict[str, Any]) -> dict[str, Any]:
+    path["post"]["parameters"] = [{"name": "address", "in": "path", "required": True,
+                                   "schema": {"type": "integer", "minimum": 0,
+                                              "maximum": 31}}]
+    return path
+
+
 def openapi(writable: bool) -> dict[str, Any]:
     """The description; ``writable`` says in it whether this server takes writes."""
     assignments = {"type": "object", "required": ["assignments"],
@@ -127,5 +134,25 @@ def openapi(writable: bool) -> dict[str, Any]:
                                  {"type": "object", "required": ["control"]}),
             "/api/stop": _write("Clear the start flag (asictl stop)", None,
                                 {"type": "object", "required": ["control"]}),
+            "/api/mode": _write(
+                "Switch the mode (asictl mode)",
+                {"type": "object", "required": ["mode"], "properties": {
+                    "mode": {"enum": ["protected", "configuration"]}}},
+                {"type": "object", "required": ["mode"]}),
+            "/api/store": _write(
+                "Store the actual configuration or parameters (asictl store)",
+                {"type": "object", "required": ["what"], "properties": {
+                    "what": {"enum": ["configuration", "parameters"]}}},
+                {"type": "object", "required": ["stored"]}),
+            "/api/slaves/{address}/address": _slave(_write(
+                "Give a slave another address (asictl slave address)",
+                {"type": "object", "required": ["new"],
+                 "properties": {"new": {"type": "integer", "minimum": 0, "maximum": 31}}},
+                {"type": "object", "required": ["slave", "address"]})),
+            "/api/slaves/{address}/parameter": _slave(_write(
+                "Write a slave's parameter (asictl slave parameter)",
+                {"type": "object", "required": ["value"],
+                 "properties": {"value": {"type": "integer", "minimum": 0, "maximum": 15}}},
+                {"type": "object", "required": ["slave", "parameter", "answer"]})),
         },
     }

@@ -155,7 +155,32 @@ function showSlave(n) {
   for (const [key, value] of rows) table.append(el("tr", {}, el("th", { text: key }), el("td", { text: value })));
   table.append(el("tr", {}, el("th", { text: "inputs" }), el("td", {}, bits("I", n, data.inputs))));
   table.append(el("tr", {}, el("th", { text: "outputs" }), el("td", {}, bits("Q", n, data.outputs))));
-  detail.replaceChildren(table);
+  const forms = detail.querySelector("div.forms");
+  if (forms && forms.dataset.slave === String(n)) {
+    detail.firstChild.replaceWith(table);  // the forms stay: what is typed, and the focus
+    return;
+  }
+  detail.replaceChildren(table, el("div", { class: "forms", "data-slave": String(n) },
+    slaveForm(n, "address", "New address", "Change address",
+              (v) => "Give slave " + n + " the address " + v + "?"),
+    slaveForm(n, "parameter", "Parameter (0..15)", "Write parameter",
+              (v) => "Write parameter " + v + " to slave " + n + "? The permanent one stays until stored.")));
+}
+
+function slaveForm(n, what, label, action, question) {
+  const id = "slave-" + what;
+  const field = el("input", { id, inputMode: "numeric", autocomplete: "off" });
+  const button = el("button", { type: "submit", text: action });
+  writeControl(button);
+  const form = el("form", { class: "row" },
+                  el("label", { htmlFor: id, text: label }), field, button);
+  form.addEventListener("submit", (event) => {
+    event.preventDefault();
+    const value = field.value.trim();
+    const key = what === "address" ? "new" : "value";
+    change("slaves/" + n + "/" + what, { [key]: value }, question(value));
+  });
+  return form;
 }
 
 function forcedOperands() {
@@ -399,7 +424,8 @@ function showAccess() {
   $("access-text").textContent = !s.writable ? "read-only" : s.logged_in ? "logged in: changes allowed" : "view only: log in to change";
   $("login-open").hidden = !s.writable || s.logged_in;
   $("logout").hidden = !s.logged_in;
-  for (const id of ["force-button", "write-button", "release-all", "start", "stop"]) writeControl($(id));
+  for (const id of ["force-button", "write-button", "release-all", "start", "stop", "mode-protected",
+                    "mode-configuration", "store-configuration", "store-parameters"]) writeControl($(id));
   for (const button of $("forced").querySelectorAll("button")) writeControl(button);
 }
 
@@ -447,6 +473,14 @@ function start() {
   });
   $("start").addEventListener("click", () => change("start", {}, "Start the control program on board " + state.session.board + "?"));
   $("stop").addEventListener("click", () => change("stop", {}, "Stop the control program on board " + state.session.board + "? The master goes on as a plain AS-i master."));
+  for (const mode of ["protected", "configuration"]) {
+    $("mode-" + mode).addEventListener("click", () => change("mode", { mode },
+      "Switch board " + state.session.board + " to " + mode + " mode?"));
+  }
+  $("store-configuration").addEventListener("click", () => change("store", { what: "configuration" },
+    "Store the detected slaves as the projected configuration (LPS, PCD) of board " + state.session.board + "?"));
+  $("store-parameters").addEventListener("click", () => change("store", { what: "parameters" },
+    "Store the actual parameters (PI) as the permanent ones (PP) of board " + state.session.board + "?"));
   $("program-toggle").addEventListener("click", toggleProgram);
   $("login-open").addEventListener("click", openLogin);
   $("login-form").addEventListener("submit", login);
