@@ -3,6 +3,7 @@ requests: Starlette's TestClient on a board loaded in this process."""
 
 from __future__ import annotations
 
+import base64
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -10,7 +11,7 @@ from typing import Any
 import jsonschema
 import pytest
 from starlette.testclient import TestClient
-from web_program import TOKEN, downloaded
+from web_program import PROGRAM, TOKEN, downloaded
 
 from asictl.host.boards import emulated_board
 from asictl.host.live.board import LiveBoard
@@ -220,3 +221,17 @@ def test_mode_store_and_a_slaves_address_and_parameter(board: WebBoard):
     store = web.post("/api/store", json={"what": "everything"}, headers=BEARER)
     assert store.status_code == 400
     assert store.json()["error"] == "store 'everything': configuration or parameters"
+
+
+def test_upload_answers_the_files_the_program_was_downloaded_from(
+    board: WebBoard, tmp_path: Path,
+):
+    web = client(board, writable=False)
+    document = web.get("/openapi.json").json()
+    answer = web.get("/api/upload")
+    conforms(document, "/api/upload", "get", 200, answer.json())
+    files = answer.json()["files"]
+    assert [f["name"] for f in files] == ["lamp.asi", "lamp.symbols.toml"]
+    assert files[0]["text"] == PROGRAM
+    for served in files:  # the exact bytes downloaded
+        assert base64.b64decode(served["base64"]) == (tmp_path / served["name"]).read_bytes()

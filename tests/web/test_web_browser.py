@@ -130,6 +130,8 @@ def test_the_page_shows_the_board_in_its_words_and_escapes_the_program(
     wait_for(page, lambda: "FY 12 (Answer) = 42" in program.text)
     with pytest.raises(NoAlertPresentException):
         page.switch_to.alert.text  # noqa: B018
+    page.find_element(By.ID, "upload").click()
+    wait_for(page, lambda: text(page, "program-note").startswith("Uploaded lamp.asi ("))
     page.find_element(By.ID, "program-toggle").click()
 
 

@@ -123,6 +123,9 @@ def create_app(
     async def program(request: Request) -> Response:
         return JSONResponse(board.program())
 
+    async def uploaded(request: Request) -> Response:
+        return JSONResponse(board.upload())
+
     async def lines(request: Request) -> Response:
         return JSONResponse(board.lines())
 
@@ -288,6 +291,7 @@ def create_app(
         Route("/api/operands/{name:path}", operand),
         Route("/api/program", program),
         Route("/api/program/lines", lines),
+        Route("/api/upload", uploaded),
         Route("/api/events", events),
         Route("/api/session", session),
         Route("/api/login", login, methods=["POST"]),

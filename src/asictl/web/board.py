@@ -10,6 +10,7 @@ a write is refused (exit 1) instead of waiting, so HTTP never holds up the board
 
 from __future__ import annotations
 
+import base64
 from collections.abc import Sequence
 from dataclasses import asdict
 from typing import Any
@@ -23,10 +24,12 @@ from asictl.host.live import requests
 from asictl.host.live.board import LiveBoard
 from asictl.host.live.status_reader import LiveStatus
 from asictl.host.master import JSON
+from asictl.host.program_files import uploaded_files
 from asictl.host.status import MasterStatus, operand_value
 from asictl.host.symbols import Names
-from asictl.host.transfer import set_start
+from asictl.host.transfer import set_start, upload
 from asictl.host.watch import watch_list
+from asictl.source import decode
 
 
 class LiveActions:
@@ -201,6 +204,20 @@ class WebBoard:
                 "symbol": table.name_of(row.operand) if row.operand else None,
             } for row in listing.lines],
         }
+
+    def upload(self) -> dict[str, Any]:
+        """``asictl upload``: the files it would write (their exact bytes in base64, and
+        as text), main file first, as the image names them."""
+        if self.live.in_session():
+            raise self._busy("uploading")
+        self.live.sync()
+        image = upload(self.master.transport)
+        main = next(iter(image.program_sources()), "program.asi")
+        return {"identity": image.identity_hex, "files": [
+            {"name": path.name, "text": decode(raw),
+             "base64": base64.b64encode(raw).decode("ascii")}
+            for path, raw in uploaded_files(image, main)
+        ]}
 
     def lines(self) -> JSON:
         """The program's lines in the latest cycle (observe.online, the monitor's ``v``)."""

@@ -110,6 +110,18 @@ def openapi(writable: bool) -> dict[str, Any]:
                                               "required": ["state", "note", "lines"]}),
                               **_errors("409")},
             }},
+            "/api/upload": {"get": {
+                "summary": "The files 'asictl upload' would write, main file first",
+                "responses": {"200": _answer({
+                    "type": "object", "required": ["identity", "files"], "properties": {
+                        "identity": {"type": "string"},
+                        "files": {"type": "array", "items": {
+                            "type": "object", "required": ["name", "text", "base64"],
+                            "properties": {"name": {"type": "string"},
+                                           "text": {"type": "string"},
+                                           "base64": {"type": "string"}}}}}}),
+                              **_errors("409")},
+            }},
             "/api/events": {"get": {
                 "summary": "Server-sent events: the status at every change, the watch "
                 "list's values, every symbol's value and the event log",

@@ -417,6 +417,20 @@ async function toggleProgram() {
   state.programTimer = setInterval(loadLines, 500);
 }
 
+async function saveProgram() {
+  // the main file as 'asictl upload' writes it, saved by the browser
+  const response = await fetch("/api/upload");
+  const data = await response.json();
+  if (!response.ok) { $("program-note").textContent = data.error; return; }
+  const main = data.files[0];
+  const bytes = Uint8Array.from(atob(main.base64), (c) => c.charCodeAt(0));
+  const link = el("a", { href: URL.createObjectURL(new Blob([bytes])), download: main.name });
+  link.click();
+  URL.revokeObjectURL(link.href);
+  $("program-note").textContent = "Uploaded " + main.name + " (" + data.identity + ")" +
+    (data.files.length > 1 ? "; its other files: asictl upload" : "");
+}
+
 // ---------------------------------------------------------------- access
 
 function showAccess() {
@@ -482,6 +496,7 @@ function start() {
   $("store-parameters").addEventListener("click", () => change("store", { what: "parameters" },
     "Store the actual parameters (PI) as the permanent ones (PP) of board " + state.session.board + "?"));
   $("program-toggle").addEventListener("click", toggleProgram);
+  $("upload").addEventListener("click", saveProgram);
   $("login-open").addEventListener("click", openLogin);
   $("login-form").addEventListener("submit", login);
   $("logout").addEventListener("click", async () => { await api("/api/logout"); await loadSession(); });
