@@ -10,6 +10,7 @@ from typing import Any
 
 import jsonschema
 import pytest
+from openapi_spec_validator import validate
 from starlette.testclient import TestClient
 from web_program import PROGRAM, TOKEN, downloaded
 
@@ -95,6 +96,11 @@ def test_every_path_answers_as_its_description_says(board: WebBoard):
     lines = web.get("/api/program/lines").json()
     assert lines["state"] == "running"
     assert any(line["ran"] and line["accu1"] == 42 for line in lines["lines"])
+
+
+def test_the_served_description_is_valid_openapi(board: WebBoard):
+    for writable in (False, True):
+        validate(client(board, writable=writable).get("/openapi.json").json())
 
 
 def test_the_status_has_the_keys_of_status_json(board: WebBoard):
