@@ -24,6 +24,7 @@ from selenium.common.exceptions import NoAlertPresentException, StaleElementRefe
 from selenium.webdriver.chrome.service import Service
 from selenium.webdriver.chrome.webdriver import WebDriver
 from selenium.webdriver.common.by import By
+from selenium.webdriver.common.keys import Keys
 from selenium.webdriver.support.ui import WebDriverWait
 from test_web_serve import served
 from web_program import HOSTILE, TOKEN, downloaded
@@ -117,7 +118,7 @@ def test_the_page_shows_the_board_in_its_words_and_escapes_the_program(
     assert tiles[0].get_attribute("data-state") == "active"
     assert tiles[0].get_attribute("aria-label") == "slave 1: projected, detected, active"
     assert tiles[1].get_attribute("data-state") == "empty"
-    tiles[0].click()
+    tiles[0].send_keys(Keys.ENTER)  # a tile is a button: the keyboard opens it too
     assert "I/O 0h, ID 0h" in text(page, "slave-detail")
     assert "Start = I 1.0" in text(page, "io")
     assert "Answer" in text(page, "named") and "42" in text(page, "named")
@@ -149,10 +150,15 @@ def test_a_watched_value_changes_live_when_bus_inputs_changes_an_input(
 
 
 def confirm(page: WebDriver, answer: str) -> str:
+    """Answer the confirmation: ``ok``, or ``cancel`` by the keyboard (Escape)."""
     dialog = page.find_element(By.ID, "confirm")
     wait_for(page, dialog.is_displayed)
     question = text(page, "confirm-text")
-    page.find_element(By.ID, f"confirm-{answer}").click()
+    if answer == "cancel":
+        page.switch_to.active_element.send_keys(Keys.ESCAPE)
+    else:
+        page.find_element(By.ID, "confirm-ok").click()
+    wait_for(page, lambda: not dialog.is_displayed())
     return question
 
 
