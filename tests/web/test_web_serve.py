@@ -7,19 +7,17 @@ from __future__ import annotations
 import asyncio
 import json
 import os
-import re
-import signal
 import socket
 import subprocess
 import sys
 import time
-from collections.abc import Iterator
-from contextlib import contextmanager
+from contextlib import AbstractContextManager
 from pathlib import Path
 
 import httpx
 import pytest
 from click.testing import CliRunner
+from served_live import served_live
 from web_program import TOKEN, downloaded
 
 from asictl.cli import main
@@ -33,28 +31,12 @@ def asictl(state: Path, *args: str) -> None:
     assert result.returncode == 0, (args, result.stdout, result.stderr)
 
 
-@contextmanager
-def served(state: Path, *command: str, env: dict[str, str] | None = None) -> Iterator[str]:
+def served(
+    state: Path, *command: str, env: dict[str, str] | None = None,
+) -> AbstractContextManager[str]:
     """``asictl COMMAND... --http 127.0.0.1:0`` in its own process; yields the URL."""
-    process = subprocess.Popen(
-        [sys.executable, "-m", "asictl", *command, "--http", "127.0.0.1:0"],
-        stderr=subprocess.PIPE, text=True,
-        env={**os.environ, "ASICTL_STATE_DIR": str(state), **(env or {})},
-    )
-    assert process.stderr is not None
-    try:
-        lines: list[str] = []
-        url = None
-        while url is None:
-            line = process.stderr.readline()
-            assert line, "".join(lines) + "the server ended"
-            lines.append(line)
-            found = re.search(r"web page for board \S+ at (http://\S+)", line)
-            url = found.group(1) if found else None
-        yield url
-    finally:
-        process.send_signal(signal.SIGINT)
-        assert process.wait(timeout=30) == 0
+    return served_live(state, [*command, "--http", "127.0.0.1:0"],
+                       r"web page for board \S+ at (http://\S+)", env=env)
 
 
 @pytest.mark.parametrize(("args", "env", "message"), [
