@@ -1,5 +1,6 @@
 """A program on an emulated board for the web tests: its symbols name an input and the
-output the program drives from it, and its comments are hostile HTML."""
+output the program drives from it, its comments are hostile HTML, and a flag it toggles
+every cycle keeps the page updated as fast as the server pushes."""
 
 from __future__ import annotations
 
@@ -19,6 +20,8 @@ PROGRAM = f"""\
         T   FY 12       ; {HOSTILE}
         A   I 1.0       ; the start button
         =   Q 1.0       ; the lamp follows it
+        AN  F 1.0       ; a flag that changes every cycle: the page is updated all the time
+        =   F 1.0
         BE
 """
 SYMBOLS = 'Start = "I 1.0"\nLamp = "Q 1.0"\nAnswer = "FY 12"\n'

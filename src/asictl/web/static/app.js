@@ -33,6 +33,17 @@ function loadWatch() {
 
 function saveWatch() { localStorage.setItem(WATCH_KEY, JSON.stringify(state.watch)); }
 
+// What each part was last drawn from: a part is drawn again only when that changed, so a
+// board that changes every cycle does not replace the button under a user's click.
+const drawn = new Map();
+
+function changed(part, ...data) {
+  const key = JSON.stringify(data);
+  if (drawn.get(part) === key) return false;
+  drawn.set(part, key);
+  return true;
+}
+
 function setPill(id, text, kind) {
   const pill = $(id);
   pill.textContent = text;
@@ -122,7 +133,10 @@ function renderSlaves(status) {
     tile.title = "slave " + n + ": " + words;
   }
   const selected = grid.querySelector('[aria-pressed="true"]');
-  if (selected) showSlave(Number(selected.dataset.slave));
+  const shown = selected && selected.dataset.slave;
+  if (shown && changed("slave", shown, status.slaves[shown], status.forced)) {
+    showSlave(Number(selected.dataset.slave));
+  }
 }
 
 function selectSlave(n) {
@@ -205,6 +219,7 @@ function bits(letter, slave, value) {
 }
 
 function renderIO(status) {
+  if (!changed("io", status.slaves, status.symbols, status.forced)) return;
   const body = $("io").tBodies[0];
   const rows = [];
   const numbers = Object.keys(status.slaves).map(Number).filter((n) => n >= 1).sort((a, b) => a - b);
@@ -228,6 +243,7 @@ function renderIO(status) {
 }
 
 function renderNamed(status) {
+  if (!changed("named", state.symbols, status.timers, status.counters, status.symbols)) return;
   const rows = [];
   for (const row of state.symbols) {
     if (row.error || /^[IQ] /.test(row.operand)) continue;
@@ -249,6 +265,7 @@ function renderNamed(status) {
 }
 
 function renderForced(status) {
+  if (!changed("forced", status.forced, state.session)) return;
   const rows = (status.forced || []).map((f) => {
     const label = f.symbol ? f.symbol + " (" + f.operand + ")" : f.operand;
     const release = el("button", { type: "button", text: "Release",
@@ -264,6 +281,7 @@ function renderForced(status) {
 }
 
 function renderWatch(rows) {
+  if (!changed("watch", rows, state.watch)) return;
   const body = $("watch").tBodies[0];
   const shown = state.watch.map((name, i) => {
     const row = rows[i] && rows[i].name === name ? rows[i] : { name };
