@@ -32,8 +32,9 @@ def board(tmp_path: Path) -> Iterator[WebBoard]:
         yield WebBoard(LiveBoard(pc2), "300h")
 
 
-def client(board: WebBoard, *, writable: bool = True) -> TestClient:
-    app = create_app(board, Hub(), Access(writable, TOKEN if writable else None))
+def client(board: WebBoard, *, writable: bool = True, downloads: bool = False) -> TestClient:
+    app = create_app(board, Hub(), Access(writable, TOKEN if writable else None),
+                     downloads=downloads)
     return TestClient(app, base_url="http://127.0.0.1")
 
 
@@ -241,3 +242,33 @@ def test_upload_answers_the_files_the_program_was_downloaded_from(
     assert files[0]["text"] == PROGRAM
     for served in files:  # the exact bytes downloaded
         assert base64.b64decode(served["base64"]) == (tmp_path / served["name"]).read_bytes()
+
+
+def test_a_program_is_downloaded_only_where_the_server_takes_programs(board: WebBoard):
+    source = "[SETUP]\n1: iiii, 0\n\n[PROGRAM]\n L KB 7\n T FY 12\n BE\n"
+    program = {"files": [{"name": "seven.asi", "text": source}], "start": "start"}
+    refused = client(board).post("/api/download", json=program, headers=BEARER)
+    assert refused.status_code == 403 and "--http-download" in refused.json()["error"]
+
+    web = client(board, downloads=True)
+    document = web.get("/openapi.json").json()
+    assert web.post("/api/download", json=program).status_code == 401
+    done = web.post("/api/download", json=program, headers=BEARER)
+    assert done.status_code == 200, done.text
+    conforms(document, "/api/download", "post", 200, done.json())
+    board.live.board.advance(50)
+    status = web.get("/api/status").json()
+    assert status["program"]["identity"] == done.json()["identity"]
+    assert status["flags"][12] == 7 and status["control_state"] == "running"
+    assert [f["name"] for f in web.get("/api/upload").json()["files"]] == ["seven.asi"]
+
+    broken = {"files": [{"name": "bad.asi", "text": "[PROGRAM]\n L KB 7\n T XY 12\n BE\n"}]}
+    errors = web.post("/api/download", json=broken, headers=BEARER)
+    assert errors.status_code == 409 and errors.json()["exit"] == 1
+    assert errors.json()["error"].startswith("bad.asi:3:")
+    assert "/tmp" not in errors.json()["error"]
+    for name in ("../escape.asi", ".hidden.asi", "a/b.asi", ""):
+        named = {"files": [{"name": name, "text": "[PROGRAM]\n BE\n"}]}
+        answer = web.post("/api/download", json=named, headers=BEARER)
+        assert answer.status_code == 400 and answer.json()["exit"] == 2, name
+    assert web.get("/api/status").json()["program"]["identity"] == done.json()["identity"]

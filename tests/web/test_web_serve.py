@@ -41,6 +41,8 @@ def served(
 
 @pytest.mark.parametrize(("args", "env", "message"), [
     (["--http-writable"], {}, "--http-writable without --http HOST:PORT"),
+    (["--http", "127.0.0.1:0", "--http-download"], {},
+     "--http-download needs --http-writable (and its token)"),
     (["--http", "nowhere"], {}, "--http 'nowhere': expected HOST:PORT"),
     (["--http", "127.0.0.1:0", "--http-writable"], {},
      "--http-writable needs a token: --http-token-file FILE or $ASICTL_HTTP_TOKEN"),

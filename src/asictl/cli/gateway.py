@@ -95,7 +95,7 @@ def serve(
     idle_timeout: float, frame_timeout: float, save_interval: float, opcua: str | None,
     opcua_writable: bool, opcua_user: str | None, opcua_interval: float,
     opcua_symbols: str | None, http: str | None, http_writable: bool,
-    http_token_file: str | None, http_interval: float,
+    http_download: bool, http_token_file: str | None, http_interval: float,
 ) -> None:
     """Serve the board over Modbus until Ctrl-C; its state is saved periodically and at exit.
 
@@ -145,7 +145,9 @@ def serve(
     opcua_server = opcua_attachment(
         opcua, opcua_writable, opcua_user, opcua_interval, opcua_symbols, port, _notify
     )
-    page = web_attachment(http, http_writable, http_token_file, http_interval, port, _notify)
+    page = web_attachment(
+        http, http_writable, http_download, http_token_file, http_interval, port, _notify
+    )
 
     def gateway_for(live: LiveBoard) -> tuple[Awaitable[None], Callable[[], None]]:
         slave = GatewaySlave(live.board, interface.unit, sync=live.sync, interface=interface)

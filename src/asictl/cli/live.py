@@ -56,7 +56,7 @@ def serve(
     port: str, state_dir: str | None, wait: bool, max_connections: int,
     session_timeout: float, opcua: str | None, opcua_writable: bool, opcua_user: str | None,
     opcua_interval: float, opcua_symbols: str | None, http: str | None, http_writable: bool,
-    http_token_file: str | None, http_interval: float,
+    http_download: bool, http_token_file: str | None, http_interval: float,
 ) -> None:
     """Keep the emulated board running in real time until Ctrl-C or SIGTERM.
 
@@ -99,7 +99,9 @@ def serve(
     )
     if server is not None:
         attach = together(attach, server)
-    page = web_attachment(http, http_writable, http_token_file, http_interval, name, notify)
+    page = web_attachment(
+        http, http_writable, http_download, http_token_file, http_interval, name, notify
+    )
     if page is not None:
         attach = together(attach, page)
 

@@ -29,8 +29,11 @@ def web_options(command: F) -> F:
             "(the 'web' extra; docs/web.md). Anywhere but loopback, put TLS in front.",
         ),
         click.option("--http-writable", is_flag=True,
-                     help="Let the page and API clients with the token force, write, start "
-                     "and stop [default: read-only]."),
+                     help="Let the page and API clients with the token force, write, start, "
+                     "stop, switch the mode, store, address slaves [default: read-only]."),
+        click.option("--http-download", is_flag=True,
+                     help="Also let them download programs (POST /api/download); needs "
+                     "--http-writable [default: off]."),
         click.option("--http-token-file", type=click.Path(dir_okay=False), metavar="FILE",
                      help=f"The token writes need (else ${TOKEN_ENV}); at least 16 "
                      "characters."),
@@ -58,13 +61,14 @@ def _token(token_file: str | None) -> str | None:
 
 
 def web_attachment(
-    http: str | None, writable: bool, token_file: str | None, interval: float, name: str,
-    notify: Callable[[str], None],
+    http: str | None, writable: bool, downloads: bool, token_file: str | None,
+    interval: float, name: str, notify: Callable[[str], None],
 ) -> Attachment | None:
     """The web server the options ask for (None without --http); what is wrong with them
     is said before the board is served."""
     if http is None:
         given = [flag for flag, on in (("--http-writable", writable),
+                                       ("--http-download", downloads),
                                        ("--http-token-file", token_file)) if on]
         if given:
             raise UserError(f"{', '.join(given)} without --http HOST:PORT", ExitCode.USAGE)
@@ -76,9 +80,12 @@ def web_attachment(
         from asictl.web.server import web_attachment as attachment
     except ImportError as exc:
         raise missing_extra("--http", "web", str(exc)) from None
+    if downloads and not writable:
+        raise UserError("--http-download needs --http-writable (and its token)",
+                        ExitCode.USAGE)
     token = _token(token_file)
     check_token(token, writable=writable)
-    options = WebOptions(host, port, writable, token, interval)
+    options = WebOptions(host, port, writable, token, interval, downloads)
     if not is_loopback(host):
         notify(f"warning: --http {host}:{port} serves other machines without TLS: anyone "
                "who reaches it sees the board" + (" and may try the token" if writable else "")
@@ -86,6 +93,7 @@ def web_attachment(
 
     def started(url: str) -> None:
         access = "writable with the token" if writable else "read-only"
+        access += ", takes programs" if downloads else ""
         notify(f"web page for board {name} at {url} ({access})")
 
     return attachment(options, name, started)

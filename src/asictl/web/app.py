@@ -98,11 +98,12 @@ class Secured:
 
 def create_app(
     board: WebBoard, hub: Hub, access: Access, *, loopback: bool = True,
-    refresh: Callable[[], None] | None = None,
+    refresh: Callable[[], None] | None = None, downloads: bool = False,
 ) -> Starlette:
     """The application for ``board``; ``loopback``: answer only requests addressed to
     this machine by name (a page elsewhere cannot reach it through DNS rebinding);
-    ``refresh``: read the board into ``hub`` now (the event stream's first message)."""
+    ``refresh``: read the board into ``hub`` now (the event stream's first message);
+    ``downloads``: take programs (``--http-download``)."""
 
     def read() -> None:
         if refresh is not None:
@@ -122,6 +123,24 @@ def create_app(
 
     async def program(request: Request) -> Response:
         return JSONResponse(board.program())
+
+    async def downloaded(request: Request) -> Response:
+        authorize(request)
+        if not downloads:
+            raise Refused("this web server takes no programs: start it with --http-download",
+                          403)
+        body = await _body(request)
+        files = body.get("files")
+        if not isinstance(files, list) or not files or not all(
+            isinstance(f, dict) and isinstance(f.get("name"), str)
+            and isinstance(f.get("text"), str) for f in files
+        ):
+            raise Refused("'files' must be a list of {\"name\": ..., \"text\": ...}, the "
+                          "main file first", 400, ExitCode.USAGE)
+        answer = board.download([(f["name"], f["text"]) for f in files],
+                                str(body.get("start", "keep")))
+        read()
+        return JSONResponse(answer)
 
     async def uploaded(request: Request) -> Response:
         return JSONResponse(board.upload())
@@ -292,6 +311,7 @@ def create_app(
         Route("/api/program", program),
         Route("/api/program/lines", lines),
         Route("/api/upload", uploaded),
+        Route("/api/download", downloaded, methods=["POST"]),
         Route("/api/events", events),
         Route("/api/session", session),
         Route("/api/login", login, methods=["POST"]),

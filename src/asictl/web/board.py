@@ -11,12 +11,18 @@ a write is refused (exit 1) instead of waiting, so HTTP never holds up the board
 from __future__ import annotations
 
 import base64
+import os
+import re
+import tempfile
 from collections.abc import Sequence
 from dataclasses import asdict
+from pathlib import Path
 from typing import Any
 
+from asictl.build import build_file
 from asictl.errors import ExitCode, UserError
 from asictl.host.commissioning import image_writes, write_flags
+from asictl.host.connection import cable_setup_slaves
 from asictl.host.force_list import forced_values
 from asictl.host.forcing import force, unforce
 from asictl.host.listing import listing_of
@@ -27,9 +33,12 @@ from asictl.host.master import JSON
 from asictl.host.program_files import uploaded_files
 from asictl.host.status import MasterStatus, operand_value
 from asictl.host.symbols import Names
-from asictl.host.transfer import set_start, upload
+from asictl.host.transfer import StartMode, download, linked_for, set_start, upload
 from asictl.host.watch import watch_list
 from asictl.source import decode
+
+#: The names a downloaded program's files may have (no folder, nothing hidden).
+FILE_NAME = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.-]{0,63}")
 
 
 class LiveActions:
@@ -204,6 +213,36 @@ class WebBoard:
                 "symbol": table.name_of(row.operand) if row.operand else None,
             } for row in listing.lines],
         }
+
+    def download(self, files: Sequence[tuple[str, str]], start: str) -> dict[str, Any]:
+        """``asictl download`` of ``files`` (name, text; the main file first) with the
+        start flag as ``start`` says (start, stop, keep): built as the command builds a
+        file, refused with the diagnostics ``asictl check`` shows if it has errors."""
+        self._changing("downloading")
+        try:
+            mode = StartMode(start)
+        except ValueError:
+            raise UserError(f"start '{start}': start, stop or keep", ExitCode.USAGE) from None
+        for name, _ in files:
+            if not FILE_NAME.fullmatch(name):
+                raise UserError(f"'{name[:60]}' is no plain file name (letters, digits, "
+                                "'_', '-' and '.')", ExitCode.USAGE)
+        transport = self.master.transport
+        with tempfile.TemporaryDirectory() as folder:
+            for name, text in files:
+                Path(folder, name).write_text(text, encoding="utf-8")
+            entry_points = transport.entry_points()
+            built = build_file(Path(folder, files[0][0]), entry_points=entry_points)
+            image = built.image
+            if built.has_errors or image is None:
+                raise UserError(built.render().replace(folder + os.sep, "").rstrip(),
+                                ExitCode.FAILED)
+        linked_for(image, entry_points)
+        cable_setup_slaves(self.master, image)
+        download(transport, image, start=mode)
+        self._saved()
+        return {"identity": image.identity_hex, "size": len(image.to_bytes()),
+                "control": self.master.summary()}
 
     def upload(self) -> dict[str, Any]:
         """``asictl upload``: the files it would write (their exact bytes in base64, and

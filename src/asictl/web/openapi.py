@@ -146,6 +146,15 @@ def openapi(writable: bool) -> dict[str, Any]:
                                  {"type": "object", "required": ["control"]}),
             "/api/stop": _write("Clear the start flag (asictl stop)", None,
                                 {"type": "object", "required": ["control"]}),
+            "/api/download": _write(
+                "Download a program (asictl download), only with --http-download",
+                {"type": "object", "required": ["files"], "properties": {
+                    "files": {"type": "array", "minItems": 1, "items": {
+                        "type": "object", "required": ["name", "text"],
+                        "properties": {"name": {"type": "string"},
+                                       "text": {"type": "string"}}}},
+                    "start": {"enum": ["start", "stop", "keep"]}}},
+                {"type": "object", "required": ["identity", "size", "control"]}),
             "/api/mode": _write(
                 "Switch the mode (asictl mode)",
                 {"type": "object", "required": ["mode"], "properties": {

@@ -35,6 +35,8 @@ class WebOptions:
     writable: bool = False
     token: str | None = None
     interval: float = DEFAULT_INTERVAL_S
+    #: programs may be downloaded (--http-download)
+    downloads: bool = False
 
     @property
     def url(self) -> str:
@@ -66,7 +68,8 @@ def web_attachment(
                 hub.failed(exc)
 
         app = create_app(board, hub, Access(options.writable, options.token),
-                         loopback=is_loopback(options.host), refresh=refresh)
+                         loopback=is_loopback(options.host), refresh=refresh,
+                         downloads=options.downloads)
         config = uvicorn.Config(
             app, host=options.host, port=options.port, log_config=None, access_log=False,
             lifespan="off", log_level="warning", timeout_graceful_shutdown=1,
