@@ -18,7 +18,6 @@ from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import pytest
-from conftest import require_tool
 from selenium import webdriver
 from selenium.common.exceptions import NoAlertPresentException, StaleElementReferenceException
 from selenium.webdriver.chrome.service import Service
@@ -33,10 +32,10 @@ WAIT_S = 15
 
 
 @pytest.fixture(scope="module")
-def browser() -> Iterator[WebDriver]:
-    driver_path = require_tool("chromedriver", "chromium-driver")
+def browser(chromium_paths: tuple[str, str]) -> Iterator[WebDriver]:
+    chromium, driver_path = chromium_paths
     options = webdriver.ChromeOptions()
-    options.binary_location = require_tool("chromium", "chromium")
+    options.binary_location = chromium
     for argument in ("--headless=new", "--no-sandbox", "--disable-gpu",
                      "--disable-dev-shm-usage", "--window-size=1280,900"):
         options.add_argument(argument)
