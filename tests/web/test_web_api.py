@@ -272,3 +272,20 @@ def test_a_program_is_downloaded_only_where_the_server_takes_programs(board: Web
         answer = web.post("/api/download", json=named, headers=BEARER)
         assert answer.status_code == 400 and answer.json()["exit"] == 2, name
     assert web.get("/api/status").json()["program"]["identity"] == done.json()["identity"]
+
+
+def test_while_a_command_holds_the_board_reads_answer_the_last_status_and_changes_wait(
+    board: WebBoard,
+):
+    web = client(board)
+    board.live.in_session = lambda: True
+    assert web.get("/api/status").status_code == 409  # nothing read yet
+    board.live.in_session = lambda: False
+    before = web.get("/api/status").json()
+    board.live.in_session = lambda: True
+    assert web.get("/api/status").json() == before
+    refused = web.post("/api/force", json={"assignments": ["Start=1"]}, headers=BEARER)
+    assert refused.status_code == 409 and refused.json()["exit"] == 1
+    assert "another command holds the board" in refused.json()["error"]
+    board.live.in_session = lambda: False
+    assert web.get("/api/status").json()["forced"] == []

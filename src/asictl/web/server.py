@@ -20,7 +20,7 @@ from asictl.host.live.board import LiveBoard
 from asictl.host.target import is_loopback
 from asictl.web.access import Access
 from asictl.web.app import create_app
-from asictl.web.board import WebBoard
+from asictl.web.board import Busy, WebBoard
 from asictl.web.stream import Hub
 
 DEFAULT_PORT = 8080
@@ -64,6 +64,8 @@ def web_attachment(
         def refresh() -> None:
             try:
                 hub.publish(board.status())
+            except Busy:  # a command holds the board: the last reading stands
+                pass
             except UserError as exc:  # a board that does not answer (in reset)
                 hub.failed(exc)
 
