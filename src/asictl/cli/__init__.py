@@ -100,6 +100,10 @@ COMMANDS: dict[str, tuple[str, str]] = {
         "asictl.cli.diff:diff",
         "Compare two versions of a program network by network; --equivalent proves it.",
     ),
+    "export": (
+        "asictl.cli.export:export",
+        "Export a program to S7 STL (AWL) for the PLC that replaces the master; --check.",
+    ),
     "fleet": (
         "asictl.cli.fleet:fleet", "A plant's masters at once: back up into git, verify, status."
     ),
