@@ -133,17 +133,24 @@ class _Translator:
         #: True while S7's RLO holds the IL register in an open logic string (/FC = 1);
         #: False when the RLO bit of DB 1 holds it and /FC is 0
         self.open = False
+        #: True while S7's RLO holds the register though the string is closed (after
+        #: ``= RLO``, =, S and R, until something changes S7's RLO or a jump lands)
+        self.rlo_held = False
         self.labels = {key(s.name): export.label() for s in scope.statements
                        if isinstance(s, ast.Label)}
 
     def emit(self, op: str, operand: str = "", comment: str = "", label: str = "") -> None:
         self.lines.append(Line(op, operand, label, comment))
+        if label or op not in _KEEP_RLO:
+            self.rlo_held = False
+
 
     def close(self) -> None:
         """End an open logic string: the register back into DB 1, /FC 0."""
         if self.open:
             self.emit("=", at.RLO)
             self.open = False
+            self.rlo_held = True
 
     def register(self) -> None:
         """S7's RLO := the IL register, whatever state the last line left."""
@@ -323,10 +330,12 @@ class _Translator:
             return
         if self.open:
             self.close()  # S7's RLO still holds the register
-        else:
+        elif not self.rlo_held:
             self.emit("A", at.RLO)
+            self.open = False
+            self.rlo_held = True
         self.emit(op.value, self.export.layout.bit(operand))
-        self.open = False  # =, S, R leave /FC 0
+        self.open = False  # =, S, R leave /FC 0 and S7's RLO as it was
 
     def load(self, operand: ast.Operand) -> None:
         self.close()
@@ -431,6 +440,10 @@ class _Translator:
         self.emit("+I" if up else "-I")
         self.write_word(counter)
 
+
+#: What leaves S7's RLO alone (the accumulator and word operations, =, S, R).
+_KEEP_RLO = frozenset({"=", "S", "R", "L", "T", "TAK", "AW", "OW", "SLW", "SRW", "+I", "-I",
+                       "+D", "-D", "/D", "MOD", ""})
 
 _COMPARE = {
     ast.CompareOp.EQ: "==I", ast.CompareOp.NE: "<>I", ast.CompareOp.GT: ">I",

@@ -91,9 +91,16 @@ class Awlsim:
             )
         except OSError as exc:
             raise UserError(f"{python}: cannot run: {exc.strerror or exc}") from None
+        try:
+            self.load(awl)
+        except UserError:
+            self.close()
+            raise
+
+    def load(self, awl: str) -> None:
+        """Hold this program from now on (the process stays: a load is much quicker)."""
         answer = self._ask({"load": awl})
         if "error" in answer:
-            self.close()
             raise UserError(f"awlsim refuses the exported AWL:\n{answer['error']}")
 
     def _ask(self, request: dict[str, object]) -> dict[str, object]:
