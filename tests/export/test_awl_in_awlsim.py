@@ -16,6 +16,7 @@ from asictl.build import build_file
 from asictl.errors import UserError
 from asictl.export.awl import export_awl
 from asictl.export.check import Awlsim, Checker, Cycle, awlsim_python, generated_runs, scenario_run
+from asictl.observe.symbols import SymbolTable
 from asictl.sim.session import prepare
 
 DEMOS = Path(__file__).parents[2] / "demos"
@@ -109,3 +110,17 @@ def test_a_thousand_generated_sequences(name: str) -> None:
         checker = _checker(awlsim, path)
         for label, run in generated_runs(1000, seed=1):
             assert checker.compare(label, run) is None
+
+
+@needs_awlsim
+def test_awlsim_reads_the_symbol_table() -> None:
+    path = DEMOS / "fb.asi"
+    program = build_file(path).program
+    assert program is not None
+    exported = export_awl(path.name, program)
+    table = exported.symbol_table(SymbolTable("t", {"start": ("Start", "I 1.0")}))
+    assert PYTHON is not None
+    with Awlsim(exported.render(), PYTHON, table):
+        pass
+    with pytest.raises(UserError, match="awlsim refuses"):
+        Awlsim(exported.render(), PYTHON, table + '"Start";"I 0.5";"BOOL";"twice"\n')

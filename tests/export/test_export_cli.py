@@ -95,3 +95,14 @@ def test_a_missing_folder_writes_nothing(tmp_path: Path) -> None:
     assert result.exit_code == 2
     assert "cannot write" in result.stderr
     assert not out.parent.exists()
+
+
+def test_the_programs_names_go_into_the_map_and_the_symbol_table(tmp_path: Path) -> None:
+    source = _demo(tmp_path, "fb.asi")
+    (tmp_path / "fb.symbols.toml").write_text('Start = "I 1.0"\nLamp = "Q 2.0"\n')
+    CliRunner().invoke(main, ["export", str(source), "--to", "awl"])
+    operands = json.loads((tmp_path / "fb.map.json").read_text())["operands"]
+    assert operands["Start"] == operands["I 1.0"] == "I 0.4"
+    rows = (tmp_path / "fb.sym.csv").read_text().splitlines()
+    assert '"Latch";"FC 1";"FC 1";"function block Latch"' in rows
+    assert '"Lamp";"Q 1.0";"BOOL";"Q 2.0"' in rows

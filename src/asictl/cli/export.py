@@ -47,7 +47,8 @@ def export(source: str, to: str, output: str | None, check: bool, sequences: int
 
     Writes OB 1 with the program, an FC per function block, OB 100 and the data blocks,
     and beside it OUT.map.json: every input, output and flag the program uses, as
-    written in IL, with its S7 address. Timers keep the master's 10 ms tick exactly
+    written in IL (and by symbol), with its S7 address; and OUT.sym.csv, the symbol
+    table in awlsim's CSV form. Timers keep the master's 10 ms tick exactly
     (at cycle times that are multiples of 10 ms). What has no S7 equivalent (the
     master's firmware blocks, PARAM, [ASSEMBLY] lines) is listed on standard error as
     FILE:LINE: ... and marked TODO in the code. The files are written whole or not at
@@ -63,6 +64,7 @@ def export(source: str, to: str, output: str | None, check: bool, sequences: int
     """
     from asictl.build import build_file
     from asictl.export.awl import export_awl
+    from asictl.observe.symbols import symbols_for
 
     ctx = click.get_current_context()
     built = build_file(source, lib=lib)
@@ -76,13 +78,18 @@ def export(source: str, to: str, output: str | None, check: bool, sequences: int
     if target == "-":
         write_stdout(text)
     else:
+        symbols = symbols_for(source)
         the_map = str(Path(target).with_suffix(".map.json"))
-        for path in (target, the_map):
+        table = str(Path(target).with_suffix(".sym.csv"))
+        for path in (target, the_map, table):
             refuse_inputs(path, [source, *program.sources])
-        operands = json.dumps({"operands": exported.operands}, indent=2) + "\n"
-        write_together([(target, text), (the_map, operands)])
+        named = {name: exported.operands[operand] for name, operand in symbols.entries.values()
+                 if operand in exported.operands}
+        operands = json.dumps({"operands": {**exported.operands, **named}}, indent=2) + "\n"
+        write_together([(target, text), (the_map, operands),
+                        (table, exported.symbol_table(symbols))])
         click.echo(f"{target}: {len(exported.blocks)} blocks; {the_map}: "
-                   f"{len(exported.operands)} operands", err=True)
+                   f"{len(exported.operands)} operands; {table}", err=True)
     for left in exported.unfinished:
         click.echo(f"{left}: left for a person", err=True)
     failed = bool(exported.unfinished)
@@ -96,6 +103,7 @@ def _check(source: str, program: Program, exported: AwlProgram, sequences: int, 
            python: str | None) -> bool:
     """Run the checks, a line each; True when awlsim and the master agreed throughout."""
     from asictl.export.check import Awlsim, Checker, awlsim_python, generated_runs, scenario_run
+    from asictl.observe.symbols import symbols_for
     from asictl.sim.session import Invalid, prepare
 
     runs = []
@@ -110,7 +118,8 @@ def _check(source: str, program: Program, exported: AwlProgram, sequences: int, 
     runs.append((f"{sequences} generated input sequences (seed {seed})",
                  list(generated_runs(sequences, seed))))
     agreed = True
-    with Awlsim(exported.render(), awlsim_python(python)) as awlsim:
+    symbols = exported.symbol_table(symbols_for(source))
+    with Awlsim(exported.render(), awlsim_python(python), symbols) as awlsim:
         checker = Checker(program, exported, awlsim)
         for title, named in runs:
             cycles = 0

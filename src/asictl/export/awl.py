@@ -39,6 +39,7 @@ from asictl.il.ast import key
 from asictl.il.language import PARAM_FLAG, TC_MAX_VALUE
 from asictl.il.loader import Program
 from asictl.il.oracle import Scope, scope_of
+from asictl.observe.symbols import SymbolTable
 
 K = ast.OperandKind
 
@@ -108,9 +109,28 @@ class AwlProgram:
     layout: Layout
     #: the IL operand as written -> its S7 address, every bit and byte the program uses
     operands: dict[str, str]
-    #: key(function block name) -> its FC number
-    functions: dict[str, int]
+    #: function block name as declared -> its FC number
+    function_names: dict[str, int]
     unfinished: list[Unfinished]
+
+    def symbol_table(self, symbols: SymbolTable) -> str:
+        """The symbol table in awlsim's CSV form (name; address; type; comment): the
+        function blocks' names for their FCs, the data blocks, and each name of the
+        program's symbol table whose operand the program uses."""
+        rows = [(shown, f"FC {n}", f"FC {n}", f"function block {shown}")
+                for shown, n in self.function_names.items()]
+        rows += [("IL_MACHINE", f"DB {at.STATE_DB}", f"DB {at.STATE_DB}",
+                  "register, accumulators, constant register, clock, I2, PSeg"),
+                 ("IL_TIMERS", f"DB {at.TIMER_DB}", f"DB {at.TIMER_DB}",
+                  "remaining 10 ms ticks"),
+                 ("IL_COUNTERS", f"DB {at.COUNTER_DB}", f"DB {at.COUNTER_DB}", "counts"),
+                 ("IL_VARIABLES", f"DB {at.VARIABLE_DB}", f"DB {at.VARIABLE_DB}",
+                  "the declared variables")]
+        for name, operand in symbols.entries.values():
+            address = self.operands.get(operand)
+            if address is not None and not address.startswith("DB"):
+                rows.append((name, address, _TYPES[address.split()[0]], operand))
+        return "".join(";".join(f'"{cell}"' for cell in row) + "\n" for row in rows)
 
     def render(self) -> str:
         head = [f"// {self.name}: exported by asictl from AS-i Control IL (docs/migrate.md)"]
@@ -480,10 +500,8 @@ def export_awl(name: str, program: Program) -> AwlProgram:
     functions = []
     for block_name, module in program.blocks.items():
         body = _Translator(export, scope_of(module), main=False).translate()
-        decl = program.fb_decls.get(block_name)
-        shown = decl.name if decl is not None else block_name
         functions.append(Block("FUNCTION", f"FC {export.functions[block_name]}",
-                               f"function block {shown}", body))
+                               f"function block {_declared(program, block_name)}", body))
     main = _Translator(export, scope_of(program.main), main=True).translate()
     ob1 = Block("ORGANIZATION_BLOCK", "OB 1", "the program cycle",
                 [*_cycle_start(export), *main, *_cycle_end(export)],
@@ -500,9 +518,20 @@ def export_awl(name: str, program: Program) -> AwlProgram:
         Block("DATA_BLOCK", f"DB {at.VARIABLE_DB}", "the declared variables",
               size=export.layout.variable_bytes),
     ]
+    names = {_declared(program, block): n for block, n in export.functions.items()}
     return AwlProgram(name, [*data, *functions, ob100, ob1], export.layout,
-                      dict(_operands(program, export.layout)), export.functions,
-                      export.unfinished)
+                      dict(_operands(program, export.layout)), names, export.unfinished)
+
+
+def _declared(program: Program, block: str) -> str:
+    """A function block's name as its declaration writes it."""
+    decl = program.fb_decls.get(block)
+    return decl.name if decl is not None else block
+
+
+#: The S7 type of an address, by its area.
+_TYPES = {"I": "BOOL", "Q": "BOOL", "M": "BOOL", "IB": "BYTE", "QB": "BYTE", "MB": "BYTE",
+          "MW": "WORD"}
 
 
 def _startup() -> Iterator[Line]:

@@ -4,8 +4,9 @@ This file is run by the Python that has awlsim installed (its own venv), as a sc
 it imports nothing of asictl. It reads one JSON request a line on standard input and
 answers each with one JSON line:
 
-* ``{"load": AWL}``: parse and build the program (English mnemonics); ``{"ok": true}``
-  or ``{"error": text}``.
+* ``{"load": AWL, "symbols": CSV}``: parse and build the program (English mnemonics)
+  with its symbol table (awlsim's CSV form, may be empty); ``{"ok": true}`` or
+  ``{"error": text}``.
 * ``{"run": [[clock_ms, inputs_hex, {flag: value}], ...], "read": [[area, offset,
   length], ...]}``: a cold start (every memory zero, OB 100), then one OB 1 per entry:
   SFC 64's clock set to ``clock_ms`` past the start, the host's flag writes applied,
@@ -23,7 +24,7 @@ from typing import Any
 # isort: off
 # in this order: awlsim's compiler imports half-initialised core modules otherwise
 from awlsim_loader.common import AwlSimError, Project, S7CPUConfig  # type: ignore[import-not-found]
-from awlsim_loader.core import AwlSim  # type: ignore[import-not-found]
+from awlsim_loader.core import AwlSim, SymTabParser  # type: ignore[import-not-found]
 from awlsim_loader.awlcompiler import AwlParser  # type: ignore[import-not-found]
 # isort: on
 
@@ -31,7 +32,7 @@ _START_MS = 0x7FFFFFFF - 200
 
 
 class Machine:
-    def __init__(self, awl: str) -> None:
+    def __init__(self, awl: str, symbols: str) -> None:
         project = Project.fromProjectOrRawAwlData(awl.encode("utf-8"))
         parser = AwlParser()
         parser.parseSource(project.getAwlSources()[0])
@@ -39,6 +40,9 @@ class Machine:
         self.sim.reset()
         self.cpu = self.sim.getCPU()
         self.cpu.getConf().setConfiguredMnemonics(S7CPUConfig.MNEMONICS_EN)
+        if symbols:
+            self.sim.loadSymbolTable(SymTabParser.parseText(
+                symbols, autodetectFormat=True, mnemonics=S7CPUConfig.MNEMONICS_EN))
         self.sim.load(parser.getParseTree())
         self.sim.build()
         self.clock_ms = 0
@@ -89,7 +93,7 @@ def main() -> None:
         answer: dict[str, object]
         try:
             if "load" in request:
-                machine = Machine(request["load"])
+                machine = Machine(request["load"], request.get("symbols", ""))
                 answer = {"ok": True}
             elif machine is None:
                 answer = {"error": "no program loaded"}

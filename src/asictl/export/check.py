@@ -83,7 +83,8 @@ def awlsim_python(explicit: str | None = None) -> str:
 class Awlsim:
     """awlsim in a subprocess, holding one program."""
 
-    def __init__(self, awl: str, python: str) -> None:
+    def __init__(self, awl: str, python: str, symbols: str = "") -> None:
+        """``symbols``: a symbol table (awlsim's CSV) to load with the program."""
         try:
             self.process = subprocess.Popen(
                 [python, str(_DRIVER)], stdin=subprocess.PIPE, stdout=subprocess.PIPE,
@@ -92,14 +93,14 @@ class Awlsim:
         except OSError as exc:
             raise UserError(f"{python}: cannot run: {exc.strerror or exc}") from None
         try:
-            self.load(awl)
+            self.load(awl, symbols)
         except UserError:
             self.close()
             raise
 
-    def load(self, awl: str) -> None:
+    def load(self, awl: str, symbols: str = "") -> None:
         """Hold this program from now on (the process stays: a load is much quicker)."""
-        answer = self._ask({"load": awl})
+        answer = self._ask({"load": awl, "symbols": symbols})
         if "error" in answer:
             raise UserError(f"awlsim refuses the exported AWL:\n{answer['error']}")
 
