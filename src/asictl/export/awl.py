@@ -33,6 +33,7 @@ from dataclasses import dataclass, field
 from typing import assert_never
 
 from asictl.export import layout as at
+from asictl.export.gaps import Unfinished, gap, il_comment, unfinished
 from asictl.export.layout import Layout, layout_of
 from asictl.il import ast
 from asictl.il.ast import key
@@ -86,18 +87,6 @@ class Block:
         out += [line.render() for line in self.lines]
         out.append(f"END_{self.kind}")
         return "\n".join(out)
-
-
-@dataclass(frozen=True)
-class Unfinished:
-    """A construct without an S7 equivalent: left for a person, with its source place."""
-
-    file: str
-    line: int
-    what: str
-
-    def __str__(self) -> str:
-        return f"{self.file}:{self.line}: {self.what}"
 
 
 @dataclass
@@ -180,11 +169,18 @@ class _Translator:
 
     def translate(self) -> list[Line]:
         for index, statement in enumerate(self.scope.statements):
-            span = statement.span
-            source = statement.to_source() if not isinstance(statement, ast.SegmentEnd) else ""
+            source = il_comment(statement)
             if source:
-                where = f"{span.file}:{span.line}" if span else ""
-                self.emit("", comment=f"{where}: {source}".strip(": "))
+                self.emit("", comment=source)
+            why = gap(statement, set(self.export.functions))
+            if why is not None and not isinstance(statement, ast.GatingLine):
+                self.close()
+                self.export.unfinished.append(unfinished(statement, why, self.export.name))
+                self.emit("", comment=f"{TODO}: finish by hand: {statement.to_source()}")
+                self.emit("NOP", "0")
+                if isinstance(statement, ast.Param):
+                    self.param()
+                continue
             self.statement(statement, index)
         self.close()
         return self.lines
@@ -243,13 +239,9 @@ class _Translator:
                     self.emit("A", at.RLO)
                 self.emit("JC" if conditional else "JU", self.labels[key(label)])
             case ast.CallFB(conditional=conditional, name=name):
-                self.call(statement, conditional, name)
-            case ast.Param():
-                self.close()
-                self.leave(statement, "PARAM sends a parameter to a slave through the AS-i "
-                                      "master: no S7 equivalent (use the AS-i master's own "
-                                      "interface, e.g. ASI_CTRL)")
-                self.param()
+                self.call(conditional, name)
+            case ast.Param() | ast.Asm():
+                raise AssertionError(f"{statement.to_source()} is left for a person")
             case ast.GatingLine(target=target, terms=terms):
                 for n, term in enumerate(terms):
                     op = (ast.LogicOp.O if term.op is ast.GatingOp.OR else ast.LogicOp.A)
@@ -257,18 +249,8 @@ class _Translator:
                         op = ast.LogicOp.ON if op is ast.LogicOp.O else ast.LogicOp.AN
                     self.logic(op, term.operand, first=n == 0)
                 self.store(ast.StoreOp.ASSIGN, target)
-            case ast.Asm():
-                self.close()
-                self.leave(statement, "an [ASSEMBLY] line is 8051 code: no S7 equivalent")
             case _:
                 assert_never(statement)
-
-    def leave(self, statement: ast.Statement, why: str) -> None:
-        span = statement.span
-        file, line = (span.file, span.line) if span else (self.export.name, 0)
-        self.export.unfinished.append(Unfinished(file, line, f"{statement.to_source()}: {why}"))
-        self.emit("", comment=f"{TODO}: finish by hand: {statement.to_source()}")
-        self.emit("NOP", "0")
 
     def param(self) -> None:
         """What PARAM does around the send, which is left for a person: the slave and the
@@ -301,13 +283,9 @@ class _Translator:
         self.emit("T", f"MB {PARAM_FLAG}", label=store)
         self.emit("NOP", "0", label=skip)
 
-    def call(self, statement: ast.CallFB, conditional: bool, name: str) -> None:
+    def call(self, conditional: bool, name: str) -> None:
         self.close()
-        number = self.export.functions.get(key(name))
-        if number is None:
-            self.leave(statement, f"the firmware block {name} talks to the AS-i master: no "
-                                  "S7 equivalent (use the AS-i master's own interface)")
-            return
+        number = self.export.functions[key(name)]
         skip = self.export.label() if conditional else ""
         if conditional:
             self.emit("A", at.RLO)
