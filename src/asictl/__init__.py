@@ -57,7 +57,7 @@ LAYERS: tuple[tuple[tuple[str, str], ...], ...] = (
         ("testing", "the Python test API: a program on an emulated master, from code"),
         ("quality", "how good the tests are: mutants of programs against their scenarios"),
         ("prove", "properties proved on the symbolic cycle; two programs compared"),
-        ("export", "the program as S7 STL (AWL) for another PLC, checked in awlsim"),
+        ("export", "the program as S7 STL (AWL) or Structured Text for another PLC, checked"),
     ),
     (("dap", "the debug adapter for editors: the Debug Adapter Protocol over debug/"),),
     (

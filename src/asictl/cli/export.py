@@ -15,24 +15,28 @@ from asictl.errors import ExitCode, UserError
 from asictl.files import refuse_inputs, write_stdout, write_together
 
 if TYPE_CHECKING:
+    from collections.abc import Sequence
+
     from asictl.export.awl import AwlProgram
+    from asictl.export.gaps import Unfinished
     from asictl.il.loader import Program
 
 #: The formats, as --to names them.
-FORMATS = ("awl",)
+FORMATS = ("awl", "st")
 
 
 @click.command("export")
 @click.argument("source", metavar="FILE.asi")
 @click.option("--to", "to", required=True, type=click.Choice(FORMATS),
-              help="The language to export to: awl (S7 STL, as awlsim runs it).")
+              help="The language: awl (S7 STL, as awlsim runs it) or st (IEC 61131-3 "
+                   "Structured Text).")
 @click.option("-o", "--output", type=click.Path(dir_okay=False),
-              help="Write here [default: FILE.awl beside the source]; - for stdout "
-                   "(then without the map file).")
+              help="Write here [default: FILE.awl or FILE.st beside the source]; - for "
+                   "stdout (then without the map and symbol files).")
 @click.option("--check", is_flag=True,
-              help="Run the AWL in awlsim against the scenario FILE.scenario.toml (if there "
+              help="awl: run it in awlsim against the scenario FILE.scenario.toml (if there "
                    "is one) and generated input sequences, cycle by cycle beside the "
-                   "master's semantics.")
+                   "master's semantics; st: parse it with blark.")
 @click.option("--sequences", type=click.IntRange(0), default=1000, show_default=True,
               help="How many generated input sequences --check runs.")
 @click.option("--seed", type=int, default=1, show_default=True,
@@ -40,22 +44,29 @@ FORMATS = ("awl",)
 @click.option("--awlsim-python", metavar="PYTHON",
               help="The Python with awlsim 0.77.1 [default: $ASICTL_AWLSIM_PYTHON, else the "
                    "one beside awlsim-test on PATH].")
+@click.option("--blark", metavar="PROGRAM",
+              help="blark 0.8.3's script [default: $ASICTL_BLARK, else blark on PATH].")
 @lib_option
 def export(source: str, to: str, output: str | None, check: bool, sequences: int,
-           seed: int, awlsim_python: str | None, lib: tuple[str, ...]) -> None:
-    """Export the IL program FILE.asi to S7 STL (AWL) for the PLC that replaces the master.
+           seed: int, awlsim_python: str | None, blark: str | None,
+           lib: tuple[str, ...]) -> None:
+    """Export the IL program FILE.asi for the PLC that replaces the master: S7 STL (AWL)
+    or IEC 61131-3 Structured Text (ST).
 
-    Writes OB 1 with the program, an FC per function block, OB 100 and the data blocks,
+    awl: OB 1 with the program, an FC per function block, OB 100 and the data blocks,
     and beside it OUT.map.json: every input, output and flag the program uses, as
     written in IL (and by symbol), with its S7 address; and OUT.sym.csv, the symbol
-    table in awlsim's CSV form. Timers keep the master's 10 ms tick exactly
-    (at cycle times that are multiples of 10 ms). What has no S7 equivalent (the
-    master's firmware blocks, PARAM, [ASSEMBLY] lines) is listed on standard error as
-    FILE:LINE: ... and marked TODO in the code. The files are written whole or not at
-    all. A program with errors is refused, as compile refuses it.
+    table in awlsim's CSV form. st: one PROGRAM and a FUNCTION_BLOCK per function block,
+    the operands as located variables named by the program's symbols, each IL line as a
+    comment above what it became. Timers keep the master's 10 ms tick exactly (at cycle
+    times that are multiples of 10 ms). What has no equivalent (the master's firmware
+    blocks, PARAM, [ASSEMBLY] lines) is listed on standard error as FILE:LINE: ... and
+    marked TODO in the code. The files are written whole or not at all. A program with
+    errors is refused, as compile refuses it.
 
-    --check runs the result in awlsim (an S7 simulator, installed apart, see
-    docs/migrate.md) beside asictl's own semantics and names the first difference.
+    --check runs the AWL in awlsim (an S7 simulator, installed apart, see
+    docs/migrate.md) beside asictl's own semantics and names the first difference; for
+    ST it parses the result with blark.
 
     Exit status: 0 exported (and checked: no difference), 1 errors in the program,
     something left for a person, or a difference, 2 bad usage or an unreadable file.
@@ -63,8 +74,6 @@ def export(source: str, to: str, output: str | None, check: bool, sequences: int
     Example: asictl export demos/sequence.asi --to awl --check
     """
     from asictl.build import build_file
-    from asictl.export.awl import export_awl
-    from asictl.observe.symbols import symbols_for
 
     ctx = click.get_current_context()
     built = build_file(source, lib=lib)
@@ -72,9 +81,24 @@ def export(source: str, to: str, output: str | None, check: bool, sequences: int
     if built.has_errors or built.program is None or built.image is None:
         ctx.exit(int(ExitCode.FAILED))
     program = built.program
-    exported = export_awl(Path(built.name).name, program)
+    target = output or str(Path(source).with_suffix(f".{to}"))
+    if to == "st":
+        failed = _export_st(source, program, target, built.name, check, blark)
+    else:
+        failed = _export_awl(source, program, target, built.name, check,
+                             (sequences, seed, awlsim_python))
+    if failed:
+        ctx.exit(int(ExitCode.FAILED))
+
+
+def _export_awl(source: str, program: Program, target: str, name: str, check: bool,
+                campaign: tuple[int, int, str | None]) -> bool:
+    """Write the AWL, its map and its symbol table; True when something failed."""
+    from asictl.export.awl import export_awl
+    from asictl.observe.symbols import symbols_for
+
+    exported = export_awl(Path(name).name, program)
     text = exported.render()
-    target = output or str(Path(source).with_suffix(".awl"))
     if target == "-":
         write_stdout(text)
     else:
@@ -90,13 +114,39 @@ def export(source: str, to: str, output: str | None, check: bool, sequences: int
                         (table, exported.symbol_table(symbols))])
         click.echo(f"{target}: {len(exported.blocks)} blocks; {the_map}: "
                    f"{len(exported.operands)} operands; {table}", err=True)
-    for left in exported.unfinished:
-        click.echo(f"{left}: left for a person", err=True)
-    failed = bool(exported.unfinished)
+    _report(exported.unfinished)
+    agreed = _check(source, program, exported, *campaign) if check else True
+    return bool(exported.unfinished) or not agreed
+
+
+def _export_st(source: str, program: Program, target: str, name: str, check: bool,
+               blark: str | None) -> bool:
+    """Write the Structured Text; True when something failed."""
+    from asictl.export.check import blark_parse
+    from asictl.export.st import export_st
+    from asictl.observe.symbols import symbols_for
+
+    exported = export_st(Path(name).name, program, symbols_for(source))
+    text = exported.render()
+    if target == "-":
+        write_stdout(text)
+    else:
+        refuse_inputs(target, [source, *program.sources])
+        write_together([(target, text)])
+        click.echo(f"{target}: {len(exported.pous)} POUs, {len(exported.variables)} located "
+                   "variables", err=True)
+    _report(exported.unfinished)
+    complaint = blark_parse(text, blark) if check else None
     if check:
-        failed = not _check(source, program, exported, sequences, seed, awlsim_python) or failed
-    if failed:
-        ctx.exit(int(ExitCode.FAILED))
+        click.echo(f"blark: {'does not parse' if complaint else 'parses'} the Structured Text")
+    if complaint:
+        click.echo(complaint, err=True)
+    return bool(exported.unfinished) or complaint is not None
+
+
+def _report(unfinished: Sequence[Unfinished]) -> None:
+    for left in unfinished:
+        click.echo(f"{left}: left for a person", err=True)
 
 
 def _check(source: str, program: Program, exported: AwlProgram, sequences: int, seed: int,

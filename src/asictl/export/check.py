@@ -21,6 +21,7 @@ import os
 import random
 import shutil
 import subprocess
+import tempfile
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -35,8 +36,9 @@ from asictl.platform.master import TICK_US
 from asictl.sim.engine import Simulation
 from asictl.sim.session import Prepared
 
-#: Where the check finds awlsim's Python.
+#: Where the check finds awlsim's Python, and blark.
 PYTHON_VARIABLE = "ASICTL_AWLSIM_PYTHON"
+BLARK_VARIABLE = "ASICTL_BLARK"
 _DRIVER = Path(__file__).with_name("awlsim_driver.py")
 _FLAGS = 128
 
@@ -78,6 +80,24 @@ def awlsim_python(explicit: str | None = None) -> str:
             return str(beside)
     raise UserError(f"awlsim not found: install awlsim 0.77.1 (e.g. in a venv) and set "
                     f"{PYTHON_VARIABLE} to its python, or put its awlsim-test on PATH")
+
+
+def blark_parse(text: str, blark: str | None = None) -> str | None:
+    """Parse Structured Text with blark (an independent IEC 61131-3 parser, found through
+    ``ASICTL_BLARK`` or on PATH): None when it parses, else blark's complaint."""
+    program = blark or os.environ.get(BLARK_VARIABLE) or shutil.which("blark")
+    if program is None:
+        raise UserError(f"blark not found: install blark 0.8.3 (e.g. in a venv) and set "
+                        f"{BLARK_VARIABLE} to its blark script, or put it on PATH")
+    with tempfile.TemporaryDirectory() as folder:
+        path = Path(folder) / "export.st"
+        path.write_text(text, encoding="utf-8")
+        try:
+            done = subprocess.run([program, "parse", str(path)], capture_output=True,
+                                  text=True, check=False)
+        except OSError as exc:
+            raise UserError(f"{program}: cannot run: {exc.strerror or exc}") from None
+    return None if done.returncode == 0 else (done.stdout + done.stderr).strip()
 
 
 class Awlsim:
