@@ -57,7 +57,7 @@ LAYERS: tuple[tuple[tuple[str, str], ...], ...] = (
         ("testing", "the Python test API: a program on an emulated master, from code"),
         ("quality", "how good the tests are: mutants of programs against their scenarios"),
         ("prove", "properties proved on the symbolic cycle; two programs compared"),
-        ("export", "the program as S7 STL (AWL) or Structured Text for another PLC, checked"),
+        ("export", "the program as S7 STL, Structured Text or PLCopen XML for another PLC"),
     ),
     (("dap", "the debug adapter for editors: the Debug Adapter Protocol over debug/"),),
     (

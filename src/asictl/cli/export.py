@@ -22,21 +22,24 @@ if TYPE_CHECKING:
     from asictl.il.loader import Program
 
 #: The formats, as --to names them.
-FORMATS = ("awl", "st")
+FORMATS = ("awl", "st", "plcopen")
+#: The file name ending of each format's output.
+_SUFFIX = {"awl": ".awl", "st": ".st", "plcopen": ".xml"}
 
 
 @click.command("export")
 @click.argument("source", metavar="FILE.asi")
 @click.option("--to", "to", required=True, type=click.Choice(FORMATS),
-              help="The language: awl (S7 STL, as awlsim runs it) or st (IEC 61131-3 "
-                   "Structured Text).")
+              help="The language: awl (S7 STL, as awlsim runs it), st (IEC 61131-3 "
+                   "Structured Text) or plcopen (the same as PLCopen TC6 XML).")
 @click.option("-o", "--output", type=click.Path(dir_okay=False),
-              help="Write here [default: FILE.awl or FILE.st beside the source]; - for "
+              help="Write here [default: FILE.awl, FILE.st or FILE.xml beside the source]; - for "
                    "stdout (then without the map and symbol files).")
 @click.option("--check", is_flag=True,
               help="awl: run it in awlsim against the scenario FILE.scenario.toml (if there "
                    "is one) and generated input sequences, cycle by cycle beside the "
-                   "master's semantics; st: parse it with blark.")
+                   "master's semantics; st: parse it with blark; plcopen: validate it against "
+                   "the TC6 schema ($ASICTL_TC6_XSD).")
 @click.option("--sequences", type=click.IntRange(0), default=1000, show_default=True,
               help="How many generated input sequences --check runs.")
 @click.option("--seed", type=int, default=1, show_default=True,
@@ -50,23 +53,26 @@ FORMATS = ("awl", "st")
 def export(source: str, to: str, output: str | None, check: bool, sequences: int,
            seed: int, awlsim_python: str | None, blark: str | None,
            lib: tuple[str, ...]) -> None:
-    """Export the IL program FILE.asi for the PLC that replaces the master: S7 STL (AWL)
-    or IEC 61131-3 Structured Text (ST).
+    """Export the IL program FILE.asi for the PLC that replaces the master: S7 STL (AWL),
+    IEC 61131-3 Structured Text (ST) or the same as PLCopen TC6 XML.
 
     awl: OB 1 with the program, an FC per function block, OB 100 and the data blocks,
     and beside it OUT.map.json: every input, output and flag the program uses, as
     written in IL (and by symbol), with its S7 address; and OUT.sym.csv, the symbol
     table in awlsim's CSV form. st: one PROGRAM and a FUNCTION_BLOCK per function block,
     the operands as located variables named by the program's symbols, each IL line as a
-    comment above what it became. Timers keep the master's 10 ms tick exactly (at cycle
-    times that are multiples of 10 ms). What has no equivalent (the master's firmware
-    blocks, PARAM, [ASSEMBLY] lines) is listed on standard error as FILE:LINE: ... and
-    marked TODO in the code. The files are written whole or not at all. A program with
-    errors is refused, as compile refuses it.
+    comment above what it became. plcopen: those POUs in PLCopen TC6 XML 2.01.
+
+    Timers keep the master's 10 ms tick exactly (at cycle times that are multiples of
+    10 ms). What has no equivalent (the master's firmware blocks, PARAM, [ASSEMBLY]
+    lines) is listed on standard error as FILE:LINE: ... and marked TODO in the code.
+    The files are written whole or not at all. A program with errors is refused, as
+    compile refuses it.
 
     --check runs the AWL in awlsim (an S7 simulator, installed apart, see
     docs/migrate.md) beside asictl's own semantics and names the first difference; for
-    ST it parses the result with blark.
+    ST it parses the result with blark, for PLCopen it validates the XML against the TC6
+    schema.
 
     Exit status: 0 exported (and checked: no difference), 1 errors in the program,
     something left for a person, or a difference, 2 bad usage or an unreadable file.
@@ -81,9 +87,9 @@ def export(source: str, to: str, output: str | None, check: bool, sequences: int
     if built.has_errors or built.program is None or built.image is None:
         ctx.exit(int(ExitCode.FAILED))
     program = built.program
-    target = output or str(Path(source).with_suffix(f".{to}"))
-    if to == "st":
-        failed = _export_st(source, program, target, built.name, check, blark)
+    target = output or str(Path(source).with_suffix(_SUFFIX[to]))
+    if to in ("st", "plcopen"):
+        failed = _export_iec(source, program, target, built.name, check, blark, to == "plcopen")
     else:
         failed = _export_awl(source, program, target, built.name, check,
                              (sequences, seed, awlsim_python))
@@ -119,15 +125,16 @@ def _export_awl(source: str, program: Program, target: str, name: str, check: bo
     return bool(exported.unfinished) or not agreed
 
 
-def _export_st(source: str, program: Program, target: str, name: str, check: bool,
-               blark: str | None) -> bool:
-    """Write the Structured Text; True when something failed."""
+def _export_iec(source: str, program: Program, target: str, name: str, check: bool,
+                blark: str | None, xml: bool) -> bool:
+    """Write the Structured Text, or it as PLCopen XML; True when something failed."""
     from asictl.export.check import blark_parse
+    from asictl.export.plcopen import plcopen_xml, validate
     from asictl.export.st import export_st
     from asictl.observe.symbols import symbols_for
 
     exported = export_st(Path(name).name, program, symbols_for(source))
-    text = exported.render()
+    text = plcopen_xml(exported) if xml else exported.render()
     if target == "-":
         write_stdout(text)
     else:
@@ -136,8 +143,12 @@ def _export_st(source: str, program: Program, target: str, name: str, check: boo
         click.echo(f"{target}: {len(exported.pous)} POUs, {len(exported.variables)} located "
                    "variables", err=True)
     _report(exported.unfinished)
-    complaint = blark_parse(text, blark) if check else None
-    if check:
+    complaint = None
+    if check and xml:
+        complaint = validate(text)
+        click.echo(f"TC6 schema: {'not valid' if complaint else 'valid'}")
+    elif check:
+        complaint = blark_parse(text, blark)
         click.echo(f"blark: {'does not parse' if complaint else 'parses'} the Structured Text")
     if complaint:
         click.echo(complaint, err=True)

@@ -51,6 +51,20 @@ class StLine:
                                       else self.text or comment)
 
 
+@dataclass(frozen=True)
+class Var:
+    """A variable declaration: name, type as ST writes it, a located address or ''."""
+
+    name: str
+    type: str
+    address: str = ""
+    comment: str = ""
+
+    def render(self) -> str:
+        at = f" AT {self.address}" if self.address else ""
+        return StLine(f"{self.name}{at} : {self.type};", 1, self.comment).render()
+
+
 @dataclass
 class Pou:
     """A PROGRAM or a FUNCTION_BLOCK."""
@@ -59,21 +73,23 @@ class Pou:
     name: str
     title: str
     lines: list[StLine] = field(default_factory=list)
-    local: tuple[str, ...] = ()
+    local: tuple[Var, ...] = ()
+
+    def body(self) -> str:
+        return "\n".join(line.render() for line in self.lines)
 
     def render(self) -> str:
         out = [f"{self.kind} {self.name}", f"(* {self.title} *)"]
         if self.local:
-            out += ["VAR", *(f"    {v};" for v in self.local), "END_VAR"]
-        out += [line.render() for line in self.lines]
-        out.append(f"END_{self.kind}")
+            out += ["VAR", *(v.render() for v in self.local), "END_VAR"]
+        out += [self.body(), f"END_{self.kind}"]
         return "\n".join(out)
 
 
 @dataclass
 class StProgram:
     name: str
-    globals: list[StLine]
+    globals: list[Var]
     pous: list[Pou]
     #: the IL operand as written -> its ST variable
     variables: dict[str, str]
@@ -83,7 +99,7 @@ class StProgram:
         head = f"(* {self.name}: exported by asictl from AS-i Control IL (docs/migrate.md) *)"
         if self.unfinished:
             head += f"\n(* {len(self.unfinished)} place(s) to finish by hand: search for TODO *)"
-        glob = "\n".join(["VAR_GLOBAL", *(line.render() for line in self.globals), "END_VAR"])
+        glob = "\n".join(["VAR_GLOBAL", *(v.render() for v in self.globals), "END_VAR"])
         return "\n\n".join([head, glob, *(p.render() for p in self.pous)]) + "\n"
 
 
@@ -93,17 +109,17 @@ class _Names:
     def __init__(self, layout: Layout, symbols: SymbolTable) -> None:
         self.layout = layout
         self.symbols = symbols
-        #: operand text -> (name, declaration)
-        self.located: dict[str, tuple[str, str]] = {}
+        #: operand text -> its located variable
+        self.located: dict[str, Var] = {}
 
     def _declare(self, operand: str, default: str, at: str, kind: str) -> str:
         if operand not in self.located:
             name = self.symbols.name_of(operand)
-            taken = {n for n, _ in self.located.values()}
+            taken = {v.name for v in self.located.values()}
             if name is None or not _IDENTIFIER.match(name) or name in taken:
                 name = default
-            self.located[operand] = (name, f"{name} AT {at} : {kind}")
-        return self.located[operand][0]
+            self.located[operand] = Var(name, kind, at, operand)
+        return self.located[operand].name
 
     def bit(self, operand: ast.Operand) -> str:
         a, b = operand.address, operand.bit
@@ -435,40 +451,42 @@ def export_st(name: str, program: Program, symbols: SymbolTable | None = None) -
         body = _Body(export, scope_of(module)).translate()
         pous.append(Pou("FUNCTION_BLOCK", export.blocks[block],
                         f"function block {export.blocks[block]}", body,
-                        ("IL_PC : INT",)))
+                        (Var("IL_PC", "INT"),)))
     main = _Body(export, scope_of(program.main)).translate()
     program_name = re.sub(r"\W", "_", name.rsplit(".", 1)[0]) or "main"
     if not program_name[0].isalpha():
         program_name = f"P_{program_name}"
     pous.append(Pou("PROGRAM", program_name, "the program cycle",
                     [*_cycle_start(export), *main, *_cycle_end()],
-                    ("IL_PC : INT", "IL_N : INT", "IL_NOW : TIME", "IL_TICKS : DINT")))
-    variables = {operand: declared for operand, (declared, _) in export.names.located.items()}
+                    (Var("IL_PC", "INT"), Var("IL_N", "INT"), Var("IL_NOW", "TIME"),
+                     Var("IL_TICKS", "DINT"))))
+    variables = {operand: var.name for operand, var in export.names.located.items()}
     return StProgram(name, list(_globals(export)), pous, variables, export.unfinished)
 
 
-def _globals(export: _Export) -> Iterator[StLine]:
-    for operand, (_, located) in export.names.located.items():
-        yield StLine(f"{located};", 1, operand)
-    yield StLine("IL_IN AT %IB0 : ARRAY[0..15] OF BYTE;", 1, "the AS-i input image")
-    yield StLine("IL_RLO : BOOL;", 1, "the single-bit register")
-    yield StLine("IL_ACCU1 : WORD;", 1)
-    yield StLine("IL_ACCU2 : WORD;", 1)
-    yield StLine("IL_KREG : WORD;", 1, "the constant register (L KT, L KC, L KP)")
-    yield StLine("IL_W : WORD;", 1, "a counter's new value")
-    yield StLine("IL_I2 : ARRAY[0..15] OF BYTE;", 1, "I2: the inputs of the last cycle")
-    yield StLine("IL_LAST_IN : ARRAY[0..15] OF BYTE;", 1)
-    yield StLine("IL_PSEG : ARRAY[0..15] OF BYTE;", 1)
-    yield StLine("IL_CLOCK : TIME;", 1, "TIME() at the last cycle")
-    yield StLine("IL_REST : DINT;", 1, "milliseconds not yet a 10 ms tick")
-    yield StLine("IL_STARTED : BOOL;", 1)
-    yield StLine(f"IL_T : ARRAY[0..{max(export.timers, default=0)}] OF WORD;", 1,
-                 "timers: remaining 10 ms ticks")
-    yield StLine(f"IL_C : ARRAY[0..{max(export.counters, default=0)}] OF WORD;", 1, "counters")
+def _globals(export: _Export) -> Iterator[Var]:
+    yield from export.names.located.values()
+    byte16 = "ARRAY[0..15] OF BYTE"
+    yield Var("IL_IN", byte16, "%IB0", "the AS-i input image")
+    yield Var("IL_RLO", "BOOL", comment="the single-bit register")
+    yield Var("IL_ACCU1", "WORD")
+    yield Var("IL_ACCU2", "WORD")
+    yield Var("IL_KREG", "WORD", comment="the constant register (L KT, L KC, L KP)")
+    yield Var("IL_W", "WORD", comment="a counter's new value")
+    yield Var("IL_I2", byte16, comment="I2: the inputs of the last cycle")
+    yield Var("IL_LAST_IN", byte16)
+    yield Var("IL_PSEG", byte16)
+    yield Var("IL_CLOCK", "TIME", comment="TIME() at the last cycle")
+    yield Var("IL_REST", "DINT", comment="milliseconds not yet a 10 ms tick")
+    yield Var("IL_STARTED", "BOOL")
+    yield Var("IL_T", f"ARRAY[0..{max(export.timers, default=0)}] OF WORD",
+              comment="timers: remaining 10 ms ticks")
+    yield Var("IL_C", f"ARRAY[0..{max(export.counters, default=0)}] OF WORD",
+              comment="counters")
     for var, size in _variables(export.program):
-        yield StLine(f"{var} : ARRAY[0..{size - 1}] OF BYTE;", 1, "a declared variable")
+        yield Var(var, f"ARRAY[0..{size - 1}] OF BYTE", comment="a declared variable")
     for name in export.blocks.values():
-        yield StLine(f"IL_FB_{name} : {name};", 1)
+        yield Var(f"IL_FB_{name}", name)
 
 
 def _variables(program: Program) -> Iterator[tuple[str, int]]:
