@@ -106,3 +106,15 @@ def test_the_programs_names_go_into_the_map_and_the_symbol_table(tmp_path: Path)
     rows = (tmp_path / "fb.sym.csv").read_text().splitlines()
     assert '"Latch";"FC 1";"FC 1";"function block Latch"' in rows
     assert '"Lamp";"Q 1.0";"BOOL";"Q 2.0"' in rows
+
+
+def test_flags_the_host_writes_are_left_for_a_person_in_every_language(tmp_path: Path) -> None:
+    source = tmp_path / "panel.asi"
+    source.write_text("; asictl: host F 10.0    ; the operator panel's start request\n"
+                      "[PROGRAM]\n  A F 10.0\n  = Q 2.0\n")
+    for to, where in (("awl", "M 10.0"), ("st", "F10_0")):
+        result = CliRunner().invoke(main, ["export", str(source), "--to", to])
+        assert result.exit_code == 1, result.output
+        assert f"{source}:1: F 10.0 is written by the host" in result.stderr
+        assert f"connect that writer to {where}: left for a person" in result.stderr
+        assert f"TODO: {source}:1: F 10.0" in source.with_suffix(f".{to}").read_text()

@@ -36,10 +36,10 @@ needs_schema = pytest.mark.skipif(SCHEMA is None,
 
 
 @needs_schema
-@pytest.mark.parametrize("path", sorted(DEMOS.glob("*.asi")), ids=lambda p: p.name)
-def test_every_demo_is_valid_against_the_tc6_schema(path: Path) -> None:
+def test_every_demo_is_valid_against_the_tc6_schema() -> None:
     pytest.importorskip("lxml")
-    assert validate(_xml(path.name)) is None
+    complaints = {path.name: validate(_xml(path.name)) for path in sorted(DEMOS.glob("*.asi"))}
+    assert complaints == dict.fromkeys(complaints)
 
 
 @needs_schema

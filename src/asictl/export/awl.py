@@ -33,7 +33,7 @@ from dataclasses import dataclass, field
 from typing import assert_never
 
 from asictl.export import layout as at
-from asictl.export.gaps import Unfinished, gap, il_comment, unfinished
+from asictl.export.gaps import Unfinished, gap, host_flags, il_comment, unfinished
 from asictl.export.layout import Layout, layout_of
 from asictl.il import ast
 from asictl.il.ast import key
@@ -124,7 +124,8 @@ class AwlProgram:
     def render(self) -> str:
         head = [f"// {self.name}: exported by asictl from AS-i Control IL (docs/migrate.md)"]
         if self.unfinished:
-            head.append(f"// {len(self.unfinished)} place(s) to finish by hand: search for TODO")
+            head.append(f"// {len(self.unfinished)} thing(s) to finish by hand: search for TODO")
+            head += [f"// {TODO}: {left}" for left in self.unfinished]
         return "\n\n".join(["\n".join(head), *(b.render() for b in self.blocks)]) + "\n"
 
 
@@ -496,6 +497,7 @@ def export_awl(name: str, program: Program) -> AwlProgram:
         Block("DATA_BLOCK", f"DB {at.VARIABLE_DB}", "the declared variables",
               size=export.layout.variable_bytes),
     ]
+    export.unfinished += host_flags(program, export.layout.flag)
     names = {_declared(program, block): n for block, n in export.functions.items()}
     return AwlProgram(name, [*data, *functions, ob100, ob1], export.layout,
                       dict(_operands(program, export.layout)), names, export.unfinished)

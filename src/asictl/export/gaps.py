@@ -7,9 +7,12 @@ are 8051 code: an export marks each where it stood and lists it as ``FILE:LINE: 
 
 from __future__ import annotations
 
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 
 from asictl.il import ast
+from asictl.il.loader import Program
+from asictl.il.pragmas import read_directives
 
 
 @dataclass(frozen=True)
@@ -38,6 +41,15 @@ def gap(statement: ast.Statement | ast.GatingLine, user_blocks: set[str]) -> str
                     "(use the new AS-i master's interface)")
         case _:
             return None
+
+
+def host_flags(program: Program, where: Callable[[ast.Operand], str]) -> Iterator[Unfinished]:
+    """The flags the program says a host writes (``; asictl: host F 10.0``): whatever
+    wrote them on the master (a PC, a Modbus gateway, a panel) must be connected to
+    ``where(flag)`` on the new PLC."""
+    for flag, span in read_directives(program.sources).host_flags:
+        yield Unfinished(span.file, span.line, f"{flag} is written by the host (a PC, a Modbus "
+                         f"gateway, a panel): connect that writer to {where(flag)}")
 
 
 def unfinished(statement: ast.Statement, why: str, file: str) -> Unfinished:

@@ -92,6 +92,12 @@ class Layout:
             case _:
                 raise AssertionError(f"{operand} has no S7 byte")
 
+    def flag(self, operand: ast.Operand) -> str:
+        """The S7 address of a flag bit, byte or word (F, FY, FW)."""
+        if operand.kind is K.FW:
+            return f"MW {operand.address}"
+        return self.bit(operand) if operand.kind is K.F else self.byte(operand)
+
     @staticmethod
     def timer(n: int) -> str:
         """Timer n's remaining time in 10 ms ticks."""

@@ -105,7 +105,7 @@ def plcopen_xml(program: StProgram, *, now: datetime | None = None) -> str:
     _variables(resource, "globalVars", program.globals)
     if program.unfinished:
         _text(_sub(project, "documentation"),
-              f"{len(program.unfinished)} place(s) to finish by hand: search for TODO")
+              f"{len(program.unfinished)} thing(s) to finish by hand: search for TODO")
     ET.indent(project)
     return ET.tostring(project, encoding="unicode", xml_declaration=True) + "\n"
 

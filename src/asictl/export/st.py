@@ -24,7 +24,7 @@ from dataclasses import dataclass, field
 from itertools import pairwise
 from typing import assert_never
 
-from asictl.export.gaps import Unfinished, gap, il_comment, unfinished
+from asictl.export.gaps import Unfinished, gap, host_flags, il_comment, unfinished
 from asictl.export.layout import Layout, layout_of
 from asictl.il import ast
 from asictl.il.ast import key
@@ -98,7 +98,9 @@ class StProgram:
     def render(self) -> str:
         head = f"(* {self.name}: exported by asictl from AS-i Control IL (docs/migrate.md) *)"
         if self.unfinished:
-            head += f"\n(* {len(self.unfinished)} place(s) to finish by hand: search for TODO *)"
+            head += f"\n(* {len(self.unfinished)} thing(s) to finish by hand: search for TODO *)"
+            head += "".join("\n" + StLine("", 0, f"TODO: {left}").render()
+                            for left in self.unfinished)
         glob = "\n".join(["VAR_GLOBAL", *(v.render() for v in self.globals), "END_VAR"])
         return "\n\n".join([head, glob, *(p.render() for p in self.pous)]) + "\n"
 
@@ -461,6 +463,7 @@ def export_st(name: str, program: Program, symbols: SymbolTable | None = None) -
                     (Var("IL_PC", "INT"), Var("IL_N", "INT"), Var("IL_NOW", "TIME"),
                      Var("IL_TICKS", "DINT"))))
     variables = {operand: var.name for operand, var in export.names.located.items()}
+    export.unfinished += host_flags(program, lambda flag: variables.get(str(flag), str(flag)))
     return StProgram(name, list(_globals(export)), pous, variables, export.unfinished)
 
 
