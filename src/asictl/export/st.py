@@ -123,17 +123,18 @@ class _Names:
             self.located[operand] = Var(name, kind, at, operand)
         return self.located[operand].name
 
+    def _located(self, operand: ast.Operand, s7: str, kind: str) -> str:
+        """The located variable of an image or flag operand, at the AWL's address."""
+        area, number = s7.split()
+        at = f"%{area[0]}{area[1:] or 'X'}{number}"  # I 0.4 -> %IX0.4, MB 11 -> %MB11
+        default = str(operand).replace(" ", "").replace(".", "_")
+        return self._declare(str(operand), default, at, kind)
+
     def bit(self, operand: ast.Operand) -> str:
         a, b = operand.address, operand.bit
         match operand.kind:
-            case K.I:
-                return self._declare(str(operand), f"I{a}_{b}",
-                                     f"%IX{a // 2}.{(a % 2) * 4 + b}", "BOOL")
-            case K.Q:
-                return self._declare(str(operand), f"Q{a}_{b}",
-                                     f"%QX{a // 2}.{(a % 2) * 4 + b}", "BOOL")
-            case K.F:
-                return self._declare(str(operand), f"F{a}_{b}", f"%MX{a}.{b}", "BOOL")
+            case K.I | K.Q | K.F:
+                return self._located(operand, self.layout.bit(operand), "BOOL")
             case K.I2:
                 return f"IL_I2[{a // 2}].{(a % 2) * 4 + b}"
             case K.VAR:
@@ -144,12 +145,8 @@ class _Names:
     def byte(self, operand: ast.Operand) -> str:
         a = operand.address
         match operand.kind:
-            case K.IB:
-                return self._declare(str(operand), f"IB{a}", f"%IB{a // 2}", "BYTE")
-            case K.QB:
-                return self._declare(str(operand), f"QB{a}", f"%QB{a // 2}", "BYTE")
-            case K.FY:
-                return self._declare(str(operand), f"FY{a}", f"%MB{a}", "BYTE")
+            case K.IB | K.QB | K.FY:
+                return self._located(operand, self.layout.byte(operand), "BYTE")
             case K.I2B:
                 return f"IL_I2[{a // 2}]"
             case K.PSEG:
