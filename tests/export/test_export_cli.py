@@ -118,3 +118,18 @@ def test_flags_the_host_writes_are_left_for_a_person_in_every_language(tmp_path:
         assert f"{source}:1: F 10.0 is written by the host" in result.stderr
         assert f"connect that writer to {where}: left for a person" in result.stderr
         assert f"TODO: {source}:1: F 10.0" in source.with_suffix(f".{to}").read_text()
+
+
+def test_an_image_exports_from_the_source_it_carries_and_not_without(tmp_path: Path) -> None:
+    source = _demo(tmp_path, "logic.asi")
+    runner = CliRunner()
+    with_source, without = tmp_path / "with.hex", tmp_path / "without.hex"
+    assert runner.invoke(main, ["compile", str(source), "-o", str(with_source)]).exit_code == 0
+    assert runner.invoke(main, ["compile", str(source), "-o", str(without),
+                                "--no-source"]).exit_code == 0
+    result = runner.invoke(main, ["export", str(with_source), "--to", "awl", "-o", "-"])
+    assert result.exit_code == 0, result.output
+    assert "A     I 0.4" in result.stdout
+    result = runner.invoke(main, ["export", str(without), "--to", "awl"])
+    assert result.exit_code == 2
+    assert "no IL program text to export" in result.stderr

@@ -84,9 +84,12 @@ def export(source: str, to: str, output: str | None, check: bool, sequences: int
     ctx = click.get_current_context()
     built = build_file(source, lib=lib)
     click.echo(built.render(colour=stderr_colour()), nl=False, err=True)
-    if built.has_errors or built.program is None or built.image is None:
+    if built.has_errors or built.image is None:
         ctx.exit(int(ExitCode.FAILED))
-    program = built.program
+    program = built.source_program()
+    if program is None:
+        raise UserError(f"{source}: no IL program text to export (an image or a [RAW] "
+                        "upload without its source)")
     target = output or str(Path(source).with_suffix(_SUFFIX[to]))
     if to in ("st", "plcopen"):
         failed = _export_iec(source, program, target, built.name, check, blark, to == "plcopen")
