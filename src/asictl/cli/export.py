@@ -77,7 +77,10 @@ def export(source: str, to: str, output: str | None, check: bool, sequences: int
     Exit status: 0 exported (and checked: no difference), 1 errors in the program,
     something left for a person, or a difference, 2 bad usage or an unreadable file.
 
-    Example: asictl export demos/sequence.asi --to awl --check
+    \b
+    Examples:
+      asictl export demos/sequence.asi --to awl --check --sequences 100
+      asictl export demos/jump.asi --to st -o jump.st
     """
     from asictl.build import build_file
 
