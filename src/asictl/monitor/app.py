@@ -74,8 +74,6 @@ REFRESH_S = 0.25
 _LIST_LETTERS = {"LPS": "P", "LDS": "D", "LAS": "A", "LCS": "C", "LOS": "O"}
 #: The screen's layouts, by the terminal's size (``layout_for``).
 LAYOUTS = ("wide", "medium", "narrow")
-#: The right-hand panel's width (the flag bytes' hex dump and a border).
-PANEL_WIDTH = 62
 #: The grid's forms, the most compact first: slaves a row, and whether a slave's list
 #: letters stand beside its data (one line a row) or under it (two).
 GRID_FORMS = ((8, True), (8, False), (4, True), (4, False), (2, True), (2, False))
