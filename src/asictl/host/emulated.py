@@ -28,7 +28,7 @@ from asictl.board.board import Pc2Board
 from asictl.board.forcing import Area, ForceError, Forces
 from asictl.errors import ExitCode, UserError
 from asictl.observe.operands import read_number
-from asictl.platform.master import IO_CODE_BITS, SLAVES, TICK_MS
+from asictl.platform.master import IO_CODE_BITS, IO_CODES, SLAVES, TICK_MS
 
 JSON = Any
 Action = Callable[[Pc2Board, dict[str, JSON]], JSON]
@@ -37,10 +37,6 @@ Action = Callable[[Pc2Board, dict[str, JSON]], JSON]
 #: config_ok's delay after the configuration was written, so the command's report shows
 #: the program's state.
 SETTLE_MS = 100.0
-
-#: The I/O codes written as letters (the tristate code F has none: write ``Fh``).
-IO_LETTERS = {letters: code for code, letters in enumerate(IO_CODE_BITS) if "t" not in letters}
-
 
 class ActionError(UserError):
     """An emulated-board action that does not fit the board as it is (exit 1)."""
@@ -79,8 +75,8 @@ def parse_profile(text: str) -> tuple[int, int]:
     as a [SETUP] line writes them."""
     io_text, _, id_text = text.partition(",")
     io_text = io_text.strip().lower()
-    if io_text in IO_LETTERS:
-        io_code = IO_LETTERS[io_text]
+    if io_text in IO_CODES:
+        io_code = IO_CODES[io_text]
     elif re.fullmatch(r"[0-9a-f]h?", io_text):
         io_code = int(io_text.rstrip("h"), 16)
     else:
