@@ -3,15 +3,15 @@
 The stepping core (sim/engine.py) downloads the program, applies the scenario's steps at
 their times and lets master time pass; everything else a run does is an observer: the
 expectations and their tolerance windows, the plant models, the trace, the per-line
-trace, the coverage, the stops and refusals. A new feature is one more observer, and the
-core does not change.
+trace, the coverage, the stops and refusals. A new feature is one more observer, in a
+module of its own, and one line where ``Simulation`` lists its observers.
 
-The core calls the hooks in the order the observers were given, and the order is part
-of the behaviour: a plant model sets its inputs before a window samples them, a window
-adds its failures before the trace marks them. Hooks an observer leaves as they are here
-cost nothing (the core calls only the hooks an observer defines), and an observer with
-nothing to do in a run (``active``) is left out when the program starts, so a run
-without a feature pays nothing for it after each cycle.
+The core calls the hooks in the order of that list, and the order is part of the
+behaviour: a plant model sets its inputs before a window samples them, a window adds its
+failures before the trace marks them. After each cycle and at each change the core calls
+only the hooks an observer defines (one it leaves as they are here costs nothing), and an
+observer with nothing to do in a run (``active``) is left out when the program starts, so
+a run without a feature pays nothing for it after each cycle.
 """
 
 from __future__ import annotations
