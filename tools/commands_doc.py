@@ -25,11 +25,13 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "src"))
 
 import click  # noqa: E402 - after the path is set
+from drawn import redraw  # noqa: E402 - beside this file
 
 from asictl.cli import SECTIONS, main  # noqa: E402
 
 DOC = ROOT / "docs" / "commands.md"
 BEGIN = "<!-- reference: written from the click tree by tools/commands_doc.py -->"
+END = "<!-- end of reference -->"
 
 #: Options most master commands share, described once in the reference (an option of the
 #: same name whose help differs, such as ``gateway serve --port``, is listed with its
@@ -190,7 +192,7 @@ def reference() -> str:
     contents = "\n".join(
         f"- [{title}](#{_anchor(title)}): {', '.join(names)}" for title, names in listed.items()
     )
-    parts = [BEGIN, contents, f"## {SHARED_TITLE}", (
+    parts = [contents, f"## {SHARED_TITLE}", (
         "The master commands reach a board through these options (an emulated PC2 board "
         "by default); each command's entry below says when it takes them."
     ), "\n".join(f"- `{names}`: {_escape(text)}" for names, text in shared.values())]
@@ -202,24 +204,12 @@ def reference() -> str:
             parts.append(f"## {title}")
             current = title
         parts.append(_command_text(ctx, shared))
-    return "\n\n".join(parts) + "\n"
+    return "\n" + "\n\n".join(parts) + "\n\n"
 
 
-def main_(argv: list[str]) -> int:
-    text = DOC.read_text(encoding="utf-8") if DOC.exists() else ""
-    head, sep, _ = text.partition(BEGIN)
-    if not sep:
-        print(f"{DOC}: the marker {BEGIN!r} is missing")
-        return 1
-    drawn = head + reference()
-    if "--check" in argv:
-        if drawn != text:
-            print(f"{DOC} is out of date: run python3 tools/commands_doc.py")
-            return 1
-        return 0
-    DOC.write_text(drawn, encoding="utf-8")
-    return 0
+def run(argv: list[str]) -> int:
+    return redraw(DOC, BEGIN, END, reference(), argv, "python3 tools/commands_doc.py")
 
 
 if __name__ == "__main__":
-    sys.exit(main_(sys.argv[1:]))
+    sys.exit(run(sys.argv[1:]))
