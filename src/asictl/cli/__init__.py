@@ -190,7 +190,11 @@ class LazyGroup(click.Group):
 @click.group(cls=LazyGroup, context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(__version__, prog_name="asictl")
 def main() -> None:
-    """Compile, check, download, upload and simulate AS-i Control II programs."""
+    """Compile, check, download, upload and simulate AS-i Control II programs.
+
+    'asictl COMMAND --help' describes one command, with examples; docs/commands.md
+    describes them all.
+    """
 
 
 if __name__ == "__main__":  # pragma: no cover
