@@ -101,7 +101,7 @@ def pty_pair(tmp_path: Path, socat_path: str) -> Iterator[tuple[str, str]]:
 
 @pytest.mark.parametrize("spelling", ["E", "even", "Even", "e"])
 def test_the_client_takes_the_readmes_spelling(spelling, monkeypatch):
-    """README: ``--modbus /dev/ttyX --baud 19200 --parity E``."""
+    """docs/commands.md: ``--modbus /dev/ttyX --baud 19200 --parity E``."""
     import asictl.cli.master as cli_master
 
     seen = []

@@ -34,7 +34,13 @@ _WRITABLE = (K.F, K.FY, K.Q, K.QB)
 
 @click.group("slave")
 def slave() -> None:
-    """A slave's address, parameter, or an AS-i command to it."""
+    """A slave's address, parameter, or an AS-i command to it.
+
+    \b
+    Examples:
+      asictl bus plug 0 iiio,1
+      asictl slave address 0 5
+    """
 
 
 @slave.command("address")
@@ -50,6 +56,11 @@ def address(old: str, new: str, **board: Unpack[_BoardOptions]) -> None:
     be re-addressed).
 
     Exit status: 0 done, 1 refused, 2 bad usage.
+
+    \b
+    Examples:
+      asictl bus plug 0 iiio,1
+      asictl slave address 0 5
     """
     before, after = parse_address(old), parse_address(new)
     with _connect(**board) as master:
@@ -64,7 +75,13 @@ def address(old: str, new: str, **board: Unpack[_BoardOptions]) -> None:
 def parameter(address_: str, value: str, **board: Unpack[_BoardOptions]) -> None:
     """Write parameter VALUE (0..15) to the slave at ADDRESS (Write_Parameter, command 5);
     prints the slave's answer. The permanent parameter (PP) stays: 'asictl store
-    parameters' makes the actual ones permanent."""
+    parameters' makes the actual ones permanent.
+
+    \b
+    Examples:
+      asictl bus plug 5 iiio,1
+      asictl slave parameter 5 0b0111
+    """
     where = parse_address(address_, zero=False)
     parameter_value = parse_number(value, "parameter", 15)
     with _connect(**board) as master:
@@ -83,7 +100,13 @@ def parameter(address_: str, value: str, **board: Unpack[_BoardOptions]) -> None
 def command(address_: str, information: str, **board: Unpack[_BoardOptions]) -> None:
     """Send the AS-i command call INFORMATION (0..1Fh, e.g. 10h read I/O configuration,
     11h read ID code, 1Ch reset slave, 1Eh read status) to the slave at ADDRESS (Execute
-    Command, 22); prints the slave's answer."""
+    Command, 22); prints the slave's answer.
+
+    \b
+    Examples:
+      asictl bus plug 5 iiio,1
+      asictl slave command 5 11h
+    """
     where = parse_address(address_)
     info = parse_number(information, "AS-i command", 0x1F)
     with _connect(**board) as master:
@@ -100,7 +123,13 @@ def command(address_: str, information: str, **board: Unpack[_BoardOptions]) -> 
 def mode(mode: str | None, **board: Unpack[_BoardOptions]) -> None:
     """Show or switch the operation mode (command 17). In configuration mode the master
     activates every slave it finds; in protected mode only the projected ones. Protected
-    mode is refused while a slave with address 0 is present (STATUS 8385h)."""
+    mode is refused while a slave with address 0 is present (STATUS 8385h).
+
+    \b
+    Examples:
+      asictl mode configuration
+      asictl mode
+    """
     with _connect(**board) as master:
         if mode is not None:
             master.tools().set_mode(configuration=mode == "configuration")
@@ -114,7 +143,15 @@ def mode(mode: str | None, **board: Unpack[_BoardOptions]) -> None:
 def store(what: str, **board: Unpack[_BoardOptions]) -> None:
     """Store the actual configuration (the detected slaves become LPS and PCD; command
     10, configuration mode only: ASI_MON's F6) or the actual parameters (PI becomes PP;
-    command 7: ASI_MON's F5)."""
+    command 7: ASI_MON's F5).
+
+    \b
+    Examples:
+      asictl bus plug 5 iiio,1
+      asictl mode configuration
+      asictl store configuration
+      asictl store parameters
+    """
     with _connect(**board) as master:
         tools = master.tools()
         if what == "configuration":
@@ -131,7 +168,12 @@ def store(what: str, **board: Unpack[_BoardOptions]) -> None:
 def setup(file: str, lib: tuple[str, ...], **board: Unpack[_BoardOptions]) -> None:
     """Write the projected configuration (LPS, PCD, PP, and PI) of FILE's [SETUP] to the
     master without downloading its program, as a download does first. FILE is built as
-    'asictl download' builds it."""
+    'asictl download' builds it.
+
+    \b
+    Example:
+      asictl setup demos/blink.asi
+    """
     from asictl.build import build_file
 
     with _connect(**board) as master:
@@ -172,7 +214,10 @@ def hiflags(
 
     Exit status: 0 shown or set, 1 the master did not take them, 2 bad usage.
 
-    Example: asictl hiflags --offline
+    \b
+    Examples:
+      asictl hiflags --offline
+      asictl hiflags --online --no-auto-address
     """
     from asictl.host.status import hi_flag_text
     from asictl.platform.pc2 import HiFlag
@@ -231,6 +276,10 @@ def diag(as_json: bool, set_los: str | None, **board: Unpack[_BoardOptions]) -> 
     slaves (LOS). Reading clears the LCS and the counters, as on the master.
 
     Exit status: 0 shown, 1 the master lacks them (a gateway) or did not answer.
+
+    \b
+    Example:
+      asictl diag
     """
     los = _list(set_los) if set_los is not None else None
     with _connect(**board) as master:
@@ -293,7 +342,10 @@ def write(assignments: tuple[str, ...], **board: Unpack[_BoardOptions]) -> None:
 
     Exit status: 0 written, 1 refused, 2 bad usage (nothing is written then).
 
-    Example: asictl write "F 10.0=1" "Q 17=0b1000"
+    \b
+    Examples:
+      asictl write "F 10.0=1" "FY 11=0x12"
+      asictl write "Q 17=0b1000"
     """
     with _connect(**board) as master:
         names = Names(master)

@@ -56,13 +56,14 @@ def emc(
     reports it. Only a master with the option (installed software byte 3 'E') has the
     mode; the data exchange, and so the control program's outputs, stop while it runs.
 
-    \\b
-    Examples:
-      asictl emc 1-4 --for 10                  # missing answers of slaves 1..4 in 10 s
-      asictl emc 5 --request 3 --expect 6 --repetitions
-
     Exit status: 0 tested, 1 the master has no EMC test mode or did not answer (a gateway
     has none), 2 bad usage.
+
+    \b
+    Examples:
+      asictl bus plug 5 iiio,1
+      asictl emc 5 --for 1
+      asictl emc 5 --request 3 --expect 6 --for 1
     """
     from asictl.host.emc import emc_command, emc_test
     from asictl.platform.pc2 import emc_parameters

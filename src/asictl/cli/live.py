@@ -69,14 +69,14 @@ def serve(
     and counters to HMI and SCADA clients (docs/opcua.md), read-only unless
     --opcua-writable.
 
-    \b
-    Example:
-      asictl serve --port 300h & asictl download demos/blink.asi
-      asictl serve --port 300h --opcua 127.0.0.1:4840
-
     Exit status: 0 stopped by a signal, 1 the board is already served or held by another
     process (it is named; --wait waits for it), or its state could not be saved at the
     end (what is lost is said), 2 bad usage.
+
+    \b
+    Examples:
+      asictl serve
+      asictl serve --port 304h --opcua 127.0.0.1:4840
     """
     from asictl.debug.online import debug_socket_path, debugging
     from asictl.host.live.server import run_live, together
@@ -148,6 +148,11 @@ def bus(ctx: click.Context, as_json: bool, **board: Unpack[_BoardOptions]) -> No
 
     Without a subcommand: 'asictl bus show' (with the options given here). Emulated
     boards only.
+
+    \b
+    Examples:
+      asictl bus
+      asictl bus plug 5 iiio,1
     """
     if ctx.invoked_subcommand is None:
         ctx.invoke(show, as_json=as_json, **board)
@@ -170,7 +175,13 @@ def _slave_rows(slaves: list[dict[str, Any]]) -> str:
 @_board_options
 @click.option("--json", "as_json", is_flag=True, help="One JSON object on stdout.")
 def show(as_json: bool = False, **board: Unpack[_BoardOptions]) -> None:
-    """The slaves on the cable: address, profile (I/O and ID code), inputs, outputs."""
+    """The slaves on the cable: address, profile (I/O and ID code), inputs, outputs.
+
+    \b
+    Examples:
+      asictl bus plug 5 iiio,1
+      asictl bus show --json
+    """
     _emulated_only(board)
     with _connect(**board) as master:
         cable = master.emulated("bus")
@@ -196,7 +207,13 @@ def plug(
     address: str, profile: str, address_fault: str | None, **board: Unpack[_BoardOptions]
 ) -> None:
     """Plug a slave in at ADDRESS (0 for a new slave) with PROFILE: its I/O code (letters
-    such as iiio, or a hex digit) and ID code, as in [SETUP]: 'iiio,1', 'Bh,0'."""
+    such as iiio, or a hex digit) and ID code, as in [SETUP]: 'iiio,1', 'Bh,0'.
+
+    \b
+    Examples:
+      asictl bus plug 5 iiio,1
+      asictl bus plug 0 Bh,0 --address-fault set
+    """
     _emulated_only(board)
     where = parse_address(address)
     io_code, id_code = parse_profile(profile)
@@ -213,7 +230,13 @@ def plug(
 @click.argument("address")
 @_board_options
 def unplug(address: str, **board: Unpack[_BoardOptions]) -> None:
-    """Unplug the slave at ADDRESS."""
+    """Unplug the slave at ADDRESS.
+
+    \b
+    Examples:
+      asictl bus plug 5 iiio,1
+      asictl bus unplug 5
+    """
     _emulated_only(board)
     where = parse_address(address)
     with _connect(**board) as master:
@@ -226,7 +249,13 @@ def unplug(address: str, **board: Unpack[_BoardOptions]) -> None:
 @_board_options
 def match(**board: Unpack[_BoardOptions]) -> None:
     """Re-plug the cable to the [SETUP] of the program the master has loaded: slaves
-    that fit stay (with their inputs), others go, missing ones are plugged in."""
+    that fit stay (with their inputs), others go, missing ones are plugged in.
+
+    \b
+    Examples:
+      asictl download demos/blink.asi
+      asictl bus match
+    """
     _emulated_only(board)
     with _connect(**board) as master:
         change = master.emulated("match")
@@ -249,7 +278,11 @@ def inputs(settings: tuple[str, ...], **board: Unpack[_BoardOptions]) -> None:
     two slaves' 'IB 4=0x5A', or a name of the program's symbol table ('Start=1');
     several at once are applied together.
 
-    Example: asictl bus inputs "I 4.0=1" "I 5=0b0110"
+    \b
+    Examples:
+      asictl bus plug 4 iiii,0
+      asictl bus inputs "I 4.0=1"
+      asictl bus inputs 4 0b0110
     """
     _emulated_only(board)
     changes: list[list[int]] = []

@@ -179,8 +179,16 @@ def download_command(
     back and compared; then the reset bit loads it, with the [OPTIONS] flags and the start
     flag as chosen. An interrupted download leaves no program a reset could start.
 
+    The start flag stays as it was unless --start or --stop says otherwise: on a new
+    master the program does not run until 'asictl start'.
+
     Exit status: 0 downloaded, 1 errors in the program or the master refused or failed,
     2 bad usage, an unreadable file or a corrupt board state.
+
+    \b
+    Examples:
+      asictl download demos/blink.asi --start
+      asictl download demos/counter.asi --port 304h
     """
     ctx = click.get_current_context()
     chosen = [name for name, on in (("start", start), ("stop", stop), ("keep", keep)) if on]
@@ -250,6 +258,11 @@ def upload_command(output: str, overwrite: bool, **board: Unpack[_BoardOptions])
 
     Exit status: 0 uploaded, 1 no valid program in the master, a file not overwritten or
     a failed command, 2 bad usage or a corrupt board state.
+
+    \b
+    Examples:
+      asictl download demos/blink.asi
+      asictl upload -o copy.asi
     """
     with _connect(**board) as master:
         image = upload(master.transport)
@@ -330,17 +343,20 @@ _EXIT_STATUS = (
     "corrupt board state."
 )
 
+
 start_command = _control_command(
     "start",
     "Set the start flag: the control program runs as soon as the master permits "
-    "(normal operation, and no configuration error unless ignore_config_errors)." + _EXIT_STATUS,
+    "(normal operation, and no configuration error unless ignore_config_errors)." + _EXIT_STATUS
+    + "\n\n\b\nExamples:\n  asictl download demos/blink.asi\n  asictl start",
     lambda transport: set_start(transport, start=True),
     needs_program=True,
 )
 stop_command = _control_command(
     "stop",
     "Clear the start flag: the control program stops and the master works as a plain "
-    "AS-i master (ACF /s-)." + _EXIT_STATUS,
+    "AS-i master (ACF /s-)." + _EXIT_STATUS
+    + "\n\n\b\nExamples:\n  asictl download demos/blink.asi --start\n  asictl stop",
     lambda transport: set_start(transport, start=False),
 )
 @click.command("reset")
@@ -360,12 +376,14 @@ def reset_command(hardware: bool, **board: Unpack[_BoardOptions]) -> None:
     waits until the board is found again and its start-up is over, and says what it came
     up with. A gateway has no such reset (exit 2).
 
-    \b
-    Example:
-      asictl reset --hardware --port 300h
-
     Exit status: 0 done, 1 the master refused or did not come back, 2 bad usage or a
     corrupt board state.
+
+    \b
+    Examples:
+      asictl download demos/blink.asi
+      asictl reset
+      asictl reset --hardware
     """
     if hardware and board["modbus"] is not None:
         raise UserError(
@@ -405,6 +423,12 @@ def status_command(as_json: bool, **board: Unpack[_BoardOptions]) -> None:
     flags, as docs/host.md says). docs/commissioning.md has the JSON schema.
 
     Exit status: 0 shown, 1 the master did not answer, 2 bad usage or a corrupt board state.
+
+    \b
+    Examples:
+      asictl download demos/blink.asi --start
+      asictl status
+      asictl status --json
     """
     with _connect(**board) as master:
         status = master.status()

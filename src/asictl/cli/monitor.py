@@ -53,7 +53,14 @@ def monitor(**board: Unpack[_BoardOptions]) -> None:
     'took over'), or, when another process holds the board, shows the master as gone in
     red and refuses the keys that act on it until it can.
 
+    Needs the 'monitor' extra (Textual).
+
     Exit status: 0 quit, 2 bad usage or Textual not installed.
+
+    \b
+    Examples:
+      asictl monitor
+      asictl monitor --port 304h
     """
     try:
         from asictl.monitor.app import MonitorApp

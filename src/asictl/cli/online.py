@@ -62,7 +62,10 @@ def force(
     Exit status: 0 forced (or listed), 1 refused (a real board, a gateway), 2 bad usage
     (nothing is forced then).
 
-    Example: asictl force "F 10.0=1" "FY 12=0x55"
+    \b
+    Examples:
+      asictl force "F 10.0=1" "FY 12=0x55"
+      asictl force --list
     """
     from asictl.host.forcing import force as force_all
 
@@ -85,7 +88,11 @@ def unforce(operands: tuple[str, ...], all_: bool, **board: Unpack[_BoardOptions
     Exit status: 0 released, 1 refused (a real board, a gateway) or an operand named was
     not forced (the others are released), 2 bad usage.
 
-    Example: asictl unforce --all
+    \b
+    Examples:
+      asictl force "F 10.0=1" "Q 2.0=1"
+      asictl unforce "F 10.0"
+      asictl unforce --all
     """
     from asictl.host.forcing import not_forced
     from asictl.host.forcing import unforce as release
@@ -147,7 +154,11 @@ def watch(
     Exit status: 0 watched, 1 the master did not answer or the live board's server
     ended, 2 bad usage.
 
-    Example: asictl watch "F 10.0" Motor --format json --duration 10s
+    \b
+    Examples:
+      asictl download demos/blink.asi --start
+      asictl watch "Q 31.0" --duration 2s
+      asictl watch "Q 31.0" "T 0" --format json --duration 1s
     """
     from asictl.cli.master import _address, _master_wait
     from asictl.diagnostics import DiagnosticError, render_text

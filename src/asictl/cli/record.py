@@ -132,6 +132,11 @@ def record(duration: str, output: Path, force: bool, signals: str | None,
     where it behaves otherwise, naming the IL line that last wrote the operand.
 
     Exit status: 0 recorded, 1 the master did not answer, 2 bad usage.
+
+    \b
+    Examples:
+      asictl download demos/blink.asi --start
+      asictl record --duration 2s -o run.scenario.toml --tolerance-ms 50
     """
     try:
         seconds = parse_duration(duration) / 1000

@@ -29,6 +29,12 @@ def verify(file: str, lib: tuple[str, ...], **board: Unpack[_BoardOptions]) -> N
 
     Exit status: 0 identical, 1 different, no program in the master or errors in FILE,
     2 bad usage or an unreadable file.
+
+    \b
+    Examples:
+      asictl download demos/blink.asi
+      asictl verify demos/blink.asi
+      asictl verify demos/counter.asi   # exit 1: different
     """
     from asictl.build import build_file
 
