@@ -11,7 +11,7 @@ from typing import Unpack
 
 import click
 
-from asictl.cli.master import _address, _board_options, _BoardOptions
+from asictl.cli.board_options import BoardOptions, board_options, master_address
 from asictl.errors import missing_extra
 
 
@@ -20,8 +20,8 @@ def _notify(text: str) -> None:
 
 
 @click.command("monitor")
-@_board_options
-def monitor(**board: Unpack[_BoardOptions]) -> None:
+@board_options
+def monitor(**board: Unpack[BoardOptions]) -> None:
     """A live full-screen view of the master: ASI_MON and ASI_VIS in one.
 
     The 31 slaves with their input and output data and list membership, the selected
@@ -64,7 +64,7 @@ def monitor(**board: Unpack[_BoardOptions]) -> None:
     from asictl.host.search import resolve_port
     from asictl.monitor.source import MonitorSource
 
-    address = _address(**board)
+    address = master_address(**board)
     if address.modbus is None:
         directory = state_directory(address.state_dir)
         base = resolve_port(address.port, address.io, directory, _notify)
