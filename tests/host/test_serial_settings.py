@@ -110,7 +110,7 @@ def test_the_client_takes_the_readmes_spelling(spelling, monkeypatch):
         seen.append(address)
         raise UserError("stop here")
 
-    monkeypatch.setattr(cli_board, "connect_master", connect)
+    monkeypatch.setattr(cli_board, "open_board", connect)
     result = CliRunner().invoke(
         main, ["status", "--modbus", "/dev/ttyX", "--baud", "19200", "--parity", spelling]
     )

@@ -20,7 +20,7 @@ from click.core import ParameterSource
 from asictl.cli.serial_options import serial_options, unit_option
 from asictl.errors import UserError
 from asictl.host.boards import IO_BACKENDS
-from asictl.host.connection import MasterAddress, connect_master
+from asictl.host.connection import MasterAddress, open_board
 from asictl.host.master import Master
 from asictl.host.target import DEFAULT_RETRIES, DEFAULT_TIMEOUT_S
 
@@ -118,7 +118,7 @@ def open_master(**board: Unpack[BoardOptions]) -> Iterator[Master]:
     """The master the options name, for the command's ``with`` block. A board that did
     not exist yet is said so, whatever the command: a mistyped --state-dir or --port
     would otherwise go unnoticed."""
-    with connect_master(
+    with open_board(
         master_address(**board),
         notify=lambda message: click.echo(f"asictl: {message}", err=True),
     ) as master:

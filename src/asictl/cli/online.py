@@ -151,7 +151,7 @@ def watch(
     """
     from asictl.cli.board_options import master_address, master_wait
     from asictl.diagnostics import DiagnosticError, render_text
-    from asictl.host.connection import connect_master
+    from asictl.host.connection import open_board
     from asictl.host.status import read_program
     from asictl.host.watch import read_table, watch_list
     from asictl.source import read_source
@@ -191,7 +191,7 @@ def watch(
     begun = time.monotonic()
     try:
         for reads in itertools.count():
-            with connect_master(address) as master:
+            with open_board(address) as master:
                 if served and (master.action is None or master.action.live is None):
                     # the server ended: what the state file holds would be no live value
                     raise UserError(f"{master.name}: the live board is no longer served "

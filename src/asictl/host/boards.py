@@ -23,7 +23,6 @@ from typing import Any
 
 from asictl.board.board import Pc2Board
 from asictl.errors import ExitCode, UserError
-from asictl.host.driver import DevPort, EmulatedPort, Pc2Driver
 from asictl.host.locking import exclusive
 from asictl.host.state_files import prepare_folder, read_private, write_private
 from asictl.platform.pc2 import IO_BASES
@@ -137,25 +136,3 @@ def save_state(state: dict[str, Any], path: Path) -> None:
     """A board's non-volatile state (``Pc2Board.nonvolatile``), as ``save_board``."""
     text = json.dumps(state, indent=1, sort_keys=True) + "\n"
     write_private(path, text.encode("utf-8"))
-
-
-@contextmanager
-def connect(
-    port: str,
-    io: str = "emulated",
-    state_dir: str | Path | None = None,
-    *,
-    wait: bool = False,
-    notify: Callable[[str], None] | None = None,
-) -> Iterator[Pc2Driver]:
-    """A driver for the board at ``port``: emulated (with its saved state) or real."""
-    base = parse_port(port)
-    if io == "devport":
-        device = DevPort(base)
-        try:
-            yield Pc2Driver(device)
-        finally:
-            device.close()
-        return
-    with emulated_board(base, state_directory(state_dir), wait=wait, notify=notify) as board:
-        yield Pc2Driver(EmulatedPort(board))

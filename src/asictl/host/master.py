@@ -12,7 +12,7 @@ What only an emulated board can do (its AS-i cable, its set button, the program'
 counters and IL lines: the actions of host.emulated) is a capability of its own,
 ``EmulatedBoard``, offered as ``Master.action`` and None on real hardware; a command that
 needs it asks ``Master.emulated``, which refuses on real hardware with a message that says
-why. ``host.connection.connect_master`` is the one way to a ``Master``, and its ``with``
+why. ``host.connection.open_board`` is the one way to a ``Master``, and its ``with``
 block is the connection's life: leaving it ends a live board's session, saves an emulated
 board's state and releases its lock, or closes /dev/port or the Modbus connection.
 """
