@@ -11,7 +11,7 @@ from host_helpers import ScriptedBoard, isa_bus
 
 from asictl.board.board import Pc2Board
 from asictl.host import connection, search
-from asictl.host.boards import emulated_board
+from asictl.host.emulated.boards import emulated_board
 from asictl.host.live.server import background_live
 from asictl.host.search import FOUND, NOT_FOUND, WRONG_FIRMWARE, check_board
 from asictl.platform import pc2 as d

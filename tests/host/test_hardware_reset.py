@@ -11,11 +11,11 @@ from host_helpers import ScriptedBoard, isa_bus
 
 from asictl.board.board import Pc2Board
 from asictl.host import connection
-from asictl.host.boards import emulated_board
-from asictl.host.driver import EmulatedPort, Pc2Driver
+from asictl.host.emulated.boards import emulated_board
 from asictl.host.hardware_reset import RESET_HOLD_MS, hardware_reset
-from asictl.host.jobs import JobError, JobStatus
 from asictl.host.live.server import background_live
+from asictl.host.transports.driver import EmulatedPort, Pc2Driver
+from asictl.host.transports.jobs import JobError, JobStatus
 from asictl.platform import pc2 as d
 
 ROOT = Path(__file__).resolve().parents[2]

@@ -12,7 +12,7 @@ from asictl.board.asi import Slave
 from asictl.board.images import VERSION_ID
 from asictl.cli import main
 from asictl.host import connection
-from asictl.host.boards import emulated_board
+from asictl.host.emulated.boards import emulated_board
 
 ROOT = Path(__file__).resolve().parents[2]
 BLINK = ROOT / "demos" / "blink.asi"

@@ -15,12 +15,12 @@ from asictl.errors import ExitCode, UserError
 from asictl.gateway.server import background_gateway
 from asictl.gateway.slave import GatewaySlave
 from asictl.host.connection import MasterAddress, open_board
-from asictl.host.driver import EmulatedPort, Pc2Driver
-from asictl.host.emulated import SETTLE_MS, LoadedBoard
+from asictl.host.emulated.actions import SETTLE_MS, LoadedBoard
 from asictl.host.live.client import LiveActions
 from asictl.host.live.server import background_live
 from asictl.host.master import Master
 from asictl.host.pc2_master import Pc2Master
+from asictl.host.transports.driver import EmulatedPort, Pc2Driver
 
 REFUSAL = "is not an emulated board: its AS-i cable cannot be changed from here"
 

@@ -17,7 +17,7 @@ from click.testing import CliRunner
 
 from asictl.cli import main
 from asictl.errors import UserError
-from asictl.host.target import check_serial_setting, parity_code, parse_target
+from asictl.host.transports.target import check_serial_setting, parity_code, parse_target
 from asictl.platform.gateway import BAUD_RATES, UNITS, serial_setting_code
 
 

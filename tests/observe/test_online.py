@@ -31,9 +31,9 @@ from asictl.cli import main
 from asictl.codegen8051.compiler import compile_program
 from asictl.errors import UserError
 from asictl.host.connection import MasterAddress, open_board
-from asictl.host.driver import EmulatedPort, Pc2Driver
 from asictl.host.live.server import background_live
 from asictl.host.transfer import Pc2Transport, set_start
+from asictl.host.transports.driver import EmulatedPort, Pc2Driver
 from asictl.il.checks import check_source
 from asictl.observe.online import CycleLines, latest_cycle
 from asictl.platform.master import ControlFlag

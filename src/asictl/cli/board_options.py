@@ -19,10 +19,10 @@ from click.core import ParameterSource
 
 from asictl.cli.serial_options import serial_options, unit_option
 from asictl.errors import UserError
-from asictl.host.boards import IO_BACKENDS
 from asictl.host.connection import MasterAddress, open_board
 from asictl.host.master import Master
-from asictl.host.target import DEFAULT_RETRIES, DEFAULT_TIMEOUT_S
+from asictl.host.transports.ports import IO_BACKENDS
+from asictl.host.transports.target import DEFAULT_RETRIES, DEFAULT_TIMEOUT_S
 
 _Callback = TypeVar("_Callback", bound=Callable[..., object])
 

@@ -20,7 +20,7 @@ from asictl.cli.board_options import BoardOptions, board_options, open_master
 from asictl.cli.options import lib_option
 from asictl.errors import ExitCode, UserError
 from asictl.host.commissioning import Change, image_changes, write_flags
-from asictl.host.emulated import parse_address, parse_number
+from asictl.host.emulated.actions import parse_address, parse_number
 from asictl.host.symbols import Names
 from asictl.il.ast import OperandKind as K
 from asictl.observe.operands import Assignment

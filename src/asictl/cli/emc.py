@@ -11,7 +11,7 @@ import click
 
 from asictl.cli.board_options import BoardOptions, board_options, master_wait, open_master
 from asictl.errors import ExitCode, UserError
-from asictl.host.emulated import parse_address, parse_number
+from asictl.host.emulated.actions import parse_address, parse_number
 
 
 def _slaves(text: str) -> list[int]:

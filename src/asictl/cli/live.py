@@ -17,12 +17,13 @@ from click.core import ParameterSource
 from asictl.cli.board_options import BoardOptions, board_options, open_master
 from asictl.cli.opcua_options import opcua_attachment, opcua_options
 from asictl.errors import ExitCode, UserError
-from asictl.host.boards import port_name, state_directory
 from asictl.host.commissioning import image_changes
-from asictl.host.emulated import parse_address, parse_number, parse_profile
+from asictl.host.emulated.actions import parse_address, parse_number, parse_profile
+from asictl.host.emulated.boards import state_directory
 from asictl.host.live.server import DEFAULT_MAX_CONNECTIONS, DEFAULT_SESSION_TIMEOUT_S
 from asictl.host.master import Master
 from asictl.host.symbols import Names
+from asictl.host.transports.ports import port_name
 from asictl.il.ast import OperandKind as K
 
 

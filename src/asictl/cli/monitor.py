@@ -59,9 +59,10 @@ def monitor(**board: Unpack[BoardOptions]) -> None:
         from asictl.monitor.app import MonitorApp
     except ImportError as exc:
         raise missing_extra("asictl monitor", "monitor", f"no {exc.name or exc}") from None
-    from asictl.host.boards import port_name, state_directory
+    from asictl.host.emulated.boards import state_directory
     from asictl.host.live.client import is_served
     from asictl.host.search import resolve_port
+    from asictl.host.transports.ports import port_name
     from asictl.monitor.source import MonitorSource
 
     address = master_address(**board)

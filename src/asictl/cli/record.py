@@ -83,7 +83,7 @@ class _Reader:
             if quick is not None and self.program is not None:
                 return _Data.of(quick(self.program))
             if master.driver is None:  # a gateway: three requests instead of a status
-                from asictl.host.modbus import ModbusMaster, read_data
+                from asictl.host.modbus_master import ModbusMaster, read_data
 
                 if isinstance(master, ModbusMaster):
                     inputs, outputs, flags = read_data(master.transport, flags=self.flags)

@@ -19,9 +19,10 @@ from typing import Generic, TypeVar
 
 from asictl.errors import UserError
 from asictl.fleet.inventory import FleetMaster
-from asictl.host.boards import parse_port, state_directory, state_file
 from asictl.host.connection import open_board
+from asictl.host.emulated.boards import state_directory, state_file
 from asictl.host.master import Master
+from asictl.host.transports.ports import parse_port
 
 #: Masters worked on at once unless the command says otherwise.
 DEFAULT_JOBS = 8

@@ -11,7 +11,7 @@ goes is decided here, top-down, once:
 - an emulated board that a live server (``asictl serve``) keeps running: its socket,
   for the whole block in one session (host.live.client);
 - any other emulated board: loaded from its state file under its lock, and saved when
-  the block ends (host.boards, over host.state_files and host.locking).
+  the block ends (host.emulated.boards, over host.emulated.state_files and host.emulated.locking).
 
 Each PC2 way ends in a ``Pc2Master`` over the board's registers, with the emulated-only
 capability where the board is emulated.
@@ -28,12 +28,13 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from asictl.errors import ExitCode, UserError, missing_extra
-from asictl.host.boards import emulated_board, port_name, state_directory, state_file
-from asictl.host.driver import DevPort, EmulatedPort, Pc2Driver
-from asictl.host.emulated import LoadedBoard
+from asictl.host.emulated.actions import LoadedBoard
+from asictl.host.emulated.boards import emulated_board, state_directory, state_file
 from asictl.host.master import Master
 from asictl.host.pc2_master import Pc2Master
-from asictl.host.target import DEFAULT_RETRIES, DEFAULT_TIMEOUT_S, parse_target
+from asictl.host.transports.driver import DevPort, EmulatedPort, Pc2Driver
+from asictl.host.transports.ports import port_name
+from asictl.host.transports.target import DEFAULT_RETRIES, DEFAULT_TIMEOUT_S, parse_target
 from asictl.image.eeprom import ProgramImage
 
 if TYPE_CHECKING:
@@ -167,13 +168,14 @@ def _gateway(address: MasterAddress) -> Iterator[Master]:
         address.modbus, baud=address.baud, parity=address.parity, stopbits=address.stopbits
     )
     try:
-        from asictl.host import modbus as gateway
+        from asictl.host.modbus_master import ModbusMaster
+        from asictl.host.transports.modbus import open_modbus
     except ImportError as exc:
         raise missing_extra("--modbus", "modbus", str(exc)) from None
-    with gateway.open_modbus(
+    with open_modbus(
         target, address.unit, timeout=address.timeout, retries=address.retries
     ) as transport:
-        yield gateway.ModbusMaster(transport)
+        yield ModbusMaster(transport)
 
 
 def cable_setup_slaves(master: Master, image: ProgramImage) -> None:

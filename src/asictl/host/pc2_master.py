@@ -1,6 +1,6 @@
 """``Master`` for a PC2 board, through its three I/O registers whichever way they are
 reached: /dev/port (a real board), an emulated board loaded from its state file, or a
-live board's socket. Below the ``PortIO`` line (host.driver, host.live.client) the three
+live board's socket. Below the ``PortIO`` line (host.transports.driver, host.live.client) the three
 differ; above it one driver, one transport and one set of views serve them all, and an
 emulated board adds its ``EmulatedBoard`` capability."""
 
@@ -10,10 +10,10 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 from asictl.host.commissioning import Commissioning, Pc2Commissioning
-from asictl.host.driver import Pc2Driver
 from asictl.host.master import JSON, EmulatedBoard, emulated_board
 from asictl.host.status import MasterStatus, StoredProgram, View, control_summary, read_status
 from asictl.host.transfer import Pc2Transport
+from asictl.host.transports.driver import Pc2Driver
 
 
 @dataclass(frozen=True)

@@ -41,12 +41,12 @@ from asyncua.ua.status_codes import StatusCodes
 from asyncua.ua.uaerrors._base import UaStatusCodeError
 
 from asictl.errors import ExitCode, UserError
-from asictl.host.driver import EmulatedPort, Pc2Driver
-from asictl.host.emulated import LoadedBoard, run_action
+from asictl.host.emulated.actions import LoadedBoard, run_action
 from asictl.host.live.board import LiveBoard
 from asictl.host.pc2_master import Pc2Master
 from asictl.host.status import MasterStatus, StoredProgram, read_program
 from asictl.host.transfer import set_start
+from asictl.host.transports.driver import EmulatedPort, Pc2Driver
 from asictl.observe.operands import Operand, image_symbols, parse_operand
 from asictl.observe.symbols import SymbolTable
 from asictl.observe.view import host_write, read_on_board, wake
