@@ -15,7 +15,7 @@ from asictl.errors import ExitCode, UserError
 from asictl.gateway.server import background_gateway
 from asictl.gateway.slave import GatewaySlave
 from asictl.host.connection import MasterAddress, open_board
-from asictl.host.emulated.actions import SETTLE_MS, LoadedBoard
+from asictl.host.emulated.actions import SETTLE_MS
 from asictl.host.live.client import LiveActions
 from asictl.host.live.server import background_live
 from asictl.host.master import Master
@@ -46,7 +46,7 @@ def test_a_pc2_board_without_the_capability_is_seen_as_real_hardware():
 
 def test_a_board_loaded_from_its_state_file_runs_on_after_a_change_only():
     board = Pc2Board()
-    master = Pc2Master.over(Pc2Driver(EmulatedPort(board)), "300h", action=LoadedBoard(board))
+    master = Pc2Master.loaded(board, "300h")
     assert master.action is not None and master.action.live is None
     before = board.now_ms
     assert master.emulated("bus") == {"powered": True, "slaves": []}

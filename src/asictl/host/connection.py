@@ -28,11 +28,10 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from asictl.errors import ExitCode, UserError, missing_extra
-from asictl.host.emulated.actions import LoadedBoard
 from asictl.host.emulated.boards import emulated_board, state_directory, state_file
 from asictl.host.master import Master
 from asictl.host.pc2_master import Pc2Master
-from asictl.host.transports.driver import DevPort, EmulatedPort, Pc2Driver
+from asictl.host.transports.driver import DevPort, Pc2Driver
 from asictl.host.transports.ports import port_name
 from asictl.host.transports.target import DEFAULT_RETRIES, DEFAULT_TIMEOUT_S, parse_target
 from asictl.image.eeprom import ProgramImage
@@ -154,10 +153,7 @@ def _loaded_board(
     none), under its lock, and saved when the block ends."""
     created = not state_file(directory, base).exists()
     with emulated_board(base, directory, wait=wait, notify=notify) as board:
-        yield Pc2Master.over(
-            Pc2Driver(EmulatedPort(board)), port_name(base), created=created,
-            action=LoadedBoard(board),
-        )
+        yield Pc2Master.loaded(board, port_name(base), created=created)
 
 
 @contextmanager

@@ -41,12 +41,11 @@ from asyncua.ua.status_codes import StatusCodes
 from asyncua.ua.uaerrors._base import UaStatusCodeError
 
 from asictl.errors import ExitCode, UserError
-from asictl.host.emulated.actions import LoadedBoard, run_action
+from asictl.host.emulated.actions import run_action
 from asictl.host.live.board import LiveBoard
 from asictl.host.pc2_master import Pc2Master
 from asictl.host.status import MasterStatus, StoredProgram, read_program
 from asictl.host.transfer import set_start
-from asictl.host.transports.driver import EmulatedPort, Pc2Driver
 from asictl.observe.operands import Operand, image_symbols, parse_operand
 from asictl.observe.symbols import SymbolTable
 from asictl.observe.view import host_write, read_on_board, wake
@@ -135,8 +134,7 @@ class BoardSpace:
     def __init__(self, server: Server, live: LiveBoard, name: str, options: OpcUaOptions) -> None:
         self.server, self.live, self.options = server, live, options
         board = live.board
-        self.master = Pc2Master.over(Pc2Driver(EmulatedPort(board)), name,
-                                     action=LoadedBoard(board))
+        self.master = Pc2Master.loaded(board, name)
         self.program: StoredProgram | None = None
         self._loaded: object = None
         self.ns = 0
