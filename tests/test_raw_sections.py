@@ -12,7 +12,7 @@ from intelhex import IntelHex
 from asictl.build import build_file
 from asictl.cli import main
 from asictl.codes import ImageCode
-from asictl.host.boards import emulated_board
+from asictl.host.emulated.boards import emulated_board
 from asictl.host.program_files import uploaded_source
 from asictl.image.eeprom import ProgramImage
 

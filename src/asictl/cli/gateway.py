@@ -22,15 +22,16 @@ from click.core import ParameterSource
 from asictl.cli.opcua_options import opcua_attachment, opcua_options
 from asictl.cli.serial_options import serial_options, unit_option
 from asictl.errors import ExitCode, UserError, missing_extra
-from asictl.host.boards import lock_file, port_name, state_directory
+from asictl.host.emulated.boards import lock_file, state_directory
+from asictl.host.emulated.locking import note_holder
 from asictl.host.live.board import LiveBoard
 from asictl.host.live.client import LiveClient, open_live, served_by
 from asictl.host.live.protocol import socket_path
 from asictl.host.live.saver import SAVE_INTERVAL_S
 from asictl.host.live.server import run_live, together
-from asictl.host.locking import note_holder
 from asictl.host.search import resolve_port
-from asictl.host.target import check_serial_setting, port_number
+from asictl.host.transports.ports import port_name
+from asictl.host.transports.target import check_serial_setting, port_number
 from asictl.platform.display import Display, led_text
 from asictl.platform.gateway import Interface
 

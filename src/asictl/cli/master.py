@@ -12,26 +12,22 @@ from __future__ import annotations
 
 import json
 import sys
-import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
-from typing import TypedDict, TypeVar, Unpack
+from typing import Unpack
 
 import click
-from click.core import ParameterSource
 
 from asictl.build import build_file
+from asictl.cli.board_options import BoardOptions, board_options, master_wait, open_master
 from asictl.cli.options import lib_option
-from asictl.cli.serial_options import serial_options, unit_option
 from asictl.errors import ExitCode, UserError
 from asictl.files import STDOUT, shown_name, write_output
-from asictl.host.boards import IO_BACKENDS
-from asictl.host.connection import MasterAddress, cable_setup_slaves, connect_master
+from asictl.host.connection import cable_setup_slaves
 from asictl.host.master import Master
 from asictl.host.program_files import uploaded_files, write_files
 from asictl.host.status import program_info, render
-from asictl.host.target import DEFAULT_RETRIES, DEFAULT_TIMEOUT_S
 from asictl.host.transfer import (
     StartMode,
     Transport,
@@ -43,109 +39,6 @@ from asictl.host.transfer import (
     upload,
 )
 from asictl.platform.master import ControlFlag
-
-_Callback = TypeVar("_Callback", bound=Callable[..., object])
-
-
-class _BoardOptions(TypedDict):
-    """The values of the options ``_board_options`` adds, as click passes them."""
-
-    port: str
-    io: str
-    state_dir: str | None
-    wait: bool
-    modbus: str | None
-    unit: int
-    baud: str
-    parity: str
-    stopbits: str
-    timeout: float
-    retries: int
-
-
-def _board_options(command: _Callback) -> _Callback:
-    options = [
-        click.option(
-            "--port", default="300h", show_default=True,
-            help="The board's I/O base: 300h, 304h, 308h, 30Ch, 320h, 324h, 328h or 32Ch "
-            "(also written 0x300 or 300); auto: search them in this order and take the first "
-            "board found, as the PC2 driver's AsiPc2Init(0) does.",
-        ),
-        click.option(
-            "--io", type=click.Choice(IO_BACKENDS), default="emulated", show_default=True,
-            help="emulated: an emulated board kept in the state directory; devport: a real "
-            "board through /dev/port (needs root).",
-        ),
-        click.option(
-            "--state-dir", type=click.Path(file_okay=False),
-            help="Where emulated boards are kept [default: $ASICTL_STATE_DIR, else "
-            "$XDG_STATE_HOME/asictl or ~/.local/state/asictl].",
-        ),
-        click.option(
-            "--wait", is_flag=True,
-            help="If another process (such as 'asictl gateway serve') holds the emulated "
-            "board, wait for it instead of stopping with exit status 1.",
-        ),
-        click.option(
-            "--modbus", metavar="URL|DEVICE",
-            help="Go through an AS-i/Modbus gateway instead of a PC2 board: tcp://HOST[:PORT] "
-            "(Modbus TCP), rtu+tcp://HOST[:PORT] (RTU through a device server) or a serial "
-            "device such as /dev/ttyUSB0 (RTU). Excludes --port, --io, --state-dir and --wait.",
-        ),
-        unit_option("The gateway's Modbus slave address (with --modbus)."),
-        serial_options("Serial --modbus"),
-        click.option(
-            "--timeout", type=click.FloatRange(0.01, 60), default=DEFAULT_TIMEOUT_S,
-            show_default=True, help="--modbus: seconds to wait for each answer.",
-        ),
-        click.option(
-            "--retries", type=click.IntRange(0, 20), default=DEFAULT_RETRIES,
-            show_default=True,
-            help="--modbus: how often a request is repeated after a time-out or CRC error.",
-        ),
-    ]
-    for option in reversed(options):
-        command = option(command)
-    return command
-
-
-_PC2_ONLY = ("port", "io", "state_dir", "wait")
-
-
-def _address(
-    port: str, io: str, state_dir: str | None, wait: bool, modbus: str | None, unit: int,
-    baud: str, parity: str, stopbits: str, timeout: float, retries: int,
-) -> MasterAddress:
-    """The master the board options name; --modbus excludes the PC2 board's options."""
-    if modbus is not None:
-        ctx = click.get_current_context()
-        clash = [
-            f"--{option.replace('_', '-')}" for option in _PC2_ONLY
-            if ctx.get_parameter_source(option) is not ParameterSource.DEFAULT
-        ]
-        if clash:
-            raise UserError(f"--modbus and {', '.join(clash)} exclude each other")
-    return MasterAddress(
-        port, io, state_dir, modbus, unit, int(baud), parity, int(stopbits), timeout, retries,
-        wait,
-    )
-
-
-@contextmanager
-def _connect(**board: Unpack[_BoardOptions]) -> Iterator[Master]:
-    """The master the options name. A board that did not exist yet is said so, whatever
-    the command: a mistyped --state-dir or --port would otherwise go unnoticed."""
-    with connect_master(
-        _address(**board), notify=lambda message: click.echo(f"asictl: {message}", err=True)
-    ) as master:
-        if master.created:
-            click.echo(
-                f"asictl: note: there was no emulated board at {master.name} in the state "
-                "directory: a new, empty one was created (is ASICTL_STATE_DIR or --state-dir "
-                "the one you meant?)",
-                err=True,
-            )
-        yield master
 
 
 @contextmanager
@@ -159,7 +52,7 @@ def _progress(label: str, blocks: int) -> Iterator[Callable[[int], None]]:
 
 @click.command("download")
 @click.argument("file", metavar="FILE.asi|FILE.hex", type=click.Path(dir_okay=False))
-@_board_options
+@board_options
 @click.option("--start", "start", is_flag=True, help="Start the program (ACF /s+).")
 @click.option("--stop", "stop", is_flag=True, help="Stop the program (ACF /s-).")
 @click.option(
@@ -168,7 +61,7 @@ def _progress(label: str, blocks: int) -> Iterator[Callable[[int], None]]:
 @lib_option
 def download_command(
     file: str, start: bool, stop: bool, keep: bool, lib: tuple[str, ...],
-    **board: Unpack[_BoardOptions],
+    **board: Unpack[BoardOptions],
 ) -> None:
     """Store a program in the master's EEPROM and load it (ACF /d+).
 
@@ -197,7 +90,7 @@ def download_command(
             " and ".join(f"--{name}" for name in chosen) + " contradict each other: give one"
         )
     mode = StartMode(chosen[0] if chosen else "keep")
-    with _connect(**board) as master:
+    with open_master(**board) as master:
         transport = master.transport
         entry_points = transport.entry_points()
         built = build_file(file, entry_points=entry_points, lib=lib)
@@ -235,7 +128,7 @@ def download_command(
 
 
 @click.command("upload")
-@_board_options
+@board_options
 @click.option(
     "-o", "--output", required=True, type=click.Path(dir_okay=False), metavar="FILE.asi",
     help="The source file to write (- for stdout); function-block files go beside it.",
@@ -243,7 +136,7 @@ def download_command(
 @click.option(
     "--overwrite", is_flag=True, help="Replace files that exist with other content (ACF /o+).",
 )
-def upload_command(output: str, overwrite: bool, **board: Unpack[_BoardOptions]) -> None:
+def upload_command(output: str, overwrite: bool, **board: Unpack[BoardOptions]) -> None:
     """Read the program back from the master into a source file (ACF /u+).
 
     The image is read from the EEPROM and checked (CRC). If it carries its source, the
@@ -264,7 +157,7 @@ def upload_command(output: str, overwrite: bool, **board: Unpack[_BoardOptions])
       asictl download demos/blink.asi
       asictl upload -o copy.asi
     """
-    with _connect(**board) as master:
+    with open_master(**board) as master:
         image = upload(master.transport)
     files = uploaded_files(image, output)
     source = "its source" if image.source else "[RAW] records (the image carries no source)"
@@ -297,14 +190,6 @@ def upload_command(output: str, overwrite: bool, **board: Unpack[_BoardOptions])
         )
 
 
-def _master_wait(master: Master) -> Callable[[float], None]:
-    """How a command lets master time pass: at once on a board loaded for the command,
-    in real time on a live or real one."""
-    if master.action is not None:
-        return master.action.wait_ms
-    return lambda ms: time.sleep(ms / 1000)
-
-
 def _cable_hint(master: Master, summary: str) -> None:
     """On an emulated board a configuration error is usually a cable that does not match
     the program yet: say how to plug in the [SETUP]'s slaves."""
@@ -321,9 +206,9 @@ def _control_command(
     name: str, help_text: str, action: Callable[[Transport], int], *, needs_program: bool = False
 ) -> click.Command:
     @click.command(name, help=help_text)
-    @_board_options
-    def command(**board: Unpack[_BoardOptions]) -> None:
-        with _connect(**board) as master:
+    @board_options
+    def command(**board: Unpack[BoardOptions]) -> None:
+        with open_master(**board) as master:
             if needs_program and not program_info(master.transport).valid:
                 raise UserError(
                     f"{master.name}: no valid program in the master to start "
@@ -360,12 +245,12 @@ stop_command = _control_command(
     lambda transport: set_start(transport, start=False),
 )
 @click.command("reset")
-@_board_options
+@board_options
 @click.option(
     "--hardware", is_flag=True,
     help="Reset the board itself (PAGE bit 4 held 200 ms, AsiPc2Reset): a power-up.",
 )
-def reset_command(hardware: bool, **board: Unpack[_BoardOptions]) -> None:
+def reset_command(hardware: bool, **board: Unpack[BoardOptions]) -> None:
     """Set the reset bit: the master reloads the program from its EEPROM and clears the
     program's flags; the start flag stays as it is.
 
@@ -391,12 +276,12 @@ def reset_command(hardware: bool, **board: Unpack[_BoardOptions]) -> None:
             "(its Modbus restart, diagnostics code 1, only takes the master offline)",
             ExitCode.USAGE,
         )
-    with _connect(**board) as master:
+    with open_master(**board) as master:
         if hardware:
             from asictl.host.hardware_reset import hardware_reset
 
             assert master.driver is not None  # every PC2 master has one
-            powered = hardware_reset(master.driver, _master_wait(master))
+            powered = hardware_reset(master.driver, master_wait(master))
             click.echo(f"{master.name}: {powered.report()}", err=True)
         else:
             reset(master.transport)
@@ -407,9 +292,9 @@ def reset_command(hardware: bool, **board: Unpack[_BoardOptions]) -> None:
 
 
 @click.command("status")
-@_board_options
+@board_options
 @click.option("--json", "as_json", is_flag=True, help="One JSON object on stdout.")
-def status_command(as_json: bool, **board: Unpack[_BoardOptions]) -> None:
+def status_command(as_json: bool, **board: Unpack[BoardOptions]) -> None:
     """Show the master's state: what ASI_MON's screens showed.
 
     Phase and mode, execution control flags, the slave lists LPS/LDS/LAS/LCS/LOS,
@@ -430,7 +315,7 @@ def status_command(as_json: bool, **board: Unpack[_BoardOptions]) -> None:
       asictl status
       asictl status --json
     """
-    with _connect(**board) as master:
+    with open_master(**board) as master:
         status = master.status()
     if as_json:
         click.echo(json.dumps(status.to_json(), indent=2))

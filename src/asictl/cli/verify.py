@@ -11,7 +11,7 @@ from typing import Unpack
 
 import click
 
-from asictl.cli.master import _board_options, _BoardOptions, _connect
+from asictl.cli.board_options import BoardOptions, board_options, open_master
 from asictl.cli.options import lib_option
 from asictl.errors import ExitCode
 from asictl.host.status import read_program
@@ -20,9 +20,9 @@ from asictl.image.eeprom import differences
 
 @click.command("verify")
 @click.argument("file", metavar="FILE.asi|FILE.hex", type=click.Path(dir_okay=False))
-@_board_options
+@board_options
 @lib_option
-def verify(file: str, lib: tuple[str, ...], **board: Unpack[_BoardOptions]) -> None:
+def verify(file: str, lib: tuple[str, ...], **board: Unpack[BoardOptions]) -> None:
     """Compare FILE with the program in the master: identical, different (code,
     configuration, options) or no program there. FILE is source, [RAW] records or .hex,
     built as 'asictl download' would build it.
@@ -39,7 +39,7 @@ def verify(file: str, lib: tuple[str, ...], **board: Unpack[_BoardOptions]) -> N
     from asictl.build import build_file
 
     ctx = click.get_current_context()
-    with _connect(**board) as master:
+    with open_master(**board) as master:
         built = build_file(file, entry_points=master.transport.entry_points(), lib=lib)
         click.echo(built.render(), nl=False, err=True)
         if built.has_errors or built.image is None:

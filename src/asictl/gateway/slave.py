@@ -8,7 +8,8 @@ function code (no CRC counter, no "illegal function" answer) and it has no liste
 all of which the gateway manual requires (6.3.11).
 
 The user-defined functions 65, 66 and 67 are decoded and encoded by the PDU classes of
-``host.gateway_pdus``, the very classes our Modbus client uses, so both ends share one wire format.
+``host.transports.gateway_pdus``, the very classes our Modbus client uses, so both ends
+share one wire format.
 """
 
 from __future__ import annotations
@@ -24,7 +25,7 @@ from asictl.board.board import Pc2Board
 from asictl.gateway.addressmap import MAX_BITS, AddressMap, ExceptionCode, ModbusError
 from asictl.gateway.panel import FrontPanel
 from asictl.gateway.requestlog import request_line
-from asictl.host import gateway_pdus as pdus
+from asictl.host.transports import gateway_pdus as pdus
 from asictl.platform import pc2 as d
 from asictl.platform.gateway import UNITS, Interface
 from asictl.platform.master import EEPROM_SIZE

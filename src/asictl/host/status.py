@@ -22,10 +22,10 @@ from enum import IntEnum
 from typing import Any, assert_never
 
 from asictl.errors import ExitCode, UserError
-from asictl.host.driver import Pc2Driver
 from asictl.host.force_list import ForcedValue, entries_from_json, forced_values
-from asictl.host.jobs import JobError, JobStatus
 from asictl.host.transfer import Pc2Transport, Transport, upload, upload_head
+from asictl.host.transports.driver import Pc2Driver
+from asictl.host.transports.jobs import JobError, JobStatus
 from asictl.il import ast
 from asictl.image.eeprom import MAGIC, ProgramImage
 from asictl.observe.operands import Operand, image_symbols, parse_operand

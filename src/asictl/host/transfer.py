@@ -19,8 +19,8 @@ from enum import Enum
 from typing import Protocol
 
 from asictl.errors import ExitCode, UserError
-from asictl.host.driver import Pc2Driver
-from asictl.host.jobs import JobError, JobStatus
+from asictl.host.transports.driver import Pc2Driver
+from asictl.host.transports.jobs import JobError, JobStatus
 from asictl.image.eeprom import (
     HEADER_SIZE,
     MAGIC,
