@@ -9,8 +9,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from asictl.observe.condition import ConditionError, parse_condition
 from asictl.observe.operands import parse_operand
-from asictl.sim.condition import parse_condition
 
 NAMES = {"Q 2.0": "a", "I 1.1": "b", "F 3.7": "c"}
 
@@ -48,16 +48,28 @@ def test_comparisons_and_symbols():
     assert parse_operand("Q 2.0") in parse_condition("not (Q 2.0)").operands
 
 
-@pytest.mark.parametrize(("text", "message"), [
-    ("Q 2.0 and", "ends too early"),
-    ("and Q 2.0", "an operand expected before 'and'"),
-    ("Q 2.0 == x", "is not a number"),
-    ("Q 2.0 Q 2.1", "is not an operand"),
-    ("(Q 2.0 or F 0.0", "ends too early"),
-    ("(Q 2.0 or F 0.0 (", "')' expected"),
-    ("(" * 40 + "Q 2.0" + ")" * 40, "nested more than 32 deep"),
-    ("not " * 40 + "Q 2.0", "nested more than 32 deep"),
+@pytest.mark.parametrize(("text", "message", "offset"), [
+    ("Q 2.0 and", "expected an operand, a number or '(', found the end", 9),
+    ("and Q 2.0", "expected an operand, a number or '(', found 'and'", 0),
+    ("Q 2.0 == x", "'x' is not an operand", 9),
+    ("Q 2.0 Q 2.1", "'Q 2.0 Q 2.1' is not an operand", 0),
+    ("(Q 2.0 or F 0.0", "expected and, or, xor or ')', found the end", 15),
+    ("(Q 2.0 or F 0.0 (", "expected and, or, xor, a comparison or ')', found '('", 16),
+    ("Q 2.0 not F 0.0", "expected and, or, xor, a comparison or the end, found 'not'", 6),
+    ("CV 0 < 1 < 2", "comparisons do not chain", 9),
+    ("QB 16", "a condition is true or false: compare the value QB 16", 0),
+    ("QB 16 and Q 2.0", "'and' combines conditions: compare the value QB 16", 0),
+    ("not CV 1", "'not' negates a condition, not the value CV 1", 4),
+    ("CV 1 >= 2s", "a duration compares with a timer's value (TV n), not CV 1", 8),
+    ("TV 1 >= 1.5ms", "a duration in whole milliseconds", 8),
+    ("Q 2.0 == 0x1_0000_0000", "a number up to 4294967295", 9),
+    ("Q 2.0 & F 0.0", "unexpected character '&'", 6),
+    ("(" * 40 + "Q 2.0" + ")" * 40, "parentheses nested more than 32 deep", 32),
+    ("not " * 40 + "Q 2.0", "'not' nested more than 32 deep", 128),
+    (" and ".join(["Q 2.0"] * 1000), "at most 4000 characters", 4000),
 ])
-def test_bad_conditions_say_what_is_wrong(text: str, message: str):
-    with pytest.raises(ValueError, match=message.replace("(", r"\(").replace(")", r"\)")):
+def test_bad_conditions_say_what_is_wrong_and_where(text: str, message: str, offset: int):
+    with pytest.raises(ConditionError) as caught:
         parse_condition(text)
+    assert message in caught.value.message
+    assert caught.value.offset == offset
