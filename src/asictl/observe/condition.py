@@ -255,8 +255,8 @@ def holds(expr: Expr, read: Read, registers: ReadRegister | None = None) -> bool
             return any(holds(part, read, registers) for part in parts)
         case Connective(parts=parts):  # xor
             return sum(holds(part, read, registers) for part in parts) % 2 == 1
-        case Comparison(op=op, left=left, right=right) if is_condition(left) and is_condition(
-                right):
+        case Comparison(op="==" | "!=" as op, left=left, right=right) if is_condition(
+                left) and is_condition(right):
             return COMPARISONS[op](holds(left, read, registers), holds(right, read, registers))
         case Comparison(op=op, left=left, right=right):
             return COMPARISONS[op](value(left, read, registers), value(right, read, registers))
