@@ -6,11 +6,23 @@ from __future__ import annotations
 import itertools
 
 import pytest
+from condition_strategies import conditions, states
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from asictl.observe.condition import ConditionError, parse_condition
-from asictl.observe.operands import parse_operand
+from asictl.observe.condition import (
+    Comparison,
+    ConditionError,
+    Connective,
+    Expr,
+    Negation,
+    holds,
+    is_condition,
+    parse_condition,
+    parse_expression,
+    show,
+)
+from asictl.observe.operands import Operand, parse_operand
 
 NAMES = {"Q 2.0": "a", "I 1.1": "b", "F 3.7": "c"}
 
@@ -73,3 +85,36 @@ def test_bad_conditions_say_what_is_wrong_and_where(text: str, message: str, off
         parse_condition(text)
     assert message in caught.value.message
     assert caught.value.offset == offset
+
+
+@settings(max_examples=300, deadline=None)
+@given(conditions())
+def test_a_printed_condition_reads_back_as_the_same_tree(expr: Expr):
+    text = show(expr)
+    assert parse_expression(text) == expr
+    assert show(parse_expression(text)) == text
+
+
+def test_a_single_equals_is_double_and_keywords_take_any_case():
+    assert parse_expression("CV 0 = 3") == parse_expression("CV 0 == 3")
+    assert parse_expression("I 1.0 AND Not I 1.1 Or TRUE") == parse_expression(
+        "I 1.0 and not I 1.1 or true")
+    assert show(parse_expression("TV 1 >= 2s")) == "TV 1 >= 2000ms"
+
+
+@settings(max_examples=200, deadline=None)
+@given(conditions(), states())
+def test_xor_is_an_odd_count_and_comparisons_of_conditions_compare_truths(
+        expr: Expr, state: dict[Operand, int]):
+    """The evaluator against the meaning each node has, one level down."""
+    read = state.__getitem__
+    match expr:
+        case Connective(op="xor", parts=parts):
+            assert holds(expr, read) == (sum(holds(p, read) for p in parts) % 2 == 1)
+        case Comparison(op="==", left=left, right=right) if is_condition(left) and is_condition(
+                right):
+            assert holds(expr, read) == (holds(left, read) == holds(right, read))
+        case Negation(arg=arg):
+            assert holds(expr, read) is not holds(arg, read)
+        case _:
+            assert holds(expr, read) in (True, False)
