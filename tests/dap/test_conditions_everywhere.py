@@ -9,7 +9,6 @@ file, an ``error:`` line and a caret in the debugger, a refused breakpoint in th
 
 from __future__ import annotations
 
-from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
@@ -23,24 +22,22 @@ from asictl.prove.engine import Verdict
 from asictl.prove.session import Invalid, prove
 from asictl.sim.session import prepare
 
-#: Forward and backward of a motor, each locked out by the other (test_prove's REVERSE).
+#: A motor that holds itself on from Start until Stop, and its lamp.
 PROGRAM = """\
 [SETUP]
 1: iiii, 0
 2: oooo, 0
 [PROGRAM]
-        A   I 1.0       ; forward
+        A   I 1.0       ; start
+        O   Q 2.0       ; holds itself
         AN  I 1.2       ; stop
-        AN  Q 2.1
         =   Q 2.0
 ***
-        A   I 1.1       ; backward
-        AN  I 1.2
-        AN  Q 2.0
-        =   Q 2.1
+        A   Q 2.0
+        =   Q 2.1       ; lamp
 ***
 """
-BACKWARD = 10  # A I 1.1: after the forward output is written in the same cycle
+LAMP = 10  # A Q 2.0: after the motor's output is written in the same cycle
 SYMBOLS = 'Start = "I 1.0"\nStop = "I 1.2"\nForward = "Q 2.0"\n'
 #: Symbols, a single =, xor, false, not, parentheses: written once for every host.
 CONDITION = "Forward = 1 and not (Stop xor false)"
@@ -88,13 +85,6 @@ def program(tmp_path: Path) -> Path:
     return path
 
 
-@pytest.fixture
-def client(tmp_path: Path) -> Iterator[DapClient]:
-    client = DapClient(tmp_path)
-    yield client
-    client.close()
-
-
 def column_in(text: str, key: str) -> int:
     """The 1-based column, in the line ``key = "..."`` of ``text``, of where BAD goes wrong."""
     line = next(line for line in text.split("\n") if line.startswith(f"{key} = "))
@@ -115,9 +105,9 @@ def test_one_condition_means_the_same_in_every_host(program: Path, client: DapCl
     lines: list[str] = []
     debugger = Debugger(prepare(program, tmp / "p.scenario.toml"), lines.append)
     try:
-        debugger.execute(f"break {BACKWARD} if {CONDITION}")
+        debugger.execute(f"break {LAMP} if {CONDITION}")
         debugger.execute("continue")
-        assert any(line.startswith(f"breakpoint 1, p.asi:{BACKWARD}, master time 10 ms")
+        assert any(line.startswith(f"breakpoint 1, p.asi:{LAMP}, master time 10 ms")
                    for line in lines), lines
     finally:
         debugger.close()
@@ -126,11 +116,11 @@ def test_one_condition_means_the_same_in_every_host(program: Path, client: DapCl
     client.request("launch", {"program": str(program)})
     client.wait_event("initialized")
     placed = client.request("setBreakpoints", {"source": {"path": str(program)}, "breakpoints": [
-        {"line": BACKWARD, "condition": CONDITION}]})["breakpoints"]
+        {"line": LAMP, "condition": CONDITION}]})["breakpoints"]
     client.request("configurationDone")
     assert placed[0]["verified"]
     stop = client.stopped()
-    assert stop["line"] == BACKWARD and stop["reason"] == "breakpoint"
+    assert stop["line"] == LAMP and stop["reason"] == "breakpoint"
     assert client.request("evaluate", {"expression": "Forward", "context": "hover"})[
         "result"] == "1"
 
@@ -160,7 +150,7 @@ def test_a_mistake_reads_the_same_in_every_host(program: Path, client: DapClient
     debugger = Debugger(prepare(program, None), lines.append)
     try:
         start = len(lines)
-        debugger.execute(f"break {BACKWARD} if {BAD}")
+        debugger.execute(f"break {LAMP} if {BAD}")
     finally:
         debugger.close()
     caret = "  " + " " * len(BAD) + "^"
@@ -171,6 +161,6 @@ def test_a_mistake_reads_the_same_in_every_host(program: Path, client: DapClient
     client.request("launch", {"program": str(program), "noScenario": True})
     client.wait_event("initialized")
     placed = client.request("setBreakpoints", {"source": {"path": str(program)}, "breakpoints": [
-        {"line": BACKWARD, "condition": BAD}]})["breakpoints"]
+        {"line": LAMP, "condition": BAD}]})["breakpoints"]
     assert not placed[0]["verified"]
     assert placed[0]["message"].split("\n")[0] == MESSAGE
