@@ -4,12 +4,15 @@ own evaluation of the same text, comparisons, and errors instead of crashes."""
 from __future__ import annotations
 
 import itertools
+from pathlib import Path
 
+import lark
 import pytest
 from condition_strategies import conditions, states
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+import asictl
 from asictl.observe.condition import (
     Comparison,
     ConditionError,
@@ -118,3 +121,10 @@ def test_xor_is_an_odd_count_and_comparisons_of_conditions_compare_truths(
             assert holds(expr, read) is not holds(arg, read)
         case _:
             assert holds(expr, read) in (True, False)
+
+
+def test_the_grammar_is_free_of_conflicts():
+    """strict=True fails on any LALR conflict and on two terminals of one lexer state that
+    could match the same text (interegular): the keywords are re-typed words, not rivals."""
+    grammar = (Path(asictl.__file__).parent / "grammar" / "condition.lark").read_text()
+    lark.Lark(grammar, parser="lalr", lexer="contextual", strict=True)
