@@ -77,6 +77,7 @@ def test_comparisons_and_symbols():
     ("not CV 1", "'not' negates a condition, not the value CV 1", 4),
     ("CV 1 >= 2s", "a duration compares with a timer's value (TV n), not CV 1", 8),
     ("TV 1 >= 1.5ms", "a duration in whole milliseconds", 8),
+    ("QB 16 == 10h", "'10h' is 10 hours: a number in hex is written 0x10", 9),
     ("Q 2.0 == 0x1_0000_0000", "a number up to 4294967295", 9),
     ("Q 2.0 & F 0.0", "unexpected character '&'", 6),
     ("(" * 40 + "Q 2.0" + ")" * 40, "parentheses nested more than 32 deep", 32),

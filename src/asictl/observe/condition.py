@@ -2,9 +2,9 @@
 ``"CV 0 >= 3"``, ``"TV 1 >= 2s"``, ``"(Start or Jog) xor Stop"``.
 
 A plant model's ``rule`` fires on one, ``asictl.testing``'s ``run_until`` waits for one, a
-properties file states its properties and ``[assume]`` in them, the debugger and the
-editors' conditional breakpoints stop on one, and a watch table's ``when`` shows its
-rows while one holds. docs/conditions.md is the language's one description.
+properties file states its properties and ``[assume]`` in them, and the debugger and the
+editors' conditional breakpoints stop on one. docs/conditions.md is the language's one
+description.
 
 The grammar is ``grammar/condition.lark`` (lark, LALR). ``parse_condition`` reads a text
 into a small tree of frozen dataclasses (``Expr``) whose nodes keep where they stand in
@@ -244,7 +244,7 @@ def holds(expr: Expr, read: Read, registers: ReadRegister | None = None) -> bool
     """The concrete evaluator: ``expr`` (a condition) on the values ``read`` gives."""
     match expr:
         case Ref() | Register():
-            return value(expr, read, registers) != 0
+            return value_of(expr, read, registers) != 0
         case Truth(value=truth):
             return truth
         case Negation(arg=arg):
@@ -259,14 +259,15 @@ def holds(expr: Expr, read: Read, registers: ReadRegister | None = None) -> bool
                 left) and is_condition(right):
             return COMPARISONS[op](holds(left, read, registers), holds(right, read, registers))
         case Comparison(op=op, left=left, right=right):
-            return COMPARISONS[op](value(left, read, registers), value(right, read, registers))
+            return COMPARISONS[op](value_of(left, read, registers),
+                                  value_of(right, read, registers))
         case Number() | Duration():
             raise AssertionError("a number is no condition (parse_condition refuses it)")
         case _:
             assert_never(expr)
 
 
-def value(expr: Expr, read: Read, registers: ReadRegister | None = None) -> int:
+def value_of(expr: Expr, read: Read, registers: ReadRegister | None = None) -> int:
     """The value of an operand, register, number or duration (a bit is 0 or 1)."""
     match expr:
         case Ref(operand=operand):
@@ -369,8 +370,15 @@ class _Builder:
         self.variables = variables
         self.symbols = symbols
         self.registers = {name.upper(): bit for name, bit in registers.items()}
+        #: id of a node built -> its length in the text (the nodes live while they are built)
+        self.spans: dict[int, int] = {}
 
     def build(self, tree: lark.Tree[lark.Token], depth: int) -> Expr:
+        expr = self.node(tree, depth)
+        self.spans.setdefault(id(expr), tree.meta.end_pos - tree.meta.start_pos)
+        return expr
+
+    def node(self, tree: lark.Tree[lark.Token], depth: int) -> Expr:
         offset = tree.meta.start_pos
         rule = str(tree.data)
         if rule in ("negation", "group"):
@@ -402,8 +410,8 @@ class _Builder:
                                  expr.offset, self.length(expr))
 
     def length(self, expr: Expr) -> int:
-        """Characters of ``expr`` in the text: its written form's, for a caret under it."""
-        return len(expr.text) if isinstance(expr, Ref) else len(show(expr))
+        """Characters of ``expr`` in the text, for a caret under all of it."""
+        return self.spans.get(id(expr), 1)
 
     def comparison(self, tree: lark.Tree[lark.Token], parts: list[Expr]) -> Comparison:
         token = next(c for c in tree.children if isinstance(c, lark.Token))
@@ -417,9 +425,12 @@ class _Builder:
                                      f"{show(side)}", side.offset, self.length(side))
         for side, other in ((left, right), (right, left)):
             if isinstance(side, Duration) and not _is_timer_value(other):
-                raise ConditionError(
-                    f"a duration compares with a timer's value (TV n), not {show(other)} "
-                    "(a number in hex is written 0x...)", side.offset, self.length(side))
+                written = self.text[side.offset:side.offset + self.length(side)]
+                hint = (f" ('{written}' is {written[:-1]} hours: a number in hex is written "
+                        f"0x{written[:-1]})" if written[-1:] in "hH" and written[:-1].isdigit()
+                        else "")
+                raise ConditionError(f"a duration compares with a timer's value (TV n), not "
+                                     f"{show(other)}{hint}", side.offset, self.length(side))
         return Comparison(op, left, right, tree.meta.start_pos)
 
     def value(self, tree: lark.Tree[lark.Token]) -> Value:
