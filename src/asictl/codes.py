@@ -102,6 +102,8 @@ class ScenarioCode(StrEnum):
     INVENTORY = "E404"
     PROPERTIES = "E405"
     UNMODELLED = "E406"
+    #: a condition (docs/conditions.md) that cannot be read, in any file that holds one
+    CONDITION = "E410"
 
 
 class AssemblerCode(StrEnum):
@@ -180,6 +182,7 @@ TITLES: dict[str, str] = {
     "E404": "invalid plant inventory",
     "E405": "invalid properties file",
     "E406": "construct the prover cannot model",
+    "E410": "condition that cannot be read",
     "E501": "syntax",
     "E502": "unknown mnemonic or directive",
     "E503": "operand not valid for the instruction",
