@@ -30,6 +30,7 @@ from asictl.host.boards import IO_BACKENDS
 from asictl.host.connection import MasterAddress, cable_setup_slaves, connect_master
 from asictl.host.master import Master
 from asictl.host.program_files import uploaded_files, write_files
+from asictl.host.raw_image import holds_raw_program
 from asictl.host.status import program_info, render
 from asictl.host.target import DEFAULT_RETRIES, DEFAULT_TIMEOUT_S
 from asictl.host.transfer import (
@@ -41,6 +42,7 @@ from asictl.host.transfer import (
     reset,
     set_start,
     upload,
+    upload_head,
 )
 from asictl.platform.master import ControlFlag
 
@@ -165,10 +167,20 @@ def _progress(label: str, blocks: int) -> Iterator[Callable[[int], None]]:
 @click.option(
     "--keep", "keep", is_flag=True, help="Leave the start flag as it is (ACF /s0) [default].",
 )
+@click.option(
+    "--raw", is_flag=True,
+    help="FILE.hex is a raw image ('asictl upload' of a program not in asictl's format): "
+    "write it byte for byte, read it back and compare, then reset the master.",
+)
+@click.option(
+    "--restore-setup", is_flag=True,
+    help="With --raw: first write the configuration (LPS, PCD, PP) and the AS-i Control "
+    "flags from the record beside FILE.hex (FILE.json).",
+)
 @lib_option
 def download_command(
-    file: str, start: bool, stop: bool, keep: bool, lib: tuple[str, ...],
-    **board: Unpack[_BoardOptions],
+    file: str, start: bool, stop: bool, keep: bool, raw: bool, restore_setup: bool,
+    lib: tuple[str, ...], **board: Unpack[_BoardOptions],
 ) -> None:
     """Store a program in the master's EEPROM and load it (ACF /d+).
 
@@ -189,6 +201,18 @@ def download_command(
             " and ".join(f"--{name}" for name in chosen) + " contradict each other: give one"
         )
     mode = StartMode(chosen[0] if chosen else "keep")
+    if raw or restore_setup:
+        from asictl.cli import raw_images
+
+        if not raw:
+            raise click.UsageError("--restore-setup goes with --raw")
+        if chosen:
+            raise click.UsageError(f"--raw keeps the flags as they are (or restores them "
+                                   f"with --restore-setup): --{chosen[0]} does not apply")
+        raw_image = raw_images.read_raw_file(file)
+        with _connect(**board) as master:
+            raw_images.restore(master, file, raw_image, restore_setup=restore_setup)
+        return
     with _connect(**board) as master:
         transport = master.transport
         entry_points = transport.entry_points()
@@ -251,8 +275,18 @@ def upload_command(output: str, overwrite: bool, **board: Unpack[_BoardOptions])
     Exit status: 0 uploaded, 1 no valid program in the master, a file not overwritten or
     a failed command, 2 bad usage or a corrupt board state.
     """
+    from asictl.cli import raw_images
+
     with _connect(**board) as master:
-        image = upload(master.transport)
+        head = upload_head(master.transport)
+        raw = None
+        if holds_raw_program(head):
+            raw = raw_images.read_raw(master, raw_images.hex_output(output).name)
+        else:
+            image = upload(master.transport, head)
+    if raw is not None:
+        raw_images.write_raw(master, raw, output, overwrite=overwrite)
+        return
     files = uploaded_files(image, output)
     source = "its source" if image.source else "[RAW] records (the image carries no source)"
     if output == STDOUT:

@@ -25,6 +25,7 @@ from asictl.errors import ExitCode, UserError
 from asictl.host.driver import Pc2Driver
 from asictl.host.force_list import ForcedValue, entries_from_json, forced_values
 from asictl.host.jobs import JobError, JobStatus
+from asictl.host.raw_image import foreign_eeprom
 from asictl.host.transfer import Pc2Transport, Transport, upload, upload_head
 from asictl.il import ast
 from asictl.image.eeprom import MAGIC, ProgramImage
@@ -257,7 +258,9 @@ def read_program(transport: Transport) -> StoredProgram:
     """Upload (53) the image in the EEPROM and describe it."""
     head = upload_head(transport)  # read once: the check here, and the upload's start
     if head[: len(MAGIC)] != MAGIC:
-        return StoredProgram(ProgramInfo(present=False, valid=False, problem="no program image"))
+        return StoredProgram(ProgramInfo(
+            present=False, valid=False, problem=foreign_eeprom(transport, head)
+        ))
     try:
         image = upload(transport, head)
     except JobError as exc:

@@ -47,7 +47,7 @@ from asictl.runtime.firmware import FIRMWARE_BLOCKS
 #: What the first write of a download puts over the magic.
 _NO_MAGIC = bytes(len(MAGIC))
 #: Flags the host may write with command 50; the others read back but are the master's.
-_WRITABLE_FLAGS = ~(ControlFlag.CONTROL_ACTIVE | ControlFlag.RESET) & 0xFF
+WRITABLE_FLAGS = ~(ControlFlag.CONTROL_ACTIVE | ControlFlag.RESET) & 0xFF
 
 Progress = Callable[[int], None]
 
@@ -262,13 +262,13 @@ def upload(transport: Transport, head: bytes | None = None) -> ProgramImage:
 
 def set_start(transport: Transport, *, start: bool) -> int:
     """Set or clear the start flag, keeping the other flags: ACF's /s+ and /s-."""
-    flags = transport.control_flags() & _WRITABLE_FLAGS & ~ControlFlag.START
+    flags = transport.control_flags() & WRITABLE_FLAGS & ~ControlFlag.START
     return transport.write_control_flags(flags | (ControlFlag.START if start else 0))
 
 
 def reset(transport: Transport) -> int:
     """The reset bit: reload the program from the EEPROM and clear its flags."""
-    return _load(transport, transport.control_flags() & _WRITABLE_FLAGS)
+    return _load(transport, transport.control_flags() & WRITABLE_FLAGS)
 
 
 def _load(transport: Transport, flags: int) -> int:
