@@ -16,6 +16,7 @@ line, since any of them would leave bytes of the master undefined.
 
 from __future__ import annotations
 
+import hashlib
 import io
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -79,6 +80,11 @@ def used(eeprom: bytes) -> bytes:
     """The EEPROM up to its last non-blank line: what a backup keeps."""
     end = len(eeprom.rstrip(bytes([BLANK])))
     return eeprom[: min(len(eeprom), -(-end // LINE) * LINE)]
+
+
+def identity(image: bytes) -> str:
+    """A raw image's identity, as asictl's images have theirs: ``raw-`` and its SHA-256."""
+    return "raw-" + hashlib.sha256(image).hexdigest()
 
 
 def padded(image: bytes) -> bytes:
