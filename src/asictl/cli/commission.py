@@ -16,11 +16,13 @@ from typing import Unpack
 
 import click
 
+from asictl.cli.guard_options import real_master_option
 from asictl.cli.master import _board_options, _BoardOptions, _connect
 from asictl.cli.options import lib_option
 from asictl.errors import ExitCode, UserError
 from asictl.host.commissioning import Change, image_changes, write_flags
 from asictl.host.emulated import parse_address, parse_number
+from asictl.host.overwrite_guard import check_overwrite
 from asictl.host.symbols import Names
 from asictl.il.ast import OperandKind as K
 from asictl.observe.operands import Assignment
@@ -41,7 +43,8 @@ def slave() -> None:
 @click.argument("old")
 @click.argument("new")
 @_board_options
-def address(old: str, new: str, **board: Unpack[_BoardOptions]) -> None:
+@real_master_option
+def address(old: str, new: str, real_master: bool, **board: Unpack[_BoardOptions]) -> None:
     """Give the slave at OLD the address NEW (0 is a new slave's address).
 
     The master's command 20: the slave must be detected at OLD, NEW must be free, and no
@@ -53,6 +56,7 @@ def address(old: str, new: str, **board: Unpack[_BoardOptions]) -> None:
     """
     before, after = parse_address(old), parse_address(new)
     with _connect(**board) as master:
+        check_overwrite(master, f"re-address slave {before}", real_master=real_master)
         master.tools().change_address(before, after)
         click.echo(f"{master.name}: slave {before} now has address {after}", err=True)
 
@@ -61,13 +65,17 @@ def address(old: str, new: str, **board: Unpack[_BoardOptions]) -> None:
 @click.argument("address_", metavar="ADDRESS")
 @click.argument("value")
 @_board_options
-def parameter(address_: str, value: str, **board: Unpack[_BoardOptions]) -> None:
+@real_master_option
+def parameter(
+    address_: str, value: str, real_master: bool, **board: Unpack[_BoardOptions]
+) -> None:
     """Write parameter VALUE (0..15) to the slave at ADDRESS (Write_Parameter, command 5);
     prints the slave's answer. The permanent parameter (PP) stays: 'asictl store
     parameters' makes the actual ones permanent."""
     where = parse_address(address_, zero=False)
     parameter_value = parse_number(value, "parameter", 15)
     with _connect(**board) as master:
+        check_overwrite(master, f"write a parameter to slave {where}", real_master=real_master)
         answer = master.tools().write_parameter(where, parameter_value)
     click.echo(f"{answer:X}h")
     click.echo(
@@ -111,11 +119,13 @@ def mode(mode: str | None, **board: Unpack[_BoardOptions]) -> None:
 @click.command("store")
 @click.argument("what", type=click.Choice(["configuration", "parameters"]))
 @_board_options
-def store(what: str, **board: Unpack[_BoardOptions]) -> None:
+@real_master_option
+def store(what: str, real_master: bool, **board: Unpack[_BoardOptions]) -> None:
     """Store the actual configuration (the detected slaves become LPS and PCD; command
     10, configuration mode only: ASI_MON's F6) or the actual parameters (PI becomes PP;
     command 7: ASI_MON's F5)."""
     with _connect(**board) as master:
+        check_overwrite(master, f"store the actual {what}", real_master=real_master)
         tools = master.tools()
         if what == "configuration":
             tools.store_configuration()
@@ -127,14 +137,18 @@ def store(what: str, **board: Unpack[_BoardOptions]) -> None:
 @click.command("setup")
 @click.argument("file", metavar="FILE.asi|FILE.hex", type=click.Path(dir_okay=False))
 @_board_options
+@real_master_option
 @lib_option
-def setup(file: str, lib: tuple[str, ...], **board: Unpack[_BoardOptions]) -> None:
+def setup(
+    file: str, real_master: bool, lib: tuple[str, ...], **board: Unpack[_BoardOptions]
+) -> None:
     """Write the projected configuration (LPS, PCD, PP, and PI) of FILE's [SETUP] to the
     master without downloading its program, as a download does first. FILE is built as
     'asictl download' builds it."""
     from asictl.build import build_file
 
     with _connect(**board) as master:
+        check_overwrite(master, "write the projected configuration", real_master=real_master)
         built = build_file(file, entry_points=master.transport.entry_points(), lib=lib)
         click.echo(built.render(), nl=False, err=True)
         if built.has_errors or built.image is None:
@@ -283,7 +297,10 @@ def _image_writes(
 @click.command("write")
 @click.argument("assignments", nargs=-1, required=True)
 @_board_options
-def write(assignments: tuple[str, ...], **board: Unpack[_BoardOptions]) -> None:
+@real_master_option
+def write(
+    assignments: tuple[str, ...], real_master: bool, **board: Unpack[_BoardOptions]
+) -> None:
     """Write flags and outputs: 'F 10.0=1' (a flag bit), 'FY 10=0x12' (a flag byte),
     'Q 17.3=1' (an output bit), 'Q 17=0b1000' (a slave's four outputs) or 'QB 16=0x5A'
     (slaves 16 and 17), or a name of the symbol table the program on the master carries
@@ -296,6 +313,7 @@ def write(assignments: tuple[str, ...], **board: Unpack[_BoardOptions]) -> None:
     Example: asictl write "F 10.0=1" "Q 17=0b1000"
     """
     with _connect(**board) as master:
+        check_overwrite(master, "write flags and outputs", real_master=real_master)
         names = Names(master)
         flags, outputs = _image_writes(
             [names.assignment(text, example="F 10.0=1") for text in assignments])

@@ -22,6 +22,7 @@ import click
 from click.core import ParameterSource
 
 from asictl.build import build_file
+from asictl.cli.guard_options import real_master_option, unconfirmed_format_option
 from asictl.cli.options import lib_option
 from asictl.cli.serial_options import serial_options, unit_option
 from asictl.errors import ExitCode, UserError
@@ -29,8 +30,9 @@ from asictl.files import STDOUT, shown_name, write_output
 from asictl.host.boards import IO_BACKENDS
 from asictl.host.connection import MasterAddress, cable_setup_slaves, connect_master
 from asictl.host.master import Master
+from asictl.host.overwrite_guard import check_overwrite
 from asictl.host.program_files import uploaded_files, write_files
-from asictl.host.raw_image import holds_raw_program
+from asictl.host.raw_image import holds_raw_program, is_asictl_image
 from asictl.host.status import program_info, render
 from asictl.host.target import DEFAULT_RETRIES, DEFAULT_TIMEOUT_S
 from asictl.host.transfer import (
@@ -177,10 +179,13 @@ def _progress(label: str, blocks: int) -> Iterator[Callable[[int], None]]:
     help="With --raw: first write the configuration (LPS, PCD, PP) and the AS-i Control "
     "flags from the record beside FILE.hex (FILE.json).",
 )
+@real_master_option
+@unconfirmed_format_option
 @lib_option
 def download_command(
     file: str, start: bool, stop: bool, keep: bool, raw: bool, restore_setup: bool,
-    lib: tuple[str, ...], **board: Unpack[_BoardOptions],
+    real_master: bool, unconfirmed_format: bool, lib: tuple[str, ...],
+    **board: Unpack[_BoardOptions],
 ) -> None:
     """Store a program in the master's EEPROM and load it (ACF /d+).
 
@@ -190,6 +195,10 @@ def download_command(
     LPS, PCD, PP and PI; the image is written block by block, the header block last, read
     back and compared; then the reset bit loads it, with the [OPTIONS] flags and the start
     flag as chosen. An interrupted download leaves no program a reset could start.
+
+    On a master that is not asictl's emulation the download first says what runs there
+    and stops, unless --real-master and (for an image in asictl's format)
+    --unconfirmed-format are given: back the master up first with 'asictl upload'.
 
     Exit status: 0 downloaded, 1 errors in the program or the master refused or failed,
     2 bad usage, an unreadable file or a corrupt board state.
@@ -211,9 +220,15 @@ def download_command(
                                    f"with --restore-setup): --{chosen[0]} does not apply")
         raw_image = raw_images.read_raw_file(file)
         with _connect(**board) as master:
+            check_overwrite(
+                master, "write this image byte for byte", real_master=real_master,
+                unconfirmed_format=unconfirmed_format, asictl_image=is_asictl_image(raw_image),
+            )
             raw_images.restore(master, file, raw_image, restore_setup=restore_setup)
         return
     with _connect(**board) as master:
+        check_overwrite(master, "download an image in asictl's format", real_master=real_master,
+                        unconfirmed_format=unconfirmed_format, asictl_image=True)
         transport = master.transport
         entry_points = transport.entry_points()
         built = build_file(file, entry_points=entry_points, lib=lib)
