@@ -91,6 +91,10 @@ COMMANDS: dict[str, tuple[str, str]] = {
         "asictl.cli.online:watch", "Watch operands or symbols on the master: a line per change."
     ),
     "verify": ("asictl.cli.verify:verify", "Compare a program with the one the master runs."),
+    "probe": (
+        "asictl.cli.probe:probe_command",
+        "Read what a master tells without changing it, into a fixture (safe on a real one).",
+    ),
     "monitor": ("asictl.cli.monitor:monitor", "A live full-screen view of the master (ASI_MON)."),
     "debug": ("asictl.cli.debug:debug", "Debug a program at the IL level on an emulated master."),
     "prove": (

@@ -22,6 +22,7 @@ from enum import IntEnum
 from typing import Any, assert_never
 
 from asictl.errors import ExitCode, UserError
+from asictl.host.cycle_units import other_reading, raw_value
 from asictl.host.driver import Pc2Driver
 from asictl.host.force_list import ForcedValue, entries_from_json, forced_values
 from asictl.host.jobs import JobError, JobStatus
@@ -678,7 +679,8 @@ def render(status: MasterStatus) -> str:
         f"control  {control}",
         f"flags    {s.control_flags:02X}h " + (" ".join(set_flags) or "(none)"),
         f"program  {program} ({s.program_status})",
-        (f"cycle    {s.cycle_time_ms:.1f} ms (max {s.max_cycle_time_ms:.1f} ms)"
+        (f"cycle    {s.cycle_time_ms:.1f} ms (max {s.max_cycle_time_ms:.1f} ms) in 10 µs "
+         "units; " + other_reading(raw_value(s.cycle_time_ms), raw_value(s.max_cycle_time_ms))
          if s.cycle_times_known else "cycle    n/a (the gateway does not report them)"),
         f"hi-flags {s.hi_flags:02X}h {hi_flag_text(s.hi_flags)}",
         *timer_text(s),
