@@ -193,3 +193,38 @@ def test_used_stops_at_the_last_non_blank_line():
     assert used(b"\x01" + b"\xff" * 100) == b"\x01" + b"\xff" * 15
     assert used(b"\xff" * 64) == b""
     assert len(used(bytes(EEPROM_SIZE))) == EEPROM_SIZE
+
+
+def test_the_same_through_dev_port(run, tmp_path: Path, monkeypatch: pytest.MonkeyPatch):
+    """``--io devport`` takes the same path: boards behind the register interface, one a
+    look-alike that does not say it is asictl's emulation (so the guard stops there)."""
+    from host_helpers import isa_bus
+
+    from asictl.board.board import Pc2Board
+    from asictl.host import boards, search
+
+    first = Pc2Board()
+    Pc2Transport(Pc2Driver(EmulatedPort(first))).write_eeprom(0, foreign_program())
+    second = Pc2Board()
+    monkeypatch.setattr("asictl.board.images.MASTER_VERSION", b"V2.14".ljust(16, b"\0"))
+    look_alike = Pc2Board()
+    installed = {0x300: first, 0x304: second, 0x308: look_alike}
+    for board in installed.values():
+        board.advance(100)
+    bus = isa_bus(tmp_path / "port", installed)
+    monkeypatch.setattr(search, "DevPort", bus)
+    monkeypatch.setattr(boards, "DevPort", bus)
+    dev = ("--io", "devport", "--port")
+    assert run("upload", "-o", "b.hex", *dev, "300h").exit_code == 0
+    restored = run("download", "b.hex", "--raw", *dev, "304h")
+    assert restored.exit_code == 0, restored.output
+    assert bytes(second._eeprom) == bytes(first._eeprom)
+    assert run("verify", "b.hex", *dev, "304h").exit_code == 0
+    refused = run("download", "b.hex", "--raw", *dev, "308h")
+    assert refused.exit_code == 1 and "give --real-master" in refused.stderr
+    assert run("download", "b.hex", "--raw", "--real-master", *dev, "308h").exit_code == 0
+    assert bytes(look_alike._eeprom) == bytes(first._eeprom)
+    probed = run("probe", "-o", "p.json", *dev, "308h")
+    assert probed.exit_code == 0, probed.output
+    assert json.loads((tmp_path / "p.json").read_text())["identification"][
+        "asictl_emulation"] is False
