@@ -228,3 +228,10 @@ def test_the_same_through_dev_port(run, tmp_path: Path, monkeypatch: pytest.Monk
     assert probed.exit_code == 0, probed.output
     assert json.loads((tmp_path / "p.json").read_text())["identification"][
         "asictl_emulation"] is False
+
+
+def test_verify_of_an_asictl_program_against_a_foreign_one_compares_bytes(run):
+    load(run.state_dir, foreign_program())
+    result = run("verify", str(Path(__file__).resolve().parents[2] / "demos" / "blink.asi"))
+    assert result.exit_code == 1
+    assert "different" in result.stdout and "first at 0000h" in result.stdout

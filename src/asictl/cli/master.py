@@ -287,6 +287,12 @@ def upload_command(output: str, overwrite: bool, **board: Unpack[_BoardOptions])
     unless --overwrite is given. Names of function-block files that are not plain,
     printable file names stop the upload before anything is written.
 
+    A program not in asictl's format (one the vendor's tools loaded) is written byte for
+    byte instead: the EEPROM from 0 to its last non-blank line as an Intel HEX file
+    (FILE.hex, beside FILE.asi if -o names one) and FILE.json, what the master reported
+    (name, version, software letters, flags, configuration). 'asictl download FILE.hex
+    --raw' writes it back, 'asictl verify FILE.hex' compares it.
+
     Exit status: 0 uploaded, 1 no valid program in the master, a file not overwritten or
     a failed command, 2 bad usage or a corrupt board state.
     """

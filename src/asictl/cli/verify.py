@@ -14,7 +14,9 @@ import click
 from asictl.cli.master import _board_options, _BoardOptions, _connect
 from asictl.cli.options import lib_option
 from asictl.errors import ExitCode
+from asictl.host.raw_image import holds_raw_program
 from asictl.host.status import read_program
+from asictl.host.transfer import upload_head
 from asictl.image.eeprom import differences
 
 
@@ -25,9 +27,10 @@ from asictl.image.eeprom import differences
 def verify(file: str, lib: tuple[str, ...], **board: Unpack[_BoardOptions]) -> None:
     """Compare FILE with the program in the master: identical, different (code,
     configuration, options) or no program there. FILE is source, [RAW] records or .hex,
-    built as 'asictl download' would build it. A raw image (the .hex 'asictl upload'
-    writes of a program not in asictl's format) is compared with the whole EEPROM byte
-    for byte: identical, or how many bytes differ and the first addresses.
+    built as 'asictl download' would build it. Where either side is a raw image (the .hex
+    'asictl upload' writes of a program not in asictl's format, or such a program in the
+    master) the whole EEPROM is compared byte for byte: identical, or how many bytes
+    differ and the first addresses.
 
     Exit status: 0 identical, 1 different, no program in the master or errors in FILE,
     2 bad usage or an unreadable file.
@@ -48,6 +51,9 @@ def verify(file: str, lib: tuple[str, ...], **board: Unpack[_BoardOptions]) -> N
         mine = built.image
         stored = read_program(master.transport)
         theirs = stored.image
+        if theirs is None and holds_raw_program(upload_head(master.transport)):
+            same = compare(master, file, mine.to_bytes())  # a raw image on the master's side
+            ctx.exit(int(ExitCode.OK if same else ExitCode.FAILED))
         status = master.status() if theirs is not None else None
     if theirs is None:
         click.echo(f"{master.name}: {stored.info.problem or 'no program'} in the master "
