@@ -14,6 +14,7 @@ from pathlib import Path
 import click
 
 from asictl.build import is_hex
+from asictl.cli.master import _progress
 from asictl.diagnostics import DiagnosticError, render_text
 from asictl.errors import ExitCode
 from asictl.files import STDOUT, shown_name, write_output
@@ -27,6 +28,7 @@ from asictl.host.raw_image import (
     from_hex,
     is_asictl_image,
     read_eeprom,
+    steps,
     to_hex,
     used,
 )
@@ -54,7 +56,9 @@ class RawUpload:
 
 def read_raw(master: Master, hex_name: str) -> RawUpload:
     """The master's EEPROM and what it reports (identification, configuration, flags)."""
-    image = used(read_eeprom(master.transport))
+    transport = master.transport
+    with _progress(f"upload {EEPROM_SIZE} bytes", steps(transport)) as bar:
+        image = used(read_eeprom(transport, bar))
     return RawUpload(image, make_record(master.status(), image, hex_name))
 
 
@@ -121,7 +125,8 @@ def restore(master: Master, file: str, image: bytes, *, restore_setup: bool) -> 
     if setup is not None:
         transport.write_configuration(setup[0])
         transport.write_control_flags(setup[1] & WRITABLE_FLAGS)
-    download_raw(transport, image)
+    with _progress(f"download {EEPROM_SIZE} bytes", 2 * steps(transport)) as bar:
+        download_raw(transport, image, bar)
     how = "identical when read back"
     try:
         reset(transport)
@@ -139,7 +144,8 @@ def restore(master: Master, file: str, image: bytes, *, restore_setup: bool) -> 
 
 def compare(master: Master, file: str, mine: bytes) -> bool:
     """``verify``: the master's EEPROM against a raw image, said plainly; True if equal."""
-    theirs = read_eeprom(master.transport)
+    with _progress(f"compare {EEPROM_SIZE} bytes", steps(master.transport)) as bar:
+        theirs = read_eeprom(master.transport, bar)
     found = Comparison.of(mine, theirs)
     if found.identical:
         click.echo(f"{master.name}: identical: the EEPROM holds {file} byte for byte")
