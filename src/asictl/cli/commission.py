@@ -88,13 +88,18 @@ def parameter(
 @click.argument("address_", metavar="ADDRESS")
 @click.argument("information")
 @_board_options
-def command(address_: str, information: str, **board: Unpack[_BoardOptions]) -> None:
+@real_master_option
+def command(
+    address_: str, information: str, real_master: bool, **board: Unpack[_BoardOptions]
+) -> None:
     """Send the AS-i command call INFORMATION (0..1Fh, e.g. 10h read I/O configuration,
     11h read ID code, 1Ch reset slave, 1Eh read status) to the slave at ADDRESS (Execute
     Command, 22); prints the slave's answer."""
     where = parse_address(address_)
     info = parse_number(information, "AS-i command", 0x1F)
     with _connect(**board) as master:
+        check_overwrite(master, f"send an AS-i command to slave {where}",
+                        real_master=real_master)
         answer = master.tools().execute_command(where, info)
     click.echo(f"{answer:X}h")
 
@@ -105,12 +110,14 @@ def command(address_: str, information: str, **board: Unpack[_BoardOptions]) -> 
 @click.command("mode")
 @click.argument("mode", required=False, type=click.Choice(["protected", "configuration"]))
 @_board_options
-def mode(mode: str | None, **board: Unpack[_BoardOptions]) -> None:
+@real_master_option
+def mode(mode: str | None, real_master: bool, **board: Unpack[_BoardOptions]) -> None:
     """Show or switch the operation mode (command 17). In configuration mode the master
     activates every slave it finds; in protected mode only the projected ones. Protected
     mode is refused while a slave with address 0 is present (STATUS 8385h)."""
     with _connect(**board) as master:
         if mode is not None:
+            check_overwrite(master, f"switch to {mode} mode", real_master=real_master)
             master.tools().set_mode(configuration=mode == "configuration")
         now = master.status().mode
     click.echo(f"{master.name}: {now} mode", err=True)
@@ -174,9 +181,10 @@ def setup(
               help="Let the master give a replaced slave its address automatically, or not.")
 @click.option("--json", "as_json", is_flag=True, help="The flags as JSON on stdout.")
 @_board_options
+@real_master_option
 def hiflags(
     offline: bool | None, data_exchange: bool | None, auto_address: bool | None,
-    as_json: bool, **board: Unpack[_BoardOptions],
+    as_json: bool, real_master: bool, **board: Unpack[_BoardOptions],
 ) -> None:
     """Show or set the host interface flags (ASI_MON's hi-flags; the PC2 driver's message
     74h, 'write host interface flags'): offline, data exchange active, auto-address
@@ -201,6 +209,7 @@ def hiflags(
             if on is not None:
                 flags = flags | bit if on else flags & ~bit
         if flags != before:
+            check_overwrite(master, "write the hi-flags", real_master=real_master)
             tools.write_hi_flags(flags)
             master.settle()
             flags = tools.read_hi_flags()
@@ -239,7 +248,10 @@ def _list(text: str) -> list[int]:
     help="First set the list of offline slaves (command 72): addresses such as '3,17', or "
     "'none'. A configuration error at one of them takes the master offline.",
 )
-def diag(as_json: bool, set_los: str | None, **board: Unpack[_BoardOptions]) -> None:
+@real_master_option
+def diag(
+    as_json: bool, set_los: str | None, real_master: bool, **board: Unpack[_BoardOptions]
+) -> None:
     """Read and clear the AS-i diagnostics: the list of corrupted slaves (LCS, command 70),
     the slaves' error counters (71), the telegram counters (129); and the list of offline
     slaves (LOS). Reading clears the LCS and the counters, as on the master.
@@ -250,6 +262,7 @@ def diag(as_json: bool, set_los: str | None, **board: Unpack[_BoardOptions]) -> 
     with _connect(**board) as master:
         tools = master.tools()
         if los is not None:
+            check_overwrite(master, "set the list of offline slaves", real_master=real_master)
             tools.set_los(los)
         result = tools.diagnostics()
     if as_json:
