@@ -34,11 +34,14 @@ def probe_command(output: str, **board: Unpack[_BoardOptions]) -> None:
     EEPROM up to its last non-blank line. The assumptions: the cycle-time unit (10 µs or
     10 ms), the entry table at FF00h, asictl's image format, the flag bits 5-7.
 
-    \b
-    Example:
-      asictl probe --port 300h --io devport -o board-300h.json
+    On a real board: asictl probe --port 300h --io devport -o board-300h.json
 
     Exit status: 0 written, 1 the master did not answer, 2 bad usage.
+
+    \b
+    Examples:
+      asictl download demos/blink.asi --start
+      asictl probe -o board.json
     """
     path = Path(output)
     hex_path = path.with_suffix(".hex")
