@@ -17,6 +17,7 @@ from __future__ import annotations
 import hashlib
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import partial
 from typing import Any
 
 from asictl.board.services import ENTRY_POINTS
@@ -120,7 +121,7 @@ def _commands(master: Master) -> dict[str, Any]:
     if isinstance(transport, ModbusTransport):
         for part, name in ((pdus.INFO_VERSION_ID, "version_id"), (pdus.INFO_NAME, "name"),
                            (pdus.INFO_VERSION, "version"), (pdus.INFO_SOFTWARE, "software")):
-            ask(f"65_{name}", lambda part=part: transport.master_info(part))  # type: ignore[misc]
+            ask(f"65_{name}", partial(transport.master_info, part))
         ask("17_report_slave_id", transport.server_id)
         ask("1009_control_flags", transport.control_flags)
     return answers
