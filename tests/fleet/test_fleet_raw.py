@@ -9,8 +9,10 @@ from __future__ import annotations
 
 import json
 import random
+import subprocess
 from pathlib import Path
 
+import pytest
 from click.testing import CliRunner, Result
 from intelhex import IntelHex
 from served_gateway import serve_gateways
@@ -18,6 +20,7 @@ from served_gateway import serve_gateways
 from asictl.cli import main
 from asictl.host.boards import emulated_board
 from asictl.host.driver import EmulatedPort, Pc2Driver
+from asictl.host.jobs import JobError, JobStatus
 from asictl.host.raw_image import padded
 from asictl.host.transfer import Pc2Transport
 
@@ -126,3 +129,37 @@ def test_a_failed_backup_keeps_the_previous_image(tmp_path: Path):
     (state / "pc2-300h.json").write_text("{ not a board")  # the master cannot be read
     asictl("fleet", "backup", str(inventory), "--into", str(archive), code=1)
     assert (archive / "pc" / "image.hex").read_bytes() == before
+
+
+def test_a_master_that_stops_answering_mid_backup_keeps_its_previous_image(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+):
+    state = state_with(tmp_path / "pc", acf_like(5))
+    inventory = tmp_path / "plant.toml"
+    inventory.write_text(f'[masters.pc]\nport = "300h"\nstate_dir = "{state}"\n')
+    archive = tmp_path / "archive"
+    asictl("fleet", "backup", str(inventory), "--into", str(archive))
+    before = (archive / "pc" / "image.hex").read_bytes()
+    with emulated_board(0x300, state) as board:  # the program changes meanwhile
+        Pc2Transport(Pc2Driver(EmulatedPort(board))).write_eeprom(0, acf_like(6))
+    blocks = 0
+    real = Pc2Transport.read_eeprom
+
+    def stops_answering(self: Pc2Transport, address: int, size: int) -> bytes:
+        nonlocal blocks
+        blocks += 1
+        if blocks > 10:  # somewhere inside the EEPROM
+            raise JobError(JobStatus.INTERFACE_ERROR, "no answer from the board")
+        return real(self, address, size)
+
+    monkeypatch.setattr(Pc2Transport, "read_eeprom", stops_answering)
+    result = asictl("fleet", "backup", str(inventory), "--into", str(archive), code=1)
+    assert "no answer from the board" in result.output
+    assert (archive / "pc" / "image.hex").read_bytes() == before
+    assert git_clean(archive)
+
+
+def git_clean(archive: Path) -> bool:
+    status = subprocess.run(["git", "-C", str(archive), "status", "--porcelain"],
+                            capture_output=True, text=True, check=True).stdout
+    return status == ""
