@@ -89,6 +89,10 @@ def test_a_mixed_fleet_backs_up_restores_and_finds_a_one_byte_change(tmp_path: P
         verified = json.loads(asictl("fleet", "verify", str(inventory), "--against",
                                      str(archive), "--format", "json").stdout)
         assert verified["drift"] == []
+        glances = json.loads(asictl("fleet", "status", str(inventory), "--format",
+                                    "json").stdout)["masters"]
+        assert {g["master"]: g["program"] for g in glances} == {
+            "pc-raw": "raw", "gw-raw": "raw", "pc-ours": programs["pc-ours"]}
 
         # restored to a second board, through DPRAM and through the gateway
         asictl("download", str(archive / "pc-raw" / "image.hex"), "--raw",

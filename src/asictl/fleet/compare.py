@@ -18,9 +18,17 @@ from asictl.diagnostics import DiagnosticError
 from asictl.fleet.archive import archived_image
 from asictl.fleet.inventory import FleetMaster
 from asictl.host.master import Master
-from asictl.host.raw_image import Comparison, from_hex, is_asictl_image, read_eeprom, used
+from asictl.host.raw_image import (
+    Comparison,
+    from_hex,
+    holds_raw_program,
+    is_asictl_image,
+    read_eeprom,
+    used,
+)
 from asictl.host.raw_image import identity as raw_identity
 from asictl.host.status import program_info, read_program
+from asictl.host.transfer import upload_head
 from asictl.il.networks import compare
 from asictl.image.eeprom import ProgramImage, differences
 from asictl.source import read_source
@@ -102,8 +110,13 @@ class Glance:
 
 
 def glance(_: FleetMaster, master: Master) -> Glance:
+    """``raw`` for a program not in asictl's format: its identity would take reading the
+    whole EEPROM, too slow for a glance through a gateway."""
     info = program_info(master.transport)
-    return Glance(master.summary(), info.identity if info.valid else None)
+    if info.valid:
+        return Glance(master.summary(), info.identity)
+    raw = holds_raw_program(upload_head(master.transport))
+    return Glance(master.summary(), "raw" if raw else None)
 
 
 def network_changes(archived: ProgramImage, running: ProgramImage) -> tuple[str, ...]:
