@@ -235,3 +235,51 @@ def test_verify_of_an_asictl_program_against_a_foreign_one_compares_bytes(run):
     result = run("verify", str(Path(__file__).resolve().parents[2] / "demos" / "blink.asi"))
     assert result.exit_code == 1
     assert "different" in result.stdout and "first at 0000h" in result.stdout
+
+
+class Interrupted(Exception):
+    pass
+
+
+class FailingTransport(Pc2Transport):
+    """The PC2 transport with a gateway's block size if asked, failing at write ``n``."""
+
+    def __init__(self, driver: Pc2Driver, block_size: int, fail_at: int | None) -> None:
+        super().__init__(driver)
+        self.block_size = block_size
+        self.fail_at = fail_at
+        self.writes = 0
+
+    def write_eeprom(self, address: int, data: bytes) -> None:
+        self.writes += 1
+        if self.writes == self.fail_at:
+            raise Interrupted(address)
+        super().write_eeprom(address, data)
+
+
+@pytest.mark.parametrize("block_size", [16, 240])
+@pytest.mark.parametrize("fail_at", [2, 3, 40, "last"])
+def test_a_raw_download_interrupted_at_any_block_is_reported_and_repaired(
+    block_size: int, fail_at: int | str
+):
+    """Over a program that was there (as a restore after a repair finds one): the
+    interrupted EEPROM starts blank and holds bytes further on, whatever the block size
+    (a gateway's 16, the PC2's 240) and wherever it stopped, even at the last write."""
+    from asictl.board.board import Pc2Board
+    from asictl.host.raw_image import download_raw
+    from asictl.host.status import read_program
+
+    program = foreign_program()
+    counting = FailingTransport(Pc2Driver(EmulatedPort(Pc2Board())), block_size, None)
+    download_raw(counting, program)
+    board = Pc2Board()
+    driver = Pc2Driver(EmulatedPort(board))
+    Pc2Transport(driver).write_eeprom(0, foreign_program(seed=9, size=9000))
+    transport = FailingTransport(
+        driver, block_size, counting.writes if fail_at == "last" else int(fail_at))
+    with pytest.raises(Interrupted):
+        download_raw(transport, program)
+    problem = read_program(FailingTransport(driver, block_size, None)).info.problem
+    assert problem is not None and "interrupted raw download" in problem
+    download_raw(FailingTransport(driver, block_size, None), program)
+    assert bytes(board._eeprom) == padded(program)

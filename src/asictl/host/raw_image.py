@@ -26,7 +26,7 @@ from intelhex import IntelHex
 from asictl.codes import ImageCode
 from asictl.diagnostics import Diagnostic, DiagnosticError, Severity, Span
 from asictl.host.jobs import JobError, JobStatus
-from asictl.host.transfer import Transport
+from asictl.host.transfer import Transport, head_size
 from asictl.image.eeprom import MAGIC
 from asictl.platform.master import EEPROM_SIZE
 from asictl.source import SourceText
@@ -112,26 +112,28 @@ def steps(transport: Transport) -> int:
 def download_raw(transport: Transport, image: bytes, progress: Progress | None = None) -> None:
     """Write ``image`` (padded blank to the whole EEPROM) and compare it read back.
 
-    The first block is blanked first and written last, as asictl's own download keeps
-    its header for last: until the end, the EEPROM starts blank, which ``status`` reports
+    The EEPROM's head (what ``status`` reads first: one PC2 block, a gateway's first
+    blocks) is blanked first and written last, as asictl's own download keeps its header
+    for last: until the end, the EEPROM starts blank, which ``status`` reports
     as an interrupted download, and a master does not find half a program there. A
     second download of the same image repairs any interruption.
     """
     data = padded(image)
     step = transport.block_size
     advance = progress or (lambda n: None)
-    transport.write_eeprom(0, bytes([BLANK]) * step)
-    for address in range(step, EEPROM_SIZE, step):
+    first = -(-head_size(transport) // step) * step  # what status reads first
+    transport.write_eeprom(0, bytes([BLANK]) * first)
+    for address in range(first, EEPROM_SIZE, step):
         transport.write_eeprom(address, data[address : address + step])
         advance(1)
-    transport.write_eeprom(0, data[:step])
-    advance(1)
+    transport.write_eeprom(0, data[:first])
+    advance(first // step)
     stored = read_eeprom(transport, progress)
-    first = first_difference(stored, data)
-    if first is not None:
+    wrong = first_difference(stored, data)
+    if wrong is not None:
         raise JobError(
             JobStatus.EEPROM_ERROR,
-            f"the EEPROM does not hold what was written (first difference at {first:04X}h); "
+            f"the EEPROM does not hold what was written (first difference at {wrong:04X}h); "
             "download the image again",
         )
 

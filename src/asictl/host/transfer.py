@@ -225,10 +225,15 @@ def _start_flag(transport: Transport, start: StartMode) -> int:
 # --------------------------------------------------------------------------- upload
 
 
-def upload_head(transport: Transport) -> bytes:
-    """The EEPROM's first bytes: at least the whole header, however small the
+def head_size(transport: Transport) -> int:
+    """How many bytes ``upload_head`` reads: at least the whole header, however small the
     transport's blocks (16 on a gateway), and a whole block if it is larger."""
-    return transport.read_eeprom(0, max(HEADER_SIZE, transport.block_size))
+    return max(HEADER_SIZE, transport.block_size)
+
+
+def upload_head(transport: Transport) -> bytes:
+    """The EEPROM's first ``head_size`` bytes."""
+    return transport.read_eeprom(0, head_size(transport))
 
 
 def upload(transport: Transport, head: bytes | None = None) -> ProgramImage:
