@@ -123,13 +123,19 @@ def test_a_mixed_fleet_backs_up_restores_and_finds_a_one_byte_change(tmp_path: P
     assert eeprom(spare_gw) == padded(acf_like(2))
 
 
-def test_a_failed_backup_keeps_the_previous_image(tmp_path: Path):
-    state = state_with(tmp_path / "pc", acf_like(4))
+def backed_up(tmp_path: Path, seed: int) -> tuple[Path, Path, Path, bytes]:
+    """A one-master plant with a raw program, backed up once: its state directory,
+    inventory, archive and the archived image."""
+    state = state_with(tmp_path / "pc", acf_like(seed))
     inventory = tmp_path / "plant.toml"
     inventory.write_text(f'[masters.pc]\nport = "300h"\nstate_dir = "{state}"\n')
     archive = tmp_path / "archive"
     asictl("fleet", "backup", str(inventory), "--into", str(archive))
-    before = (archive / "pc" / "image.hex").read_bytes()
+    return state, inventory, archive, (archive / "pc" / "image.hex").read_bytes()
+
+
+def test_a_failed_backup_keeps_the_previous_image(tmp_path: Path):
+    state, inventory, archive, before = backed_up(tmp_path, 4)
     (state / "pc2-300h.json").write_text("{ not a board")  # the master cannot be read
     asictl("fleet", "backup", str(inventory), "--into", str(archive), code=1)
     assert (archive / "pc" / "image.hex").read_bytes() == before
@@ -138,12 +144,7 @@ def test_a_failed_backup_keeps_the_previous_image(tmp_path: Path):
 def test_a_master_that_stops_answering_mid_backup_keeps_its_previous_image(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ):
-    state = state_with(tmp_path / "pc", acf_like(5))
-    inventory = tmp_path / "plant.toml"
-    inventory.write_text(f'[masters.pc]\nport = "300h"\nstate_dir = "{state}"\n')
-    archive = tmp_path / "archive"
-    asictl("fleet", "backup", str(inventory), "--into", str(archive))
-    before = (archive / "pc" / "image.hex").read_bytes()
+    state, inventory, archive, before = backed_up(tmp_path, 5)
     with emulated_board(0x300, state) as board:  # the program changes meanwhile
         Pc2Transport(Pc2Driver(EmulatedPort(board))).write_eeprom(0, acf_like(6))
     blocks = 0
