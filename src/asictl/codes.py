@@ -132,6 +132,7 @@ class ImageCode(StrEnum):
 
     RAW_INVALID = "E601"
     RAW_MISMATCH = "E602"
+    RAW_HEX = "E603"
 
 
 #: A short title of each code, as docs/language.md's table of all codes shows it.
@@ -201,6 +202,7 @@ TITLES: dict[str, str] = {
     "W502": "text after END",
     "E601": "invalid [RAW] image",
     "E602": "[OPTIONS] or [SETUP] do not match the [RAW] image",
+    "E603": "invalid raw image HEX file",
     "W701": "I/O operand against the slave's I/O code",
     "W702": "slave not in [SETUP]",
     "W703": "no slave in [SETUP]",

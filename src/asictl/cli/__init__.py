@@ -91,6 +91,10 @@ COMMANDS: dict[str, tuple[str, str]] = {
         "asictl.cli.online:watch", "Watch operands or symbols on the master: a line per change."
     ),
     "verify": ("asictl.cli.verify:verify", "Compare a program with the one the master runs."),
+    "probe": (
+        "asictl.cli.probe:probe_command",
+        "Read what a master tells without changing it, into a fixture (safe on a real one).",
+    ),
     "monitor": ("asictl.cli.monitor:monitor", "A live full-screen view of the master (ASI_MON)."),
     "debug": ("asictl.cli.debug:debug", "Debug a program at the IL level on an emulated master."),
     "prove": (
@@ -111,7 +115,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
 #: ``COMMANDS`` without a section is still listed, under "Other", until it gets one.
 SECTIONS: dict[str, tuple[str, ...]] = {
     "Program": ("check", "xref", "fmt", "compile", "asm", "disasm", "emu"),
-    "Master": ("download", "upload", "start", "stop", "reset", "status", "verify"),
+    "Master": ("download", "upload", "start", "stop", "reset", "status", "verify", "probe"),
     "Online": ("serve", "monitor", "watch", "write", "force", "unforce"),
     "Commissioning": ("bus", "slave", "mode", "store", "setup", "hiflags", "diag", "emc"),
     "Simulation and tests": ("sim", "test", "record", "mutate", "debug"),

@@ -17,10 +17,12 @@ from typing import Unpack
 import click
 
 from asictl.cli.board_options import BoardOptions, board_options, open_master
+from asictl.cli.guard_options import real_master_option
 from asictl.cli.options import lib_option
 from asictl.errors import ExitCode, UserError
 from asictl.host.commissioning import Change, image_changes, write_flags
 from asictl.host.emulated.actions import parse_address, parse_number
+from asictl.host.overwrite_guard import check_overwrite
 from asictl.host.symbols import Names
 from asictl.il.ast import OperandKind as K
 from asictl.observe.operands import Assignment
@@ -47,7 +49,8 @@ def slave() -> None:
 @click.argument("old")
 @click.argument("new")
 @board_options
-def address(old: str, new: str, **board: Unpack[BoardOptions]) -> None:
+@real_master_option
+def address(old: str, new: str, real_master: bool, **board: Unpack[BoardOptions]) -> None:
     """Give the slave at OLD the address NEW (0 is a new slave's address).
 
     The master's command 20: the slave must be detected at OLD, NEW must be free, and no
@@ -64,6 +67,7 @@ def address(old: str, new: str, **board: Unpack[BoardOptions]) -> None:
     """
     before, after = parse_address(old), parse_address(new)
     with open_master(**board) as master:
+        check_overwrite(master, f"re-address slave {before}", real_master=real_master)
         master.tools().change_address(before, after)
         click.echo(f"{master.name}: slave {before} now has address {after}", err=True)
 
@@ -72,7 +76,10 @@ def address(old: str, new: str, **board: Unpack[BoardOptions]) -> None:
 @click.argument("address_", metavar="ADDRESS")
 @click.argument("value")
 @board_options
-def parameter(address_: str, value: str, **board: Unpack[BoardOptions]) -> None:
+@real_master_option
+def parameter(
+    address_: str, value: str, real_master: bool, **board: Unpack[BoardOptions]
+) -> None:
     """Write parameter VALUE (0..15) to the slave at ADDRESS (Write_Parameter, command 5);
     prints the slave's answer. The permanent parameter (PP) stays: 'asictl store
     parameters' makes the actual ones permanent.
@@ -85,6 +92,7 @@ def parameter(address_: str, value: str, **board: Unpack[BoardOptions]) -> None:
     where = parse_address(address_, zero=False)
     parameter_value = parse_number(value, "parameter", 15)
     with open_master(**board) as master:
+        check_overwrite(master, f"write a parameter to slave {where}", real_master=real_master)
         answer = master.tools().write_parameter(where, parameter_value)
     click.echo(f"{answer:X}h")
     click.echo(
@@ -97,7 +105,10 @@ def parameter(address_: str, value: str, **board: Unpack[BoardOptions]) -> None:
 @click.argument("address_", metavar="ADDRESS")
 @click.argument("information")
 @board_options
-def command(address_: str, information: str, **board: Unpack[BoardOptions]) -> None:
+@real_master_option
+def command(
+    address_: str, information: str, real_master: bool, **board: Unpack[BoardOptions]
+) -> None:
     """Send the AS-i command call INFORMATION (0..1Fh, e.g. 10h read I/O configuration,
     11h read ID code, 1Ch reset slave, 1Eh read status) to the slave at ADDRESS (Execute
     Command, 22); prints the slave's answer.
@@ -110,6 +121,8 @@ def command(address_: str, information: str, **board: Unpack[BoardOptions]) -> N
     where = parse_address(address_)
     info = parse_number(information, "AS-i command", 0x1F)
     with open_master(**board) as master:
+        check_overwrite(master, f"send an AS-i command to slave {where}",
+                        real_master=real_master)
         answer = master.tools().execute_command(where, info)
     click.echo(f"{answer:X}h")
 
@@ -120,7 +133,8 @@ def command(address_: str, information: str, **board: Unpack[BoardOptions]) -> N
 @click.command("mode")
 @click.argument("mode", required=False, type=click.Choice(["protected", "configuration"]))
 @board_options
-def mode(mode: str | None, **board: Unpack[BoardOptions]) -> None:
+@real_master_option
+def mode(mode: str | None, real_master: bool, **board: Unpack[BoardOptions]) -> None:
     """Show or switch the operation mode (command 17). In configuration mode the master
     activates every slave it finds; in protected mode only the projected ones. Protected
     mode is refused while a slave with address 0 is present (STATUS 8385h).
@@ -132,6 +146,7 @@ def mode(mode: str | None, **board: Unpack[BoardOptions]) -> None:
     """
     with open_master(**board) as master:
         if mode is not None:
+            check_overwrite(master, f"switch to {mode} mode", real_master=real_master)
             master.tools().set_mode(configuration=mode == "configuration")
         now = master.status().mode
     click.echo(f"{master.name}: {now} mode", err=True)
@@ -140,7 +155,8 @@ def mode(mode: str | None, **board: Unpack[BoardOptions]) -> None:
 @click.command("store")
 @click.argument("what", type=click.Choice(["configuration", "parameters"]))
 @board_options
-def store(what: str, **board: Unpack[BoardOptions]) -> None:
+@real_master_option
+def store(what: str, real_master: bool, **board: Unpack[BoardOptions]) -> None:
     """Store the actual configuration (the detected slaves become LPS and PCD; command
     10, configuration mode only: ASI_MON's F6) or the actual parameters (PI becomes PP;
     command 7: ASI_MON's F5).
@@ -153,6 +169,7 @@ def store(what: str, **board: Unpack[BoardOptions]) -> None:
       asictl store parameters
     """
     with open_master(**board) as master:
+        check_overwrite(master, f"store the actual {what}", real_master=real_master)
         tools = master.tools()
         if what == "configuration":
             tools.store_configuration()
@@ -164,8 +181,11 @@ def store(what: str, **board: Unpack[BoardOptions]) -> None:
 @click.command("setup")
 @click.argument("file", metavar="FILE.asi|FILE.hex", type=click.Path(dir_okay=False))
 @board_options
+@real_master_option
 @lib_option
-def setup(file: str, lib: tuple[str, ...], **board: Unpack[BoardOptions]) -> None:
+def setup(
+    file: str, real_master: bool, lib: tuple[str, ...], **board: Unpack[BoardOptions]
+) -> None:
     """Write the projected configuration (LPS, PCD, PP, and PI) of FILE's [SETUP] to the
     master without downloading its program, as a download does first. FILE is built as
     'asictl download' builds it.
@@ -177,6 +197,7 @@ def setup(file: str, lib: tuple[str, ...], **board: Unpack[BoardOptions]) -> Non
     from asictl.build import build_file
 
     with open_master(**board) as master:
+        check_overwrite(master, "write the projected configuration", real_master=real_master)
         built = build_file(file, entry_points=master.transport.entry_points(), lib=lib)
         click.echo(built.render(), nl=False, err=True)
         if built.has_errors or built.image is None:
@@ -202,9 +223,10 @@ def setup(file: str, lib: tuple[str, ...], **board: Unpack[BoardOptions]) -> Non
               help="Let the master give a replaced slave its address automatically, or not.")
 @click.option("--json", "as_json", is_flag=True, help="The flags as JSON on stdout.")
 @board_options
+@real_master_option
 def hiflags(
     offline: bool | None, data_exchange: bool | None, auto_address: bool | None,
-    as_json: bool, **board: Unpack[BoardOptions],
+    as_json: bool, real_master: bool, **board: Unpack[BoardOptions],
 ) -> None:
     """Show or set the host interface flags (ASI_MON's hi-flags; the PC2 driver's message
     74h, 'write host interface flags'): offline, data exchange active, auto-address
@@ -232,6 +254,7 @@ def hiflags(
             if on is not None:
                 flags = flags | bit if on else flags & ~bit
         if flags != before:
+            check_overwrite(master, "write the hi-flags", real_master=real_master)
             tools.write_hi_flags(flags)
             master.settle()
             flags = tools.read_hi_flags()
@@ -270,7 +293,10 @@ def _list(text: str) -> list[int]:
     help="First set the list of offline slaves (command 72): addresses such as '3,17', or "
     "'none'. A configuration error at one of them takes the master offline.",
 )
-def diag(as_json: bool, set_los: str | None, **board: Unpack[BoardOptions]) -> None:
+@real_master_option
+def diag(
+    as_json: bool, set_los: str | None, real_master: bool, **board: Unpack[BoardOptions]
+) -> None:
     """Read and clear the AS-i diagnostics: the list of corrupted slaves (LCS, command 70),
     the slaves' error counters (71), the telegram counters (129); and the list of offline
     slaves (LOS). Reading clears the LCS and the counters, as on the master.
@@ -285,6 +311,7 @@ def diag(as_json: bool, set_los: str | None, **board: Unpack[BoardOptions]) -> N
     with open_master(**board) as master:
         tools = master.tools()
         if los is not None:
+            check_overwrite(master, "set the list of offline slaves", real_master=real_master)
             tools.set_los(los)
         result = tools.diagnostics()
     if as_json:
@@ -332,7 +359,10 @@ def _image_writes(
 @click.command("write")
 @click.argument("assignments", nargs=-1, required=True)
 @board_options
-def write(assignments: tuple[str, ...], **board: Unpack[BoardOptions]) -> None:
+@real_master_option
+def write(
+    assignments: tuple[str, ...], real_master: bool, **board: Unpack[BoardOptions]
+) -> None:
     """Write flags and outputs: 'F 10.0=1' (a flag bit), 'FY 10=0x12' (a flag byte),
     'Q 17.3=1' (an output bit), 'Q 17=0b1000' (a slave's four outputs) or 'QB 16=0x5A'
     (slaves 16 and 17), or a name of the symbol table the program on the master carries
@@ -348,6 +378,7 @@ def write(assignments: tuple[str, ...], **board: Unpack[BoardOptions]) -> None:
       asictl write "Q 17=0b1000"
     """
     with open_master(**board) as master:
+        check_overwrite(master, "write flags and outputs", real_master=real_master)
         names = Names(master)
         flags, outputs = _image_writes(
             [names.assignment(text, example="F 10.0=1") for text in assignments])

@@ -139,6 +139,7 @@ def backup(
         Snapshot,
         program_change,
         snapshot_files,
+        snapshot_identity,
         take_snapshot,
     )
 
@@ -169,9 +170,7 @@ def backup(
     for outcome in outcomes:
         name = outcome.master.name
         snapshot: Snapshot | None = outcome.value
-        program = None if snapshot is None or snapshot.image is None else (
-            snapshot.image.identity_hex
-        )
+        program = None if snapshot is None else snapshot_identity(snapshot)
         result = ("changed" if name in changed else "same") if name in written else "FAILED"
         rows.append({
             "master": name, "reached": outcome.master.reached, "result": result,

@@ -21,12 +21,15 @@ import click
 
 from asictl.build import build_file
 from asictl.cli.board_options import BoardOptions, board_options, master_wait, open_master
+from asictl.cli.guard_options import real_master_option, unconfirmed_format_option
 from asictl.cli.options import lib_option
 from asictl.errors import ExitCode, UserError
 from asictl.files import STDOUT, shown_name, write_output
 from asictl.host.connection import cable_setup_slaves
 from asictl.host.master import Master
+from asictl.host.overwrite_guard import check_overwrite
 from asictl.host.program_files import uploaded_files, write_files
+from asictl.host.raw_image import holds_raw_program, is_asictl_image
 from asictl.host.status import program_info, render
 from asictl.host.transfer import (
     StartMode,
@@ -37,6 +40,7 @@ from asictl.host.transfer import (
     reset,
     set_start,
     upload,
+    upload_head,
 )
 from asictl.platform.master import ControlFlag
 
@@ -58,9 +62,22 @@ def _progress(label: str, blocks: int) -> Iterator[Callable[[int], None]]:
 @click.option(
     "--keep", "keep", is_flag=True, help="Leave the start flag as it is (ACF /s0) [default].",
 )
+@click.option(
+    "--raw", is_flag=True,
+    help="FILE.hex is a raw image ('asictl upload' of a program not in asictl's format): "
+    "write it byte for byte, read it back and compare, then reset the master.",
+)
+@click.option(
+    "--restore-setup", is_flag=True,
+    help="With --raw: first write the configuration (LPS, PCD, PP) and the AS-i Control "
+    "flags from the record beside FILE.hex (FILE.json).",
+)
+@real_master_option
+@unconfirmed_format_option
 @lib_option
 def download_command(
-    file: str, start: bool, stop: bool, keep: bool, lib: tuple[str, ...],
+    file: str, start: bool, stop: bool, keep: bool, raw: bool, restore_setup: bool,
+    real_master: bool, unconfirmed_format: bool, lib: tuple[str, ...],
     **board: Unpack[BoardOptions],
 ) -> None:
     """Store a program in the master's EEPROM and load it (ACF /d+).
@@ -74,6 +91,10 @@ def download_command(
 
     The start flag stays as it was unless --start or --stop says otherwise: on a new
     master the program does not run until 'asictl start'.
+
+    On a master that is not asictl's emulation the download first says what runs there
+    and stops, unless --real-master and (for an image in asictl's format)
+    --unconfirmed-format are given: back the master up first with 'asictl upload'.
 
     Exit status: 0 downloaded, 1 errors in the program or the master refused or failed,
     2 bad usage, an unreadable file or a corrupt board state.
@@ -90,7 +111,25 @@ def download_command(
             " and ".join(f"--{name}" for name in chosen) + " contradict each other: give one"
         )
     mode = StartMode(chosen[0] if chosen else "keep")
+    if raw or restore_setup:
+        from asictl.cli import raw_images
+
+        if not raw:
+            raise click.UsageError("--restore-setup goes with --raw")
+        if chosen:
+            raise click.UsageError(f"--raw keeps the flags as they are (or restores them "
+                                   f"with --restore-setup): --{chosen[0]} does not apply")
+        raw_image = raw_images.read_raw_file(file)
+        with open_master(**board) as master:
+            check_overwrite(
+                master, "write this image byte for byte", real_master=real_master,
+                unconfirmed_format=unconfirmed_format, asictl_image=is_asictl_image(raw_image),
+            )
+            raw_images.restore(master, file, raw_image, restore_setup=restore_setup)
+        return
     with open_master(**board) as master:
+        check_overwrite(master, "download an image in asictl's format", real_master=real_master,
+                        unconfirmed_format=unconfirmed_format, asictl_image=True)
         transport = master.transport
         entry_points = transport.entry_points()
         built = build_file(file, entry_points=entry_points, lib=lib)
@@ -149,6 +188,12 @@ def upload_command(output: str, overwrite: bool, **board: Unpack[BoardOptions]) 
     unless --overwrite is given. Names of function-block files that are not plain,
     printable file names stop the upload before anything is written.
 
+    A program not in asictl's format (one the vendor's tools loaded) is written byte for
+    byte instead: the EEPROM from 0 to its last non-blank line as an Intel HEX file
+    (FILE.hex, beside FILE.asi if -o names one) and FILE.json, what the master reported
+    (name, version, software letters, flags, configuration). 'asictl download FILE.hex
+    --raw' writes it back, 'asictl verify FILE.hex' compares it.
+
     Exit status: 0 uploaded, 1 no valid program in the master, a file not overwritten or
     a failed command, 2 bad usage or a corrupt board state.
 
@@ -157,8 +202,18 @@ def upload_command(output: str, overwrite: bool, **board: Unpack[BoardOptions]) 
       asictl download demos/blink.asi
       asictl upload -o copy.asi
     """
+    from asictl.cli import raw_images
+
     with open_master(**board) as master:
-        image = upload(master.transport)
+        head = upload_head(master.transport)
+        raw = None
+        if holds_raw_program(head):
+            raw = raw_images.read_raw(master, raw_images.hex_output(output).name)
+        else:
+            image = upload(master.transport, head)
+    if raw is not None:
+        raw_images.write_raw(master, raw, output, overwrite=overwrite)
+        return
     files = uploaded_files(image, output)
     source = "its source" if image.source else "[RAW] records (the image carries no source)"
     if output == STDOUT:

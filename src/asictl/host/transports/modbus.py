@@ -29,7 +29,7 @@ from pymodbus.client import ModbusSerialClient, ModbusTcpClient
 from pymodbus.constants import ExcCodes
 from pymodbus.exceptions import ConnectionException, ModbusException
 from pymodbus.pdu import ModbusPDU
-from pymodbus.pdu.other_message import ReadExceptionStatusRequest
+from pymodbus.pdu.other_message import ReadExceptionStatusRequest, ReportDeviceIdRequest
 from pymodbus.pdu.register_message import (
     ReadHoldingRegistersRequest,
     WriteMultipleRegistersRequest,
@@ -204,6 +204,17 @@ class ModbusTransport:
         """``execution_result``, a refusal raised as a ``JobError``."""
         if self.execution_result(register, value, what) & g.EXCEPTION_STATUS_ERROR:
             raise JobError(JobStatus.REFUSED, f"{what}: refused by the master")
+
+    def server_id(self) -> bytes | None:
+        """Function 17 (Report Slave ID): what the gateway says it is; None if it has no
+        such function, as the VAG-MOD-KF-R4 manual says of the real one (6.3.9)."""
+        try:
+            response = self._call("reading the server ID", ReportDeviceIdRequest())
+        except JobError as exc:
+            if exc.status is JobStatus.UNKNOWN_COMMAND:
+                return None
+            raise
+        return bytes(getattr(response, "identifier", b""))
 
     def master_info(self, part: int) -> str:
         """Function 65: name, version, installed software or version ID."""
