@@ -40,7 +40,7 @@ from textual.widgets import Footer, Input, RichLog, Static
 
 from asictl.errors import UserError
 from asictl.host.commissioning import Change, check_address, image_changes, write_flags
-from asictl.host.emulated import parse_address, parse_number, parse_profile
+from asictl.host.emulated.actions import parse_address, parse_number, parse_profile
 from asictl.host.force_list import Entry, forced_values
 from asictl.host.forcing import force, unforce
 from asictl.host.master import Master

@@ -36,8 +36,8 @@ from asictl.board.board import Pc2Board
 from asictl.build import Build
 from asictl.codes import ScenarioCode
 from asictl.diagnostics import Diagnostic, DiagnosticError, Severity, Span
-from asictl.host.driver import EmulatedPort, Pc2Driver
 from asictl.host.transfer import Pc2Transport, StartMode, download
+from asictl.host.transports.driver import EmulatedPort, Pc2Driver
 from asictl.il import ast
 from asictl.il.loader import Program
 from asictl.image.eeprom import ProgramImage

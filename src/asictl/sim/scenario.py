@@ -20,10 +20,11 @@ from pathlib import Path
 from asictl.codes import ScenarioCode
 from asictl.diagnostics import Diagnostic, DiagnosticError, Reporter, Severity, Span
 from asictl.il.suggest import did_you_mean
+from asictl.observe.condition import Condition, ConditionError, parse_condition
 from asictl.observe.operands import Operand, check_value, parse_operand
 from asictl.observe.symbols import SymbolTable
 from asictl.readers.profile import read_profile
-from asictl.sim.condition import Condition, parse_condition
+from asictl.readers.strings import value_column
 from asictl.sim.plant import Model, Plant, read_model
 from asictl.source import SourceText, read_source
 
@@ -445,6 +446,13 @@ class _PlantPlace:
     def problem(self, message: str, key: str | None = None) -> None:
         line, column = self.reader.key_at(key, self.line, self.end) if key else (self.line, 1)
         self.reader.error(message, line, column)
+
+    def condition_problem(self, error: ConditionError, key: str) -> None:
+        line, column = self.reader.key_at(key, self.line, self.end)
+        text = self.reader.lines[line - 1] if 0 < line <= len(self.reader.lines) else ""
+        column = value_column(text, column, error.offset) or column
+        self.reader.report.error(ScenarioCode.CONDITION, error.message,
+                                 Span(self.reader.source.name, line, column, error.length))
 
     def operand(self, text: str) -> Operand:
         return parse_operand(text, self.reader.variables, self.reader.symbols)
