@@ -11,9 +11,7 @@ procedures over ``ModbusTransport``.
 from __future__ import annotations
 
 import json
-import sys
-from collections.abc import Callable, Iterator
-from contextlib import contextmanager
+from collections.abc import Callable
 from pathlib import Path
 from typing import Unpack
 
@@ -23,6 +21,7 @@ from asictl.build import build_file
 from asictl.cli.board_options import BoardOptions, board_options, master_wait, open_master
 from asictl.cli.guard_options import real_master_option, unconfirmed_format_option
 from asictl.cli.options import lib_option
+from asictl.cli.terminal import progress
 from asictl.errors import ExitCode, UserError
 from asictl.files import STDOUT, shown_name, write_output
 from asictl.host.connection import cable_setup_slaves
@@ -43,15 +42,6 @@ from asictl.host.transfer import (
     upload_head,
 )
 from asictl.platform.master import ControlFlag
-
-
-@contextmanager
-def _progress(label: str, blocks: int) -> Iterator[Callable[[int], None]]:
-    """A progress bar on stderr (only its label when stderr is not a terminal)."""
-    with click.progressbar(
-        length=blocks, label=label, file=sys.stderr, show_eta=False,
-    ) as bar:
-        yield bar.update
 
 
 @click.command("download")
@@ -147,7 +137,7 @@ def download_command(
         cable_setup_slaves(master, image)
         size = len(image.to_bytes())
         steps = download_steps(size, transport.block_size)
-        with _progress(f"download {size} bytes", steps) as bar:
+        with progress(f"download {size} bytes", steps) as bar:
             download(transport, image, start=mode, progress=bar)
         master.settle()
         state = master.summary()

@@ -14,7 +14,7 @@ from pathlib import Path
 import click
 
 from asictl.build import is_hex
-from asictl.cli.master import _progress
+from asictl.cli.terminal import progress
 from asictl.diagnostics import DiagnosticError, render_text
 from asictl.errors import ExitCode
 from asictl.files import STDOUT, shown_name, write_output
@@ -57,7 +57,7 @@ class RawUpload:
 def read_raw(master: Master, hex_name: str) -> RawUpload:
     """The master's EEPROM and what it reports (identification, configuration, flags)."""
     transport = master.transport
-    with _progress(f"upload {EEPROM_SIZE} bytes", steps(transport)) as bar:
+    with progress(f"upload {EEPROM_SIZE} bytes", steps(transport)) as bar:
         image = used(read_eeprom(transport, bar))
     return RawUpload(image, make_record(master.status(), image, hex_name))
 
@@ -125,7 +125,7 @@ def restore(master: Master, file: str, image: bytes, *, restore_setup: bool) -> 
     if setup is not None:
         transport.write_configuration(setup[0])
         transport.write_control_flags(setup[1] & WRITABLE_FLAGS)
-    with _progress(f"download {EEPROM_SIZE} bytes", 2 * steps(transport)) as bar:
+    with progress(f"download {EEPROM_SIZE} bytes", 2 * steps(transport)) as bar:
         download_raw(transport, image, bar)
     how = "identical when read back"
     try:
@@ -144,7 +144,7 @@ def restore(master: Master, file: str, image: bytes, *, restore_setup: bool) -> 
 
 def compare(master: Master, file: str, mine: bytes) -> bool:
     """``verify``: the master's EEPROM against a raw image, said plainly; True if equal."""
-    with _progress(f"compare {EEPROM_SIZE} bytes", steps(master.transport)) as bar:
+    with progress(f"compare {EEPROM_SIZE} bytes", steps(master.transport)) as bar:
         theirs = read_eeprom(master.transport, bar)
     found = Comparison.of(mine, theirs)
     if found.identical:
