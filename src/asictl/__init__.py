@@ -31,7 +31,7 @@ LAYERS: tuple[tuple[tuple[str, str], ...], ...] = (
     (("mcs51", "the 8051: one instruction table, assembler, disassembler, emulator"),),
     (
         ("runtime", "the contract between compiled programs and the firmware"),
-        ("grammar", "the IL grammar (`il.lark`), data only"),
+        ("grammar", "the grammars of IL (`il.lark`) and conditions (`condition.lark`), data only"),
     ),
     (
         ("il", "parse, load, check, the analyses (W7xx), cross-reference, the oracle"),

@@ -41,8 +41,7 @@ from asyncua.ua.status_codes import StatusCodes
 from asyncua.ua.uaerrors._base import UaStatusCodeError
 
 from asictl.errors import ExitCode, UserError
-from asictl.host.driver import EmulatedPort, Pc2Driver
-from asictl.host.emulated import LoadedBoard, run_action
+from asictl.host.emulated.actions import run_action
 from asictl.host.live.board import LiveBoard
 from asictl.host.pc2_master import Pc2Master
 from asictl.host.status import MasterStatus, StoredProgram, read_program
@@ -135,8 +134,7 @@ class BoardSpace:
     def __init__(self, server: Server, live: LiveBoard, name: str, options: OpcUaOptions) -> None:
         self.server, self.live, self.options = server, live, options
         board = live.board
-        self.master = Pc2Master.over(Pc2Driver(EmulatedPort(board)), name,
-                                     action=LoadedBoard(board))
+        self.master = Pc2Master.loaded(board, name)
         self.program: StoredProgram | None = None
         self._loaded: object = None
         self.ns = 0
