@@ -102,6 +102,8 @@ class ScenarioCode(StrEnum):
     INVENTORY = "E404"
     PROPERTIES = "E405"
     UNMODELLED = "E406"
+    #: a condition (docs/conditions.md) that cannot be read, in any file that holds one
+    CONDITION = "E410"
 
 
 class AssemblerCode(StrEnum):
@@ -130,6 +132,7 @@ class ImageCode(StrEnum):
 
     RAW_INVALID = "E601"
     RAW_MISMATCH = "E602"
+    RAW_HEX = "E603"
 
 
 #: A short title of each code, as docs/language.md's table of all codes shows it.
@@ -180,6 +183,7 @@ TITLES: dict[str, str] = {
     "E404": "invalid plant inventory",
     "E405": "invalid properties file",
     "E406": "construct the prover cannot model",
+    "E410": "condition that cannot be read",
     "E501": "syntax",
     "E502": "unknown mnemonic or directive",
     "E503": "operand not valid for the instruction",
@@ -198,6 +202,7 @@ TITLES: dict[str, str] = {
     "W502": "text after END",
     "E601": "invalid [RAW] image",
     "E602": "[OPTIONS] or [SETUP] do not match the [RAW] image",
+    "E603": "invalid raw image HEX file",
     "W701": "I/O operand against the slave's I/O code",
     "W702": "slave not in [SETUP]",
     "W703": "no slave in [SETUP]",

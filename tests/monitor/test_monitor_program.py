@@ -241,13 +241,13 @@ def test_a_real_board_or_a_gateway_says_per_line_values_need_an_emulated_board(
 
     @contextmanager
     def as_hardware(address, notify=None, live_only=False):
-        with connection.connect_master(address, notify=notify, live_only=live_only) as master:
+        with connection.open_board(address, notify=notify, live_only=live_only) as master:
             if shape == "real":
                 yield dataclasses.replace(master, action=None)
             else:
                 yield dataclasses.replace(master, action=None, driver=None, quick_status=None)
 
-    monkeypatch.setattr(monitor_source, "connect_master", as_hardware)
+    monkeypatch.setattr(monitor_source, "open_board", as_hardware)
 
     async def check(app, pilot):
         await pilot.press("v")

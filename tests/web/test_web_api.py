@@ -14,7 +14,7 @@ from openapi_spec_validator import validate
 from starlette.testclient import TestClient
 from web_program import PROGRAM, TOKEN, downloaded
 
-from asictl.host.boards import emulated_board
+from asictl.host.emulated.boards import emulated_board
 from asictl.host.live.board import LiveBoard
 from asictl.host.status import MasterStatus
 from asictl.web.access import COOKIE, CSRF_HEADER, Access

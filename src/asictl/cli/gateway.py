@@ -23,15 +23,16 @@ from asictl.cli.opcua_options import opcua_attachment, opcua_options
 from asictl.cli.serial_options import serial_options, unit_option
 from asictl.cli.web_options import web_attachment, web_options
 from asictl.errors import ExitCode, UserError, missing_extra
-from asictl.host.boards import lock_file, port_name, state_directory
+from asictl.host.emulated.boards import lock_file, state_directory
+from asictl.host.emulated.locking import note_holder
 from asictl.host.live.board import LiveBoard
 from asictl.host.live.client import LiveClient, open_live, served_by
 from asictl.host.live.protocol import socket_path
 from asictl.host.live.saver import SAVE_INTERVAL_S
 from asictl.host.live.server import run_live, together
-from asictl.host.locking import note_holder
 from asictl.host.search import resolve_port
-from asictl.host.target import check_serial_setting, port_number
+from asictl.host.transports.ports import port_name
+from asictl.host.transports.target import check_serial_setting, port_number
 from asictl.platform.display import Display, led_text
 from asictl.platform.gateway import Interface
 
@@ -55,7 +56,13 @@ def _url_host(host: str) -> str:
 
 @click.group()
 def gateway() -> None:
-    """The emulated AS-i/Modbus gateway VAG-MOD-KF-R4."""
+    """The emulated AS-i/Modbus gateway VAG-MOD-KF-R4.
+
+    \b
+    Examples:
+      asictl gateway panel
+      asictl gateway press set
+    """
 
 
 @gateway.command("serve")
@@ -113,10 +120,10 @@ def serve(
     --http as a web page and REST API (docs/web.md), as the current AS-i gateways do.
 
     \b
-    Example:
-      asictl gateway serve --tcp 127.0.0.1:5020 --port 300h &
-      asictl gateway press mode --hold 6      # into configuration mode
-      asictl gateway serve --opcua 127.0.0.1:4840
+    Examples:
+      asictl gateway serve
+      asictl gateway serve --rtu /dev/ttyUSB0 --baud 19200 --parity even --unit 2
+      asictl gateway serve --tcp 127.0.0.1:1502 --opcua 127.0.0.1:4840
       asictl gateway serve --http 127.0.0.1:8080
     """
     try:
@@ -299,11 +306,12 @@ def panel(port: str, state_dir: str | None, as_json: bool) -> None:
     """Show the served gateway's front panel: the display (and whether it blinks), the
     seven LEDs, the keys (locked by register 1007?) and its Modbus settings.
 
-    \b
-    Example:
-      asictl gateway panel --port 300h
-
     Exit status: 0 shown, 1 no gateway serves the board, 2 bad usage.
+
+    \b
+    Examples:
+      asictl gateway panel
+      asictl gateway panel --port 300h
     """
     client = _served_gateway(port, state_dir)
     try:
@@ -335,13 +343,12 @@ def press(
     (register 1007) a press changes nothing and the display shows 82. docs/modbus.md
     lists every sequence.
 
+    Exit status: 0 pressed, 1 no gateway serves the board, 2 bad usage.
+
     \b
     Examples:
-      asictl gateway press mode --hold 6     # protected -> configuration mode
-      asictl gateway press mode              # configuration -> protected, not stored
-      asictl gateway press --both --hold 6   # the interface settings
-
-    Exit status: 0 pressed, 1 no gateway serves the board, 2 bad usage.
+      asictl gateway press mode --hold 5  # protected -> configuration mode
+      asictl gateway press mode           # configuration -> protected, not stored
     """
     if key is None and not both:
         raise UserError("which key? 'mode' or 'set' (or --both)", ExitCode.USAGE)

@@ -11,7 +11,7 @@ import click
 
 from asictl.diagnostics import DiagnosticError, render_text
 from asictl.errors import ExitCode, UserError, missing_extra
-from asictl.host.target import listen_address
+from asictl.host.transports.target import listen_address
 
 if TYPE_CHECKING:
     from asictl.host.live.server import Attachment

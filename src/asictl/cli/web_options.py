@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING, TypeVar
 import click
 
 from asictl.errors import ExitCode, UserError, missing_extra
-from asictl.host.target import is_loopback, listen_address
+from asictl.host.transports.target import is_loopback, listen_address
 
 if TYPE_CHECKING:
     from asictl.host.live.server import Attachment

@@ -8,7 +8,7 @@ through the master's own host commands, so one procedure serves the emulated boa
 real board through /dev/port and a live board (``Pc2Commissioning``, over the driver),
 and a Modbus gateway where it offers the function (``ModbusCommissioning``, over its
 execution-control registers). A function the target lacks raises ``NotOffered`` (exit 1).
-Refusals are ``JobError``s with the ASI_CTRL STATUS word (host/jobs.py).
+Refusals are ``JobError``s with the ASI_CTRL STATUS word (host/transports/jobs.py).
 """
 
 from __future__ import annotations
@@ -18,8 +18,8 @@ from dataclasses import dataclass
 from typing import Protocol
 
 from asictl.errors import ExitCode, UserError
-from asictl.host.driver import Pc2Driver
-from asictl.host.jobs import JobError, JobStatus, address_change_failure
+from asictl.host.transports.driver import Pc2Driver
+from asictl.host.transports.jobs import JobError, JobStatus, address_change_failure
 from asictl.il.ast import OperandKind as K
 from asictl.image.eeprom import Configuration
 from asictl.observe.operands import Assignment
@@ -298,7 +298,7 @@ class Pc2Commissioning:
 
 
 class GatewayRegisters(Protocol):
-    """What commissioning needs of a gateway's Modbus connection (host.modbus's
+    """What commissioning needs of a gateway's Modbus connection (host.transports.modbus's
     ``ModbusTransport`` is the one): its registers and the replies of its execution
     control. Named here so that commissioning does not depend on the transport."""
 

@@ -22,10 +22,12 @@ from enum import IntEnum
 from typing import Any, assert_never
 
 from asictl.errors import ExitCode, UserError
-from asictl.host.driver import Pc2Driver
+from asictl.host.cycle_units import other_reading, raw_value
 from asictl.host.force_list import ForcedValue, entries_from_json, forced_values
-from asictl.host.jobs import JobError, JobStatus
+from asictl.host.raw_image import foreign_eeprom
 from asictl.host.transfer import Pc2Transport, Transport, upload, upload_head
+from asictl.host.transports.driver import Pc2Driver
+from asictl.host.transports.jobs import JobError, JobStatus
 from asictl.il import ast
 from asictl.image.eeprom import MAGIC, ProgramImage
 from asictl.observe.operands import Operand, image_symbols, parse_operand
@@ -257,7 +259,9 @@ def read_program(transport: Transport) -> StoredProgram:
     """Upload (53) the image in the EEPROM and describe it."""
     head = upload_head(transport)  # read once: the check here, and the upload's start
     if head[: len(MAGIC)] != MAGIC:
-        return StoredProgram(ProgramInfo(present=False, valid=False, problem="no program image"))
+        return StoredProgram(ProgramInfo(
+            present=False, valid=False, problem=foreign_eeprom(transport, head)
+        ))
     try:
         image = upload(transport, head)
     except JobError as exc:
@@ -705,7 +709,8 @@ def render(status: MasterStatus) -> str:
         f"control  {control}",
         f"flags    {s.control_flags:02X}h " + (" ".join(set_flags) or "(none)"),
         f"program  {program} ({s.program_status})",
-        (f"cycle    {s.cycle_time_ms:.1f} ms (max {s.max_cycle_time_ms:.1f} ms)"
+        (f"cycle    {s.cycle_time_ms:.1f} ms (max {s.max_cycle_time_ms:.1f} ms) in 10 µs "
+         "units; " + other_reading(raw_value(s.cycle_time_ms), raw_value(s.max_cycle_time_ms))
          if s.cycle_times_known else "cycle    n/a (the gateway does not report them)"),
         f"hi-flags {s.hi_flags:02X}h {hi_flag_text(s.hi_flags)}",
         *timer_text(s),

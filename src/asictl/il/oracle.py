@@ -19,13 +19,10 @@ from asictl.il.language import COUNTER_FLAG_BASE, MAPPED_COUNTERS, PARAM_FLAG
 from asictl.il.language import TC_MAX_VALUE as TC_MAX
 from asictl.il.loader import Program
 from asictl.runtime.firmware import FirmwareServices
+from asictl.runtime.runner import CycleTimeout
 
 #: The operand kinds, as the patterns below name them.
 K = ast.OperandKind
-
-
-class CycleTimeout(Exception):
-    """The program ran longer than its cycle budget (an endless loop)."""
 
 
 @dataclass

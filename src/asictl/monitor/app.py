@@ -40,7 +40,7 @@ from textual.widgets import Footer, Input, RichLog, Static
 
 from asictl.errors import UserError
 from asictl.host.commissioning import Change, check_address, image_changes, write_flags
-from asictl.host.emulated import parse_address, parse_number, parse_profile
+from asictl.host.emulated.actions import parse_address, parse_number, parse_profile
 from asictl.host.force_list import Entry, forced_values
 from asictl.host.forcing import force, unforce
 from asictl.host.listing import Listing, listing_of
@@ -61,12 +61,13 @@ from asictl.host.status import (
 )
 from asictl.host.symbols import Names
 from asictl.host.watch import Watched, watch_list
+from asictl.il import ast
 from asictl.il.ast import OperandKind
 from asictl.monitor.keys import KEYS
 from asictl.monitor.program import heading, render_rows
 from asictl.monitor.source import MonitorSource, Snapshot, toggle_start
 from asictl.observe.online import CycleLines
-from asictl.observe.operands import Assignment, parse_assignment
+from asictl.observe.operands import Assignment, Operand, parse_assignment, parse_operand
 from asictl.platform.display import LEDS, Display
 from asictl.platform.master import IO_CODE_BITS, SLAVES
 from asictl.platform.pc2 import HiFlag
@@ -76,8 +77,6 @@ REFRESH_S = 0.25
 _LIST_LETTERS = {"LPS": "P", "LDS": "D", "LAS": "A", "LCS": "C", "LOS": "O"}
 #: The screen's layouts, by the terminal's size (``layout_for``).
 LAYOUTS = ("wide", "medium", "narrow")
-#: The right-hand panel's width (the flag bytes' hex dump and a border).
-PANEL_WIDTH = 62
 #: The grid's forms, the most compact first: slaves a row, and whether a slave's list
 #: letters stand beside its data (one line a row) or under it (two).
 GRID_FORMS = ((8, True), (8, False), (4, True), (4, False), (2, True), (2, False))
@@ -910,10 +909,11 @@ def _detail(status: MasterStatus, selected: int) -> Text:
 
 def _slave_of(operand: str) -> int | None:
     """The slave an input or output operand's text names ('I 4.0', 'Q 17'), else None."""
-    kind, _, where = operand.partition(" ")
-    if kind not in ("I", "Q") or not where.split(".")[0].isdigit():
+    try:
+        node = parse_operand(operand).node
+    except ValueError:
         return None
-    return int(where.split(".")[0])
+    return node.address if node.kind in (OperandKind.I, OperandKind.Q) else None
 
 
 def _forced_slaves(status: MasterStatus) -> set[int]:
@@ -965,11 +965,24 @@ def _right(status: MasterStatus) -> Text:
     return panel + Text("\n".join(lines))
 
 
-def _held(operand: str, forced: set[str]) -> bool:
+#: The whole a bit of these kinds is forced with: its slave's data bits, its flag byte.
+_WHOLE = {
+    OperandKind.I: (OperandKind.I, ast.Width.NIBBLE),
+    OperandKind.Q: (OperandKind.Q, ast.Width.NIBBLE),
+    OperandKind.F: (OperandKind.FY, ast.Width.BYTE),
+}
+
+
+def _held(operand: Operand, forced: set[str]) -> bool:
     """The operand is forced: itself, or the slave or flag byte its bit is in (``Q 17``
     holds ``Q 17.3``, ``FY 10`` holds ``F 10.0``)."""
-    whole = operand.split(".")[0]
-    return operand in forced or whole in forced or whole.replace("F ", "FY ", 1) in forced
+    node = operand.node
+    if str(operand) in forced:
+        return True
+    whole = _WHOLE.get(node.kind)
+    if whole is None or node.bit < 0:
+        return False
+    return str(ast.Operand(whole[0], node.address, -1, whole[1])) in forced
 
 
 def _watch_view(status: MasterStatus, watched: list[Watched], selected: int) -> Text:
@@ -990,7 +1003,7 @@ def _watch_view(status: MasterStatus, watched: list[Watched], selected: int) -> 
             value: int | None = operand_value(status, entry.operand)
         except UserError:
             value = None
-        held = _held(entry.text, forced)
+        held = _held(entry.operand, forced)
         style = "reverse" if row == selected else ""
         if value is None:
             cells = f"{'n/a':>18}{'':>9}{'':>7}"

@@ -40,12 +40,12 @@ from asyncua.ua.status_codes import StatusCodes
 from asyncua.ua.uaerrors._base import UaStatusCodeError
 
 from asictl.errors import ExitCode, UserError
-from asictl.host.emulated import run_action
+from asictl.host.emulated.actions import run_action
 from asictl.host.live.board import LiveBoard
 from asictl.host.live.status_reader import LiveStatus
 from asictl.host.status import MasterStatus, StoredProgram
-from asictl.host.target import is_loopback
 from asictl.host.transfer import set_start
+from asictl.host.transports.target import is_loopback
 from asictl.observe.operands import Operand, image_symbols, parse_operand
 from asictl.observe.symbols import SymbolTable
 from asictl.observe.view import host_write, read_on_board, wake

@@ -1,2 +1,2 @@
 """Reading what users write by hand, one way for every file and option: durations with
-their units (``units``)."""
+their units (``units``), a slave's profile (``profile``)."""

@@ -27,7 +27,7 @@ from starlette.staticfiles import StaticFiles
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 from asictl.errors import ExitCode, UserError
-from asictl.host.emulated import parse_address, parse_number
+from asictl.host.emulated.actions import parse_address, parse_number
 from asictl.web.access import COOKIE, CSRF_HEADER, Access
 from asictl.web.board import WebBoard
 from asictl.web.openapi import openapi

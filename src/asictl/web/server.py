@@ -17,7 +17,7 @@ import uvicorn
 
 from asictl.errors import UserError
 from asictl.host.live.board import LiveBoard
-from asictl.host.target import is_loopback
+from asictl.host.transports.target import is_loopback
 from asictl.web.access import Access
 from asictl.web.app import create_app
 from asictl.web.board import Busy, WebBoard

@@ -4,12 +4,11 @@ the program image kept between readings as the monitor keeps it."""
 
 from __future__ import annotations
 
-from asictl.host.driver import EmulatedPort, Pc2Driver
-from asictl.host.emulated import LoadedBoard
 from asictl.host.live.board import LiveBoard
 from asictl.host.master import EmulatedBoard
 from asictl.host.pc2_master import Pc2Master
 from asictl.host.status import MasterStatus, StoredProgram, read_program
+from asictl.host.transports.driver import EmulatedPort, Pc2Driver
 
 
 class LiveStatus:
@@ -18,8 +17,10 @@ class LiveStatus:
 
     def __init__(self, live: LiveBoard, name: str, action: EmulatedBoard | None = None) -> None:
         self.live = live
-        self.master = Pc2Master.over(Pc2Driver(EmulatedPort(live.board)), name,
-                                     action=action or LoadedBoard(live.board))
+        self.master = (
+            Pc2Master.loaded(live.board, name) if action is None
+            else Pc2Master.over(Pc2Driver(EmulatedPort(live.board)), name, action=action)
+        )
         self.program: StoredProgram | None = None
         self._loaded: object = None
 
