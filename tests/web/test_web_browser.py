@@ -19,7 +19,11 @@ from pathlib import Path
 
 import pytest
 from selenium import webdriver
-from selenium.common.exceptions import NoAlertPresentException, StaleElementReferenceException
+from selenium.common.exceptions import (
+    NoAlertPresentException,
+    StaleElementReferenceException,
+    TimeoutException,
+)
 from selenium.webdriver.chrome.service import Service
 from selenium.webdriver.chrome.webdriver import WebDriver
 from selenium.webdriver.common.by import By
@@ -65,8 +69,11 @@ def shots(tmp_path: Path) -> Path:
     return place
 
 
-def wait_for(browser: WebDriver, condition: object, message: str = "") -> None:
-    WebDriverWait(browser, WAIT_S).until(lambda _: condition(), message)  # type: ignore[operator]
+def wait_for(browser: WebDriver, condition: object, message: object = "") -> None:
+    try:
+        WebDriverWait(browser, WAIT_S).until(lambda _: condition())  # type: ignore[operator]
+    except TimeoutException:
+        raise AssertionError(message() if callable(message) else message) from None
 
 
 def text(browser: WebDriver, element_id: str) -> str:
@@ -131,7 +138,8 @@ def test_the_page_shows_the_board_in_its_words_and_escapes_the_program(
     with pytest.raises(NoAlertPresentException):
         page.switch_to.alert.text  # noqa: B018
     page.find_element(By.ID, "upload").click()
-    wait_for(page, lambda: text(page, "program-note").startswith("Uploaded lamp.asi ("))
+    wait_for(page, lambda: text(page, "program-note").startswith("Uploaded lamp.asi ("),
+             lambda: text(page, "program-note"))
     page.find_element(By.ID, "program-toggle").click()
 
 

@@ -9,7 +9,7 @@ const $ = (id) => document.getElementById(id);
 const state = {
   session: { writable: false, logged_in: false, csrf: null, board: "" },
   status: null, names: new Map(), symbols: [], watch: loadWatch(), stream: null,
-  program: null, programTimer: null, lastEvent: 0,
+  program: null, programTimer: null, lastEvent: 0, uploadNote: "",
 };
 
 function el(tag, props = {}, ...children) {
@@ -408,7 +408,9 @@ async function loadLines() {
   const response = await fetch("/api/program/lines");
   const data = await response.json();
   if (!response.ok) { $("program-note").textContent = data.error; return; }
-  $("program-note").textContent = data.note || (state.program && state.program.note) || "";
+  // the refresh keeps the upload's note: it is the answer to the user's last click
+  $("program-note").textContent =
+    data.note || (state.program && state.program.note) || state.uploadNote || "";
   const body = $("program").tBodies[0];
   for (const line of data.lines) {
     const row = body.querySelector('[data-line="' + CSS.escape(line.file + ":" + line.line) + '"]');
@@ -445,8 +447,9 @@ async function saveProgram() {
   const link = el("a", { href: URL.createObjectURL(new Blob([bytes])), download: main.name });
   link.click();
   URL.revokeObjectURL(link.href);
-  $("program-note").textContent = "Uploaded " + main.name + " (" + data.identity + ")" +
+  state.uploadNote = "Uploaded " + main.name + " (" + data.identity + ")" +
     (data.files.length > 1 ? "; its other files: asictl upload" : "");
+  $("program-note").textContent = state.uploadNote;
 }
 
 // ---------------------------------------------------------------- access
