@@ -27,8 +27,8 @@ from pathlib import Path
 from bench_compile import largest_fitting
 
 from asictl.board.board import Pc2Board
-from asictl.host.driver import EmulatedPort, Pc2Driver
 from asictl.host.transfer import Pc2Transport, StartMode, download
+from asictl.host.transports.driver import EmulatedPort, Pc2Driver
 from asictl.image.eeprom import ProgramImage
 from asictl.platform.master import EEPROM_SIZE
 

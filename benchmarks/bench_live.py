@@ -38,7 +38,7 @@ from bench_check import cpu_seconds
 from bench_compile import largest_fitting
 
 from asictl.build import build
-from asictl.host.connection import MasterAddress, connect_master
+from asictl.host.connection import MasterAddress, open_board
 from asictl.host.transfer import StartMode, download
 from asictl.monitor.source import MonitorSource
 from asictl.source import from_string
@@ -67,7 +67,7 @@ def time_download(address: MasterAddress, runs: int) -> tuple[float, int]:
     _, image = largest_fitting()
     times = []
     for _ in range(runs):
-        with connect_master(address) as master:
+        with open_board(address) as master:
             started = time.perf_counter()
             download(master.transport, image, start=StartMode.STOP)
             times.append(time.perf_counter() - started)
@@ -87,17 +87,17 @@ def refresh_rate(address: MasterAddress, seconds: float) -> float:
 def input_to_output(address: MasterAddress, runs: int) -> float:
     built = build(from_string("p.asi", PROGRAM))
     assert built.image is not None
-    with connect_master(address) as master:
+    with open_board(address) as master:
         download(master.transport, built.image, start=StartMode.START)
         master.emulated("match")
     times = []
     for n in range(2 * runs):
         value = (n + 1) % 2
-        with connect_master(address) as master:
+        with open_board(address) as master:
             started = time.perf_counter()
             master.emulated("inputs", changes=[[4, 1, value]])
         while True:
-            with connect_master(address) as master:
+            with open_board(address) as master:
                 status = master.status()
             if status.slaves["17"].outputs == value << 3:
                 break
@@ -133,7 +133,7 @@ def server_share(pid: int, seconds: float, work: Callable[[], None] | None) -> f
 def program_view(address: MasterAddress, pid: int, seconds: float) -> None:
     built = build(from_string("busy.asi", BUSY))
     assert built.image is not None
-    with connect_master(address) as master:
+    with open_board(address) as master:
         download(master.transport, built.image, start=StartMode.START)
         master.emulated("match")
     monitor = MonitorSource(address)
@@ -151,7 +151,7 @@ def program_view(address: MasterAddress, pid: int, seconds: float) -> None:
     shares["no monitor again"] = server_share(pid, seconds, None)
     for name, share in shares.items():
         print(f"server CPU, {name}: {share * 100:.1f} %")
-    with connect_master(address) as master:
+    with open_board(address) as master:
         started = time.perf_counter()
         for _ in range(20):
             master.emulated("lines")

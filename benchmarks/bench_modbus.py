@@ -22,9 +22,9 @@ from bench_compile import largest_fitting
 from asictl.board.board import Pc2Board
 from asictl.gateway.server import background_gateway
 from asictl.gateway.slave import GatewaySlave
-from asictl.host.modbus import open_modbus
-from asictl.host.target import parse_target
 from asictl.host.transfer import StartMode, download
+from asictl.host.transports.modbus import open_modbus
+from asictl.host.transports.target import parse_target
 from asictl.image.eeprom import ProgramImage
 from asictl.platform.master import EEPROM_SIZE
 

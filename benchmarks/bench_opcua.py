@@ -53,7 +53,7 @@ def served(state: Path, extra: list[str]) -> tuple[float, float]:
 async def parts(state: Path) -> tuple[float, float, int, float]:
     from asyncua.server.server import Server
 
-    from asictl.host.boards import emulated_board
+    from asictl.host.emulated.boards import emulated_board
     from asictl.host.live.board import LiveBoard
     from asictl.opcua.server import BoardSpace, OpcUaOptions
 

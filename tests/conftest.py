@@ -54,6 +54,12 @@ def socat_path() -> str:
     return require_tool("socat", "socat")
 
 
+@pytest.fixture(scope="session")
+def chromium_paths() -> tuple[str, str]:
+    """Debian's headless browser and its WebDriver (tests/web)."""
+    return require_tool("chromium", "chromium"), require_tool("chromedriver", "chromium-driver")
+
+
 @pytest.fixture
 def runner() -> CliRunner:
     """Runs ``asictl`` commands in process, with stdout and stderr kept apart."""

@@ -20,7 +20,7 @@ from hypothesis import strategies as st
 import asictl.cli.check  # noqa: F401 - loaded before a test forks, so the child has it
 from asictl.cli import main
 from asictl.errors import UserError
-from asictl.host.target import parse_target, port_number
+from asictl.host.transports.target import parse_target, port_number
 
 BAD_PORTS = ["²", "9" * 5000, "-1", "65536", "", " 80", "0x50", "٣"]
 

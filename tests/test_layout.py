@@ -116,6 +116,58 @@ def imported_units(path: Path) -> set[str]:
     return found
 
 
+def private_imports(path: Path) -> list[str]:
+    """The names beginning with ``_`` that ``path`` imports from another asictl module
+    (``from asictl.x import _name``, or ``x._name`` of an asictl module it imported);
+    dunders such as ``__version__`` are public."""
+    found: list[str] = []
+    modules: set[str] = set()
+    tree = ast.parse(path.read_text(encoding="utf-8"))
+    for node in ast.walk(tree):
+        if isinstance(node, ast.ImportFrom) and (node.module or "").split(".")[0] == "asictl":
+            for alias in node.names:
+                modules.add(alias.asname or alias.name)
+                if alias.name.startswith("_") and not alias.name.startswith("__"):
+                    found.append(f"{node.module}.{alias.name}")
+        elif isinstance(node, ast.Import):
+            modules.update(
+                alias.asname or alias.name.split(".")[0] for alias in node.names
+                if alias.name.split(".")[0] == "asictl"
+            )
+    for node in ast.walk(tree):
+        if (
+            isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name)
+            and node.value.id in modules
+            and node.attr.startswith("_") and not node.attr.startswith("__")
+        ):
+            found.append(f"{node.value.id}.{node.attr}")
+    return found
+
+
+def test_no_module_imports_another_modules_private_names():
+    """A name another module needs is public, in the module that owns it (the board
+    options of every command that reaches a master are ``cli/board_options.py``)."""
+    taken = {
+        path.relative_to(PACKAGE).as_posix(): found
+        for path in sorted(PACKAGE.rglob("*.py"))
+        if (found := private_imports(path))
+    }
+    assert taken == {}
+
+
+def test_the_private_import_check_sees_both_ways(tmp_path: Path):
+    """The rule above would pass vacuously if it read no imports: it must see these."""
+    sample = tmp_path / "x.py"
+    sample.write_text(
+        "from asictl import __version__\n"
+        "from asictl.cli.master import _connect, open_master\n"
+        "from asictl.host import boards\n"
+        "boards._load(boards.state_file)\n",
+        encoding="utf-8",
+    )
+    assert private_imports(sample) == ["asictl.cli.master._connect", "boards._load"]
+
+
 def test_every_package_and_module_has_a_layer():
     """A new package or top-level module must be placed in ``asictl.LAYERS`` (once)."""
     names = [name for layer in LAYERS for name, _ in layer]

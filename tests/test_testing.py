@@ -10,6 +10,7 @@ from pathlib import Path
 import pytest
 
 from asictl.errors import UserError
+from asictl.observe.condition import ConditionError
 from asictl.testing import ExpectationFailed, LoadError, Plc, TimedOut
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -132,8 +133,10 @@ def test_bad_arguments_say_what_is_wrong(tmp_path: Path):
         plc.set("I 1.0", 2)
     with pytest.raises(ValueError, match="unknown key 'stroke'"):
         plc.add_plant("cylinder", extend="Q 2.0", extended="I 1.1", stroke=3)
-    with pytest.raises(ValueError, match="an operand expected"):
+    with pytest.raises(ConditionError, match="expected an operand, a number or '\\(', found 'or'"
+                       ) as caught:
         plc.run_until("Q 2.0 and or I 1.0")
+    assert caught.value.offset == 10
     with pytest.raises(ValueError, match="not a duration"):
         plc.run("soon")
     plc.close()

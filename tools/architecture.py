@@ -16,6 +16,8 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "src"))
 
+from drawn import redraw  # noqa: E402 - beside this file
+
 from asictl import LAYERS  # noqa: E402 - after the path is set
 
 DOC = ROOT / "docs" / "architecture.md"
@@ -38,7 +40,6 @@ def _modules(name: str) -> str:
 
 def table() -> str:
     rows = [
-        BEGIN,
         "",
         "| layer | package or module | what it holds | its modules |",
         "|---|---|---|---|",
@@ -47,25 +48,11 @@ def table() -> str:
         for name, about in LAYERS[level]:
             shown = f"`{name}/`" if (PACKAGE / name).is_dir() else f"`{name}.py`"
             rows.append(f"| {level} | {shown} | {about} | {_modules(name)} |")
-    rows += ["", END]
-    return "\n".join(rows)
+    return "\n".join(rows) + "\n\n"
 
 
 def main(argv: list[str]) -> int:
-    text = DOC.read_text(encoding="utf-8")
-    head, sep, rest = text.partition(BEGIN)
-    _, sep2, tail = rest.partition(END)
-    if not sep or not sep2:
-        print(f"{DOC}: the markers {BEGIN!r} and {END!r} are missing")
-        return 1
-    drawn = head + table() + tail
-    if "--check" in argv:
-        if drawn != text:
-            print(f"{DOC} is out of date: run python3 tools/architecture.py")
-            return 1
-        return 0
-    DOC.write_text(drawn, encoding="utf-8")
-    return 0
+    return redraw(DOC, BEGIN, END, table(), argv, "python3 tools/architecture.py")
 
 
 if __name__ == "__main__":

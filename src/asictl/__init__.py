@@ -31,7 +31,7 @@ LAYERS: tuple[tuple[tuple[str, str], ...], ...] = (
     (("mcs51", "the 8051: one instruction table, assembler, disassembler, emulator"),),
     (
         ("runtime", "the contract between compiled programs and the firmware"),
-        ("grammar", "the IL grammar (`il.lark`), data only"),
+        ("grammar", "the grammars of IL (`il.lark`) and conditions (`condition.lark`), data only"),
     ),
     (
         ("il", "parse, load, check, the analyses (W7xx), cross-reference, the oracle"),
@@ -49,6 +49,7 @@ LAYERS: tuple[tuple[tuple[str, str], ...], ...] = (
         ("sim", "scenarios in virtual time, traces"),
         ("fleet", "a plant's masters: the inventory, backup into git, verify, status"),
         ("opcua", "the OPC UA server on a live board (asyncua)"),
+        ("web", "the web page and REST API on a live board (Starlette, uvicorn)"),
     ),
     (
         ("debug", "the IL debugger on a simulation, and on a live board for an editor"),
@@ -57,6 +58,7 @@ LAYERS: tuple[tuple[tuple[str, str], ...], ...] = (
         ("testing", "the Python test API: a program on an emulated master, from code"),
         ("quality", "how good the tests are: mutants of programs against their scenarios"),
         ("prove", "properties proved on the symbolic cycle; two programs compared"),
+        ("export", "the program as S7 STL, Structured Text or PLCopen XML for another PLC"),
     ),
     (("dap", "the debug adapter for editors: the Debug Adapter Protocol over debug/"),),
     (

@@ -103,6 +103,8 @@ class ScenarioCode(StrEnum):
     PROPERTIES = "E405"
     UNMODELLED = "E406"
     UNKNOWN_KEY = "E407"
+    #: a condition (docs/conditions.md) that cannot be read, in any file that holds one
+    CONDITION = "E410"
 
 
 class AssemblerCode(StrEnum):
@@ -131,6 +133,7 @@ class ImageCode(StrEnum):
 
     RAW_INVALID = "E601"
     RAW_MISMATCH = "E602"
+    RAW_HEX = "E603"
 
 
 #: A short title of each code, as docs/language.md's table of all codes shows it.
@@ -182,6 +185,7 @@ TITLES: dict[str, str] = {
     "E405": "invalid properties file",
     "E406": "construct the prover cannot model",
     "E407": "unknown key in a TOML file",
+    "E410": "condition that cannot be read",
     "E501": "syntax",
     "E502": "unknown mnemonic or directive",
     "E503": "operand not valid for the instruction",
@@ -200,6 +204,7 @@ TITLES: dict[str, str] = {
     "W502": "text after END",
     "E601": "invalid [RAW] image",
     "E602": "[OPTIONS] or [SETUP] do not match the [RAW] image",
+    "E603": "invalid raw image HEX file",
     "W701": "I/O operand against the slave's I/O code",
     "W702": "slave not in [SETUP]",
     "W703": "no slave in [SETUP]",

@@ -42,6 +42,7 @@ EXTRAS: dict[str, tuple[str, ...]] = {
     "monitor": ("textual>=8,<9",),
     "opcua": ("asyncua>=2.1,<3",),
     "prove": ("z3-solver>=4.12",),
+    "web": ("starlette>=0.40,<2", "uvicorn>=0.30"),
 }
 
 

@@ -28,10 +28,10 @@ from asictl.diagnostics import DiagnosticError, render_text
 from asictl.errors import UserError
 from asictl.files import refuse_inputs, write_output
 from asictl.il.ast import key
+from asictl.observe.condition import Condition, ConditionError, parse_condition
 from asictl.observe.operands import SETTABLE, Operand, check_value, parse_operand
 from asictl.observe.symbols import SymbolTable, load_symbols, symbols_for
 from asictl.readers.units import duration_ms
-from asictl.sim.condition import Condition, parse_condition
 from asictl.sim.engine import Simulation, variables_of
 from asictl.sim.plant import Model, read_model
 from asictl.sim.scenario import MAX_TIME_MS, Scenario, parse_slave
@@ -100,6 +100,9 @@ class _Place:
 
     def problem(self, message: str, key: str | None = None) -> None:
         self.problems.append(message)
+
+    def condition_problem(self, error: ConditionError, key: str) -> None:
+        self.problems.append(f"{key}: {error}")
 
     def operand(self, text: str) -> Operand:
         return parse_operand(text, self.variables, self.symbols)

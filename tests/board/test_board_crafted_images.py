@@ -30,9 +30,9 @@ from hypothesis import strategies as st
 
 from asictl.board.asi import AsiBus, Slave
 from asictl.board.board import Pc2Board
-from asictl.host.driver import EmulatedPort, Pc2Driver
-from asictl.host.jobs import JobError, JobStatus
 from asictl.host.transfer import Pc2Transport, StartMode, download, set_start
+from asictl.host.transports.driver import EmulatedPort, Pc2Driver
+from asictl.host.transports.jobs import JobError, JobStatus
 from asictl.image.eeprom import HEADER_SIZE, ImageError, ProgramImage
 from asictl.platform import pc2 as d
 from asictl.platform.master import ControlFlag

@@ -17,7 +17,6 @@ from il_strategies import ModelFirmware, checked_programs, cycle_steps
 
 from asictl.codegen8051.compiler import compile_program
 from asictl.il.loader import Program
-from asictl.il.oracle import CycleTimeout as InterpreterTimeout
 from asictl.il.oracle import Interpreter
 from asictl.runtime.program_map import LoadedProgram, Location, Space
 from asictl.runtime.runner import CycleTimeout, ProgramRunner
@@ -78,7 +77,7 @@ def test_compiled_code_agrees_with_the_interpreter(program: Program, run) -> Non
             runner.write(Location(Space.XDATA, 0x200 + n), value)
         try:
             interp.cycle(inputs)
-        except InterpreterTimeout:
+        except CycleTimeout:
             try:
                 runner.cycle(inputs)
             except CycleTimeout:

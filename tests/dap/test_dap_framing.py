@@ -5,10 +5,8 @@ from __future__ import annotations
 
 import io
 import json
-from collections.abc import Iterator
 from pathlib import Path
 
-import pytest
 from dap_client import DapClient
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -65,13 +63,6 @@ def test_a_writer_on_a_closed_stream_drops_messages():
     stream.close()
     writer.write({"a": 1})
     assert writer.closed
-
-
-@pytest.fixture
-def client(tmp_path: Path) -> Iterator[DapClient]:
-    client = DapClient(tmp_path)
-    yield client
-    client.close()
 
 
 def test_the_adapter_survives_hostile_messages_and_bad_requests(client: DapClient,

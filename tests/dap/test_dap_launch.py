@@ -7,7 +7,6 @@ setting a value, the cycle step, a cycle time-out, the console, and bad requests
 
 from __future__ import annotations
 
-from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
@@ -45,13 +44,6 @@ def program(tmp_path: Path) -> Path:
     path = tmp_path / "latch.asi"
     path.write_text(PROGRAM)
     return path
-
-
-@pytest.fixture
-def client(tmp_path: Path) -> Iterator[DapClient]:
-    client = DapClient(tmp_path)
-    yield client
-    client.close()
 
 
 def start(client: DapClient, breakpoints: dict[Path, list[dict[str, object]]] | None = None,

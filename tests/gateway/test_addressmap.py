@@ -199,7 +199,7 @@ def test_illegal_addresses_values_counts(gw):
     assert exception(gw, 5, "HH", 0, 0x1234) == 3
     assert exception(gw, 6, "HH", 100, 0x10) == 3  # a parameter is a nibble
     assert exception(gw, 6, "HH", 1010, 0) == 2
-    assert exception(gw, 17) == 1  # Report Slave ID is not provided
+    assert exception(gw, 20) == 1  # Read File Record is not provided (17 identifies asictl)
     assert exception(gw, 99) == 1
     assert exception(gw, 16, "HHB" + "H" * 16, 400, 16, 32, *range(16)) == 3
     assert exception(gw, 16, "HHBH", 400, 2, 4, 1) == 3  # byte count lies

@@ -11,7 +11,7 @@ import sys
 
 from pymodbus.client import ModbusTcpClient
 
-from asictl.host import gateway_pdus as pdus
+from asictl.host.transports import gateway_pdus as pdus
 
 
 def test_serve_download_over_modbus_persists_for_the_pc2_port(tmp_path):

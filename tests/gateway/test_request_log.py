@@ -14,7 +14,7 @@ from pathlib import Path
 from pymodbus.client import ModbusTcpClient
 
 from asictl.gateway.slave import GatewaySlave
-from asictl.host import gateway_pdus as pdus
+from asictl.host.transports import gateway_pdus as pdus
 
 
 def _logged(gw: GatewaySlave) -> list[str]:

@@ -20,8 +20,8 @@ from asictl.board.execution import Phase
 from asictl.board.images import VERSION_ID
 from asictl.gateway.server import SerialSettings, background_gateway, crc16
 from asictl.gateway.slave import GATEWAY_NAME, GatewaySlave
-from asictl.host import gateway_pdus as pdus
-from asictl.host.driver import EmulatedPort, Pc2Driver
+from asictl.host.transports import gateway_pdus as pdus
+from asictl.host.transports.driver import EmulatedPort, Pc2Driver
 from asictl.platform import pc2 as d
 from asictl.platform.master import EEPROM_SIZE
 

@@ -30,8 +30,8 @@ from pymodbus.simulator import DataType, SimData, SimDevice
 
 from asictl.board.board import Pc2Board
 from asictl.gateway.addressmap import AddressMap
-from asictl.host.gateway_pdus import BLOCK_SIZE, server_pdus
 from asictl.host.transfer import Pc2Transport
+from asictl.host.transports.gateway_pdus import BLOCK_SIZE, server_pdus
 
 
 class StubHandler:

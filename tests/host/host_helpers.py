@@ -14,7 +14,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 from asictl.board.board import Pc2Board
-from asictl.host.driver import DevPort, PortIO
+from asictl.host.transports.driver import DevPort, PortIO
 from asictl.platform.pc2 import (
     COMMAND,
     DPRAM_SIZE,

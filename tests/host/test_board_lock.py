@@ -17,8 +17,8 @@ import pytest
 from click.testing import CliRunner
 
 from asictl.cli import main
-from asictl.host.boards import emulated_board, lock_file
-from asictl.host.locking import LockBusy, exclusive, holder_file, note_holder, read_holder
+from asictl.host.emulated.boards import emulated_board, lock_file
+from asictl.host.emulated.locking import LockBusy, exclusive, holder_file, note_holder, read_holder
 
 #: Generous: a command that waits for the lock would run into it (a hang guard only).
 HANG_GUARD_S = 60

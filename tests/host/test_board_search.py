@@ -10,8 +10,8 @@ import pytest
 from host_helpers import ScriptedBoard, isa_bus
 
 from asictl.board.board import Pc2Board
-from asictl.host import boards, search
-from asictl.host.boards import emulated_board
+from asictl.host import connection, search
+from asictl.host.emulated.boards import emulated_board
 from asictl.host.live.server import background_live
 from asictl.host.search import FOUND, NOT_FOUND, WRONG_FIRMWARE, check_board
 from asictl.platform import pc2 as d
@@ -86,7 +86,7 @@ def isa(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> dict[int, Pc2Board]:
     installed = {0x308: board}
     bus = isa_bus(tmp_path / "port", installed)
     monkeypatch.setattr(search, "DevPort", bus)
-    monkeypatch.setattr(boards, "DevPort", bus)
+    monkeypatch.setattr(connection, "DevPort", bus)
     return installed
 
 

@@ -22,10 +22,10 @@ from asictl.host.commissioning import (
     NotOffered,
     Pc2Commissioning,
 )
-from asictl.host.driver import EmulatedPort, Pc2Driver
-from asictl.host.jobs import JobError
-from asictl.host.modbus import open_modbus
-from asictl.host.target import parse_target
+from asictl.host.transports.driver import EmulatedPort, Pc2Driver
+from asictl.host.transports.jobs import JobError
+from asictl.host.transports.modbus import open_modbus
+from asictl.host.transports.target import parse_target
 from asictl.image.eeprom import Configuration, SlaveConfig
 from asictl.platform.master import ControlFlag
 

@@ -20,11 +20,12 @@ from asictl.build import build, build_file
 from asictl.cli import main
 from asictl.gateway.server import background_gateway
 from asictl.gateway.slave import GatewaySlave
-from asictl.host import modbus
-from asictl.host.driver import EmulatedPort, Pc2Driver
+from asictl.host import modbus_master
 from asictl.host.status import control_summary
-from asictl.host.target import parse_target
 from asictl.host.transfer import Pc2Transport, StartMode, download
+from asictl.host.transports.driver import EmulatedPort, Pc2Driver
+from asictl.host.transports.modbus import open_modbus
+from asictl.host.transports.target import parse_target
 from asictl.platform.master import ControlFlag
 from asictl.source import from_string
 
@@ -75,9 +76,9 @@ def test_the_gateway_says_what_the_pc2_port_says(situation: str):
     expected = control_summary(_driver(board))
     with background_gateway(GatewaySlave(board)) as gateway:
         host, port = gateway.server.tcp_address
-        with modbus.open_modbus(parse_target(f"tcp://{host}:{port}")) as transport:
-            assert modbus.control_summary(transport) == expected
-            status = modbus.read_status(transport)
+        with open_modbus(parse_target(f"tcp://{host}:{port}")) as transport:
+            assert modbus_master.control_summary(transport) == expected
+            status = modbus_master.read_status(transport)
     assert status.control_state in expected
     assert status.stop_reason is None or status.stop_reason in expected
 
@@ -90,8 +91,8 @@ def test_a_cycle_time_out_is_one_of_two_reasons_over_the_gateway():
     assert control_summary(_driver(board)) == "control program halted (p.asi:4: cycle timeout)"
     with background_gateway(GatewaySlave(board)) as gateway:
         host, port = gateway.server.tcp_address
-        with modbus.open_modbus(parse_target(f"tcp://{host}:{port}")) as transport:
-            assert modbus.control_summary(transport) == (
+        with open_modbus(parse_target(f"tcp://{host}:{port}")) as transport:
+            assert modbus_master.control_summary(transport) == (
                 "control program halted "
                 "(a cycle time-out, a program fault or waiting for the set button)"
             )

@@ -29,11 +29,12 @@ from crafted_images import CRAFTED, rich
 from intelhex import IntelHex
 
 from asictl.cli import main
-from asictl.host.boards import emulated_board, state_file
-from asictl.host.jobs import JobError, JobStatus
-from asictl.host.modbus import control_summary, open_modbus
-from asictl.host.target import parse_target
+from asictl.host.emulated.boards import emulated_board, state_file
+from asictl.host.modbus_master import control_summary
 from asictl.host.transfer import StartMode, download
+from asictl.host.transports.jobs import JobError, JobStatus
+from asictl.host.transports.modbus import open_modbus
+from asictl.host.transports.target import parse_target
 from asictl.platform.master import ControlFlag
 
 ROOT = Path(__file__).resolve().parents[2]

@@ -11,7 +11,7 @@ from click.testing import CliRunner
 from host_helpers import ScriptedBoard, WiredDevPort
 
 from asictl.cli import main
-from asictl.host import boards
+from asictl.host import connection
 from asictl.host.live.server import background_live
 from asictl.platform import pc2 as d
 
@@ -73,7 +73,7 @@ def test_130_is_passed_through_to_a_real_board(run, tmp_path: Path, monkeypatch,
     scripted.answers = {130: emc_test_mode}
     path = tmp_path / "port"
     path.write_bytes(bytes(0x10000))
-    monkeypatch.setattr(boards, "DevPort", lambda base: WiredDevPort(base, str(path), scripted))
+    monkeypatch.setattr(connection, "DevPort", lambda base: WiredDevPort(base, str(path), scripted))
     result = run("emc", "1,2", "--request", "13h", "--expect", "3", "--for", "10ms",
                  "--io", "devport")
     if answer == d.ACK:

@@ -10,12 +10,12 @@ import pytest
 from host_helpers import ScriptedBoard, isa_bus
 
 from asictl.board.board import Pc2Board
-from asictl.host import boards
-from asictl.host.boards import emulated_board
-from asictl.host.driver import EmulatedPort, Pc2Driver
+from asictl.host import connection
+from asictl.host.emulated.boards import emulated_board
 from asictl.host.hardware_reset import RESET_HOLD_MS, hardware_reset
-from asictl.host.jobs import JobError, JobStatus
 from asictl.host.live.server import background_live
+from asictl.host.transports.driver import EmulatedPort, Pc2Driver
+from asictl.host.transports.jobs import JobError, JobStatus
 from asictl.platform import pc2 as d
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -102,7 +102,7 @@ def test_reset_hardware_on_a_live_board_loses_what_is_volatile(run):
 def test_reset_hardware_through_dev_port(run, tmp_path: Path, monkeypatch):
     board = Pc2Board()
     board.advance(100)
-    monkeypatch.setattr(boards, "DevPort", isa_bus(tmp_path / "port", {0x300: board}))
+    monkeypatch.setattr(connection, "DevPort", isa_bus(tmp_path / "port", {0x300: board}))
     booted = board.power_up_ms
     result = run("reset", "--hardware", "--io", "devport")
     assert result.exit_code == 0, result.output

@@ -11,8 +11,8 @@ from click.testing import CliRunner
 from asictl.board.asi import Slave
 from asictl.board.images import VERSION_ID
 from asictl.cli import main
-from asictl.host import boards as state
-from asictl.host.boards import emulated_board
+from asictl.host import connection
+from asictl.host.emulated.boards import emulated_board
 
 ROOT = Path(__file__).resolve().parents[2]
 BLINK = ROOT / "demos" / "blink.asi"
@@ -102,8 +102,10 @@ def test_unreadable_input_and_bad_usage_exit_2(run, tmp_path: Path):
 
 
 def test_devport_without_access_is_a_clear_error(run, monkeypatch, tmp_path: Path):
-    original = state.DevPort
-    monkeypatch.setattr(state, "DevPort", lambda base: original(base, str(tmp_path / "no-port")))
+    original = connection.DevPort
+    monkeypatch.setattr(
+        connection, "DevPort", lambda base: original(base, str(tmp_path / "no-port"))
+    )
     result = run("status", "--io", "devport")
     assert result.exit_code == 2
     assert "no-port: not present; this system has no direct port access" in result.stderr

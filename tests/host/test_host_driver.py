@@ -8,8 +8,8 @@ from pathlib import Path
 import pytest
 from host_helpers import ScriptedBoard, WiredDevPort
 
-from asictl.host.driver import DevPort, EmulatedPort, Pc2Driver
-from asictl.host.jobs import JobError, JobStatus, PortError
+from asictl.host.transports.driver import DevPort, EmulatedPort, Pc2Driver
+from asictl.host.transports.jobs import JobError, JobStatus, PortError
 from asictl.platform.pc2 import (
     ACK,
     ADDRESS,

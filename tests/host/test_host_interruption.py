@@ -18,9 +18,9 @@ from host_helpers import Interrupted, InterruptingPort
 
 from asictl.board.board import Pc2Board
 from asictl.build import build_file
-from asictl.host.driver import EmulatedPort, Pc2Driver
-from asictl.host.jobs import JobError, JobStatus
 from asictl.host.transfer import Pc2Transport, StartMode, download, reset
+from asictl.host.transports.driver import EmulatedPort, Pc2Driver
+from asictl.host.transports.jobs import JobError, JobStatus
 from asictl.image.eeprom import ProgramImage
 from asictl.platform.master import ControlFlag
 from asictl.platform.pc2 import Command, ProgramStatus

@@ -5,8 +5,8 @@ from __future__ import annotations
 import pytest
 from host_helpers import ScriptedBoard
 
-from asictl.host.driver import EmulatedPort, Pc2Driver
-from asictl.host.jobs import REINITIALISE, Job, JobError, JobStatus, PortError
+from asictl.host.transports.driver import EmulatedPort, Pc2Driver
+from asictl.host.transports.jobs import REINITIALISE, Job, JobError, JobStatus, PortError
 from asictl.platform.pc2 import ACK, DATA, NAK, Command, Status
 
 

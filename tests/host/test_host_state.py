@@ -18,12 +18,8 @@ from click.testing import CliRunner
 from asictl.board.asi import Slave
 from asictl.cli import main
 from asictl.errors import UserError
-from asictl.host.boards import (
-    emulated_board,
-    parse_port,
-    state_directory,
-    state_file,
-)
+from asictl.host.emulated.boards import emulated_board, state_directory, state_file
+from asictl.host.transports.ports import parse_port
 
 ROOT = Path(__file__).resolve().parents[2]
 

@@ -12,8 +12,6 @@ from asictl.board.asi import Slave
 from asictl.board.board import Pc2Board
 from asictl.build import build_file, build_image
 from asictl.codegen8051.compiler import compile_program
-from asictl.host.driver import EmulatedPort, Pc2Driver
-from asictl.host.jobs import JobError, JobStatus
 from asictl.host.program_files import uploaded_files, write_files
 from asictl.host.transfer import (
     Pc2Transport,
@@ -25,6 +23,8 @@ from asictl.host.transfer import (
     set_start,
     upload,
 )
+from asictl.host.transports.driver import EmulatedPort, Pc2Driver
+from asictl.host.transports.jobs import JobError, JobStatus
 from asictl.il.checks import check_source
 from asictl.image.eeprom import ProgramImage
 from asictl.platform.master import ControlFlag

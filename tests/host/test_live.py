@@ -22,10 +22,10 @@ from click.testing import Result
 from live_helpers import BLINK, OR_PROGRAM, cli, start_serve, stop, wait_for
 
 from asictl.board.board import Pc2Board
-from asictl.host.driver import EmulatedPort, Pc2Driver
 from asictl.host.live.client import LiveClient, LivePort, open_live
 from asictl.host.live.protocol import encode, socket_path
 from asictl.host.live.server import background_live
+from asictl.host.transports.driver import EmulatedPort, Pc2Driver
 from asictl.platform.pc2 import PROGRAM_BUFFER, Command
 
 

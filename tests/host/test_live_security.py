@@ -138,7 +138,7 @@ BOARD_COMMANDS = {
     "emc": ["1", "--for", "1s"], "gateway panel": [], "gateway press": ["mode"],
     "gateway serve": ["--tcp", "127.0.0.1:0"], "mode": [], "monitor": [],
     "record": ["--duration", "1s", "-o", "run.scenario.toml"], "reset": [],
-    "serve": [], "setup": [str(BLINK)], "slave address": ["4", "5"],
+    "probe": ["-o", "p.json"], "serve": [], "setup": [str(BLINK)], "slave address": ["4", "5"],
     "slave command": ["4", "1"], "slave parameter": ["4", "1"], "start": [],
     "status": [], "stop": [], "store": ["configuration"], "upload": ["-o", "-"],
     "verify": [str(BLINK)], "write": ["F 1.0=1"],

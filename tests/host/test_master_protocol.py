@@ -14,13 +14,13 @@ from asictl.cli import main
 from asictl.errors import ExitCode, UserError
 from asictl.gateway.server import background_gateway
 from asictl.gateway.slave import GatewaySlave
-from asictl.host.connection import MasterAddress, connect_master
-from asictl.host.driver import EmulatedPort, Pc2Driver
-from asictl.host.emulated import SETTLE_MS, LoadedBoard
+from asictl.host.connection import MasterAddress, open_board
+from asictl.host.emulated.actions import SETTLE_MS
 from asictl.host.live.client import LiveActions
 from asictl.host.live.server import background_live
 from asictl.host.master import Master
 from asictl.host.pc2_master import Pc2Master
+from asictl.host.transports.driver import EmulatedPort, Pc2Driver
 
 REFUSAL = "is not an emulated board: its AS-i cable cannot be changed from here"
 
@@ -46,7 +46,7 @@ def test_a_pc2_board_without_the_capability_is_seen_as_real_hardware():
 
 def test_a_board_loaded_from_its_state_file_runs_on_after_a_change_only():
     board = Pc2Board()
-    master = Pc2Master.over(Pc2Driver(EmulatedPort(board)), "300h", action=LoadedBoard(board))
+    master = Pc2Master.loaded(board, "300h")
     assert master.action is not None and master.action.live is None
     before = board.now_ms
     assert master.emulated("bus") == {"powered": True, "slaves": []}
@@ -59,7 +59,7 @@ def test_a_board_loaded_from_its_state_file_runs_on_after_a_change_only():
 
 
 def test_a_live_board_offers_the_capability_through_its_socket(tmp_path: Path):
-    with background_live(0x300, tmp_path, identity={"command": "test"}), connect_master(
+    with background_live(0x300, tmp_path, identity={"command": "test"}), open_board(
         MasterAddress(state_dir=tmp_path)
     ) as master:
         assert isinstance(master.action, LiveActions)
@@ -73,7 +73,7 @@ def test_a_gateway_has_no_dpram_and_no_emulated_actions():
     with background_gateway(GatewaySlave(Pc2Board())) as gateway:
         host, port = gateway.server.tcp_address
         url = f"tcp://{host}:{port}"
-        with connect_master(MasterAddress(modbus=url)) as master:
+        with open_board(MasterAddress(modbus=url)) as master:
             assert master.name == f"{url} unit 1"
             assert master.driver is None and master.quick_status is None
             assert not master.created

@@ -30,11 +30,12 @@ from asictl.cli import main
 from asictl.errors import UserError
 from asictl.gateway.server import background_gateway
 from asictl.gateway.slave import GatewaySlave
-from asictl.host.driver import EmulatedPort, Pc2Driver
-from asictl.host.jobs import JobError, JobStatus
-from asictl.host.modbus import open_modbus, read_status
-from asictl.host.target import parse_target
+from asictl.host.modbus_master import read_status
 from asictl.host.transfer import Pc2Transport, StartMode, download, set_start, upload
+from asictl.host.transports.driver import EmulatedPort, Pc2Driver
+from asictl.host.transports.jobs import JobError, JobStatus
+from asictl.host.transports.modbus import open_modbus
+from asictl.host.transports.target import parse_target
 
 DEMO = sorted((Path(__file__).resolve().parents[2] / "demos").glob("*.asi"))[0]
 

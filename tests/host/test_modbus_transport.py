@@ -22,9 +22,10 @@ from asictl.build import build_file
 from asictl.cli import main
 from asictl.gateway.server import background_gateway
 from asictl.gateway.slave import GATEWAY_NAME, GatewaySlave
-from asictl.host.boards import emulated_board
-from asictl.host.driver import EmulatedPort, Pc2Driver
-from asictl.host.gateway_pdus import (
+from asictl.host.emulated.boards import emulated_board
+from asictl.host.transfer import Pc2Transport, StartMode, download, reset, set_start, upload
+from asictl.host.transports.driver import EmulatedPort, Pc2Driver
+from asictl.host.transports.gateway_pdus import (
     INFO_SOFTWARE,
     DownloadRequest,
     DownloadResponse,
@@ -33,10 +34,9 @@ from asictl.host.gateway_pdus import (
     UploadRequest,
     UploadResponse,
 )
-from asictl.host.jobs import JobError, JobStatus
-from asictl.host.modbus import open_modbus
-from asictl.host.target import parse_target
-from asictl.host.transfer import Pc2Transport, StartMode, download, reset, set_start, upload
+from asictl.host.transports.jobs import JobError, JobStatus
+from asictl.host.transports.modbus import open_modbus
+from asictl.host.transports.target import parse_target
 from asictl.platform.master import ControlFlag
 
 ROOT = Path(__file__).resolve().parents[2]

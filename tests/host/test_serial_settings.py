@@ -17,7 +17,7 @@ from click.testing import CliRunner
 
 from asictl.cli import main
 from asictl.errors import UserError
-from asictl.host.target import check_serial_setting, parity_code, parse_target
+from asictl.host.transports.target import check_serial_setting, parity_code, parse_target
 from asictl.platform.gateway import BAUD_RATES, UNITS, serial_setting_code
 
 
@@ -101,8 +101,8 @@ def pty_pair(tmp_path: Path, socat_path: str) -> Iterator[tuple[str, str]]:
 
 @pytest.mark.parametrize("spelling", ["E", "even", "Even", "e"])
 def test_the_client_takes_the_readmes_spelling(spelling, monkeypatch):
-    """README: ``--modbus /dev/ttyX --baud 19200 --parity E``."""
-    import asictl.cli.master as cli_master
+    """docs/commands.md: ``--modbus /dev/ttyX --baud 19200 --parity E``."""
+    import asictl.cli.board_options as cli_board
 
     seen = []
 
@@ -110,7 +110,7 @@ def test_the_client_takes_the_readmes_spelling(spelling, monkeypatch):
         seen.append(address)
         raise UserError("stop here")
 
-    monkeypatch.setattr(cli_master, "connect_master", connect)
+    monkeypatch.setattr(cli_board, "open_board", connect)
     result = CliRunner().invoke(
         main, ["status", "--modbus", "/dev/ttyX", "--baud", "19200", "--parity", spelling]
     )

@@ -23,10 +23,10 @@ from asictl.build import build_file
 from asictl.cli import main
 from asictl.errors import UserError
 from asictl.files import shown_name
-from asictl.host.boards import emulated_board
-from asictl.host.driver import EmulatedPort, Pc2Driver
+from asictl.host.emulated.boards import emulated_board
 from asictl.host.program_files import uploaded_files, write_files
 from asictl.host.transfer import Pc2Transport, StartMode, download
+from asictl.host.transports.driver import EmulatedPort, Pc2Driver
 from asictl.image.eeprom import ProgramImage, pack_sources
 
 DEMO = Path(__file__).resolve().parents[2] / "demos" / "blink.asi"

@@ -41,6 +41,8 @@ def test_hover_texts_on_the_fb_demo():
 
     assert "register := register and operand" in at(26, "A ")
     assert "slave 1, data bit D0 (input)" in at(26, "I 1.0")
+    assert "`I a.b`: input: slave a 0..31" in at(26, "I 1.0")  # the operand's mark
+    assert "`F y.b`: flag" in at(27, "F 20.0")
     assert "communication memory 214h" in at(27, "F 20.0")
     assert "function block **Latch** in `latch.fb`" in at(31, "Latch")
     assert "firmware block **GetLAS**" in at(44, "GetLAS")

@@ -114,6 +114,8 @@ def test_the_watch_view_writes_once_forces_and_releases_the_selected_row(board):
         await enter(app, pilot, "F", "0x55")
         assert status(board)["forced"][0]["operand"] == "FY 10"
         assert re.search(r"FY 10 +1010101 +85 +55h +FORCED", text(app, "watch"))
+        # a bit is held by its forced flag byte
+        assert re.search(r"F 10\.0 \(Mark\) +1 +1 +1h +FORCED", text(app, "watch"))
         await enter(app, pilot, "R", "")  # the prompt holds 'FY 10'
         assert status(board)["forced"] == []
         await pilot.press("minus")

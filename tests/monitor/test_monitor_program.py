@@ -21,9 +21,9 @@ from monitor_harness import cli, live, settle
 from asictl.cli import main
 from asictl.host import connection
 from asictl.host.connection import MasterAddress
+from asictl.host.listing import NO_SOURCE
 from asictl.monitor import source as monitor_source
 from asictl.monitor.app import MonitorApp
-from asictl.monitor.program import NO_SOURCE
 from asictl.monitor.source import NO_LINES_GATEWAY, NO_LINES_REAL, MonitorSource
 from asictl.runtime.line_map import SourceLine
 
@@ -241,13 +241,13 @@ def test_a_real_board_or_a_gateway_says_per_line_values_need_an_emulated_board(
 
     @contextmanager
     def as_hardware(address, notify=None, live_only=False):
-        with connection.connect_master(address, notify=notify, live_only=live_only) as master:
+        with connection.open_board(address, notify=notify, live_only=live_only) as master:
             if shape == "real":
                 yield dataclasses.replace(master, action=None)
             else:
                 yield dataclasses.replace(master, action=None, driver=None, quick_status=None)
 
-    monkeypatch.setattr(monitor_source, "connect_master", as_hardware)
+    monkeypatch.setattr(monitor_source, "open_board", as_hardware)
 
     async def check(app, pilot):
         await pilot.press("v")

@@ -14,11 +14,11 @@ from pathlib import Path
 
 from monitor_harness import cli, settle
 
-from asictl.host.boards import lock_file
 from asictl.host.connection import MasterAddress
+from asictl.host.emulated.boards import lock_file
+from asictl.host.emulated.locking import exclusive
 from asictl.host.live.protocol import socket_path
 from asictl.host.live.server import background_live
-from asictl.host.locking import exclusive
 from asictl.monitor.app import MonitorApp
 from asictl.monitor.source import MonitorSource
 

@@ -19,13 +19,12 @@ from il_strategies import traceable_sources
 
 from asictl.build import build_file
 from asictl.cli import main
-from asictl.il.oracle import CycleTimeout as ReferenceTimeout
 from asictl.il.oracle import Interpreter
 from asictl.observe.iltrace import ILTracer
 from asictl.observe.view import ProgramView
 from asictl.runtime.line_map import SourceLine
 from asictl.runtime.program_map import LoadedProgram
-from asictl.runtime.runner import ProgramRunner
+from asictl.runtime.runner import CycleTimeout, ProgramRunner
 
 EXAMPLES = int(os.environ.get("ASICTL_TRACE_EXAMPLES", "150"))
 
@@ -79,7 +78,7 @@ def test_trace_rows_agree_with_the_reference_interpreter(files: dict[str, str], 
         events.clear()
         try:
             interp.cycle(inputs)
-        except ReferenceTimeout:
+        except CycleTimeout:
             return
         events.append((None, registers()))  # the cycle's end
         expected = [

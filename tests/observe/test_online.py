@@ -30,10 +30,10 @@ from asictl.build import build, build_file, build_image
 from asictl.cli import main
 from asictl.codegen8051.compiler import compile_program
 from asictl.errors import UserError
-from asictl.host.connection import MasterAddress, connect_master
-from asictl.host.driver import EmulatedPort, Pc2Driver
+from asictl.host.connection import MasterAddress, open_board
 from asictl.host.live.server import background_live
 from asictl.host.transfer import Pc2Transport, set_start
+from asictl.host.transports.driver import EmulatedPort, Pc2Driver
 from asictl.il.checks import check_source
 from asictl.observe.online import CycleLines, latest_cycle
 from asictl.platform.master import ControlFlag
@@ -280,7 +280,7 @@ def test_a_live_board_answers_over_its_socket_as_sim_trace_il_shows(tmp_path: Pa
         cli("bus", "match")
         cli("bus", "inputs", "I 1.0=1", "I 1.2=1")
         time.sleep(0.3)
-        with connect_master(MasterAddress(state_dir=state)) as master:
+        with open_board(MasterAddress(state_dir=state)) as master:
             answer = master.emulated("lines")
     assert answer["state"] == "running"
     assert _ran(answer) == expected

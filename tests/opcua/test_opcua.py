@@ -8,12 +8,10 @@ import asyncio
 import json
 import os
 import re
-import signal
 import socket
 import subprocess
 import sys
-from collections.abc import Iterator
-from contextlib import contextmanager
+from contextlib import AbstractContextManager
 from pathlib import Path
 
 import pytest
@@ -21,6 +19,7 @@ from asyncua import Client, ua
 from asyncua.common.node import Node
 from asyncua.common.subscription import DataChangeNotif
 from click.testing import CliRunner
+from served_live import served_live
 
 from asictl.cli import main
 
@@ -51,28 +50,15 @@ def asictl(state: Path, *args: str, code: int = 0) -> subprocess.CompletedProces
     return result
 
 
-@contextmanager
-def served(state: Path, *command: str, env: dict[str, str] | None = None) -> Iterator[str]:
+def served(
+    state: Path, *command: str, env: dict[str, str] | None = None,
+) -> AbstractContextManager[str]:
     """``asictl COMMAND... --opcua 127.0.0.1:0`` in its own process; yields the URL."""
-    process = subprocess.Popen(
-        [sys.executable, "-m", "asictl", *command, "--opcua", "127.0.0.1:0"],
-        stderr=subprocess.PIPE, text=True,
-        env={**os.environ, "ASICTL_STATE_DIR": str(state), **(env or {})},
+    return served_live(
+        state, [*command, "--opcua", "127.0.0.1:0"],
+        r"OPC UA server for board 300h at (opc\.tcp://\S+)", env=env,
+        also="serving" if command[0] == "gateway" else None,
     )
-    assert process.stderr is not None
-    try:
-        lines: list[str] = []
-        url = None
-        while url is None or (command[0] == "gateway" and not any("serving" in x for x in lines)):
-            line = process.stderr.readline()
-            assert line, "".join(lines) + "the server ended"
-            lines.append(line)
-            found = re.search(r"OPC UA server for board 300h at (opc\.tcp://\S+)", line)
-            url = found.group(1) if found else url
-        yield url
-    finally:
-        process.send_signal(signal.SIGINT)
-        assert process.wait(timeout=30) == 0
 
 
 @pytest.fixture

@@ -297,8 +297,12 @@ def test_a_file_in_the_way_is_not_replaced(tmp_path: Path, runner):
 
 @pytest.mark.parametrize(("text", "message", "column"), [
     ('never = "Q 2.0 andd Q 2.1"', "not an operand", 10),
-    ('never = "Q 2.0 and (Q 2.1"', "expected ')'", 26),
-    ('always = "FY 10"', "is a condition, not the value FY 10", 11),
+    ('never = "Q 2.0 and (Q 2.1"', "expected and, or, xor or ')', found the end [E410]", 26),
+    ('always = "FY 10"', "a condition is true or false: compare the value FY 10", 11),
+    ('never = "Q 2.0 and \\u00e9"', "unexpected character '\u00e9'", 20),
+    ("never = '" + "(" * 140 + "Q 2.0" + ")" * 140 + "'", "parentheses nested more than 32 deep",
+     42),
+    ('never = "' + " and ".join(["Q 2.0"] * 1000) + '"', "at most 4000 characters", 4010),
     ('never = "Q 2.0 < 3 < 4"', "do not chain", 20),
     ('never = "I 40.0"', "slave 0..31", 10),
 ])
@@ -394,3 +398,29 @@ def test_depth_as_a_time_is_cycles_of_the_program(tmp_path: Path, runner):
     assert result.exit_code == 1, result.output
     results = {r["name"]: r for r in json.loads(result.output)["files"][0]["results"]}
     assert results["never both directions"]["verdict"] == "refuted"
+
+
+def test_properties_and_assumptions_name_the_programs_symbols(tmp_path: Path):
+    props = _files(tmp_path, REVERSE, """
+[assume]
+always = ["not (Forward and Backward)"]
+
+[[property]]
+name = "never both directions"
+never = "Forward_on and Backward_on"
+
+[[property]]
+name = "forward runs"
+reachable = "Forward_on xor Backward_on"
+""")
+    (tmp_path / "p.symbols.toml").write_text(
+        'Forward = "I 1.0"\nBackward = "I 1.1"\nForward_on = "Q 2.0"\nBackward_on = "Q 2.1"\n')
+    report = prove_file(props)
+    assert _verdicts(report) == {"never both directions": Verdict.PROVED,
+                                 "forward runs": Verdict.REACHED}
+    # a name the table lacks is E410 at its place inside the string
+    props.write_text('[[property]]\nname = "x"\nnever = "Forward_on and Sideways"\n')
+    with pytest.raises(Invalid) as invalid:
+        prove_file(props)
+    assert "p.props.toml:3:25: error: 'Sideways' is not an operand" in invalid.value.text
+    assert "[E410]" in invalid.value.text

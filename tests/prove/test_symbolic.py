@@ -27,7 +27,6 @@ from asictl.codegen8051.compiler import compile_program
 from asictl.il import ast
 from asictl.il.language import MAPPED_COUNTERS
 from asictl.il.loader import Program
-from asictl.il.oracle import CycleTimeout as InterpreterTimeout
 from asictl.il.oracle import Interpreter
 from asictl.prove.symbolic import (
     ACCU1,
@@ -39,7 +38,7 @@ from asictl.prove.symbolic import (
     build_cycle,
 )
 from asictl.runtime.program_map import LoadedProgram, Location, Space
-from asictl.runtime.runner import ProgramRunner
+from asictl.runtime.runner import CycleTimeout, ProgramRunner
 from asictl.source import from_string
 
 EXAMPLES = int(os.environ.get("ASICTL_PROVE_EXAMPLES", "70"))
@@ -148,7 +147,7 @@ def test_the_symbolic_cycle_agrees_with_the_simulator(program: Program, run,
             concrete.state[TICK] = until
         try:
             interp.cycle(inputs)
-        except InterpreterTimeout:
+        except CycleTimeout:
             return
         runner.cycle(inputs)
         after = concrete.step({**given_inputs, **flags})

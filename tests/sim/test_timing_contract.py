@@ -25,7 +25,8 @@ from asictl.build import build
 from asictl.il import ast
 from asictl.il.checks import check_program
 from asictl.il.loader import Program
-from asictl.il.oracle import CycleTimeout, Interpreter
+from asictl.il.oracle import Interpreter
+from asictl.runtime.runner import CycleTimeout
 from asictl.sim.engine import Simulation, variables_of
 from asictl.sim.scenario import read_scenario
 from asictl.source import from_string

@@ -4,7 +4,7 @@ The real board keeps its EEPROM (the control program), the non-volatile AS-i Con
 flags (manual 10.2.6), the operating mode and the master's settings (LPS, PCD, PP, LOS,
 the Config_ok delay) across a power cycle; the emulation also keeps the installation:
 the slaves on the cable, and its force list (board/forcing.py). The persistent emulated
-boards of ``host.boards`` are this state saved between commands, so a malformed file is
+boards of ``host.emulated.boards`` are this state saved between commands, so a malformed file is
 refused naming the bad field, never half-loaded.
 """
 

@@ -91,6 +91,10 @@ COMMANDS: dict[str, tuple[str, str]] = {
         "asictl.cli.online:watch", "Watch operands or symbols on the master: a line per change."
     ),
     "verify": ("asictl.cli.verify:verify", "Compare a program with the one the master runs."),
+    "probe": (
+        "asictl.cli.probe:probe_command",
+        "Read what a master tells without changing it, into a fixture (safe on a real one).",
+    ),
     "monitor": ("asictl.cli.monitor:monitor", "A live full-screen view of the master (ASI_MON)."),
     "debug": ("asictl.cli.debug:debug", "Debug a program at the IL level on an emulated master."),
     "prove": (
@@ -100,9 +104,29 @@ COMMANDS: dict[str, tuple[str, str]] = {
         "asictl.cli.diff:diff",
         "Compare two versions of a program network by network; --equivalent proves it.",
     ),
+    "export": (
+        "asictl.cli.export:export",
+        "Export a program to S7 STL (AWL) for the PLC that replaces the master; --check.",
+    ),
     "fleet": (
         "asictl.cli.fleet:fleet", "A plant's masters at once: back up into git, verify, status."
     ),
+}
+
+
+#: ``asictl --help`` in sections: title -> its commands, in the order shown. Every name of
+#: ``COMMANDS`` is in exactly one section (tests/test_cli_help.py); a command added to
+#: ``COMMANDS`` without a section is still listed, under "Other", until it gets one.
+SECTIONS: dict[str, tuple[str, ...]] = {
+    "Program": ("check", "xref", "fmt", "compile", "asm", "disasm", "emu"),
+    "Master": ("download", "upload", "start", "stop", "reset", "status", "verify", "probe"),
+    "Online": ("serve", "monitor", "watch", "write", "force", "unforce"),
+    "Commissioning": ("bus", "slave", "mode", "store", "setup", "hiflags", "diag", "emc"),
+    "Simulation and tests": ("sim", "test", "record", "mutate", "debug"),
+    "Verification": ("prove", "diff"),
+    "Editors": ("lsp", "dap"),
+    "Migration": ("export",),
+    "Plant": ("fleet", "gateway"),
 }
 
 
@@ -133,9 +157,15 @@ class LazyGroup(click.Group):
         return command
 
     def format_commands(self, ctx: click.Context, formatter: click.HelpFormatter) -> None:
-        rows = [(name, COMMANDS[name][1]) for name in self.list_commands(ctx)]
-        with formatter.section("Commands"):
-            formatter.write_dl(rows)
+        """The commands by section, their one-line help in one column across sections."""
+        placed = {name for names in SECTIONS.values() for name in names}
+        sections = [*SECTIONS.items(), ("Other", tuple(sorted(set(COMMANDS) - placed)))]
+        width = max(map(len, COMMANDS))
+        for title, names in sections:
+            rows = [(name.ljust(width), COMMANDS[name][1]) for name in names if name in COMMANDS]
+            if rows:
+                with formatter.section(title):
+                    formatter.write_dl(rows)
 
     def invoke(self, ctx: click.Context) -> Any:  # what the command returns, as click types it
         try:
@@ -169,7 +199,11 @@ class LazyGroup(click.Group):
 @click.group(cls=LazyGroup, context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(__version__, prog_name="asictl")
 def main() -> None:
-    """Compile, check, download, upload and simulate AS-i Control II programs."""
+    """Compile, check, download, upload and simulate AS-i Control II programs.
+
+    'asictl COMMAND --help' describes one command, with examples; docs/commands.md
+    describes them all.
+    """
 
 
 if __name__ == "__main__":  # pragma: no cover
@@ -180,8 +214,11 @@ def run() -> None:
     """The console script (and ``python -m asictl``): ``main``, and at the end the
     collector's view frozen. The interpreter's last collection at exit would otherwise
     walk every object a command left alive, for a process about to end: some 25 ms after
-    checking a 10,000-line program. (Not in ``main``: tests call that in one process.)"""
+    checking a 10,000-line program. (Not in ``main``: tests call that in one process.)
+    The program is named asictl however it was started, so that ``python -m asictl``
+    shows the same usage lines and answers the same completion variable,
+    ``_ASICTL_COMPLETE``."""
     try:
-        main()
+        main(prog_name="asictl")
     finally:
         gc.freeze()

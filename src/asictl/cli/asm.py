@@ -33,6 +33,12 @@ def asm(source: str, output: str | None, listing: str | None, symbols: str | Non
     never replaced, and a device such as /dev/null is written to, not replaced.
 
     Exit status: 0 assembled, 1 assembly errors, 2 bad usage or an unreadable file.
+
+    \b
+    Examples:
+      asictl compile demos/blink.asi -o blink.hex
+      asictl disasm blink.hex -o blink.a51
+      asictl asm blink.a51 -o again.hex --listing again.lst
     """
     if source == "-" and output is None:
         raise click.UsageError("reading standard input needs -o FILE.hex")
@@ -80,6 +86,11 @@ def disasm(image: str, output: str | None, force: bool) -> None:
 
     Exit status: 0 done, 2 bad usage, an unreadable or malformed HEX file, or an -o file
     that exists.
+
+    \b
+    Examples:
+      asictl compile demos/blink.asi -o blink.hex
+      asictl disasm blink.hex -o blink.a51
     """
     hex_file = read_hex(image)
     for warning in hex_file.warnings:

@@ -149,6 +149,11 @@ def check(
 
     Exit status: 0 no errors, 1 errors found (or warnings, with --werror), 2 bad usage or
     an unreadable file.
+
+    \b
+    Examples:
+      asictl check demos
+      asictl check demos/blink.asi --format json --werror
     """
     ctx = click.get_current_context()
     diagnostics: list[Diagnostic] = []

@@ -16,32 +16,35 @@ from typing import Unpack
 
 import click
 
-from asictl.cli.master import _board_options, _BoardOptions, _connect
+from asictl.cli.board_options import BoardOptions, board_options, open_master
+from asictl.cli.guard_options import real_master_option
 from asictl.cli.options import lib_option
 from asictl.errors import ExitCode, UserError
-from asictl.host.commissioning import Change, image_changes, write_flags
-from asictl.host.emulated import parse_address, parse_number
+from asictl.host.commissioning import image_writes, write_flags
+from asictl.host.emulated.actions import parse_address, parse_number
+from asictl.host.overwrite_guard import check_overwrite
 from asictl.host.symbols import Names
-from asictl.il.ast import OperandKind as K
-from asictl.observe.operands import Assignment
-from asictl.platform.master import SLAVES
-
-#: What ``asictl write`` writes: the flags and the output image.
-_WRITABLE = (K.F, K.FY, K.Q, K.QB)
 
 # --------------------------------------------------------------------------- slave
 
 
 @click.group("slave")
 def slave() -> None:
-    """A slave's address, parameter, or an AS-i command to it."""
+    """A slave's address, parameter, or an AS-i command to it.
+
+    \b
+    Examples:
+      asictl bus plug 0 iiio,1
+      asictl slave address 0 5
+    """
 
 
 @slave.command("address")
 @click.argument("old")
 @click.argument("new")
-@_board_options
-def address(old: str, new: str, **board: Unpack[_BoardOptions]) -> None:
+@board_options
+@real_master_option
+def address(old: str, new: str, real_master: bool, **board: Unpack[BoardOptions]) -> None:
     """Give the slave at OLD the address NEW (0 is a new slave's address).
 
     The master's command 20: the slave must be detected at OLD, NEW must be free, and no
@@ -50,9 +53,15 @@ def address(old: str, new: str, **board: Unpack[_BoardOptions]) -> None:
     be re-addressed).
 
     Exit status: 0 done, 1 refused, 2 bad usage.
+
+    \b
+    Examples:
+      asictl bus plug 0 iiio,1
+      asictl slave address 0 5
     """
     before, after = parse_address(old), parse_address(new)
-    with _connect(**board) as master:
+    with open_master(**board) as master:
+        check_overwrite(master, f"re-address slave {before}", real_master=real_master)
         master.tools().change_address(before, after)
         click.echo(f"{master.name}: slave {before} now has address {after}", err=True)
 
@@ -60,14 +69,24 @@ def address(old: str, new: str, **board: Unpack[_BoardOptions]) -> None:
 @slave.command("parameter")
 @click.argument("address_", metavar="ADDRESS")
 @click.argument("value")
-@_board_options
-def parameter(address_: str, value: str, **board: Unpack[_BoardOptions]) -> None:
+@board_options
+@real_master_option
+def parameter(
+    address_: str, value: str, real_master: bool, **board: Unpack[BoardOptions]
+) -> None:
     """Write parameter VALUE (0..15) to the slave at ADDRESS (Write_Parameter, command 5);
     prints the slave's answer. The permanent parameter (PP) stays: 'asictl store
-    parameters' makes the actual ones permanent."""
+    parameters' makes the actual ones permanent.
+
+    \b
+    Examples:
+      asictl bus plug 5 iiio,1
+      asictl slave parameter 5 0b0111
+    """
     where = parse_address(address_, zero=False)
     parameter_value = parse_number(value, "parameter", 15)
-    with _connect(**board) as master:
+    with open_master(**board) as master:
+        check_overwrite(master, f"write a parameter to slave {where}", real_master=real_master)
         answer = master.tools().write_parameter(where, parameter_value)
     click.echo(f"{answer:X}h")
     click.echo(
@@ -79,14 +98,25 @@ def parameter(address_: str, value: str, **board: Unpack[_BoardOptions]) -> None
 @slave.command("command")
 @click.argument("address_", metavar="ADDRESS")
 @click.argument("information")
-@_board_options
-def command(address_: str, information: str, **board: Unpack[_BoardOptions]) -> None:
+@board_options
+@real_master_option
+def command(
+    address_: str, information: str, real_master: bool, **board: Unpack[BoardOptions]
+) -> None:
     """Send the AS-i command call INFORMATION (0..1Fh, e.g. 10h read I/O configuration,
     11h read ID code, 1Ch reset slave, 1Eh read status) to the slave at ADDRESS (Execute
-    Command, 22); prints the slave's answer."""
+    Command, 22); prints the slave's answer.
+
+    \b
+    Examples:
+      asictl bus plug 5 iiio,1
+      asictl slave command 5 11h
+    """
     where = parse_address(address_)
     info = parse_number(information, "AS-i command", 0x1F)
-    with _connect(**board) as master:
+    with open_master(**board) as master:
+        check_overwrite(master, f"send an AS-i command to slave {where}",
+                        real_master=real_master)
         answer = master.tools().execute_command(where, info)
     click.echo(f"{answer:X}h")
 
@@ -96,13 +126,21 @@ def command(address_: str, information: str, **board: Unpack[_BoardOptions]) -> 
 
 @click.command("mode")
 @click.argument("mode", required=False, type=click.Choice(["protected", "configuration"]))
-@_board_options
-def mode(mode: str | None, **board: Unpack[_BoardOptions]) -> None:
+@board_options
+@real_master_option
+def mode(mode: str | None, real_master: bool, **board: Unpack[BoardOptions]) -> None:
     """Show or switch the operation mode (command 17). In configuration mode the master
     activates every slave it finds; in protected mode only the projected ones. Protected
-    mode is refused while a slave with address 0 is present (STATUS 8385h)."""
-    with _connect(**board) as master:
+    mode is refused while a slave with address 0 is present (STATUS 8385h).
+
+    \b
+    Examples:
+      asictl mode configuration
+      asictl mode
+    """
+    with open_master(**board) as master:
         if mode is not None:
+            check_overwrite(master, f"switch to {mode} mode", real_master=real_master)
             master.tools().set_mode(configuration=mode == "configuration")
         now = master.status().mode
     click.echo(f"{master.name}: {now} mode", err=True)
@@ -110,12 +148,22 @@ def mode(mode: str | None, **board: Unpack[_BoardOptions]) -> None:
 
 @click.command("store")
 @click.argument("what", type=click.Choice(["configuration", "parameters"]))
-@_board_options
-def store(what: str, **board: Unpack[_BoardOptions]) -> None:
+@board_options
+@real_master_option
+def store(what: str, real_master: bool, **board: Unpack[BoardOptions]) -> None:
     """Store the actual configuration (the detected slaves become LPS and PCD; command
     10, configuration mode only: ASI_MON's F6) or the actual parameters (PI becomes PP;
-    command 7: ASI_MON's F5)."""
-    with _connect(**board) as master:
+    command 7: ASI_MON's F5).
+
+    \b
+    Examples:
+      asictl bus plug 5 iiio,1
+      asictl mode configuration
+      asictl store configuration
+      asictl store parameters
+    """
+    with open_master(**board) as master:
+        check_overwrite(master, f"store the actual {what}", real_master=real_master)
         tools = master.tools()
         if what == "configuration":
             tools.store_configuration()
@@ -126,15 +174,24 @@ def store(what: str, **board: Unpack[_BoardOptions]) -> None:
 
 @click.command("setup")
 @click.argument("file", metavar="FILE.asi|FILE.hex", type=click.Path(dir_okay=False))
-@_board_options
+@board_options
+@real_master_option
 @lib_option
-def setup(file: str, lib: tuple[str, ...], **board: Unpack[_BoardOptions]) -> None:
+def setup(
+    file: str, real_master: bool, lib: tuple[str, ...], **board: Unpack[BoardOptions]
+) -> None:
     """Write the projected configuration (LPS, PCD, PP, and PI) of FILE's [SETUP] to the
     master without downloading its program, as a download does first. FILE is built as
-    'asictl download' builds it."""
+    'asictl download' builds it.
+
+    \b
+    Example:
+      asictl setup demos/blink.asi
+    """
     from asictl.build import build_file
 
-    with _connect(**board) as master:
+    with open_master(**board) as master:
+        check_overwrite(master, "write the projected configuration", real_master=real_master)
         built = build_file(file, entry_points=master.transport.entry_points(), lib=lib)
         click.echo(built.render(), nl=False, err=True)
         if built.has_errors or built.image is None:
@@ -159,10 +216,11 @@ def setup(file: str, lib: tuple[str, ...], **board: Unpack[_BoardOptions]) -> No
 @click.option("--auto-address/--no-auto-address", "auto_address", default=None,
               help="Let the master give a replaced slave its address automatically, or not.")
 @click.option("--json", "as_json", is_flag=True, help="The flags as JSON on stdout.")
-@_board_options
+@board_options
+@real_master_option
 def hiflags(
     offline: bool | None, data_exchange: bool | None, auto_address: bool | None,
-    as_json: bool, **board: Unpack[_BoardOptions],
+    as_json: bool, real_master: bool, **board: Unpack[BoardOptions],
 ) -> None:
     """Show or set the host interface flags (ASI_MON's hi-flags; the PC2 driver's message
     74h, 'write host interface flags'): offline, data exchange active, auto-address
@@ -172,7 +230,10 @@ def hiflags(
 
     Exit status: 0 shown or set, 1 the master did not take them, 2 bad usage.
 
-    Example: asictl hiflags --offline
+    \b
+    Examples:
+      asictl hiflags --offline
+      asictl hiflags --online --no-auto-address
     """
     from asictl.host.status import hi_flag_text
     from asictl.platform.pc2 import HiFlag
@@ -180,13 +241,14 @@ def hiflags(
     wanted = {HiFlag.OFFLINE: offline, HiFlag.DATA_EXCHANGE_OFF: None if data_exchange is None
               else not data_exchange,
               HiFlag.AUTO_ADDRESS_OFF: None if auto_address is None else not auto_address}
-    with _connect(**board) as master:
+    with open_master(**board) as master:
         tools = master.tools()
         flags = before = tools.read_hi_flags()
         for bit, on in wanted.items():
             if on is not None:
                 flags = flags | bit if on else flags & ~bit
         if flags != before:
+            check_overwrite(master, "write the hi-flags", real_master=real_master)
             tools.write_hi_flags(flags)
             master.settle()
             flags = tools.read_hi_flags()
@@ -218,24 +280,32 @@ def _list(text: str) -> list[int]:
 
 
 @click.command("diag")
-@_board_options
+@board_options
 @click.option("--json", "as_json", is_flag=True, help="One JSON object on stdout.")
 @click.option(
     "--set-los", metavar="LIST",
     help="First set the list of offline slaves (command 72): addresses such as '3,17', or "
     "'none'. A configuration error at one of them takes the master offline.",
 )
-def diag(as_json: bool, set_los: str | None, **board: Unpack[_BoardOptions]) -> None:
+@real_master_option
+def diag(
+    as_json: bool, set_los: str | None, real_master: bool, **board: Unpack[BoardOptions]
+) -> None:
     """Read and clear the AS-i diagnostics: the list of corrupted slaves (LCS, command 70),
     the slaves' error counters (71), the telegram counters (129); and the list of offline
     slaves (LOS). Reading clears the LCS and the counters, as on the master.
 
     Exit status: 0 shown, 1 the master lacks them (a gateway) or did not answer.
+
+    \b
+    Example:
+      asictl diag
     """
     los = _list(set_los) if set_los is not None else None
-    with _connect(**board) as master:
+    with open_master(**board) as master:
         tools = master.tools()
         if los is not None:
+            check_overwrite(master, "set the list of offline slaves", real_master=real_master)
             tools.set_los(los)
         result = tools.diagnostics()
     if as_json:
@@ -254,36 +324,13 @@ def diag(as_json: bool, set_los: str | None, **board: Unpack[_BoardOptions]) -> 
 # --------------------------------------------------------------------------- write
 
 
-def _image_writes(
-    assignments: list[Assignment],
-) -> tuple[list[Change], dict[int, tuple[int, int]]]:
-    """The flag changes and the output changes (slave -> (mask, bits)) of a ``write``;
-    ``UserError`` (exit 2) for an operand ``write`` does not write."""
-    flags: list[Change] = []
-    outputs: dict[int, tuple[int, int]] = {}
-    for assignment in assignments:
-        kind = assignment.operand.node.kind
-        if kind not in _WRITABLE:
-            raise UserError(
-                f"'{assignment.written}' cannot be written: write sets flags (F, FY) and "
-                "outputs (Q, QB)", ExitCode.USAGE)
-        changes = image_changes(assignment)
-        if kind in (K.F, K.FY):
-            flags += changes
-            continue
-        for number, mask, bits in changes:
-            if not 1 <= number < SLAVES:
-                raise UserError(f"'{assignment.written}': slaves 1..31 have outputs",
-                                ExitCode.USAGE)
-            old_mask, old_value = outputs.get(number, (0, 0))
-            outputs[number] = (old_mask | mask, old_value & ~mask | bits)
-    return flags, outputs
-
-
 @click.command("write")
 @click.argument("assignments", nargs=-1, required=True)
-@_board_options
-def write(assignments: tuple[str, ...], **board: Unpack[_BoardOptions]) -> None:
+@board_options
+@real_master_option
+def write(
+    assignments: tuple[str, ...], real_master: bool, **board: Unpack[BoardOptions]
+) -> None:
     """Write flags and outputs: 'F 10.0=1' (a flag bit), 'FY 10=0x12' (a flag byte),
     'Q 17.3=1' (an output bit), 'Q 17=0b1000' (a slave's four outputs) or 'QB 16=0x5A'
     (slaves 16 and 17), or a name of the symbol table the program on the master carries
@@ -293,11 +340,15 @@ def write(assignments: tuple[str, ...], **board: Unpack[_BoardOptions]) -> None:
 
     Exit status: 0 written, 1 refused, 2 bad usage (nothing is written then).
 
-    Example: asictl write "F 10.0=1" "Q 17=0b1000"
+    \b
+    Examples:
+      asictl write "F 10.0=1" "FY 11=0x12"
+      asictl write "Q 17=0b1000"
     """
-    with _connect(**board) as master:
+    with open_master(**board) as master:
+        check_overwrite(master, "write flags and outputs", real_master=real_master)
         names = Names(master)
-        flags, outputs = _image_writes(
+        flags, outputs = image_writes(
             [names.assignment(text, example="F 10.0=1") for text in assignments])
         tools = master.tools()
         if flags:

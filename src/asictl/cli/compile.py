@@ -123,6 +123,10 @@ def compile_(
 
     Exit status: 0 compiled, 1 errors in the program or it does not fit, 2 bad usage or
     an unreadable file.
+
+    \b
+    Example:
+      asictl compile demos/blink.asi -o blink.hex --listing blink.lst
     """
     if source == "-" and output is None:
         raise click.UsageError("reading standard input needs -o FILE.hex")

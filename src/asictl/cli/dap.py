@@ -18,11 +18,16 @@ def dap(lib: tuple[str, ...]) -> None:
     or none, and --set-style inputs); 'attach' debugs the program of a live emulated
     board ('asictl serve'). Breakpoints on IL lines with conditions (RLO == 1, FY 10 > 3)
     and hit counts, step over, into and out of function blocks, a step of one program
-    cycle, the registers, inputs, outputs, flags, timers, counters and symbols.
+    cycle, the registers, inputs, outputs, flags, timers, counters and symbols, shown
+    and set.
 
-    Example, in a VS Code launch configuration or nvim-dap's adapter:
+    An editor runs the command below; a launch configuration (VS Code's, or nvim-dap's
+    adapter) names it with "type": "asictl", "request": "launch", "program": "${file}".
 
-        "type": "asictl", "request": "launch", "program": "${file}"
+    \b
+    Examples:
+      asictl dap
+      asictl dap --lib blocks
     """
     from asictl.dap.main import run
 

@@ -47,6 +47,10 @@ def debug(program: Path, scenario_path: Path | None, no_scenario: bool, sets: tu
     'help' lists the commands.
 
     Exit status: 0; with --batch, 1 if a command was refused; 2 bad input.
+
+    \b
+    Example:
+      printf 'break 17\\ncontinue\\nprint Q 31.0\\n' | asictl debug demos/blink.asi --batch -
     """
     ctx = click.get_current_context()
     duration_ms = duration

@@ -92,6 +92,11 @@ def diff(old: Path, new: Path, equivalent: bool, depth: Cycles, timeout: float,
 
     Exit status: 0 no change (with --equivalent: equivalent), 1 changed (different or
     undecided), 2 bad input.
+
+    \b
+    Examples:
+      asictl diff demos/ondelay.asi demos/offdelay.asi   # exit 1: they differ
+      asictl diff demos/blink.asi demos/blink.asi --equivalent
     """
     from asictl.il.loader import Program
     from asictl.il.networks import compare

@@ -9,10 +9,10 @@ from typing import Unpack
 
 import click
 
-from asictl.cli.master import _board_options, _BoardOptions, _connect, _master_wait
+from asictl.cli.board_options import BoardOptions, board_options, master_wait, open_master
 from asictl.cli.options import Duration
 from asictl.errors import ExitCode, UserError
-from asictl.host.emulated import parse_address, parse_number
+from asictl.host.emulated.actions import parse_address, parse_number
 
 
 def _slaves(text: str) -> list[int]:
@@ -45,25 +45,26 @@ def _slaves(text: str) -> list[int]:
 @click.option("--keep", is_flag=True,
               help="Leave the test running after the report ('asictl emc off' ends it).")
 @click.option("--json", "as_json", is_flag=True, help="The counts as one JSON object.")
-@_board_options
+@board_options
 def emc(
     slaves: str, request: str, expect: str | None, repetitions: bool, for_ms: float,
-    keep: bool, as_json: bool, **board: Unpack[_BoardOptions],
+    keep: bool, as_json: bool, **board: Unpack[BoardOptions],
 ) -> None:
-    """Run the EMC test mode (command 130) on SLAVES: for --for seconds the master sends
+    """Run the EMC test mode (command 130) on SLAVES: for the --for time the master sends
     the request to each of them every AS-i cycle instead of the data exchange and counts
     the requests and the answers that are missing (or wrong, with --expect); then the
     test ends and the counts are shown. 'off' ends a test left running (--keep) and
     reports it. Only a master with the option (installed software byte 3 'E') has the
     mode; the data exchange, and so the control program's outputs, stop while it runs.
 
-    \\b
-    Examples:
-      asictl emc 1-4 --for 10s                 # missing answers of slaves 1..4 in 10 s
-      asictl emc 5 --request 3 --expect 6 --repetitions
-
     Exit status: 0 tested, 1 the master has no EMC test mode or did not answer (a gateway
     has none), 2 bad usage.
+
+    \b
+    Examples:
+      asictl bus plug 5 iiio,1
+      asictl emc 5 --for 1s
+      asictl emc 5 --request 3 --expect 6 --for 1s
     """
     from asictl.host.emc import emc_command, emc_test
     from asictl.platform.pc2 import emc_parameters
@@ -72,7 +73,7 @@ def emc(
     addresses = [] if ending else _slaves(slaves)
     bits = parse_number(request, "request", 0x1F)
     expected = None if expect is None else parse_number(expect, "expected answer", 0x1F)
-    with _connect(**board) as master:
+    with open_master(**board) as master:
         if master.driver is None:
             raise UserError(
                 f"{master.name}: a gateway has no EMC test mode (command 130 is the PC2's)",
@@ -85,7 +86,7 @@ def emc(
             counts = emc_test(
                 master.driver, addresses, bits, expected=expected, repetitions=repetitions,
                 seconds=for_ms / 1000, keep=keep,
-                wait=_master_wait(master),
+                wait=master_wait(master),
             )
             what = f"EMC test of slave{'s' if len(addresses) > 1 else ''} " + ", ".join(
                 map(str, addresses)) + f" for {for_ms / 1000:g} s" + (" (still running)" if keep

@@ -147,6 +147,11 @@ def emu(
     Exit status: 0 the run ended as asked; 1 the program hit the undefined opcode A5h,
     or --until was given and not reached within --max-instructions; 2 bad usage or an
     unreadable or malformed HEX file.
+
+    \b
+    Examples:
+      asictl compile demos/blink.asi -o blink.hex
+      asictl emu blink.hex
     """
     hex_file = read_hex(image)
     for warning in hex_file.warnings:

@@ -100,6 +100,12 @@ def fleet() -> None:
       line = "line-1"
       [masters.pc-1]
       port = "300h"
+
+    \b
+    Examples:
+      asictl download demos/blink.asi --start
+      asictl download demos/counter.asi --port 304h
+      asictl fleet status demos/plant.toml
     """
 
 
@@ -119,18 +125,21 @@ def backup(
     run that changed nothing makes none. A master that does not answer (after its
     time-out, retries and attempts) keeps its last backup, and the others go on.
 
-    \b
-    Example:
-      asictl fleet backup plant.toml --into archive/
-
     Exit status: 0 every master backed up, 1 one or more failed, 2 bad usage or a bad
     inventory.
+
+    \b
+    Examples:
+      asictl download demos/blink.asi --start
+      asictl download demos/counter.asi --port 304h
+      asictl fleet backup demos/plant.toml --into archive
     """
     from asictl.fleet.archive import (
         Archive,
         Snapshot,
         program_change,
         snapshot_files,
+        snapshot_identity,
         take_snapshot,
     )
 
@@ -161,9 +170,7 @@ def backup(
     for outcome in outcomes:
         name = outcome.master.name
         snapshot: Snapshot | None = outcome.value
-        program = None if snapshot is None or snapshot.image is None else (
-            snapshot.image.identity_hex
-        )
+        program = None if snapshot is None else snapshot_identity(snapshot)
         result = ("changed" if name in changed else "same") if name in written else "FAILED"
         rows.append({
             "master": name, "reached": outcome.master.reached, "result": result,
@@ -207,12 +214,15 @@ def verify(
     compares a file with a master: identical, different (in code, configuration,
     options), no program in the master, or no backup of it in the archive.
 
-    \b
-    Example:
-      asictl fleet verify plant.toml --against archive/
-
     Exit status: 0 every master runs what the archive holds, 1 one or more differ or did
     not answer, 2 bad usage or a bad inventory.
+
+    \b
+    Examples:
+      asictl download demos/blink.asi --start
+      asictl download demos/counter.asi --port 304h
+      asictl fleet backup demos/plant.toml --into archive
+      asictl fleet verify demos/plant.toml --against archive
     """
     from asictl.fleet.compare import Verdict, verify_master
 
@@ -253,12 +263,15 @@ def status(
     """One line per master: what its control program does (or why not) and which program
     its EEPROM holds; the ones that do not answer say why.
 
-    \b
-    Example:
-      asictl fleet status plant.toml --line line-1
-
     Exit status: 0 every master answered, 1 one or more did not, 2 bad usage or a bad
     inventory.
+
+    \b
+    Examples:
+      asictl download demos/blink.asi --start
+      asictl download demos/counter.asi --port 304h
+      asictl fleet status demos/plant.toml
+      asictl fleet status demos/plant.toml --line line-1
     """
     from asictl.fleet.compare import Glance, glance
 

@@ -69,6 +69,11 @@ def fmt(files: tuple[str, ...], check: bool, show_diff: bool) -> None:
 
     Exit status: 0 done (or, with --check, nothing would change), 1 a file would change
     (--check) or has syntax errors, 2 bad usage or an unreadable file.
+
+    \b
+    Examples:
+      asictl fmt --check demos
+      asictl fmt --diff demos/blink.asi
     """
     ctx = click.get_current_context()
     changed: list[str] = []

@@ -22,16 +22,18 @@ from click.core import ParameterSource
 from asictl.cli.opcua_options import opcua_attachment, opcua_options
 from asictl.cli.options import Duration
 from asictl.cli.serial_options import serial_options, unit_option
+from asictl.cli.web_options import web_attachment, web_options
 from asictl.errors import ExitCode, UserError, missing_extra
-from asictl.host.boards import lock_file, port_name, state_directory
+from asictl.host.emulated.boards import lock_file, state_directory
+from asictl.host.emulated.locking import note_holder
 from asictl.host.live.board import LiveBoard
 from asictl.host.live.client import LiveClient, open_live, served_by
 from asictl.host.live.protocol import socket_path
 from asictl.host.live.saver import SAVE_INTERVAL_S
 from asictl.host.live.server import run_live, together
-from asictl.host.locking import note_holder
 from asictl.host.search import resolve_port
-from asictl.host.target import check_serial_setting, port_number
+from asictl.host.transports.ports import port_name
+from asictl.host.transports.target import check_serial_setting, port_number
 from asictl.platform.display import Display, led_text
 from asictl.platform.gateway import Interface
 
@@ -55,7 +57,13 @@ def _url_host(host: str) -> str:
 
 @click.group()
 def gateway() -> None:
-    """The emulated AS-i/Modbus gateway VAG-MOD-KF-R4."""
+    """The emulated AS-i/Modbus gateway VAG-MOD-KF-R4.
+
+    \b
+    Examples:
+      asictl gateway panel
+      asictl gateway press set
+    """
 
 
 @gateway.command("serve")
@@ -88,12 +96,14 @@ def gateway() -> None:
               show_default=True, metavar="TIME",
               help="How often the board's state is saved while serving.")
 @opcua_options
+@web_options
 def serve(
     tcp: str | None, rtu: str | None, baud: str, parity: str, stopbits: str, unit: int,
     port: str, state_dir: str | None, wait: bool, verbose: bool, max_connections: int,
     idle_timeout: float, frame_timeout: float, save_interval: float, opcua: str | None,
     opcua_writable: bool, opcua_user: str | None, opcua_interval: float,
-    opcua_symbols: str | None,
+    opcua_symbols: str | None, http: str | None, http_writable: bool,
+    http_download: bool, http_token_file: str | None, http_interval: float,
 ) -> None:
     """Serve the board over Modbus until Ctrl-C; its state is saved periodically and at exit.
 
@@ -107,14 +117,15 @@ def serve(
     are used from then on and by the next 'gateway serve' of this board, unless --unit,
     --baud, --parity or --stopbits say otherwise.
 
-    With --opcua the same board is served over OPC UA too (docs/opcua.md), as the
-    current AS-i gateways do.
+    With --opcua the same board is served over OPC UA too (docs/opcua.md), and with
+    --http as a web page and REST API (docs/web.md), as the current AS-i gateways do.
 
     \b
-    Example:
-      asictl gateway serve --tcp 127.0.0.1:5020 --port 300h &
-      asictl gateway press mode --hold 6s     # into configuration mode
-      asictl gateway serve --opcua 127.0.0.1:4840
+    Examples:
+      asictl gateway serve
+      asictl gateway serve --rtu /dev/ttyUSB0 --baud 19200 --parity even --unit 2
+      asictl gateway serve --tcp 127.0.0.1:1502 --opcua 127.0.0.1:4840
+      asictl gateway serve --http 127.0.0.1:8080
     """
     try:
         from asictl.gateway.interface_file import interface_file, load_interface, save_interface
@@ -141,6 +152,9 @@ def serve(
     live_at = socket_path(directory, base)
     opcua_server = opcua_attachment(
         opcua, opcua_writable, opcua_user, opcua_interval / 1000, opcua_symbols, port, _notify
+    )
+    page = web_attachment(
+        http, http_writable, http_download, http_token_file, http_interval / 1000, port, _notify
     )
 
     def gateway_for(live: LiveBoard) -> tuple[Awaitable[None], Callable[[], None]]:
@@ -193,7 +207,7 @@ def serve(
     run_live(
         base, directory,
         identity={"command": "asictl gateway serve", "port": port, "front_panel": True},
-        attach=gateway_for if opcua_server is None else together(gateway_for, opcua_server),
+        attach=together(gateway_for, *(a for a in (opcua_server, page) if a is not None)),
         wait=wait, notify=_notify, save_interval=save_interval / 1000,
     )
     click.echo("asictl: gateway stopped", err=True)
@@ -293,11 +307,12 @@ def panel(port: str, state_dir: str | None, as_json: bool) -> None:
     """Show the served gateway's front panel: the display (and whether it blinks), the
     seven LEDs, the keys (locked by register 1007?) and its Modbus settings.
 
-    \b
-    Example:
-      asictl gateway panel --port 300h
-
     Exit status: 0 shown, 1 no gateway serves the board, 2 bad usage.
+
+    \b
+    Examples:
+      asictl gateway panel
+      asictl gateway panel --port 300h
     """
     client = _served_gateway(port, state_dir)
     try:
@@ -317,7 +332,7 @@ def panel(port: str, state_dir: str | None, as_json: bool) -> None:
 def press(
     key: str | None, hold: float, both: bool, port: str, state_dir: str | None, as_json: bool,
 ) -> None:
-    """Press the served gateway's mode or set key for --hold seconds (both with --both),
+    """Press the served gateway's mode or set key for the --hold time (both with --both),
     and show the panel when the keys are up again.
 
     A press of 5 s or more is long (gateway manual 5.2-5.6): mode held in protected mode
@@ -330,13 +345,12 @@ def press(
     (register 1007) a press changes nothing and the display shows 82. docs/modbus.md
     lists every sequence.
 
+    Exit status: 0 pressed, 1 no gateway serves the board, 2 bad usage.
+
     \b
     Examples:
-      asictl gateway press mode --hold 6s    # protected -> configuration mode
-      asictl gateway press mode              # configuration -> protected, not stored
-      asictl gateway press --both --hold 6s  # the interface settings
-
-    Exit status: 0 pressed, 1 no gateway serves the board, 2 bad usage.
+      asictl gateway press mode --hold 5s  # protected -> configuration mode
+      asictl gateway press mode            # configuration -> protected, not stored
     """
     if key is None and not both:
         raise UserError("which key? 'mode' or 'set' (or --both)", ExitCode.USAGE)

@@ -14,16 +14,18 @@ from typing import Any, Unpack
 import click
 from click.core import ParameterSource
 
-from asictl.cli.master import _board_options, _BoardOptions, _connect
+from asictl.cli.board_options import BoardOptions, board_options, open_master
 from asictl.cli.opcua_options import opcua_attachment, opcua_options
 from asictl.cli.options import Duration
+from asictl.cli.web_options import web_attachment, web_options
 from asictl.errors import ExitCode, UserError
-from asictl.host.boards import port_name, state_directory
 from asictl.host.commissioning import image_changes
-from asictl.host.emulated import parse_address, parse_number, parse_profile
+from asictl.host.emulated.actions import parse_address, parse_number, parse_profile
+from asictl.host.emulated.boards import state_directory
 from asictl.host.live.server import DEFAULT_MAX_CONNECTIONS, DEFAULT_SESSION_TIMEOUT_S
 from asictl.host.master import Master
 from asictl.host.symbols import Names
+from asictl.host.transports.ports import port_name
 from asictl.il.ast import OperandKind as K
 
 
@@ -51,10 +53,12 @@ from asictl.il.ast import OperandKind as K
     help="End a command's hold on the board when it sends nothing this long (0: never).",
 )
 @opcua_options
+@web_options
 def serve(
     port: str, state_dir: str | None, wait: bool, max_connections: int,
     session_timeout: float, opcua: str | None, opcua_writable: bool, opcua_user: str | None,
-    opcua_interval: float, opcua_symbols: str | None,
+    opcua_interval: float, opcua_symbols: str | None, http: str | None, http_writable: bool,
+    http_download: bool, http_token_file: str | None, http_interval: float,
 ) -> None:
     """Keep the emulated board running in real time until Ctrl-C or SIGTERM.
 
@@ -68,16 +72,18 @@ def serve(
     debugger attaches to the running program through a second socket ('asictl dap',
     attach). With --opcua an OPC UA server shows the master, its slaves, flags, timers
     and counters to HMI and SCADA clients (docs/opcua.md), read-only unless
-    --opcua-writable.
-
-    \b
-    Example:
-      asictl serve --port 300h & asictl download demos/blink.asi
-      asictl serve --port 300h --opcua 127.0.0.1:4840
+    --opcua-writable. With --http a web page and REST API show the same (docs/web.md),
+    read-only unless --http-writable.
 
     Exit status: 0 stopped by a signal, 1 the board is already served or held by another
     process (it is named; --wait waits for it), or its state could not be saved at the
     end (what is lost is said), 2 bad usage.
+
+    \b
+    Examples:
+      asictl serve
+      asictl serve --port 304h --opcua 127.0.0.1:4840
+      asictl serve --http 127.0.0.1:8080
     """
     from asictl.debug.online import debug_socket_path, debugging
     from asictl.host.live.server import run_live, together
@@ -95,6 +101,11 @@ def serve(
     )
     if server is not None:
         attach = together(attach, server)
+    page = web_attachment(
+        http, http_writable, http_download, http_token_file, http_interval / 1000, name, notify
+    )
+    if page is not None:
+        attach = together(attach, page)
 
     def started(path: object) -> None:
         click.echo(f"asictl: board {name} live at {path} (Ctrl-C stops)", err=True)
@@ -110,7 +121,7 @@ def serve(
 # --------------------------------------------------------------------------- bus
 
 
-def _emulated_only(board: _BoardOptions) -> None:
+def _emulated_only(board: BoardOptions) -> None:
     _inherit_group_options(board)
     if board["modbus"] is not None or board["io"] != "emulated":
         raise UserError(
@@ -119,7 +130,7 @@ def _emulated_only(board: _BoardOptions) -> None:
         )
 
 
-def _inherit_group_options(board: _BoardOptions) -> None:
+def _inherit_group_options(board: BoardOptions) -> None:
     """Board options given before the subcommand (``asictl bus --port 328h inputs ...``)
     count where the subcommand's own were left at their defaults: both places take them,
     and the group's used to be dropped, so the subcommand acted on board 300h."""
@@ -141,14 +152,19 @@ def _report(master: Master) -> None:
 
 
 @click.group("bus", invoke_without_command=True)
-@_board_options
+@board_options
 @click.option("--json", "as_json", is_flag=True, help="Without a subcommand: JSON on stdout.")
 @click.pass_context
-def bus(ctx: click.Context, as_json: bool, **board: Unpack[_BoardOptions]) -> None:
+def bus(ctx: click.Context, as_json: bool, **board: Unpack[BoardOptions]) -> None:
     """The emulated AS-i cable: its slaves, their inputs, plugging and unplugging.
 
     Without a subcommand: 'asictl bus show' (with the options given here). Emulated
     boards only.
+
+    \b
+    Examples:
+      asictl bus
+      asictl bus plug 5 iiio,1
     """
     if ctx.invoked_subcommand is None:
         ctx.invoke(show, as_json=as_json, **board)
@@ -168,12 +184,18 @@ def _slave_rows(slaves: list[dict[str, Any]]) -> str:
 
 
 @bus.command("show")
-@_board_options
+@board_options
 @click.option("--json", "as_json", is_flag=True, help="One JSON object on stdout.")
-def show(as_json: bool = False, **board: Unpack[_BoardOptions]) -> None:
-    """The slaves on the cable: address, profile (I/O and ID code), inputs, outputs."""
+def show(as_json: bool = False, **board: Unpack[BoardOptions]) -> None:
+    """The slaves on the cable: address, profile (I/O and ID code), inputs, outputs.
+
+    \b
+    Examples:
+      asictl bus plug 5 iiio,1
+      asictl bus show --json
+    """
     _emulated_only(board)
-    with _connect(**board) as master:
+    with open_master(**board) as master:
         cable = master.emulated("bus")
     if as_json:
         click.echo(json.dumps(cable, indent=2))
@@ -192,17 +214,23 @@ def show(as_json: bool = False, **board: Unpack[_BoardOptions]) -> None:
     "(status 06h, the gateway's display 92); 'store', it is kept only until a power-up "
     "(07h, display 93).",
 )
-@_board_options
+@board_options
 def plug(
-    address: str, profile: str, address_fault: str | None, **board: Unpack[_BoardOptions]
+    address: str, profile: str, address_fault: str | None, **board: Unpack[BoardOptions]
 ) -> None:
     """Plug a slave in at ADDRESS (0 for a new slave) with PROFILE: its I/O code (letters
-    such as iiio, or a hex digit) and ID code, as in [SETUP]: 'iiio,1', 'Bh,0'."""
+    such as iiio, or a hex digit) and ID code, as in [SETUP]: 'iiio,1', 'Bh,0'.
+
+    \b
+    Examples:
+      asictl bus plug 5 iiio,1
+      asictl bus plug 0 Bh,0 --address-fault set
+    """
     _emulated_only(board)
     where = parse_address(address)
     io_code, id_code = parse_profile(profile)
     fault = {"address_fault": address_fault} if address_fault else {}
-    with _connect(**board) as master:
+    with open_master(**board) as master:
         slave = master.emulated(
             "plug", address=where, io_code=io_code, id_code=id_code, **fault
         )
@@ -212,24 +240,36 @@ def plug(
 
 @bus.command("unplug")
 @click.argument("address")
-@_board_options
-def unplug(address: str, **board: Unpack[_BoardOptions]) -> None:
-    """Unplug the slave at ADDRESS."""
+@board_options
+def unplug(address: str, **board: Unpack[BoardOptions]) -> None:
+    """Unplug the slave at ADDRESS.
+
+    \b
+    Examples:
+      asictl bus plug 5 iiio,1
+      asictl bus unplug 5
+    """
     _emulated_only(board)
     where = parse_address(address)
-    with _connect(**board) as master:
+    with open_master(**board) as master:
         master.emulated("unplug", address=where)
         click.echo(f"{master.name}: unplugged slave {where}", err=True)
         _report(master)
 
 
 @bus.command("match")
-@_board_options
-def match(**board: Unpack[_BoardOptions]) -> None:
+@board_options
+def match(**board: Unpack[BoardOptions]) -> None:
     """Re-plug the cable to the [SETUP] of the program the master has loaded: slaves
-    that fit stay (with their inputs), others go, missing ones are plugged in."""
+    that fit stay (with their inputs), others go, missing ones are plugged in.
+
+    \b
+    Examples:
+      asictl download demos/blink.asi
+      asictl bus match
+    """
     _emulated_only(board)
-    with _connect(**board) as master:
+    with open_master(**board) as master:
         change = master.emulated("match")
         done = [f"plugged in {s['address']} ({s['profile']})" for s in change["plugged"]]
         done += [f"unplugged {s['address']} ({s['profile']})" for s in change["unplugged"]]
@@ -243,14 +283,18 @@ def match(**board: Unpack[_BoardOptions]) -> None:
 
 @bus.command("inputs")
 @click.argument("settings", nargs=-1, required=True)
-@_board_options
-def inputs(settings: tuple[str, ...], **board: Unpack[_BoardOptions]) -> None:
+@board_options
+def inputs(settings: tuple[str, ...], **board: Unpack[BoardOptions]) -> None:
     """Set the input data slaves deliver: 'ADDRESS VALUE' (VALUE 0b1011, 0xB, Bh or 11),
     or OPERAND=VALUE: input bits such as 'I 4.0=1', a slave's four inputs 'I 4=0b1011',
     two slaves' 'IB 4=0x5A', or a name of the program's symbol table ('Start=1');
     several at once are applied together.
 
-    Example: asictl bus inputs "I 4.0=1" "I 5=0b0110"
+    \b
+    Examples:
+      asictl bus plug 4 iiii,0
+      asictl bus inputs "I 4.0=1"
+      asictl bus inputs 4 0b0110
     """
     _emulated_only(board)
     changes: list[list[int]] = []
@@ -259,7 +303,7 @@ def inputs(settings: tuple[str, ...], **board: Unpack[_BoardOptions]) -> None:
         changes.append(
             [parse_address(settings[0]), 0xF, parse_number(settings[1], "input value", 15)]
         )
-    with _connect(**board) as master:
+    with open_master(**board) as master:
         names = Names(master)
         for text in () if pairs else settings:
             assignment = names.assignment(text, example="I 4.0=1")

@@ -21,6 +21,10 @@ def lsp(lib: tuple[str, ...]) -> None:
 
     Diagnostics as 'asictl check' gives them, hover, go to definition, find references,
     completion, document symbols, folding and formatting for .asi and .fb files.
+
+    \b
+    Example:
+      asictl lsp
     """
     if importlib.util.find_spec("pygls") is None:
         raise missing_extra("the language server", "lsp", "no pygls")

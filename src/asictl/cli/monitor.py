@@ -11,7 +11,7 @@ from typing import Unpack
 
 import click
 
-from asictl.cli.master import _address, _board_options, _BoardOptions
+from asictl.cli.board_options import BoardOptions, board_options, master_address
 from asictl.errors import missing_extra
 
 
@@ -20,8 +20,8 @@ def _notify(text: str) -> None:
 
 
 @click.command("monitor")
-@_board_options
-def monitor(**board: Unpack[_BoardOptions]) -> None:
+@board_options
+def monitor(**board: Unpack[BoardOptions]) -> None:
     """A live full-screen view of the master: ASI_MON and ASI_VIS in one.
 
     The 31 slaves with their input and output data and list membership, the selected
@@ -53,18 +53,26 @@ def monitor(**board: Unpack[_BoardOptions]) -> None:
     'took over'), or, when another process holds the board, shows the master as gone in
     red and refuses the keys that act on it until it can.
 
+    Needs the 'monitor' extra (Textual).
+
     Exit status: 0 quit, 2 bad usage or Textual not installed.
+
+    \b
+    Examples:
+      asictl monitor
+      asictl monitor --port 304h
     """
     try:
         from asictl.monitor.app import MonitorApp
     except ImportError as exc:
         raise missing_extra("asictl monitor", "monitor", f"no {exc.name or exc}") from None
-    from asictl.host.boards import port_name, state_directory
+    from asictl.host.emulated.boards import state_directory
     from asictl.host.live.client import is_served
     from asictl.host.search import resolve_port
+    from asictl.host.transports.ports import port_name
     from asictl.monitor.source import MonitorSource
 
-    address = _address(**board)
+    address = master_address(**board)
     if address.modbus is None:
         directory = state_directory(address.state_dir)
         base = resolve_port(address.port, address.io, directory, _notify)

@@ -110,10 +110,12 @@ def mutate(paths: tuple[Path, ...], jobs: int | None, fmt: str, min_score: float
     each mutant as FILE:LINE:COL: VERDICT: CHANGE and the score, killed / (mutants -
     equivalent - invalid).
 
-    Example: asictl mutate demos -j 2 --min-score 80
-
     Exit status: 0 done (and the score reaches --min-score), 1 below --min-score or a
     scenario fails on the unchanged program, 2 bad input.
+
+    \b
+    Example:
+      asictl mutate demos/blink.scenario.toml --min-score 80
     """
     ctx = click.get_current_context()
     targets = _targets(paths, lib)

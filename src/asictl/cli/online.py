@@ -15,7 +15,7 @@ from typing import Unpack
 
 import click
 
-from asictl.cli.master import _board_options, _BoardOptions, _connect
+from asictl.cli.board_options import BoardOptions, board_options, open_master
 from asictl.cli.options import Duration
 from asictl.errors import ExitCode, UserError
 from asictl.host.force_list import Entry, ForcedValue, forced_values
@@ -48,9 +48,9 @@ def _show(master: Master, entries: list[Entry], names: Names, as_json: bool) -> 
 @click.option("--list", "list_", is_flag=True, help="Show the force list (the default "
               "without OPERAND=VALUE).")
 @click.option("--json", "as_json", is_flag=True, help="The force list as JSON on stdout.")
-@_board_options
+@board_options
 def force(
-    assignments: tuple[str, ...], list_: bool, as_json: bool, **board: Unpack[_BoardOptions]
+    assignments: tuple[str, ...], list_: bool, as_json: bool, **board: Unpack[BoardOptions]
 ) -> None:
     """Force inputs, outputs and flags: 'I 1.0=1' (what the program reads), 'Q 2.0=1'
     (what the slave receives, whatever the program writes), 'F 10.0=1', 'FY 12=0x55'
@@ -63,11 +63,14 @@ def force(
     Exit status: 0 forced (or listed), 1 refused (a real board, a gateway), 2 bad usage
     (nothing is forced then).
 
-    Example: asictl force "F 10.0=1" "FY 12=0x55"
+    \b
+    Examples:
+      asictl force "F 10.0=1" "FY 12=0x55"
+      asictl force --list
     """
     from asictl.host.forcing import force as force_all
 
-    with _connect(**board) as master:
+    with open_master(**board) as master:
         names = Names(master)
         parsed = [names.assignment(text, example="F 10.0=1") for text in assignments]
         entries = force_all(master, parsed) if parsed else forced(master)
@@ -77,8 +80,8 @@ def force(
 @click.command("unforce")
 @click.argument("operands", nargs=-1)
 @click.option("--all", "all_", is_flag=True, help="Release every force.")
-@_board_options
-def unforce(operands: tuple[str, ...], all_: bool, **board: Unpack[_BoardOptions]) -> None:
+@board_options
+def unforce(operands: tuple[str, ...], all_: bool, **board: Unpack[BoardOptions]) -> None:
     """Release forced operands ('F 10.0', 'FY 12', 'Q 2', a symbol's name), or all of
     them with --all; the program's own values take over in its next cycle. What is still
     forced is listed on stdout.
@@ -86,14 +89,18 @@ def unforce(operands: tuple[str, ...], all_: bool, **board: Unpack[_BoardOptions
     Exit status: 0 released, 1 refused (a real board, a gateway) or an operand named was
     not forced (the others are released), 2 bad usage.
 
-    Example: asictl unforce --all
+    \b
+    Examples:
+      asictl force "F 10.0=1" "Q 2.0=1"
+      asictl unforce "F 10.0"
+      asictl unforce --all
     """
     from asictl.host.forcing import not_forced
     from asictl.host.forcing import unforce as release
 
     if bool(operands) == all_:
         raise UserError("name the operands to release, or --all (not both)", ExitCode.USAGE)
-    with _connect(**board) as master:
+    with open_master(**board) as master:
         names = Names(master)
         parsed = None if all_ else [(names.operand(text), text) for text in operands]
         missing = not_forced(forced(master), parsed) if parsed is not None else []
@@ -117,10 +124,10 @@ def unforce(operands: tuple[str, ...], all_: bool, **board: Unpack[_BoardOptions
               help="Stop after this long (10s, 2m); default: until Ctrl-C.")
 @click.option("--format", "format_", type=click.Choice(["text", "json"]), default="text",
               show_default=True, help="json: one JSON object a line.")
-@_board_options
+@board_options
 def watch(
     operands: tuple[str, ...], table: str | None, interval: float, duration: float | None,
-    format_: str, **board: Unpack[_BoardOptions],
+    format_: str, **board: Unpack[BoardOptions],
 ) -> None:
     """Watch operands on the master: a line for each value at the start, then one for
     each change, until --duration or Ctrl-C. OPERANDS are inputs, outputs and flags as
@@ -136,11 +143,15 @@ def watch(
     Exit status: 0 watched, 1 the master did not answer or the live board's server
     ended, 2 bad usage.
 
-    Example: asictl watch "F 10.0" Motor --format json --duration 10s
+    \b
+    Examples:
+      asictl download demos/blink.asi --start
+      asictl watch "Q 31.0" --duration 2s
+      asictl watch "Q 31.0" "T 0" --format json --duration 1s
     """
-    from asictl.cli.master import _address, _master_wait
+    from asictl.cli.board_options import master_address, master_wait
     from asictl.diagnostics import DiagnosticError, render_text
-    from asictl.host.connection import connect_master
+    from asictl.host.connection import open_board
     from asictl.host.status import read_program
     from asictl.host.watch import read_table, watch_list
     from asictl.source import read_source
@@ -157,7 +168,7 @@ def watch(
     if not items:
         raise UserError("nothing to watch: name operands or give --table FILE.watch.toml",
                         ExitCode.USAGE)
-    with _connect(**board) as master:
+    with open_master(**board) as master:
         loaded = master.action is not None and master.action.live is None
         if loaded and limit is None:
             raise UserError(
@@ -167,7 +178,7 @@ def watch(
         watched = watch_list(Names(master, program.symbols), items)
         lines = _WatchLines(watched, format_)
         if loaded:  # the board runs only in this command: master time passes as it waits
-            wait = _master_wait(master)
+            wait = master_wait(master)
             for reads in itertools.count():
                 lines.show(_read(master, program, watched), reads * period)
                 if limit is not None and (reads + 1) * period > limit + 1e-9:
@@ -175,12 +186,12 @@ def watch(
                 wait(period * 1000)
     # a live board, a real one, a gateway: one session a read, as the monitor's refresh,
     # so that other commands reach the board between reads
-    address = _address(**board)
+    address = master_address(**board)
     served = master.action is not None
     begun = time.monotonic()
     try:
         for reads in itertools.count():
-            with connect_master(address) as master:
+            with open_board(address) as master:
                 if served and (master.action is None or master.action.live is None):
                     # the server ended: what the state file holds would be no live value
                     raise UserError(f"{master.name}: the live board is no longer served "

@@ -12,7 +12,7 @@ import click
 from asictl.cli.options import Duration
 from asictl.diagnostics import DiagnosticError, render_text
 from asictl.errors import ExitCode, UserError, missing_extra
-from asictl.host.target import port_number
+from asictl.host.transports.target import listen_address
 
 if TYPE_CHECKING:
     from asictl.host.live.server import Attachment
@@ -49,16 +49,6 @@ def opcua_options(command: F) -> F:
     return command
 
 
-def _address(text: str) -> tuple[str, int]:
-    host, sep, port = text.rpartition(":")
-    number = port_number(port)
-    if not sep or number is None:
-        shown = text if len(text) <= 40 else f"{text[:37]}..."
-        raise UserError(f"--opcua '{shown}': expected HOST:PORT, e.g. 127.0.0.1:4840",
-                        ExitCode.USAGE)
-    return host.strip("[]") or "127.0.0.1", number
-
-
 def opcua_attachment(
     opcua: str | None, writable: bool, user: str | None, interval: float,
     symbols: str | None, name: str, notify: Callable[[str], None],
@@ -71,7 +61,7 @@ def opcua_attachment(
         if given:
             raise UserError(f"{', '.join(given)} without --opcua HOST:PORT", ExitCode.USAGE)
         return None
-    host, port = _address(opcua)
+    host, port = listen_address(opcua, "--opcua", "127.0.0.1:4840")
     try:
         from asictl.opcua.server import OpcUaOptions, check_access
         from asictl.opcua.server import opcua_attachment as attachment

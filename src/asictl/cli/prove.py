@@ -84,6 +84,10 @@ def prove(files: tuple[Path, ...], properties: Path | None, depth: Cycles, timeo
           lib: tuple[str, ...]) -> None:
     """Prove a program's properties (NAME.props.toml) for every input sequence.
 
+    A property says what must never or always hold, what must follow a condition
+    (when/then/within) or what must be reachable (docs/prove.md). Needs the 'prove'
+    extra (z3-solver).
+
     FILES are programs (NAME.asi, with NAME.props.toml beside them) or properties files
     (naming their program, or beside NAME.asi); without FILES, every *.props.toml here.
     Each property gets one verdict: proved, refuted (with a counterexample scenario that
@@ -91,6 +95,11 @@ def prove(files: tuple[Path, ...], properties: Path | None, depth: Cycles, timeo
     to N cycles (no proof within --depth) or unknown (--timeout).
 
     Exit status: 0 every property proved or reached, 1 otherwise, 2 bad input.
+
+    \b
+    Examples:
+      asictl prove demos/blink.asi
+      asictl prove demos/timer.refuted.props.toml --counterexamples cex   # exit 1: refuted
     """
     try:
         import z3  # noqa: F401

@@ -14,7 +14,7 @@ from typing import Unpack
 
 import click
 
-from asictl.cli.master import _board_options, _BoardOptions, _connect
+from asictl.cli.board_options import BoardOptions, board_options, open_master
 from asictl.cli.options import Duration
 from asictl.errors import UserError
 from asictl.files import real_path, write_output
@@ -63,7 +63,7 @@ class _Reader:
     monitor). The first sample is the whole status (which slaves are there); then a PC2
     board's status without its EEPROM's program, a gateway's data registers alone."""
 
-    def __init__(self, board: _BoardOptions) -> None:
+    def __init__(self, board: BoardOptions) -> None:
         self.board = board
         self.program: StoredProgram | None = None
         self.name = ""
@@ -83,7 +83,7 @@ class _Reader:
             if quick is not None and self.program is not None:
                 return _Data.of(quick(self.program))
             if master.driver is None:  # a gateway: three requests instead of a status
-                from asictl.host.modbus import ModbusMaster, read_data
+                from asictl.host.modbus_master import ModbusMaster, read_data
 
                 if isinstance(master, ModbusMaster):
                     inputs, outputs, flags = read_data(master.transport, flags=self.flags)
@@ -92,7 +92,7 @@ class _Reader:
 
     @contextmanager
     def _master(self) -> Iterator[Master]:
-        with _connect(**self.board) as master:
+        with open_master(**self.board) as master:
             self.name = master.name
             if master.action is not None and master.action.live is None:
                 raise UserError(
@@ -104,7 +104,7 @@ class _Reader:
 
 
 @click.command("record")
-@_board_options
+@board_options
 @click.option("--duration", required=True, type=Duration(limit_ms=24 * 3_600_000, positive=True),
               help="How long to record, e.g. 60s, 2m (at most 24h).")
 @click.option("-o", "--output", required=True, type=click.Path(dir_okay=False, path_type=Path),
@@ -121,7 +121,7 @@ class _Reader:
               help="Name this program in the scenario ('program = ...', relative to it).")
 def record(duration: float, output: Path, force: bool, signals: str | None,
            tolerance_ms: float | None, program: Path | None,
-           **board: Unpack[_BoardOptions]) -> None:
+           **board: Unpack[BoardOptions]) -> None:
     """Record a running master (a served emulated board, a real board or a gateway) as
     a scenario: its input changes become set steps, its output changes (and those of the
     flags --signals chooses) expectations with a tolerance window.
@@ -132,6 +132,11 @@ def record(duration: float, output: Path, force: bool, signals: str | None,
     where it behaves otherwise, naming the IL line that last wrote the operand.
 
     Exit status: 0 recorded, 1 the master did not answer, 2 bad usage.
+
+    \b
+    Examples:
+      asictl download demos/blink.asi --start
+      asictl record --duration 2s -o run.scenario.toml --tolerance-ms 50
     """
     seconds = duration / 1000
     if output.is_file() and not force:

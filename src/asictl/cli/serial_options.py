@@ -12,7 +12,7 @@ from typing import Any, TypeVar
 
 import click
 
-from asictl.host.target import PARITY_SPELLINGS, parity_code
+from asictl.host.transports.target import PARITY_SPELLINGS, parity_code
 from asictl.platform.gateway import BAUD_RATES, DEFAULT_BAUD, UNITS
 
 F = TypeVar("F", bound=Callable[..., Any])

@@ -84,6 +84,12 @@ def sim(
     line. PROGRAM may be left out when the scenario names it.
 
     Exit status: 0 all expectations hold, 1 one failed, 2 bad input.
+
+    \b
+    Examples:
+      asictl sim demos/blink.asi
+      asictl sim demos/timer.asi --vcd timer.vcd --csv timer.csv
+      asictl sim demos/ondelay.asi --no-scenario --set "I 1.0=1" --duration 5s
     """
     ctx = click.get_current_context()
     duration_ms, start, end = duration, from_ or 0.0, to
@@ -308,10 +314,16 @@ def test(paths: tuple[Path, ...], junit: Path | None, jobs: int | None,
     condition had, over all scenarios, and prints a line 'coverage: lines 93%
     (112/120), branches 80% (8/10), conditions 75% (30/40)' (docs/testing.md).
 
-    Example: asictl test demos --coverage coverage.xml --coverage-fail-under 80
+    pytest runs the same scenarios ('pytest DIR', with --asictl-coverage FILE for the
+    coverage), together with Python tests that use asictl.testing (docs/testing.md).
 
     Exit status: 0 all passed, 1 a scenario failed (or coverage is below
     --coverage-fail-under), 2 a scenario or program is invalid.
+
+    \b
+    Examples:
+      asictl test demos
+      asictl test demos/blink.scenario.toml --coverage coverage.xml --coverage-fail-under 80
     """
     ctx = click.get_current_context()
     scenarios = [str(p) for p in find_scenarios(paths)]

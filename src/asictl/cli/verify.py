@@ -11,38 +11,59 @@ from typing import Unpack
 
 import click
 
-from asictl.cli.master import _board_options, _BoardOptions, _connect
+from asictl.cli.board_options import BoardOptions, board_options, open_master
 from asictl.cli.options import lib_option
 from asictl.errors import ExitCode
+from asictl.host.raw_image import holds_raw_program
 from asictl.host.status import read_program
+from asictl.host.transfer import upload_head
 from asictl.image.eeprom import differences
 
 
 @click.command("verify")
 @click.argument("file", metavar="FILE.asi|FILE.hex", type=click.Path(dir_okay=False))
-@_board_options
+@board_options
 @lib_option
-def verify(file: str, lib: tuple[str, ...], **board: Unpack[_BoardOptions]) -> None:
+def verify(file: str, lib: tuple[str, ...], **board: Unpack[BoardOptions]) -> None:
     """Compare FILE with the program in the master: identical, different (code,
     configuration, options) or no program there. FILE is source, [RAW] records or .hex,
-    built as 'asictl download' would build it.
+    built as 'asictl download' would build it. Where either side is a raw image (the .hex
+    'asictl upload' writes of a program not in asictl's format, or such a program in the
+    master) the whole EEPROM is compared byte for byte: identical, or how many bytes
+    differ and the first addresses.
 
     Exit status: 0 identical, 1 different, no program in the master or errors in FILE,
     2 bad usage or an unreadable file.
+
+    \b
+    Examples:
+      asictl download demos/blink.asi
+      asictl verify demos/blink.asi
+      asictl verify demos/counter.asi   # exit 1: different
     """
     from asictl.build import build_file
+    from asictl.cli.raw_images import compare, raw_file_or_none
 
     ctx = click.get_current_context()
-    with _connect(**board) as master:
+    raw = raw_file_or_none(file)
+    if raw is not None:
+        with open_master(**board) as master:
+            ctx.exit(int(ExitCode.OK if compare(master, file, raw) else ExitCode.FAILED))
+    with open_master(**board) as master:
         built = build_file(file, entry_points=master.transport.entry_points(), lib=lib)
         click.echo(built.render(), nl=False, err=True)
         if built.has_errors or built.image is None:
             ctx.exit(int(ExitCode.FAILED))
         mine = built.image
-        theirs = read_program(master.transport).image
+        stored = read_program(master.transport)
+        theirs = stored.image
+        if theirs is None and holds_raw_program(upload_head(master.transport)):
+            same = compare(master, file, mine.to_bytes())  # a raw image on the master's side
+            ctx.exit(int(ExitCode.OK if same else ExitCode.FAILED))
         status = master.status() if theirs is not None else None
     if theirs is None:
-        click.echo(f"{master.name}: no program in the master (nothing to compare {file} with)")
+        click.echo(f"{master.name}: {stored.info.problem or 'no program'} in the master "
+                   f"(nothing to compare {file} with)")
         ctx.exit(int(ExitCode.FAILED))
     found = differences(mine, theirs)
     if found:

@@ -47,6 +47,11 @@ def xref(files: tuple[str, ...], fmt: str, modbus: bool, lib: tuple[str, ...]) -
     A program with errors gets its diagnostics instead (as 'asictl check' prints them).
 
     Exit status: 0 done, 1 a program has errors, 2 bad usage or an unreadable file.
+
+    \b
+    Examples:
+      asictl xref demos/counter.asi
+      asictl xref demos/blink.asi --modbus
     """
     ctx = click.get_current_context()
     failed = False

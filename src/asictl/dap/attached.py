@@ -26,8 +26,9 @@ from asictl.debug.inventory import Inventory
 from asictl.debug.online import debug_socket_path
 from asictl.diagnostics import DiagnosticError, render_text
 from asictl.errors import UserError
-from asictl.host.boards import parse_port, port_name, state_directory
+from asictl.host.emulated.boards import state_directory
 from asictl.host.live.client import LiveClient
+from asictl.host.transports.ports import parse_port, port_name
 from asictl.lsp.framing import JSON
 from asictl.observe.operands import parse_operand
 from asictl.observe.symbols import SymbolTable, symbols_for

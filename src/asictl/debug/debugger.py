@@ -14,13 +14,14 @@ from __future__ import annotations
 import queue
 import re
 import threading
-from collections.abc import Callable
-from dataclasses import dataclass
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
 from enum import Enum
 from pathlib import PurePath
 
 from asictl.il import ast
 from asictl.mcs51.isa import SFRS
+from asictl.observe.condition import Condition, ConditionError, parse_condition
 from asictl.observe.hooks import LineHooks
 from asictl.observe.locate import call_chain, current_line, describe
 from asictl.observe.operands import (
@@ -28,8 +29,8 @@ from asictl.observe.operands import (
     Operand,
     parse_assignment,
     parse_operand,
-    read_number,
 )
+from asictl.observe.symbols import SymbolTable
 from asictl.observe.view import ProgramView
 from asictl.platform.pc2 import STOP_ADDRESS, STOPS_AT_AN_ADDRESS
 from asictl.readers.units import UnitError, parse_duration
@@ -45,16 +46,17 @@ _COMPARE: dict[str, Callable[[int, int], bool]] = {
     "<": lambda a, b: a < b, ">": lambda a, b: a > b, "<=": lambda a, b: a <= b,
     ">=": lambda a, b: a >= b,
 }
-_CONDITION = re.compile(r"^(.+?)\s*(==|!=|<=|>=|=|<|>)\s*(\w+)\s*$")
 #: A hit count condition as editors write them: ``3`` (from the third hit on, as ``>= 3``),
 #: ``= 3`` (the third only), ``> 3``, ``< 3``, ``<= 3``, ``% 3`` (every third).
 _HIT_CONDITION = re.compile(r"^\s*(==|=|>=|<=|>|<|%)?\s*(\d+)\s*$")
 #: The IL machine's registers as ``print`` and conditions name them, and where the
 #: program view has each (KREG: the 12-bit constant register of L KT, L KC and L KP).
 _REGISTERS = {"RLO": "rlo", "ACCU1": "accu1", "ACCU2": "accu2", "KREG": "constant"}
+#: Which of them a condition may name alone (a bit).
+_REGISTER_BITS = {name: name == "RLO" for name in _REGISTERS}
 
 HELP = """\
-break LINE | FILE:LINE [if OPERAND=VALUE]   stop before an IL line (b)
+break LINE | FILE:LINE [if CONDITION]   stop before an IL line (b)
 delete [N]                  remove breakpoint N (all without N)
 breaks                      list the breakpoints
 step                        run one IL line, into function blocks (s)
@@ -118,6 +120,16 @@ class DebugError(ValueError):
     """A command the debugger cannot do, in words for the user."""
 
 
+class ConditionRefused(DebugError):
+    """A breakpoint condition that does not read: the message, then the condition and a
+    caret under the offending part (what the debugger prints after ``error:``, and the
+    message an editor shows beside a refused breakpoint)."""
+
+    def __init__(self, text: str, error: ConditionError) -> None:
+        super().__init__("\n".join([error.message, *error.caret(text)]))
+        self.error = error
+
+
 @dataclass
 class Values:
     """Registers and operands as the program sees them now, through ``view``: what
@@ -126,6 +138,10 @@ class Values:
     view: Callable[[], ProgramView]
     #: an operand's text (or symbol) to the operand; raises DebugError
     operand: Callable[[str], Operand]
+    #: the program's variables and symbols, as conditions read them
+    variables: Mapping[str, int]
+    symbols: SymbolTable | None
+    _conditions: dict[str, Condition] = field(default_factory=dict)
 
     def value(self, text: str) -> int:
         view = self.view()
@@ -159,17 +175,21 @@ class Values:
             return str(value)
         return f"{value} ({value:02X}h)"
 
+    def condition(self, text: str) -> Condition:
+        """A breakpoint condition in the one condition language (docs/conditions.md),
+        over operands, symbols and the registers; read once per text."""
+        if text not in self._conditions:
+            try:
+                self._conditions[text] = parse_condition(text, self.variables, self.symbols,
+                                                         registers=_REGISTER_BITS)
+            except ConditionError as exc:
+                raise ConditionRefused(text, exc) from None
+        return self._conditions[text]
+
     def holds(self, text: str) -> bool:
-        """A breakpoint condition, ``OPERAND op VALUE``."""
-        match = _CONDITION.match(text)
-        if not match:
-            raise DebugError(f"condition '{text}': OPERAND=VALUE, e.g. RLO=1 or CV 0>=3")
-        left, op, right = match.groups()
-        try:
-            number = read_number(right)
-        except ValueError as exc:
-            raise DebugError(f"condition '{text}': {exc}") from None
-        return _COMPARE[op](self.value(left), number)
+        """Whether a breakpoint condition holds now."""
+        view = self.view()
+        return self.condition(text)(view.read, lambda name: int(getattr(view, _REGISTERS[name])))
 
 
 def line_with_code(line_map: LineMap, file: str, wanted: int) -> SourceLine:
@@ -214,7 +234,6 @@ class Debugger:
                               symbols=prepared.symbols)
         self.symbols = prepared.symbols
         self.line_map = self.sim.line_map
-        self.values = Values(self.sim.view, self._operand)
         self.texts = {name: text.split("\n") for name, text in
                       source_texts(prepared.build).items()}
         self.main_file = PurePath(prepared.program).name
@@ -225,6 +244,8 @@ class Debugger:
         if runner is None:
             raise DebugError("the master did not load the program")
         self.runner = runner
+        self.values = Values(self.sim.view, self._operand, variables_of(runner.pmap),
+                             self.symbols)
         self.hooks = LineHooks(runner, self.line_map, on_line=self._on_line,
                                on_cycle_start=self._on_cycle_start)
         self.hooks.install()
@@ -284,7 +305,7 @@ class Debugger:
     def _break(self, rest: str) -> None:
         where, _, condition = rest.partition(" if ")
         if not where.strip():
-            raise DebugError("break LINE or break FILE:LINE [if OPERAND=VALUE]")
+            raise DebugError("break LINE or break FILE:LINE [if CONDITION]")
         point = self.add_breakpoint(where.strip(), condition.strip())
         line = point.line
         self.out(f"breakpoint {point.number} at {line}"
@@ -298,7 +319,7 @@ class Debugger:
         with code); the condition and hit condition are checked now, not at the first hit."""
         line = self._resolve_line(where)
         if condition:
-            self._condition(condition)
+            self.values.condition(condition)
         point = Breakpoint(self._next_number, line, condition,
                            hit_condition=checked_hit_condition(hit_condition))
         self._next_number += 1

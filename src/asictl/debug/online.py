@@ -91,7 +91,8 @@ class OnlineDebugger:
         self.variables = {name: v.size for name, v in runner.pmap.variables.items()}
         self.symbols = symbols
         self.values = Values(
-            lambda: ProgramView(runner, functools.partial(read_on_board, board)), self._operand)
+            lambda: ProgramView(runner, functools.partial(read_on_board, board)), self._operand,
+            self.variables, symbols)
         self.breakpoints: list[Breakpoint] = []
         self._number = 1
         self.mode = Mode.CONTINUE
@@ -230,7 +231,7 @@ class OnlineDebugger:
                        hit_condition: str) -> Breakpoint:
         at = line_with_code(self.line_map, file, line)
         if condition:
-            self.values.holds(condition)
+            self.values.condition(condition)
         point = Breakpoint(self._number, at, condition,
                            hit_condition=checked_hit_condition(hit_condition))
         self._number += 1

@@ -2,7 +2,8 @@
 
 ``DIR/<name>/`` holds what an upload of the master writes (its source files, or [RAW]
 records; its symbol table where the upload gives one), ``image.hex`` (the EEPROM image
-exactly, what ``fleet verify`` compares the master with), ``identity.json`` (the master
+exactly, what ``fleet verify`` compares the master with; for a program not in asictl's
+format the EEPROM byte for byte, a raw image), ``identity.json`` (the master
 and its program) and ``status.json`` (the state that stays put while the program runs:
 phase, mode, lists, configuration, control state; not the data, flags, timers or cycle
 times, which change every cycle and would make every backup a change). A run commits
@@ -26,7 +27,10 @@ from asictl.files import write_together
 from asictl.fleet.inventory import FleetMaster
 from asictl.host.master import Master
 from asictl.host.program_files import uploaded_files
+from asictl.host.raw_image import holds_raw_program, read_eeprom, to_hex, used
+from asictl.host.raw_image import identity as raw_identity
 from asictl.host.status import MasterStatus, read_program
+from asictl.host.transfer import upload_head
 from asictl.image.eeprom import ProgramImage
 from asictl.source import SYMBOLS_SUFFIX
 
@@ -42,17 +46,29 @@ AUTHOR = {"name": "asictl fleet backup", "email": "asictl@localhost"}
 @dataclass(frozen=True)
 class Snapshot:
     """What a backup read from one master: its program image (None: the EEPROM holds
-    none) and its status."""
+    none of asictl's format), its status, and the EEPROM byte for byte where it holds a
+    program in another format (host.raw_image)."""
 
     image: ProgramImage | None
     status: MasterStatus
+    raw: bytes | None = None
 
 
 def take_snapshot(_: FleetMaster, master: Master) -> Snapshot:
     """Upload the master's program (as ``asictl upload`` does) and read its status."""
     program = read_program(master.transport)
     status = master.quick_status(program) if master.quick_status is not None else master.status()
-    return Snapshot(program.image, status)
+    raw = None
+    if program.image is None and holds_raw_program(upload_head(master.transport)):
+        raw = used(read_eeprom(master.transport))
+    return Snapshot(program.image, status, raw)
+
+
+def snapshot_identity(snapshot: Snapshot) -> str | None:
+    """The program's identity: asictl's, or a raw image's (``raw-`` and its SHA-256)."""
+    if snapshot.image is not None:
+        return snapshot.image.identity_hex
+    return None if snapshot.raw is None else raw_identity(snapshot.raw)
 
 
 def main_name(image: ProgramImage) -> str:
@@ -98,6 +114,10 @@ def snapshot_files(master: FleetMaster, snapshot: Snapshot) -> dict[str, bytes]:
             "files": names,
             "symbols": next((n for n in names if n.endswith(SYMBOLS_SUFFIX)), None),
         }
+    if snapshot.raw is not None:
+        files[IMAGE_FILE] = to_hex(snapshot.raw).encode("ascii")
+        program = {"identity": raw_identity(snapshot.raw), "size": len(snapshot.raw),
+                   "format": "raw: not asictl's, the EEPROM byte for byte"}
     identity = {
         "master": master.name, "reached": master.reached, "line": master.line,
         "groups": list(master.groups), "master_name": status.master_name,

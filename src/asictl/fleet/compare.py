@@ -4,7 +4,8 @@ what is it doing.
 Verifying is ``asictl verify`` with the archived image as the file: the image is built
 as ``download`` would build it (asictl.build, against the master's own entry points),
 then compared with the one in the master's EEPROM in the words of the program's sections
-(image.eeprom.differences).
+(image.eeprom.differences). An archived raw image (a program not in asictl's format) is
+compared with the whole EEPROM byte for byte.
 """
 
 from __future__ import annotations
@@ -12,13 +13,25 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-from asictl.build import build_file, program_of_image
+from asictl.build import build_file, is_hex, program_of_image
+from asictl.diagnostics import DiagnosticError
 from asictl.fleet.archive import archived_image
 from asictl.fleet.inventory import FleetMaster
 from asictl.host.master import Master
+from asictl.host.raw_image import (
+    Comparison,
+    from_hex,
+    holds_raw_program,
+    is_asictl_image,
+    read_eeprom,
+    used,
+)
+from asictl.host.raw_image import identity as raw_identity
 from asictl.host.status import program_info, read_program
+from asictl.host.transfer import upload_head
 from asictl.il.networks import compare
 from asictl.image.eeprom import ProgramImage, differences
+from asictl.source import read_source
 
 
 @dataclass(frozen=True)
@@ -53,6 +66,15 @@ def verify_master(archive: Path, fleet_master: FleetMaster, master: Master) -> V
     path = archived_image(archive, fleet_master.name)
     if path is None:
         return Verdict("not archived")
+    source = read_source(path)
+    if is_hex(source.text):
+        try:
+            raw = from_hex(source)
+        except DiagnosticError as exc:
+            return Verdict("different", "an unreadable image", None,
+                           (f"the archive: {exc.diagnostics[0].message}",))
+        if not is_asictl_image(raw):
+            return _verify_raw(raw, master)
     built = build_file(str(path), entry_points=entry_points)
     mine = built.image
     if built.has_errors or mine is None:
@@ -68,6 +90,17 @@ def verify_master(archive: Path, fleet_master: FleetMaster, master: Master) -> V
     return Verdict("identical", mine.identity_hex, theirs.identity_hex)
 
 
+def _verify_raw(archived: bytes, master: Master) -> Verdict:
+    """A raw image (a program not in asictl's format) against the whole EEPROM, byte
+    for byte."""
+    eeprom = read_eeprom(master.transport)
+    found = Comparison.of(archived, eeprom)
+    mine, theirs = raw_identity(archived), raw_identity(used(eeprom))
+    if found.identical:
+        return Verdict("identical", mine, theirs)
+    return Verdict("different", mine, theirs, (f"the EEPROM: {found.describe()}",))
+
+
 @dataclass(frozen=True)
 class Glance:
     """A master in one line: what its control program does, and which program it holds."""
@@ -77,8 +110,13 @@ class Glance:
 
 
 def glance(_: FleetMaster, master: Master) -> Glance:
+    """``raw`` for a program not in asictl's format: its identity would take reading the
+    whole EEPROM, too slow for a glance through a gateway."""
     info = program_info(master.transport)
-    return Glance(master.summary(), info.identity if info.valid else None)
+    if info.valid:
+        return Glance(master.summary(), info.identity)
+    raw = holds_raw_program(upload_head(master.transport))
+    return Glance(master.summary(), "raw" if raw else None)
 
 
 def network_changes(archived: ProgramImage, running: ProgramImage) -> tuple[str, ...]:

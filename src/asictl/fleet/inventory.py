@@ -17,9 +17,9 @@ from typing import Any
 from asictl.codes import ScenarioCode
 from asictl.diagnostics import Diagnostic, DiagnosticError, Severity, Span
 from asictl.errors import UserError
-from asictl.host.boards import IO_BACKENDS, parse_port, port_name
 from asictl.host.connection import MasterAddress
-from asictl.host.target import DEFAULT_RETRIES, DEFAULT_TIMEOUT_S, parse_target
+from asictl.host.transports.ports import IO_BACKENDS, parse_port, port_name
+from asictl.host.transports.target import DEFAULT_RETRIES, DEFAULT_TIMEOUT_S, parse_target
 from asictl.platform.gateway import UNITS
 from asictl.readers.suggest import did_you_mean
 from asictl.readers.tomlfile import Document, read_toml

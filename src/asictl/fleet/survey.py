@@ -1,7 +1,7 @@
 """One piece of work on every master of a fleet at once, each on its own.
 
 The masters are reached as the single-master commands reach them (host.connection's
-``connect_master``), a bounded number at a time in threads: a master's work is mostly
+``open_board``), a bounded number at a time in threads: a master's work is mostly
 waiting for its answers (a Modbus round trip, a live board's socket), so a few threads
 keep many masters busy. Each master has its own time-out and retries per request (its
 ``MasterAddress``) and its own number of attempts at the whole work; what goes wrong on
@@ -19,9 +19,10 @@ from typing import Generic, TypeVar
 
 from asictl.errors import UserError
 from asictl.fleet.inventory import FleetMaster
-from asictl.host.boards import parse_port, state_directory, state_file
-from asictl.host.connection import connect_master
+from asictl.host.connection import open_board
+from asictl.host.emulated.boards import state_directory, state_file
 from asictl.host.master import Master
+from asictl.host.transports.ports import parse_port
 
 #: Masters worked on at once unless the command says otherwise.
 DEFAULT_JOBS = 8
@@ -68,7 +69,7 @@ def _attempt(master: FleetMaster, work: Callable[[FleetMaster, Master], T]) -> O
         if absent is not None:
             return Outcome(master, None, absent, attempt, time.monotonic() - started)
         try:
-            with connect_master(master.address, notify=_quiet) as connected:
+            with open_board(master.address, notify=_quiet) as connected:
                 value = work(master, connected)
         except (UserError, OSError) as exc:
             error = str(exc) or type(exc).__name__

@@ -20,8 +20,8 @@ from functools import partial
 from typing import TypeVar
 
 from asictl.board.board import Pc2Board
-from asictl.host.driver import EmulatedPort, Pc2Driver
-from asictl.host.jobs import JobError
+from asictl.host.transports.driver import EmulatedPort, Pc2Driver
+from asictl.host.transports.jobs import JobError
 from asictl.platform import gateway as g
 from asictl.platform import pc2 as d
 from asictl.platform.gateway import (

@@ -12,7 +12,7 @@ from pathlib import Path
 
 from asictl.errors import UserError
 from asictl.files import write_atomic
-from asictl.host.boards import port_name
+from asictl.host.transports.ports import port_name
 from asictl.platform.gateway import UNITS, Interface, serial_setting_code
 
 

@@ -17,7 +17,7 @@ from collections.abc import Awaitable, Callable
 from typing import Any
 
 from asictl.gateway.slave import GatewaySlave
-from asictl.host.emulated import ActionError, run_action
+from asictl.host.emulated.actions import ActionError, run_action
 
 JSON = Any
 #: How often a waiting press looks whether its keys are up (seconds of wall time).

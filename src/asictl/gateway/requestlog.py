@@ -12,7 +12,7 @@ import struct
 import time
 
 from asictl.gateway.addressmap import ExceptionCode
-from asictl.host import gateway_pdus as pdus
+from asictl.host.transports import gateway_pdus as pdus
 
 FUNCTION_NAMES = {
     1: "read coils",

@@ -8,7 +8,8 @@ function code (no CRC counter, no "illegal function" answer) and it has no liste
 all of which the gateway manual requires (6.3.11).
 
 The user-defined functions 65, 66 and 67 are decoded and encoded by the PDU classes of
-``host.gateway_pdus``, the very classes our Modbus client uses, so both ends share one wire format.
+``host.transports.gateway_pdus``, the very classes our Modbus client uses, so both ends
+share one wire format.
 """
 
 from __future__ import annotations
@@ -19,12 +20,14 @@ from collections.abc import Callable
 from dataclasses import dataclass, fields, replace
 
 from pymodbus.pdu import ModbusPDU
+from pymodbus.pdu.other_message import ReportDeviceIdResponse
 
 from asictl.board.board import Pc2Board
+from asictl.board.images import EMULATION_MARK
 from asictl.gateway.addressmap import MAX_BITS, AddressMap, ExceptionCode, ModbusError
 from asictl.gateway.panel import FrontPanel
 from asictl.gateway.requestlog import request_line
-from asictl.host import gateway_pdus as pdus
+from asictl.host.transports import gateway_pdus as pdus
 from asictl.platform import pc2 as d
 from asictl.platform.gateway import UNITS, Interface
 from asictl.platform.master import EEPROM_SIZE
@@ -33,6 +36,9 @@ from asictl.platform.pc2 import Command
 #: The gateway's own name (function 65, P = 1: at most 32 characters, gateway manual
 #: 6.3.12); version and ID come from the master.
 GATEWAY_NAME = "VAG-MOD-KF-R4 AS-i/Modbus"
+#: Function 17 (Report Slave ID), which the real gateway does not have (manual 6.3.9:
+#: "nicht belegt"): the emulation answers it to identify itself (host/overwrite_guard.py).
+SERVER_ID = f"{GATEWAY_NAME}, {EMULATION_MARK}"
 BROADCAST = 0
 #: Functions a broadcast executes (they write; reads make no sense without an answer).
 BROADCAST_FUNCTIONS = frozenset({5, 6, 15, 16, pdus.FC_DOWNLOAD})
@@ -123,6 +129,7 @@ class GatewaySlave:
             8: self._diagnostics,
             15: self._write_coils,
             16: self._write_registers,
+            17: self._report_server_id,
             pdus.FC_INFO: self._master_info,
             pdus.FC_DOWNLOAD: self._download,
             pdus.FC_UPLOAD: self._upload,
@@ -251,6 +258,10 @@ class GatewaySlave:
             raise ModbusError(ExceptionCode.ILLEGAL_DATA_VALUE, "register count and byte count")
         self.map.write_registers(address, list(struct.unpack(f">{count}H", data[5:])))
         return data[:4]
+
+    def _report_server_id(self, data: bytes) -> bytes:
+        _unpack("", data)
+        return ReportDeviceIdResponse(identifier=SERVER_ID.encode("ascii")).encode()
 
     def _exception_status(self, data: bytes) -> bytes:
         _unpack("", data)

@@ -8,7 +8,7 @@ through the master's own host commands, so one procedure serves the emulated boa
 real board through /dev/port and a live board (``Pc2Commissioning``, over the driver),
 and a Modbus gateway where it offers the function (``ModbusCommissioning``, over its
 execution-control registers). A function the target lacks raises ``NotOffered`` (exit 1).
-Refusals are ``JobError``s with the ASI_CTRL STATUS word (host/jobs.py).
+Refusals are ``JobError``s with the ASI_CTRL STATUS word (host/transports/jobs.py).
 """
 
 from __future__ import annotations
@@ -18,8 +18,8 @@ from dataclasses import dataclass
 from typing import Protocol
 
 from asictl.errors import ExitCode, UserError
-from asictl.host.driver import Pc2Driver
-from asictl.host.jobs import JobError, JobStatus, address_change_failure
+from asictl.host.transports.driver import Pc2Driver
+from asictl.host.transports.jobs import JobError, JobStatus, address_change_failure
 from asictl.il.ast import OperandKind as K
 from asictl.image.eeprom import Configuration
 from asictl.observe.operands import Assignment
@@ -105,6 +105,8 @@ HI_FLAGS_MASK = 0x07
 #: A change of the master's images: (flag byte or slave, mask, bits): the bits under the
 #: mask become the bits (a slave's data bits are the low four).
 Change = tuple[int, int, int]
+#: What ``asictl write`` writes: flags and outputs.
+WRITABLE = (K.F, K.FY, K.Q, K.QB)
 
 
 def image_changes(assignment: Assignment) -> list[Change]:
@@ -124,6 +126,32 @@ def image_changes(assignment: Assignment) -> list[Change]:
         return [(n, 0xF, value & 0xF), (n + 1, 0xF, value >> 4)]
     raise UserError(f"'{assignment.written}' is the program's own: only flags, inputs and "
                     "outputs can be written", ExitCode.USAGE)
+
+
+def image_writes(
+    assignments: list[Assignment],
+) -> tuple[list[Change], dict[int, tuple[int, int]]]:
+    """The flag changes and the output changes (slave -> (mask, bits)) of a ``write``;
+    ``UserError`` (exit 2) for an operand ``write`` does not write."""
+    flags: list[Change] = []
+    outputs: dict[int, tuple[int, int]] = {}
+    for assignment in assignments:
+        kind = assignment.operand.node.kind
+        if kind not in WRITABLE:
+            raise UserError(
+                f"'{assignment.written}' cannot be written: write sets flags (F, FY) and "
+                "outputs (Q, QB)", ExitCode.USAGE)
+        changes = image_changes(assignment)
+        if kind in (K.F, K.FY):
+            flags += changes
+            continue
+        for number, mask, bits in changes:
+            if not 1 <= number < SLAVES:
+                raise UserError(f"'{assignment.written}': slaves 1..31 have outputs",
+                                ExitCode.USAGE)
+            old_mask, old_value = outputs.get(number, (0, 0))
+            outputs[number] = (old_mask | mask, old_value & ~mask | bits)
+    return flags, outputs
 
 
 def write_flags(tools: Commissioning, changes: list[Change]) -> None:
@@ -270,7 +298,7 @@ class Pc2Commissioning:
 
 
 class GatewayRegisters(Protocol):
-    """What commissioning needs of a gateway's Modbus connection (host.modbus's
+    """What commissioning needs of a gateway's Modbus connection (host.transports.modbus's
     ``ModbusTransport`` is the one): its registers and the replies of its execution
     control. Named here so that commissioning does not depend on the transport."""
 

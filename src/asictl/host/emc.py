@@ -13,8 +13,8 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass
 
-from asictl.host.driver import Pc2Driver
-from asictl.host.jobs import JobError, JobStatus
+from asictl.host.transports.driver import Pc2Driver
+from asictl.host.transports.jobs import JobError, JobStatus
 from asictl.platform.pc2 import (
     EMC_COUNTERS,
     INSTALLED_SOFTWARE,

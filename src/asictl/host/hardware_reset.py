@@ -16,9 +16,9 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass
 
-from asictl.host.driver import Pc2Driver, PortIO
-from asictl.host.jobs import JobError, JobStatus
 from asictl.host.search import FOUND, check_board
+from asictl.host.transports.driver import Pc2Driver, PortIO
+from asictl.host.transports.jobs import JobError, JobStatus
 from asictl.platform.pc2 import (
     EC_FLAGS,
     MASTER_NAME,

@@ -5,14 +5,14 @@ and stop are made of (``transport``), its state and status, the commissioning to
 the DPRAM where there is one. Two classes implement it: ``host.pc2_master.Pc2Master``
 for a PC2 board through its three I/O registers, whichever way they are reached (a real
 board through /dev/port, an emulated board loaded from its state file, a live board's
-socket: the ``PortIO``\\ s of host.driver and host.live.client), and
-``host.modbus.ModbusMaster`` for an AS-i/Modbus gateway.
+socket: the ``PortIO``\\ s of host.transports.driver and host.live.client), and
+``host.modbus_master.ModbusMaster`` for an AS-i/Modbus gateway.
 
 What only an emulated board can do (its AS-i cable, its set button, the program's timers,
-counters and IL lines: the actions of host.emulated) is a capability of its own,
+counters and IL lines: host.emulated.actions) is a capability of its own,
 ``EmulatedBoard``, offered as ``Master.action`` and None on real hardware; a command that
 needs it asks ``Master.emulated``, which refuses on real hardware with a message that says
-why. ``host.connection.connect_master`` is the one way to a ``Master``, and its ``with``
+why. ``host.connection.open_board`` is the one way to a ``Master``, and its ``with``
 block is the connection's life: leaving it ends a live board's session, saves an emulated
 board's state and releases its lock, or closes /dev/port or the Modbus connection.
 """
@@ -26,16 +26,16 @@ from asictl.errors import ExitCode, UserError
 
 if TYPE_CHECKING:
     from asictl.host.commissioning import Commissioning
-    from asictl.host.driver import Pc2Driver
     from asictl.host.status import MasterStatus, StoredProgram
     from asictl.host.transfer import Transport
+    from asictl.host.transports.driver import Pc2Driver
 
 JSON = Any
 
 
 class EmulatedBoard(Protocol):
-    """The emulated-only capability: host.emulated's actions on the board, loaded here
-    from its state file or served live."""
+    """The emulated-only capability: the actions of host.emulated.actions on the board,
+    loaded here from its state file or served live."""
 
     @property
     def live(self) -> str | None:

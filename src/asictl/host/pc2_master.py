@@ -1,6 +1,6 @@
 """``Master`` for a PC2 board, through its three I/O registers whichever way they are
 reached: /dev/port (a real board), an emulated board loaded from its state file, or a
-live board's socket. Below the ``PortIO`` line (host.driver, host.live.client) the three
+live board's socket. Below the ``PortIO`` line (host.transports.driver, host.live.client) the three
 differ; above it one driver, one transport and one set of views serve them all, and an
 emulated board adds its ``EmulatedBoard`` capability."""
 
@@ -9,11 +9,13 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass
 
+from asictl.board.board import Pc2Board
 from asictl.host.commissioning import Commissioning, Pc2Commissioning
-from asictl.host.driver import Pc2Driver
+from asictl.host.emulated.actions import LoadedBoard
 from asictl.host.master import JSON, EmulatedBoard, emulated_board
 from asictl.host.status import MasterStatus, StoredProgram, View, control_summary, read_status
 from asictl.host.transfer import Pc2Transport
+from asictl.host.transports.driver import EmulatedPort, Pc2Driver
 
 
 @dataclass(frozen=True)
@@ -39,6 +41,14 @@ class Pc2Master:
             return read_status(driver, name, view, program=program)
 
         return cls(name, Pc2Transport(driver), driver, quick_status, action, created)
+
+    @classmethod
+    def loaded(cls, board: Pc2Board, name: str, *, created: bool = False) -> Pc2Master:
+        """An emulated board this process holds (loaded from its state file, or served
+        by it), reached through its registers as any other."""
+        return cls.over(
+            Pc2Driver(EmulatedPort(board)), name, action=LoadedBoard(board), created=created
+        )
 
     def summary(self) -> str:
         return control_summary(self.transport.driver)

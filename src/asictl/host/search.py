@@ -19,9 +19,10 @@ from collections.abc import Callable
 from pathlib import Path
 
 from asictl.errors import ExitCode, UserError
-from asictl.host.boards import emulated_board, parse_port, port_name, state_file
-from asictl.host.driver import BlockPortIO, DevPort, EmulatedPort, PortIO
-from asictl.host.locking import LockBusy
+from asictl.host.emulated.boards import emulated_board, state_file
+from asictl.host.emulated.locking import LockBusy
+from asictl.host.transports.driver import BlockPortIO, DevPort, EmulatedPort, PortIO
+from asictl.host.transports.ports import parse_port, port_name
 from asictl.platform.pc2 import IO_BASES, PORT_DATA
 
 AUTO = "auto"

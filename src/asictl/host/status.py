@@ -22,10 +22,12 @@ from enum import IntEnum
 from typing import Any, assert_never
 
 from asictl.errors import ExitCode, UserError
-from asictl.host.driver import Pc2Driver
+from asictl.host.cycle_units import other_reading, raw_value
 from asictl.host.force_list import ForcedValue, entries_from_json, forced_values
-from asictl.host.jobs import JobError, JobStatus
+from asictl.host.raw_image import foreign_eeprom
 from asictl.host.transfer import Pc2Transport, Transport, upload, upload_head
+from asictl.host.transports.driver import Pc2Driver
+from asictl.host.transports.jobs import JobError, JobStatus
 from asictl.il import ast
 from asictl.image.eeprom import MAGIC, ProgramImage
 from asictl.observe.operands import Operand, image_symbols, parse_operand
@@ -257,7 +259,9 @@ def read_program(transport: Transport) -> StoredProgram:
     """Upload (53) the image in the EEPROM and describe it."""
     head = upload_head(transport)  # read once: the check here, and the upload's start
     if head[: len(MAGIC)] != MAGIC:
-        return StoredProgram(ProgramInfo(present=False, valid=False, problem="no program image"))
+        return StoredProgram(ProgramInfo(
+            present=False, valid=False, problem=foreign_eeprom(transport, head)
+        ))
     try:
         image = upload(transport, head)
     except JobError as exc:
@@ -624,6 +628,36 @@ def symbol_text(status: MasterStatus) -> list[str]:
     return ["symbols  " + ", ".join(parts)]
 
 
+def status_events(old: MasterStatus, new: MasterStatus) -> list[str]:
+    """What changed between two readings, as the monitor's and the web page's event logs
+    say it."""
+    events = []
+    if old.phase != new.phase:
+        events.append(f"phase: {new.phase}")
+    if old.mode != new.mode:
+        events.append(f"{new.mode} mode")
+    if old.config_ok != new.config_ok:
+        if new.config_ok:
+            events.append("config ok")
+        else:
+            why = [f"{n} missing" for n in new.missing]
+            why += [f"{n} not projected" for n in new.unexpected]
+            why += [f"{w.slave} wrong profile" for w in new.wrong_profile]
+            events.append("configuration error" + (f": {', '.join(why)}" if why else ""))
+    if (old.control_state, stop_text(old)) != (new.control_state, stop_text(new)):
+        stopped = stop_text(new)
+        events.append(f"control program {new.control_state}" + (f" ({stopped})" if stopped else ""))
+    joined = sorted(set(new.lds) - set(old.lds))
+    left = sorted(set(old.lds) - set(new.lds))
+    if joined:
+        events.append(f"slaves detected: {', '.join(map(str, joined))}")
+    if left:
+        events.append(f"slaves lost: {', '.join(map(str, left))}")
+    if old.program.identity != new.program.identity and new.program.present:
+        events.append(f"program {new.program.identity or 'invalid'}")
+    return events
+
+
 def render(status: MasterStatus) -> str:
     """A text screen: flags on top, the slave lists below, the control program last."""
     s = status
@@ -675,7 +709,8 @@ def render(status: MasterStatus) -> str:
         f"control  {control}",
         f"flags    {s.control_flags:02X}h " + (" ".join(set_flags) or "(none)"),
         f"program  {program} ({s.program_status})",
-        (f"cycle    {s.cycle_time_ms:.1f} ms (max {s.max_cycle_time_ms:.1f} ms)"
+        (f"cycle    {s.cycle_time_ms:.1f} ms (max {s.max_cycle_time_ms:.1f} ms) in 10 µs "
+         "units; " + other_reading(raw_value(s.cycle_time_ms), raw_value(s.max_cycle_time_ms))
          if s.cycle_times_known else "cycle    n/a (the gateway does not report them)"),
         f"hi-flags {s.hi_flags:02X}h {hi_flag_text(s.hi_flags)}",
         *timer_text(s),

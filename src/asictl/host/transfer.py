@@ -19,8 +19,8 @@ from enum import Enum
 from typing import Protocol
 
 from asictl.errors import ExitCode, UserError
-from asictl.host.driver import Pc2Driver
-from asictl.host.jobs import JobError, JobStatus
+from asictl.host.transports.driver import Pc2Driver
+from asictl.host.transports.jobs import JobError, JobStatus
 from asictl.image.eeprom import (
     HEADER_SIZE,
     MAGIC,
@@ -47,7 +47,7 @@ from asictl.runtime.firmware import FIRMWARE_BLOCKS
 #: What the first write of a download puts over the magic.
 _NO_MAGIC = bytes(len(MAGIC))
 #: Flags the host may write with command 50; the others read back but are the master's.
-_WRITABLE_FLAGS = ~(ControlFlag.CONTROL_ACTIVE | ControlFlag.RESET) & 0xFF
+WRITABLE_FLAGS = ~(ControlFlag.CONTROL_ACTIVE | ControlFlag.RESET) & 0xFF
 
 Progress = Callable[[int], None]
 
@@ -225,10 +225,15 @@ def _start_flag(transport: Transport, start: StartMode) -> int:
 # --------------------------------------------------------------------------- upload
 
 
-def upload_head(transport: Transport) -> bytes:
-    """The EEPROM's first bytes: at least the whole header, however small the
+def head_size(transport: Transport) -> int:
+    """How many bytes ``upload_head`` reads: at least the whole header, however small the
     transport's blocks (16 on a gateway), and a whole block if it is larger."""
-    return transport.read_eeprom(0, max(HEADER_SIZE, transport.block_size))
+    return max(HEADER_SIZE, transport.block_size)
+
+
+def upload_head(transport: Transport) -> bytes:
+    """The EEPROM's first ``head_size`` bytes."""
+    return transport.read_eeprom(0, head_size(transport))
 
 
 def upload(transport: Transport, head: bytes | None = None) -> ProgramImage:
@@ -262,13 +267,13 @@ def upload(transport: Transport, head: bytes | None = None) -> ProgramImage:
 
 def set_start(transport: Transport, *, start: bool) -> int:
     """Set or clear the start flag, keeping the other flags: ACF's /s+ and /s-."""
-    flags = transport.control_flags() & _WRITABLE_FLAGS & ~ControlFlag.START
+    flags = transport.control_flags() & WRITABLE_FLAGS & ~ControlFlag.START
     return transport.write_control_flags(flags | (ControlFlag.START if start else 0))
 
 
 def reset(transport: Transport) -> int:
     """The reset bit: reload the program from the EEPROM and clear its flags."""
-    return _load(transport, transport.control_flags() & _WRITABLE_FLAGS)
+    return _load(transport, transport.control_flags() & WRITABLE_FLAGS)
 
 
 def _load(transport: Transport, flags: int) -> int:

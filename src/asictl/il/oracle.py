@@ -20,13 +20,10 @@ from asictl.il.language import TC_MAX_VALUE as TC_MAX
 from asictl.il.loader import Program
 from asictl.readers.units import timer_ticks
 from asictl.runtime.firmware import FirmwareServices
+from asictl.runtime.runner import CycleTimeout
 
 #: The operand kinds, as the patterns below name them.
 K = ast.OperandKind
-
-
-class CycleTimeout(Exception):
-    """The program ran longer than its cycle budget (an endless loop)."""
 
 
 @dataclass

@@ -19,11 +19,7 @@ from lark import Token
 
 from asictl.diagnostics import Span
 from asictl.il import ast
-from asictl.platform.master import IO_CODE_BITS
-
-#: The AS-i I/O codes by their letters, D0 first (``iiio`` = 1); only the codes AS-i defines
-#: with letters (F, tristate, is written as a number).
-IO_CODES = {letters: code for code, letters in enumerate(IO_CODE_BITS) if "t" not in letters}
+from asictl.platform.master import IO_CODES
 
 TRUE_WORDS = frozenset({"yes", "on", "true"})
 

@@ -59,11 +59,10 @@ _CONSTANTS = (ast.OperandKind.KT, ast.OperandKind.KC, ast.OperandKind.KB, ast.Op
 
 def _instruction(statement: ast.Statement) -> str:
     text = statement.to_source()
-    words = text.upper().split(" ")
-    operator = words[0]
+    operator = text.upper().split(" ")[0]
     entry = INSTRUCTIONS.get(operator)
-    if operator == "L" and len(words) > 1:
-        entry = CONSTANT_LOADS.get(words[1], entry)
+    if isinstance(statement, ast.Load):
+        entry = CONSTANT_LOADS.get(statement.operand.kind.value, entry)
     if entry is None:
         return f"`{text}`"
     extra = ""
@@ -73,9 +72,8 @@ def _instruction(statement: ast.Statement) -> str:
     return f"**{operator}** `{entry.syntax}`: {entry.meaning}{extra}"
 
 
-def _mark(operand: object) -> str:
-    text = str(operand).split(" ")[0].upper()
-    entry = OPERANDS.get(text)
+def _mark(operand: ast.Operand) -> str:
+    entry = OPERANDS.get(operand.kind.value.upper())
     return f"`{entry.syntax}`: {entry.meaning}" if entry else ""
 
 

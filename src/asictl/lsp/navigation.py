@@ -13,7 +13,7 @@ from typing import assert_never
 from asictl.diagnostics import Span
 from asictl.il import ast
 from asictl.il.format import operator_length
-from asictl.il.references import Occurrence, Role
+from asictl.il.references import Role
 from asictl.lsp.documents import Analysis
 
 
@@ -40,10 +40,6 @@ def references(
         for o in analysis.index.of(found[0].symbol)
         if declarations or o.role not in (Role.DEFINE, Role.DECLARE)
     ]
-
-
-def occurrences_at(analysis: Analysis, file: str, line: int, column: int) -> list[Occurrence]:
-    return analysis.index.at(file, line, column)
 
 
 # ------------------------------------------------------------------ what is where

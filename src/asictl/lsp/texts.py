@@ -11,6 +11,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from asictl.platform.master import IO_CODES
+
 
 @dataclass(frozen=True)
 class Entry:
@@ -120,10 +122,7 @@ OPTIONS: dict[str, Entry] = {
 OPTION_VALUES = ("yes", "no", "on", "off", "true", "false")
 
 #: The letters of each AS-i I/O code, D0 first (§3.2); F has no letters (tristate).
-IO_LETTERS = (
-    "iiii", "iiio", "iiib", "iioo", "iibb", "iooo", "ibbb", "bbbb", "oooo", "oooi", "ooob",
-    "ooii", "oobb", "oiii", "obbb",
-)
+IO_LETTERS = tuple(IO_CODES)
 
 
 def io_code_text(code: int) -> str:

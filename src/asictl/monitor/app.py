@@ -40,9 +40,10 @@ from textual.widgets import Footer, Input, RichLog, Static
 
 from asictl.errors import UserError
 from asictl.host.commissioning import Change, check_address, image_changes, write_flags
-from asictl.host.emulated import parse_address, parse_number, parse_profile
+from asictl.host.emulated.actions import parse_address, parse_number, parse_profile
 from asictl.host.force_list import Entry, forced_values
 from asictl.host.forcing import force, unforce
+from asictl.host.listing import Listing, listing_of
 from asictl.host.master import Master
 from asictl.host.status import (
     MasterStatus,
@@ -53,18 +54,20 @@ from asictl.host.status import (
     hi_flag_text,
     operand_value,
     profile_text,
+    status_events,
     stop_text,
     symbol_text,
     timer_text,
 )
 from asictl.host.symbols import Names
 from asictl.host.watch import Watched, watch_list
+from asictl.il import ast
 from asictl.il.ast import OperandKind
 from asictl.monitor.keys import KEYS
-from asictl.monitor.program import Listing, heading, listing_of, render_rows
+from asictl.monitor.program import heading, render_rows
 from asictl.monitor.source import MonitorSource, Snapshot, toggle_start
 from asictl.observe.online import CycleLines
-from asictl.observe.operands import Assignment, parse_assignment
+from asictl.observe.operands import Assignment, Operand, parse_assignment, parse_operand
 from asictl.platform.display import LEDS, Display
 from asictl.platform.master import IO_CODE_BITS, SLAVES
 from asictl.platform.pc2 import HiFlag
@@ -74,8 +77,6 @@ REFRESH_S = 0.25
 _LIST_LETTERS = {"LPS": "P", "LDS": "D", "LAS": "A", "LCS": "C", "LOS": "O"}
 #: The screen's layouts, by the terminal's size (``layout_for``).
 LAYOUTS = ("wide", "medium", "narrow")
-#: The right-hand panel's width (the flag bytes' hex dump and a border).
-PANEL_WIDTH = 62
 #: The grid's forms, the most compact first: slaves a row, and whether a slave's list
 #: letters stand beside its data (one line a row) or under it (two).
 GRID_FORMS = ((8, True), (8, False), (4, True), (4, False), (2, True), (2, False))
@@ -333,7 +334,7 @@ class MonitorApp(App[None]):
         ):
             self.refresh_bindings()  # the panel's keys come and go with the gateway
         if old is not None and snapshot.status is not None:
-            for event in _changes(old, snapshot.status):
+            for event in status_events(old, snapshot.status):
                 if self.emulated and event.startswith("configuration error"):
                     event += " (an emulated cable: 'asictl bus match' plugs in the [SETUP])"
                 self.log_event(event)
@@ -806,35 +807,6 @@ def _flag(text: str) -> list[Change]:
     return image_changes(assignment)
 
 
-def _changes(old: MasterStatus, new: MasterStatus) -> list[str]:
-    """What the event log says between two refreshes."""
-    events = []
-    if old.phase != new.phase:
-        events.append(f"phase: {new.phase}")
-    if old.mode != new.mode:
-        events.append(f"{new.mode} mode")
-    if old.config_ok != new.config_ok:
-        if new.config_ok:
-            events.append("config ok")
-        else:
-            why = [f"{n} missing" for n in new.missing]
-            why += [f"{n} not projected" for n in new.unexpected]
-            why += [f"{w.slave} wrong profile" for w in new.wrong_profile]
-            events.append("configuration error" + (f": {', '.join(why)}" if why else ""))
-    if (old.control_state, stop_text(old)) != (new.control_state, stop_text(new)):
-        stopped = stop_text(new)
-        events.append(f"control program {new.control_state}" + (f" ({stopped})" if stopped else ""))
-    joined = sorted(set(new.lds) - set(old.lds))
-    left = sorted(set(old.lds) - set(new.lds))
-    if joined:
-        events.append(f"slaves detected: {', '.join(map(str, joined))}")
-    if left:
-        events.append(f"slaves lost: {', '.join(map(str, left))}")
-    if old.program.identity != new.program.identity and new.program.present:
-        events.append(f"program {new.program.identity or 'invalid'}")
-    return events
-
-
 def _top(
     status: MasterStatus, *, gone: str | None, seen_at: float = 0.0,
     served_by: str | None = None, took_over: float | None = None,
@@ -937,10 +909,11 @@ def _detail(status: MasterStatus, selected: int) -> Text:
 
 def _slave_of(operand: str) -> int | None:
     """The slave an input or output operand's text names ('I 4.0', 'Q 17'), else None."""
-    kind, _, where = operand.partition(" ")
-    if kind not in ("I", "Q") or not where.split(".")[0].isdigit():
+    try:
+        node = parse_operand(operand).node
+    except ValueError:
         return None
-    return int(where.split(".")[0])
+    return node.address if node.kind in (OperandKind.I, OperandKind.Q) else None
 
 
 def _forced_slaves(status: MasterStatus) -> set[int]:
@@ -992,11 +965,24 @@ def _right(status: MasterStatus) -> Text:
     return panel + Text("\n".join(lines))
 
 
-def _held(operand: str, forced: set[str]) -> bool:
+#: The whole a bit of these kinds is forced with: its slave's data bits, its flag byte.
+_WHOLE = {
+    OperandKind.I: (OperandKind.I, ast.Width.NIBBLE),
+    OperandKind.Q: (OperandKind.Q, ast.Width.NIBBLE),
+    OperandKind.F: (OperandKind.FY, ast.Width.BYTE),
+}
+
+
+def _held(operand: Operand, forced: set[str]) -> bool:
     """The operand is forced: itself, or the slave or flag byte its bit is in (``Q 17``
     holds ``Q 17.3``, ``FY 10`` holds ``F 10.0``)."""
-    whole = operand.split(".")[0]
-    return operand in forced or whole in forced or whole.replace("F ", "FY ", 1) in forced
+    node = operand.node
+    if str(operand) in forced:
+        return True
+    whole = _WHOLE.get(node.kind)
+    if whole is None or node.bit < 0:
+        return False
+    return str(ast.Operand(whole[0], node.address, -1, whole[1])) in forced
 
 
 def _watch_view(status: MasterStatus, watched: list[Watched], selected: int) -> Text:
@@ -1017,7 +1003,7 @@ def _watch_view(status: MasterStatus, watched: list[Watched], selected: int) -> 
             value: int | None = operand_value(status, entry.operand)
         except UserError:
             value = None
-        held = _held(entry.text, forced)
+        held = _held(entry.operand, forced)
         style = "reverse" if row == selected else ""
         if value is None:
             cells = f"{'n/a':>18}{'':>9}{'':>7}"

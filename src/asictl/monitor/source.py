@@ -30,13 +30,14 @@ from contextlib import ExitStack
 from dataclasses import dataclass
 
 from asictl.errors import UserError
-from asictl.host.boards import lock_file, parse_port, port_name, state_directory
-from asictl.host.connection import MasterAddress, NotServed, connect_master
+from asictl.host.connection import MasterAddress, NotServed, open_board
+from asictl.host.emulated.boards import lock_file, state_directory
+from asictl.host.emulated.locking import is_free, read_holder
 from asictl.host.live.server import background_live
-from asictl.host.locking import is_free, read_holder
 from asictl.host.master import Master
 from asictl.host.status import MasterStatus, StoredProgram, read_program
 from asictl.host.transfer import set_start
+from asictl.host.transports.ports import parse_port, port_name
 from asictl.observe.online import CycleLines
 from asictl.platform.master import ControlFlag
 
@@ -113,7 +114,7 @@ class MonitorSource:
 
     def _read(self, events: list[str]) -> Snapshot:
         """One refresh; ``NotServed`` if nobody keeps the emulated board running."""
-        with connect_master(
+        with open_board(
             self.address, notify=self.notify, live_only=self.emulated_port
         ) as master:
             emulated = master.action is not None
@@ -211,7 +212,7 @@ class MonitorSource:
     def run(self, what: str, action: Callable[[Master], str | None]) -> str:
         """Do ``action`` on the master; a line for the event log, failures included."""
         try:
-            with self._turn, connect_master(
+            with self._turn, open_board(
                 self.address, notify=self.notify, live_only=self.emulated_port
             ) as master:
                 result = action(master)

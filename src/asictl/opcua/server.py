@@ -25,7 +25,6 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import hmac
-import ipaddress
 import logging
 from collections.abc import Awaitable, Callable
 from dataclasses import dataclass, replace
@@ -41,12 +40,12 @@ from asyncua.ua.status_codes import StatusCodes
 from asyncua.ua.uaerrors._base import UaStatusCodeError
 
 from asictl.errors import ExitCode, UserError
-from asictl.host.driver import EmulatedPort, Pc2Driver
-from asictl.host.emulated import LoadedBoard, run_action
+from asictl.host.emulated.actions import run_action
 from asictl.host.live.board import LiveBoard
-from asictl.host.pc2_master import Pc2Master
-from asictl.host.status import MasterStatus, StoredProgram, read_program
+from asictl.host.live.status_reader import LiveStatus
+from asictl.host.status import MasterStatus, StoredProgram
 from asictl.host.transfer import set_start
+from asictl.host.transports.target import is_loopback
 from asictl.observe.operands import Operand, image_symbols, parse_operand
 from asictl.observe.symbols import SymbolTable
 from asictl.observe.view import host_write, read_on_board, wake
@@ -82,15 +81,6 @@ class OpcUaOptions:
     def url(self) -> str:
         host = f"[{self.host}]" if ":" in self.host else self.host
         return f"opc.tcp://{host}:{self.port}/asictl/"
-
-
-def is_loopback(host: str) -> bool:
-    if host == "localhost":
-        return True
-    try:
-        return ipaddress.ip_address(host).is_loopback
-    except ValueError:
-        return False
 
 
 def check_access(options: OpcUaOptions) -> None:
@@ -134,11 +124,8 @@ class BoardSpace:
 
     def __init__(self, server: Server, live: LiveBoard, name: str, options: OpcUaOptions) -> None:
         self.server, self.live, self.options = server, live, options
-        board = live.board
-        self.master = Pc2Master.over(Pc2Driver(EmulatedPort(board)), name,
-                                     action=LoadedBoard(board))
-        self.program: StoredProgram | None = None
-        self._loaded: object = None
+        self.reader = LiveStatus(live, name)
+        self.master = self.reader.master
         self.ns = 0
         #: node id -> (node, variant type, last value written)
         self.values: dict[str, tuple[Node, ua.VariantType, Any]] = {}
@@ -211,15 +198,13 @@ class BoardSpace:
                 await self.variable(folder, f"Symbol.{name}", name,
                                     read_on_board(self.live.board, operand), V.Int32)
 
+    @property
+    def program(self) -> StoredProgram | None:
+        return self.reader.program
+
     def read(self) -> MasterStatus:
         """The status now (the program re-read only when the board loaded another)."""
-        board = self.live.board
-        if self.program is None or board.loaded_image is not self._loaded:
-            self.program = read_program(self.master.transport)
-            self._loaded = board.loaded_image
-        quick = self.master.quick_status
-        assert quick is not None  # a PC2 master has one
-        return quick(self.program)
+        return self.reader.read()
 
     async def _timers_and_counters(self, status: MasterStatus) -> None:
         assert self.timers is not None and self.counters is not None

@@ -3,7 +3,7 @@ and the serial settings and slave addresses it can be set to (5.6).
 
 Register numbers are Modbus PDU addresses: the manual's "41001" is holding register 1000.
 The emulated gateway (``gateway.addressmap``) serves this map and the Modbus transport
-(``host.modbus``) reads and writes it, so both take the numbers from here.
+(``host.transports.modbus``) reads and writes it, so both take the numbers from here.
 """
 
 from __future__ import annotations

@@ -52,6 +52,9 @@ IO_CODE_BITS = (
     "iiii", "iiio", "iiib", "iioo", "iibb", "iooo", "ibbb", "bbbb",
     "oooo", "oooi", "ooob", "ooii", "oobb", "oiii", "obbb", "tttt",
 )
+#: The I/O codes written as letters, by their letters (``iiio`` = 1); F, tristate, has
+#: none and is written as a number.
+IO_CODES = {letters: code for code, letters in enumerate(IO_CODE_BITS) if "t" not in letters}
 
 
 class ControlFlag(IntFlag):

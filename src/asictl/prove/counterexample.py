@@ -17,8 +17,9 @@ from pathlib import Path
 import z3
 
 from asictl.il import ast
+from asictl.observe.condition import Expr, Negation, refs
 from asictl.prove.engine import Outcome, Step, Verdict, condition
-from asictl.prove.props import Expr, Kind, Negation, Properties, Property, refs
+from asictl.prove.props import Kind, Properties, Property
 from asictl.sim.scenario import SlaveSpec
 from asictl.sim.scenario_writer import ScenarioWriter
 

@@ -20,9 +20,10 @@ from asictl.il import ast
 from asictl.il.ast import key
 from asictl.il.loader import Program
 from asictl.il.pragmas import read_directives
+from asictl.observe.condition import Truth
 from asictl.platform.master import asi_cycle_us
 from asictl.prove.engine import Machine, Outcome, Setup, Step, Verdict
-from asictl.prove.props import Kind, Property, Truth
+from asictl.prove.props import Kind, Property
 from asictl.prove.session import cycles_of
 from asictl.prove.symbolic import (
     Key,

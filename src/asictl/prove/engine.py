@@ -35,19 +35,21 @@ import z3
 from asictl.il import ast
 from asictl.il.language import TC_MAX_VALUE
 from asictl.il.loader import Program
-from asictl.platform.master import TICK_US
-from asictl.prove.props import (
+from asictl.observe.condition import (
     Comparison,
     Connective,
+    Duration,
     Expr,
-    Kind,
     Negation,
     Number,
-    Property,
     Ref,
+    Register,
     Truth,
+    is_condition,
     refs,
 )
+from asictl.platform.master import TICK_US
+from asictl.prove.props import Kind, Property
 from asictl.prove.symbolic import (
     CONSTANT,
     TICK,
@@ -114,14 +116,25 @@ class Outcome:
 
 
 def _value(expr: Expr, read: Callable[[ast.Operand], z3.BitVecRef]) -> z3.BitVecRef:
-    if isinstance(expr, Number):
-        return z3.BitVecVal(expr.value & 0xFFFFFFFF, 32)
-    assert isinstance(expr, Ref)
-    return read(expr.operand.node)
+    match expr:
+        case Number(value=number) | Duration(ms=number):
+            return z3.BitVecVal(number, 32)
+        case Ref():
+            return read(expr.operand.node)
+        case _:
+            return z3.If(condition(expr, read), z3.BitVecVal(1, 32), z3.BitVecVal(0, 32))
+
+
+_COMPARE: dict[str, Callable[[z3.BitVecRef, z3.BitVecRef], z3.BoolRef]] = {
+    "==": lambda x, y: x == y, "!=": lambda x, y: x != y, "<": z3.ULT, "<=": z3.ULE,
+    ">": z3.UGT, ">=": z3.UGE,
+}
 
 
 def condition(expr: Expr, read: Callable[[ast.Operand], z3.BitVecRef]) -> z3.BoolRef:
-    """An expression of a properties file on one state (``read`` gives an operand's value)."""
+    """A condition (``observe/condition.py``) on one state, as the prover's term: the
+    translation of what ``observe.condition.holds`` computes on concrete values (``read``
+    gives an operand's value). Values are unsigned 32-bit, as no operand goes beyond."""
     match expr:
         case Ref():
             result: z3.BoolRef = read(expr.operand.node) == 1
@@ -130,21 +143,24 @@ def condition(expr: Expr, read: Callable[[ast.Operand], z3.BitVecRef]) -> z3.Boo
             return z3.BoolVal(value)
         case Negation(arg=arg):
             return z3.Not(condition(arg, read))
-        case Connective(op=op, left=left, right=right):
-            a, b = condition(left, read), condition(right, read)
-            return z3.And(a, b) if op == "and" else z3.Or(a, b) if op == "or" else z3.Xor(a, b)
-        case Comparison(op=op, left=left, right=right) if not (
-                isinstance(left, Ref | Number) and isinstance(right, Ref | Number)):
+        case Connective(op=op, parts=parts):
+            terms = [condition(part, read) for part in parts]
+            if op == "and":
+                return z3.And(*terms)
+            if op == "or":
+                return z3.Or(*terms)
+            odd = terms[0]
+            for term in terms[1:]:
+                odd = z3.Xor(odd, term)
+            return odd
+        case Comparison(op="==" | "!=" as op, left=left, right=right) if is_condition(
+                left) and is_condition(right):
             p, q = condition(left, read), condition(right, read)  # two conditions
             return p == q if op == "==" else z3.Xor(p, q)
         case Comparison(op=op, left=left, right=right):
-            x, y = _value(left, read), _value(right, read)
-            compare = {"==": lambda: x == y, "!=": lambda: x != y, "<": lambda: z3.ULT(x, y),
-                       "<=": lambda: z3.ULE(x, y), ">": lambda: z3.UGT(x, y),
-                       ">=": lambda: z3.UGE(x, y)}
-            return compare[op]()
-        case Number():
-            raise AssertionError("a number is no condition")
+            return _COMPARE[op](_value(left, read), _value(right, read))
+        case Number() | Duration() | Register():
+            raise AssertionError(f"{expr} is no condition of a property")
 
 
 def watched_cells(exprs: Iterable[Expr], map_counters: bool) -> list[Key]:

@@ -3,11 +3,10 @@ eventually do, and what its environment guarantees.
 
 The file is TOML; its ``program`` line and ``[master]`` table mean what they mean in a
 scenario (``sim.scenario.read_master`` reads ``[master]`` for both, so the two cannot
-drift). Expressions are written in the scenario's operand names (``I 1.0``,
-``QB 16``, ``CV 0``, ``TV 1``, symbols) with ``and or xor not``, parentheses, ``== !=
-< <= > >=`` on values (``==`` and ``!=`` also on two conditions), and numbers as
-``read_number`` reads them (``12``, ``0x0C``, ``0b1100``). Every mistake is a
-diagnostic at its line and column, with a caret.
+drift). Properties and ``[assume]`` are conditions (``observe/condition.py``,
+docs/conditions.md), over the program's operands and symbols. Every mistake is a
+diagnostic at its line and column, with a caret; one inside a condition points at the
+offending token inside the string (E410).
 
 Nothing here needs z3: a properties file is checked before the prover starts.
 """
@@ -21,8 +20,8 @@ from enum import StrEnum
 from pathlib import Path
 
 from asictl.codes import ScenarioCode
-from asictl.diagnostics import DiagnosticError, Reporter, Span
-from asictl.observe.operands import Operand, parse_operand, read_number
+from asictl.diagnostics import DiagnosticError, Reporter
+from asictl.observe.condition import ConditionError, Expr, parse_expression, show
 from asictl.observe.symbols import SymbolTable
 from asictl.readers.tomlfile import Document, KeyPath, read_toml
 from asictl.readers.units import UnitError, parse_cycles
@@ -40,239 +39,6 @@ class Kind(StrEnum):
     ALWAYS = "always"
     REACHABLE = "reachable"
     RESPONSE = "when"
-
-
-# ---------------------------------------------------------------------- expressions
-
-
-@dataclass(frozen=True)
-class Ref:
-    """An operand, as written."""
-
-    operand: Operand
-    text: str
-
-
-@dataclass(frozen=True)
-class Number:
-    value: int
-
-
-@dataclass(frozen=True)
-class Truth:
-    value: bool
-
-
-@dataclass(frozen=True)
-class Negation:
-    arg: Expr
-
-
-@dataclass(frozen=True)
-class Connective:
-    op: str  # and, or, xor
-    left: Expr
-    right: Expr
-
-
-@dataclass(frozen=True)
-class Comparison:
-    op: str  # == != < <= > >=
-    left: Expr
-    right: Expr
-
-
-Expr = Ref | Number | Truth | Negation | Connective | Comparison
-
-
-def is_condition(expr: Expr) -> bool:
-    """True or false (a bit, a comparison, a combination of them), not a value."""
-    if isinstance(expr, Ref):
-        return expr.operand.is_bit
-    return not isinstance(expr, Number)
-
-
-def refs(expr: Expr) -> list[Ref]:
-    """The operands an expression reads, in order."""
-    match expr:
-        case Ref():
-            return [expr]
-        case Number() | Truth():
-            return []
-        case Negation(arg=arg):
-            return refs(arg)
-        case Connective(left=left, right=right) | Comparison(left=left, right=right):
-            return refs(left) + refs(right)
-
-
-def show(expr: Expr) -> str:
-    """The expression written back (fully parenthesised where it combines)."""
-    match expr:
-        case Ref(text=text):
-            return text
-        case Number(value=value):
-            return str(value)
-        case Truth(value=value):
-            return "true" if value else "false"
-        case Negation(arg=arg):
-            return f"not {show(arg)}"
-        case Connective(op=op, left=left, right=right) | Comparison(op=op, left=left, right=right):
-            return f"({show(left)} {op} {show(right)})"
-
-
-_TOKEN = re.compile(r"\s*(?:(?P<paren>[()])|(?P<rel>==|!=|<=|>=|<|>)|(?P<word>[A-Za-z0-9_.]+))")
-_KEYWORDS = ("and", "or", "xor", "not", "true", "false")
-
-
-class _ExprError(Exception):
-    def __init__(self, message: str, offset: int) -> None:
-        super().__init__(message)
-        self.offset = offset
-
-
-@dataclass
-class _Token:
-    kind: str  # paren, rel, word, key, end
-    text: str
-    offset: int
-
-
-def _tokens(text: str) -> list[_Token]:
-    tokens: list[_Token] = []
-    pos = 0
-    while pos < len(text):
-        if not text[pos:].strip():
-            break
-        match = _TOKEN.match(text, pos)
-        if match is None or match.end() == pos:
-            start = len(text) - len(text[pos:].lstrip())
-            raise _ExprError(f"unexpected character '{text[start]}'", start)
-        kind = match.lastgroup or "word"
-        value, start = match[kind], match.start(kind)
-        if kind == "word" and value.lower() in _KEYWORDS:
-            kind = "key"
-        tokens.append(_Token(kind, value, start))
-        pos = match.end()
-    tokens.append(_Token("end", "", len(text)))
-    return tokens
-
-
-class _Parser:
-    def __init__(self, text: str, variables: Mapping[str, int] | None,
-                 symbols: SymbolTable | None) -> None:
-        self.text = text
-        self.tokens = _tokens(text)
-        self.at = 0
-        self.variables = variables
-        self.symbols = symbols
-
-    @property
-    def token(self) -> _Token:
-        return self.tokens[self.at]
-
-    def keyword(self, word: str) -> bool:
-        if self.token.kind == "key" and self.token.text.lower() == word:
-            self.at += 1
-            return True
-        return False
-
-    def parse(self) -> Expr:
-        expr = self.binary(0)
-        if self.token.kind != "end":
-            raise _ExprError(f"unexpected '{self.token.text}' (expected and, or, xor or the "
-                             "end)", self.token.offset)
-        return expr
-
-    _LEVELS = ("or", "xor", "and")
-
-    def binary(self, level: int) -> Expr:
-        if level == len(self._LEVELS):
-            return self.negation()
-        word = self._LEVELS[level]
-        start = self.token.offset
-        left = self.binary(level + 1)
-        while True:
-            offset = self.token.offset
-            if not self.keyword(word):
-                return left
-            right = self.binary(level + 1)
-            for side, at in ((left, start), (right, offset)):
-                if not is_condition(side):
-                    raise _ExprError(f"'{word}' combines conditions: compare the value "
-                                     f"{show(side)} (such as {show(side)} == 1)", at)
-            left = Connective(word, left, right)
-
-    def negation(self) -> Expr:
-        offset = self.token.offset
-        if self.keyword("not"):
-            arg = self.negation()
-            if not is_condition(arg):
-                raise _ExprError(f"'not' negates a condition, not the value {show(arg)}",
-                                 offset)
-            return Negation(arg)
-        return self.comparison()
-
-    def comparison(self) -> Expr:
-        start = self.token.offset
-        left = self.atom()
-        if self.token.kind != "rel":
-            return left
-        op, offset = self.token.text, self.token.offset
-        self.at += 1
-        right = self.atom()
-        if op in ("==", "!=") and is_condition(left) and is_condition(right):
-            pass  # two conditions: equal (the same truth) or not
-        else:
-            for side in (left, right):
-                if isinstance(side, Truth | Negation | Connective | Comparison):
-                    raise _ExprError(f"'{op}' compares values (operands and numbers), not "
-                                     f"{show(side)}",
-                                     start if side is left else offset + len(op))
-        if self.token.kind == "rel":
-            raise _ExprError("comparisons do not chain: combine them with 'and'",
-                             self.token.offset)
-        return Comparison(op, left, right)
-
-    def atom(self) -> Expr:
-        token = self.token
-        if token.kind == "paren" and token.text == "(":
-            self.at += 1
-            inner = self.binary(0)
-            if not (self.token.kind == "paren" and self.token.text == ")"):
-                raise _ExprError("expected ')'", self.token.offset)
-            self.at += 1
-            return inner
-        if token.kind == "key" and token.text.lower() in ("true", "false"):
-            self.at += 1
-            return Truth(token.text.lower() == "true")
-        if token.kind != "word":
-            what = "the end" if token.kind == "end" else f"'{token.text}'"
-            raise _ExprError(f"expected an operand, a number or '(', found {what}",
-                             token.offset)
-        words = []
-        while self.token.kind == "word":
-            words.append(self.token)
-            self.at += 1
-        written = self.text[words[0].offset:words[-1].offset + len(words[-1].text)]
-        if len(words) == 1 and words[0].text[:1].isdigit() and "." not in words[0].text:
-            try:
-                return Number(read_number(written))
-            except ValueError as exc:
-                raise _ExprError(str(exc), token.offset) from None
-        try:
-            operand = parse_operand(written, self.variables, self.symbols)
-        except ValueError as exc:
-            raise _ExprError(str(exc), token.offset) from None
-        return Ref(operand, written)
-
-
-def parse_expression(text: str, variables: Mapping[str, int] | None = None,
-                     symbols: SymbolTable | None = None) -> Expr:
-    """An expression; ``ValueError`` whose ``args[1]`` is the offset of the mistake."""
-    try:
-        return _Parser(text, variables, symbols).parse()
-    except _ExprError as exc:
-        raise ValueError(str(exc), exc.offset) from None
 
 
 # ---------------------------------------------------------------------- the file
@@ -347,27 +113,18 @@ def read_properties(
             reading.error("program is a file name", ("program",))
     cycle_ms, slaves = read_master(document, reading.report, ScenarioCode.PROPERTIES)
 
-    def expression(value: object, path: KeyPath, condition: bool = True) -> Expr | None:
+    def expression(value: object, path: KeyPath) -> Expr | None:
         key = next(str(p) for p in reversed(path) if isinstance(p, str))
         if not isinstance(value, str):
             reading.error(f"{key} is an expression in quotes, such as \"Q 2.0 and not I 1.2\"",
                           path)
             return None
-        start = document.inside(path)
-        line, column = start.line, start.column
         try:
-            expr = parse_expression(value, variables, symbols)
-        except ValueError as exc:
-            offset = exc.args[1] if len(exc.args) > 1 else 0
-            reading.report.error(ScenarioCode.PROPERTIES, str(exc.args[0]),
-                                 Span(source.name, line, column + offset))
+            return parse_expression(value, variables, symbols)
+        except ConditionError as exc:
+            reading.report.error(ScenarioCode.CONDITION, exc.message,
+                                 document.inside(path, exc.offset, exc.length))
             return None
-        if condition and not is_condition(expr):
-            reading.report.error(ScenarioCode.PROPERTIES,
-                                 f"{key} is a condition, not the value {show(expr)} (compare "
-                                 f"it: {show(expr)} == 1)", Span(source.name, line, column))
-            return None
-        return expr
 
     assume: list[Expr] = []
     table = data.get("assume", {})

@@ -26,7 +26,7 @@ from asictl.prove.props import Properties, program_for, read_properties
 from asictl.prove.symbolic import UNROLL, Unmodelled
 from asictl.readers.units import Cycles, UnitError
 from asictl.sim.engine import Simulation, variables_of
-from asictl.sim.scenario import Scenario
+from asictl.sim.scenario import Scenario, scenario_program
 from asictl.source import read_source
 
 
@@ -69,10 +69,12 @@ def load(properties: Path, program: Path | None, lib: tuple[str, ...]) -> tuple[
     """The properties file and the program it is about, both checked."""
     source = read_source(properties)
     try:
-        first = read_properties(source)  # the program line, before variables are known
+        named = read_properties(source).program  # the program line, before its symbols
     except DiagnosticError as exc:
-        raise Invalid(render_text(exc.diagnostics, _texts(properties))) from None
-    program = program or first.program or program_for(properties)
+        if any(d.code is not ScenarioCode.CONDITION for d in exc.diagnostics):
+            raise Invalid(render_text(exc.diagnostics, _texts(properties))) from None
+        named = scenario_program(source)  # the conditions wait for the symbols, below
+    program = program or named or program_for(properties)
     built = build_file(program, lib=lib)
     if built.has_errors or built.program is None:
         raise Invalid(built.render() or f"{program}: no IL program (an image has no source "

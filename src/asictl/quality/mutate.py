@@ -50,8 +50,6 @@ PROVE_SECONDS = 5.0
 PROOF_MARGIN = 5.0
 #: the message of a worker whose mutant passed every scenario: its proof begins
 _PROVING = "proving"
-#: what a verdict may be; killed and timeout count as killed
-VERDICTS = ("killed", "timeout", "survived", "equivalent", "invalid")
 #: the install hint when equivalence cannot be checked (asictl is not on PyPI: the hint
 #: names the package, and the extra for a checkout, as ``errors.missing_extra`` does)
 PROVE_HINT = ("equivalence not checked (install the prove extra: pip install 'z3-solver', "
@@ -92,6 +90,7 @@ class Mutant:
 @dataclass
 class Result:
     mutant: Mutant
+    #: killed, timeout, survived, equivalent or invalid; killed and timeout count as killed
     verdict: str
     #: the scenario that killed it, the reason it is invalid or equivalent
     detail: str = ""

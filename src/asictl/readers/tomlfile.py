@@ -27,6 +27,7 @@ from dataclasses import dataclass, field
 
 from asictl.codes import ScenarioCode
 from asictl.diagnostics import Diagnostic, DiagnosticError, Severity, Span
+from asictl.readers.strings import string_column
 from asictl.readers.suggest import did_you_mean
 
 #: A place in the data: table keys and array indexes from the top.
@@ -62,15 +63,17 @@ class Document:
         else the nearest enclosing place."""
         return self._span(path, self.values, self.keys)
 
-    def inside(self, path: KeyPath) -> Span:
-        """Where the text of the string at ``path`` starts, past its opening quote(s), so
-        that a place inside the string is this column plus its offset (one line, no
-        escapes before it)."""
+    def inside(self, path: KeyPath, offset: int = 0, length: int = 1) -> Span:
+        """Where character ``offset`` of the string at ``path`` stands, past its opening
+        quote(s) and through its escapes (``readers.strings``), covering ``length``
+        characters: a mistake inside a string is shown at its own place."""
         span = self.value(path)
         lines = self.text.split("\n")
         line = lines[span.line - 1] if 0 < span.line <= len(lines) else ""
-        quotes = 3 if line[span.column - 1 : span.column + 2] in ('"""', "'''") else 1
-        return Span(self.name, span.line, span.column + quotes)
+        if line[span.column - 1 : span.column] not in ('"', "'"):
+            return span
+        return Span(self.name, span.line, string_column(line, span.column - 1, offset),
+                    max(length, 1))
 
     def _span(self, path: KeyPath, first: Mapping[KeyPath, Place],
               then: Mapping[KeyPath, Place]) -> Span:

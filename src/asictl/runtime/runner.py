@@ -41,11 +41,7 @@ _SP, _PSW = 0x81, 0xD0
 
 class CycleTimeout(Exception):
     """The program ran past the cycle budget (an endless loop); the master stops it.
-    ``address`` is the jump that closes the loop (else where the program was)."""
-
-    def __init__(self, message: str, address: int) -> None:
-        super().__init__(message)
-        self.address = address
+    The reference interpreter (il/oracle.py) raises it too, for its own budget."""
 
 
 class ProgramRunner:
@@ -142,7 +138,7 @@ class ProgramRunner:
             cpu.xdata.write(pc2.STOP_ADDRESS + 1, address >> 8)
             raise CycleTimeout(
                 f"program cycle longer than {self.budget} machine cycles (loop at "
-                f"{address:04X}h)", address,
+                f"{address:04X}h)"
             )
         if io is not None:
             io.copy_out(cpu.iram, cpu.xdata.ram, self.outputs, flags)

@@ -1,13 +1,15 @@
 """What a scenario sees of the program besides its operands' values (which
 ``Simulation.read`` and ``view`` take from observe.view): when and why the program
 stopped, with the IL line of a cycle time-out and the slaves of a configuration error,
-and which firmware blocks refused (notes, not failures).
+and which firmware blocks refused (notes, not failures). ``Observation`` is the observer
+(sim/observer.py) that notes them.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 from asictl.board.board import Pc2Board
 from asictl.mcs51.emulator import Emulator
@@ -15,6 +17,10 @@ from asictl.observe.locate import current_line, describe
 from asictl.platform import pc2 as d
 from asictl.runtime.firmware import FIRMWARE_BLOCKS
 from asictl.runtime.line_map import LineMap
+from asictl.sim.observer import Observer
+
+if TYPE_CHECKING:  # the result holds the stops and refusals
+    from asictl.sim.result import SimResult
 
 #: Firmware blocks whose PSeg 0 reports success (00h) or a refusal (80h and up).
 _STATUS_BLOCKS = frozenset({"setpp", "getpp", "sendprm", "getpi", "getpcd", "getcdi",
@@ -52,7 +58,7 @@ class Refusal:
         return f"{where}firmware block {self.block} refused (status {self.status:02X}h){more}"
 
 
-class Observation:
+class Observation(Observer):
     """The stops and the refusals of one run on ``board``; ``clock`` is master time
     since time 0 (0 before the first cycle)."""
 
@@ -65,7 +71,10 @@ class Observation:
         self.stops = stops
         self._refusals: dict[tuple[str, str, int], Refusal] = {}
 
-    def stop(self, now: float) -> None:
+    def finish(self, result: SimResult) -> None:
+        result.refusals = self.refusals()
+
+    def stopped(self, now: float) -> None:
         """The program stopped at ``now``: why, and where (a cycle time-out's IL line)."""
         board = self.board
         reason = board.stop_message or board.stop_reason.name
@@ -82,7 +91,7 @@ class Observation:
                 reason += f" ({problems})"
         self.stops.append(Stop(now, reason, where))
 
-    def watch_firmware(self) -> None:
+    def loaded(self) -> None:
         """Note firmware blocks that refuse, at the IL line that called them."""
         runner = self.board.program
         if runner is None:

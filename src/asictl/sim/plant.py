@@ -25,9 +25,9 @@ from dataclasses import dataclass, field
 from typing import ClassVar, Protocol
 
 from asictl.il import ast
+from asictl.observe.condition import Condition, ConditionError
 from asictl.observe.operands import Operand, check_value
 from asictl.readers.units import UnitError, duration_ms
-from asictl.sim.condition import Condition
 
 #: The longest time a model takes (its stroke, a delay): a day, as the longest simulation.
 MAX_MS = 24 * 3_600_000.0
@@ -512,10 +512,13 @@ class Plant:
 
 class Place(Protocol):
     """Where a table came from, for its problems: ``problem`` reports one at a key of the
-    table (None: the table itself); ``operand`` and ``condition`` read texts as the
-    scenario reads operands (symbols and variables too), raising ``ValueError``."""
+    table (None: the table itself), ``condition_problem`` one inside the condition a key
+    holds; ``operand`` and ``condition`` read texts as the scenario reads operands
+    (symbols and variables too), raising ``ValueError`` (``ConditionError``)."""
 
     def problem(self, message: str, key: str | None = None) -> None: ...
+
+    def condition_problem(self, error: ConditionError, key: str) -> None: ...
 
     def operand(self, text: str) -> Operand: ...
 
@@ -760,8 +763,9 @@ def _rule(t: _Table, name: str) -> Model:
         raise t.fail("when is a condition such as \"Q 2.0 and not I 1.2\"", "when")
     try:
         when = t.place.condition(text)
-    except ValueError as exc:
-        raise t.fail(str(exc), "when") from None
+    except ConditionError as exc:
+        t.place.condition_problem(exc, "when")
+        raise _Bad() from None
     values = t.values("set")
     if not values:
         raise t.fail("a rule sets at least one input: set = { \"I 1.0\" = 1 }", "set")

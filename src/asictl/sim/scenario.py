@@ -18,13 +18,12 @@ from pathlib import Path
 
 from asictl.codes import ScenarioCode
 from asictl.diagnostics import DiagnosticError, Reporter
-from asictl.il import ast
-from asictl.il.parser import parse_text
+from asictl.observe.condition import Condition, ConditionError, parse_condition
 from asictl.observe.operands import Operand, check_value, parse_operand
 from asictl.observe.symbols import SymbolTable
+from asictl.readers.profile import read_profile
 from asictl.readers.tomlfile import Document, KeyPath, read_toml
 from asictl.readers.units import UnitError, duration_ms
-from asictl.sim.condition import Condition, parse_condition
 from asictl.sim.plant import Model, Plant, read_model
 from asictl.source import SourceText, read_source
 
@@ -135,21 +134,14 @@ def parse_slave(address: object, spec: object) -> SlaveSpec:
         raise ValueError(f"slave address '{address}' is not a number") from None
     if not isinstance(spec, str):
         raise ValueError(f"slave {number}: expected a string like \"iiio,1\", got {spec!r}")
-    module, diagnostics = parse_text(f"[SETUP]\n{number}: {spec}\n", "<slave>")
-    setup = module.sections_of(ast.SetupSection)
-    if diagnostics or not setup or not setup[0].slaves:
-        raise ValueError(f"slave {number}: '{spec}' is not 'I/O code, ID[, parameter]'")
-    slave = setup[0].slaves[0]
-    problems = [
-        what for what, value in (("I/O code", slave.io_code), ("ID", slave.id_code),
-                                 ("parameter", slave.parameter))
-        if value is not None and not 0 <= value <= 0xF
-    ]
-    if not 1 <= number <= 31 or problems:
-        raise ValueError(f"slave {number}: address 1..31 and {', '.join(problems) or 'codes'} "
-                         "0..F expected")
-    parameter = 0xF if slave.parameter is None else slave.parameter
-    return SlaveSpec(number, slave.io_code, slave.id_code, parameter)
+    if not 1 <= number <= 31:
+        raise ValueError(f"slave {number}: address 1..31 expected")
+    try:
+        profile = read_profile(spec)
+    except ValueError as exc:
+        raise ValueError(f"slave {number}: {exc}") from None
+    parameter = 0xF if profile.parameter is None else profile.parameter
+    return SlaveSpec(number, profile.io_code, profile.id_code, parameter)
 
 
 def _slaves(reading: _Reading, table: object, path: KeyPath) -> list[SlaveSpec]:
@@ -377,6 +369,10 @@ class _PlantPlace:
 
     def problem(self, message: str, key: str | None = None) -> None:
         self.reading.error(message, (*self.path, key) if key else self.path)
+
+    def condition_problem(self, error: ConditionError, key: str) -> None:
+        place = self.reading.document.inside((*self.path, key), error.offset, error.length)
+        self.reading.report.error(ScenarioCode.CONDITION, error.message, place)
 
     def operand(self, text: str) -> Operand:
         return parse_operand(text, self.reading.variables, self.reading.symbols)

@@ -1,6 +1,7 @@
-"""What a simulation records as it runs: the signals of its trace (``--trace``) and the
-per-line IL trace (``--trace-il``). sim.trace is the trace itself and its three forms
-(VCD, CSV, a timing diagram).
+"""What a simulation records as it runs, as two observers (sim/observer.py): the
+signals of its trace (``--trace``, ``SignalTrace``) and the per-line IL trace
+(``--trace-il``, ``LineTrace``). sim.trace is the trace itself and its three forms (VCD,
+CSV, a timing diagram).
 
 The signals are the operands the program uses (for an image without its source: what
 its program map names) and whether the program runs, each sampled after every AS-i
@@ -12,8 +13,8 @@ from __future__ import annotations
 
 import fnmatch
 import functools
-from collections.abc import Callable
-from typing import assert_never
+from collections.abc import Callable, Iterable
+from typing import TYPE_CHECKING, assert_never
 
 from asictl.board.board import Pc2Board
 from asictl.il import ast
@@ -25,7 +26,14 @@ from asictl.observe.symbols import SymbolTable
 from asictl.observe.view import ProgramView, wake
 from asictl.runtime.line_map import LineMap
 from asictl.runtime.program_map import CellKind
-from asictl.sim.trace import Signal
+from asictl.sim.observation import Stop
+from asictl.sim.observer import BEFORE_MS, Observer
+from asictl.sim.plant import Model
+from asictl.sim.result import SimResult
+from asictl.sim.trace import Mark, Signal, Trace
+
+if TYPE_CHECKING:  # the engine imports this module
+    from asictl.sim.engine import Simulation
 
 #: The name of the lane that shows whether the program runs.
 RUNNING = "program running"
@@ -80,13 +88,73 @@ class Signals:
         return signals
 
 
-class LineTrace:
-    """The per-line trace of one run on ``board``; ``clock`` is master time since time 0
-    (0 before the first cycle)."""
+def stop_marks(stops: list[Stop]) -> list[Mark]:
+    """The stops of a run as marks on the lane that shows whether the program runs."""
+    return [Mark(s.at_ms, f"stopped: {s.text}", RUNNING) for s in stops]
+
+
+class SignalTrace(Observer):
+    """The trace of one simulation: its signals (``patterns``: ``--signals``), the plant
+    models' lanes and the inputs they drive, sampled after every AS-i cycle that ran and
+    at every change of a model."""
+
+    def __init__(self, simulation: Simulation, patterns: list[str] | None) -> None:
+        self._simulation = simulation
+        plant = simulation.plant
+        lanes = [(Signal(lane.name, lane.width, operand=lane.name), lane.sample)
+                 for lane in plant.lanes()]
+        traced = Signals(simulation.program, simulation.image, simulation.symbols, patterns,
+                         simulation.read, lambda: int(simulation.running), lanes,
+                         [str(o) for m in plant.models for o in m.driven()])
+        self.signals, self.untraced = traced.sampled, traced.untraced
+        #: the operands sampled after every cycle that runs
+        self._operands = traced.operands
+
+    def trace(self, end_ms: float, marks: list[Mark]) -> Trace:
+        return Trace([s for s, _ in self.signals], end_ms=end_ms,
+                     marks=sorted(marks, key=lambda m: m.at_ms))
+
+    def active(self) -> bool:
+        return bool(self.signals)
+
+    def sampled(self) -> Iterable[Operand]:
+        return self._operands
+
+    def model_added(self, model: Model) -> None:
+        """The inputs a new model drives join the trace, unless traced already, and its
+        lanes."""
+        simulation = self._simulation
+        known = {signal.operand for signal, _ in self.signals}
+        for operand in model.driven():
+            if str(operand) not in known:
+                name = simulation.symbols.label(str(operand))
+                self.signals.append((Signal(name, operand.width, operand=str(operand)),
+                                     functools.partial(simulation.read, operand)))
+        self.signals += [(Signal(lane.name, lane.width, operand=lane.name), lane.sample)
+                         for lane in model.lanes()]
+
+    def after_cycle(self, now: float) -> None:
+        for signal, read in self.signals:
+            signal.record(now, read())
+
+    def changed(self, at: float) -> None:
+        self.after_cycle(at)
+
+    def finish(self, result: SimResult) -> None:
+        marks = [Mark(f.at_ms, f"{f.written or f.operand} expected {f.expected}, got {f.got}",
+                      str(f.operand)) for f in result.failures]
+        result.trace = self.trace(self._simulation.end_ms, marks + stop_marks(result.stops))
+
+
+class LineTrace(Observer):
+    """The per-line trace of one run on ``board``, on inside ``window`` (up to ``end_ms``,
+    where the run ends); ``clock`` is master time since time 0 (0 before the first
+    cycle), ``view`` the program's operands."""
 
     def __init__(
         self, board: Pc2Board, texts: dict[str, str], program: Program | None,
         line_map: LineMap, window: tuple[float, float | None], clock: Callable[[], float],
+        view: Callable[[], ProgramView], end_ms: float,
     ) -> None:
         self.board = board
         self.texts = texts
@@ -94,9 +162,37 @@ class LineTrace:
         self.line_map = line_map
         self.window = window
         self._clock = clock
+        self._view = view
+        self._end_ms = end_ms
         self._tracer: ILTracer | None = None
 
-    def switch(self, on: bool, view: Callable[[], ProgramView]) -> None:
+    def times(self) -> Iterable[tuple[float, bool]]:
+        """On at the window's start, off after the cycles at its end."""
+        start, end = self.window
+        edges = {start, None if end is None else end + BEFORE_MS}
+        return ((t, False) for t in edges if t is not None and 0 < t <= self._end_ms)
+
+    def begin(self) -> None:
+        if self.window[0] <= 0:
+            self.switch(True)
+
+    def started(self) -> None:
+        end = self.window[1]
+        if end is not None and end <= 0:  # a window of time 0 alone: its cycle has run
+            self.switch(False)
+
+    def at_time(self, at: float) -> None:
+        start, end = self.window
+        if at == start:
+            self.switch(True)
+        if end is not None and at == end + BEFORE_MS:
+            self.switch(False)
+
+    def finish(self, result: SimResult) -> None:
+        self.switch(False)
+        result.il_rows = self.rows
+
+    def switch(self, on: bool) -> None:
         """Switch the per-line trace on or off (it slows the program down while on)."""
         runner = self.board.program
         if runner is None:
@@ -105,7 +201,7 @@ class LineTrace:
             self._tracer = ILTracer(
                 runner, self.line_map, texts=self.texts,
                 clock=self._clock,
-                view=view(), operands=line_operands(self.program),
+                view=self._view(), operands=line_operands(self.program),
                 window=self.window,
             )
         if on:

@@ -35,7 +35,7 @@ class LiveBoard:
         self._wall = clock()
         self._master = board.now_ms
         #: actions a server attached to this board adds or replaces (the gateway's panel),
-        #: run on the loop instead of ``host.emulated``'s
+        #: run on the loop instead of those of ``host.emulated.actions``
         self.actions: dict[str, Callable[[dict[str, JSON]], Awaitable[JSON]]] = {}
         #: the debugger holding the board, if one does
         self.hold: Hold | None = None

@@ -22,8 +22,10 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from asictl.errors import ExitCode, UserError
-from asictl.host.boards import lock_file, port_name
-from asictl.host.emulated import SETTLE_MS, VIEWS
+from asictl.host.emulated.actions import SETTLE_MS, VIEWS
+from asictl.host.emulated.boards import lock_file
+from asictl.host.emulated.locking import is_free
+from asictl.host.emulated.state_files import UnsafeStateFolder, check_folder
 from asictl.host.live.protocol import (
     JSON,
     LENGTH,
@@ -34,8 +36,7 @@ from asictl.host.live.protocol import (
     peer_uid,
     socket_path,
 )
-from asictl.host.locking import is_free
-from asictl.host.state_files import UnsafeStateFolder, check_folder
+from asictl.host.transports.ports import port_name
 from asictl.platform.pc2 import PORT_DATA
 
 #: How long a client waits for an answer (a session may wait longer: it is announced).

@@ -20,10 +20,11 @@ from contextlib import ExitStack
 from pathlib import Path
 
 from asictl.errors import ExitCode, UserError
-from asictl.host.boards import lock_file, port_name, state_file
+from asictl.host.emulated.boards import lock_file, state_file
+from asictl.host.emulated.locking import LockBusy, exclusive, note_holder
+from asictl.host.emulated.state_files import prepare_folder, read_private
 from asictl.host.live.saver import StateKeeper
-from asictl.host.locking import LockBusy, exclusive, note_holder
-from asictl.host.state_files import prepare_folder, read_private
+from asictl.host.transports.ports import port_name
 
 #: How often the server looks whether its folder, lock, state file and socket are there.
 WATCH_S = 0.2

@@ -6,7 +6,7 @@ session: the client has the board to itself until it ends or disconnects; a clie
 waiting first gets ``{"waiting": HOLDER}``); ``{"op": "io", "ops": [...]}`` with
 ``["w", OFFSET, [BYTE, ...]]`` and ``["r", OFFSET, COUNT]``, answered by ``{"ok": true,
 "reads": [[BYTE, ...], ...]}``; ``{"op": "action", "name": NAME, "args": {...}}`` for the
-emulated-only actions of ``host.emulated`` (the cable, the set button, the program's
+emulated-only actions of ``host.emulated.actions`` (the cable, the set button, the program's
 timers and counters, and ``lines``: the program's IL lines with their values in the
 latest cycle, for which the board runs one cycle under line hooks and removes them
 again), or those a server attached to the board adds (``LiveBoard.actions``: the
@@ -33,7 +33,7 @@ from pathlib import Path
 from typing import Any
 
 from asictl.errors import ExitCode, UserError
-from asictl.host.boards import port_name
+from asictl.host.transports.ports import port_name
 
 #: The largest answer a client accepts (the ``lines`` action's answer is the largest).
 MAX_MESSAGE = 1 << 20

@@ -15,7 +15,7 @@ from collections.abc import Awaitable
 from dataclasses import dataclass
 
 from asictl.errors import ExitCode, UserError
-from asictl.host.emulated import run_action
+from asictl.host.emulated.actions import run_action
 from asictl.host.live.board import LiveBoard
 from asictl.host.live.protocol import (
     JSON,
@@ -125,8 +125,8 @@ def attached_action(live: LiveBoard, request: dict[str, JSON]) -> Awaitable[JSON
 
 
 def action(live: LiveBoard, request: dict[str, JSON]) -> JSON:
-    """One of ``host.emulated``'s actions, as the request names it (unless a debugger
-    holding the board refuses it)."""
+    """One of the actions of ``host.emulated.actions``, as the request names it (unless a
+    debugger holding the board refuses it)."""
     name, args = request.get("name"), request.get("args") or {}
     if not isinstance(name, str) or not isinstance(args, dict):
         raise ProtocolError("an action needs a name and arguments")

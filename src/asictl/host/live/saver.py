@@ -19,8 +19,8 @@ from typing import Any
 
 from asictl.board.board import Pc2Board
 from asictl.errors import ExitCode, UserError
-from asictl.host.boards import save_state
 from asictl.host.condition_log import ConditionLog
+from asictl.host.emulated.boards import save_state
 
 #: Changes no request made are saved this often while the board runs (and at the end).
 SAVE_INTERVAL_S = 10.0

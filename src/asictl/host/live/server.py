@@ -35,8 +35,9 @@ from typing import Any
 from asictl.board.board import Pc2Board
 from asictl.errors import ExitCode, UserError
 from asictl.host.background import NotStarted, in_thread
-from asictl.host.boards import emulated_board, lock_file, port_name, state_file
 from asictl.host.condition_log import ConditionLog
+from asictl.host.emulated.boards import emulated_board, lock_file, state_file
+from asictl.host.emulated.locking import note_holder
 from asictl.host.live import requests
 from asictl.host.live.board import LiveBoard
 from asictl.host.live.client import refuse_if_served
@@ -52,7 +53,7 @@ from asictl.host.live.protocol import (
     socket_path,
 )
 from asictl.host.live.saver import SAVE_INTERVAL_S, NotSaved, StateKeeper
-from asictl.host.locking import note_holder
+from asictl.host.transports.ports import port_name
 
 #: How often master time catches up with the wall clock while nobody asks.
 PACING_S = 0.01

@@ -1,15 +1,15 @@
-"""Which board a command talks to, and where an emulated board keeps its EEPROM.
+"""Where an emulated board keeps its EEPROM between commands.
 
-``--port 300h`` names a board by its I/O base, as the manual's tools do. With the
+A board is named by its I/O base (``--port 300h``, host/transports/ports.py). With the
 emulated board (the default) every port is a board of its own whose non-volatile state
 (EEPROM, flags, configuration) lives in a JSON file in the user's state directory, so a
 download in one command is there for the upload in the next, as on a real master.
 
-Each command holds an exclusive lock on the board (host/locking.py) from loading the state
-to saving it, so two commands never interleave on one board; a command that finds the
-board held says by whom and stops, or waits with ``--wait``; the state is replaced in one
-rename, never half-written. A state file that cannot be read is reported and left alone:
-replacing it silently would lose the program it may still hold.
+Each command holds an exclusive lock on the board (host/emulated/locking.py) from loading
+the state to saving it, so two commands never interleave on one board; a command that
+finds the board held says by whom and stops, or waits with ``--wait``; the state is
+replaced in one rename, never half-written. A state file that cannot be read is reported
+and left alone: replacing it silently would lose the program it may still hold.
 """
 
 from __future__ import annotations
@@ -23,40 +23,15 @@ from typing import Any
 
 from asictl.board.board import Pc2Board
 from asictl.errors import ExitCode, UserError
-from asictl.host.driver import DevPort, EmulatedPort, Pc2Driver
-from asictl.host.locking import exclusive
-from asictl.host.state_files import prepare_folder, read_private, write_private
-from asictl.platform.pc2 import IO_BASES
+from asictl.host.emulated.locking import exclusive
+from asictl.host.emulated.state_files import prepare_folder, read_private, write_private
+from asictl.host.transports.ports import port_name
 
 STATE_DIR_ENV = "ASICTL_STATE_DIR"
 #: Master time an emulated board runs after power-up before the host's first access: its
 #: start-up (detection, activation, the config_ok delay) is over, as on a board that was
 #: switched on before the command, and a status shows a settled master.
 POWER_UP_MS = 100.0
-IO_BACKENDS = ("emulated", "devport")
-
-
-def parse_port(text: str) -> int:
-    """An I/O base as the manual writes it: ``300h``; also ``0x300`` and ``300`` (hex)."""
-    digits = text.strip().lower()
-    if digits.startswith("0x"):
-        digits = digits[2:]
-    elif digits.endswith("h"):
-        digits = digits[:-1]
-    try:
-        base = int(digits, 16)
-    except ValueError:
-        base = -1
-    if base not in IO_BASES:
-        raise UserError(
-            f"port '{text}': a PC2 board sits at "
-            + ", ".join(port_name(b) for b in IO_BASES)
-        )
-    return base
-
-
-def port_name(base: int) -> str:
-    return f"{base:X}h"
 
 
 def state_directory(override: str | Path | None = None) -> Path:
@@ -137,25 +112,3 @@ def save_state(state: dict[str, Any], path: Path) -> None:
     """A board's non-volatile state (``Pc2Board.nonvolatile``), as ``save_board``."""
     text = json.dumps(state, indent=1, sort_keys=True) + "\n"
     write_private(path, text.encode("utf-8"))
-
-
-@contextmanager
-def connect(
-    port: str,
-    io: str = "emulated",
-    state_dir: str | Path | None = None,
-    *,
-    wait: bool = False,
-    notify: Callable[[str], None] | None = None,
-) -> Iterator[Pc2Driver]:
-    """A driver for the board at ``port``: emulated (with its saved state) or real."""
-    base = parse_port(port)
-    if io == "devport":
-        device = DevPort(base)
-        try:
-            yield Pc2Driver(device)
-        finally:
-            device.close()
-        return
-    with emulated_board(base, state_directory(state_dir), wait=wait, notify=notify) as board:
-        yield Pc2Driver(EmulatedPort(board))

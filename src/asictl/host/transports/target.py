@@ -6,10 +6,11 @@ what the user wrote from this module, and loads the transport only for a --modbu
 
 from __future__ import annotations
 
+import ipaddress
 import re
 from dataclasses import dataclass
 
-from asictl.errors import UserError
+from asictl.errors import ExitCode, UserError
 from asictl.platform.gateway import BAUD_RATES, FRAMINGS, serial_setting_code
 
 #: The parity as pyserial and the gateway manual write it ("N", "E", "O"), by its long
@@ -89,6 +90,28 @@ def port_number(text: str) -> int | None:
         return None
     number = int(text)
     return number if number <= 65535 else None
+
+
+def listen_address(text: str, option: str, example: str) -> tuple[str, int]:
+    """``HOST:PORT`` where a server of ours listens (``--opcua``, ``--http``); a host left
+    out is loopback, an IPv6 address may be in brackets."""
+    host, sep, port = text.rpartition(":")
+    number = port_number(port)
+    if not sep or number is None:
+        shown = text if len(text) <= 40 else f"{text[:37]}..."
+        raise UserError(f"{option} '{shown}': expected HOST:PORT, e.g. {example}",
+                        ExitCode.USAGE)
+    return host.strip("[]") or "127.0.0.1", number
+
+
+def is_loopback(host: str) -> bool:
+    """Whether a server bound to ``host`` is reached from this machine only."""
+    if host == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        return False
 
 
 def parse_target(

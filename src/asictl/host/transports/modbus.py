@@ -22,7 +22,6 @@ import logging
 import struct
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
-from dataclasses import dataclass
 from typing import TypeVar
 
 from pymodbus import FramerType
@@ -30,7 +29,7 @@ from pymodbus.client import ModbusSerialClient, ModbusTcpClient
 from pymodbus.constants import ExcCodes
 from pymodbus.exceptions import ConnectionException, ModbusException
 from pymodbus.pdu import ModbusPDU
-from pymodbus.pdu.other_message import ReadExceptionStatusRequest
+from pymodbus.pdu.other_message import ReadExceptionStatusRequest, ReportDeviceIdRequest
 from pymodbus.pdu.register_message import (
     ReadHoldingRegistersRequest,
     WriteMultipleRegistersRequest,
@@ -38,41 +37,25 @@ from pymodbus.pdu.register_message import (
 )
 
 from asictl.errors import UserError
-from asictl.host.commissioning import Commissioning, ModbusCommissioning
-from asictl.host.gateway_pdus import (
+from asictl.host.transports.gateway_pdus import (
     BLOCK_SIZE,
     CLIENT_PDUS,
-    INFO_NAME,
-    INFO_SOFTWARE,
-    INFO_VERSION,
-    INFO_VERSION_ID,
     DownloadRequest,
     MasterInfoRequest,
     MasterInfoResponse,
     UploadRequest,
     UploadResponse,
 )
-from asictl.host.jobs import JobError, JobStatus
-from asictl.host.master import JSON, emulated_board
-from asictl.host.status import (
-    MasterStatus,
-    derived_control_state,
-    gateway_panel,
-    program_info,
-    slave_data,
-    slave_fields,
-    state_fields,
-    state_summary,
-)
-from asictl.host.target import (
+from asictl.host.transports.jobs import JobError, JobStatus
+from asictl.host.transports.target import (
     DEFAULT_RETRIES,
     DEFAULT_TIMEOUT_S,
     ModbusTarget,
 )
-from asictl.image.eeprom import MAGIC, Configuration
+from asictl.image.eeprom import Configuration
 from asictl.platform import gateway as g
 from asictl.platform.master import SLAVES, ControlFlag
-from asictl.platform.pc2 import ENTRY_TABLE_ADDRESS, ENTRY_TABLE_SIZE, ControlState, StopReason
+from asictl.platform.pc2 import ENTRY_TABLE_ADDRESS, ENTRY_TABLE_SIZE
 from asictl.runtime.firmware import FIRMWARE_BLOCKS
 
 # pymodbus logs every time-out it retries; without a handler Python would print them.
@@ -222,6 +205,17 @@ class ModbusTransport:
         if self.execution_result(register, value, what) & g.EXCEPTION_STATUS_ERROR:
             raise JobError(JobStatus.REFUSED, f"{what}: refused by the master")
 
+    def server_id(self) -> bytes | None:
+        """Function 17 (Report Slave ID): what the gateway says it is; None if it has no
+        such function, as the VAG-MOD-KF-R4 manual says of the real one (6.3.9)."""
+        try:
+            response = self._call("reading the server ID", ReportDeviceIdRequest())
+        except JobError as exc:
+            if exc.status is JobStatus.UNKNOWN_COMMAND:
+                return None
+            raise
+        return bytes(getattr(response, "identifier", b""))
+
     def master_info(self, part: int) -> str:
         """Function 65: name, version, installed software or version ID."""
         request = MasterInfoRequest(part)
@@ -299,41 +293,6 @@ class ModbusTransport:
         return self.control_flags()
 
 
-# --- the master as the commands see it ---------------------------------------------------
-
-
-@dataclass(frozen=True)
-class ModbusMaster:
-    """``Master`` through a gateway: no DPRAM, and no emulated-only actions (an emulated
-    gateway's board has them through its PC2 port, ``--port``)."""
-
-    transport: ModbusTransport
-
-    driver = None
-    action = None
-    quick_status = None
-    created = False
-
-    @property
-    def name(self) -> str:
-        return f"{self.transport.name} unit {self.transport.unit}"
-
-    def summary(self) -> str:
-        return control_summary(self.transport)
-
-    def status(self) -> MasterStatus:
-        return read_status(self.transport)
-
-    def tools(self) -> Commissioning:
-        return ModbusCommissioning(self.transport)
-
-    def emulated(self, name: str, **args: JSON) -> JSON:
-        return emulated_board(self).run(name, args)
-
-    def settle(self) -> None:
-        """The gateway's master runs on by itself."""
-
-
 # --- opening one --------------------------------------------------------------------------
 
 
@@ -376,86 +335,3 @@ def open_modbus(
     finally:
         # pymodbus leaves the sync clients' close() unannotated
         client.close()  # type: ignore[no-untyped-call]
-
-
-# --- status -----------------------------------------------------------------------------
-
-
-def _control_state(
-    transport: ModbusTransport, flags: int
-) -> tuple[ControlState, StopReason | None]:
-    """The gateway shows no control state or stop reason: derived as the PC2 reports them
-    from 1009's flags, the ec-flags (608) and the image's magic in the EEPROM."""
-    if flags & ControlFlag.CONTROL_ACTIVE:
-        return ControlState.RUNNING, StopReason.NONE
-    program = transport.read_eeprom(0, len(MAGIC)) == MAGIC
-    ec = transport.read_registers(g.EC_FLAGS, 1)[0] & 0xFF
-    return derived_control_state(program, flags, ec)
-
-
-def control_summary(transport: ModbusTransport) -> str:
-    """What the control program does, and why not, as the PC2 path says it."""
-    return state_summary(*_control_state(transport, transport.control_flags()))
-
-
-def read_data(transport: ModbusTransport, *, flags: bool = True
-              ) -> tuple[bytes, bytes, list[int]]:
-    """Each slave's input and output data (one value a slave, 0..31) and the flag bytes
-    (empty without ``flags``): what ``asictl record`` samples, in three requests where a
-    status takes many."""
-    inputs = data_nibbles(transport.read_registers(g.INPUTS_MIRROR + g.INPUT_DATA, 8))
-    outputs = data_nibbles(transport.read_registers(g.OUTPUT_DATA, 8))
-    memory = [r & 0xFF for r in transport.read_registers(g.MEMORY_BYTES, 128)] if flags else []
-    return inputs, outputs, memory
-
-
-def read_status(transport: ModbusTransport) -> MasterStatus:
-    """The status screen's fields from the gateway's registers and function 65.
-
-    The gateway shows no control state, stop reason, program status or cycle times: the
-    state is derived from control_active and the rest is reported as not available.
-    """
-    ec = transport.read_registers(g.EC_FLAGS, 1)[0] & 0xFF
-    lps = slave_list(transport.read_registers(g.LPS, 2))
-    las = slave_list(transport.read_registers(g.LAS, 2))
-    lds = slave_list(transport.read_registers(g.LDS, 2))
-    pcd = [g.swap_profile(r) for r in transport.read_registers(g.PCD, SLAVES)]
-    cdi = [g.swap_profile(r) for r in transport.read_registers(g.CDI, SLAVES)]
-    flags = transport.control_flags()
-    name = " ".join(
-        text for text in (transport.master_info(INFO_NAME), transport.master_info(INFO_VERSION))
-        if text
-    )
-    software = transport.master_info(INFO_SOFTWARE)
-    program = program_info(transport)
-    state, reason = derived_control_state(program.present, flags, ec)
-    slaves = slave_data(
-        {"LPS": lps, "LDS": lds, "LAS": las},
-        inputs=data_nibbles(transport.read_registers(g.INPUTS_MIRROR + g.INPUT_DATA, 8)),
-        outputs=data_nibbles(transport.read_registers(g.OUTPUT_DATA, 8)),
-        pcd=bytes(pcd), cdi=bytes(cdi),
-        pp=bytes(r & 0xF for r in transport.read_registers(g.PP, SLAVES)),
-        pi=bytes(r & 0xF for r in transport.read_registers(g.PI, SLAVES)),
-    )
-    return MasterStatus(
-        port=f"Modbus {transport.name} unit {transport.unit}",
-        master_name=name,
-        version_id=transport.master_info(INFO_VERSION_ID),
-        installed_software=software,
-        **state_fields(ec, flags),
-        **slave_fields(lps, lds, las, bytes(pcd), bytes(cdi), ec=ec),
-        control_state=state.name.lower(),
-        stop_reason=(
-            "cycle time-out, program fault or waiting for the set button" if reason is None
-            else None if reason is StopReason.NONE else reason.name.lower().replace("_", " ")
-        ),
-        program_status="not shown by the gateway",
-        cycle_time_ms=0.0,
-        max_cycle_time_ms=0.0,
-        cycle_times_known=False,
-        program=program,
-        slaves=slaves,
-        hi_flags=transport.read_registers(g.HI_FLAGS, 1)[0] & 0x07,
-        flags=[r & 0xFF for r in transport.read_registers(g.MEMORY_BYTES, 128)],
-        **gateway_panel(ec, software),
-    )

@@ -18,7 +18,6 @@ values of the latest program cycle, recorded on the board for that one cycle
 
 from __future__ import annotations
 
-import re
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
@@ -29,6 +28,7 @@ from asictl.board.forcing import Area, ForceError, Forces
 from asictl.errors import ExitCode, UserError
 from asictl.observe.operands import read_number
 from asictl.platform.master import IO_CODE_BITS, SLAVES, TICK_MS
+from asictl.readers.profile import read_profile
 
 JSON = Any
 Action = Callable[[Pc2Board, dict[str, JSON]], JSON]
@@ -37,10 +37,6 @@ Action = Callable[[Pc2Board, dict[str, JSON]], JSON]
 #: config_ok's delay after the configuration was written, so the command's report shows
 #: the program's state.
 SETTLE_MS = 100.0
-
-#: The I/O codes written as letters (the tristate code F has none: write ``Fh``).
-IO_LETTERS = {letters: code for code, letters in enumerate(IO_CODE_BITS) if "t" not in letters}
-
 
 class ActionError(UserError):
     """An emulated-board action that does not fit the board as it is (exit 1)."""
@@ -75,28 +71,16 @@ def parse_address(text: str, *, zero: bool = True) -> int:
 
 
 def parse_profile(text: str) -> tuple[int, int]:
-    """``iiio,1`` / ``Bh,0`` / ``7,F``: I/O code (letters or number) and ID code (default F),
-    as a [SETUP] line writes them."""
-    io_text, _, id_text = text.partition(",")
-    io_text = io_text.strip().lower()
-    if io_text in IO_LETTERS:
-        io_code = IO_LETTERS[io_text]
-    elif re.fullmatch(r"[0-9a-f]h?", io_text):
-        io_code = int(io_text.rstrip("h"), 16)
-    else:
-        raise UserError(
-            f"profile '{text}': the I/O code is letters such as iiio or a hex digit such as Bh",
-            ExitCode.USAGE,
-        )
-    id_code = 0xF
-    if id_text.strip():
-        token = id_text.strip().lower()
-        if not re.fullmatch(r"[0-9a-f]h?", token):
-            raise UserError(
-                f"profile '{text}': the ID code is a hex digit such as 1 or Fh", ExitCode.USAGE
-            )
-        id_code = int(token.rstrip("h"), 16)
-    return io_code, id_code
+    """``iiio,1`` / ``Bh,0`` / ``7,F``: I/O code and ID code (default F), as
+    ``readers.profile`` reads them (exit 2 for anything else)."""
+    try:
+        profile = read_profile(text)
+    except ValueError as exc:
+        raise UserError(f"profile {exc}", ExitCode.USAGE) from None
+    if profile.parameter is not None:
+        raise UserError(f"profile '{text}': a slave is plugged in with an I/O code and an "
+                        "ID code", ExitCode.USAGE)
+    return profile.io_code, profile.id_code
 
 
 # --------------------------------------------------------------------------- actions

@@ -15,7 +15,7 @@ import time
 from collections.abc import Iterator
 from typing import TYPE_CHECKING, Protocol, runtime_checkable
 
-from asictl.host.jobs import Job, PortError
+from asictl.host.transports.jobs import Job, PortError
 from asictl.platform.pc2 import (
     COMMAND,
     COMMAND_TIMEOUT_MS,

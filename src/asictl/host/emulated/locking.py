@@ -23,7 +23,7 @@ from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 
 from asictl.errors import ExitCode, UserError
-from asictl.host.state_files import open_private, read_private, write_private
+from asictl.host.emulated.state_files import open_private, read_private, write_private
 
 
 @dataclass(frozen=True)

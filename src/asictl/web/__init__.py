@@ -1,0 +1,1 @@
+"""The web page and REST API on a live board (docs/web.md): ``serve --http``."""
