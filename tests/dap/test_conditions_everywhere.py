@@ -1,14 +1,14 @@
 """One condition, written once, in every tool that takes one: a plant rule, a property,
-a debugger breakpoint and an editor's conditional breakpoint (the DAP). Each host reads
-it the same way and means the same by it; a mistake in it is reported with the same
-words, pointing at the same token, in each host's own form (E410 at FILE:LINE:COL in a
-file, an ``error:`` line and a caret in the debugger, a refused breakpoint in the DAP).
-
-(Watch tables take no condition: see docs/conditions.md.)
+a debugger breakpoint, an editor's conditional breakpoint (the DAP) and a watch table.
+Each host reads it the same way and means the same by it; a mistake in it is reported
+with the same words, pointing at the same token, in each host's own form (E410 at
+FILE:LINE:COL in a file, an ``error:`` line and a caret in the debugger and on the
+command line, a refused breakpoint in the DAP).
 """
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import pytest
@@ -85,6 +85,15 @@ def program(tmp_path: Path) -> Path:
     return path
 
 
+def watch(table: Path, *more: str) -> list[int]:
+    """The values ``asictl watch`` prints for ``table``'s entries over 50 ms of master
+    time on the board in $ASICTL_STATE_DIR."""
+    result = CliRunner().invoke(main, ["watch", "--table", str(table), "--duration", "50ms",
+                                       "--format", "json", *more])
+    assert result.exit_code == 0, result.output
+    return [json.loads(line)["value"] for line in result.stdout.splitlines()]
+
+
 def column_in(text: str, key: str) -> int:
     """The 1-based column, in the line ``key = "..."`` of ``text``, of where BAD goes wrong."""
     line = next(line for line in text.split("\n") if line.startswith(f"{key} = "))
@@ -123,6 +132,21 @@ def test_one_condition_means_the_same_in_every_host(program: Path, client: DapCl
     assert stop["line"] == LAMP and stop["reason"] == "breakpoint"
     assert client.request("evaluate", {"expression": "Forward", "context": "hover"})[
         "result"] == "1"
+
+
+def test_the_same_condition_in_a_watch_table(program: Path, monkeypatch: pytest.MonkeyPatch):
+    tmp = program.parent
+    monkeypatch.setenv("ASICTL_STATE_DIR", str(tmp / "state"))
+    run = CliRunner().invoke
+    assert run(main, ["download", str(program), "--start"]).exit_code == 0
+    assert run(main, ["bus", "match"]).exit_code == 0
+    table = tmp / "p.watch.toml"
+    table.write_text(f'watch = ["{CONDITION}"]\n')
+    assert watch(table) == [0]  # the motor stands
+    assert run(main, ["bus", "inputs", "Start=1"]).exit_code == 0
+    assert watch(table) == [1]  # it runs forward, Stop is not pressed
+    assert run(main, ["bus", "inputs", "Start=0", "Stop=1"]).exit_code == 0
+    assert watch(table) == [0]
 
 
 def test_a_mistake_reads_the_same_in_every_host(program: Path, client: DapClient):
@@ -164,3 +188,23 @@ def test_a_mistake_reads_the_same_in_every_host(program: Path, client: DapClient
         {"line": LAMP, "condition": BAD}]})["breakpoints"]
     assert not placed[0]["verified"]
     assert placed[0]["message"].split("\n")[0] == MESSAGE
+
+
+def test_a_mistake_in_a_watch_reads_the_same(program: Path, monkeypatch: pytest.MonkeyPatch):
+    tmp = program.parent
+    monkeypatch.setenv("ASICTL_STATE_DIR", str(tmp / "state"))
+    assert CliRunner().invoke(main, ["download", str(program)]).exit_code == 0
+    # in a watch table: E410 at the token's column inside the string, as in any file
+    text = f'watch = [\n  "Start",\n  "{BAD}",\n]\n'
+    (tmp / "b.watch.toml").write_text(text)
+    result = CliRunner().invoke(main, ["watch", "--table", str(tmp / "b.watch.toml"),
+                                       "--duration", "50ms"])
+    assert result.exit_code == 2
+    at = text.split("\n")[2].index('"') + 2 + len(BAD)
+    assert f"b.watch.toml:3:{at}: error: {MESSAGE} [E410]" in result.stderr
+    # on the command line: the words, the condition and a caret, as the debugger shows them
+    result = CliRunner().invoke(main, ["watch", BAD, "--duration", "50ms"])
+    assert result.exit_code == 2
+    shown = result.stderr.split("\n")
+    assert shown[0].endswith(f"error: watch condition: {MESSAGE}")
+    assert shown[1:3] == [f"  {BAD}", "  " + " " * len(BAD) + "^"]

@@ -127,6 +127,21 @@ def test_the_watch_view_writes_once_forces_and_releases_the_selected_row(board):
     run(board, check)
 
 
+def test_the_watch_view_shows_a_condition_as_a_bit(board):
+    async def check(app, pilot):
+        await pilot.press("w")
+        await settle(app, pilot)
+        await enter(app, pilot, "plus", "Start or Mark")
+        assert re.search(r"Start or Mark +0 +0 +0h", text(app, "watch")), text(app, "watch")
+        cli(board, "write", "Mark=1")
+        await settle(app, pilot, 4)
+        assert re.search(r"Start or Mark +1 +1 +1h", text(app, "watch")), text(app, "watch")
+        await pilot.press("F")  # a condition is no operand: the prompt starts empty
+        assert app.query_one("#prompt").value == ""
+
+    run(board, check)
+
+
 def test_the_program_view_names_operands_by_the_boards_symbol_table(board):
     async def check(app, pilot):
         await pilot.press("v")

@@ -132,8 +132,9 @@ def watch(
     """Watch operands on the master: a line for each value at the start, then one for
     each change, until --duration or Ctrl-C. OPERANDS are inputs, outputs and flags as
     'write' names them ('F 10.0', 'FY 11', 'Q 2', 'IB 4'), timers and counters ('T 1',
-    'TV 1' its remaining milliseconds, 'CV 0' a count; emulated boards only), or names of
-    the symbol table the program on the master carries. Text lines are 'TIME OPERAND
+    'TV 1' its remaining milliseconds, 'CV 0' a count; emulated boards only), names of
+    the symbol table the program on the master carries, or conditions over them
+    ('Forward and not Stop': 1 while it holds; docs/conditions.md). Text lines are 'TIME OPERAND
     (NAME) VALUE' with the value in decimal, hex and binary; JSON lines are {"operand",
     "symbol", "value", "time"} with time in seconds since the watch began.
 
@@ -148,6 +149,7 @@ def watch(
       asictl download demos/blink.asi --start
       asictl watch "Q 31.0" --duration 2s
       asictl watch "Q 31.0" "T 0" --format json --duration 1s
+      asictl watch "Q 31.0 and not T 0" --duration 1s
     """
     from asictl.cli.board_options import master_address, master_wait
     from asictl.diagnostics import DiagnosticError, render_text
@@ -158,13 +160,16 @@ def watch(
 
     period = interval / 1000
     limit = duration / 1000 if duration is not None else None
-    try:
-        listed = read_table(read_source(table)) if table else []
-    except DiagnosticError as exc:
+    def refused(exc: DiagnosticError) -> click.exceptions.Exit:
         texts = {table: read_source(table).text} if table else {}
         click.echo(render_text(exc.diagnostics, texts), nl=False, err=True)
-        raise click.exceptions.Exit(int(ExitCode.USAGE)) from None
-    items = [*listed, *operands]
+        return click.exceptions.Exit(int(ExitCode.USAGE))
+
+    try:
+        listed = read_table(read_source(table)) if table else None
+    except DiagnosticError as exc:
+        raise refused(exc) from None
+    items = [*(listed.items if listed else ()), *operands]
     if not items:
         raise UserError("nothing to watch: name operands or give --table FILE.watch.toml",
                         ExitCode.USAGE)
@@ -175,7 +180,10 @@ def watch(
                 f"{master.name} runs only during a command: give --duration, or keep it "
                 "running with 'asictl serve'", ExitCode.USAGE)
         program = read_program(master.transport)
-        watched = watch_list(Names(master, program.symbols), items)
+        try:
+            watched = watch_list(Names(master, program.symbols), items, listed)
+        except DiagnosticError as exc:
+            raise refused(exc) from None
         lines = _WatchLines(watched, format_)
         if loaded:  # the board runs only in this command: master time passes as it waits
             wait = master_wait(master)
@@ -233,7 +241,7 @@ def _watch_line(entry: Watched, value: int, elapsed: float, format_: str) -> str
     if format_ == "json":
         return json.dumps({"operand": entry.text, "symbol": entry.symbol, "value": value,
                            "time": round(elapsed, 3)})
-    bits = entry.operand.width
+    bits = entry.width
     digits = max(1, (bits + 3) // 4)
     return (f"{elapsed:8.3f}s  {entry.label:<24} {value:>5}  {value:0{digits}X}h  "
             f"{value:0{bits}b}b")

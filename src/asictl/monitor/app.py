@@ -52,7 +52,6 @@ from asictl.host.status import (
     flag_rows,
     forced_text,
     hi_flag_text,
-    operand_value,
     profile_text,
     status_events,
     stop_text,
@@ -211,7 +210,8 @@ class MonitorApp(App[None]):
         "release": "release OPERAND or NAME ('all': every force)",
         "hiflags": "hi-flags: offline or online, data-exchange or no-data-exchange, "
                    "auto-address or no-auto-address",
-        "watch": "operands or names to watch, comma-separated: 'F 10.0, FY 11, Motor'",
+        "watch": "operands, names or conditions to watch, comma-separated: 'F 10.0, Motor, "
+                 "Q 2.0 and not I 1.2'",
         "write": "write once OPERAND=VALUE or NAME=VALUE: flags, outputs (program "
                  "stopped), inputs of an emulated slave",
     }
@@ -604,8 +604,10 @@ class MonitorApp(App[None]):
         prompt = self.query_one("#prompt", Input)
         prompt.placeholder = self.PROMPTS[kind]
         prompt.value = "FY " if kind == "flag" else ""
-        if self.view == "watch" and self.watched and kind in ("force", "release", "write"):
-            row = self.watched[self.watch_row].text  # the selected row's operand
+        selected = self.watched[self.watch_row] if self.watched else None
+        if (self.view == "watch" and selected is not None and selected.operand is not None
+                and kind in ("force", "release", "write")):
+            row = selected.text  # the selected row's operand (a condition has none)
             prompt.value = row if kind == "release" else f"{row}="
         prompt.cursor_position = len(prompt.value)
         prompt.add_class("visible")
@@ -986,8 +988,8 @@ def _held(operand: Operand, forced: set[str]) -> bool:
 
 
 def _watch_view(status: MasterStatus, watched: list[Watched], selected: int) -> Text:
-    """The watch list: each operand (and its name) in binary, decimal and hex, forced
-    ones marked."""
+    """The watch list: each operand (and its name) or condition in binary, decimal and
+    hex, forced ones marked."""
     text = Text("watch view", style="bold")
     text.append("   + add  - remove  = write once  F force  R release  (the selected row)\n",
                 style="dim")
@@ -1000,10 +1002,10 @@ def _watch_view(status: MasterStatus, watched: list[Watched], selected: int) -> 
     forced = {f.operand for f in status.forced or []}
     for row, entry in enumerate(watched):
         try:
-            value: int | None = operand_value(status, entry.operand)
+            value: int | None = entry.value(status)
         except UserError:
             value = None
-        held = _held(entry.operand, forced)
+        held = entry.operand is not None and _held(entry.operand, forced)
         style = "reverse" if row == selected else ""
         if value is None:
             cells = f"{'n/a':>18}{'':>9}{'':>7}"

@@ -31,7 +31,7 @@ from asictl.host.live.board import LiveBoard
 from asictl.host.live.status_reader import LiveStatus
 from asictl.host.master import JSON
 from asictl.host.program_files import uploaded_files
-from asictl.host.status import MasterStatus, operand_value
+from asictl.host.status import MasterStatus
 from asictl.host.symbols import Names
 from asictl.host.transfer import StartMode, download, linked_for, set_start, upload
 from asictl.host.watch import watch_list
@@ -99,7 +99,7 @@ class WebBoard:
         status = self.status()
         watched = watch_list(self._names(), [text])[0]
         return {"operand": watched.text, "symbol": watched.symbol,
-                "value": operand_value(status, watched.operand)}
+                "value": watched.value(status)}
 
     def watch(self, status: MasterStatus, items: Sequence[str]) -> list[dict[str, Any]]:
         """The watch list's values in ``status``: per item its operand, name and value, or
@@ -110,7 +110,7 @@ class WebBoard:
             try:
                 watched = watch_list(names, [text])[0]
                 rows.append({"name": text, "operand": watched.text, "symbol": watched.symbol,
-                             "value": operand_value(status, watched.operand)})
+                             "value": watched.value(status)})
             except UserError as exc:
                 rows.append({"name": text, "error": str(exc), "exit": int(exc.exit_code)})
         return rows
