@@ -179,7 +179,7 @@ def test_each_pages_python_examples_run_in_order(page: Path, tmp_path: Path) -> 
 def test_the_examples_not_run_are_few_and_say_why() -> None:
     reasons = {e.name: e.not_run for e in examples() if e.not_run}
     assert all(len(reason) > 10 for reason in reasons.values()), reasons
-    assert len(reasons) <= 10, reasons
+    assert len(reasons) <= 12, reasons
     assert len(_RUN) >= 10
 
 

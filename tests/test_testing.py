@@ -131,8 +131,8 @@ def test_bad_arguments_say_what_is_wrong(tmp_path: Path):
         plc.set("Q 2.0", 1)
     with pytest.raises(ValueError, match="out of range"):
         plc.set("I 1.0", 2)
-    with pytest.raises(ValueError, match="unknown key 'stroke'"):
-        plc.add_plant("cylinder", extend="Q 2.0", extended="I 1.1", stroke=3)
+    with pytest.raises(ValueError, match="unknown key 'strok'"):
+        plc.add_plant("cylinder", extend="Q 2.0", extended="I 1.1", strok=3)
     with pytest.raises(ConditionError, match="expected an operand, a number or '\\(', found 'or'"
                        ) as caught:
         plc.run_until("Q 2.0 and or I 1.0")

@@ -373,8 +373,13 @@ class _Translator:
                     self.emit("OW")
                 else:
                     self.emit("L", layout.counter(n))
-            case _:
+            case (
+                K.I | K.I2 | K.Q | K.F | K.IB | K.I2B | K.QB | K.FY | K.PSEG | K.VAR | K.KT |
+                K.KC | K.KB | K.KW | K.KP
+            ):
                 self.emit("L", layout.byte(operand))
+            case _:
+                assert_never(operand.kind)
 
     def transfer(self, operand: ast.Operand) -> None:
         """The IL operand := S7's ACCU1 (its low byte for a byte operand)."""
@@ -384,8 +389,13 @@ class _Translator:
             case K.T | K.C:
                 self.clamp()
                 self.write_word(operand)
-            case _:
+            case (
+                K.I | K.I2 | K.Q | K.F | K.IB | K.I2B | K.QB | K.FY | K.PSEG | K.VAR | K.KT |
+                K.KC | K.KB | K.KW | K.KP
+            ):
                 self.emit("T", self.export.layout.byte(operand))
+            case _:
+                assert_never(operand.kind)
 
     def clamp(self) -> None:
         """ACCU1 := min(ACCU1, 4095), unsigned (timers and counters hold 12 bits)."""

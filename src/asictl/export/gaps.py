@@ -30,17 +30,15 @@ class Unfinished:
 def gap(statement: ast.Statement | ast.GatingLine, user_blocks: set[str]) -> str | None:
     """Why a statement has no equivalent, or None when it has one. ``user_blocks``: the
     key()s of the program's own function blocks (any other call is the firmware's)."""
-    match statement:
-        case ast.Param():
-            return ("PARAM sends a parameter to a slave through the AS-i master: no "
-                    "equivalent (use the new AS-i master's interface, e.g. ASI_CTRL on an S7)")
-        case ast.Asm():
-            return "an [ASSEMBLY] line is 8051 code: no equivalent"
-        case ast.CallFB(name=name) if ast.key(name) not in user_blocks:
-            return (f"the firmware block {name} talks to the AS-i master: no equivalent "
-                    "(use the new AS-i master's interface)")
-        case _:
-            return None
+    if isinstance(statement, ast.Param):
+        return ("PARAM sends a parameter to a slave through the AS-i master: no "
+                "equivalent (use the new AS-i master's interface, e.g. ASI_CTRL on an S7)")
+    if isinstance(statement, ast.Asm):
+        return "an [ASSEMBLY] line is 8051 code: no equivalent"
+    if isinstance(statement, ast.CallFB) and ast.key(statement.name) not in user_blocks:
+        return (f"the firmware block {statement.name} talks to the AS-i master: no "
+                "equivalent (use the new AS-i master's interface)")
+    return None
 
 
 def host_flags(program: Program, where: Callable[[ast.Operand], str]) -> Iterator[Unfinished]:

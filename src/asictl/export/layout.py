@@ -13,6 +13,7 @@ map file and the check all ask it.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import assert_never
 
 from asictl.il import ast
 from asictl.il.language import COUNTER_FLAG_BASE, MAPPED_COUNTERS
@@ -70,8 +71,13 @@ class Layout:
                 return f"M {a}.{b}"
             case K.VAR:
                 return f"DB{VARIABLE_DB}.DBX {self.variables[ast.key(operand.name)] + a}.{b}"
-            case _:
+            case (
+                K.IB | K.I2B | K.QB | K.FY | K.PSEG | K.FW | K.T | K.C | K.KT | K.KC | K.KB |
+                K.KW | K.KP
+            ):
                 raise AssertionError(f"{operand} has no S7 bit")
+            case _:
+                assert_never(operand.kind)
 
     def byte(self, operand: ast.Operand) -> str:
         """The S7 byte of an IB, I2B, QB, FY, PSeg or variable byte operand."""
@@ -89,8 +95,10 @@ class Layout:
                 return f"DB{STATE_DB}.DBB {PSEG_BASE + a}"
             case K.VAR:
                 return f"DB{VARIABLE_DB}.DBB {self.variables[ast.key(operand.name)] + a}"
-            case _:
+            case K.I | K.I2 | K.Q | K.F | K.FW | K.T | K.C | K.KT | K.KC | K.KB | K.KW | K.KP:
                 raise AssertionError(f"{operand} has no S7 byte")
+            case _:
+                assert_never(operand.kind)
 
     def flag(self, operand: ast.Operand) -> str:
         """The S7 address of a flag bit, byte or word (F, FY, FW)."""

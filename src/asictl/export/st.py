@@ -139,8 +139,13 @@ class _Names:
                 return f"IL_I2[{a // 2}].{(a % 2) * 4 + b}"
             case K.VAR:
                 return f"{operand.name}[{a}].{b}"
-            case _:
+            case (
+                K.IB | K.I2B | K.QB | K.FY | K.PSEG | K.FW | K.T | K.C | K.KT | K.KC | K.KB |
+                K.KW | K.KP
+            ):
                 raise AssertionError(f"{operand} is no plain bit")
+            case _:
+                assert_never(operand.kind)
 
     def byte(self, operand: ast.Operand) -> str:
         a = operand.address
@@ -153,8 +158,10 @@ class _Names:
                 return f"IL_PSEG[{a}]"
             case K.VAR:
                 return f"{operand.name}[{a}]"
-            case _:
+            case K.I | K.I2 | K.Q | K.F | K.FW | K.T | K.C | K.KT | K.KC | K.KB | K.KW | K.KP:
                 raise AssertionError(f"{operand} is no byte")
+            case _:
+                assert_never(operand.kind)
 
     def flag_byte(self, n: int) -> str:
         return self.byte(ast.Operand.of(K.FY, n))
@@ -340,8 +347,13 @@ class _Body:
                     return f"(SHL(BYTE_TO_WORD({high}) AND 16#F, 8) OR BYTE_TO_WORD({low}))"
                 self.export.counters.add(n)
                 return f"IL_C[{n}]"
-            case _:
+            case (
+                K.I | K.I2 | K.Q | K.F | K.IB | K.I2B | K.QB | K.FY | K.PSEG | K.VAR | K.KT |
+                K.KC | K.KB | K.KW | K.KP
+            ):
                 return f"BYTE_TO_WORD({self.names.byte(operand)})"
+            case _:
+                assert_never(operand.kind)
 
     def write_word(self, operand: ast.Operand, value: str) -> None:
         n = operand.address
@@ -377,8 +389,13 @@ class _Body:
                 self.emit(f"{self.names.flag_byte(n + 1)} := WORD_TO_BYTE(IL_ACCU1);")
             case K.T | K.C:
                 self.write_word(operand, f"MIN(IL_ACCU1, {TC_MAX_VALUE})")
-            case _:
+            case (
+                K.I | K.I2 | K.Q | K.F | K.IB | K.I2B | K.QB | K.FY | K.PSEG | K.VAR | K.KT |
+                K.KC | K.KB | K.KW | K.KP
+            ):
                 self.emit(f"{self.names.byte(operand)} := WORD_TO_BYTE(IL_ACCU1);")
+            case _:
+                assert_never(operand.kind)
 
     def count(self, op: ast.CountOp, n: int) -> None:
         counter = ast.Operand.of(K.C, n, width=ast.Width.WORD)
