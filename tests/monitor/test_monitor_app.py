@@ -107,13 +107,13 @@ def test_start_stop_and_outputs_while_stopped(board):
 
 def test_flag_byte_and_bit(board):
     async def check(app, pilot):
-        await pilot.press("f", *"10=0x12", "enter")  # the prompt starts with 'FY '
+        await pilot.press("f", *"FY 10=0x12", "enter")  # both forms as the prompt shows them
         await settle(app, pilot)
         assert status(board)["flags"][10] == 0x12
-        await pilot.press("f", *["backspace"] * 3, *"F 10.0=1", "enter")
+        await pilot.press("f", *"F 10.0=1", "enter")
         await settle(app, pilot)
         assert status(board)["flags"][10] == 0x13
-        await pilot.press("f", *"999=1", "enter")
+        await pilot.press("f", *"FY 999=1", "enter")
         await settle(app, pilot)
         assert "'FY 999': flag byte 0..127" in log_text(app), "a bad entry is reported, not fatal"
 

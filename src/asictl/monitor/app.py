@@ -198,7 +198,7 @@ class MonitorApp(App[None]):
         Binding("vertical_line", "key('both', 6)", "both 6 s"),
         Binding("escape", "cancel_prompt", "Cancel", show=False),
     ]
-    #: what each prompt asks for, and the text it starts with
+    #: what each prompt asks for
     PROMPTS: ClassVar[dict[str, str]] = {
         "output": "outputs of the selected slave (program stopped): 0b1000, 8h or 8",
         "flag": "flag byte or bit: 'FY 10=0x12' or 'F 10.0=1'",
@@ -603,7 +603,7 @@ class MonitorApp(App[None]):
         self._prompting = kind
         prompt = self.query_one("#prompt", Input)
         prompt.placeholder = self.PROMPTS[kind]
-        prompt.value = "FY " if kind == "flag" else ""
+        prompt.value = ""  # the placeholder shows both forms: 'FY 10=0x12' and 'F 10.0=1'
         selected = self.watched[self.watch_row] if self.watched else None
         if (self.view == "watch" and selected is not None and selected.operand is not None
                 and kind in ("force", "release", "write")):
