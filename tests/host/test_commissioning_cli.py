@@ -80,9 +80,10 @@ def test_a_gateway_without_cycle_times_says_n_a():
                 control_flags=0, start_flag=False, ignore_config_errors=False,
                 wait_for_set_button=False, map_counters=False, control_active=False,
                 control_state="idle", stop_reason=None, program_status="not loaded",
-                cycle_time_ms=0.0, max_cycle_time_ms=0.0,
+                cycle_time_ms=0.03, max_cycle_time_ms=1.25,
                 program=ProgramInfo(present=False, valid=False))
-    assert "cycle    0.0 ms (max 0.0 ms)" in render(MasterStatus(**base))
+    # cycles of tens of µs read in µs, not as 0.0 ms
+    assert "cycle    30 µs (max 1.25 ms)" in render(MasterStatus(**base))
     gateway = render(MasterStatus(**base, cycle_times_known=False))
     assert "cycle    n/a (the gateway does not report them)" in gateway
 

@@ -268,6 +268,7 @@ def test_a_cycle_time_out_names_its_line_on_top_in_the_log_and_in_the_view(tmp_p
         await settle(app, pilot, 4)
         top = str(app.query_one("#top").render())
         assert "control program halted (loop.asi:9: cycle timeout)" in top
+        assert "cycle 10 µs (max 10 µs)" in top  # not 0.0 ms
         assert "control program halted (loop.asi:9: cycle timeout)" in log_text(app)
         for _ in range(25):  # every refresh keeps the line (the image is kept, not re-read)
             await settle(app, pilot, 1)

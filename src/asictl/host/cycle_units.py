@@ -10,6 +10,7 @@ real board"), ``status`` and ``probe`` show the raw value and both readings.
 from __future__ import annotations
 
 from asictl.platform.pc2 import CYCLE_TIME_UNIT_US
+from asictl.readers.units import format_duration
 
 #: The unit a vendor driver header gives the cycle times: 10 ms.
 OTHER_UNIT_US = 10_000
@@ -18,6 +19,12 @@ OTHER_UNIT_US = 10_000
 def raw_value(ms: float) -> int:
     """The raw 16-bit value behind a cycle time read in asictl's unit."""
     return round(ms * 1000 / CYCLE_TIME_UNIT_US)
+
+
+def cycle_text(previous_ms: float, maximum_ms: float) -> str:
+    """The last and longest cycle as ``status`` and the monitor print them: in µs below a
+    millisecond (a program's cycles take 10-40 µs, which one decimal of ms showed as 0.0)."""
+    return f"{format_duration(previous_ms)} (max {format_duration(maximum_ms)})"
 
 
 def readings(raw: int) -> dict[str, float]:

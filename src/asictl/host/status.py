@@ -22,7 +22,7 @@ from enum import IntEnum
 from typing import Any, assert_never
 
 from asictl.errors import ExitCode, UserError
-from asictl.host.cycle_units import other_reading, raw_value
+from asictl.host.cycle_units import cycle_text, other_reading, raw_value
 from asictl.host.force_list import ForcedValue, entries_from_json, forced_values
 from asictl.host.raw_image import foreign_eeprom
 from asictl.host.transfer import Pc2Transport, Transport, upload, upload_head
@@ -709,7 +709,7 @@ def render(status: MasterStatus) -> str:
         f"control  {control}",
         f"flags    {s.control_flags:02X}h " + (" ".join(set_flags) or "(none)"),
         f"program  {program} ({s.program_status})",
-        (f"cycle    {s.cycle_time_ms:.1f} ms (max {s.max_cycle_time_ms:.1f} ms) in 10 µs "
+        (f"cycle    {cycle_text(s.cycle_time_ms, s.max_cycle_time_ms)} in 10 µs "
          "units; " + other_reading(raw_value(s.cycle_time_ms), raw_value(s.max_cycle_time_ms))
          if s.cycle_times_known else "cycle    n/a (the gateway does not report them)"),
         f"hi-flags {s.hi_flags:02X}h {hi_flag_text(s.hi_flags)}",

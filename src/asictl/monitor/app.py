@@ -40,6 +40,7 @@ from textual.widgets import Footer, Input, RichLog, Static
 
 from asictl.errors import UserError
 from asictl.host.commissioning import Change, check_address, image_changes, write_flags
+from asictl.host.cycle_units import cycle_text
 from asictl.host.emulated.actions import parse_address, parse_number, parse_profile
 from asictl.host.force_list import Entry, forced_values
 from asictl.host.forcing import force, unforce
@@ -840,7 +841,7 @@ def _top(
     if s.forced:  # the FORCE lamp
         text.append("   ")
         text.append(f" FORCE {len(s.forced)} ", style="bold white on magenta")
-    text.append(f"\ncycle {s.cycle_time_ms:.1f} ms (max {s.max_cycle_time_ms:.1f} ms)   ")
+    text.append(f"\ncycle {cycle_text(s.cycle_time_ms, s.max_cycle_time_ms)}   ")
     text.append(f"program {s.program.identity or s.program.problem or 'none'}")
     if gone:
         text.stylize("dim", as_it_was)
