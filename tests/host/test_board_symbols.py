@@ -95,6 +95,18 @@ def test_online_commands_take_and_show_the_boards_names(program, tmp_path):
     assert cli(state, "unforce", "Edge", "Lamp").exit_code == 0
     unknown = cli(state, "write", "Motor=1")
     assert unknown.exit_code == 2 and "'Motor' is not an operand" in unknown.output
+    assert "did you mean" not in unknown.output  # nothing in the table is like it
+
+
+@pytest.mark.parametrize("command", [["write", "Lmap=1"], ["force", "Lmap=1"],
+                                     ["watch", "Lmap", "--duration", "10ms"],
+                                     ["bus", "inputs", "Lmap=1"], ["unforce", "Lmap"]])
+def test_a_misspelt_name_is_told_the_closest_of_the_boards_names(program, tmp_path, command):
+    state = tmp_path / "state"
+    assert cli(state, "download", str(program)).exit_code == 0
+    result = cli(state, *command)
+    assert result.exit_code == 2, result.output
+    assert "did you mean 'Lamp' (Q 2.0)?" in result.output, result.output
 
 
 def test_a_name_without_a_table_on_the_board_says_so(tmp_path):

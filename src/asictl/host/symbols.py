@@ -20,6 +20,7 @@ from asictl.observe.operands import (
     parse_operand,
 )
 from asictl.observe.symbols import SymbolTable
+from asictl.readers.suggest import closest
 
 
 def board_symbols(master: Master) -> SymbolTable:
@@ -54,7 +55,8 @@ class Names:
                 return parse_assignment(text, symbols=self.table, example=example)
             except ValueError as exc:
                 first = exc
-        raise UserError(self._unknown(str(first)), ExitCode.USAGE)
+        raise UserError(self._unknown(str(first), name if "=" in text else text),
+                        ExitCode.USAGE)
 
     def operand(self, text: str) -> Operand:
         try:
@@ -66,9 +68,15 @@ class Names:
                 return parse_operand(text, symbols=self.table)
             except ValueError as exc:
                 first = exc
-        raise UserError(self._unknown(str(first)), ExitCode.USAGE)
+        raise UserError(self._unknown(str(first), text), ExitCode.USAGE)
 
-    def _unknown(self, message: str) -> str:
-        if self._table is not None and not self._table:
+    def _unknown(self, message: str, word: str) -> str:
+        """The message, with the name of the board's table most like ``word`` where the
+        message has no hint of its own (``Wtaer`` -> ``'Water' (I 1.2)``)."""
+        if self._table is None or "did you mean" in message:
+            return message
+        if not self._table:
             return message + " (and the program on the master has no symbol table)"
-        return message
+        operands = dict(self._table.entries.values())
+        found = closest(word.strip(), operands)
+        return message + (f"; did you mean '{found}' ({operands[found]})?" if found else "")
