@@ -15,6 +15,8 @@ class ExitCode(IntEnum):
 
     OK = 0
     #: The command ran and found problems: errors in a checked file, a failed expectation.
+    #: A program with errors is this from every command that reads one (docs/commands.md
+    #: "Exit status"): the file was read, and what is wrong is in it, not in the call.
     FAILED = 1
     #: The command could not run: bad usage, unreadable or malformed input.
     USAGE = 2

@@ -46,7 +46,8 @@ def debug(program: Path, scenario_path: Path | None, no_scenario: bool, sets: tu
     continue, cycle, time 100ms, print I 1.0 / FY 10 / T 0 / C 0 / RLO, set I 1.0=1.
     'help' lists the commands.
 
-    Exit status: 0; with --batch, 1 if a command was refused; 2 bad input.
+    Exit status: 0; 1 the program has errors, or with --batch a command was refused; 2
+    bad input.
 
     \b
     Example:
@@ -61,7 +62,7 @@ def debug(program: Path, scenario_path: Path | None, no_scenario: bool, sets: tu
                            allow_partial=True)
     except Invalid as exc:
         click.echo(exc.text, nl=False, err=True)
-        ctx.exit(int(ExitCode.USAGE))
+        ctx.exit(int(exc.exit_code))
     click.echo(prepared.notes, nl=False, err=True)
     if scenario_path is not None:
         click.echo(f"scenario {scenario_path}")

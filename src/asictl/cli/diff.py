@@ -91,7 +91,7 @@ def diff(old: Path, new: Path, equivalent: bool, depth: Cycles, timeout: float,
     scenario that passes on OLD and fails on NEW.
 
     Exit status: 0 no change (with --equivalent: equivalent), 1 changed (different or
-    undecided), 2 bad input.
+    undecided) or a program has errors, 2 bad input.
 
     \b
     Examples:
@@ -107,7 +107,7 @@ def diff(old: Path, new: Path, equivalent: bool, depth: Cycles, timeout: float,
         built_new, second = _program(new, lib)
     except _Bad as exc:
         click.echo(exc.text, nl=False, err=True)
-        ctx.exit(int(ExitCode.USAGE))
+        ctx.exit(int(ExitCode.FAILED))  # a program with errors, as 'check' exits
     if first is None or second is None:
         ctx.exit(_images_only(old, new, built_old, built_new))
     assert isinstance(first, Program) and isinstance(second, Program)

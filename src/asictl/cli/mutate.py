@@ -42,7 +42,8 @@ def _targets(paths: tuple[Path, ...], lib: tuple[str, ...]) -> list[Target]:
         try:
             prepared = prepare(None, scenario, lib=lib)
         except Invalid as exc:
-            raise UserError(f"{scenario}: {exc.message}\n{exc.text.rstrip()}") from None
+            raise UserError(f"{scenario}: {exc.message}\n{exc.text.rstrip()}",
+                            exc.exit_code) from None
         by_program[prepared.program.resolve()].append((scenario, prepared))
     targets = []
     for key, tested in by_program.items():
@@ -110,8 +111,8 @@ def mutate(paths: tuple[Path, ...], jobs: int | None, fmt: str, min_score: float
     each mutant as FILE:LINE:COL: VERDICT: CHANGE and the score, killed / (mutants -
     equivalent - invalid).
 
-    Exit status: 0 done (and the score reaches --min-score), 1 below --min-score or a
-    scenario fails on the unchanged program, 2 bad input.
+    Exit status: 0 done (and the score reaches --min-score), 1 below --min-score, a
+    scenario fails on the unchanged program or a program has errors, 2 bad input.
 
     \b
     Example:

@@ -94,7 +94,8 @@ def prove(files: tuple[Path, ...], properties: Path | None, depth: Cycles, timeo
     fails under 'asictl sim'), reached (with a witness scenario), unreachable, holds up
     to N cycles (no proof within --depth) or unknown (--timeout).
 
-    Exit status: 0 every property proved or reached, 1 otherwise, 2 bad input.
+    Exit status: 0 every property proved or reached, 1 otherwise or the program has
+    errors, 2 bad input.
 
     \b
     Examples:
@@ -117,7 +118,7 @@ def prove(files: tuple[Path, ...], properties: Path | None, depth: Cycles, timeo
                                 unroll=unroll)
         except Invalid as exc:
             click.echo(exc.text, nl=False, err=True)
-            ctx.exit(int(ExitCode.USAGE))
+            ctx.exit(int(exc.exit_code))
         reports.append(report)
         if fmt == "text":
             slaves = " ".join(str(a) for a in report.slaves) or "none"

@@ -83,7 +83,8 @@ def sim(
     stops (cycle time-out, configuration error) are reported with their time and IL
     line. PROGRAM may be left out when the scenario names it.
 
-    Exit status: 0 all expectations hold, 1 one failed, 2 bad input.
+    Exit status: 0 all expectations hold, 1 one failed or the program has errors, 2 bad
+    input.
 
     \b
     Examples:
@@ -117,7 +118,7 @@ def sim(
             progress.clear()
     except Invalid as exc:
         click.echo(exc.text, nl=False, err=True)
-        ctx.exit(int(ExitCode.USAGE))
+        ctx.exit(int(exc.exit_code))
     click.echo(run.note, nl=False, err=True)
     #: the files this run read: no output may replace one of them
     inputs = [run.prepared.program, *([scenario_path] if scenario_path else [])]
@@ -317,8 +318,8 @@ def test(paths: tuple[Path, ...], junit: Path | None, jobs: int | None,
     pytest runs the same scenarios ('pytest DIR', with --asictl-coverage FILE for the
     coverage), together with Python tests that use asictl.testing (docs/testing.md).
 
-    Exit status: 0 all passed, 1 a scenario failed (or coverage is below
-    --coverage-fail-under), 2 a scenario or program is invalid.
+    Exit status: 0 all passed, 1 a scenario failed, a program has errors (or coverage is
+    below --coverage-fail-under), 2 a scenario is invalid.
 
     \b
     Examples:
@@ -374,5 +375,5 @@ def test(paths: tuple[Path, ...], junit: Path | None, jobs: int | None,
     if any(o.bug for o in outcomes):
         ctx.exit(int(ExitCode.BUG))
     if any(o.status == "ERROR" for o in outcomes):
-        ctx.exit(int(ExitCode.USAGE))
+        ctx.exit(max(o.exit_code for o in outcomes if o.status == "ERROR"))
     ctx.exit(int(ExitCode.OK if passed == len(outcomes) and not below else ExitCode.FAILED))

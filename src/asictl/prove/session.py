@@ -13,7 +13,7 @@ from pathlib import Path
 from asictl.build import Build, build_file
 from asictl.codes import ScenarioCode
 from asictl.diagnostics import Diagnostic, DiagnosticError, Severity, render_text
-from asictl.errors import UserError
+from asictl.errors import ExitCode, UserError
 from asictl.files import real_path, write_atomic
 from asictl.il.pragmas import read_directives
 from asictl.observe.operands import parse_operand
@@ -31,11 +31,13 @@ from asictl.source import read_source
 
 
 class Invalid(Exception):
-    """Bad input: ``text`` holds the rendered diagnostics."""
+    """Bad input: ``text`` holds the rendered diagnostics; a program with errors exits
+    ``FAILED`` as ``check`` does, a bad properties file ``USAGE``."""
 
-    def __init__(self, text: str) -> None:
+    def __init__(self, text: str, exit_code: ExitCode = ExitCode.USAGE) -> None:
         super().__init__(text)
         self.text = text
+        self.exit_code = exit_code
 
 
 @dataclass
@@ -78,7 +80,8 @@ def load(properties: Path, program: Path | None, lib: tuple[str, ...]) -> tuple[
     built = build_file(program, lib=lib)
     if built.has_errors or built.program is None:
         raise Invalid(built.render() or f"{program}: no IL program (an image has no source "
-                                         "to prove)\n")
+                                         "to prove)\n",
+                      ExitCode.FAILED if built.has_errors else ExitCode.USAGE)
     variables = {} if built.image is None else variables_of(built.image.pmap)
     try:
         symbols = symbols_for(program, lambda text: str(parse_operand(text, variables)))

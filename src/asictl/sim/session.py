@@ -22,7 +22,7 @@ from typing import Any
 from asictl import __version__
 from asictl.build import Build, build_file
 from asictl.diagnostics import DiagnosticError, render_text
-from asictl.errors import UserError
+from asictl.errors import ExitCode, UserError
 from asictl.observe.coverage import Coverage
 from asictl.observe.operands import SETTABLE, parse_assignment, parse_operand
 from asictl.observe.symbols import SymbolTable, symbols_for
@@ -42,12 +42,15 @@ DEFAULT_DURATION_MS = 10_000.0
 
 
 class Invalid(Exception):
-    """Bad input: ``text`` holds the rendered diagnostics, ``message`` one line."""
+    """Bad input: ``text`` holds the rendered diagnostics, ``message`` one line; a
+    program with errors exits ``FAILED`` as ``check`` does, a bad scenario ``USAGE``."""
 
-    def __init__(self, text: str, message: str = "invalid scenario or program") -> None:
+    def __init__(self, text: str, message: str = "invalid scenario or program",
+                 exit_code: ExitCode = ExitCode.USAGE) -> None:
         super().__init__(message)
         self.text = text
         self.message = message
+        self.exit_code = exit_code
 
 
 def program_for(scenario: Path) -> Path:
@@ -110,7 +113,7 @@ def prepare(
         raise UserError("no program: name one, or give the scenario a 'program = \"...\"' line")
     built = build_file(program, lib=lib)
     if built.has_errors or built.image is None:
-        raise Invalid(built.render(), "the program has errors")
+        raise Invalid(built.render(), "the program has errors", ExitCode.FAILED)
     variables = variables_of(built.image.pmap)
 
     def check(text: str) -> str:
@@ -311,6 +314,8 @@ class Outcome:
     seconds: float = 0.0
     #: an internal error (a bug), not bad input
     bug: bool = False
+    #: an ERROR row's exit status: FAILED for a program with errors, else USAGE
+    exit_code: int = ExitCode.USAGE
     markers: list[str] = field(default_factory=list)
     #: failures as (line, text) for test runners that show the scenario line
     failures: list[tuple[int, str]] = field(default_factory=list)
@@ -328,7 +333,8 @@ def run_file(path: str, lib: tuple[str, ...] = (), coverage: bool = False) -> Ou
         prepared = prepare(None, Path(path), lib=lib)
         run = simulate(prepared, coverage=coverage)
     except Invalid as exc:
-        return Outcome(path, "ERROR", stderr=exc.text, message=exc.message)
+        return Outcome(path, "ERROR", stderr=exc.text, message=exc.message,
+                       exit_code=exc.exit_code)
     except UserError as exc:
         return Outcome(path, "ERROR", message=str(exc))
     except Exception as exc:  # one bug must not end a whole test run: an ERROR row
