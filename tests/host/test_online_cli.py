@@ -265,3 +265,16 @@ def test_hiflags_take_the_master_offline_and_back(edge_served):
     time.sleep(0.3)
     status_now = status(state)
     assert status_now["hi_flags"] == 0 and status_now["control_state"] == "running"
+
+
+
+@pytest.mark.parametrize("pair", [("--offline", "--online"),
+                                  ("--data-exchange", "--no-data-exchange"),
+                                  ("--no-auto-address", "--auto-address")])
+def test_contradicting_hiflags_are_a_usage_error_and_change_nothing(tmp_path, pair):
+    state = tmp_path / "state"
+    result = cli(state, "hiflags", *pair, "--json")
+    assert result.exit_code == 2, result.output
+    assert "contradict each other: give one" in result.stderr
+    assert all(f"{flag} " in result.stderr for flag in pair)
+    assert result.stdout == ""  # refused before the board is opened

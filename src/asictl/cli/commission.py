@@ -18,7 +18,7 @@ import click
 
 from asictl.cli.board_options import BoardOptions, board_options, open_master
 from asictl.cli.guard_options import real_master_option
-from asictl.cli.options import lib_option
+from asictl.cli.options import lib_option, one_of
 from asictl.errors import ExitCode, UserError
 from asictl.host.commissioning import image_writes, write_flags
 from asictl.host.emulated.actions import parse_address, parse_number
@@ -207,20 +207,31 @@ def setup(
 # --------------------------------------------------------------------------- hi-flags
 
 
+def _on_off(chosen: str | None, sets: str) -> bool | None:
+    """A hi-flag bit as a pair of flags asks for it: None when neither was given."""
+    return None if chosen is None else chosen == sets
+
+
 @click.command("hiflags")
-@click.option("--offline/--online", "offline", default=None,
-              help="Take the master offline (no AS-i communication at all), or online again.")
-@click.option("--data-exchange/--no-data-exchange", "data_exchange", default=None,
-              help="Let the master exchange data with the slaves, or stop it (the slaves keep "
-              "their last outputs until their watchdogs end them).")
-@click.option("--auto-address/--no-auto-address", "auto_address", default=None,
-              help="Let the master give a replaced slave its address automatically, or not.")
+@click.option("--offline", is_flag=True,
+              help="Take the master offline (no AS-i communication at all).")
+@click.option("--online", is_flag=True, help="Take the master online again.")
+@click.option("--data-exchange", is_flag=True,
+              help="Let the master exchange data with the slaves.")
+@click.option("--no-data-exchange", is_flag=True,
+              help="Stop the data exchange (the slaves keep their last outputs until their "
+              "watchdogs end them).")
+@click.option("--auto-address", is_flag=True,
+              help="Let the master give a replaced slave its address automatically.")
+@click.option("--no-auto-address", is_flag=True,
+              help="Do not give a replaced slave its address automatically.")
 @click.option("--json", "as_json", is_flag=True, help="The flags as JSON on stdout.")
 @board_options
 @real_master_option
 def hiflags(
-    offline: bool | None, data_exchange: bool | None, auto_address: bool | None,
-    as_json: bool, real_master: bool, **board: Unpack[BoardOptions],
+    offline: bool, online: bool, data_exchange: bool, no_data_exchange: bool,
+    auto_address: bool, no_auto_address: bool, as_json: bool, real_master: bool,
+    **board: Unpack[BoardOptions],
 ) -> None:
     """Show or set the host interface flags (ASI_MON's hi-flags; the PC2 driver's message
     74h, 'write host interface flags'): offline, data exchange active, auto-address
@@ -238,9 +249,15 @@ def hiflags(
     from asictl.host.status import hi_flag_text
     from asictl.platform.pc2 import HiFlag
 
-    wanted = {HiFlag.OFFLINE: offline, HiFlag.DATA_EXCHANGE_OFF: None if data_exchange is None
-              else not data_exchange,
-              HiFlag.AUTO_ADDRESS_OFF: None if auto_address is None else not auto_address}
+    # each bit: set, cleared or (neither flag given) left as it is; both are a usage error
+    wanted = {
+        HiFlag.OFFLINE: _on_off(one_of(offline=offline, online=online), "offline"),
+        HiFlag.DATA_EXCHANGE_OFF: _on_off(one_of(
+            data_exchange=data_exchange, no_data_exchange=no_data_exchange),
+            "no_data_exchange"),
+        HiFlag.AUTO_ADDRESS_OFF: _on_off(one_of(
+            auto_address=auto_address, no_auto_address=no_auto_address), "no_auto_address"),
+    }
     with open_master(**board) as master:
         tools = master.tools()
         flags = before = tools.read_hi_flags()

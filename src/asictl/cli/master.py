@@ -20,7 +20,7 @@ import click
 from asictl.build import build_file
 from asictl.cli.board_options import BoardOptions, board_options, master_wait, open_master
 from asictl.cli.guard_options import real_master_option, unconfirmed_format_option
-from asictl.cli.options import lib_option
+from asictl.cli.options import lib_option, one_of
 from asictl.cli.terminal import progress
 from asictl.errors import ExitCode, UserError
 from asictl.files import STDOUT, shown_name, write_output
@@ -95,12 +95,8 @@ def download_command(
       asictl download demos/counter.asi --port 304h
     """
     ctx = click.get_current_context()
-    chosen = [name for name, on in (("start", start), ("stop", stop), ("keep", keep)) if on]
-    if len(chosen) > 1:
-        raise click.UsageError(
-            " and ".join(f"--{name}" for name in chosen) + " contradict each other: give one"
-        )
-    mode = StartMode(chosen[0] if chosen else "keep")
+    chosen = one_of(start=start, stop=stop, keep=keep)
+    mode = StartMode(chosen or "keep")
     if raw or restore_setup:
         from asictl.cli import raw_images
 
@@ -108,7 +104,7 @@ def download_command(
             raise click.UsageError("--restore-setup goes with --raw")
         if chosen:
             raise click.UsageError(f"--raw keeps the flags as they are (or restores them "
-                                   f"with --restore-setup): --{chosen[0]} does not apply")
+                                   f"with --restore-setup): --{chosen} does not apply")
         raw_image = raw_images.read_raw_file(file)
         with open_master(**board) as master:
             check_overwrite(

@@ -71,3 +71,13 @@ class CycleCount(click.ParamType[Cycles]):
         if found.count is not None and found.count > self.most:
             self.fail(f"{found.count} is more than {self.most} cycles", param, ctx)
         return found
+
+
+def one_of(**given: bool) -> str | None:
+    """The one flag given of flags that contradict each other (``--start``, ``--stop``),
+    named as its keyword, or None; two are a usage error, never "the last one wins"."""
+    chosen = [name for name, on in given.items() if on]
+    if len(chosen) > 1:
+        raise click.UsageError(" and ".join("--" + name.replace("_", "-") for name in chosen)
+                               + " contradict each other: give one")
+    return chosen[0] if chosen else None
