@@ -118,7 +118,46 @@ def test_json_counts_are_the_ones_worked_out_by_hand(project: Path):
     assert report["totals"]["branches"]["covered"] == 7
     assert report["totals"]["conditions"] == {"covered": 15, "total": 22, "percent": 68.18}
     summary = "coverage: lines 100% (20/20), branches 87% (7/8), conditions 68% (15/22)"
-    assert output.rstrip().splitlines()[-2:] == ["1 passed, 0 failed", summary]
+    at = output.splitlines().index("1 passed, 0 failed")
+    assert output.splitlines()[at + 1] == summary
+
+
+def test_the_summary_lists_each_missing_outcome_with_the_symbol_names(project: Path):
+    """As coverage.py's term-missing: one row per outcome never seen, worked out here from
+    the JSON report's counts; a name of the symbol table beside the program is shown."""
+    (project / "plc" / "main.symbols.toml").write_text('Spare = "I 1.2"\n')
+    code, output = _test("plc", "--coverage", "cov.json")
+    assert code == 0, output
+    report = json.loads((project / "cov.json").read_text())["files"]
+    expected = []
+    for file, kinds in report.items():
+        expected += [(file, r["line"], 0, f"{file}:{r['line']} never ran")
+                     for r in kinds["lines"] if not r["hits"]]
+        expected += [(file, r["line"], 0, f"{file}:{r['line']} branch never {what}")
+                     for r in kinds["branches"]
+                     for what, key in (("taken", "taken"), ("not taken", "not_taken"))
+                     if not r[key]]
+        for r in kinds["conditions"]:
+            name = " (Spare)" if r["operand"] == "I 1.2" and file == "plc/main.asi" else ""
+            expected += [(file, r["line"], r["column"],
+                          f"{file}:{r['line']}:{r['column']} {r['operand']}{name} never {v}")
+                         for v, key in ((0, "zero"), (1, "one")) if not r[key]]
+    rows = [line[2:] for line in output.splitlines() if line.startswith("  plc/")]
+    assert rows == [text for *_, text in sorted(expected)]
+    assert len(rows) == 1 + 7  # the one branch and the 7 condition outcomes never seen
+    assert "plc/main.asi:13:13 I 1.2 (Spare) never 1" in rows
+    assert "plc/latch.fb:13 branch never taken" in rows
+
+
+def test_nothing_to_count_reads_n_a_not_100_percent(tmp_path: Path,
+                                                   monkeypatch: pytest.MonkeyPatch):
+    monkeypatch.chdir(tmp_path)
+    Path("plain.asi").write_text("[SETUP]\n1: iiii, 0\n\n[PROGRAM]\n"
+                                 "        L   KB 1\n        T   FY 10\n")
+    Path("plain.scenario.toml").write_text("[[step]]\nat_ms = 10\nexpect = { \"FY 10\" = 1 }\n")
+    code, output = _test("plain.scenario.toml", "--coverage", "cov.json")
+    assert code == 0, output
+    assert "coverage: lines 100% (2/2), branches n/a, conditions n/a" in output
 
 
 def test_scenarios_add_up_the_same_in_worker_processes(project: Path):

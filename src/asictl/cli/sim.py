@@ -19,7 +19,7 @@ from asictl.files import refuse_inputs, write_output
 from asictl.observe.coverage import Coverage
 from asictl.observe.iltrace import to_csv as rows_csv
 from asictl.sim import SUFFIX
-from asictl.sim.coverage import FORMATS, format_for, percent, render
+from asictl.sim.coverage import FORMATS, format_for, missing, percent, render
 from asictl.sim.coverage import summary as coverage_summary
 from asictl.sim.engine import line_map_of
 from asictl.sim.scenario import MAX_TIME_MS
@@ -363,6 +363,9 @@ def test(paths: tuple[Path, ...], junit: Path | None, jobs: int | None,
                 coverage.merge(outcome.coverage)
         # after a JSON document, on standard error: standard output stays one document
         click.echo(coverage_summary(coverage), err=fmt == "json")
+        names = {str(Path(o.program).resolve()): o.names for o in outcomes if o.program}
+        for row in missing(coverage, names):
+            click.echo("  " + row, err=fmt == "json")
         if coverage_path is not None:
             text = render(coverage, format_for(str(coverage_path), coverage_format))
             write_output(coverage_path, text, inputs=[*read, *coverage.files_read()])

@@ -14,8 +14,9 @@ import json
 import os
 import time
 from collections import defaultdict
+from collections.abc import Mapping
 from dataclasses import dataclass, field
-from pathlib import PurePath
+from pathlib import Path, PurePath
 from xml.etree import ElementTree
 
 from asictl import __version__
@@ -38,12 +39,37 @@ def percent(covered: int, counted: int) -> float:
 
 def summary(coverage: Coverage) -> str:
     """``coverage: lines 93% (112/120), branches 80% (8/10), conditions 75% (30/40)``;
-    the percentages rounded down (99.5 % is not 100 %)."""
+    the percentages rounded down (99.5 % is not 100 %), ``n/a`` where there is nothing
+    to count (a program without a jump has no branches: not 100 % of them)."""
     parts = [
-        f"{kind} {covered * 100 // counted if counted else 100}% ({covered}/{counted})"
+        f"{kind} {covered * 100 // counted}% ({covered}/{counted})" if counted
+        else f"{kind} n/a"
         for kind, (covered, counted) in coverage.totals().items()
     ]
     return "coverage: " + ", ".join(parts)
+
+
+def missing(coverage: Coverage, names: Mapping[str, Mapping[str, str]]) -> list[str]:
+    """Each outcome never seen, as coverage.py's term-missing lists them, by file and
+    line: ``main.asi:15 never ran``, ``main.asi:10 branch never taken``, ``main.asi:9:9
+    I 1.1 (Stop) never 1``. ``names``: the resolved path of a program -> its operands'
+    names (a function block's file has none)."""
+    rows: list[tuple[str, int, int, str]] = []
+    for file, kinds in _by_file(coverage).items():
+        shown = _relative(file)
+        named = names.get(str(Path(file).resolve()), {})
+        rows += [(shown, line, 0, f"{shown}:{line} never ran")
+                 for line, hits in kinds.lines if not hits]
+        for line, taken, not_taken in kinds.branches:
+            rows += [(shown, line, 0, f"{shown}:{line} branch never {what}")
+                     for what, count in (("taken", taken), ("not taken", not_taken))
+                     if not count]
+        for line, column, operand, zero, one in kinds.conditions:
+            name = f" ({named[operand]})" if operand in named else ""
+            rows += [(shown, line, column,
+                      f"{shown}:{line}:{column} {operand}{name} never {value}")
+                     for value, count in ((0, zero), (1, one)) if not count]
+    return [text for *_, text in sorted(rows)]
 
 
 def _relative(path: str) -> str:

@@ -323,6 +323,8 @@ class Outcome:
     stops: list[str] = field(default_factory=list)
     #: the program file the scenario ran (none for an ERROR row)
     program: str = ""
+    #: its symbol table, operand -> name (for what coverage lists as missing)
+    names: dict[str, str] = field(default_factory=dict)
     #: what the scenario reached of its program, when asked for
     coverage: Coverage | None = None
 
@@ -349,6 +351,7 @@ def run_file(path: str, lib: tuple[str, ...] = (), coverage: bool = False) -> Ou
         failures=[(f.line, str(f)) for f in run.result.failures],
         stops=[f"at {s.at_ms:g} ms: program stopped: {s.text}" for s in run.result.stops],
         program=str(prepared.program), coverage=run.result.coverage,
+        names={text: name for name, text in prepared.symbols.entries.values()},
     )
 
 
