@@ -27,6 +27,18 @@ def test_ci_runs_the_readme_test_command():
     assert test_command in (ROOT / ".ci" / "run").read_text().splitlines()
 
 
+def test_the_readme_installs_what_ci_installs_for_the_tests():
+    """The one line next to the test command that installs the Debian and npm tools the
+    suite needs names every package .ci/run installs, and nothing else."""
+    text = " ".join((ROOT / "README.md").read_text().split())
+    line = re.search(r"`apt-get install -y ([^`&]*) && (npm ci [^`]*)`", text)
+    assert line, "the README gives the one install line next to the test command"
+    ci = (ROOT / ".ci" / "run").read_text()
+    installed = re.findall(r"apt-get install -y (.*)", ci)
+    assert sorted(line[1].split()) == sorted(" ".join(installed).split())
+    assert line[2].split() == re.search(r"(npm ci .*?) --no-audit", ci)[1].split()
+
+
 def _yaml_blocks() -> list[str]:
     return re.findall(r"```yaml\n(.*?)```", (ROOT / "README.md").read_text(), re.S)
 
