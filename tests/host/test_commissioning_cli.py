@@ -226,6 +226,27 @@ def test_verify(run, tmp_path):
     assert run("verify", str(hex_file)).exit_code == 0
 
 
+
+def test_verify_of_the_source_against_the_program_stored_without_it_is_identical(
+    run, tmp_path: Path,
+):
+    """Stored from an image compiled with --no-source: the same identity, the same program;
+    only where the source text is differs, which a note says."""
+    bare = tmp_path / "bare.hex"
+    assert CliRunner().invoke(main, ["compile", str(BLINK), "--no-source", "-o", str(bare)]
+                              ).exit_code == 0
+    assert run("download", str(bare)).exit_code == 0
+    result = run("verify", str(BLINK))
+    assert result.exit_code == 0, result.output
+    assert "identical: the master holds" in result.stdout
+    assert "note: only " in result.stderr and "carries the source text" in result.stderr
+    # another source (a comment more) is another identity: still told apart
+    other = tmp_path / "blink.asi"
+    other.write_text(BLINK.read_text() + "; one comment more\n")
+    different = run("verify", str(other))
+    assert different.exit_code == 1 and "source text or file names only" in different.stdout
+
+
 @pytest.mark.parametrize("modes", [("--start", "--stop"), ("--stop", "--keep"),
                                    ("--start", "--keep")])
 def test_download_refuses_two_start_modes(run, modes: tuple[str, str]):

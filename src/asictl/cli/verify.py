@@ -73,6 +73,9 @@ def verify(file: str, lib: tuple[str, ...], **board: Unpack[BoardOptions]) -> No
         )
         ctx.exit(int(ExitCode.FAILED))
     click.echo(f"{master.name}: identical: the master holds {file} ({mine.identity_hex})")
+    if bool(mine.source) != bool(theirs.source):
+        click.echo(f"{master.name}: note: only " + ("the master's copy" if theirs.source
+                   else f"{file} as built") + " carries the source text", err=True)
     assert status is not None
     now = {n: status.slaves[str(n)].pcd for n in status.lps if str(n) in status.slaves}
     wanted = {n: mine.configuration.pcd[n] for n in mine.configuration.projected()}
