@@ -63,6 +63,16 @@ def test_a_failed_expectation_is_reported_with_line_and_exit_1(tmp_path: Path):
     assert "1 expectation, 1 failed" in result.output
 
 
+def test_a_scenario_without_steps_says_so(tmp_path: Path):
+    empty = write(tmp_path, "empty.toml", "")
+    result = run("sim", str(SCENARIOS / "blink.asi"), "--scenario", empty)
+    assert result.exit_code == 0, result.output
+    assert f"{empty}: note: no steps: nothing is set or expected at a time" in result.stderr
+    stepped = write(tmp_path, "s.toml", '[[step]]\nat_ms = 0\nset = { "I 1.0" = 1 }\n')
+    assert "no steps" not in run("sim", str(SCENARIOS / "blink.asi"), "--scenario",
+                                 stepped).stderr
+
+
 def test_program_stops_are_reported_with_their_time(tmp_path: Path):
     program = write(tmp_path, "loop.asi", (
         "[SETUP]\n1: iiii, 0\n[PROGRAM]\n    A I 1.0\n    JC = stuck\n    BE\n"

@@ -130,6 +130,9 @@ def prepare(
             raise _invalid(exc, _texts(scenario_path)) from None
     else:
         scenario = Scenario("<command line>", program, None, None, [])
+    # an empty file is a valid scenario; said, since it runs and expects nothing
+    empty = (f"{scenario_path}: note: no steps: nothing is set or expected at a time\n"
+             if scenario_path is not None and not scenario.steps else "")
     extra = _command_line_sets(sets, variables, symbols)
     if extra.set:
         plant = Plant(scenario.plants)
@@ -152,7 +155,7 @@ def prepare(
             f"({cut} step{'s' if cut != 1 else ''} would not run); run longer, or pass "
             "--allow-partial"
         )
-    return Prepared(Path(program), built, scenario, symbols, built.render(), end, cut)
+    return Prepared(Path(program), built, scenario, symbols, built.render() + empty, end, cut)
 
 
 def _command_line_sets(
