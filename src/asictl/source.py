@@ -146,15 +146,29 @@ def read_bounded(path: str | Path, limit: int, what: str) -> bytes:
     return data
 
 
-def _read_file(name: str, size: int) -> bytes:
+def check_readable(path: str | Path) -> None:
+    """A ``UserError`` now, as reading would raise it later, for a file that cannot be
+    read ('-' always can): a command checks before it opens a board, since opening an
+    emulated board that is not there creates one. Nothing is read (a FIFO keeps its data)."""
+    if str(path) != "-":
+        os.close(_open(str(path)))
+
+
+def _open(name: str) -> int:
+    """A descriptor for reading ``name``, refused for a directory or a missing file."""
     try:
         fd = os.open(name, os.O_RDONLY | os.O_NONBLOCK)
     except OSError as exc:
         raise UserError(f"{name}: cannot read: {exc.strerror or exc}") from None
+    if stat.S_ISDIR(os.fstat(fd).st_mode):
+        os.close(fd)
+        raise UserError(f"{name}: cannot read: it is a directory")
+    return fd
+
+
+def _read_file(name: str, size: int) -> bytes:
+    fd = _open(name)
     try:
-        mode = os.fstat(fd).st_mode
-        if stat.S_ISDIR(mode):
-            raise UserError(f"{name}: cannot read: it is a directory")
         os.set_blocking(fd, True)
         chunks: list[bytes] = []
         left = size

@@ -247,6 +247,15 @@ def test_verify_of_the_source_against_the_program_stored_without_it_is_identical
     assert different.exit_code == 1 and "source text or file names only" in different.stdout
 
 
+@pytest.mark.parametrize("command", ["download", "setup", "verify"])
+def test_a_missing_file_leaves_no_new_board_behind(run, tmp_path: Path, command: str):
+    result = run(command, "missing.asi")
+    assert result.exit_code == 2, result.output
+    assert "missing.asi: cannot read: No such file or directory" in result.stderr
+    assert "a new, empty one was created" not in result.stderr
+    assert not (tmp_path / "state").exists()
+
+
 @pytest.mark.parametrize("modes", [("--start", "--stop"), ("--stop", "--keep"),
                                    ("--start", "--keep")])
 def test_download_refuses_two_start_modes(run, modes: tuple[str, str]):

@@ -24,6 +24,7 @@ from asictl.host.commissioning import image_writes, write_flags
 from asictl.host.emulated.actions import parse_address, parse_number
 from asictl.host.overwrite_guard import check_overwrite
 from asictl.host.symbols import Names
+from asictl.source import check_readable
 
 # --------------------------------------------------------------------------- slave
 
@@ -190,6 +191,7 @@ def setup(
     """
     from asictl.build import build_file
 
+    check_readable(file)  # before a board is opened: a missing one would be created
     with open_master(**board) as master:
         check_overwrite(master, "write the projected configuration", real_master=real_master)
         built = build_file(file, entry_points=master.transport.entry_points(), lib=lib)

@@ -42,6 +42,7 @@ from asictl.host.transfer import (
     upload_head,
 )
 from asictl.platform.master import ControlFlag
+from asictl.source import check_readable
 
 
 @click.command("download")
@@ -113,6 +114,7 @@ def download_command(
             )
             raw_images.restore(master, file, raw_image, restore_setup=restore_setup)
         return
+    check_readable(file)  # before a board is opened: a missing one would be created
     with open_master(**board) as master:
         check_overwrite(master, "download an image in asictl's format", real_master=real_master,
                         unconfirmed_format=unconfirmed_format, asictl_image=True)
