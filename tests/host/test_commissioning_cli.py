@@ -247,6 +247,16 @@ def test_verify_of_the_source_against_the_program_stored_without_it_is_identical
     assert different.exit_code == 1 and "source text or file names only" in different.stdout
 
 
+@pytest.mark.parametrize("text", ["I 1.0=1", "IB 2=90"])
+def test_writing_an_input_points_to_bus_inputs_and_force(run, text: str):
+    result = run("write", text)
+    assert result.exit_code == 2, result.output
+    assert f"asictl bus inputs '{text}' sets it on the emulated cable" in result.stderr
+    assert f"asictl force '{text}' holds it for the program" in result.stderr
+    flag = run("write", "FY 12=300")  # not an input: no such pointer
+    assert flag.exit_code == 2 and "bus inputs" not in flag.stderr
+
+
 @pytest.mark.parametrize("command", ["download", "setup", "verify"])
 def test_a_missing_file_leaves_no_new_board_behind(run, tmp_path: Path, command: str):
     result = run(command, "missing.asi")

@@ -138,9 +138,14 @@ def image_writes(
     for assignment in assignments:
         kind = assignment.operand.node.kind
         if kind not in WRITABLE:
+            inputs = kind in (K.I, K.IB, K.I2, K.I2B)  # the slaves' own: the cable sets them
+            again = f"'{assignment.written}={assignment.value}'"
             raise UserError(
                 f"'{assignment.written}' cannot be written: write sets flags (F, FY) and "
-                "outputs (Q, QB)", ExitCode.USAGE)
+                "outputs (Q, QB)" + (
+                    f"; an input comes from its slave: asictl bus inputs {again} "
+                    f"sets it on the emulated cable, asictl force {again} holds "
+                    "it for the program" if inputs else ""), ExitCode.USAGE)
         changes = image_changes(assignment)
         if kind in (K.F, K.FY):
             flags += changes
