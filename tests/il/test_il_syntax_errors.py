@@ -121,9 +121,14 @@ def test_e103_unexpected_word(text: str, error: tuple) -> None:
                                          "'A' here)")),
         ("    ST Q 2.0", (2, 5, "E104", "unknown instruction 'ST' (IEC 61131-3's 'ST' is '=' "
                                         "here)")),
+        ("    LD KT 100", (2, 5, "E104", "unknown instruction 'LD' (IEC 61131-3's 'LD' of a "
+                                         "constant or a byte is 'L' here)")),
+        ("    ST FY 12", (2, 5, "E104", "unknown instruction 'ST' (IEC 61131-3's 'ST' of a "
+                                        "constant or a byte is 'T' here)")),
     ],
     ids=["mark", "sign", "assembler", "label-without-colon", "misspelt", "misspelt-long",
-         "step5-u", "step5-un-m", "step5-jump", "iec-ld", "iec-and", "iec-st"],
+         "step5-u", "step5-un-m", "step5-jump", "iec-ld", "iec-and", "iec-st",
+         "iec-ld-constant", "iec-st-byte"],
 )
 def test_e104_unknown_instruction(line: str, error: tuple) -> None:
     assert errors(f"[PROGRAM]\n{line}\n") == [error]

@@ -25,6 +25,10 @@ IEC_OPERATORS = {
     "NOT": "N", "JMP": "JU", "JMPC": "JC", "RET": "BE", "RETC": "BEC", "CAL": "JU FB",
     "CALC": "JC FB", "ADD": "+ F", "SUB": "- F",
 }
+#: IEC's LD and ST of a constant or a byte load and transfer the accumulator: L and T here.
+IEC_BYTE_OPERATORS = {"LD": "L", "ST": "T"}
+#: byte and word operands (constants all start with K: KB, KC, KT, KP, ...)
+_BYTE_OPERANDS = frozenset({"IB", "I2B", "QB", "FY", "FW"})
 _OPERAND_WORDS = frozenset(STEP5_OPERANDS)
 
 
@@ -53,6 +57,11 @@ def operator_hint(word: str, code: str) -> str | None:
         return (f"STEP 5's German '{word}' is '{STEP5_OPERATORS[upper]}' here"
                 + (f": '{translated}'" if translated else ""))
     if upper in IEC_OPERATORS:
+        operand = code.split()[1:2]
+        if upper in IEC_BYTE_OPERATORS and operand and (
+                operand[0].upper().startswith("K") or operand[0].upper() in _BYTE_OPERANDS):
+            return (f"IEC 61131-3's '{word}' of a constant or a byte is "
+                    f"'{IEC_BYTE_OPERATORS[upper]}' here")
         return f"IEC 61131-3's '{word}' is '{IEC_OPERATORS[upper]}' here"
     if upper in MNEMONICS:
         return "8051 assembler belongs after ASM or in an [ASSEMBLY] section"
