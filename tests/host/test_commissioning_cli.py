@@ -12,7 +12,7 @@ import pytest
 from click.testing import CliRunner
 
 from asictl.cli import main
-from asictl.host.status import STATUS_SCHEMA, MasterStatus, ProgramInfo, render
+from asictl.host.status import STATUS_SCHEMA, MasterStatus, ProgramInfo, Timer, render
 from asictl.platform.display import Display
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -70,7 +70,7 @@ def test_a_fresh_board_says_no_slaves_detected_yet_and_spells_out_its_letters(ru
     assert "o online, A auto-address enabled, w watchdog off)" in text
 
 
-def test_a_gateway_without_cycle_times_says_n_a():
+def test_cycle_times_and_timers_read_as_a_person_reads_them():
     base = dict(port="tcp://x:502 unit 1", master_name="", version_id="",
                 installed_software="", ec_flags=0, phase="normal operation",
                 mode="protected", config_ok=True, power_fail=False, lps=[], lds=[1],
@@ -84,6 +84,9 @@ def test_a_gateway_without_cycle_times_says_n_a():
                 program=ProgramInfo(present=False, valid=False))
     # cycles of tens of µs read in µs, not as 0.0 ms
     assert "cycle    30 µs (max 1.25 ms)" in render(MasterStatus(**base))
+    timers = render(MasterStatus(**base, timers=[Timer(1, 0, False), Timer(2, 1500, True)]))
+    # a timer never started is not "elapsed"; times as a person reads them
+    assert "timers   T 1: not running; T 2: running, 1.5 s left" in timers
     gateway = render(MasterStatus(**base, cycle_times_known=False))
     assert "cycle    n/a (the gateway does not report them)" in gateway
 

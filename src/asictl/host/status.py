@@ -76,6 +76,7 @@ from asictl.platform.pc2 import (
     StopReason,
     nibbles,
 )
+from asictl.readers.units import format_duration
 
 #: The version of ``status --json``'s object (its ``schema`` key): raised when a key
 #: changes its meaning or goes away, not when one is added.
@@ -519,7 +520,9 @@ def timer_text(status: MasterStatus) -> list[str]:
     if status.timers is None and status.counters is None:
         return ["timers   not shown by this master (only an emulated board shows them)"]
     timers = [
-        f"T {t.number}: " + (f"running, {t.remaining_ms} ms left" if t.running else "elapsed")
+        # 0 left is both "never started" and "run out": the board keeps nothing between
+        f"T {t.number}: " + (f"running, {format_duration(t.remaining_ms)} left" if t.running
+                             else "not running")
         for t in status.timers or []
     ]
     counters = [f"C {c.number}: {c.value}" for c in status.counters or []]
