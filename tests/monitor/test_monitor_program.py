@@ -173,12 +173,32 @@ def test_lines_that_did_not_run_are_marked_and_run_after_an_input_key(tmp_path):
         run(state, check)
 
 
+def test_at_80x24_a_long_comment_header_opens_on_the_first_instruction(tmp_path):
+    header = "".join(f"; header line {n}: what the program is for\n" for n in range(30))
+    program = header + BLINKER
+
+    async def check(app, pilot):
+        await pilot.press("v")
+        await settle(app, pilot)
+        first = program.splitlines().index("        A   T 0             ; timer 0 running: keep "
+                                           "the flag") + 1
+        assert re.match(rf"(>>|  )\s*{first} +A   T 0", first_row(app)), program_text(app)
+        await pilot.press("up")  # the rest is still there above it
+        assert re.match(rf"\s*{first - 1} \[PROGRAM\]", first_row(app)), program_text(app)
+
+    with live(tmp_path, program, "blinker.asi") as state:
+        run(state, check, size=(80, 24))
+
+
 def test_arrows_and_pages_scroll_and_n_goes_to_the_function_blocks(tmp_path):
     async def check(app, pilot):
         await pilot.press("v")
         await settle(app, pilot)
         rows = len(app.listing.lines)
         assert app.listing.files == ["fb.asi", "latch.fb", "count3.fb"]
+        # its comment header is taller than the view: it opens on the first instruction
+        assert re.match(r"\s+26 +A   I 1.0", first_row(app)), first_row(app)
+        await pilot.press("pageup", "pageup", "pageup")
         assert first_row(app).startswith("── fb.asi")
         await pilot.press("down")
         assert app.program_top == 1 and re.match(r"\s+1 ; fb.asi", first_row(app))

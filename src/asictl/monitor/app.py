@@ -238,6 +238,8 @@ class MonitorApp(App[None]):
         self.program: StoredProgram | None = None
         self.listing = Listing()
         self.program_top = 0
+        #: the view of this listing has been placed once (on its first instruction)
+        self._placed = False
         self.lines: CycleLines | None = None
         self.lines_note: str | None = None
         self._refreshing = False
@@ -323,7 +325,10 @@ class MonitorApp(App[None]):
             self.log_event(event, style="bold yellow" if event.startswith("took over") else "")
         if snapshot.program is not None and snapshot.program is not self.program:
             self.program = snapshot.program
-            self.listing = listing_of(snapshot.program)
+            listing = listing_of(snapshot.program)
+            # the same lines read again keep the place; another program is placed anew
+            self._placed = self._placed and listing.lines == self.listing.lines
+            self.listing = listing
         self.lines, self.lines_note = snapshot.lines, snapshot.lines_note
         if snapshot.error and snapshot.error != was_error:
             self.log_event(f"master gone: {snapshot.error}", style="bold red")
@@ -407,6 +412,11 @@ class MonitorApp(App[None]):
         text.append_text(heading(self.listing, width, hex_values=self.hex_values))
         visible = max(1, size.height - text.plain.count("\n") - 1)
         self._program_rows = visible
+        if not self._placed and self.listing.lines:
+            # a comment header taller than the view would hide the program: open on its
+            # first instruction (the top, when that shows anyway)
+            first = next((i for i, line in enumerate(self.listing.lines) if line.code), 0)
+            self.program_top, self._placed = (first if first >= visible else 0), True
         self.program_top = max(0, min(self.program_top, len(self.listing.lines) - visible))
         rows = render_rows(
             self.listing, lines, top=self.program_top, height=visible, width=width,
