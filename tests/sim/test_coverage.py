@@ -149,6 +149,28 @@ def test_the_summary_lists_each_missing_outcome_with_the_symbol_names(project: P
     assert "plc/latch.fb:13 branch never taken" in rows
 
 
+def test_a_line_in_a_loop_counts_each_run_not_each_cycle(tmp_path: Path,
+                                                        monkeypatch: pytest.MonkeyPatch):
+    """docs/testing.md: hits are runs. C 1 is loaded with 3 each cycle and counted down to
+    0 by a backward jump: the loop's four lines run 3 times in each of the 5 cycles."""
+    monkeypatch.chdir(tmp_path)
+    Path("loop.asi").write_text(
+        "[SETUP]\n1: iiii, 0\n\n[PROGRAM]\n        L   KC 3\n        AN  F 0.0\n"
+        "        S   C 1\nloop:   AN  F 0.0\n        CD  C 1\n        A   C 1\n"
+        "        JC  = loop\n        BE\n")
+    Path("loop.scenario.toml").write_text(
+        '[master]\ncycle_ms = 10\n[[step]]\nat_ms = 40\nexpect = { "C 1" = 0 }\n')
+    code, output = _test("loop.scenario.toml", "--coverage", "cov.json")
+    assert code == 0, output
+    lines = json.loads(Path("cov.json").read_text())["files"]["loop.asi"]["lines"]
+    cycles = 5  # at 0, 10, 20, 30 and 40 ms
+    assert {r["line"]: r["hits"] for r in lines} == {
+        5: cycles, 6: cycles, 7: cycles, 8: 3 * cycles, 9: 3 * cycles, 10: 3 * cycles,
+        11: 3 * cycles, 12: cycles}
+    doc = " ".join((ROOT / "docs" / "testing.md").read_text().split())
+    assert "a loop body run 3 times in a cycle counts 3 for that cycle" in doc
+
+
 def test_nothing_to_count_reads_n_a_not_100_percent(tmp_path: Path,
                                                    monkeypatch: pytest.MonkeyPatch):
     monkeypatch.chdir(tmp_path)
