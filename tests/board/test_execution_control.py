@@ -2,12 +2,16 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import pytest
 from board_host import Host
 
 from asictl.board.asi import Slave
 from asictl.board.board import Pc2Board
 from asictl.board.execution import Phase
+from asictl.observe.operands import parse_operand
+from asictl.observe.view import read_on_board
 from asictl.platform import pc2 as d
 from asictl.platform.pc2 import Command, EcFlag, HiFlag, InterruptSource
 
@@ -237,6 +241,10 @@ def test_data_exchange_off(installed, board, host: Host):
     installed[1].inputs = 0x6
     board.advance(2)
     assert installed[3].outputs == 0  # no calls: the slave's watchdog
+    # a scenario's Q reads the output image, not the slave (docs/simulation.md, Q a.b)
+    assert read_on_board(board, parse_operand("Q 3")) == 5
+    assert "which `Q` does not show: it tests the program, not the cable" in " ".join(
+        (Path(__file__).resolve().parents[2] / "docs" / "simulation.md").read_text().split())
     assert host.inputs()[1] == 3  # IDI not updated
     assert host.letters()[8] == "d" and board.phase is Phase.NORMAL
     host.write(d.HI_FLAGS, 0)

@@ -111,7 +111,9 @@ class ProgramView:
 
 def read_on_board(board: Pc2Board, operand: Operand) -> int:
     """An operand's value on a board now, as the plant sees it: inputs as the slaves
-    deliver them, outputs as the slaves receive them (0 while the program is stopped),
+    deliver them, outputs as the program wrote them into the output image the master
+    sends (0 while the program is stopped; with data exchange off the slaves get nothing,
+    docs/simulation.md's ``Q a.b`` row),
     flags from the communication memory, the rest from the program's memory."""
     node = operand.node
     n, b = node.address, node.bit

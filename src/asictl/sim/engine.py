@@ -252,9 +252,9 @@ class Simulation:
         return ProgramView(runner, self.read)
 
     def read(self, operand: Operand) -> int:
-        """An operand's value now: inputs as the slaves deliver them, outputs as the slaves
-        receive them (0 while the program is stopped), flags from the communication memory,
-        the rest from the program's memory."""
+        """An operand's value now (``read_on_board``): inputs as the slaves deliver them,
+        outputs as the program's output image holds them, flags from the communication
+        memory, the rest from the program's memory."""
         return read_on_board(self.board, operand)
 
     # ------------------------------------------------------------------ writing
