@@ -87,6 +87,22 @@ def test_break_continue_and_print(counter: Session):
     assert counter.do("continue")[0] == "breakpoint 1, count.asi:6, master time 5 ms, cycle 2"
 
 
+def test_display_shows_its_expressions_at_every_stop(counter: Session):
+    assert counter.do("display CV 0, RLO") == ["1: CV 0 = 0", "2: RLO = 0"]
+    counter.do("break 10 if RLO=1")
+    stop = counter.do("continue")
+    assert stop[0] == "breakpoint 1, count.asi:10, master time 10 ms, cycle 3"
+    assert stop[-2:] == ["1: CV 0 = 4095", "2: RLO = 1"]
+    after = counter.do("next")[-2:]
+    assert after == ["1: CV 0 = 4094", f"2: RLO = {counter.debugger.value('RLO')}"]
+    assert counter.do("undisplay 2") == ["display 2 (RLO) removed"]
+    assert counter.do("display") == ["1: CV 0 = 4094"]
+    assert counter.do("display Nope")[0].startswith("error: 'Nope' is not an operand")
+    assert counter.debugger.displays == ["CV 0"]  # a mistake is not added
+    counter.do("undisplay")
+    assert counter.do("cycle") == ["cycle 4 starts at 15 ms"]
+
+
 def test_conditional_breakpoints_cycles_and_time(counter: Session):
     counter.do("break 10 if RLO=1")  # CD C 0 with the register 1: from 10 ms on
     assert counter.do("continue")[0] == "breakpoint 1, count.asi:10, master time 10 ms, cycle 3"

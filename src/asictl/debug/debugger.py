@@ -66,6 +66,8 @@ continue                    run to a breakpoint or the end (c)
 cycle                       run to the start of the next program cycle
 time DURATION               let master time pass (e.g. time 100ms, time 2s)
 print X[, Y...]             I 1.0, FY 10, T 0, C 0, CV 0, TV 1, RLO, ACCU1, KREG, a symbol (p)
+display [X[, Y...]]         print X at every stop from now on (without X: list them)
+undisplay [N]               stop displaying expression N (all without N)
 set OPERAND=VALUE           set an input or a flag (e.g. set I 1.0=1)
 where                       the current line and its callers (w)
 list                        the source around the current line (l)
@@ -239,6 +241,8 @@ class Debugger:
         self.main_file = PurePath(prepared.program).name
         self.breakpoints: list[Breakpoint] = []
         self._next_number = 1
+        #: ``display``'s expressions, printed at every stop, as gdb's display does
+        self.displays: list[str] = []
         self.sim.load()
         runner = self.sim.runner
         if runner is None:
@@ -288,6 +292,7 @@ class Debugger:
                 "finish": self._finish,
                 "c": self._continue, "continue": self._continue, "cycle": self._cycle,
                 "time": self._time, "p": self._print, "print": self._print,
+                "display": self._display, "undisplay": self._undisplay,
                 "set": self._set, "w": self._where, "where": self._where,
                 "l": self._list, "list": self._list, "help": self._help, "h": self._help,
             }.get(verb)
@@ -385,6 +390,33 @@ class Debugger:
         for item in (part.strip() for part in rest.split(",")):
             self.out(f"{item} = {self.show(item)}")
 
+    def _display(self, rest: str) -> None:
+        if not rest:
+            if not self.displays:
+                self.out("nothing displayed: display X[, Y...] adds to the list")
+            self._show_displays()
+            return
+        items = [part.strip() for part in rest.split(",") if part.strip()]
+        for item in items:
+            self.show(item)  # a mistake now, not at every stop
+        self.displays += items
+        self._show_displays(items)
+
+    def _undisplay(self, rest: str) -> None:
+        if not rest:
+            self.displays.clear()
+            self.out("nothing displayed")
+            return
+        if not (rest.isascii() and rest.isdigit()) or not 1 <= int(rest) <= len(self.displays):
+            raise DebugError(f"no display {rest}")
+        self.out(f"display {rest} ({self.displays.pop(int(rest) - 1)}) removed")
+
+    def _show_displays(self, items: list[str] | None = None) -> None:
+        """``N: X = value`` for each displayed expression (or just the ``items`` given)."""
+        for number, item in enumerate(self.displays, 1):
+            if items is None or item in items:
+                self.out(f"{number}: {item} = {self.show(item)}")
+
     def _set(self, rest: str) -> None:
         try:
             assignment = parse_assignment(rest, variables_of(self.runner.pmap), self.symbols)
@@ -457,6 +489,8 @@ class Debugger:
         self.pause = pause
         self._report_events()
         self._report(pause)
+        if pause.kind != "error":
+            self._show_displays()
 
     def interrupt(self) -> None:
         """Pause at the next line (Ctrl-C while the program runs)."""
