@@ -216,7 +216,7 @@ class Plc:
     @property
     def stops(self) -> list[str]:
         """The program's stops so far: ``at 55 ms: program stopped: ...``."""
-        return [f"at {s.at_ms:g} ms: program stopped: {s.text}" for s in self._sim.result.stops]
+        return [s.reported for s in self._sim.result.stops]
 
     # ------------------------------------------------------------------ plant models
 

@@ -63,6 +63,18 @@ def test_a_failed_expectation_is_reported_with_line_and_exit_1(tmp_path: Path):
     assert "1 expectation, 1 failed" in result.output
 
 
+def test_late_times_read_as_a_person_reads_them_and_exactly(tmp_path: Path):
+    program = str(SCENARIOS / "blink.asi")
+    scenario = write(tmp_path, "s.toml", (
+        f'program = "{program}"\n[master]\ncycle_ms = 50\n'
+        '[[step]]\nat = "2h"\nexpect = { "Q 31.0" = 1 }\n'
+    ))
+    result = run("sim", "--scenario", scenario)
+    assert result.exit_code == 1, result.output
+    assert f"{scenario}:6: at 2 h 0 min (7200000 ms): Q 31.0 expected 1, got 0" \
+        in result.output  # not 'at 7.2e+06 ms'
+
+
 def test_a_scenario_without_steps_says_so(tmp_path: Path):
     empty = write(tmp_path, "empty.toml", "")
     result = run("sim", str(SCENARIOS / "blink.asi"), "--scenario", empty)

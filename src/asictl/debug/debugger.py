@@ -33,7 +33,7 @@ from asictl.observe.operands import (
 from asictl.observe.symbols import SymbolTable
 from asictl.observe.view import ProgramView
 from asictl.platform.pc2 import STOP_ADDRESS, STOPS_AT_AN_ADDRESS
-from asictl.readers.units import UnitError, parse_duration
+from asictl.readers.units import UnitError, format_instant, parse_duration
 from asictl.runtime.line_map import LineMap, SourceLine
 from asictl.sim.engine import Simulation, source_texts, variables_of
 from asictl.sim.session import Prepared
@@ -467,7 +467,7 @@ class Debugger:
     def _resume(self, mode: Mode, target: float | None = None) -> None:
         if self.ended:
             raise DebugError("the simulation has ended (at "
-                             f"{self.sim.end_ms:g} ms); quit, or start again")
+                             f"{format_instant(self.sim.end_ms)}); quit, or start again")
         end = self.sim.end_ms
         goal = end if target is None else min(target, end)
         if self._worker is None:
@@ -584,7 +584,7 @@ class Debugger:
         return lines[line.line - 1].strip() if 0 < line.line <= len(lines) else ""
 
     def _position(self) -> str:
-        time = f"{self.now():g} ms"
+        time = f"{format_instant(self.now())}"
         if self.line is None:
             state = "before the first cycle" if not self.sim.started else "between cycles"
             return f"{state}, master time {time}, cycle {self.cycle}"
@@ -595,17 +595,17 @@ class Debugger:
         if pause.kind == "error":
             self.out(f"error: the simulation failed: {pause.text}")
         elif pause.kind == "end":
-            self.out(f"end of the simulation at {self.sim.end_ms:g} ms "
+            self.out(f"end of the simulation at {format_instant(self.sim.end_ms)} "
                      f"({self.sim.result.checked} expectations checked, "
                      f"{len(self.sim.result.failures)} failed)")
         elif pause.kind == "time":
-            self.out(f"master time {self.now():g} ms (cycle {self.cycle})")
+            self.out(f"master time {format_instant(self.now())} (cycle {self.cycle})")
         elif pause.kind == "fault":
             if pause.line is not None:
                 self.out(f"{self._position()}")
                 self.out(f"{pause.line.line:6} | {self._source(pause.line)}")
         elif pause.kind == "cycle":
-            self.out(f"cycle {self.cycle} starts at {self.now():g} ms")
+            self.out(f"cycle {self.cycle} starts at {format_instant(self.now())}")
         else:
             assert pause.line is not None
             why = f"breakpoint {pause.breakpoint.number}, " if pause.breakpoint else ""
@@ -619,5 +619,5 @@ class Debugger:
         for f in result.failures[failures:]:
             self.out(f"{file}:{f.line}: {f}")
         for s in result.stops[stops:]:
-            self.out(f"at {s.at_ms:g} ms: program stopped: {s.text}")
+            self.out(s.reported)
         self._reported = (len(result.failures), len(result.stops))

@@ -99,6 +99,14 @@ def format_duration(ms: float) -> str:
     return f"{minutes // 60} h {minutes % 60} min"
 
 
+def format_instant(ms: float) -> str:
+    """A point in (master or scenario) time, exact as a scenario writes it: ``250 ms``,
+    and from a minute on also as a person reads it: ``2 h 0 min (7200000 ms)``, where
+    ``{ms:g}`` printed ``7.2e+06 ms``."""
+    exact = f"{ms:.10g} ms"
+    return exact if ms < 60_000 else f"{format_duration(ms)} ({exact})"
+
+
 def _short(text: str) -> str:
     return text if len(text) <= 40 else text[:37] + "..."
 

@@ -46,6 +46,7 @@ from asictl.observe.symbols import SymbolTable
 from asictl.observe.view import ProgramView, host_write, read_on_board
 from asictl.platform import pc2 as d
 from asictl.platform.master import IO_CODE_BITS, ControlFlag
+from asictl.readers.units import format_instant
 from asictl.runtime.line_map import LineMap
 from asictl.runtime.program_map import ProgramMap
 from asictl.runtime.runner import ProgramRunner
@@ -314,7 +315,7 @@ class Simulation:
     def _need_slave(self, address: int, step: Step | None, line: int, what: str) -> Slave:
         slaves = self.board.bus.at(address)
         if not slaves:
-            when = f"at {step.at_ms:g} ms: " if step is not None else ""
+            when = f"at {format_instant(step.at_ms)}: " if step is not None else ""
             message = f"{when}'{what}' sets slave {address}, which is not on the bus"
             if step is None:
                 raise ValueError(message)

@@ -15,6 +15,7 @@ from asictl.board.board import Pc2Board
 from asictl.mcs51.emulator import Emulator
 from asictl.observe.locate import current_line, describe
 from asictl.platform import pc2 as d
+from asictl.readers.units import format_instant
 from asictl.runtime.firmware import FIRMWARE_BLOCKS
 from asictl.runtime.line_map import LineMap
 from asictl.sim.observer import Observer
@@ -37,6 +38,11 @@ class Stop:
     @property
     def text(self) -> str:
         return f"{self.where}: {self.reason}" if self.where else self.reason
+
+    @property
+    def reported(self) -> str:
+        """``at 55 ms: program stopped: loop.asi:9: cycle timeout``, as every tool says it."""
+        return f"at {format_instant(self.at_ms)}: program stopped: {self.text}"
 
 
 @dataclass

@@ -9,6 +9,7 @@ from dataclasses import dataclass, field
 from asictl.observe.coverage import Coverage
 from asictl.observe.iltrace import LineRow
 from asictl.observe.operands import Operand
+from asictl.readers.units import format_instant
 from asictl.sim.observation import Refusal, Stop
 from asictl.sim.scenario import Scenario, Step
 from asictl.sim.trace import Trace
@@ -34,7 +35,8 @@ class Failure:
     def __str__(self) -> str:
         name = self.written or str(self.operand)
         window = f" (within {self.step.within_ms:g} ms)" if self.step.within_ms else ""
-        text = f"at {self.step.at_ms:g} ms{window}: {name} expected {self.expected}, got {self.got}"
+        text = (f"at {format_instant(self.step.at_ms)}{window}: {name} expected "
+                f"{self.expected}, got {self.got}")
         return f"{text}; last written by {self.writer}" if self.writer else text
 
 

@@ -26,6 +26,7 @@ from asictl.errors import ExitCode, UserError
 from asictl.observe.coverage import Coverage
 from asictl.observe.operands import SETTABLE, parse_assignment, parse_operand
 from asictl.observe.symbols import SymbolTable, symbols_for
+from asictl.readers.units import format_instant
 from asictl.sim import SUFFIX
 from asictl.sim.engine import SimResult, Simulation, variables_of
 from asictl.sim.plant import Plant
@@ -241,9 +242,9 @@ def events(run: Run) -> list[str]:
     for f in run.result.failures:
         timed.append((f.at_ms, 0, f"{file}:{f.line}: {f}"))
     for s in run.result.stops:
-        timed.append((s.at_ms, 1, f"{file}: at {s.at_ms:g} ms: program stopped: {s.text}"))
+        timed.append((s.at_ms, 1, f"{file}: {s.reported}"))
     for r in run.result.refusals:
-        timed.append((r.at_ms, 2, f"{file}: at {r.at_ms:g} ms: note: {r.text}"))
+        timed.append((r.at_ms, 2, f"{file}: at {format_instant(r.at_ms)}: note: {r.text}"))
     return [text for _, _, text in sorted(timed, key=lambda item: item[:2])]
 
 
@@ -253,7 +254,7 @@ def final_lines(run: Run) -> list[str]:
     final = run.result.final
     if final is None:
         return []
-    rows = [f"at {final.at_ms:g} ms:"]
+    rows = [f"at {format_instant(final.at_ms)}:"]
     if final.outputs:
         rows.append("  outputs   " + "  ".join(
             f"Q {a} = {v:04b}" for a, v in final.outputs.items()))
@@ -352,7 +353,7 @@ def run_file(path: str, lib: tuple[str, ...] = (), coverage: bool = False) -> Ou
         path, "PASS" if run.result.passed else "FAIL", summary(run), events(run),
         prepared.notes + run.note, seconds=run.seconds, markers=list(prepared.scenario.markers),
         failures=[(f.line, str(f)) for f in run.result.failures],
-        stops=[f"at {s.at_ms:g} ms: program stopped: {s.text}" for s in run.result.stops],
+        stops=[s.reported for s in run.result.stops],
         program=str(prepared.program), coverage=run.result.coverage,
         names={text: name for name, text in prepared.symbols.entries.values()},
     )
