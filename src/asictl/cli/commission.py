@@ -22,6 +22,7 @@ from asictl.cli.options import lib_option, one_of
 from asictl.errors import ExitCode, UserError
 from asictl.host.commissioning import image_writes, write_flags
 from asictl.host.emulated.actions import parse_address, parse_number
+from asictl.host.master import Master
 from asictl.host.overwrite_guard import check_overwrite
 from asictl.host.symbols import Names
 from asictl.source import check_readable
@@ -94,6 +95,17 @@ def parameter(
         f"{master.name}: slave {where} got parameter {parameter_value:X}h, answered {answer:X}h",
         err=True,
     )
+    _lost_note(master, "the next command starts the slaves again with their permanent "
+                       "parameters, so 'asictl store parameters' then stores those, not "
+                       f"{parameter_value:X}h")
+
+
+def _lost_note(master: Master, what: str) -> None:
+    """Say what a change to an emulated board nobody serves does not keep: such a board
+    runs only during a command."""
+    if master.action is not None and master.action.live is None:
+        click.echo(f"{master.name}: note: this emulated board runs only during a command: "
+                   f"{what} ('asictl serve' keeps it running)", err=True)
 
 
 @slave.command("command")
@@ -281,12 +293,9 @@ def hiflags(
     else:
         click.echo(f"hi-flags {flags:02X}h {hi_flag_text(flags)}")
     click.echo(f"{master.name}: {summary}", err=True)
-    if flags != before and master.action is not None and master.action.live is None:
-        click.echo(
-            f"{master.name}: note: this emulated board runs only during a command: the "
-            "hi-flags are in its DPRAM and start again at 00h with the next command "
-            "('asictl serve' keeps it running)", err=True,
-        )
+    if flags != before:
+        _lost_note(master, "the hi-flags are in its DPRAM and start again at 00h with the "
+                           "next command")
 
 
 # --------------------------------------------------------------------------- diagnostics
@@ -375,9 +384,4 @@ def write(
         if outputs:
             tools.write_outputs(outputs)
     click.echo(f"{master.name}: wrote {', '.join(assignments)}", err=True)
-    if master.action is not None and master.action.live is None:
-        click.echo(
-            f"{master.name}: note: this emulated board runs only during a command: flags and "
-            "outputs are lost when it ends ('asictl serve' keeps it running)",
-            err=True,
-        )
+    _lost_note(master, "flags and outputs are lost when it ends")
