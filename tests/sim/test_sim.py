@@ -51,28 +51,23 @@ def write(tmp_path: Path, name: str, text: str) -> str:
     return str(path)
 
 
-def test_a_failed_expectation_is_reported_with_line_and_exit_1(tmp_path: Path):
+@pytest.mark.parametrize(("cycle_ms", "at", "expected", "said"), [
+    (5, "at_ms = 250", 0, "at 250 ms: Q 31.0 expected 0, got 1"),
+    # late times read as a person reads them, and exactly (not 'at 7.2e+06 ms')
+    (50, 'at = "2h"', 1, "at 2 h 0 min (7200000 ms): Q 31.0 expected 1, got 0"),
+])
+def test_a_failed_expectation_is_reported_with_line_and_exit_1(
+    tmp_path: Path, cycle_ms: int, at: str, expected: int, said: str,
+):
     program = str(SCENARIOS / "blink.asi")
     scenario = write(tmp_path, "s.toml", (
-        f'program = "{program}"\n[master]\ncycle_ms = 5\n'
-        '[[step]]\nat_ms = 250\nexpect = { "Q 31.0" = 0 }\n'
-    ))
-    result = run("sim", "--scenario", scenario)
-    assert result.exit_code == 1
-    assert f"{scenario}:6: at 250 ms: Q 31.0 expected 0, got 1" in result.output
-    assert "1 expectation, 1 failed" in result.output
-
-
-def test_late_times_read_as_a_person_reads_them_and_exactly(tmp_path: Path):
-    program = str(SCENARIOS / "blink.asi")
-    scenario = write(tmp_path, "s.toml", (
-        f'program = "{program}"\n[master]\ncycle_ms = 50\n'
-        '[[step]]\nat = "2h"\nexpect = { "Q 31.0" = 1 }\n'
+        f'program = "{program}"\n[master]\ncycle_ms = {cycle_ms}\n'
+        f'[[step]]\n{at}\nexpect = {{ "Q 31.0" = {expected} }}\n'
     ))
     result = run("sim", "--scenario", scenario)
     assert result.exit_code == 1, result.output
-    assert f"{scenario}:6: at 2 h 0 min (7200000 ms): Q 31.0 expected 1, got 0" \
-        in result.output  # not 'at 7.2e+06 ms'
+    assert f"{scenario}:6: {said}" in result.output
+    assert "1 expectation, 1 failed" in result.output
 
 
 def test_a_scenario_without_steps_says_so(tmp_path: Path):
