@@ -96,6 +96,12 @@ def test_bad_slaves_and_a_gateway(run):
 
     with background_gateway(GatewaySlave(Pc2Board())) as served:
         host, port = served.server.tcp_address
-        result = CliRunner().invoke(main, ["emc", "1", "--modbus", f"tcp://{host}:{port}"])
+        url = f"tcp://{host}:{port}"
+        result = CliRunner().invoke(main, ["emc", "1", "--modbus", url])
+        # the gateway does report the letter E: the refusal explains it, not contradicts it
+        info = json.loads(CliRunner().invoke(main, ["status", "--modbus", url, "--json"]).stdout)
+    assert info["installed_software"][3] == "E"
     assert result.exit_code == 1
-    assert "a gateway has no EMC test mode (command 130 is the PC2's)" in result.stderr
+    assert "its software letter E is its master's (the PC2 inside has command 130)" \
+        in result.stderr
+    assert "no Modbus function or register that issues command 130" in result.stderr

@@ -76,7 +76,10 @@ def emc(
     with open_master(**board) as master:
         if master.driver is None:
             raise UserError(
-                f"{master.name}: a gateway has no EMC test mode (command 130 is the PC2's)",
+                f"{master.name}: the EMC test mode is not reachable through a gateway: its "
+                "software letter E is its master's (the PC2 inside has command 130), but the "
+                "gateway manual gives no Modbus function or register that issues command 130; "
+                "run 'asictl emc' on the board itself (--port)",
                 ExitCode.FAILED,
             )
         if ending:
