@@ -44,9 +44,13 @@ def _line(outcome: object, written: Path | None) -> str:
     plural = "s" if cycles != 1 else ""
     if verdict is Verdict.PROVED:
         how = ("k-induction" if outcome.depth else "invariant") + f", depth {outcome.depth}"
+        if outcome.trivially:
+            how = f"trivially: {outcome.trivially}"
         text = f"proved       {outcome.prop.name} ({how})"
     elif verdict is Verdict.UNREACHABLE:
-        text = f"unreachable  {outcome.prop.name} (depth {outcome.depth})"
+        how = (f"trivially: {outcome.trivially}" if outcome.trivially
+               else f"depth {outcome.depth}")
+        text = f"unreachable  {outcome.prop.name} ({how})"
     elif verdict in (Verdict.REFUTED, Verdict.REACHED):
         text = f"{verdict.value:<12} {outcome.prop.name} in cycle {cycles}"
         if written is not None:
@@ -119,6 +123,7 @@ def prove(files: tuple[Path, ...], properties: Path | None, depth: Cycles, timeo
             click.echo(exc.text, nl=False, err=True)
             ctx.exit(int(ExitCode.USAGE))
         reports.append(report)
+        click.echo(report.warnings, nl=False, err=True)
         if fmt == "text":
             slaves = " ".join(str(a) for a in report.slaves) or "none"
             click.echo(f"{report.properties}: {report.program}, {report.cycle_ms:g} ms "
@@ -146,7 +151,8 @@ def _says(outcome: object) -> str:
 
     assert isinstance(outcome, Outcome)
     if outcome.verdict is not Verdict.BOUNDED:
-        return outcome.verdict.value
+        return outcome.verdict.value + (f" (trivially: {outcome.trivially})"
+                                        if outcome.trivially else "")
     shown = "not reached" if outcome.prop.kind.value == "reachable" else "holds"
     return f"{shown} up to {outcome.depth + 1} cycles"
 
@@ -174,6 +180,7 @@ def _json(report: object) -> dict[str, object]:
                 "scenario": str(report.written[o.prop.name])
                 if o.prop.name in report.written else None,
                 "note": o.note or None,
+                "trivially": o.trivially or None,
             }
             for o in report.outcomes
         ],

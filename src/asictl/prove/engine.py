@@ -47,6 +47,7 @@ from asictl.observe.condition import (
     Truth,
     is_condition,
     refs,
+    show,
 )
 from asictl.platform.master import TICK_US
 from asictl.prove.props import Kind, Property
@@ -113,6 +114,8 @@ class Outcome:
     note: str = ""
     #: the property's operands (as written) after the last cycle of the trace
     values: dict[str, int] = field(default_factory=dict)
+    #: why a proof holds whatever the program does ("": it is a real proof)
+    trivially: str = ""
 
 
 def _value(expr: Expr, read: Callable[[ast.Operand], z3.BitVecRef]) -> z3.BitVecRef:
@@ -477,18 +480,20 @@ class Machine:
     def _constants(self) -> set[int]:
         """Every value the constant register can be loaded with (and its reset value)."""
         values = {0}
-        for module in self.program.modules():
-            for section in module.sections:
-                for node in ast.nodes(section):
-                    if isinstance(node, ast.Load):
-                        operand = node.operand
-                        if operand.kind is K.KT:
-                            values.add(timer_ticks(operand.address))
-                        elif operand.kind is K.KC:
-                            values.add(operand.address)
-                        elif operand.kind is K.KP:
-                            values.add(operand.address << 4 | operand.bit)
+        values.update(timer_ticks(ms) for ms in self._loaded(K.KT))
+        values.update(self._loaded(K.KC))
+        values.update(address << 4 | bit for address, bit in self._loaded_pairs(K.KP))
         return values
+
+    def _loaded_pairs(self, kind: ast.OperandKind) -> list[tuple[int, int]]:
+        """(address, bit) of every constant of ``kind`` an ``L`` loads."""
+        return [(node.operand.address, node.operand.bit)
+                for module in self.program.modules() for section in module.sections
+                for node in ast.nodes(section)
+                if isinstance(node, ast.Load) and node.operand.kind is kind]
+
+    def _loaded(self, kind: ast.OperandKind) -> list[int]:
+        return [address for address, _ in self._loaded_pairs(kind)]
 
     def find_invariants(self, deadline: float) -> None:
         """Houdini: drop every candidate a reachable state (the first one) or a step from
@@ -578,7 +583,8 @@ class Machine:
             outcome = step_solver.check(step_bad)
             if outcome == z3.unsat:
                 verdict = Verdict.UNREACHABLE if reach else Verdict.PROVED
-                return Outcome(prop, verdict, k, time.monotonic() - start)
+                return Outcome(prop, verdict, k, time.monotonic() - start,
+                               trivially=self.trivially(prop))
             step_solver.add(z3.Not(step_bad))
             if outcome != z3.sat:
                 return Outcome(prop, Verdict.UNKNOWN, k, time.monotonic() - start,
@@ -586,8 +592,45 @@ class Machine:
         if self._pdr(prop, deadline) is True:
             verdict = Verdict.UNREACHABLE if reach else Verdict.PROVED
             return Outcome(prop, verdict, depth, time.monotonic() - start,
-                           note="by an inductive invariant (PDR), beyond k-induction")
+                           note="by an inductive invariant (PDR), beyond k-induction",
+                           trivially=self.trivially(prop))
         return Outcome(prop, Verdict.BOUNDED, depth, time.monotonic() - start)
+
+    def trivially(self, prop: Property) -> str:
+        """Why a proved ``prop`` holds whatever the program does, or "" if it does not:
+        its condition decides alike in every state (a tautology, or a contradiction for
+        never and reachable), or no cycle can change its value, so the reset decides it
+        (it names nothing the program writes). Such a verdict says nothing about the
+        program, and the report says so rather than a bare "proved"."""
+        if self.observed:
+            return ""
+        cycle = self.cycle
+        decides = prop.then if prop.kind is Kind.RESPONSE else prop.expr
+        assert decides is not None
+        wanted = prop.kind in (Kind.ALWAYS, Kind.RESPONSE)
+
+        def read(cells: dict[Key, z3.BitVecRef]) -> Callable[[ast.Operand], z3.BitVecRef]:
+            return lambda operand: operand_value(operand, cells.__getitem__,
+                                                 self.map_counters)
+
+        before = read(cycle.pre)
+        solver = z3.Solver()
+        solver.set("timeout", 2000)
+        says = "every state" if wanted else "no state"
+        if solver.check(condition(decides, before) != wanted) == z3.unsat:
+            return f"'{show(decides)}' holds in {says}"
+        solver.add(*(condition(a, before) for a in self.assume))
+        if solver.check(condition(decides, before) != wanted) == z3.unsat:
+            return f"'{show(decides)}' holds in {says} [assume] allows"
+        if prop.kind is Kind.RESPONSE:
+            return ""
+        after = read(cycle.post)
+        solver.add(*(condition(a, after) for a in self.assume))
+        if solver.check(condition(prop.expr, before) != condition(prop.expr, after)) \
+                == z3.unsat:
+            return (f"no cycle of the program changes '{show(prop.expr)}', so it is as "
+                    "after the reset")
+        return ""
 
     def _pdr(self, prop: Property, deadline: float) -> bool | None:
         """Property-directed reachability (z3's Spacer engine) on the cycle as Horn

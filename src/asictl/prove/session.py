@@ -23,6 +23,7 @@ from asictl.prove import MAX_DEPTH
 from asictl.prove.counterexample import MARK, expectations, file_name, scenario_text
 from asictl.prove.engine import Machine, Outcome, Setup, Verdict
 from asictl.prove.props import Properties, program_for, read_properties
+from asictl.prove.scope import Scope
 from asictl.prove.symbolic import UNROLL, Unmodelled
 from asictl.readers.units import Cycles, UnitError
 from asictl.sim.engine import Simulation, variables_of
@@ -50,6 +51,8 @@ class Report:
     #: property name -> the scenario written for it
     written: dict[str, Path] = field(default_factory=dict)
     seconds: float = 0.0
+    #: the warnings about the properties (W431), rendered with their source lines
+    warnings: str = ""
 
     @property
     def passed(self) -> bool:
@@ -82,7 +85,7 @@ def load(properties: Path, program: Path | None, lib: tuple[str, ...]) -> tuple[
     variables = {} if built.image is None else variables_of(built.image.pmap)
     try:
         symbols = symbols_for(program, lambda text: str(parse_operand(text, variables)))
-        props = read_properties(source, variables, symbols)
+        props = read_properties(source, variables, symbols, Scope.of(built.program))
     except DiagnosticError as exc:
         raise Invalid(render_text(exc.diagnostics, _texts(properties, program))) from None
     return props, program, built
@@ -149,6 +152,8 @@ def prove(properties: Path, *, program: Path | None = None, lib: tuple[str, ...]
     report = Report(properties, program_path, cycle_ms, setup.slaves,
                     list(machine.invariant_names),
                     [(loop.line, loop.bound) for loop in machine.cycle.loops])
+    if props.warnings:
+        report.warnings = render_text(props.warnings, _texts(properties))
     directory = out_dir if out_dir is not None else properties.parent
     pending: list[tuple[Path, str, str]] = []
     for prop in props.properties:
