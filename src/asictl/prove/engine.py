@@ -25,6 +25,7 @@ the age of the oldest trigger not yet answered; it is bad when it reaches N.
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
@@ -164,6 +165,12 @@ def condition(expr: Expr, read: Callable[[ast.Operand], z3.BitVecRef]) -> z3.Boo
             return _COMPARE[op](_value(left, read), _value(right, read))
         case Number() | Duration() | Register():
             raise AssertionError(f"{expr} is no condition of a property")
+
+
+def _round_up(cycles: int) -> int:
+    """Up to two significant digits: 2021 -> 2100, a depth a person would type."""
+    step: int = 10 ** max(0, len(str(cycles)) - 2)
+    return math.ceil(cycles / step) * step
 
 
 def watched_cells(exprs: Iterable[Expr], map_counters: bool) -> list[Key]:
@@ -594,7 +601,48 @@ class Machine:
             return Outcome(prop, verdict, depth, time.monotonic() - start,
                            note="by an inductive invariant (PDR), beyond k-induction",
                            trivially=self.trivially(prop))
-        return Outcome(prop, Verdict.BOUNDED, depth, time.monotonic() - start)
+        return Outcome(prop, Verdict.BOUNDED, depth, time.monotonic() - start,
+                       note=self.beyond(depth))
+
+    def presets(self) -> dict[int, int]:
+        """Timer -> the longest time (ms, in whole ticks) a ``S T n`` starts it with: the
+        last ``L KT`` before it in the same module, or else any the program loads."""
+        found: dict[int, int] = {}
+        loaded = [timer_ticks(c) * 10 for c in self._loaded(K.KT)]
+        for module in self.program.modules():
+            last: int | None = None
+            for section in module.sections:
+                for node in ast.nodes(section):
+                    if isinstance(node, ast.Load) and node.operand.kind is K.KT:
+                        last = timer_ticks(node.operand.address) * 10
+                    elif (isinstance(node, ast.Store) and node.op is ast.StoreOp.SET
+                          and node.operand.kind is K.T):
+                        n = node.operand.address
+                        ms = last if last is not None else max(loaded, default=0)
+                        found[n] = max(found.get(n, 0), ms)
+        return found
+
+    def beyond(self, depth: int) -> str:
+        """What a bounded verdict of the current property misses: each timer in its cone
+        that runs longer than the cycles searched, and a depth that would cover them."""
+        cycle_ms = self.setup.cycle_us / 1000
+        cycles = depth + 1
+        parts: list[str] = []
+        most = 0
+        for n, ms in sorted(self.presets().items()):
+            if self.scope is not None and ("T", n) not in self.scope:
+                continue
+            needed = math.ceil(ms / cycle_ms)
+            if needed < cycles:
+                continue
+            parts.append(f"T {n} is loaded with {ms} ms = {needed} cycles of {cycle_ms:g} "
+                         f"ms: not covered by depth {cycles}")
+            most = max(most, needed)
+        if not parts:
+            return ""
+        suggested = _round_up(most + cycles)
+        seconds = math.ceil(suggested * cycle_ms / 1000)
+        return "; ".join(parts) + f"; try --depth {suggested} or --depth {seconds}s"
 
     def trivially(self, prop: Property) -> str:
         """Why a proved ``prop`` holds whatever the program does, or "" if it does not:
