@@ -31,6 +31,7 @@ from asictl.prove.symbolic import (
     build_cycle,
     cell_name,
     host_masks,
+    operand_cells,
     product,
 )
 from asictl.readers.units import Cycles
@@ -59,11 +60,48 @@ class Equivalence:
     refused: Unmodelled | None = None
 
 
-def _observed(host: Iterable[ast.Operand], extra: Iterable[ast.Operand]) -> list[Key]:
+_FLAGS = (ast.OperandKind.F, ast.OperandKind.FY, ast.OperandKind.FW)
+
+
+def _observed(host: Iterable[ast.Operand], extra: Iterable[ast.Operand],
+              map_counters: bool) -> list[Key]:
+    """The cells compared after every cycle: the outputs, the host's flags and ``extra``
+    (flags, timers, counters, variables)."""
+    extra = list(extra)
     cells: list[Key] = [("Q", n) for n in range(16)]
-    for n in sorted(host_masks([*host, *extra])):
+    for n in sorted(host_masks([*host, *(o for o in extra if o.kind in _FLAGS)])):
         cells.append(("F", n))
+    for operand in extra:
+        if operand.kind not in _FLAGS:
+            cells += [c for c in operand_cells(operand, map_counters) if c not in cells]
     return cells
+
+
+def readable(*programs: Program) -> list[ast.Operand]:
+    """Everything of these programs a scenario can expect or a host can read besides the
+    outputs: each flag byte, timer, counter and variable byte they use. Two programs the
+    same on all of it are the same for every test (mutation testing's ``equivalent``)."""
+    found: dict[tuple[object, ...], ast.Operand] = {}
+    K = ast.OperandKind
+    for program in programs:
+        for module in program.modules():
+            for section in module.sections:
+                for node in ast.nodes(section):
+                    if not isinstance(node, ast.Statement | ast.GatingLine):
+                        continue
+                    for operand, _ in ast.operands(node):
+                        if operand.kind in (K.F, K.FY):
+                            found[("F", operand.address)] = ast.Operand.of(
+                                K.FY, operand.address)
+                        elif operand.kind is K.FW:
+                            for n in (operand.address, operand.address + 1):
+                                found[("F", n)] = ast.Operand.of(K.FY, n)
+                        elif operand.kind in (K.T, K.C, K.VAR):
+                            found[(operand.kind, key(operand.name), operand.address)] = \
+                                ast.Operand(operand.kind, operand.address, -1,
+                                            ast.Width.WORD if operand.kind is not K.VAR
+                                            else ast.Width.BYTE, operand.name)
+    return list(found.values())
 
 
 def equivalent(
@@ -108,7 +146,7 @@ def _equivalent(first: Program, second: Program, start: float, *, timeout_s: flo
     depth = cycles_of(depth, cycle_us / 1000)
     host = [operand for program in (first, second)
             for operand, _ in read_directives(program.sources).host_flags]
-    observed = _observed(host, observe)
+    observed = _observed(host, observe, first.options.map_counters)
     cycles = [build_cycle(program, slaves=bus, cycle_us=cycle_us, host_flags=host,
                           watch=observed, prefix=f"{side}.")
               for side, program in (("a", first), ("b", second))]
@@ -175,6 +213,14 @@ def _twins(first: Program, second: Program) -> list[tuple[tuple[Key, int], tuple
 
 
 def _operand_text(cell: Key) -> str:
-    if cell[0] == "Q":
+    """A compared cell as a scenario names it (a timer in 10 ms ticks)."""
+    kind = cell[0]
+    if kind == "Q":
         return f"QB {2 * int(cell[1])}"
+    if kind == "T":
+        return f"T {cell[1]} (10 ms ticks)"
+    if kind == "C":
+        return f"CV {cell[1]}"
+    if kind == "V":
+        return f"{cell[1]} {cell[2]}"
     return f"FY {cell[1]}"

@@ -292,10 +292,13 @@ def prove_equivalent(original: Build, mutant: Build,
     difference = find_difference(original, mutant)
     if difference is not None:
         return "survived", str(difference)
-    prove: Any = importlib.import_module("asictl.prove")
-    answer = prove.equivalent(original, mutant, timeout_s=prove_s)
+    diff: Any = importlib.import_module("asictl.prove.diff")
+    # equivalent for what a scenario can expect: outputs, flags, timers, counters
+    programs = [build.source_program() for build in (original, mutant)]
+    observe = diff.readable(*(p for p in programs if p is not None))
+    answer = diff.equivalent(original, mutant, timeout_s=prove_s, observe=observe)
     if answer.verdict == "equivalent":
-        return "equivalent", "proved equivalent"
+        return "equivalent", "proved equivalent (outputs, flags, timers and counters)"
     return None
 
 
