@@ -580,6 +580,7 @@ class Machine:
                                    f"more than {self.cycle.loops[0].bound} times, the most "
                                    "the model follows")
                 verdict = Verdict.REACHED if reach else Verdict.REFUTED
+                note = "; ".join(n for n in (note, self._firmware_note()) if n)
                 return Outcome(prop, verdict, k, time.monotonic() - start, trace, note,
                                self._values(prop, base, model, k))
             if result != z3.unsat:
@@ -643,6 +644,20 @@ class Machine:
         suggested = _round_up(most + cycles)
         seconds = math.ceil(suggested * cycle_ms / 1000)
         return "; ".join(parts) + f"; try --depth {suggested} or --depth {seconds}s"
+
+    def _firmware_note(self) -> str:
+        """A counterexample or witness of a property that depends on a firmware block's
+        answer (left free: any answer) says so, since the master's firmware gives one
+        answer and the simulator may not replay it."""
+        answers = {var.decl().name() for name, var in self.cycle.inputs.items()
+                   if name.startswith("fw.")}
+        cells = self.scope if self.scope is not None else frozenset(self.cycle.post)
+        if not any(c.decl().name() in answers for cell in cells if cell in self.cycle.post
+                   for c in _constants(self.cycle.post[cell])):
+            return ""
+        return ("it may rest on a firmware block's answer (PSeg after GetLAS, SetPP, "
+                "PARAM ...), which the proof leaves free: the simulator's firmware answers "
+                "as the master does, so the scenario may not show it")
 
     def trivially(self, prop: Property) -> str:
         """Why a proved ``prop`` holds whatever the program does, or "" if it does not:
