@@ -195,6 +195,14 @@ def timers_of(program: Program) -> tuple[int, ...]:
     }))
 
 
+def counter_high_bytes(program: Program) -> tuple[int, ...]:
+    """The flag bytes whose bits 4-7 the master keeps at 0: the high bytes of the mapped
+    counters (``map_counters``), whatever the program or the host writes there."""
+    if not program.options.map_counters:
+        return ()
+    return tuple(COUNTER_FLAG_BASE + 2 * n + 1 for n in range(MAPPED_COUNTERS))
+
+
 def refuse_unmodelled(program: Program) -> None:
     """Raise ``Unmodelled`` for the first construct the symbolic cycle cannot run."""
     for module in program.modules():
@@ -613,10 +621,16 @@ def build_cycle(
             values[("I2", byte)] = builder.var(("I", byte))
             values[("I", byte)] = z3.Concat(*nibbles)
     masks = host_masks(host_flags)
+    mapped = counter_high_bytes(program)
     for n, mask in sorted(masks.items()):
         written = builder.input(f"host.{n}", 8)
+        if n in mapped:  # the board keeps what the host writes there within 0..15
+            written = written & 0x0F
         values[("F", n)] = (builder.var(("F", n)) & (~mask & 0xFF)) | (written & mask)
     _, end = builder.run(builder.main, z3.BoolVal(True), start)
+    for n in mapped:  # and what the program left there, after every cycle
+        if ("F", n) in end.values:
+            end.values[("F", n)] = end.values[("F", n)] & 0x0F
     for cell in watch:
         builder.get(end, cell)
     for cell in list(builder.pre):
