@@ -144,9 +144,11 @@ def _changes(step: Step, inputs: dict[int, int], flags: dict[int, int],
              masks: dict[int, int]) -> dict[str, str]:
     sets = {}
     for address, value in sorted(step.inputs.items()):
-        if inputs.get(address, 0) != value:
-            sets[f"I {address}"] = _number(value, 4)
-            inputs[address] = value
+        old = inputs.get(address, 0)
+        # bit by bit, only the bits that change: a slave's other inputs hold their value
+        sets.update({f"I {address}.{b}": _number(value >> b & 1, 1)
+                     for b in range(4) if (old ^ value) >> b & 1})
+        inputs[address] = value
     for n, value in sorted(step.host.items()):
         mask = masks[n]
         value &= mask
