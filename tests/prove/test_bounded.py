@@ -51,8 +51,9 @@ def test_a_timer_past_the_bound_is_named_with_the_depth_it_needs(tmp_path: Path,
     assert outcome.verdict is Verdict.BOUNDED, outcome.note  # (the rest of the time: PDR)
     assert outcome.note == ("T 1 is loaded with 20000 ms = 2000 cycles of 10 ms: not "
                             "covered by depth 6; try --depth 2100 or --depth 21s")
+    (tmp_path / "p.symbols.toml").write_text('Delay = "T 1"\n')
     result = runner.invoke(main, ["prove", str(props), "--depth", "5", "--timeout", "8s"])
-    assert "    note: T 1 is loaded with 20000 ms = 2000 cycles" in result.stdout
+    assert "    note: T 1 (Delay) is loaded with 20000 ms = 2000 cycles" in result.stdout
 
 
 def test_a_timer_outside_the_cone_is_not_named(tmp_path: Path):

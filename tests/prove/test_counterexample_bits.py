@@ -49,3 +49,16 @@ def test_a_counterexample_sets_single_bits_and_replays(tmp_path: Path):
     result = Simulation(built, scenario).run()
     last = max(step.at_ms for step in scenario.steps)
     assert result.failures and {f.at_ms for f in result.failures} == {last}
+
+
+def test_the_counterexample_names_its_operands_by_the_symbol_table(tmp_path: Path):
+    (tmp_path / "p.asi").write_text(PROGRAM)
+    (tmp_path / "p.symbols.toml").write_text('Start = "I 1.0"\nPumpB = "Q 3.1"\n')
+    props = tmp_path / "p.props.toml"
+    props.write_text('[master]\ncycle_ms = 10\n[[property]]\nname = "x"\n'
+                     'never = "Q 3.1 and I 1.3"\n')
+    report = prove_file(props, timeout_s=300.0)
+    text = report.written["x"].read_text()
+    [names] = [line for line in text.splitlines() if line.startswith("# names: ")]
+    assert "I 1.0 (Start)" in names and "Q 3.1 (PumpB)" in names
+    assert "I 1.1" not in names  # no name: nothing to say

@@ -334,6 +334,8 @@ class Machine:
     scope: frozenset[Key] | None = None
     #: each cell -> the cells its value after a cycle depends on
     depends: dict[Key, frozenset[Key]] = field(default_factory=dict)
+    #: how notes name an operand (``Q 3.1`` -> ``Q 3.1 (PumpB)``, prove/names.py)
+    label: Callable[[str], str] = str
 
     def __post_init__(self) -> None:
         self.map_counters = self.program.options.map_counters
@@ -636,7 +638,8 @@ class Machine:
             needed = math.ceil(ms / cycle_ms)
             if needed < cycles:
                 continue
-            parts.append(f"T {n} is loaded with {ms} ms = {needed} cycles of {cycle_ms:g} "
+            timer = self.label(f"T {n}")
+            parts.append(f"{timer} is loaded with {ms} ms = {needed} cycles of {cycle_ms:g} "
                          f"ms: not covered by depth {cycles}")
             most = max(most, needed)
         if not parts:

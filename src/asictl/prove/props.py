@@ -83,6 +83,8 @@ class Properties:
     properties: list[Property]
     #: what is suspicious but not wrong (W431), to be shown with the verdicts
     warnings: list[Diagnostic] = field(default_factory=list)
+    #: the program's symbol table, to name operands in notes and scenarios
+    symbols: SymbolTable = field(default_factory=SymbolTable)
 
 
 @dataclass
@@ -174,7 +176,7 @@ def read_properties(
     if reading.report.has_errors:
         raise DiagnosticError(reading.report.diagnostics)
     return Properties(source.name, program_path, cycle_ms, slaves, assume, properties,
-                      reading.report.diagnostics)
+                      reading.report.diagnostics, symbols or SymbolTable())
 
 
 def _environment_only(reading: _Reading, path: KeyPath, prop: Property, scope: Scope) -> None:

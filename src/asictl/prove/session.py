@@ -22,6 +22,7 @@ from asictl.platform.master import TICK_US, asi_cycle_us
 from asictl.prove import MAX_DEPTH
 from asictl.prove.counterexample import MARK, expectations, file_name, scenario_text
 from asictl.prove.engine import Machine, Outcome, Setup, Verdict
+from asictl.prove.names import named
 from asictl.prove.props import Properties, program_for, read_properties
 from asictl.prove.scope import Scope
 from asictl.prove.symbolic import UNROLL, Unmodelled
@@ -143,7 +144,7 @@ def prove(properties: Path, *, program: Path | None = None, lib: tuple[str, ...]
     assert built.program is not None
     try:
         machine = Machine(built.program, setup, props.assume, props.properties,
-                          unroll=unroll)
+                          unroll=unroll, label=lambda text: named(text, props.symbols))
     except Unmodelled as exc:
         raise Invalid(render_text(
             [Diagnostic(Severity.ERROR, ScenarioCode.UNMODELLED, str(exc), exc.span)],
