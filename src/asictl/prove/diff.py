@@ -24,6 +24,7 @@ from asictl.observe.condition import Truth
 from asictl.platform.master import asi_cycle_us
 from asictl.prove.engine import Machine, Outcome, Setup, Step, Verdict
 from asictl.prove.props import Kind, Property
+from asictl.prove.scope import uses
 from asictl.prove.session import cycles_of
 from asictl.prove.symbolic import (
     Key,
@@ -84,23 +85,16 @@ def readable(*programs: Program) -> list[ast.Operand]:
     found: dict[tuple[object, ...], ast.Operand] = {}
     K = ast.OperandKind
     for program in programs:
-        for module in program.modules():
-            for section in module.sections:
-                for node in ast.nodes(section):
-                    if not isinstance(node, ast.Statement | ast.GatingLine):
-                        continue
-                    for operand, _ in ast.operands(node):
-                        if operand.kind in (K.F, K.FY):
-                            found[("F", operand.address)] = ast.Operand.of(
-                                K.FY, operand.address)
-                        elif operand.kind is K.FW:
-                            for n in (operand.address, operand.address + 1):
-                                found[("F", n)] = ast.Operand.of(K.FY, n)
-                        elif operand.kind in (K.T, K.C, K.VAR):
-                            found[(operand.kind, key(operand.name), operand.address)] = \
-                                ast.Operand(operand.kind, operand.address, -1,
-                                            ast.Width.WORD if operand.kind is not K.VAR
-                                            else ast.Width.BYTE, operand.name)
+        for operand, _ in uses(program):
+            if operand.kind in (K.F, K.FY):
+                found[("F", operand.address)] = ast.Operand.of(K.FY, operand.address)
+            elif operand.kind is K.FW:
+                for n in (operand.address, operand.address + 1):
+                    found[("F", n)] = ast.Operand.of(K.FY, n)
+            elif operand.kind in (K.T, K.C, K.VAR):
+                width = ast.Width.WORD if operand.kind is not K.VAR else ast.Width.BYTE
+                found[(operand.kind, key(operand.name), operand.address)] = ast.Operand(
+                    operand.kind, operand.address, -1, width, operand.name)
     return list(found.values())
 
 
@@ -181,18 +175,13 @@ def _memory(program: Program) -> tuple[set[tuple[Key, int]], set[tuple[Key, int]
     """The flag and variable bits, and the timers and counters, a program uses."""
     bits: set[tuple[Key, int]] = set()
     words: set[tuple[Key, int]] = set()
-    for module in program.modules():
-        for section in module.sections:
-            for node in ast.nodes(section):
-                if not isinstance(node, ast.Statement | ast.GatingLine):
-                    continue
-                for operand, _ in ast.operands(node):
-                    if operand.kind is ast.OperandKind.F:
-                        bits.add((("a", "F", operand.address), operand.bit))
-                    elif operand.kind is ast.OperandKind.VAR and operand.bit >= 0:
-                        bits.add((("a", "V", key(operand.name), operand.address), operand.bit))
-                    elif operand.kind in (ast.OperandKind.T, ast.OperandKind.C):
-                        words.add((("a", operand.kind.value, operand.address), -1))
+    for operand, _ in uses(program):
+        if operand.kind is ast.OperandKind.F:
+            bits.add((("a", "F", operand.address), operand.bit))
+        elif operand.kind is ast.OperandKind.VAR and operand.bit >= 0:
+            bits.add((("a", "V", key(operand.name), operand.address), operand.bit))
+        elif operand.kind in (ast.OperandKind.T, ast.OperandKind.C):
+            words.add((("a", operand.kind.value, operand.address), -1))
     return bits, words
 
 

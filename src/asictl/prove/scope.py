@@ -13,7 +13,7 @@ Nothing here needs z3: the properties reader calls ``Scope.problem`` for each op
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 
 from asictl.il import ast
@@ -44,6 +44,16 @@ def places(node: ast.Operand) -> tuple[Place, ...]:
             return ((node.kind.value, node.address),)
 
 
+def uses(program: Program) -> Iterator[ast.Use]:
+    """Every operand the program's statements and gating lines read or write, over all
+    its modules, with how."""
+    for module in program.modules():
+        for section in module.sections:
+            for node in ast.nodes(section):
+                if isinstance(node, ast.Statement | ast.GatingLine):
+                    yield from ast.operands(node)
+
+
 @dataclass(frozen=True)
 class Scope:
     """The slaves a program's [SETUP] projects, and the timers and counters it uses (the
@@ -61,15 +71,11 @@ class Scope:
     def of(cls, program: Program) -> Scope:
         used: dict[K, set[int]] = {K.T: set(), K.C: set()}
         written: set[Place] = set()
-        for module in program.modules():
-            for section in module.sections:
-                for node in ast.nodes(section):
-                    if isinstance(node, ast.Statement | ast.GatingLine):
-                        for operand, access in ast.operands(node):
-                            if operand.kind in used:
-                                used[operand.kind].add(operand.address)
-                            if access is not ast.Access.READ:
-                                written.update(places(operand))
+        for operand, access in uses(program):
+            if operand.kind in used:
+                used[operand.kind].add(operand.address)
+            if access is not ast.Access.READ:
+                written.update(places(operand))
         host = {place for flag, _ in read_directives(program.sources).host_flags
                 for place in places(flag)}
         return cls(frozenset(s.address for s in program.slaves), frozenset(used[K.T]),
