@@ -8,6 +8,7 @@ address hot at once (``hot = 1``) and check that regions really ran.
 
 from __future__ import annotations
 
+import dataclasses
 import random
 
 import pytest
@@ -77,6 +78,31 @@ def test_random_sequences_with_forward_branches_match_s51(s51_path: str, cases) 
     compare_with_s51(s51_path, cases)
 
 
+def looping(case: oracle.Case) -> oracle.Case:
+    """The drawn program with its final ``SJMP $`` jumping back to its start instead: a
+    loop whose body branches forward (a superblock), run for a few rounds and stopped by
+    the budget somewhere in a pass. A ``JC`` to the next instruction opens the body, so
+    that even a body drawn without a branch is more than one block that loops to itself
+    (which runs as a block, not a region)."""
+    body = b"\x40\x00" + case.program[:-2]
+    back = -(len(body) + 2) & 0xFF
+    return dataclasses.replace(
+        case, label="loop", program=body + bytes([0x80, back]), steps=3 * case.steps + 1
+    )
+
+
+@settings(
+    max_examples=30,
+    deadline=None,
+    suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large],
+)
+@given(st.lists(oracle.programs().map(looping), min_size=8, max_size=8))
+def test_loops_with_forward_branches_match_s51(s51_path: str, cases) -> None:
+    """The same programs as loops: the region goes round inside its function while a
+    whole pass fits the budget, and hands the rest to the blocks."""
+    compare_with_s51(s51_path, cases)
+
+
 # -- against the interpreter, with devices, breakpoints and budgets ----------------------
 
 def programs() -> st.SearchStrategy[tuple[bytes, bytes, bytes, int, int | None]]:
@@ -132,3 +158,98 @@ def test_a_region_is_used_only_once_its_address_is_hot() -> None:
         emu.pc = 0x0100
         emu.run(until=0x0000)
         assert regions_built(emu) == (1 if run == Emulator.hot else 0), run
+
+
+#: Two nested DJNZ loops around a body with a JNB and a JC in it (benchmarks/
+#: bench_emulator.py's branchy program, with small counts): the inner loop is a region
+#: whose function goes round itself.
+BRANCHY = bytes.fromhex(
+    "904000"  # 0000      MOV   DPTR,#4000h
+    "7e03"  # 0003      MOV   R6,#3
+    "7d05"  # 0005 L2:  MOV   R5,#5
+    "ed"  # 0007 L1:  MOV   A,R5
+    "2403"  # 0008      ADD   A,#3
+    "f0"  # 000A      MOVX  @DPTR,A
+    "a3"  # 000B      INC   DPTR
+    "b200"  # 000C      CPL   20h.0
+    "300004"  # 000E      JNB   20h.0,SKIP
+    "e0"  # 0011      MOVX  A,@DPTR
+    "547f"  # 0012      ANL   A,#7Fh
+    "d3"  # 0014      SETB  C
+    "33"  # 0015 SKIP: RLC   A
+    "4002"  # 0016      JC    ODD
+    "f530"  # 0018      MOV   30h,A
+    "ddeb"  # 001A ODD: DJNZ  R5,L1
+    "dee7"  # 001C      DJNZ  R6,L2
+    "80fe"  # 001E      SJMP  $
+)
+BRANCHY_END, BRANCHY_LOOP = 0x1E, 0x07
+
+
+def branchy(emu: Emulator) -> Emulator:
+    emu.code.load(0, BRANCHY)
+    return restart(emu)
+
+
+def restart(emu: Emulator) -> Emulator:
+    """The branchy program's start state; the emulator keeps its translations."""
+    emu.reset()
+    emu.iram[:] = bytes(256)
+    emu.xdata.ram[0x4000:0x4010] = bytes(range(0x70, 0x80))
+    return emu
+
+
+def machine(emu: Emulator) -> tuple:
+    return (emu.pc, emu.instructions, emu.cycles, emu.psw, bytes(emu.iram), bytes(emu.sfr),
+            bytes(emu.xdata.ram))  # fmt: skip
+
+
+def test_a_loop_with_branches_goes_round_inside_its_region() -> None:
+    """One call of the inner loop's region per start of that loop, not one per pass."""
+    emu = branchy(region_emulator())
+    assert emu.run(until=BRANCHY_END) is StopReason.UNTIL
+    reference = branchy(Emulator(translate=False))
+    reference.run(until=BRANCHY_END)
+    assert machine(emu) == machine(reference)
+    key = BRANCHY_LOOP  # register bank 0
+    region, instructions, cycles, kind = emu._blocks[key]
+    assert kind == REGION and region is not None
+    calls = []
+    emu._blocks[key] = (lambda *room: calls.append(room) or region(*room),
+                        instructions, cycles, kind)  # fmt: skip
+    restart(emu).run(until=BRANCHY_END)
+    assert len(calls) == 3  # R6's three starts of the inner loop; R5 goes round 5 times in each
+    assert machine(emu)[1:] == machine(reference)[1:]
+
+
+@pytest.mark.parametrize("budget", ["instructions", "cycles"])
+def test_every_budget_stops_a_looping_region_where_the_interpreter_stops(budget: str) -> None:
+    """Every instruction and cycle budget over the whole run, resumed to the end: the
+    loop's next pass starts inside the region only when all of it fits."""
+    whole = branchy(Emulator(translate=False))
+    whole.run(until=BRANCHY_END)
+    total = whole.instructions if budget == "instructions" else whole.cycles
+    ours, reference = branchy(region_emulator()), branchy(Emulator(translate=False))
+    for limit in range(1, total + 2):
+        for emu in (restart(ours), restart(reference)):
+            emu.run(until=BRANCHY_END, **{f"max_{budget}": limit})
+        assert machine(ours) == machine(reference), limit
+        if ours.pc != BRANCHY_END:  # resuming there would run the SJMP $ once more
+            assert ours.run(until=BRANCHY_END) is StopReason.UNTIL
+        assert machine(ours) == machine(whole), limit
+
+
+def test_a_breakpoint_in_a_looping_region_stops_every_pass() -> None:
+    """A breakpoint on the JNB's target: each pass that reaches it stops there, with the
+    counters the interpreter has."""
+    ours, reference = branchy(region_emulator()), branchy(Emulator(translate=False))
+    stops = []
+    for emu in (ours, reference):
+        emu.add_breakpoint(0x0015)
+        trail = []
+        while (stop := emu.run(until=BRANCHY_END)) is StopReason.BREAKPOINT:
+            trail.append(machine(emu))
+        assert stop is StopReason.UNTIL
+        stops.append(trail)
+    assert len(stops[0]) == 15
+    assert stops[0] == stops[1]
