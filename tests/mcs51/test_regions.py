@@ -53,7 +53,8 @@ def compare_with_s51(s51: str, cases: list[oracle.Case]) -> None:
     assert not failures, f"{len(failures)} of {len(cases)} differ:\n" + "\n".join(failures[:40])
 
 
-def test_every_opcode_in_a_region_matches_s51(s51_path: str) -> None:
+@pytest.mark.parametrize("states", [2, pytest.param(12, marks=pytest.mark.slow)])
+def test_every_opcode_in_a_region_matches_s51(s51_path: str, states: int) -> None:
     """Each opcode, followed by SJMP $, from random states: the pair is one region (a
     jump, call or return ends it), with every byte it addresses directly in a local."""
     rng = random.Random(51)
@@ -61,7 +62,7 @@ def test_every_opcode_in_a_region_matches_s51(s51_path: str) -> None:
         oracle.single_instruction_case(rng, opcode)
         for opcode, info in enumerate(OPCODES)
         if info is not None
-        for _ in range(6)
+        for _ in range(states)
     ]
     compare_with_s51(s51_path, cases)
 
@@ -111,18 +112,30 @@ def programs() -> st.SearchStrategy[tuple[bytes, bytes, bytes, int, int | None]]
     return emulator_tests.programs(max_opcodes=60)
 
 
-@settings(
-    max_examples=150,
-    deadline=None,
-    suppress_health_check=[HealthCheck.function_scoped_fixture],  # the same patch each time
-)
-@given(programs())
-def test_regions_and_interpreter_agree(monkeypatch: pytest.MonkeyPatch, case) -> None:
+def regions_and_interpreter_agree(monkeypatch: pytest.MonkeyPatch, case) -> None:
     """Small regions (so that they fit the budgets), every address hot: the same stops,
     state, and device accesses in the same order as the interpreter."""
     monkeypatch.setattr(regions, "MAX_REGION", 24)
     in_regions = emulator_tests.run_case(region_emulator(), case)
     assert in_regions == emulator_tests.run_case(Emulator(translate=False), case)
+
+
+@settings(
+    max_examples=25,
+    deadline=None,
+    suppress_health_check=[HealthCheck.function_scoped_fixture],  # the same patch each time
+)
+@given(programs())
+def test_regions_and_interpreter_agree(monkeypatch: pytest.MonkeyPatch, case) -> None:
+    regions_and_interpreter_agree(monkeypatch, case)
+
+
+@pytest.mark.slow
+@settings(max_examples=300, deadline=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(programs())
+def test_regions_and_interpreter_agree_long(monkeypatch: pytest.MonkeyPatch, case) -> None:
+    regions_and_interpreter_agree(monkeypatch, case)
 
 
 def test_a_device_sees_the_bytes_a_region_keeps_in_locals() -> None:
