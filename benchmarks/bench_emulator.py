@@ -38,57 +38,61 @@ from intelhex import IntelHex
 INNER, MIDDLE = 100, 200
 
 
-def straight(outer: int) -> tuple[bytes, int]:
-    """The straight benchmark image and the address of its final ``SJMP $``."""
+def nested(body: str, outer: int, middle: int = MIDDLE, inner: int = INNER) -> tuple[bytes, int]:
+    """Three nested DJNZ loops (R7, R6, R5) around ``body`` (hex) after ``MOV DPTR,#4000h``,
+    ending in ``SJMP $``: the image and the address of that ``SJMP $``."""
+    size = len(body) // 2
     code = bytes.fromhex(
         "904000"  # 0000      MOV   DPTR,#4000h
         f"7f{outer:02x}"  # 0003      MOV   R7,#outer
-        f"7e{MIDDLE:02x}"  # 0005 L3:  MOV   R6,#MIDDLE
-        f"7d{INNER:02x}"  # 0007 L2:  MOV   R5,#INNER
-        "ed"  # 0009 L1:  MOV   A,R5
-        "2403"  # 000A      ADD   A,#3
-        "547f"  # 000C      ANL   A,#7Fh
-        "f0"  # 000E      MOVX  @DPTR,A
-        "a3"  # 000F      INC   DPTR
-        "e0"  # 0010      MOVX  A,@DPTR
-        "b200"  # 0011      CPL   20h.0
-        "a200"  # 0013      MOV   C,20h.0
-        "33"  # 0015      RLC   A
-        "f530"  # 0016      MOV   30h,A
-        "ddef"  # 0018      DJNZ  R5,L1
-        "deeb"  # 001A      DJNZ  R6,L2
-        "dfe7"  # 001C      DJNZ  R7,L3
-        "80fe"  # 001E      SJMP  $
+        f"7e{middle:02x}"  # 0005 L3:  MOV   R6,#middle
+        f"7d{inner:02x}"  # 0007 L2:  MOV   R5,#inner
+        f"{body}"  # 0009 L1:  the body
+        f"dd{-(size + 2) & 0xFF:02x}"  # DJNZ  R5,L1
+        f"de{-(size + 6) & 0xFF:02x}"  # DJNZ  R6,L2
+        f"df{-(size + 10) & 0xFF:02x}"  # DJNZ  R7,L3
+        "80fe"  # SJMP  $
     )
     return code, len(code) - 2
+
+
+#: The straight program's inner loop body, from 0009.
+STRAIGHT = (
+    "ed"  # MOV   A,R5
+    "2403"  # ADD   A,#3
+    "547f"  # ANL   A,#7Fh
+    "f0"  # MOVX  @DPTR,A
+    "a3"  # INC   DPTR
+    "e0"  # MOVX  A,@DPTR
+    "b200"  # CPL   20h.0
+    "a200"  # MOV   C,20h.0
+    "33"  # RLC   A
+    "f530"  # MOV   30h,A
+)
+#: The branchy one's: it takes its ``JNB`` every other pass and its ``JC`` when RLC
+#: shifts a one out.
+BRANCHY = (
+    "ed"  # 0009       MOV   A,R5
+    "2403"  # 000A       ADD   A,#3
+    "f0"  # 000C       MOVX  @DPTR,A
+    "a3"  # 000D       INC   DPTR
+    "b200"  # 000E       CPL   20h.0
+    "300004"  # 0010       JNB   20h.0,SKIP
+    "e0"  # 0013       MOVX  A,@DPTR
+    "547f"  # 0014       ANL   A,#7Fh
+    "d3"  # 0016       SETB  C
+    "33"  # 0017 SKIP: RLC   A
+    "4002"  # 0018       JC    ODD
+    "f530"  # 001A       MOV   30h,A
+)  # 001C ODD: DJNZ R5,L1
+
+
+def straight(outer: int) -> tuple[bytes, int]:
+    return nested(STRAIGHT, outer)
 
 
 def branchy(outer: int) -> tuple[bytes, int]:
-    """The branchy benchmark image (the inner loop takes its ``JNB`` every other pass
-    and its ``JC`` when RLC shifts a one out) and the address of its ``SJMP $``."""
-    code = bytes.fromhex(
-        "904000"  # 0000      MOV   DPTR,#4000h
-        f"7f{outer:02x}"  # 0003      MOV   R7,#outer
-        f"7e{MIDDLE:02x}"  # 0005 L3:  MOV   R6,#MIDDLE
-        f"7d{INNER:02x}"  # 0007 L2:  MOV   R5,#INNER
-        "ed"  # 0009 L1:  MOV   A,R5
-        "2403"  # 000A      ADD   A,#3
-        "f0"  # 000C      MOVX  @DPTR,A
-        "a3"  # 000D      INC   DPTR
-        "b200"  # 000E      CPL   20h.0
-        "300004"  # 0010      JNB   20h.0,SKIP
-        "e0"  # 0013      MOVX  A,@DPTR
-        "547f"  # 0014      ANL   A,#7Fh
-        "d3"  # 0016      SETB  C
-        "33"  # 0017 SKIP: RLC   A
-        "4002"  # 0018      JC    ODD
-        "f530"  # 001A      MOV   30h,A
-        "ddeb"  # 001C ODD: DJNZ  R5,L1
-        "dee7"  # 001E      DJNZ  R6,L2
-        "dfe3"  # 0020      DJNZ  R7,L3
-        "80fe"  # 0022      SJMP  $
-    )
-    return code, len(code) - 2
+    return nested(BRANCHY, outer)
 
 
 PROGRAMS = {"straight": straight, "branchy": branchy}

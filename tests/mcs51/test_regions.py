@@ -9,7 +9,10 @@ address hot at once (``hot = 1``) and check that regions really ran.
 from __future__ import annotations
 
 import dataclasses
+import importlib.util
 import random
+from pathlib import Path
+from types import ModuleType
 
 import pytest
 import test_emulator as emulator_tests
@@ -173,30 +176,22 @@ def test_a_region_is_used_only_once_its_address_is_hot() -> None:
         assert regions_built(emu) == (1 if run == Emulator.hot else 0), run
 
 
-#: Two nested DJNZ loops around a body with a JNB and a JC in it (benchmarks/
-#: bench_emulator.py's branchy program, with small counts): the inner loop is a region
-#: whose function goes round itself.
-BRANCHY = bytes.fromhex(
-    "904000"  # 0000      MOV   DPTR,#4000h
-    "7e03"  # 0003      MOV   R6,#3
-    "7d05"  # 0005 L2:  MOV   R5,#5
-    "ed"  # 0007 L1:  MOV   A,R5
-    "2403"  # 0008      ADD   A,#3
-    "f0"  # 000A      MOVX  @DPTR,A
-    "a3"  # 000B      INC   DPTR
-    "b200"  # 000C      CPL   20h.0
-    "300004"  # 000E      JNB   20h.0,SKIP
-    "e0"  # 0011      MOVX  A,@DPTR
-    "547f"  # 0012      ANL   A,#7Fh
-    "d3"  # 0014      SETB  C
-    "33"  # 0015 SKIP: RLC   A
-    "4002"  # 0016      JC    ODD
-    "f530"  # 0018      MOV   30h,A
-    "ddeb"  # 001A ODD: DJNZ  R5,L1
-    "dee7"  # 001C      DJNZ  R6,L2
-    "80fe"  # 001E      SJMP  $
-)
-BRANCHY_END, BRANCHY_LOOP = 0x1E, 0x07
+def _benchmark() -> ModuleType:
+    """benchmarks/bench_emulator.py, whose branchy program these tests run."""
+    path = Path(__file__).parents[2] / "benchmarks" / "bench_emulator.py"
+    spec = importlib.util.spec_from_file_location("bench_emulator", path)
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+#: The benchmark's branchy program (a JNB and a JC in the inner loop's body), with small
+#: counts: 1 outer round, 3 middle, 5 inner; the inner loop is a region whose function
+#: goes round itself.
+_BENCHMARK = _benchmark()
+BRANCHY, BRANCHY_END = _BENCHMARK.nested(_BENCHMARK.BRANCHY, 1, 3, 5)
+BRANCHY_LOOP, BRANCHY_SKIP = 0x09, 0x17  # L1, and the JNB's target
 
 
 def branchy(emu: Emulator) -> Emulator:
@@ -258,7 +253,7 @@ def test_a_breakpoint_in_a_looping_region_stops_every_pass() -> None:
     ours, reference = branchy(region_emulator()), branchy(Emulator(translate=False))
     stops = []
     for emu in (ours, reference):
-        emu.add_breakpoint(0x0015)
+        emu.add_breakpoint(BRANCHY_SKIP)
         trail = []
         while (stop := emu.run(until=BRANCHY_END)) is StopReason.BREAKPOINT:
             trail.append(machine(emu))
