@@ -21,6 +21,7 @@ import tempfile
 from collections.abc import Iterable, Sequence
 from pathlib import Path
 
+from asictl.diagnostics import printable
 from asictl.errors import UserError
 
 #: The name that means standard output.
@@ -158,12 +159,8 @@ def _stage(target: Path, data: bytes, *, shown: Path) -> Path:
 
 
 def shown_name(name: str) -> str:
-    """A file name as it can be printed safely: control characters (an escape sequence
-    would drive the terminal) and other unprintable ones are written as escapes."""
-    return "".join(
-        char if char.isprintable() else char.encode("unicode_escape").decode("ascii")
-        for char in name
-    )
+    """A file name as it can be printed safely (``printable``: a newline in it too)."""
+    return printable(name, lines=False)
 
 
 def _write_stream(target: Path, data: bytes) -> None:

@@ -16,7 +16,7 @@ from typing import Any, TypeVar
 
 import click
 
-from asictl.diagnostics import DiagnosticError, render_text
+from asictl.diagnostics import DiagnosticError, printable, render_text
 from asictl.errors import ExitCode, UserError
 from asictl.fleet.inventory import FleetMaster, read_inventory
 from asictl.fleet.survey import DEFAULT_JOBS, Outcome, each_master
@@ -67,7 +67,7 @@ def _survey(
         nonlocal width
         text = (f"{verb} {done}/{len(masters)}: {outcome.master.name} "
                 + ("ok" if outcome.ok else "FAILED"))
-        click.echo("\r" + text.ljust(width), nl=False, err=True)
+        click.echo("\r" + printable(text, lines=False).ljust(width), nl=False, err=True)
         width = len(text)
 
     outcomes = each_master(masters, work, jobs=jobs, progress=progress if shown else None)
@@ -77,11 +77,17 @@ def _survey(
 
 
 def _table(header: tuple[str, ...], rows: list[tuple[str, ...]]) -> str:
+    """Columns of text; a master's name or a gateway's answer may hold anything."""
+    header, rows = _shown(header), [_shown(row) for row in rows]
     widths = [max(len(r[i]) for r in [header, *rows]) for i in range(len(header))]
     return "".join(
         "  ".join(cell.ljust(w) for cell, w in zip(row, widths, strict=True)).rstrip() + "\n"
         for row in [header, *rows]
     )
+
+
+def _shown(cells: tuple[str, ...]) -> tuple[str, ...]:
+    return tuple(printable(cell, lines=False) for cell in cells)
 
 
 def _short(identity: str | None) -> str:
@@ -188,7 +194,7 @@ def backup(
               str(r["attempts"]), f"{r['seconds']:.1f} s") for r in rows],
         ), nl=False)
         for name, why in failed.items():
-            click.echo(f"{name}: {why}", err=True)
+            click.echo(printable(f"{name}: {why}"), err=True)
         done = f"{len(written)} of {len(outcomes)} masters backed up"
         click.echo(
             f"{archive.root}: {done}; "
@@ -247,10 +253,10 @@ def verify(
                               indent=2))
     else:
         for row in rows:
-            click.echo(f"{row['master']}: {row['text']}")
+            click.echo(printable(f"{row['master']}: {row['text']}"))
         same = len(rows) - len(drifted)
-        click.echo(f"{same} of {len(rows)} masters run what {against} holds"
-                   + (f"; not: {', '.join(drifted)}" if drifted else ""))
+        click.echo(printable(f"{same} of {len(rows)} masters run what {against} holds"
+                             + (f"; not: {', '.join(drifted)}" if drifted else "")))
     if drifted:
         click.get_current_context().exit(int(ExitCode.FAILED))
 
@@ -293,6 +299,6 @@ def status(
         for row in rows:
             text = (f"{row['summary']}; program {_short(row['program'])}" if row["answered"]
                     else f"unreachable: {row['error']}")
-            click.echo(f"{row['master'].ljust(width)}  {row['reached']}: {text}")
+            click.echo(printable(f"{row['master'].ljust(width)}  {row['reached']}: {text}"))
     if any(not r["answered"] for r in rows):
         click.get_current_context().exit(int(ExitCode.FAILED))

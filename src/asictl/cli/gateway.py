@@ -23,6 +23,7 @@ from asictl.cli.opcua_options import opcua_attachment, opcua_options
 from asictl.cli.options import Duration
 from asictl.cli.serial_options import serial_options, unit_option
 from asictl.cli.web_options import web_attachment, web_options
+from asictl.diagnostics import printable
 from asictl.errors import ExitCode, UserError, missing_extra
 from asictl.host.emulated.boards import lock_file, state_directory
 from asictl.host.emulated.locking import note_holder
@@ -48,7 +49,7 @@ def _tcp_address(text: str) -> tuple[str, int]:
 
 
 def _notify(message: str) -> None:
-    click.echo(f"asictl: {message}", err=True)
+    click.echo(f"asictl: {printable(message)}", err=True)
 
 
 def _url_host(host: str) -> str:

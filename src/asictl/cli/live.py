@@ -18,6 +18,7 @@ from asictl.cli.board_options import BoardOptions, board_options, open_master
 from asictl.cli.opcua_options import opcua_attachment, opcua_options
 from asictl.cli.options import Duration
 from asictl.cli.web_options import web_attachment, web_options
+from asictl.diagnostics import printable
 from asictl.errors import ExitCode, UserError
 from asictl.host.commissioning import image_changes
 from asictl.host.emulated.actions import parse_address, parse_number, parse_profile
@@ -103,7 +104,7 @@ def serve(
     from asictl.host.search import resolve_port
 
     def notify(text: str) -> None:
-        click.echo(f"asictl: {text}", err=True)
+        click.echo(f"asictl: {printable(text)}", err=True)
 
     directory = state_directory(state_dir)
     base = resolve_port(port, "emulated", directory, notify)

@@ -22,6 +22,7 @@ from asictl.cli.board_options import BoardOptions, board_options, master_wait, o
 from asictl.cli.guard_options import real_master_option, unconfirmed_format_option
 from asictl.cli.options import lib_option
 from asictl.cli.terminal import progress
+from asictl.diagnostics import printable
 from asictl.errors import ExitCode, UserError
 from asictl.files import STDOUT, shown_name, write_output
 from asictl.host.connection import cable_setup_slaves
@@ -365,6 +366,6 @@ def status_command(as_json: bool, **board: Unpack[BoardOptions]) -> None:
     if as_json:
         click.echo(json.dumps(status.to_json(), indent=2))
     else:
-        click.echo(render(status), nl=False)
+        click.echo(printable(render(status)), nl=False)  # names from a symbol table
     if status.missing or status.unexpected or status.wrong_profile:
         _cable_hint(master, "config error")
