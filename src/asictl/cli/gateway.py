@@ -102,7 +102,8 @@ def serve(
     tcp: str | None, rtu: str | None, baud: str, parity: str, stopbits: str, unit: int,
     port: str, state_dir: str | None, wait: bool, verbose: bool, max_connections: int,
     idle_timeout: float, frame_timeout: float, save_interval: float, opcua: str | None,
-    opcua_writable: bool, opcua_user: str | None, opcua_interval: float,
+    opcua_writable: bool, opcua_user: str | None, opcua_interval: float, opcua_max_connections: int,
+    opcua_max_sessions: int, opcua_login_timeout: float,
     opcua_symbols: str | None, http: str | None, http_writable: bool,
     http_download: bool, http_token_file: str | None, http_interval: float,
 ) -> None:
@@ -152,7 +153,9 @@ def serve(
     )
     live_at = socket_path(directory, base)
     opcua_server = opcua_attachment(
-        opcua, opcua_writable, opcua_user, opcua_interval / 1000, opcua_symbols, port, _notify
+        opcua, opcua_writable, opcua_user, opcua_interval / 1000, opcua_symbols, port, _notify,
+        max_connections=opcua_max_connections, max_sessions=opcua_max_sessions,
+        login_timeout=opcua_login_timeout / 1000,
     )
     page = web_attachment(
         http, http_writable, http_download, http_token_file, http_interval / 1000, port, _notify

@@ -71,7 +71,9 @@ def serve(
     port: str, state_dir: str | None, wait: bool, max_connections: int,
     session_timeout: float, idle_timeout: float, opcua: str | None, opcua_writable: bool,
     opcua_user: str | None,
-    opcua_interval: float, opcua_symbols: str | None, http: str | None, http_writable: bool,
+    opcua_interval: float, opcua_max_connections: int, opcua_max_sessions: int,
+    opcua_login_timeout: float, opcua_symbols: str | None, http: str | None,
+    http_writable: bool,
     http_download: bool, http_token_file: str | None, http_interval: float,
 ) -> None:
     """Keep the emulated board running in real time until Ctrl-C or SIGTERM.
@@ -111,7 +113,9 @@ def serve(
     name = port_name(base)
     attach = debugging(debug_socket_path(directory, base))
     server = opcua_attachment(
-        opcua, opcua_writable, opcua_user, opcua_interval / 1000, opcua_symbols, name, notify
+        opcua, opcua_writable, opcua_user, opcua_interval / 1000, opcua_symbols, name, notify,
+        max_connections=opcua_max_connections, max_sessions=opcua_max_sessions,
+        login_timeout=opcua_login_timeout / 1000,
     )
     if server is not None:
         attach = together(attach, server)

@@ -34,6 +34,7 @@ from asyncua import ua
 from asyncua.common.node import Node
 from asyncua.crypto.permission_rules import User, UserRole
 from asyncua.server.address_space import NodeData
+from asyncua.server.internal_session import InternalSession
 from asyncua.server.server import Server
 from asyncua.ua.attribute_ids import AttributeIds
 from asyncua.ua.status_codes import StatusCodes
@@ -49,6 +50,12 @@ from asictl.host.transports.target import is_loopback
 from asictl.observe.operands import Operand, image_symbols, parse_operand
 from asictl.observe.symbols import SymbolTable
 from asictl.observe.view import host_write, read_on_board, wake
+from asictl.opcua.limits import (
+    DEFAULT_LOGIN_TIMEOUT_S,
+    DEFAULT_MAX_CONNECTIONS,
+    DEFAULT_MAX_SESSIONS,
+    MAX_SESSION_TIMEOUT_S,
+)
 from asictl.platform import pc2
 from asictl.platform.master import SLAVES
 
@@ -66,8 +73,9 @@ V = ua.VariantType
 @dataclass(frozen=True)
 class OpcUaOptions:
     """Where and how to serve: ``host``:``port``, the refresh interval, whether clients may
-    write, the user and password clients must give (None: anonymous, loopback only), and
-    the symbol table whose names become variables."""
+    write, the user and password clients must give (None: anonymous, loopback only), the
+    symbol table whose names become variables, and the limits on clients: connections,
+    sessions, and the seconds a connection has to log in."""
 
     host: str = "127.0.0.1"
     port: int = DEFAULT_PORT
@@ -76,6 +84,9 @@ class OpcUaOptions:
     password: str | None = None
     interval: float = DEFAULT_INTERVAL_S
     symbols: SymbolTable | None = None
+    max_connections: int = DEFAULT_MAX_CONNECTIONS
+    max_sessions: int = DEFAULT_MAX_SESSIONS
+    login_timeout: float = DEFAULT_LOGIN_TIMEOUT_S
 
     @property
     def url(self) -> str:
@@ -355,6 +366,22 @@ def _slave_value(status: MasterStatus, address: int, field: str) -> Any:
     }[field]
 
 
+def _limit_clients(server: Server, options: OpcUaOptions) -> None:
+    """No more than the options' connections and sessions, and no connection that has
+    not logged in after ``login_timeout``: clients that connect and wait, or log in and
+    vanish, cost a bounded number of descriptors, so the live board's own socket can
+    always accept. Further connections are closed at once; a further session is refused
+    with BadMaxConnectionsReached (asyncua counts sessions per process: there is one
+    OPC UA server in it)."""
+    server.iserver.max_connections = options.max_connections
+    server.iserver.max_pending_activation_seconds = options.login_timeout
+    server.iserver.max_session_timeout_ms = MAX_SESSION_TIMEOUT_S * 1000
+    server.iserver.min_session_timeout_ms = min(
+        server.iserver.min_session_timeout_ms, MAX_SESSION_TIMEOUT_S * 1000
+    )
+    InternalSession.max_connections = options.max_sessions
+
+
 def opcua_attachment(
     options: OpcUaOptions, name: str, notify: Callable[[str], None],
     started: Callable[[str], None] | None = None,
@@ -376,6 +403,7 @@ async def _serve(
     logging.getLogger("asyncua").setLevel(logging.CRITICAL)  # its tracebacks per bad client
     server = Server(user_manager=_Login(options.user, options.password))  # type: ignore[arg-type]
     await server.init()
+    _limit_clients(server, options)
     server.set_endpoint(options.url)
     server.set_server_name(f"asictl board {name}")
     server.set_security_policy([ua.SecurityPolicyType.NoSecurity])
