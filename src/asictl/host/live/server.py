@@ -46,6 +46,7 @@ from asictl.host.background import NotStarted, in_thread
 from asictl.host.condition_log import ConditionLog
 from asictl.host.emulated.boards import emulated_board, lock_file, state_file
 from asictl.host.emulated.locking import note_holder
+from asictl.host.event_loop import run_serving
 from asictl.host.live import requests
 from asictl.host.live.board import LiveBoard
 from asictl.host.live.client import refuse_if_served
@@ -525,7 +526,7 @@ def run_live(
                     raise result
 
         try:
-            asyncio.run(main())
+            run_serving(main())
         except OSError as exc:
             raise UserError(f"cannot serve: {exc.strerror or exc}") from None
         finally:
