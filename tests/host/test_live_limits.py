@@ -18,6 +18,8 @@ import time
 from pathlib import Path
 
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 from live_helpers import ROOT, cli, read_message, start_serve, stop, wait_for
 
 from asictl.errors import UserError
@@ -309,3 +311,42 @@ def test_a_client_stopped_with_sigstop_holds_the_board_no_longer_than_the_timeou
     assert ("waiting for live board 300h, in use by asictl download (a stopped one) "
             "(a session silent for 1 s is ended)") in result.stderr
     assert "ended the session of asictl download (a stopped one): no request for 1 s" in log
+
+
+# ------------------------------------------------------------------ hostile requests
+
+_JSON = st.recursive(
+    st.none() | st.booleans() | st.integers(-(2**40), 2**40) | st.floats(allow_nan=False)
+    | st.text(max_size=20),
+    lambda inner: st.lists(inner, max_size=5) | st.dictionaries(st.text(max_size=8), inner,
+                                                                 max_size=5),
+    max_leaves=30,
+)
+_OPS = st.sampled_from(["hello", "begin", "end", "io", "action", "nope", None, 7])
+_REQUESTS = st.fixed_dictionaries(
+    {"op": _OPS},
+    optional={"ops": st.lists(st.tuples(st.sampled_from(["r", "w", "x"]),
+                                        st.integers(-2, 300), _JSON), max_size=4)
+              | _JSON,
+              "name": st.sampled_from(["inputs", "lines", "cable", "nope"]) | _JSON,
+              "args": _JSON, "who": _JSON},
+) | _JSON
+
+
+@settings(max_examples=60, deadline=10_000, suppress_health_check=list(HealthCheck))
+@given(request=_REQUESTS)
+def test_a_hostile_request_gets_an_answer_or_a_closed_connection_never_a_dead_server(
+    live, request
+):
+    path = socket_path(live, 0x300)
+    with socket.socket(socket.AF_UNIX) as sock:
+        sock.settimeout(10)
+        sock.connect(str(path))
+        sock.sendall(encode(request))
+        answer = read_message(sock)
+    if answer:
+        told = json.loads(answer)
+        assert told.get("ok") in (True, False), told
+        if told["ok"] is False:
+            assert isinstance(told["error"], str) and told["exit"] in (1, 2), told
+    assert _ask(path, {"op": "hello"})["ok"] is True
