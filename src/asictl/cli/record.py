@@ -15,7 +15,7 @@ from typing import Unpack
 import click
 
 from asictl.cli.board_options import BoardOptions, board_options, open_master
-from asictl.cli.options import Duration
+from asictl.cli.options import Duration, Number
 from asictl.errors import UserError
 from asictl.files import real_path, write_output
 from asictl.host.master import Master
@@ -113,7 +113,7 @@ class _Reader:
 @click.option("--signals", help='What to record: comma-separated shell patterns over I a.b, '
               'Q a.b and F y.b, e.g. "I 4.*,Q 17.*,F 0.0" (default: every input and output '
               "of the slaves on the bus).")
-@click.option("--tolerance-ms", type=click.FloatRange(0, 60_000),
+@click.option("--tolerance-ms", type=Number(0, 60_000),
               help="The expectations' tolerance window (within_ms): a change may come this "
               f"much earlier or later in a replay [default: {DEFAULT_TOLERANCE_MS} ms, or twice "
               "the sampling interval if that is longer].")

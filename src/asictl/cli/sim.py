@@ -12,7 +12,7 @@ from xml.etree import ElementTree
 
 import click
 
-from asictl.cli.options import Duration, lib_option
+from asictl.cli.options import Duration, Number, lib_option
 from asictl.diagnostics import github_command
 from asictl.errors import ExitCode, UserError
 from asictl.files import refuse_inputs, write_output
@@ -297,7 +297,7 @@ def _outcomes(
 @click.option("--coverage-format", type=click.Choice(FORMATS), default=None,
               help="Format of --coverage (default: by its suffix, .json json, .info or "
               ".lcov lcov, else cobertura; sonarqube: its generic coverage XML).")
-@click.option("--coverage-fail-under", type=click.FloatRange(0, 100), metavar="PERCENT",
+@click.option("--coverage-fail-under", type=Number(0, 100), metavar="PERCENT",
               help="Exit 1 when less than PERCENT of the statement lines ran.")
 def test(paths: tuple[Path, ...], junit: Path | None, jobs: int | None,
          lib: tuple[str, ...], fmt: str, coverage_path: Path | None,
