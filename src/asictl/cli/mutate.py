@@ -74,7 +74,7 @@ def _line(result: Result) -> str:
 def _summary(results: list[Result]) -> str:
     killed, counted = score(results)
     counts = {v: sum(1 for r in results if r.verdict == v)
-              for v in ("killed", "timeout", "survived", "equivalent", "invalid")}
+              for v in ("killed", "timeout", "survived", "died", "equivalent", "invalid")}
     share = 100.0 * killed / counted if counted else 100.0
     parts = ", ".join(f"{n} {v}" for v, n in counts.items() if n)
     return f"{len(results)} mutants: {parts or 'none'}; score {share:.1f}% ({killed}/{counted})"
