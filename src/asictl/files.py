@@ -85,13 +85,16 @@ def refuse_inputs(path: str | Path, inputs: Iterable[str | Path]) -> None:
             )
 
 
-def write_atomic(path: str | Path, data: str | bytes) -> None:
+def write_atomic(path: str | Path, data: str | bytes, *, follow_links: bool = True) -> None:
     """Replace ``path`` with ``data`` (text is written as UTF-8 with LF line ends) in one
-    step, or write it as a stream to a device or FIFO; failures are a ``UserError``."""
-    write_together([(path, data)])
+    step, or write it as a stream to a device or FIFO; failures are a ``UserError``.
+    ``follow_links=False`` replaces a symbolic link at ``path`` itself, never what it
+    names: for files whose names a program chooses in a folder others can write to."""
+    write_together([(path, data)], follow_links=follow_links)
 
 
-def write_together(items: Sequence[tuple[str | Path, str | bytes]]) -> None:
+def write_together(items: Sequence[tuple[str | Path, str | bytes]], *,
+                   follow_links: bool = True) -> None:
     """Write several files all or nothing: every regular file is first written in full
     to a temporary file beside it, and only when all are complete are they renamed into
     place (devices and FIFOs are written after that, as streams). A name too long, a
@@ -103,17 +106,17 @@ def write_together(items: Sequence[tuple[str | Path, str | bytes]]) -> None:
             target = Path(path)
             raw = data if isinstance(data, bytes) else data.encode("utf-8")
             try:
-                mode = os.stat(target).st_mode
+                mode = (os.stat if follow_links else os.lstat)(target).st_mode
             except FileNotFoundError:
                 mode = None
             except OSError as exc:
                 raise UserError(f"{target}: cannot write: {exc.strerror or exc}") from None
             if mode is not None and stat.S_ISDIR(mode):
                 raise UserError(f"{target}: cannot write: it is a directory")
-            if mode is not None and not stat.S_ISREG(mode):
+            if mode is not None and not stat.S_ISREG(mode) and not stat.S_ISLNK(mode):
                 streams.append((target, raw))
                 continue
-            real = real_path(target)
+            real = real_path(target) if follow_links else target
             staged.append((_stage(real, raw, shown=target), real, target))
         for temp, real, shown in staged:
             try:

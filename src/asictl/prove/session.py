@@ -168,14 +168,19 @@ def prove(properties: Path, *, program: Path | None = None, lib: tuple[str, ...]
     if pending:
         directory.mkdir(parents=True, exist_ok=True)
     for target, name, text in pending:
-        write_atomic(target, text)
+        write_atomic(target, text, follow_links=False)
         report.written[name] = target
     report.seconds = time.monotonic() - start
     return report
 
 
 def check_target(target: Path, inputs: set[Path], force: bool) -> None:
-    """Replace only what this command wrote before (its first line says so)."""
+    """Replace only what this command wrote before (its first line says so), and never
+    through a symbolic link: one planted at a counterexample's name (by anyone who can
+    write to the folder) would have the proof write wherever it points."""
+    if target.is_symlink():
+        raise UserError(f"{target}: is a symbolic link; a counterexample is not written "
+                        "through one (remove it)")
     if real_path(target) in inputs:
         raise UserError(f"{target}: is an input of this proof; not overwritten")
     if force or not target.is_file():
