@@ -18,8 +18,10 @@ import os
 import stat
 import sys
 import tempfile
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Iterator, Sequence
+from contextlib import contextmanager
 from pathlib import Path
+from typing import TextIO
 
 from asictl.errors import UserError
 
@@ -128,6 +130,41 @@ def write_together(items: Sequence[tuple[str | Path, str | bytes]], *,
             temp.unlink(missing_ok=True)  # gone once renamed; left over after a failure
     for target, raw in streams:
         _write_stream(target, raw)
+
+
+@contextmanager
+def open_atomic(path: str | Path, *, inputs: Iterable[str | Path] = ()) -> Iterator[TextIO]:
+    """An output too long to hold in memory (a recording of hours), written as a stream
+    and yet whole or not at all: into a temporary file beside ``path`` that is renamed
+    over it when the ``with`` block ends normally, and removed when it raises. A device
+    or FIFO is written to directly, as ``write_atomic`` does."""
+    target = Path(path)
+    refuse_inputs(target, inputs)
+    try:
+        mode = os.stat(target).st_mode
+    except FileNotFoundError:
+        mode = None
+    except OSError as exc:
+        raise UserError(f"{target}: cannot write: {exc.strerror or exc}") from None
+    if mode is not None and stat.S_ISDIR(mode):
+        raise UserError(f"{target}: cannot write: it is a directory")
+    if mode is not None and not stat.S_ISREG(mode):
+        try:
+            with open(target, "w", encoding="utf-8", newline="\n") as stream:
+                yield stream
+        except OSError as exc:
+            raise UserError(f"{target}: cannot write: {exc.strerror or exc}") from None
+        return
+    real = real_path(target)
+    temp = _stage(real, b"", shown=target)
+    try:
+        with open(temp, "w", encoding="utf-8", newline="\n") as out:
+            yield out
+        os.replace(temp, real)
+    except OSError as exc:
+        raise UserError(f"{target}: cannot write: {exc.strerror or exc}") from None
+    finally:
+        temp.unlink(missing_ok=True)  # gone once renamed
 
 
 def _is_regular(path: Path) -> bool:
