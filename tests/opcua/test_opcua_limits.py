@@ -11,7 +11,8 @@ from pathlib import Path
 
 import pytest
 from asyncua import Client, ua
-from test_opcua import NAMESPACE, asictl, node, served, state  # noqa: F401 - the fixture
+from test_opcua import NAMESPACE, asictl, node, served
+from test_opcua import state as state
 
 from asictl.opcua import server as opcua_server
 from asictl.opcua.server import LOGIN_FREE, LOGIN_WAIT_S, _Login
@@ -84,7 +85,6 @@ def test_out_of_range_writes_bad_method_arguments_and_slowed_logins(state: Path)
                 with pytest.raises(ua.UaStatusCodeError) as refused:
                     await master.call_method(ua.NodeId(method, ns), ua.Variant(1))
                 assert refused.value.code == ua.StatusCodes.BadTooManyArguments
-        refusals = 0
         for _ in range(LOGIN_FREE + 1):
             wrong = Client(url)
             wrong.set_user("hmi")
@@ -92,7 +92,6 @@ def test_out_of_range_writes_bad_method_arguments_and_slowed_logins(state: Path)
             with pytest.raises(ua.UaStatusCodeError):
                 async with wrong:
                     pass
-            refusals += 1
         right = Client(url)  # too soon after the failures: refused as well
         right.set_user("hmi")
         right.set_password("secret")
