@@ -107,14 +107,7 @@ def write_together(items: Sequence[tuple[str | Path, str | bytes]], *,
         for path, data in items:
             target = Path(path)
             raw = data if isinstance(data, bytes) else data.encode("utf-8")
-            try:
-                mode = (os.stat if follow_links else os.lstat)(target).st_mode
-            except FileNotFoundError:
-                mode = None
-            except OSError as exc:
-                raise UserError(f"{target}: cannot write: {exc.strerror or exc}") from None
-            if mode is not None and stat.S_ISDIR(mode):
-                raise UserError(f"{target}: cannot write: it is a directory")
+            mode = _writable_mode(target, follow_links)
             if mode is not None and not stat.S_ISREG(mode) and not stat.S_ISLNK(mode):
                 streams.append((target, raw))
                 continue
@@ -140,14 +133,7 @@ def open_atomic(path: str | Path, *, inputs: Iterable[str | Path] = ()) -> Itera
     or FIFO is written to directly, as ``write_atomic`` does."""
     target = Path(path)
     refuse_inputs(target, inputs)
-    try:
-        mode = os.stat(target).st_mode
-    except FileNotFoundError:
-        mode = None
-    except OSError as exc:
-        raise UserError(f"{target}: cannot write: {exc.strerror or exc}") from None
-    if mode is not None and stat.S_ISDIR(mode):
-        raise UserError(f"{target}: cannot write: it is a directory")
+    mode = _writable_mode(target, follow_links=True)
     if mode is not None and not stat.S_ISREG(mode):
         try:
             with open(target, "w", encoding="utf-8", newline="\n") as stream:
@@ -165,6 +151,20 @@ def open_atomic(path: str | Path, *, inputs: Iterable[str | Path] = ()) -> Itera
         raise UserError(f"{target}: cannot write: {exc.strerror or exc}") from None
     finally:
         temp.unlink(missing_ok=True)  # gone once renamed
+
+
+def _writable_mode(target: Path, follow_links: bool) -> int | None:
+    """The mode of what is at ``target`` (None: nothing), or a ``UserError`` where nothing
+    can be written: a directory, or a name the system cannot look up."""
+    try:
+        mode = (os.stat if follow_links else os.lstat)(target).st_mode
+    except FileNotFoundError:
+        return None
+    except OSError as exc:
+        raise UserError(f"{target}: cannot write: {exc.strerror or exc}") from None
+    if stat.S_ISDIR(mode):
+        raise UserError(f"{target}: cannot write: it is a directory")
+    return mode
 
 
 def _is_regular(path: Path) -> bool:

@@ -11,6 +11,7 @@ import sys
 import tempfile
 import time
 import tracemalloc
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
@@ -82,41 +83,47 @@ def served(tmp_path: Path):
         stop(server)
 
 
+def _ended(state: Path, program: Path, tmp_path: Path, change: str,
+           end: Callable[[subprocess.Popen[str]], None]) -> tuple[int, str, str]:
+    """Record, change an input, ``end`` the recording; its exit status, its standard
+    error and the scenario it wrote (which must have the change once and replay)."""
+    out = tmp_path / "run.scenario.toml"
+    recorder = _recorder(state, out, program)
+    time.sleep(0.5)
+    assert cli(state, "bus", "inputs", change).exit_code == 0
+    time.sleep(0.5)
+    end(recorder)
+    _, err = recorder.communicate(timeout=60)
+    assert "Traceback" not in err
+    text = out.read_text()
+    operand, value = change.split("=")
+    assert text.count(f'set = {{ "{operand}" = {value} }}') == 1, text
+    _replays(program, out)
+    return recorder.returncode, err, text
+
+
 @pytest.mark.parametrize(("sent", "said"), [(signal.SIGTERM, "SIGTERM"),
                                              (signal.SIGHUP, "SIGHUP"),
                                              (signal.SIGINT, "Ctrl-C")])
 def test_a_signal_ends_the_recording_and_keeps_a_whole_scenario(served, tmp_path: Path,
                                                                 sent: int, said: str):
     state, program, _ = served
-    out = tmp_path / "run.scenario.toml"
-    recorder = _recorder(state, out, program)
-    time.sleep(0.5)
-    assert cli(state, "bus", "inputs", "I 4.0=1").exit_code == 0
-    time.sleep(0.5)
-    recorder.send_signal(sent)
-    _, err = recorder.communicate(timeout=60)
-    assert recorder.returncode == 0, err
+    code, err, _ = _ended(state, program, tmp_path, "I 4.0=1",
+                          lambda recorder: recorder.send_signal(sent))
+    assert code == 0, err
     assert f"recording ended early: {said}" in err
     assert "samples over" in err
-    text = out.read_text()
-    assert text.count('set = { "I 4.0" = 1 }') == 1, text
-    _replays(program, out)
     assert [p.name for p in tmp_path.iterdir() if p.name.startswith(".")] == []
 
 
 def test_a_killed_server_ends_the_recording_and_keeps_a_whole_scenario(served,
                                                                        tmp_path: Path):
     state, program, server = served
-    out = tmp_path / "run.scenario.toml"
-    recorder = _recorder(state, out, program)
-    time.sleep(0.5)
-    assert cli(state, "bus", "inputs", "I 5.0=1").exit_code == 0
-    time.sleep(0.5)
-    server.kill()
-    server.wait(timeout=10)
-    _, err = recorder.communicate(timeout=60)
-    assert recorder.returncode == 1, err
+
+    def kill_server(_recorder: subprocess.Popen[str]) -> None:
+        server.kill()
+        server.wait(timeout=10)
+
+    code, err, _ = _ended(state, program, tmp_path, "I 5.0=1", kill_server)
+    assert code == 1, err
     assert "recording ended early: the board stopped answering" in err
-    assert "Traceback" not in err
-    assert out.read_text().count('set = { "I 5.0" = 1 }') == 1
-    _replays(program, out)
