@@ -160,6 +160,8 @@ def test_a_fraction_is_refused_never_cut_off(value: float):
             plc["I 1.0"] = "1"  # type: ignore[assignment]
         plc["I 1.0"] = 1.0  # a float that is a whole number is that number
         assert plc["I 1.0"] == 1
+        with pytest.raises(ValueError, match=r"'I 1\.0' takes a whole number"):
+            plc.expect("I 1.0", 0.5)  # would have expected 0
 
 
 @pytest.mark.parametrize("slaves", ["x", ["iiii,0"], 16])

@@ -286,9 +286,10 @@ class Plc:
         """Check an operand now; ``ExpectationFailed`` reads as a scenario's failure:
         ``test_seq.py:14: at 250 ms: Q 2.0 expected 1, got 0``."""
         __tracebackhide__ = True
+        wanted = _whole(value, text)
         got = self[text]
-        if got != int(value):
-            lines = [f"{_caller()}: at {self.time_ms:g} ms: {text} expected {int(value)}, "
+        if got != wanted:
+            lines = [f"{_caller()}: at {self.time_ms:g} ms: {text} expected {wanted}, "
                      f"got {got}", *self.stops]
             raise ExpectationFailed("\n".join(lines))
 
