@@ -149,6 +149,7 @@ def backup(
     outcomes = _survey(masters, take_snapshot, jobs, "backup")
     failed: dict[str, str] = {}
     written: list[str] = []
+    paths: list[str] = []
     programs: dict[str, str] = {}
     for outcome in outcomes:
         name = outcome.master.name
@@ -157,15 +158,16 @@ def backup(
             continue
         try:
             files = snapshot_files(outcome.master, outcome.value)
+            archive.folder(name)  # a link is refused before anything is read through it
             change = program_change(archive.root, name, files)
-            archive.write(name, files)
+            paths += archive.write(name, files)
         except UserError as exc:
             failed[name] = str(exc)
             continue
         if change:
             programs[name] = change
         written.append(name)
-    commit, changed = archive.commit(written, failed, programs)
+    commit, changed = archive.commit(paths, failed, programs)
     rows: list[dict[str, Any]] = []
     for outcome in outcomes:
         name = outcome.master.name
