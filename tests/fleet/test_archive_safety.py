@@ -5,7 +5,9 @@ name leaving a folder or a file of the user's in the way fails that master alone
 from __future__ import annotations
 
 import json
+import os
 import subprocess
+import time
 from pathlib import Path
 
 from click.testing import CliRunner, Result
@@ -152,3 +154,62 @@ def test_a_file_of_the_users_where_the_backup_writes_is_not_replaced(tmp_path: P
     assert "a file the backup did not write" in report["masters"][0]["error"]  # type: ignore[index]
     assert (archive / "pc-1" / "blink.asi").read_text() == "my own blink\n"
     assert sorted(p.name for p in (archive / "pc-1").iterdir()) == ["blink.asi"]
+
+
+def kill_nine_leftovers(archive: Path) -> None:
+    """What a git run killed with SIGKILL leaves: its locks, and nothing alive."""
+    for name in ("index.lock", "HEAD.lock"):
+        lock = archive / ".git" / name
+        lock.write_bytes((archive / ".git" / "index").read_bytes() if name == "index.lock"
+                         else b"")
+        os.utime(lock, (time.time() - 60, time.time() - 60))
+
+
+def test_a_stale_git_lock_is_removed_and_the_backup_goes_on(tmp_path: Path):
+    inventory = plant(tmp_path, "pc-1")
+    archive = tmp_path / "archive"
+    backup(inventory, archive)
+    kill_nine_leftovers(archive)
+    verify = asictl("fleet", "verify", str(inventory), "--against", str(archive),
+                    "--format", "json", code=1)
+    assert json.loads(verify.stdout)["masters"][0]["result"] == "identical"
+    assert f"not in a clean state: {archive / '.git' / 'index.lock'}: git's lock" in (
+        verify.stderr)
+
+    asictl("download", str(EDGE), "--start", "--state-dir", str(tmp_path / "pc-1"))
+    result = asictl("fleet", "backup", str(inventory), "--into", str(archive))
+    assert "removed git's lock left by a git run that was killed" in result.stderr
+    assert "(1 changed)" in result.stdout
+    assert not list((archive / ".git").glob("*.lock"))
+    assert git(archive, "rev-list", "--count", "HEAD").strip() == "2"
+    asictl("fleet", "verify", str(inventory), "--against", str(archive))
+
+
+def test_a_lock_a_live_git_holds_stays_and_says_how_to_remove_it(tmp_path: Path):
+    inventory = plant(tmp_path, "pc-1")
+    archive = tmp_path / "archive"
+    backup(inventory, archive)
+    kill_nine_leftovers(archive)
+    # a git at work in the archive: its current folder there, as git's own would be
+    worker = subprocess.Popen(["git", "cat-file", "--batch"], cwd=archive,
+                              stdin=subprocess.PIPE, stdout=subprocess.DEVNULL)
+    try:
+        result = asictl("fleet", "backup", str(inventory), "--into", str(archive), code=1)
+    finally:
+        worker.communicate(b"")
+    assert f"process {worker.pid} works in the archive" in result.stderr
+    assert f"rm {archive / '.git' / 'index.lock'}" in result.stderr
+    assert (archive / ".git" / "index.lock").exists()
+
+
+def test_verify_fails_on_a_backup_killed_between_writing_and_committing(tmp_path: Path):
+    inventory = plant(tmp_path, "pc-1")
+    archive = tmp_path / "archive"
+    backup(inventory, archive)
+    (archive / "pc-1" / "note.txt").write_text("the user's: no concern of verify\n")
+    asictl("fleet", "verify", str(inventory), "--against", str(archive))
+    status = archive / "pc-1" / "status.json"
+    status.write_text(status.read_text().replace('"phase"', '"phase" '))
+    result = asictl("fleet", "verify", str(inventory), "--against", str(archive), code=1)
+    assert f"{status}: differs from the archive's last commit (M)" in result.stderr
+    assert result.stdout.endswith(f"1 of 1 masters run what {archive} holds\n")

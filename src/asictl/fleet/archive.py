@@ -31,6 +31,7 @@ from typing import Any
 
 from asictl.errors import ExitCode, UserError
 from asictl.files import write_together
+from asictl.fleet.gitlocks import clear_stale_locks, git_locks
 from asictl.fleet.inventory import FleetMaster
 from asictl.host.master import Master
 from asictl.host.program_files import uploaded_files
@@ -172,13 +173,17 @@ class Archive:
 
     def __init__(self, root: Path) -> None:
         self.root = root
+        #: git's locks that ``open`` found stale (a git run killed) and removed
+        self.recovered: list[Path] = []
 
     def open(self) -> None:
         """Make the folder and its repository if there are none yet. A folder with other
-        content that is no repository is not taken over (its files would be committed)."""
+        content that is no repository is not taken over (its files would be committed).
+        Locks a killed git left are removed when provably stale (fleet.gitlocks)."""
         if self.root.exists() and not self.root.is_dir():
             raise UserError(f"{self.root}: exists and is not a folder")
         if (self.root / ".git").exists():
+            self.recovered = clear_stale_locks(self.root)
             return
         if self.root.exists() and any(self.root.iterdir()):
             raise UserError(
@@ -251,6 +256,33 @@ class Archive:
         for old in sorted(before - set(files)):
             (folder / old).unlink(missing_ok=True)
         return [f"{name}/{file}" for file in sorted(before | set(files))]
+
+    def unclean(self, names: list[str]) -> list[str]:
+        """Why the archive is not as a finished backup leaves it (empty: it is): not a
+        git repository, a lock git left, or a file the backup wrote for one of the
+        masters ``names`` that differs from the last commit (a backup killed halfway,
+        an edit by hand)."""
+        if not (self.root / ".git").is_dir():
+            return [f"{self.root}: no git repository (not an archive 'fleet backup' made)"]
+        locks = git_locks(self.root)
+        if locks:
+            return [f"{lock}: git's lock, left by a git run that did not finish "
+                    "('fleet backup' removes it when no git runs on the archive)"
+                    for lock in locks]
+        problems: list[str] = []
+        paths: list[str] = []
+        for name in names:
+            try:
+                paths += [f"{name}/{file}" for file in sorted(_written_before(
+                    self.folder(name)))]
+            except UserError as exc:
+                problems.append(str(exc))
+        fields = self.git(
+            "status", "--porcelain", "-z", "--no-renames", "--untracked-files=all", "--", *paths
+        ).split("\0") if paths else []
+        problems += [f"{self.root / field[3:]}: differs from the archive's last commit "
+                     f"({field[:2].strip()})" for field in fields if field]
+        return problems
 
     def commit(
         self, paths: list[str], failed: dict[str, str], programs: dict[str, str] | None = None
