@@ -10,25 +10,7 @@ import subprocess
 import time
 from pathlib import Path
 
-from click.testing import CliRunner, Result
-
-from asictl.cli import main
-
-ROOT = Path(__file__).resolve().parents[2]
-BLINK = ROOT / "demos" / "blink.asi"
-EDGE = ROOT / "demos" / "edge.asi"
-
-
-def asictl(*args: str, code: int = 0) -> Result:
-    result = CliRunner().invoke(main, list(args))
-    assert result.exit_code == code, (args, result.output, result.stderr)
-    return result
-
-
-def git(archive: Path, *args: str) -> str:
-    return subprocess.run(
-        ["git", "-C", str(archive), *args], capture_output=True, text=True, check=True
-    ).stdout
+from test_fleet import BLINK, EDGE, asictl, git
 
 
 def plant(tmp_path: Path, *names: str) -> Path:
@@ -213,3 +195,22 @@ def test_verify_fails_on_a_backup_killed_between_writing_and_committing(tmp_path
     result = asictl("fleet", "verify", str(inventory), "--against", str(archive), code=1)
     assert f"{status}: differs from the archive's last commit (M)" in result.stderr
     assert result.stdout.endswith(f"1 of 1 masters run what {archive} holds\n")
+
+
+def test_an_archive_from_before_the_list_of_files_is_read_by_its_program_files(
+    tmp_path: Path,
+):
+    inventory = plant(tmp_path, "pc-1")
+    archive = tmp_path / "archive"
+    backup(inventory, archive)
+    identity_file = archive / "pc-1" / "identity.json"
+    identity = json.loads(identity_file.read_text())
+    del identity["files"]  # as an earlier asictl wrote it
+    identity_file.write_text(json.dumps(identity))
+    git(archive, "-c", "user.name=u", "-c", "user.email=u@x", "commit", "-qam", "older")
+    (archive / "pc-1" / "note.txt").write_text("mine\n")
+    asictl("download", str(EDGE), "--start", "--state-dir", str(tmp_path / "pc-1"))
+    assert backup(inventory, archive)["changed"] == ["pc-1"]
+    assert sorted(p.name for p in (archive / "pc-1").iterdir()) == [
+        "edge.asi", "identity.json", "image.hex", "note.txt", "status.json"]
+    assert git(archive, "status", "--porcelain") == "?? pc-1/note.txt\n"
