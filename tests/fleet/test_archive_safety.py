@@ -214,3 +214,17 @@ def test_an_archive_from_before_the_list_of_files_is_read_by_its_program_files(
     assert sorted(p.name for p in (archive / "pc-1").iterdir()) == [
         "edge.asi", "identity.json", "image.hex", "note.txt", "status.json"]
     assert git(archive, "status", "--porcelain") == "?? pc-1/note.txt\n"
+
+
+def test_a_file_the_users_gitignore_names_is_written_but_not_committed(tmp_path: Path):
+    inventory = plant(tmp_path, "pc-1")
+    archive = tmp_path / "archive"
+    archive.mkdir()
+    subprocess.run(["git", "init", "-q", str(archive)], check=True)
+    (archive / ".gitignore").write_text("status.json\n")
+    report = backup(inventory, archive)
+    assert report["changed"] == ["pc-1"]
+    assert (archive / "pc-1" / "status.json").is_file()
+    committed = git(archive, "show", "--name-only", "--format=", "HEAD").split()
+    assert "pc-1/status.json" not in committed and "pc-1/image.hex" in committed
+    assert git(archive, "status", "--porcelain") == "?? .gitignore\n"

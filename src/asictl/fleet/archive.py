@@ -290,8 +290,13 @@ class Archive:
         """Commit ``paths`` (``Archive.write``'s, nothing else); returns the commit (None:
         nothing changed) and the masters whose folder changed. ``failed`` (name -> why)
         and ``programs`` (name -> how its program changed) go in the message."""
-        known = self.git("ls-files", "-z", "--", *paths).split("\0") if paths else []
-        paths = [path for path in paths if path in known or (self.root / path).exists()]
+        if not paths:
+            return None, []
+        known = self.git("ls-files", "-z", "--", *paths).split("\0")
+        ignored = self.git("ls-files", "-z", "--others", "--ignored", "--exclude-standard",
+                           "--", *paths).split("\0")  # by the user's .gitignore: left out
+        paths = [path for path in paths
+                 if path in known or ((self.root / path).exists() and path not in ignored)]
         if not paths:
             return None, []
         names = list(dict.fromkeys(path.partition("/")[0] for path in paths))
