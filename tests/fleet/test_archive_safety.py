@@ -140,9 +140,9 @@ def test_a_file_of_the_users_where_the_backup_writes_is_not_replaced(tmp_path: P
 
 def kill_nine_leftovers(archive: Path) -> None:
     """What a git run killed with SIGKILL leaves: its locks, and nothing alive."""
-    for name in ("index.lock", "HEAD.lock"):
+    for name in ("index.lock", "HEAD.lock", "next-index-4242.lock"):
         lock = archive / ".git" / name
-        lock.write_bytes((archive / ".git" / "index").read_bytes() if name == "index.lock"
+        lock.write_bytes((archive / ".git" / "index").read_bytes() if "index" in name
                          else b"")
         os.utime(lock, (time.time() - 60, time.time() - 60))
 
@@ -228,3 +228,12 @@ def test_a_file_the_users_gitignore_names_is_written_but_not_committed(tmp_path:
     committed = git(archive, "show", "--name-only", "--format=", "HEAD").split()
     assert "pc-1/status.json" not in committed and "pc-1/image.hex" in committed
     assert git(archive, "status", "--porcelain") == "?? .gitignore\n"
+
+
+def test_a_repository_whose_git_init_was_killed_is_completed(tmp_path: Path):
+    inventory = plant(tmp_path, "pc-1")
+    archive = tmp_path / "archive"
+    (archive / ".git").mkdir(parents=True)  # killed after the folder, before its objects
+    (archive / ".git" / "HEAD").write_text("ref: refs/heads/main\n")
+    assert backup(inventory, archive)["changed"] == ["pc-1"]
+    assert git(archive, "rev-list", "--count", "HEAD").strip() == "1"

@@ -183,6 +183,10 @@ class Archive:
         if self.root.exists() and not self.root.is_dir():
             raise UserError(f"{self.root}: exists and is not a folder")
         if (self.root / ".git").exists():
+            try:
+                self.git("rev-parse", "--git-dir")
+            except UserError:  # a git init killed halfway: init completes it, safely
+                self.git("init", "--quiet")
             self.recovered = clear_stale_locks(self.root)
             return
         if self.root.exists() and any(self.root.iterdir()):

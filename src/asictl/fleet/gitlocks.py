@@ -1,8 +1,9 @@
 """git's lock files a killed git run leaves in the archive, and whether one is stale.
 
-git takes ``index.lock`` (and ``HEAD.lock``, a branch's ``refs/heads/NAME.lock``) for the
-length of one command and removes it at the end; a git killed with SIGKILL (or a power
-cut) leaves it, and every later git command on the repository refuses to run. A lock is
+git takes ``index.lock`` (and ``HEAD.lock``, a branch's ``refs/heads/NAME.lock``, the
+``next-index-PID.lock`` of a commit of some paths) for the length of one command and
+removes it at the end; a git killed with SIGKILL (or a power cut) leaves it, and every
+later git command on the repository refuses to run. A lock is
 stale, and removed, only when that can be proved: no git process works in the
 repository (none has its current folder there, none holds the lock file open) and the
 lock is older than ``SETTLED_S``. Proving it needs ``/proc`` (Linux); elsewhere, or when
@@ -26,6 +27,7 @@ def git_locks(root: Path) -> list[Path]:
     """The lock files git left in the repository at ``root``."""
     git = root / ".git"
     found = [git / name for name in ("index.lock", "HEAD.lock") if (git / name).exists()]
+    found += sorted(git.glob("next-index-*.lock"))  # a ``commit --only``'s own index
     heads = git / "refs" / "heads"
     if heads.is_dir():
         found += sorted(heads.rglob("*.lock"))
