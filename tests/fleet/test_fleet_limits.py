@@ -84,7 +84,7 @@ def test_a_dripping_gateway_fails_within_its_own_limit(tmp_path: Path):
     assert slow_row["result"] == "FAILED" and board_row["result"] == "changed"
     assert slow_row["error"].startswith("not done within its limit of 2 s ("), slow_row
     assert "time limit" in slow_row["error"] or "no valid answer" in slow_row["error"]
-    assert 2.0 <= slow_row["seconds"] < 3.5, slow_row
+    assert 2.0 <= slow_row["seconds"] < 5.0, slow_row  # its limit, and a loaded machine
 
 
 def test_the_limit_is_a_time_with_its_unit_from_one_second_to_an_hour(tmp_path: Path):
