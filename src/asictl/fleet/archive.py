@@ -24,6 +24,7 @@ from __future__ import annotations
 import json
 import os
 import shutil
+import signal
 import subprocess
 from dataclasses import dataclass
 from pathlib import Path
@@ -212,10 +213,9 @@ class Archive:
             capture_output=True, text=True, env=env, check=False,
         )
         if result.returncode != 0:
-            raise UserError(
-                f"{self.root}: git {args[0]} failed: {result.stderr.strip() or result.stdout}",
-                ExitCode.FAILED,
-            )
+            said = (result.stderr.strip() or result.stdout.strip()
+                    or _how_it_ended(result.returncode))
+            raise UserError(f"{self.root}: git {args[0]} failed: {said}", ExitCode.FAILED)
         return result.stdout
 
     def folder(self, name: str) -> Path:
@@ -370,3 +370,13 @@ def _identity_in(folder: Path) -> dict[str, Any] | None:
     except (OSError, ValueError):
         return None
     return data if isinstance(data, dict) else None
+
+
+def _how_it_ended(returncode: int) -> str:
+    """What a git that said nothing died of: its exit status, or the signal that ended it."""
+    if returncode < 0:
+        try:
+            return f"ended by {signal.Signals(-returncode).name}"
+        except ValueError:
+            return f"ended by signal {-returncode}"
+    return f"exit status {returncode}, nothing said"
