@@ -1,101 +1,114 @@
-"""The OPC UA server's limits on its clients: connections and sessions are capped (1,000
-anonymous sessions were accepted), a connection that never logs in is closed after the
-login time-out (such connections stayed 30-60 s), and whatever OPC UA clients do, the
-live board's own socket still answers its commands."""
+"""The writable OPC UA server's limits: a slave input's value outside its four bits is
+Bad_OutOfRange (it was stored cut to four bits), Start with an argument
+BadTooManyArguments (it was BadUnexpectedError), and wrong passwords are slowed per
+client."""
 
 from __future__ import annotations
 
 import asyncio
-import re
-import socket
-import time
+import json
 from pathlib import Path
-from urllib.parse import urlparse
 
 import pytest
-from asyncua import Client
-from click.testing import CliRunner
-from served_live import served_live
+from asyncua import Client, ua
+from test_opcua import NAMESPACE, asictl, node, served
+from test_opcua import state as state
 
-from asictl.cli import main
-
-
-def served(state: Path, *limits: str):
-    return served_live(
-        state, ["serve", "--opcua", "127.0.0.1:0", *limits],
-        r"OPC UA server for board 300h at (opc\.tcp://\S+)",
-    )
+from asictl.opcua import server as opcua_server
+from asictl.opcua.server import LOGIN_FREE, LOGIN_WAIT_S, _Login
 
 
-def silent_connections(url: str, count: int) -> list[socket.socket]:
-    where = urlparse(url)
-    assert where.hostname is not None and where.port is not None
-    return [socket.create_connection((where.hostname, where.port), timeout=5)
-            for _ in range(count)]
+class Clock:
+    def __init__(self) -> None:
+        self.now = 100.0
+
+    def __call__(self) -> float:
+        return self.now
 
 
-def closed_within(sock: socket.socket, seconds: float) -> bool:
-    sock.settimeout(seconds)
-    try:
-        return sock.recv(1) == b""
-    except TimeoutError:
-        return False
-    except OSError:
-        return True
+def test_wrong_passwords_make_that_client_wait_and_no_other():
+    clock = Clock()
+    login = _Login("hmi", "secret", clock)
+    for _ in range(LOGIN_FREE):
+        assert login.check("10.0.0.9", "hmi", "guess") is None
+    # now refused, even with the right password, until the wait is over
+    assert login.check("10.0.0.9", "hmi", "secret") is None
+    assert login.check("10.0.0.7", "hmi", "secret") is not None  # another client
+    clock.now += LOGIN_WAIT_S * 2 + 0.01
+    assert login.check("10.0.0.9", "hmi", "secret") is not None
+    # the right login forgot the failures
+    assert login.check("10.0.0.9", "hmi", "guess") is None
+    assert login.check("10.0.0.9", "hmi", "secret") is not None
 
 
-def status(state: Path) -> int:
-    result = CliRunner().invoke(main, ["status", "--state-dir", str(state)])
-    return result.exit_code
+def test_the_wait_doubles_up_to_its_limit_and_attempts_meanwhile_are_not_counted():
+    clock = Clock()
+    login = _Login("hmi", "secret", clock)
+    waits = []
+    for _ in range(LOGIN_FREE + 12):
+        assert login.check("c", "hmi", "x") is None
+        failures, until = login._failures["c"]
+        waits.append(until - clock.now)
+        if until > clock.now:
+            for _ in range(100):  # refused unseen: neither counted nor lengthening the wait
+                assert login.check("c", "hmi", "secret") is None
+            assert login._failures["c"] == (failures, until)
+        clock.now = until
+    assert waits[:LOGIN_FREE - 1] == [0.0] * (LOGIN_FREE - 1)
+    assert waits[LOGIN_FREE - 1:LOGIN_FREE + 2] == [LOGIN_WAIT_S, 2 * LOGIN_WAIT_S,
+                                                   4 * LOGIN_WAIT_S]
+    assert max(waits) == opcua_server.LOGIN_WAIT_MAX_S
 
 
-@pytest.fixture
-def state(tmp_path: Path) -> Path:
-    tmp_path.chmod(0o700)
-    return tmp_path
+def test_the_clients_remembered_are_bounded(monkeypatch: pytest.MonkeyPatch):
+    monkeypatch.setattr(opcua_server, "LOGIN_CLIENTS", 10)
+    login = _Login("hmi", "secret", Clock())
+    for client in range(50):
+        login.check(f"10.0.0.{client}", "hmi", "x")
+    assert len(login._failures) == 10
 
 
-def test_connections_that_never_log_in_are_capped_and_closed(state: Path):
-    with served(state, "--opcua-max-connections", "3", "--opcua-login-timeout", "1s") as url:
-        silent = silent_connections(url, 3)
-        time.sleep(0.3)
-        [beyond] = silent_connections(url, 1)
-        assert closed_within(beyond, 0.5), "a connection beyond the cap is closed at once"
-        assert status(state) == 0, "the live board answers while OPC UA is full"
-        started = time.monotonic()
-        assert all(closed_within(sock, 5) for sock in silent)
-        assert time.monotonic() - started < 3, "closed after the login time-out"
-        for sock in [*silent, beyond]:
-            sock.close()
+def test_out_of_range_writes_bad_method_arguments_and_slowed_logins(state: Path):
+    async def session(url: str) -> None:
+        client = Client(url)
+        client.set_user("hmi")
+        client.set_password("secret")
+        async with client:
+            ns = await client.get_namespace_index(NAMESPACE)
+            inputs = node(client, ns, "Slave.1.Inputs")
+            await inputs.write_value(ua.Variant(0b0101, ua.VariantType.Byte))
+            with pytest.raises(ua.UaStatusCodeError) as refused:
+                await inputs.write_value(ua.Variant(200, ua.VariantType.Byte))
+            assert refused.value.code == ua.StatusCodes.BadOutOfRange
+            master = node(client, ns, "Master")
+            for method in ("Master.Start", "Master.Stop"):
+                with pytest.raises(ua.UaStatusCodeError) as refused:
+                    await master.call_method(ua.NodeId(method, ns), ua.Variant(1))
+                assert refused.value.code == ua.StatusCodes.BadTooManyArguments
+        for _ in range(LOGIN_FREE + 1):
+            wrong = Client(url)
+            wrong.set_user("hmi")
+            wrong.set_password("guess")
+            with pytest.raises(ua.UaStatusCodeError):
+                async with wrong:
+                    pass
+        right = Client(url)  # too soon after the failures: refused as well
+        right.set_user("hmi")
+        right.set_password("secret")
+        with pytest.raises(ua.UaStatusCodeError) as refused:
+            async with right:
+                pass
+        assert refused.value.code == ua.StatusCodes.BadUserAccessDenied
+        await asyncio.sleep(LOGIN_WAIT_S * 2 + 0.2)
+        right = Client(url)
+        right.set_user("hmi")
+        right.set_password("secret")
+        async with right:
+            pass
 
-
-def test_sessions_beyond_the_cap_are_refused_and_the_ones_in_use_go_on(state: Path):
-    async def sessions(url: str) -> tuple[int, str]:
-        clients = [Client(url, timeout=5) for _ in range(3)]
-        for client in clients[:2]:
-            await client.connect()
-        try:
-            await clients[2].connect()
-        except Exception as exc:  # asyncua raises its status code as an exception
-            refused = f"{type(exc).__name__}: {exc}"
-        else:
-            await clients[2].disconnect()
-            refused = ""
-        served_on = 0
-        for client in clients[:2]:
-            await client.nodes.server_state.read_value()
-            served_on += 1
-            await client.disconnect()
-        return served_on, refused
-
-    with served(state, "--opcua-max-sessions", "2") as url:
-        served_on, refused = asyncio.run(sessions(url))
-    assert served_on == 2
-    assert re.search(r"BadMaxConnectionsReached", refused), refused
-
-
-def test_the_limits_are_options_with_their_defaults_shown():
-    text = " ".join(CliRunner().invoke(main, ["serve", "--help"]).output.split())
-    for option, default in [("--opcua-max-connections", "32"), ("--opcua-max-sessions", "32"),
-                            ("--opcua-login-timeout", "5s")]:
-        assert re.search(rf"{option} .*?\[default: {default}[;\]]", text), option
+    env = {"ASICTL_OPCUA_PASSWORD": "secret"}
+    with served(state, "gateway", "serve", "--tcp", "127.0.0.1:0", "--opcua-writable",
+                "--opcua-user", "hmi", env=env) as url:
+        asyncio.run(session(url))
+        status = json.loads(asictl(state, "status", "--json").stdout)
+        assert status["slaves"]["1"]["inputs"] == 0b0101  # 200 stored nothing

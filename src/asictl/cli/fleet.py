@@ -152,9 +152,13 @@ def backup(
     masters = _masters(inventory, lines, groups)
     archive = Archive(Path(into))
     archive.open()
+    for lock in archive.recovered:
+        click.echo(f"{lock}: removed git's lock left by a git run that was killed (no git "
+                   "works in the archive)", err=True)
     outcomes = _survey(masters, take_snapshot, jobs, "backup")
     failed: dict[str, str] = {}
     written: list[str] = []
+    paths: list[str] = []
     programs: dict[str, str] = {}
     for outcome in outcomes:
         name = outcome.master.name
@@ -163,15 +167,16 @@ def backup(
             continue
         try:
             files = snapshot_files(outcome.master, outcome.value)
+            archive.folder(name)  # a link is refused before anything is read through it
             change = program_change(archive.root, name, files)
-            archive.write(name, files)
+            paths += archive.write(name, files)
         except UserError as exc:
             failed[name] = str(exc)
             continue
         if change:
             programs[name] = change
         written.append(name)
-    commit, changed = archive.commit(written, failed, programs)
+    commit, changed = archive.commit(paths, failed, programs)
     rows: list[dict[str, Any]] = []
     for outcome in outcomes:
         name = outcome.master.name
@@ -220,8 +225,11 @@ def verify(
     compares a file with a master: identical, different (in code, configuration,
     options), no program in the master, or no backup of it in the archive.
 
+    The archive must be as a finished backup leaves it: a lock git left, or a backed-up
+    file that differs from the last commit, is named on standard error and fails the run.
+
     Exit status: 0 every master runs what the archive holds, 1 one or more differ or did
-    not answer, 2 bad usage or a bad inventory.
+    not answer, or the archive is not in a clean state, 2 bad usage or a bad inventory.
 
     \b
     Examples:
@@ -230,9 +238,11 @@ def verify(
       asictl fleet backup demos/plant.toml --into archive
       asictl fleet verify demos/plant.toml --against archive
     """
+    from asictl.fleet.archive import Archive
     from asictl.fleet.compare import Verdict, verify_master
 
     masters = _masters(inventory, lines, groups)
+    unclean = Archive(Path(against)).unclean([master.name for master in masters])
     outcomes = _survey(masters, partial(verify_master, Path(against)), jobs, "verify")
     rows: list[dict[str, Any]] = []
     for outcome in outcomes:
@@ -249,15 +259,17 @@ def verify(
         })
     drifted = [r["master"] for r in rows if r["result"] != "identical"]
     if form == "json":
-        click.echo(json.dumps({"archive": against, "drift": drifted, "masters": rows},
-                              indent=2))
+        click.echo(json.dumps({"archive": against, "unclean": unclean, "drift": drifted,
+                               "masters": rows}, indent=2))
     else:
         for row in rows:
             click.echo(printable(f"{row['master']}: {row['text']}"))
         same = len(rows) - len(drifted)
         click.echo(printable(f"{same} of {len(rows)} masters run what {against} holds"
                              + (f"; not: {', '.join(drifted)}" if drifted else "")))
-    if drifted:
+    for why in unclean:
+        click.echo(printable(f"not in a clean state: {why}"), err=True)
+    if drifted or unclean:
         click.get_current_context().exit(int(ExitCode.FAILED))
 
 

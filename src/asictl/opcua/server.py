@@ -25,7 +25,9 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import hmac
+import inspect
 import logging
+import time
 from collections.abc import Awaitable, Callable
 from dataclasses import dataclass, replace
 from typing import Any
@@ -107,12 +109,31 @@ def check_access(options: OpcUaOptions) -> None:
         )
 
 
+#: Failed logins a client (an address) may make before it must wait; each further one
+#: doubles the wait, from LOGIN_WAIT_S up to LOGIN_WAIT_MAX_S.
+LOGIN_FREE = 5
+LOGIN_WAIT_S = 0.5
+LOGIN_WAIT_MAX_S = 30.0
+#: The clients whose failures are remembered at once (the oldest are forgotten first).
+LOGIN_CLIENTS = 4096
+
+
 class _Login:
     """asyncua's user manager: the one user and password, or anonymous where allowed;
-    never the administrator role."""
+    never the administrator role.
 
-    def __init__(self, user: str | None, password: str | None) -> None:
+    Wrong passwords are rate-limited per client address: after ``LOGIN_FREE`` failures a
+    client must wait (half a second, doubling with each further failure, at most 30 s)
+    before its next attempt is even looked at; an attempt before then is refused as a
+    wrong one is (BadUserAccessDenied), and a right one ends the wait. Refusing, rather
+    than sleeping, keeps the one event loop every client shares free."""
+
+    def __init__(self, user: str | None, password: str | None,
+                 clock: Callable[[], float] | None = None) -> None:
         self.user, self.password = user, password
+        self._clock = clock or time.monotonic
+        #: client address -> (failures, the time before which it is refused)
+        self._failures: dict[str, tuple[int, float]] = {}
 
     def get_user(
         self, iserver: Any, username: str | None = None, password: str | None = None,
@@ -120,14 +141,44 @@ class _Login:
     ) -> User | None:
         if self.user is None:
             return User(role=UserRole.User)
-        if username is None or password is None or self.password is None:
+        return self.check(_client_of_caller(), username, password)
+
+    def check(self, client: str, username: str | None, password: str | None) -> User | None:
+        """The user, if ``client`` may try now and the login is right."""
+        now = self._clock()
+        failures, until = self._failures.get(client, (0, 0.0))
+        if now < until:
             return None
-        given = (username.encode(), password.encode())
-        if hmac.compare_digest(given[0], self.user.encode()) & hmac.compare_digest(
-            given[1], self.password.encode()
-        ):
-            return User(role=UserRole.User, name=username)
+        if username is not None and password is not None and self.password is not None \
+                and self.user is not None:
+            given = (username.encode(), password.encode())
+            if hmac.compare_digest(given[0], self.user.encode()) & hmac.compare_digest(
+                given[1], self.password.encode()
+            ):
+                self._failures.pop(client, None)
+                return User(role=UserRole.User, name=username)
+        failures += 1
+        wait = 0.0 if failures < LOGIN_FREE else min(
+            LOGIN_WAIT_MAX_S, LOGIN_WAIT_S * 2 ** (failures - LOGIN_FREE))
+        self._failures.pop(client, None)  # to the end: the newest
+        self._failures[client] = (failures, now + wait)
+        while len(self._failures) > LOGIN_CLIENTS:
+            del self._failures[next(iter(self._failures))]
         return None
+
+
+def _client_of_caller() -> str:
+    """The address of the client whose session asks for a login: asyncua calls the user
+    manager from the session's ``activate_session``, whose name is the client's peer
+    name (host, port); the host alone is the client (each connection has a new port).
+    '' where that cannot be seen (then all such clients share one limit)."""
+    frame = inspect.currentframe()
+    caller = frame.f_back.f_back if frame is not None and frame.f_back is not None else None
+    session = caller.f_locals.get("self") if caller is not None else None
+    name = getattr(session, "name", None)
+    if isinstance(name, tuple) and name:
+        return str(name[0])
+    return ""
 
 
 class BoardSpace:
@@ -287,6 +338,8 @@ class BoardSpace:
             board = self.live.board
             if not board.bus.at(address):  # nothing on the cable there to deliver them
                 raise _refused(StatusCodes.BadNotWritable)
+            if not 0 <= int(value) <= 0xF:  # four input bits: 200 is no value of them
+                raise _refused(StatusCodes.BadOutOfRange)
             run_action(board, "inputs", {"changes": [[address, 0xF, int(value) & 0xF]]})
             self._saved()
 
@@ -298,17 +351,39 @@ class BoardSpace:
         if not self.live.save_changes():
             raise _refused(StatusCodes.BadResourceUnavailable)
 
-    async def _start(self, parent: ua.NodeId) -> list[ua.Variant]:
+    async def _start(self, parent: ua.NodeId, *arguments: ua.Variant
+                     ) -> list[ua.Variant] | ua.StatusCode:
+        return _answered(self._started, arguments)
+
+    async def _stop(self, parent: ua.NodeId, *arguments: ua.Variant
+                    ) -> list[ua.Variant] | ua.StatusCode:
+        return _answered(self._stopped, arguments)
+
+    def _started(self) -> None:
         if self.program is None or not self.program.info.valid:
             raise _refused(StatusCodes.BadInvalidState)  # as 'asictl start'
         set_start(self.master.transport, start=True)
         self._saved()
-        return []
 
-    async def _stop(self, parent: ua.NodeId) -> list[ua.Variant]:
+    def _stopped(self) -> None:
         set_start(self.master.transport, start=False)
         self._saved()
-        return []
+
+
+def _answered(action: Callable[[], None], arguments: tuple[ua.Variant, ...]
+              ) -> list[ua.Variant] | ua.StatusCode:
+    """A method's answer: asyncua answers every exception a method raises with
+    BadUnexpectedError, but a status it returns is the call's status. Start and Stop
+    take no argument: one is BadTooManyArguments (asyncua does not hold a call to the
+    method's declared arguments); a program that cannot start BadInvalidState; a change
+    not saved BadResourceUnavailable."""
+    try:
+        if arguments:
+            raise _refused(StatusCodes.BadTooManyArguments)
+        action()
+    except UaStatusCodeError as exc:
+        return ua.StatusCode(exc.code)
+    return []
 
 
 def _refused(code: int) -> Exception:
