@@ -8,7 +8,7 @@ from pathlib import Path
 
 import click
 
-from asictl.cli.options import CycleCount, Duration, lib_option
+from asictl.cli.options import CycleCount, Duration, Number, lib_option
 from asictl.errors import ExitCode, UserError, missing_extra
 from asictl.observe.symbols import SymbolTable
 from asictl.prove import MAX_DEPTH
@@ -68,7 +68,7 @@ class _Bad(Exception):
               help="Cycles the search for a difference goes to.")
 @click.option("--timeout", type=Duration(limit_ms=86_400_000, positive=True), default="30s",
               show_default=True, help="Time for --equivalent (30s, 5min).")
-@click.option("--cycle-ms", type=click.FloatRange(0.1, 10_000),
+@click.option("--cycle-ms", type=Number(0.1, 10_000),
               help="The program cycle [default: the AS-i cycle of the bus].")
 @click.option("--observe", metavar="LIST",
               help='Flags compared besides the outputs, e.g. "FY 10,F 20.0".')

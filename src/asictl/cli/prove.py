@@ -73,7 +73,8 @@ def _line(outcome: object, written: Path | None) -> str:
 @click.option("--depth", type=CycleCount(MAX_DEPTH), default="20", show_default=True,
               help="Cycles the search for counterexamples and the induction go to.")
 @click.option("--timeout", type=Duration(limit_ms=86_400_000, positive=True), default="30s",
-              show_default=True, help="Wall-clock time for each property (30s, 5min).")
+              show_default=True,
+              help="Wall-clock time for each property, the first's from the start (30s, 5min).")
 @click.option("--unroll", type=click.IntRange(1, 1000), default=8, show_default=True,
               help="How often a backward jump is followed in one cycle.")
 @click.option("--format", "fmt", type=_HELP_FORMAT, default="text", show_default=True)

@@ -28,6 +28,7 @@ from asictl.prove.scope import uses
 from asictl.prove.session import cycles_of
 from asictl.prove.symbolic import (
     Key,
+    TimeLimit,
     Unmodelled,
     build_cycle,
     cell_name,
@@ -124,6 +125,10 @@ def equivalent(
     except Unmodelled as exc:
         return Equivalence("unknown", 0, time.monotonic() - start, note=str(exc),
                            refused=exc)
+    except TimeLimit:
+        seconds = time.monotonic() - start
+        return Equivalence("unknown", 0, seconds, note=f"time limit ({timeout_s:g} s) while "
+                           f"building the model, {seconds:.1f} s since the start")
 
 
 def _program_of(side: Program | Build) -> Program | None:
@@ -141,17 +146,17 @@ def _equivalent(first: Program, second: Program, start: float, *, timeout_s: flo
     host = [operand for program in (first, second)
             for operand, _ in read_directives(program.sources).host_flags]
     observed = _observed(host, observe, first.options.map_counters)
+    deadline = start + timeout_s  # building the two models counts
     cycles = [build_cycle(program, slaves=bus, cycle_us=cycle_us, host_flags=host,
-                          watch=observed, prefix=f"{side}.")
+                          watch=observed, prefix=f"{side}.", deadline=deadline)
               for side, program in (("a", first), ("b", second))]
     both = product(*cycles)
     pairs = [(("a", *cell), ("b", *cell)) for cell in observed]
     same = Property("same outputs", Kind.ALWAYS, Truth(True), 0)
     machine = Machine(first, Setup(bus, cycle_us, tuple(host)), [], [], prebuilt=both,
-                      observed=pairs, twins=_twins(first, second))
-    machine.find_invariants(time.monotonic() + timeout_s)
-    outcome: Outcome = machine.decide(same, depth=depth, timeout_s=max(
-        0.1, timeout_s - (time.monotonic() - start)))
+                      observed=pairs, twins=_twins(first, second), deadline=deadline)
+    machine.find_invariants(deadline)
+    outcome: Outcome = machine.decide(same, depth=depth, timeout_s=timeout_s, since=start)
     verdict = {Verdict.PROVED: "equivalent", Verdict.REFUTED: "different"}.get(
         outcome.verdict, "unknown")
     result = Equivalence(verdict, outcome.depth + 1 if outcome.trace else outcome.depth,

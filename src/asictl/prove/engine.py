@@ -60,6 +60,7 @@ from asictl.prove.symbolic import (
     Key,
     build_cycle,
     cell_name,
+    check_deadline,
     operand_cells,
     operand_value,
     width,
@@ -336,6 +337,8 @@ class Machine:
     depends: dict[Key, frozenset[Key]] = field(default_factory=dict)
     #: how notes name an operand (``Q 3.1`` -> ``Q 3.1 (PumpB)``, prove/names.py)
     label: Callable[[str], str] = str
+    #: when (time.monotonic) building the model must be done: past it, ``TimeLimit``
+    deadline: float | None = None
 
     def __post_init__(self) -> None:
         self.map_counters = self.program.options.map_counters
@@ -351,13 +354,13 @@ class Machine:
                 self.program, slaves=self.setup.slaves, cycle_us=self.setup.cycle_us,
                 host_flags=self.setup.host_flags,
                 watch=watched_cells(exprs, self.map_counters), unroll=self.unroll,
+                deadline=self.deadline,
             )
         names = {var.decl().name(): cell for cell, var in self.cycle.pre.items()}
-        self.depends = {
-            cell: frozenset(names[c.decl().name()] for c in _constants(term)
-                            if c.decl().name() in names)
-            for cell, term in self.cycle.post.items()
-        }
+        for cell, term in self.cycle.post.items():
+            check_deadline(self.deadline)
+            self.depends[cell] = frozenset(names[c.decl().name()] for c in _constants(term)
+                                           if c.decl().name() in names)
         self.overrun_cells = frozenset(
             names[c.decl().name()] for c in _constants(self.cycle.overrun)
             if c.decl().name() in names)
@@ -539,9 +542,19 @@ class Machine:
 
     # -------------------------------------------------------------- deciding
 
-    def decide(self, prop: Property, *, depth: int, timeout_s: float) -> Outcome:
+    def decide(self, prop: Property, *, depth: int, timeout_s: float,
+               since: float | None = None) -> Outcome:
+        """One property's verdict within ``timeout_s`` from ``since`` (time.monotonic;
+        default now: a command's first property counts the model's building too)."""
         start = time.monotonic()
-        deadline = start + timeout_s
+        origin = start if since is None else since
+        deadline = origin + timeout_s
+
+        def out_of_time(k: int) -> Outcome:
+            return Outcome(prop, Verdict.UNKNOWN, k, time.monotonic() - start,
+                           note=f"time limit ({timeout_s:g} s) after {k} cycles, "
+                                f"{time.monotonic() - origin:.1f} s since it started")
+
         self.current = prop
         self.scope = self.cone(prop)
         if prop.kind is Kind.RESPONSE:  # a response is judged over its whole window
@@ -586,8 +599,7 @@ class Machine:
                 return Outcome(prop, verdict, k, time.monotonic() - start, trace, note,
                                self._values(prop, base, model, k))
             if result != z3.unsat:
-                return Outcome(prop, Verdict.UNKNOWN, k, time.monotonic() - start,
-                               note=f"time limit ({timeout_s:g} s) after {k} cycles")
+                return out_of_time(k)
             step_solver.set("timeout", left_ms())
             step_bad = z3.Or(self.bad(step, k), step.overruns[k])
             outcome = step_solver.check(step_bad)
@@ -597,8 +609,7 @@ class Machine:
                                trivially=self.trivially(prop))
             step_solver.add(z3.Not(step_bad))
             if outcome != z3.sat:
-                return Outcome(prop, Verdict.UNKNOWN, k, time.monotonic() - start,
-                               note=f"time limit ({timeout_s:g} s) after {k} cycles")
+                return out_of_time(k)
         if self._pdr(prop, deadline) is True:
             verdict = Verdict.UNREACHABLE if reach else Verdict.PROVED
             return Outcome(prop, verdict, depth, time.monotonic() - start,

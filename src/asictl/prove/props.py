@@ -13,6 +13,7 @@ Nothing here needs z3: a properties file is checked before the prover starts.
 
 from __future__ import annotations
 
+import hashlib
 import re
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -59,9 +60,16 @@ class Property:
 
     @property
     def slug(self) -> str:
-        """The name as a file name part: ``never both directions`` -> ``never-both-directions``."""
+        """The name as a file name part, unique per name and the same in every run:
+        ``never both directions`` -> ``never-both-directions``. A name the plain form
+        cannot be read back from (capitals, punctuation, letters outside ASCII:
+        ``Tür zu``, ``a.b`` beside ``a-b``) gets the first ten hex digits of its
+        SHA-256 as well (``t-r-zu-5d1c...``), so no two names share a file."""
         slug = re.sub(r"[^a-z0-9]+", "-", self.name.lower()).strip("-")
-        return slug or "property"
+        if slug and self.name == slug.replace("-", " "):
+            return slug
+        digest = hashlib.sha256(self.name.encode("utf-8", "surrogatepass")).hexdigest()[:10]
+        return f"{slug or 'property'}-{digest}"
 
     def text(self) -> str:
         """The property as the file says it."""

@@ -311,6 +311,8 @@ class Outcome:
     seconds: float = 0.0
     #: an internal error (a bug), not bad input
     bug: bool = False
+    #: its worker process died (the OOM killer, a signal): a result, not bad input
+    died: bool = False
     markers: list[str] = field(default_factory=list)
     #: failures as (line, text) for test runners that show the scenario line
     failures: list[tuple[int, str]] = field(default_factory=list)
@@ -320,6 +322,11 @@ class Outcome:
     program: str = ""
     #: what the scenario reached of its program, when asked for
     coverage: Coverage | None = None
+
+
+#: the ERROR row of a scenario whose worker process died, twice (``asictl test -j``)
+WORKER_DIED = ("its worker process died (killed by a signal or the out-of-memory killer), "
+               "also when run again alone")
 
 
 def run_file(path: str, lib: tuple[str, ...] = (), coverage: bool = False) -> Outcome:
