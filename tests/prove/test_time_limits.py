@@ -63,7 +63,7 @@ def test_diff_equivalent_stops_at_its_limit_and_says_the_time_it_took(tmp_path: 
 
 def test_a_small_program_is_still_decided_within_the_limit(tmp_path: Path):
     program = tmp_path / "p.asi"
-    program.write_text("[SETUP]\n1: iiii, 0\n[PROGRAM]\n    A I 1.0\n    = Q 2.0\n")
+    program.write_text("[SETUP]\n1: iiii, 0\n2: oooo, 0\n[PROGRAM]\n    A I 1.0\n    = Q 2.0\n")
     (tmp_path / "p.props.toml").write_text('[[property]]\nname = "q"\nreachable = "Q 2.0"\n')
     seconds, output, code = timed("prove", str(program), "--timeout", "20s")
     assert code == 0 and "reached" in output and seconds < 20, output
