@@ -14,11 +14,17 @@ it); the client side runs here, as the commands do:
   view open (each refresh also asks for the latest cycle's lines, for which the board
   runs one cycle under line hooks), and with no monitor again (the hooks are gone: the
   figure must be the first one's); and how long one ``lines`` request takes. The program
-  toggles a flag every cycle, so the board runs every program cycle throughout.
+  toggles a flag every cycle, so the board runs every program cycle throughout;
+- a mixed load (live_load.py) on ``gateway serve`` with Modbus and OPC UA: ``--clients``
+  at once for ``--load-seconds``, 140 of 200 running live commands (more than the live
+  socket's 32 slots: the rest wait their turn), 30 polling Modbus and 30 reading OPC UA
+  (each within its server's 32 connections): answers, errors (the target is none),
+  p50/p99 per kind, and how much the server's memory grew.
 
 Usage:
 
-    python3 benchmarks/bench_live.py [--runs 5] [--seconds 10]
+    python3 benchmarks/bench_live.py [--runs 5] [--seconds 10] [--clients 200]
+        [--load-seconds 60] [--load-only]
 """
 
 from __future__ import annotations
@@ -36,6 +42,8 @@ from pathlib import Path
 
 from bench_check import cpu_seconds
 from bench_compile import largest_fitting
+from live_load import mixed_load, report
+from live_load import serve as serve_gateway
 
 from asictl.build import build
 from asictl.host.connection import MasterAddress, open_board
@@ -160,12 +168,38 @@ def program_view(address: MasterAddress, pid: int, seconds: float) -> None:
           f"{statistics.median(times) * 1000:.1f} ms (median)")
 
 
+def load(clients: int, seconds: float) -> None:
+    """The mixed load: 70 % live commands, 15 % Modbus, 15 % OPC UA."""
+    modbus = opcua = min(30, clients * 15 // 100)
+    live = clients - modbus - opcua
+    with tempfile.TemporaryDirectory() as tmp:
+        served = serve_gateway(Path(tmp) / "state")
+        try:
+            before = served.rss_kb()
+            tallies = mixed_load(served, live=live, modbus=modbus, opcua=opcua,
+                                 seconds=seconds)
+            after = served.rss_kb()
+        finally:
+            served.stop()
+    errors = sum(sum(tally.errors.values()) for tally in tallies.values())
+    print(f"mixed load, {clients} clients ({live} live, {modbus} Modbus, {opcua} OPC UA) "
+          f"for {seconds:g} s: {errors} errors; server memory {before / 1024:.0f} MB -> "
+          f"{after / 1024:.0f} MB")
+    print(report(tallies))
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--runs", type=int, default=5)
     parser.add_argument("--seconds", type=float, default=10.0,
                         help="how long each CPU share is measured")
+    parser.add_argument("--clients", type=int, default=200, help="clients of the mixed load")
+    parser.add_argument("--load-seconds", type=float, default=60.0)
+    parser.add_argument("--load-only", action="store_true", help="only the mixed load")
     args = parser.parse_args()
+    if args.load_only:
+        load(args.clients, args.load_seconds)
+        return
     with tempfile.TemporaryDirectory() as tmp:
         state = Path(tmp) / "state"
         process = serve(state)
@@ -181,6 +215,7 @@ def main() -> None:
         finally:
             process.send_signal(signal.SIGTERM)
             process.wait(timeout=20)
+    load(args.clients, args.load_seconds)
 
 
 if __name__ == "__main__":

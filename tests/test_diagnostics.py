@@ -9,6 +9,7 @@ from asictl.diagnostics import (
     Diagnostic,
     Severity,
     Span,
+    printable,
     render_github,
     render_json,
     render_text,
@@ -20,6 +21,27 @@ def test_caret_under_the_column_with_length():
     d = Diagnostic(Severity.ERROR, "E201", "bad", Span("f.asi", 2, 7, 3))
     text = render_text([d], {"f.asi": "[PROGRAM]\n    A I 32.0\n"})
     assert text == "f.asi:2:7: error: bad [E201]\n      A I 32.0\n        ^~~\n"
+
+
+def test_control_characters_from_a_file_reach_no_terminal_and_the_caret_stays_put():
+    """A comment, a file name or a message with ESC, BEL, CR or a C1 code is shown escaped
+    (as HTML escapes it), and the caret still points at the column."""
+    line = "  ; \x1b]0;owned\x07 \r\x9b A I 32.0"
+    d = Diagnostic(Severity.ERROR, "E201", "bad \x1b[2J", Span("f\x1b.asi", 1, 20, 1))
+    text = render_text([d], {"f\x1b.asi": line + "\n"})
+    assert text.splitlines() == [
+        "f\\x1b.asi:1:20: error: bad \\x1b[2J [E201]",
+        "    ; \\x1b]0;owned\\x07 \\r\\x9b A I 32.0",
+        "                               ^",
+    ]
+    assert text.splitlines()[1][text.splitlines()[2].index("^")] == line[19]
+
+
+def test_printable_keeps_lines_and_tabs_of_a_message_only():
+    assert printable("a\tb\nc") == "a\tb\nc"
+    assert printable("a\tb\nc", lines=False) == "a\\tb\\nc"
+    assert printable("Füße 16ms") == "Füße 16ms"
+    assert printable("\u202eevil") == "\\u202eevil"
 
 
 def test_no_excerpt_for_unknown_file_or_line():

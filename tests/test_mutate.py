@@ -4,6 +4,8 @@ missing scenario kills it, and the score and its bar; each operator on the AST."
 from __future__ import annotations
 
 import json
+import os
+import signal
 import time
 from pathlib import Path
 from typing import Any
@@ -208,6 +210,7 @@ UNREAD_FLAG = """\
 [PROGRAM]
         A   I 1.0
         =   Q 2.0
+        =   Q 2.0
         =   F 5.0
         BE
 """
@@ -239,15 +242,18 @@ def test_with_the_prover_a_surviving_mutant_that_changes_nothing_is_equivalent(
     report = json.loads(output)
     assert report["equivalence_checked"] is True
     by_change = {(m["line"], m["change"]): m for m in report["mutants"]}
-    removed = by_change[(8, "= F 5.0 -> removed")]
+    removed = by_change[(8, "= Q 2.0 -> removed")]  # the same store stays on line 7
     assert removed["verdict"] == "equivalent", removed
     assert "proved" in removed["detail"]
-    assert by_change[(7, "= Q 2.0 -> removed")]["verdict"] == "killed"
+    # a flag the outputs never show is still one a scenario may expect: not equivalent
+    assert by_change[(9, "= F 5.0 -> removed")]["verdict"] == "survived"
+    assert by_change[(9, "= F 5.0 -> = F 5.1")]["verdict"] == "survived"
+    assert by_change[(6, "A I 1.0 -> AN I 1.0")]["verdict"] == "killed"
     monkeypatch.setattr(mutation, "prove_available", lambda: False)
     report = json.loads(_mutate(".", "--format", "json")[1])
     assert report["equivalence_checked"] is False
     assert {(m["line"], m["change"]): m["verdict"] for m in report["mutants"]}[
-        (8, "= F 5.0 -> removed")] == "survived"
+        (8, "= Q 2.0 -> removed")] == "survived"
 
 
 #: the scenario checks Q 2.0 only after 400 ms: a timer constant one step off survives it
@@ -352,3 +358,55 @@ def test_the_proof_has_a_time_limit_of_its_own_and_leaves_a_survivor(
     assert {m["change"] for m in survivors} >= {"L KT 300 -> L KT 290", "L KT 300 -> L KT 310"}
     assert all(m["detail"] == "the proof of equivalence ran out of time" for m in survivors)
     assert "timeout" not in {m["verdict"] for m in json.loads(output)["mutants"]}
+
+
+def _dying(monkeypatch: pytest.MonkeyPatch, changes: set[str], marker: Path | None) -> None:
+    """The workers of mutants with these changes kill themselves with SIGKILL, as the OOM
+    killer would (each time, or with ``marker`` only the first time)."""
+    real = mutation.verdict
+
+    def verdict(target: Any, mutant: Any, *args: Any) -> Any:
+        if mutant.change in changes:
+            flag = None if marker is None else marker / mutant.change.replace(" ", "_")
+            if flag is None or not flag.exists():
+                if flag is not None:
+                    flag.touch()
+                os.kill(os.getpid(), signal.SIGKILL)
+        return real(target, mutant, *args)
+
+    monkeypatch.setattr(mutation, "verdict", verdict)  # forks inherit it
+
+
+def test_a_worker_that_dies_twice_counts_its_mutant_as_not_killed(
+    project: Path, monkeypatch: pytest.MonkeyPatch
+):
+    clean = json.loads(_mutate(".", "--format", "json")[1])
+    _dying(monkeypatch, {"JC = off -> JU = off", "JC = off -> removed"}, None)
+    code, output = _mutate(".", "--format", "json")
+    assert code == 0, output
+    report = json.loads(output)
+    died = {m["change"]: m["detail"] for m in report["mutants"] if m["verdict"] == "died"}
+    assert set(died) == {"JC = off -> JU = off", "JC = off -> removed"}
+    assert all("killed by SIGKILL, twice" in detail for detail in died.values())
+    # the killed mutant is not killed any more; the survivor's death does not lift the score
+    assert report["killed"] == clean["killed"] - 1
+    assert report["counted"] == clean["counted"]
+    assert report["score"] < clean["score"]
+    code, text = _mutate(".", "--min-score", f"{clean['score'] - 0.01}")
+    assert code == 1
+    assert "2 died" in text and "died: JC = off -> JU = off (its worker process" in text
+
+
+def test_a_worker_that_dies_once_is_run_again(
+    project: Path, monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+):
+    clean = json.loads(_mutate(".", "--format", "json")[1])
+    (tmp_path / "marks").mkdir()
+    _dying(monkeypatch, {"JC = off -> JU = off", "JC = off -> removed"}, tmp_path / "marks")
+    report = json.loads(_mutate(".", "--format", "json")[1])
+    assert _verdicts(report) == _verdicts(clean)
+    assert len(list((tmp_path / "marks").iterdir())) == 2  # each died once
+
+
+def _verdicts(report: dict[str, Any]) -> list[tuple[int, str, str]]:
+    return [(m["line"], m["change"], m["verdict"]) for m in report["mutants"]]

@@ -150,6 +150,60 @@ def test_bad_arguments_say_what_is_wrong(tmp_path: Path):
         Plc.load(ONDELAY, slaves={40: "iiii,0"})
 
 
+@pytest.mark.parametrize("value", [0.5, 1.7, -0.25])
+def test_a_fraction_is_refused_never_cut_off(value: float):
+    with Plc.load(DEMOS / "logic.asi", cycle_ms=5) as plc:
+        with pytest.raises(ValueError, match=r"'I 1\.0' takes a whole number, not "
+                           + re.escape(repr(value))):
+            plc.set("I 1.0", value)
+        with pytest.raises(TypeError, match=r"'I 1\.0' takes a whole number, not str"):
+            plc["I 1.0"] = "1"  # type: ignore[assignment]
+        plc["I 1.0"] = 1.0  # a float that is a whole number is that number
+        assert plc["I 1.0"] == 1
+        with pytest.raises(ValueError, match=r"'I 1\.0' takes a whole number"):
+            plc.expect("I 1.0", 0.5)  # would have expected 0
+
+
+@pytest.mark.parametrize("slaves", ["x", ["iiii,0"], 16])
+def test_slaves_that_are_no_mapping_are_a_type_error(slaves: object):
+    with pytest.raises(TypeError, match="slaves is a mapping"):
+        Plc.load(ONDELAY, slaves=slaves)  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize("call", ["run", "run_until"])
+def test_a_plant_model_that_lets_time_pass_is_refused(call: str):
+    with Plc.load(ONDELAY, cycle_ms=5) as plc:
+        @plc.on_cycle
+        def model(plc: Plc, elapsed_ms: float) -> None:
+            if call == "run":
+                plc.run("5ms")
+            else:
+                plc.run_until("Q 2.0")
+
+        with pytest.raises(RuntimeError, match=r"plant model .* cannot let time pass"):
+            plc.run("20ms")
+
+
+def test_two_plant_models_with_one_name_are_refused():
+    with Plc.load(DEMOS / "sequence.asi", cycle_ms=5) as plc:
+        plc.add_plant("cylinder", name="pusher", extend="Q 2.0", extended="I 1.0",
+                      stroke_ms=300)
+        with pytest.raises(ValueError, match="named 'pusher' already"):
+            plc.add_plant("cylinder", name="pusher", extend="Q 2.1", extended="I 1.3",
+                          stroke_ms=300)
+
+
+def test_a_name_with_an_escape_sequence_is_escaped_in_the_csv(tmp_path: Path):
+    with Plc.load(DEMOS / "sequence.asi", cycle_ms=5) as plc:
+        plc.add_plant("cylinder", name="p\x1b[31mred\x07", extend="Q 2.0",
+                      extended="I 1.0", stroke_ms=300)
+        plc.run("10ms")
+        plc.trace(csv=tmp_path / "run.csv")
+    header = (tmp_path / "run.csv").read_text().splitlines()[0]
+    assert "\x1b" not in header and "\x07" not in header
+    assert "p\\x1b[31mred\\x07 position" in header
+
+
 def test_the_fixture_makes_plcs_closed_after_the_test(pytester: pytest.Pytester,
                                                        monkeypatch: pytest.MonkeyPatch):
     monkeypatch.setenv("PYTEST_DISABLE_PLUGIN_AUTOLOAD", "1")

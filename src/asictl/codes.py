@@ -105,6 +105,10 @@ class ScenarioCode(StrEnum):
     UNKNOWN_KEY = "E407"
     #: a condition (docs/conditions.md) that cannot be read, in any file that holds one
     CONDITION = "E410"
+    #: an operand a property or [assume] names that the program and its bus do not have
+    NO_SUCH_OPERAND = "E430"
+    #: a never/always property no cycle of the program can change: the environment decides
+    ENVIRONMENT_ONLY = "W431"
 
 
 class AssemblerCode(StrEnum):
@@ -179,13 +183,15 @@ TITLES: dict[str, str] = {
     "E303": "image too large for the EEPROM",
     "E400": "file is not valid TOML",
     "E401": "invalid scenario",
-    "E402": "scenario sets a slave that is not on the bus",
+    "E402": "scenario sets or expects a slave that is not on the bus",
     "E403": "invalid symbol table",
     "E404": "invalid plant inventory",
     "E405": "invalid properties file",
     "E406": "construct the prover cannot model",
     "E407": "unknown key in a TOML file",
     "E410": "condition that cannot be read",
+    "E430": "property names an operand the program or its bus lacks",
+    "W431": "property decided by the environment alone",
     "E501": "syntax",
     "E502": "unknown mnemonic or directive",
     "E503": "operand not valid for the instruction",

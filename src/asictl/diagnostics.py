@@ -3,6 +3,8 @@
 IL checks, the assembler and scenario files all report problems as ``Diagnostic``
 values with a source span, so one renderer gives the same ``file:line:col: error:``
 format, source line and caret everywhere, and the same JSON and GitHub annotations.
+``printable`` is the one way any text from outside (a board, a gateway, a live server, a
+file name, a symbol table, a program comment) reaches a terminal.
 """
 
 from __future__ import annotations
@@ -11,6 +13,21 @@ import json
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from enum import StrEnum
+
+
+def printable(text: str, *, lines: bool = True) -> str:
+    """``text`` as it may reach a terminal, as HTML escapes it for a page: control
+    characters (ESC starts a sequence that drives the terminal, rewrites its title or
+    clipboard; BEL, backspace and carriage return hide what was written) and every other
+    unprintable character are written as Python escapes (``\\x1b``); with ``lines``
+    newlines and tabs stay (a message of several lines)."""
+    if text.isprintable():
+        return text
+    return "".join(
+        char if char.isprintable() or (lines and char in "\n\t")
+        else char.encode("unicode_escape").decode("ascii")
+        for char in text
+    )
 
 
 @dataclass(frozen=True, slots=True, order=True)
@@ -23,7 +40,7 @@ class Span:
     length: int = 1
 
     def __str__(self) -> str:
-        return f"{self.file}:{self.line}:{self.column}"
+        return f"{printable(self.file, lines=False)}:{self.line}:{self.column}"
 
 
 class Severity(StrEnum):
@@ -93,7 +110,7 @@ class DiagnosticError(Exception):
 
 
 def format_line(d: Diagnostic, *, colour: bool = False) -> str:
-    return _headline(d.span, d.severity, f"{d.message} [{d.code}]", colour)
+    return _headline(d.span, d.severity, f"{printable(d.message)} [{d.code}]", colour)
 
 
 #: ANSI colours of a terminal, as compilers use them: severity coloured, location bold.
@@ -145,11 +162,12 @@ def render_text(
         out.append(format_line(d, colour=colour))
         out += _excerpt(d.span, sources, lines_of, colour)
         for span, note in d.related:
-            out.append(_headline(span, Severity.NOTE, note, colour))
+            out.append(_headline(span, Severity.NOTE, printable(note), colour))
             out += _excerpt(span, sources, lines_of, colour)
     for file, count in left_out.items():
         what = f"{count} more diagnostic{'' if count == 1 else 's'}"
-        out.append(f"{file or 'asictl'}: {what} not shown (only the first {limit} are)")
+        where = printable(file, lines=False) or "asictl"
+        out.append(f"{where}: {what} not shown (only the first {limit} are)")
     return "\n".join(out) + ("\n" if out else "")
 
 
@@ -179,6 +197,10 @@ def _excerpt(
         suffix = "..." if start + EXCERPT_WIDTH < len(src) else ""
         src = prefix + src[start : start + EXCERPT_WIDTH] + suffix
         column = column - start + len(prefix)
+    # escapes widen what precedes the column; a column past the line's end stays past it
+    shown = printable(src, lines=False)
+    column = len(printable(src[: column - 1], lines=False)) + 1 + max(0, column - 1 - len(src))
+    src = shown
     length = min(span.length, max(1, len(src) - column + 1))
     caret = "^" + "~" * max(0, length - 1)
     if colour:

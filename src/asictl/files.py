@@ -18,9 +18,12 @@ import os
 import stat
 import sys
 import tempfile
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Iterator, Sequence
+from contextlib import contextmanager
 from pathlib import Path
+from typing import TextIO
 
+from asictl.diagnostics import printable
 from asictl.errors import UserError
 
 #: The name that means standard output.
@@ -85,13 +88,16 @@ def refuse_inputs(path: str | Path, inputs: Iterable[str | Path]) -> None:
             )
 
 
-def write_atomic(path: str | Path, data: str | bytes) -> None:
+def write_atomic(path: str | Path, data: str | bytes, *, follow_links: bool = True) -> None:
     """Replace ``path`` with ``data`` (text is written as UTF-8 with LF line ends) in one
-    step, or write it as a stream to a device or FIFO; failures are a ``UserError``."""
-    write_together([(path, data)])
+    step, or write it as a stream to a device or FIFO; failures are a ``UserError``.
+    ``follow_links=False`` replaces a symbolic link at ``path`` itself, never what it
+    names: for files whose names a program chooses in a folder others can write to."""
+    write_together([(path, data)], follow_links=follow_links)
 
 
-def write_together(items: Sequence[tuple[str | Path, str | bytes]]) -> None:
+def write_together(items: Sequence[tuple[str | Path, str | bytes]], *,
+                   follow_links: bool = True) -> None:
     """Write several files all or nothing: every regular file is first written in full
     to a temporary file beside it, and only when all are complete are they renamed into
     place (devices and FIFOs are written after that, as streams). A name too long, a
@@ -102,18 +108,11 @@ def write_together(items: Sequence[tuple[str | Path, str | bytes]]) -> None:
         for path, data in items:
             target = Path(path)
             raw = data if isinstance(data, bytes) else data.encode("utf-8")
-            try:
-                mode = os.stat(target).st_mode
-            except FileNotFoundError:
-                mode = None
-            except OSError as exc:
-                raise UserError(f"{target}: cannot write: {exc.strerror or exc}") from None
-            if mode is not None and stat.S_ISDIR(mode):
-                raise UserError(f"{target}: cannot write: it is a directory")
-            if mode is not None and not stat.S_ISREG(mode):
+            mode = _writable_mode(target, follow_links)
+            if mode is not None and not stat.S_ISREG(mode) and not stat.S_ISLNK(mode):
                 streams.append((target, raw))
                 continue
-            real = real_path(target)
+            real = real_path(target) if follow_links else target
             staged.append((_stage(real, raw, shown=target), real, target))
         for temp, real, shown in staged:
             try:
@@ -125,6 +124,48 @@ def write_together(items: Sequence[tuple[str | Path, str | bytes]]) -> None:
             temp.unlink(missing_ok=True)  # gone once renamed; left over after a failure
     for target, raw in streams:
         _write_stream(target, raw)
+
+
+@contextmanager
+def open_atomic(path: str | Path, *, inputs: Iterable[str | Path] = ()) -> Iterator[TextIO]:
+    """An output too long to hold in memory (a recording of hours), written as a stream
+    and yet whole or not at all: into a temporary file beside ``path`` that is renamed
+    over it when the ``with`` block ends normally, and removed when it raises. A device
+    or FIFO is written to directly, as ``write_atomic`` does."""
+    target = Path(path)
+    refuse_inputs(target, inputs)
+    mode = _writable_mode(target, follow_links=True)
+    if mode is not None and not stat.S_ISREG(mode):
+        try:
+            with open(target, "w", encoding="utf-8", newline="\n") as stream:
+                yield stream
+        except OSError as exc:
+            raise UserError(f"{target}: cannot write: {exc.strerror or exc}") from None
+        return
+    real = real_path(target)
+    temp = _stage(real, b"", shown=target)
+    try:
+        with open(temp, "w", encoding="utf-8", newline="\n") as out:
+            yield out
+        os.replace(temp, real)
+    except OSError as exc:
+        raise UserError(f"{target}: cannot write: {exc.strerror or exc}") from None
+    finally:
+        temp.unlink(missing_ok=True)  # gone once renamed
+
+
+def _writable_mode(target: Path, follow_links: bool) -> int | None:
+    """The mode of what is at ``target`` (None: nothing), or a ``UserError`` where nothing
+    can be written: a directory, or a name the system cannot look up."""
+    try:
+        mode = (os.stat if follow_links else os.lstat)(target).st_mode
+    except FileNotFoundError:
+        return None
+    except OSError as exc:
+        raise UserError(f"{target}: cannot write: {exc.strerror or exc}") from None
+    if stat.S_ISDIR(mode):
+        raise UserError(f"{target}: cannot write: it is a directory")
+    return mode
 
 
 def _is_regular(path: Path) -> bool:
@@ -158,12 +199,8 @@ def _stage(target: Path, data: bytes, *, shown: Path) -> Path:
 
 
 def shown_name(name: str) -> str:
-    """A file name as it can be printed safely: control characters (an escape sequence
-    would drive the terminal) and other unprintable ones are written as escapes."""
-    return "".join(
-        char if char.isprintable() else char.encode("unicode_escape").decode("ascii")
-        for char in name
-    )
+    """A file name as it can be printed safely (``printable``: a newline in it too)."""
+    return printable(name, lines=False)
 
 
 def _write_stream(target: Path, data: bytes) -> None:

@@ -126,6 +126,8 @@ class Plc:
         self._callbacks: list[tuple[Callable[[float], object], list[float]]] = []
         self._closed = False
         self._names: dict[str, int] = {}
+        #: a plant model (``on_cycle``) is being called
+        self._in_model = False
 
     # ------------------------------------------------------------------ making one
 
@@ -160,6 +162,9 @@ class Plc:
         table = _symbols(program, symbols, variables)
         specs = None
         if slaves is not None:
+            if not isinstance(slaves, Mapping):
+                raise TypeError("slaves is a mapping of addresses to slave specs, "
+                                f"{{16: 'iiio,1'}}, not {slaves!r}")
             specs = [parse_slave(address, spec) for address, spec in slaves.items()]
         scenario = Scenario(str(program), program, cycle_ms, specs, [])
         simulation = Simulation(built, scenario, duration_ms=math.inf, trace=True,
@@ -206,7 +211,7 @@ class Plc:
         driver = self._sim.plant.driver_of(operand)
         if driver is not None:
             raise ValueError(f"'{text}' is driven by the plant model {driver.name}")
-        self._sim.set(operand, check_value(int(value), operand, text))
+        self._sim.set(operand, check_value(_whole(value, text), operand, text))
 
     @property
     def time_ms(self) -> float:
@@ -254,7 +259,7 @@ class Plc:
 
     def run(self, duration: str | float) -> None:
         """Let ``duration`` of master time pass (``"250ms"``, ``"2s"``, or milliseconds)."""
-        self._open()
+        self._time_may_pass()
         self._advance(self.time_ms + _ms(duration, "duration"), None)
 
     def run_until(self, condition: str, timeout: str | float = "10s") -> float:
@@ -262,7 +267,7 @@ class Plc:
         and not I 1.2"``: the language of a plant rule's ``when``) and return the time;
         ``TimedOut``, with the trace of the wait, if it does not within ``timeout``."""
         __tracebackhide__ = True
-        self._open()
+        self._time_may_pass()
         test = parse_condition(condition, self._variables, self.symbols)
         if self._sim.started and test(self._sim.read):
             return self.time_ms
@@ -281,9 +286,10 @@ class Plc:
         """Check an operand now; ``ExpectationFailed`` reads as a scenario's failure:
         ``test_seq.py:14: at 250 ms: Q 2.0 expected 1, got 0``."""
         __tracebackhide__ = True
+        wanted = _whole(value, text)
         got = self[text]
-        if got != int(value):
-            lines = [f"{_caller()}: at {self.time_ms:g} ms: {text} expected {int(value)}, "
+        if got != wanted:
+            lines = [f"{_caller()}: at {self.time_ms:g} ms: {text} expected {wanted}, "
                      f"got {got}", *self.stops]
             raise ExpectationFailed("\n".join(lines))
 
@@ -309,6 +315,14 @@ class Plc:
         if self._closed:
             raise RuntimeError(f"{self.program}: this Plc is closed")
 
+    def _time_may_pass(self) -> None:
+        """A plant model is called between two program cycles: letting time pass from
+        there would run cycles inside a cycle (and recurse until Python gives up)."""
+        self._open()
+        if self._in_model:
+            raise RuntimeError("a plant model (on_cycle) cannot let time pass: it is "
+                               "called after each program cycle; set inputs and return")
+
     def _start(self) -> None:
         if not self._sim.started:
             self._sim.begin()
@@ -316,9 +330,13 @@ class Plc:
 
     def _call_back(self) -> None:
         now = self.time_ms
-        for fn, last in list(self._callbacks):
-            elapsed, last[0] = now - last[0], now
-            fn(elapsed)
+        self._in_model = True
+        try:
+            for fn, last in list(self._callbacks):
+                elapsed, last[0] = now - last[0], now
+                fn(elapsed)
+        finally:
+            self._in_model = False
 
     def _advance(self, end: float, test: Condition | None) -> bool:
         """Run to ``end`` (the plant models' state then as of the time reached)."""
@@ -348,6 +366,18 @@ class Plc:
             self._call_back()
             if test is not None and test(sim.read):
                 return True
+
+
+def _whole(value: object, text: str) -> int:
+    """A value to set: a whole number or a bool; 0.5 is no bit and 1.7 no nibble value,
+    so a fraction is refused rather than cut off."""
+    if isinstance(value, bool | int):
+        return int(value)
+    if isinstance(value, float):
+        if value.is_integer():
+            return int(value)
+        raise ValueError(f"'{text}' takes a whole number, not {value!r}")
+    raise TypeError(f"'{text}' takes a whole number, not {type(value).__name__} {value!r}")
 
 
 def _last_rows(trace: Trace, test: Condition, lanes: set[str]) -> list[str]:

@@ -279,3 +279,19 @@ def test_an_image_is_debugged_in_the_source_it_carries(client: DapClient, tmp_pa
                                         "sourceReference": source["sourceReference"]})
     assert content["content"].splitlines()[10].strip().startswith("A   T 0")
     assert "no such source" in client.failing("source", {"sourceReference": 99})
+
+
+@pytest.mark.parametrize(("key", "text", "says"), [
+    ("program", "latch\0.asi", "NUL character"),
+    ("program", "latch\ud800.asi", "no file name can have"),
+    ("cwd", "here\0", "NUL character"),
+    ("cwd", "\udfff", "no file name can have"),
+])
+def test_a_path_no_file_system_takes_is_a_request_error(client: DapClient, program: Path,
+                                                         key: str, text: str, says: str):
+    client.request("initialize", {"adapterID": "asictl"})
+    arguments = {"program": str(program), key: text}
+    message = client.failing("launch", arguments)
+    assert f"'{key}' is not a path" in message and says in message
+    assert "internal error" not in message
+    client.request("launch", {"program": str(program)})  # the adapter is still there

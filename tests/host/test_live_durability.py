@@ -55,7 +55,7 @@ def _kill_after_download(tmp_path: Path, rounds: int) -> int:
 
 def test_no_acknowledged_download_is_lost_to_kill_9(tmp_path):
     """(Saved every 10 s, 15 of 30 such downloads were lost.)"""
-    assert _kill_after_download(tmp_path, 20) == 0
+    assert _kill_after_download(tmp_path, 5) == 0
 
 
 @pytest.mark.slow

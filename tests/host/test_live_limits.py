@@ -18,6 +18,8 @@ import time
 from pathlib import Path
 
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 from live_helpers import ROOT, cli, read_message, start_serve, stop, wait_for
 
 from asictl.errors import UserError
@@ -29,7 +31,7 @@ from asictl.host.live.protocol import (
     encode,
     socket_path,
 )
-from asictl.host.live.server import background_live
+from asictl.host.live.server import WAITING_PER_SLOT, background_live
 from asictl.platform.pc2 import COMMAND, PORT_DATA, PORT_INDEX, PORT_PAGE, Command
 
 
@@ -122,14 +124,14 @@ def _connections(path: Path, count: int) -> list[socket.socket]:
     return opened
 
 
-def _closed_by_server(sock: socket.socket) -> bool:
-    sock.settimeout(2)
+def _told(sock: socket.socket, timeout: float = 5) -> dict:
+    """What the server said before closing ``sock`` (an empty dict: nothing)."""
+    sock.settimeout(timeout)
     try:
-        return sock.recv(1) == b""
-    except TimeoutError:
-        return False
+        data = read_message(sock)
     except OSError:
-        return True
+        return {}
+    return json.loads(data) if data else {}
 
 
 def _stderr_after_stop(process: subprocess.Popen[str]) -> str:
@@ -138,7 +140,9 @@ def _stderr_after_stop(process: subprocess.Popen[str]) -> str:
     return process.stderr.read()
 
 
-def test_connections_beyond_the_limit_are_closed_with_one_line_in_the_log(tmp_path):
+def test_connections_beyond_the_waiting_places_hear_busy_with_one_line_in_the_log(tmp_path):
+    """A flood of 200 connections against 8 slots: 32 wait their turn, the rest are told
+    at once that the board is busy (exit 1); the board serves again once they leave."""
     state = tmp_path / "state"
     process = start_serve(state, "--max-connections", "8")
     try:
@@ -146,14 +150,88 @@ def test_connections_beyond_the_limit_are_closed_with_one_line_in_the_log(tmp_pa
         held = _connections(path, 8)
         assert wait_for(lambda: True, 0.3)
         flood = _connections(path, 200)
-        assert all(_closed_by_server(sock) for sock in flood[:20])
+        told = _told(flood[-1])
+        assert told["ok"] is False and told["exit"] == 1
+        assert "the live board is busy" in told["error"] and "try again" in told["error"]
         for sock in flood + held:
             sock.close()
         assert wait_for(lambda: cli(state, "status").exit_code == 0)
     finally:
         log = _stderr_after_stop(process)
-    assert log.count("8 clients connected (--max-connections): refusing further ones") == 1
+    assert log.count("8 clients connected (--max-connections) and 32 waiting: telling "
+                     "further ones the board is busy") == 1, log
     assert "Traceback" not in log
+
+
+def test_clients_beyond_the_limit_wait_their_turn_and_all_get_answers(tmp_path):
+    """40 ``asictl status`` at once against 32 slots: 22 failed with "the live board went
+    away (Connection reset by peer)"; here as many clients as 3 slots and their waiting
+    places take, each holding the board for a session, all get their answers."""
+    failures: list[BaseException] = []
+
+    def command() -> None:
+        try:
+            client = open_live(tmp_path, 0x300)
+            assert client is not None
+            with client.session("a command"):
+                client.io([["r", PORT_INDEX, 1]])
+                time.sleep(0.05)
+            client.close()
+        except BaseException as exc:
+            failures.append(exc)
+
+    with background_live(0x300, tmp_path, identity={"command": "test"}, max_connections=3):
+        threads = [threading.Thread(target=command) for _ in range(3 * (1 + WAITING_PER_SLOT))]
+        for thread in threads:
+            thread.start()
+        for thread in threads:
+            thread.join(60)
+    assert failures == []
+
+
+def test_a_client_that_waited_too_long_hears_busy(tmp_path):
+    with background_live(
+        0x300, tmp_path, identity={"command": "test"}, max_connections=1, admit_wait=0.5
+    ):
+        holder = open_live(tmp_path, 0x300)
+        assert holder is not None
+        with holder.session("a long command"):
+            started = time.monotonic()
+            with pytest.raises(UserError, match=r"the live board is busy: 1 clients are "
+                               r"connected .* try again") as refused:
+                open_live(tmp_path, 0x300)
+            waited = time.monotonic() - started
+        holder.close()
+    assert refused.value.exit_code == 1 and 0.4 < waited < 5
+
+
+def test_idle_connections_make_way_for_a_command(tmp_path):
+    """32 idle connections took every slot for as long as they stayed open: every command
+    failed with "the live board went away" while the board was up."""
+    with background_live(0x300, tmp_path, identity={"command": "test"}, max_connections=4):
+        idle = _connections(socket_path(tmp_path, 0x300), 4)
+        time.sleep(0.2)
+        client = open_live(tmp_path, 0x300)
+        assert client is not None
+        with client.session("a command"):
+            assert len(client.io([["r", PORT_INDEX, 1]])[0]) == 1
+        client.close()
+        closed = [_told(sock, 0.5) for sock in idle]
+        for sock in idle:
+            sock.close()
+    assert any("closed this connection: it sent nothing for" in told.get("error", "")
+               for told in closed), closed
+
+
+def test_a_connection_silent_for_the_idle_timeout_is_closed_and_told(tmp_path):
+    with background_live(0x300, tmp_path, identity={"command": "test"}, idle_timeout=0.5):
+        client = open_live(tmp_path, 0x300)
+        assert client is not None
+        time.sleep(1)
+        with pytest.raises(UserError, match=r"closed this connection: it sent nothing for "
+                           r"0\.5 s; run the command again"):
+            client.hello()
+        client.close()
 
 
 def test_out_of_descriptors_the_server_logs_a_line_and_serves_on(tmp_path):
@@ -233,3 +311,42 @@ def test_a_client_stopped_with_sigstop_holds_the_board_no_longer_than_the_timeou
     assert ("waiting for live board 300h, in use by asictl download (a stopped one) "
             "(a session silent for 1 s is ended)") in result.stderr
     assert "ended the session of asictl download (a stopped one): no request for 1 s" in log
+
+
+# ------------------------------------------------------------------ hostile requests
+
+_JSON = st.recursive(
+    st.none() | st.booleans() | st.integers(-(2**40), 2**40) | st.floats(allow_nan=False)
+    | st.text(max_size=20),
+    lambda inner: st.lists(inner, max_size=5) | st.dictionaries(st.text(max_size=8), inner,
+                                                                 max_size=5),
+    max_leaves=30,
+)
+_OPS = st.sampled_from(["hello", "begin", "end", "io", "action", "nope", None, 7])
+_REQUESTS = st.fixed_dictionaries(
+    {"op": _OPS},
+    optional={"ops": st.lists(st.tuples(st.sampled_from(["r", "w", "x"]),
+                                        st.integers(-2, 300), _JSON), max_size=4)
+              | _JSON,
+              "name": st.sampled_from(["inputs", "lines", "cable", "nope"]) | _JSON,
+              "args": _JSON, "who": _JSON},
+) | _JSON
+
+
+@settings(max_examples=60, deadline=10_000, suppress_health_check=list(HealthCheck))
+@given(request=_REQUESTS)
+def test_a_hostile_request_gets_an_answer_or_a_closed_connection_never_a_dead_server(
+    live, request
+):
+    path = socket_path(live, 0x300)
+    with socket.socket(socket.AF_UNIX) as sock:
+        sock.settimeout(10)
+        sock.connect(str(path))
+        sock.sendall(encode(request))
+        answer = read_message(sock)
+    if answer:
+        told = json.loads(answer)
+        assert told.get("ok") in (True, False), told
+        if told["ok"] is False:
+            assert isinstance(told["error"], str) and told["exit"] in (1, 2), told
+    assert _ask(path, {"op": "hello"})["ok"] is True

@@ -250,3 +250,32 @@ def test_the_fake_server_stands_for_a_live_board(tmp_path):
                                                                              "pid": 1}})):
         result = cli(state, "serve")
     assert result.exit_code == 1 and "already served live by fake (pid 1)" in result.stderr
+
+
+#: What a hostile server would put on the user's terminal: a window title and a bell.
+ESCAPE = "\x1b]0;owned\x07\x1b[2J"
+
+
+def test_an_error_text_with_an_escape_sequence_is_printed_escaped(tmp_path):
+    """An error text with ESC ... BEL from the live socket was printed raw by status."""
+
+    def answer(request: bytes) -> bytes:
+        if json.loads(request)["op"] == "hello":
+            return _json({"ok": True, "server": {"command": "fake"}})
+        return _json({"ok": False, "error": f"no{ESCAPE}pe", "exit": 1})
+
+    state = tmp_path / "state"
+    with fake_server(state, answer, keep=True):
+        result = cli(state, "status")
+    assert result.exit_code == 1, result.output
+    assert "\x1b" not in result.stderr and "\x07" not in result.stderr
+    assert "no\\x1b]0;owned\\x07\\x1b[2Jpe" in result.stderr
+
+
+def test_a_servers_name_with_an_escape_sequence_is_printed_escaped(tmp_path):
+    state = tmp_path / "state"
+    server = {"command": f"fake{ESCAPE}", "pid": 1}
+    with fake_server(state, lambda request: _json({"ok": True, "server": server})):
+        result = cli(state, "serve")
+    assert result.exit_code == 1 and "\x1b" not in result.stderr
+    assert "already served live by fake\\x1b]0;owned\\x07" in result.stderr

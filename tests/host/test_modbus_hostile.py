@@ -209,11 +209,28 @@ OPERATIONS: dict[str, Callable] = {
 }
 
 
-@settings(max_examples=80, deadline=None, suppress_health_check=[HealthCheck.too_slow,
-          HealthCheck.function_scoped_fixture])
+MANGLED = settings(deadline=None, suppress_health_check=[HealthCheck.too_slow,
+                   HealthCheck.function_scoped_fixture])
+
+
+@settings(MANGLED, max_examples=25)
 @given(plan=st.lists(mangles, min_size=1, max_size=8),
        operation=st.sampled_from(sorted(OPERATIONS)))
 def test_mangled_answers_give_a_result_or_a_job_error(gateway_address, plan, operation):
+    mangled_answers_give_a_result_or_a_job_error(gateway_address, plan, operation)
+
+
+@pytest.mark.slow
+@settings(MANGLED, max_examples=400)
+@given(plan=st.lists(mangles, min_size=1, max_size=8),
+       operation=st.sampled_from(sorted(OPERATIONS)))
+def test_mangled_answers_give_a_result_or_a_job_error_long(gateway_address, plan, operation):
+    mangled_answers_give_a_result_or_a_job_error(gateway_address, plan, operation)
+
+
+def mangled_answers_give_a_result_or_a_job_error(
+    gateway_address: tuple[str, int], plan: list, operation: str
+) -> None:
     with no_hang(60), mangling_proxy(gateway_address, plan) as url, open_modbus(
         parse_target(url), timeout=0.05, retries=0
     ) as modbus:

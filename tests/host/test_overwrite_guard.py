@@ -95,12 +95,26 @@ def test_a_raw_restore_to_a_look_alike_needs_only_real_master(look_alike: Path, 
         ["mode", "configuration"],
         ["hiflags", "--offline"],
         ["diag", "--set-los", "3"],
+        ["start"],
+        ["stop"],
+        ["reset"],
+        ["reset", "--hardware"],
+        ["emc", "5", "--for", "1s"],
     ],
 )
 def test_every_command_that_changes_a_look_alike_is_refused(look_alike: Path, command):
     refused = invoke(*command, "--state-dir", str(look_alike))
     assert refused.exit_code == 1
     assert "give --real-master to go ahead" in refused.stderr
+
+
+def test_stopping_a_look_alike_takes_real_master(look_alike: Path):
+    state = ("--state-dir", str(look_alike))
+    refused = invoke("stop", *state)
+    assert "refused to clear the start flag (the control program stops)" in refused.stderr
+    stopped = invoke("stop", "--real-master", *state)
+    assert stopped.exit_code == 0, stopped.output
+    assert invoke("emc", "off", *state).exit_code == 0  # ending a test changes nothing back
 
 
 def test_reading_a_look_alike_is_not_refused(look_alike: Path, tmp_path: Path):

@@ -166,9 +166,22 @@ def scrambled(draw: st.DrawFn, text: str) -> str:
     return "\n".join(out)
 
 
-@settings(max_examples=200, deadline=None)
+@settings(max_examples=50, deadline=None)
 @given(st.data(), modules(file="gen.asi"))
 def test_format_keeps_the_program_and_is_idempotent(data: st.DataObject, module: ast.Module):
+    format_keeps_the_program_and_is_idempotent(data, module)
+
+
+@pytest.mark.slow
+@settings(max_examples=400, deadline=None)
+@given(st.data(), modules(file="gen.asi"))
+def test_format_keeps_the_program_and_is_idempotent_long(
+    data: st.DataObject, module: ast.Module
+) -> None:
+    format_keeps_the_program_and_is_idempotent(data, module)
+
+
+def format_keeps_the_program_and_is_idempotent(data: st.DataObject, module: ast.Module) -> None:
     text = data.draw(scrambled(module.to_source()))
     original, diagnostics = parse_text(text, "gen.asi")
     assert diagnostics == [], text

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from il_strategies import modules
@@ -83,9 +84,16 @@ def mutated_programs(draw: st.DrawFn) -> str:
     return text
 
 
-@HOSTILE
+@settings(HOSTILE, max_examples=50)
 @given(mutated_programs())
 def test_mutated_programs(text: str) -> None:
+    check(text)
+
+
+@pytest.mark.slow
+@settings(HOSTILE, max_examples=1000)
+@given(mutated_programs())
+def test_mutated_programs_long(text: str) -> None:
     check(text)
 
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 
+import pytest
 from hypothesis import given, settings
 from il_strategies import modules
 
@@ -36,9 +37,20 @@ def canonical_text(node: object) -> str:
     return node.to_source() if hasattr(node, "to_source") else str(node)
 
 
-@settings(max_examples=300, deadline=None)
+@settings(max_examples=75, deadline=None)
 @given(modules(file="gen.asi"))
 def test_print_then_read_gives_the_same_ast(module: ast.Module) -> None:
+    print_then_read_gives_the_same_ast(module)
+
+
+@pytest.mark.slow
+@settings(max_examples=600, deadline=None)
+@given(modules(file="gen.asi"))
+def test_print_then_read_gives_the_same_ast_long(module: ast.Module) -> None:
+    print_then_read_gives_the_same_ast(module)
+
+
+def print_then_read_gives_the_same_ast(module: ast.Module) -> None:
     text = module.to_source()
     again, diagnostics = parse_text(text, "gen.asi")
     assert diagnostics == []

@@ -134,9 +134,20 @@ def test_word_soup(text: str) -> None:
         assert_same(text, monkeypatch)
 
 
-@SAME
+@settings(SAME, max_examples=40)
 @given(modules(), st.data())
 def test_programs_and_their_mutations(module: Any, data: st.DataObject) -> None:
+    programs_and_their_mutations(module, data)
+
+
+@pytest.mark.slow
+@settings(SAME, max_examples=600)
+@given(modules(), st.data())
+def test_programs_and_their_mutations_long(module: Any, data: st.DataObject) -> None:
+    programs_and_their_mutations(module, data)
+
+
+def programs_and_their_mutations(module: Any, data: st.DataObject) -> None:
     text = module.to_source()
     with pytest.MonkeyPatch.context() as monkeypatch:
         assert_same(text, monkeypatch)

@@ -452,10 +452,21 @@ def snapshot(emu: Emulator, log: list) -> tuple:
     )  # fmt: skip
 
 
-@settings(max_examples=150, deadline=None)
+def blocks_and_interpreter_agree(case: tuple[bytes, bytes, bytes, int, int | None]) -> None:
+    assert run_case(Emulator(), case) == run_case(Emulator(translate=False), case)
+
+
+@settings(max_examples=40, deadline=None)
 @given(programs())
 def test_blocks_and_interpreter_agree(case) -> None:
-    assert run_case(Emulator(), case) == run_case(Emulator(translate=False), case)
+    blocks_and_interpreter_agree(case)
+
+
+@pytest.mark.slow
+@settings(max_examples=300, deadline=None)
+@given(programs())
+def test_blocks_and_interpreter_agree_long(case) -> None:
+    blocks_and_interpreter_agree(case)
 
 
 def run_case(emu: Emulator, case: tuple[bytes, bytes, bytes, int, int | None]) -> tuple:

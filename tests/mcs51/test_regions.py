@@ -8,7 +8,11 @@ address hot at once (``hot = 1``) and check that regions really ran.
 
 from __future__ import annotations
 
+import dataclasses
+import importlib.util
 import random
+from pathlib import Path
+from types import ModuleType
 
 import pytest
 import test_emulator as emulator_tests
@@ -52,7 +56,8 @@ def compare_with_s51(s51: str, cases: list[oracle.Case]) -> None:
     assert not failures, f"{len(failures)} of {len(cases)} differ:\n" + "\n".join(failures[:40])
 
 
-def test_every_opcode_in_a_region_matches_s51(s51_path: str) -> None:
+@pytest.mark.parametrize("states", [2, pytest.param(12, marks=pytest.mark.slow)])
+def test_every_opcode_in_a_region_matches_s51(s51_path: str, states: int) -> None:
     """Each opcode, followed by SJMP $, from random states: the pair is one region (a
     jump, call or return ends it), with every byte it addresses directly in a local."""
     rng = random.Random(51)
@@ -60,7 +65,7 @@ def test_every_opcode_in_a_region_matches_s51(s51_path: str) -> None:
         oracle.single_instruction_case(rng, opcode)
         for opcode, info in enumerate(OPCODES)
         if info is not None
-        for _ in range(6)
+        for _ in range(states)
     ]
     compare_with_s51(s51_path, cases)
 
@@ -77,6 +82,31 @@ def test_random_sequences_with_forward_branches_match_s51(s51_path: str, cases) 
     compare_with_s51(s51_path, cases)
 
 
+def looping(case: oracle.Case) -> oracle.Case:
+    """The drawn program with its final ``SJMP $`` jumping back to its start instead: a
+    loop whose body branches forward (a superblock), run for a few rounds and stopped by
+    the budget somewhere in a pass. A ``JC`` to the next instruction opens the body, so
+    that even a body drawn without a branch is more than one block that loops to itself
+    (which runs as a block, not a region)."""
+    body = b"\x40\x00" + case.program[:-2]
+    back = -(len(body) + 2) & 0xFF
+    return dataclasses.replace(
+        case, label="loop", program=body + bytes([0x80, back]), steps=3 * case.steps + 1
+    )
+
+
+@settings(
+    max_examples=30,
+    deadline=None,
+    suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large],
+)
+@given(st.lists(oracle.programs().map(looping), min_size=8, max_size=8))
+def test_loops_with_forward_branches_match_s51(s51_path: str, cases) -> None:
+    """The same programs as loops: the region goes round inside its function while a
+    whole pass fits the budget, and hands the rest to the blocks."""
+    compare_with_s51(s51_path, cases)
+
+
 # -- against the interpreter, with devices, breakpoints and budgets ----------------------
 
 def programs() -> st.SearchStrategy[tuple[bytes, bytes, bytes, int, int | None]]:
@@ -85,18 +115,30 @@ def programs() -> st.SearchStrategy[tuple[bytes, bytes, bytes, int, int | None]]
     return emulator_tests.programs(max_opcodes=60)
 
 
-@settings(
-    max_examples=150,
-    deadline=None,
-    suppress_health_check=[HealthCheck.function_scoped_fixture],  # the same patch each time
-)
-@given(programs())
-def test_regions_and_interpreter_agree(monkeypatch: pytest.MonkeyPatch, case) -> None:
+def regions_and_interpreter_agree(monkeypatch: pytest.MonkeyPatch, case) -> None:
     """Small regions (so that they fit the budgets), every address hot: the same stops,
     state, and device accesses in the same order as the interpreter."""
     monkeypatch.setattr(regions, "MAX_REGION", 24)
     in_regions = emulator_tests.run_case(region_emulator(), case)
     assert in_regions == emulator_tests.run_case(Emulator(translate=False), case)
+
+
+@settings(
+    max_examples=25,
+    deadline=None,
+    suppress_health_check=[HealthCheck.function_scoped_fixture],  # the same patch each time
+)
+@given(programs())
+def test_regions_and_interpreter_agree(monkeypatch: pytest.MonkeyPatch, case) -> None:
+    regions_and_interpreter_agree(monkeypatch, case)
+
+
+@pytest.mark.slow
+@settings(max_examples=300, deadline=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(programs())
+def test_regions_and_interpreter_agree_long(monkeypatch: pytest.MonkeyPatch, case) -> None:
+    regions_and_interpreter_agree(monkeypatch, case)
 
 
 def test_a_device_sees_the_bytes_a_region_keeps_in_locals() -> None:
@@ -132,3 +174,90 @@ def test_a_region_is_used_only_once_its_address_is_hot() -> None:
         emu.pc = 0x0100
         emu.run(until=0x0000)
         assert regions_built(emu) == (1 if run == Emulator.hot else 0), run
+
+
+def _benchmark() -> ModuleType:
+    """benchmarks/bench_emulator.py, whose branchy program these tests run."""
+    path = Path(__file__).parents[2] / "benchmarks" / "bench_emulator.py"
+    spec = importlib.util.spec_from_file_location("bench_emulator", path)
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+#: The benchmark's branchy program (a JNB and a JC in the inner loop's body), with small
+#: counts: 1 outer round, 3 middle, 5 inner; the inner loop is a region whose function
+#: goes round itself.
+_BENCHMARK = _benchmark()
+BRANCHY, BRANCHY_END = _BENCHMARK.nested(_BENCHMARK.BRANCHY, 1, 3, 5)
+BRANCHY_LOOP, BRANCHY_SKIP = 0x09, 0x17  # L1, and the JNB's target
+
+
+def branchy(emu: Emulator) -> Emulator:
+    emu.code.load(0, BRANCHY)
+    return restart(emu)
+
+
+def restart(emu: Emulator) -> Emulator:
+    """The branchy program's start state; the emulator keeps its translations."""
+    emu.reset()
+    emu.iram[:] = bytes(256)
+    emu.xdata.ram[0x4000:0x4010] = bytes(range(0x70, 0x80))
+    return emu
+
+
+def machine(emu: Emulator) -> tuple:
+    return (emu.pc, emu.instructions, emu.cycles, emu.psw, bytes(emu.iram), bytes(emu.sfr),
+            bytes(emu.xdata.ram))  # fmt: skip
+
+
+def test_a_loop_with_branches_goes_round_inside_its_region() -> None:
+    """One call of the inner loop's region per start of that loop, not one per pass."""
+    emu = branchy(region_emulator())
+    assert emu.run(until=BRANCHY_END) is StopReason.UNTIL
+    reference = branchy(Emulator(translate=False))
+    reference.run(until=BRANCHY_END)
+    assert machine(emu) == machine(reference)
+    key = BRANCHY_LOOP  # register bank 0
+    region, instructions, cycles, kind = emu._blocks[key]
+    assert kind == REGION and region is not None
+    calls = []
+    emu._blocks[key] = (lambda *room: calls.append(room) or region(*room),
+                        instructions, cycles, kind)  # fmt: skip
+    restart(emu).run(until=BRANCHY_END)
+    assert len(calls) == 3  # R6's three starts of the inner loop; R5 goes round 5 times in each
+    assert machine(emu)[1:] == machine(reference)[1:]
+
+
+@pytest.mark.parametrize("budget", ["instructions", "cycles"])
+def test_every_budget_stops_a_looping_region_where_the_interpreter_stops(budget: str) -> None:
+    """Every instruction and cycle budget over the whole run, resumed to the end: the
+    loop's next pass starts inside the region only when all of it fits."""
+    whole = branchy(Emulator(translate=False))
+    whole.run(until=BRANCHY_END)
+    total = whole.instructions if budget == "instructions" else whole.cycles
+    ours, reference = branchy(region_emulator()), branchy(Emulator(translate=False))
+    for limit in range(1, total + 2):
+        for emu in (restart(ours), restart(reference)):
+            emu.run(until=BRANCHY_END, **{f"max_{budget}": limit})
+        assert machine(ours) == machine(reference), limit
+        if ours.pc != BRANCHY_END:  # resuming there would run the SJMP $ once more
+            assert ours.run(until=BRANCHY_END) is StopReason.UNTIL
+        assert machine(ours) == machine(whole), limit
+
+
+def test_a_breakpoint_in_a_looping_region_stops_every_pass() -> None:
+    """A breakpoint on the JNB's target: each pass that reaches it stops there, with the
+    counters the interpreter has."""
+    ours, reference = branchy(region_emulator()), branchy(Emulator(translate=False))
+    stops = []
+    for emu in (ours, reference):
+        emu.add_breakpoint(BRANCHY_SKIP)
+        trail = []
+        while (stop := emu.run(until=BRANCHY_END)) is StopReason.BREAKPOINT:
+            trail.append(machine(emu))
+        assert stop is StopReason.UNTIL
+        stops.append(trail)
+    assert len(stops[0]) == 15
+    assert stops[0] == stops[1]

@@ -299,13 +299,14 @@ def single_instruction_case(rng: random.Random, opcode: int) -> Case:
     return Case(label, pc, program, iram, sfr, pins, xram, code)
 
 
-def test_every_opcode_from_random_states(s51_path: str) -> None:
+@pytest.mark.parametrize("states", [4, pytest.param(24, marks=pytest.mark.slow)])
+def test_every_opcode_from_random_states(s51_path: str, states: int) -> None:
     rng = random.Random(8051)
     cases = [
         single_instruction_case(rng, opcode)
         for opcode, info in enumerate(OPCODES)
         if info is not None
-        for _ in range(12)
+        for _ in range(states)
     ]
     compare(s51_path, cases)
 

@@ -336,3 +336,14 @@ def test_x_shows_hex_and_the_constant_register_has_a_column(tmp_path):
 
     with live(tmp_path, program, "kreg.asi") as state:
         run(state, check)
+
+
+def test_a_comment_a_file_name_or_a_symbol_with_an_escape_sequence_shows_escaped():
+    from asictl.host.listing import ListedLine, Listing
+    from asictl.monitor.program import render_rows
+
+    listing = Listing((ListedLine("p\x1b]0;x\x07.asi", 0, ""),
+                       ListedLine("p.asi", 1, "A I 4.0 ; \x1b[2J\x9b", code=True)))
+    shown = render_rows(listing, None, top=0, height=2, width=120).plain
+    assert "\x1b" not in shown and "\x07" not in shown and "\x9b" not in shown
+    assert "p\\x1b]0;x\\x07.asi" in shown and "; \\x1b[2J" in shown

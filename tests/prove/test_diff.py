@@ -164,3 +164,15 @@ def test_the_api_takes_builds_as_mutation_testing_passes_them(tmp_path: Path):
     result = equivalent(old, asm, timeout_s=300)
     assert result.verdict == "unknown" and result.refused is not None
     assert "nop" in result.note
+
+
+def test_a_difference_is_told_bit_by_bit_with_the_symbols_beside_new(tmp_path: Path, runner):
+    setup = "[SETUP]\n1: iiii, 0\n3: oooo, 0\n[PROGRAM]\n"
+    (tmp_path / "old.asi").write_text(setup + "    A I 1.0\n    = Q 3.1\n")
+    (tmp_path / "new.asi").write_text(setup + "    AN I 1.0\n    = Q 3.1\n")
+    (tmp_path / "new.symbols.toml").write_text('PumpB = "Q 3.1"\n')
+    result = runner.invoke(main, ["diff", str(tmp_path / "old.asi"), str(tmp_path / "new.asi"),
+                                  "--equivalent", "--cycle-ms", "10"])
+    assert result.exit_code == 1, result.output
+    assert "different after cycle 1: Q 3.1 (PumpB) is 1 in old.asi, 0 in new.asi" \
+        in result.output

@@ -118,6 +118,19 @@ def test_setting_a_slave_that_is_not_on_the_bus_is_bad_input(tmp_path: Path):
         in result.stderr
 
 
+def test_expecting_an_output_of_a_slave_not_on_the_bus_is_bad_input(tmp_path: Path):
+    """An absent slave's outputs read 0: a typo in its address would pass quietly."""
+    for operand in ("Q 9.0", "QB 8", "Q 9"):
+        scenario = write(tmp_path, "s.toml", (
+            f'program = "{SCENARIOS / "blink.asi"}"\n[[step]]\nat_ms = 5\n'
+            f'expect = {{ "{operand}" = 0 }}\n'
+        ))
+        result = run("sim", "--scenario", scenario)
+        assert result.exit_code == 2, (operand, result.output)
+        assert (f"{scenario}:4:1: error: at 5 ms: '{operand}' expects slave "
+                f"{operand.split()[1].split('.')[0]}, which is not on the bus") in result.stderr
+
+
 def test_unknown_operand_is_bad_input_with_its_line(tmp_path: Path):
     scenario = write(tmp_path, "s.toml", (
         f'program = "{SCENARIOS / "blink.asi"}"\n[[step]]\nat_ms = 5\nexpect = {{ "Z 1.0" = 1 }}\n'

@@ -16,6 +16,7 @@ from __future__ import annotations
 import os
 from dataclasses import dataclass, replace
 
+import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -27,7 +28,7 @@ from asictl.sim.engine import Simulation, variables_of
 from asictl.sim.scenario import read_scenario
 from asictl.source import from_string
 
-EXAMPLES = int(os.environ.get("ASICTL_TIMER_EXAMPLES", "30"))
+EXAMPLES = int(os.environ.get("ASICTL_TIMER_EXAMPLES", "10"))
 SETUP = "[SETUP]\n1: iiii, 0\n2: oooo, 0\n"
 TIMES_MS = (10, 20, 50, 130, 500, 990, 2550, 2560, 2570, 3000)
 TIMERS = (1, 2, 3)
@@ -162,6 +163,20 @@ def _phase(simulation: Simulation) -> int:
           suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
 @given(timer_programs(), st.sampled_from([1000, 2500, 5000, 7000, 10_000]), step_lists())
 def test_generated_timer_programs_agree_with_the_reference_interpreter(program, period, steps):
+    timer_programs_agree(program, period, steps)
+
+
+@pytest.mark.slow
+@settings(max_examples=10 * EXAMPLES, deadline=None,
+          suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
+@given(timer_programs(), st.sampled_from([1000, 2500, 5000, 7000, 10_000]), step_lists())
+def test_generated_timer_programs_agree_with_the_reference_interpreter_long(
+    program, period, steps
+):
+    timer_programs_agree(program, period, steps)
+
+
+def timer_programs_agree(program: tuple[str, list[str]], period: int, steps: list) -> None:
     text, watched = program
     built = build(from_string("prog.asi", text))
     assert not built.has_errors, built.render()

@@ -195,7 +195,8 @@ def step_lists(draw: st.DrawFn, period: float) -> list[StepSpec]:
     return steps
 
 
-WATCHED = ("FY 10", "CV 1", "CV 2", "CV 3", "QB 0", "QB 2", "QB 30")
+#: (an output of a slave never on the bus is no expectation: a scenario refuses it, E402)
+WATCHED = ("FY 10", "CV 1", "CV 2", "CV 3", "QB 0", "QB 2")
 
 
 def reference_values(program: Program, period: float, steps: list[StepSpec],

@@ -16,6 +16,7 @@ from typing import Any
 import click
 
 from asictl import __version__
+from asictl.diagnostics import printable
 from asictl.errors import ExitCode, UserError
 
 #: name -> ("module:attribute", one-line help shown by ``asictl --help``)
@@ -171,7 +172,7 @@ class LazyGroup(click.Group):
         try:
             return super().invoke(ctx)
         except UserError as exc:
-            click.echo(f"asictl: error: {exc}", err=True)
+            click.echo(f"asictl: error: {printable(str(exc))}", err=True)
             ctx.exit(int(exc.exit_code))
         except (click.exceptions.Exit, click.ClickException, click.Abort):
             raise
@@ -189,7 +190,7 @@ class LazyGroup(click.Group):
                 raise
             click.echo(
                 f"asictl: internal error (this is a bug in asictl {__version__}): "
-                f"{type(exc).__name__}: {exc}\n"
+                f"{type(exc).__name__}: {printable(str(exc))}\n"
                 "Set ASICTL_DEBUG=1 to see the traceback, and please report it.",
                 err=True,
             )

@@ -19,6 +19,7 @@ from click.core import ParameterSource
 
 from asictl.cli.options import Duration
 from asictl.cli.serial_options import serial_options, unit_option
+from asictl.diagnostics import printable
 from asictl.errors import UserError
 from asictl.host.connection import MasterAddress, open_board
 from asictl.host.master import Master
@@ -122,7 +123,7 @@ def open_master(**board: Unpack[BoardOptions]) -> Iterator[Master]:
     would otherwise go unnoticed."""
     with open_board(
         master_address(**board),
-        notify=lambda message: click.echo(f"asictl: {message}", err=True),
+        notify=lambda message: click.echo(f"asictl: {printable(message)}", err=True),
     ) as master:
         if master.created:
             click.echo(

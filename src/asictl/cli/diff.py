@@ -8,8 +8,9 @@ from pathlib import Path
 
 import click
 
-from asictl.cli.options import CycleCount, Duration, lib_option
+from asictl.cli.options import CycleCount, Duration, Number, lib_option
 from asictl.errors import ExitCode, UserError, missing_extra
+from asictl.observe.symbols import SymbolTable
 from asictl.prove import MAX_DEPTH
 from asictl.readers.units import Cycles
 
@@ -67,7 +68,7 @@ class _Bad(Exception):
               help="Cycles the search for a difference goes to.")
 @click.option("--timeout", type=Duration(limit_ms=86_400_000, positive=True), default="30s",
               show_default=True, help="Time for --equivalent (30s, 5min).")
-@click.option("--cycle-ms", type=click.FloatRange(0.1, 10_000),
+@click.option("--cycle-ms", type=Number(0.1, 10_000),
               help="The program cycle [default: the AS-i cycle of the bus].")
 @click.option("--observe", metavar="LIST",
               help='Flags compared besides the outputs, e.g. "FY 10,F 20.0".')
@@ -150,6 +151,7 @@ def _equivalence(first: object, second: object, old: Path, new: Path, depth: Cyc
     from asictl.observe.operands import parse_operand
     from asictl.prove.counterexample import difference_text
     from asictl.prove.diff import equivalent as decide
+    from asictl.prove.names import bits_of, named
     from asictl.prove.session import check_target
 
     assert isinstance(first, Program) and isinstance(second, Program)
@@ -179,8 +181,10 @@ def _equivalence(first: object, second: object, old: Path, new: Path, depth: Cyc
         write_atomic(target, difference_text(old, new, target, result.trace,
                                              result.host_masks, result.cycle_ms,
                                              result.differences))
-        shown = ", ".join(f"{k} is {a} in {old.name}, {b} in {new.name}"
-                          for k, (a, b) in result.differences.items())
+        symbols = _symbols(new, old)
+        shown = ", ".join(f"{named(bit, symbols)} is {a} in {old.name}, {b} in {new.name}"
+                          for k, (x, y) in result.differences.items()
+                          for bit, a, b in bits_of(k, x, y))
         lines.append(f"different after cycle {result.cycles}: {shown}")
         lines.append(f"  scenario: {target} (passes on {old.name}, fails on {new.name})")
         entry["scenario"] = str(target)
@@ -192,3 +196,19 @@ def _equivalence(first: object, second: object, old: Path, new: Path, depth: Cyc
         for line in lines:
             click.echo(line)
     return result.verdict != "equivalent"
+
+
+def _symbols(*programs: Path) -> SymbolTable:
+    """The symbol table beside the first program that has one (NAME.symbols.toml)."""
+    from asictl.diagnostics import DiagnosticError, render_text
+    from asictl.observe.operands import parse_operand
+    from asictl.observe.symbols import symbols_for
+
+    for program in programs:
+        try:
+            table = symbols_for(program, lambda text: str(parse_operand(text)))
+        except DiagnosticError as exc:
+            raise UserError(render_text(exc.diagnostics, {}).rstrip()) from None
+        if table:
+            return table
+    return SymbolTable()

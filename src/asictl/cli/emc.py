@@ -10,9 +10,11 @@ from typing import Unpack
 import click
 
 from asictl.cli.board_options import BoardOptions, board_options, master_wait, open_master
+from asictl.cli.guard_options import real_master_option
 from asictl.cli.options import Duration
 from asictl.errors import ExitCode, UserError
 from asictl.host.emulated.actions import parse_address, parse_number
+from asictl.host.overwrite_guard import check_overwrite
 
 
 def _slaves(text: str) -> list[int]:
@@ -46,9 +48,10 @@ def _slaves(text: str) -> list[int]:
               help="Leave the test running after the report ('asictl emc off' ends it).")
 @click.option("--json", "as_json", is_flag=True, help="The counts as one JSON object.")
 @board_options
+@real_master_option
 def emc(
     slaves: str, request: str, expect: str | None, repetitions: bool, for_ms: float,
-    keep: bool, as_json: bool, **board: Unpack[BoardOptions],
+    keep: bool, as_json: bool, real_master: bool, **board: Unpack[BoardOptions],
 ) -> None:
     """Run the EMC test mode (command 130) on SLAVES: for the --for time the master sends
     the request to each of them every AS-i cycle instead of the data exchange and counts
@@ -82,6 +85,10 @@ def emc(
                 "run 'asictl emc' on the board itself (--port)",
                 ExitCode.FAILED,
             )
+        if not ending:
+            check_overwrite(master, "run the EMC test mode (the data exchange, and so the "
+                            "control program's outputs, stop while it runs)",
+                            real_master=real_master)
         if ending:
             counts = emc_command(master.driver, emc_parameters([], 0))
             what = "EMC test ended"

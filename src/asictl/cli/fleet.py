@@ -16,7 +16,7 @@ from typing import Any, TypeVar
 
 import click
 
-from asictl.diagnostics import DiagnosticError, render_text
+from asictl.diagnostics import DiagnosticError, printable, render_text
 from asictl.errors import ExitCode, UserError
 from asictl.fleet.inventory import FleetMaster, read_inventory
 from asictl.fleet.survey import DEFAULT_JOBS, Outcome, each_master
@@ -67,7 +67,7 @@ def _survey(
         nonlocal width
         text = (f"{verb} {done}/{len(masters)}: {outcome.master.name} "
                 + ("ok" if outcome.ok else "FAILED"))
-        click.echo("\r" + text.ljust(width), nl=False, err=True)
+        click.echo("\r" + printable(text, lines=False).ljust(width), nl=False, err=True)
         width = len(text)
 
     outcomes = each_master(masters, work, jobs=jobs, progress=progress if shown else None)
@@ -77,11 +77,17 @@ def _survey(
 
 
 def _table(header: tuple[str, ...], rows: list[tuple[str, ...]]) -> str:
+    """Columns of text; a master's name or a gateway's answer may hold anything."""
+    header, rows = _shown(header), [_shown(row) for row in rows]
     widths = [max(len(r[i]) for r in [header, *rows]) for i in range(len(header))]
     return "".join(
         "  ".join(cell.ljust(w) for cell, w in zip(row, widths, strict=True)).rstrip() + "\n"
         for row in [header, *rows]
     )
+
+
+def _shown(cells: tuple[str, ...]) -> tuple[str, ...]:
+    return tuple(printable(cell, lines=False) for cell in cells)
 
 
 def _short(identity: str | None) -> str:
@@ -146,9 +152,13 @@ def backup(
     masters = _masters(inventory, lines, groups)
     archive = Archive(Path(into))
     archive.open()
+    for lock in archive.recovered:
+        click.echo(f"{lock}: removed git's lock left by a git run that was killed (no git "
+                   "works in the archive)", err=True)
     outcomes = _survey(masters, take_snapshot, jobs, "backup")
     failed: dict[str, str] = {}
     written: list[str] = []
+    paths: list[str] = []
     programs: dict[str, str] = {}
     for outcome in outcomes:
         name = outcome.master.name
@@ -157,15 +167,16 @@ def backup(
             continue
         try:
             files = snapshot_files(outcome.master, outcome.value)
+            archive.folder(name)  # a link is refused before anything is read through it
             change = program_change(archive.root, name, files)
-            archive.write(name, files)
+            paths += archive.write(name, files)
         except UserError as exc:
             failed[name] = str(exc)
             continue
         if change:
             programs[name] = change
         written.append(name)
-    commit, changed = archive.commit(written, failed, programs)
+    commit, changed = archive.commit(paths, failed, programs)
     rows: list[dict[str, Any]] = []
     for outcome in outcomes:
         name = outcome.master.name
@@ -188,7 +199,7 @@ def backup(
               str(r["attempts"]), f"{r['seconds']:.1f} s") for r in rows],
         ), nl=False)
         for name, why in failed.items():
-            click.echo(f"{name}: {why}", err=True)
+            click.echo(printable(f"{name}: {why}"), err=True)
         done = f"{len(written)} of {len(outcomes)} masters backed up"
         click.echo(
             f"{archive.root}: {done}; "
@@ -214,8 +225,11 @@ def verify(
     compares a file with a master: identical, different (in code, configuration,
     options), no program in the master, or no backup of it in the archive.
 
+    The archive must be as a finished backup leaves it: a lock git left, or a backed-up
+    file that differs from the last commit, is named on standard error and fails the run.
+
     Exit status: 0 every master runs what the archive holds, 1 one or more differ or did
-    not answer, 2 bad usage or a bad inventory.
+    not answer, or the archive is not in a clean state, 2 bad usage or a bad inventory.
 
     \b
     Examples:
@@ -224,9 +238,11 @@ def verify(
       asictl fleet backup demos/plant.toml --into archive
       asictl fleet verify demos/plant.toml --against archive
     """
+    from asictl.fleet.archive import Archive
     from asictl.fleet.compare import Verdict, verify_master
 
     masters = _masters(inventory, lines, groups)
+    unclean = Archive(Path(against)).unclean([master.name for master in masters])
     outcomes = _survey(masters, partial(verify_master, Path(against)), jobs, "verify")
     rows: list[dict[str, Any]] = []
     for outcome in outcomes:
@@ -243,15 +259,17 @@ def verify(
         })
     drifted = [r["master"] for r in rows if r["result"] != "identical"]
     if form == "json":
-        click.echo(json.dumps({"archive": against, "drift": drifted, "masters": rows},
-                              indent=2))
+        click.echo(json.dumps({"archive": against, "unclean": unclean, "drift": drifted,
+                               "masters": rows}, indent=2))
     else:
         for row in rows:
-            click.echo(f"{row['master']}: {row['text']}")
+            click.echo(printable(f"{row['master']}: {row['text']}"))
         same = len(rows) - len(drifted)
-        click.echo(f"{same} of {len(rows)} masters run what {against} holds"
-                   + (f"; not: {', '.join(drifted)}" if drifted else ""))
-    if drifted:
+        click.echo(printable(f"{same} of {len(rows)} masters run what {against} holds"
+                             + (f"; not: {', '.join(drifted)}" if drifted else "")))
+    for why in unclean:
+        click.echo(printable(f"not in a clean state: {why}"), err=True)
+    if drifted or unclean:
         click.get_current_context().exit(int(ExitCode.FAILED))
 
 
@@ -293,6 +311,6 @@ def status(
         for row in rows:
             text = (f"{row['summary']}; program {_short(row['program'])}" if row["answered"]
                     else f"unreachable: {row['error']}")
-            click.echo(f"{row['master'].ljust(width)}  {row['reached']}: {text}")
+            click.echo(printable(f"{row['master'].ljust(width)}  {row['reached']}: {text}"))
     if any(not r["answered"] for r in rows):
         click.get_current_context().exit(int(ExitCode.FAILED))

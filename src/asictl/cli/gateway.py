@@ -23,6 +23,7 @@ from asictl.cli.opcua_options import opcua_attachment, opcua_options
 from asictl.cli.options import Duration
 from asictl.cli.serial_options import serial_options, unit_option
 from asictl.cli.web_options import web_attachment, web_options
+from asictl.diagnostics import printable
 from asictl.errors import ExitCode, UserError, missing_extra
 from asictl.host.emulated.boards import lock_file, state_directory
 from asictl.host.emulated.locking import note_holder
@@ -48,7 +49,7 @@ def _tcp_address(text: str) -> tuple[str, int]:
 
 
 def _notify(message: str) -> None:
-    click.echo(f"asictl: {message}", err=True)
+    click.echo(f"asictl: {printable(message)}", err=True)
 
 
 def _url_host(host: str) -> str:
@@ -101,7 +102,8 @@ def serve(
     tcp: str | None, rtu: str | None, baud: str, parity: str, stopbits: str, unit: int,
     port: str, state_dir: str | None, wait: bool, verbose: bool, max_connections: int,
     idle_timeout: float, frame_timeout: float, save_interval: float, opcua: str | None,
-    opcua_writable: bool, opcua_user: str | None, opcua_interval: float,
+    opcua_writable: bool, opcua_user: str | None, opcua_interval: float, opcua_max_connections: int,
+    opcua_max_sessions: int, opcua_login_timeout: float,
     opcua_symbols: str | None, http: str | None, http_writable: bool,
     http_download: bool, http_token_file: str | None, http_interval: float,
 ) -> None:
@@ -151,7 +153,9 @@ def serve(
     )
     live_at = socket_path(directory, base)
     opcua_server = opcua_attachment(
-        opcua, opcua_writable, opcua_user, opcua_interval / 1000, opcua_symbols, port, _notify
+        opcua, opcua_writable, opcua_user, opcua_interval / 1000, opcua_symbols, port, _notify,
+        max_connections=opcua_max_connections, max_sessions=opcua_max_sessions,
+        login_timeout=opcua_login_timeout / 1000,
     )
     page = web_attachment(
         http, http_writable, http_download, http_token_file, http_interval / 1000, port, _notify

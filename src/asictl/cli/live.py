@@ -18,11 +18,17 @@ from asictl.cli.board_options import BoardOptions, board_options, open_master
 from asictl.cli.opcua_options import opcua_attachment, opcua_options
 from asictl.cli.options import Duration
 from asictl.cli.web_options import web_attachment, web_options
+from asictl.diagnostics import printable
 from asictl.errors import ExitCode, UserError
 from asictl.host.commissioning import image_changes
 from asictl.host.emulated.actions import parse_address, parse_number, parse_profile
 from asictl.host.emulated.boards import state_directory
-from asictl.host.live.server import DEFAULT_MAX_CONNECTIONS, DEFAULT_SESSION_TIMEOUT_S
+from asictl.host.live.server import (
+    DEFAULT_ADMIT_WAIT_S,
+    DEFAULT_IDLE_TIMEOUT_S,
+    DEFAULT_MAX_CONNECTIONS,
+    DEFAULT_SESSION_TIMEOUT_S,
+)
 from asictl.host.master import Master
 from asictl.host.symbols import Names
 from asictl.host.transports.ports import port_name
@@ -45,19 +51,29 @@ from asictl.il.ast import OperandKind as K
 )
 @click.option(
     "--max-connections", type=click.IntRange(1, 1000), default=DEFAULT_MAX_CONNECTIONS,
-    show_default=True, help="Clients connected at once; further ones are closed at once.",
+    show_default=True,
+    help=f"Clients connected at once; further ones wait their turn (at most "
+    f"{DEFAULT_ADMIT_WAIT_S:g} s, then: busy, try again).",
 )
 @click.option(
     "--session-timeout", type=Duration(), default=f"{DEFAULT_SESSION_TIMEOUT_S:g}s",
     show_default=True, metavar="TIME",
     help="End a command's hold on the board when it sends nothing this long (0: never).",
 )
+@click.option(
+    "--idle-timeout", type=Duration(), default=f"{DEFAULT_IDLE_TIMEOUT_S:g}s",
+    show_default=True, metavar="TIME",
+    help="Close a connection that sends nothing this long (0: never).",
+)
 @opcua_options
 @web_options
 def serve(
     port: str, state_dir: str | None, wait: bool, max_connections: int,
-    session_timeout: float, opcua: str | None, opcua_writable: bool, opcua_user: str | None,
-    opcua_interval: float, opcua_symbols: str | None, http: str | None, http_writable: bool,
+    session_timeout: float, idle_timeout: float, opcua: str | None, opcua_writable: bool,
+    opcua_user: str | None,
+    opcua_interval: float, opcua_max_connections: int, opcua_max_sessions: int,
+    opcua_login_timeout: float, opcua_symbols: str | None, http: str | None,
+    http_writable: bool,
     http_download: bool, http_token_file: str | None, http_interval: float,
 ) -> None:
     """Keep the emulated board running in real time until Ctrl-C or SIGTERM.
@@ -90,14 +106,16 @@ def serve(
     from asictl.host.search import resolve_port
 
     def notify(text: str) -> None:
-        click.echo(f"asictl: {text}", err=True)
+        click.echo(f"asictl: {printable(text)}", err=True)
 
     directory = state_directory(state_dir)
     base = resolve_port(port, "emulated", directory, notify)
     name = port_name(base)
     attach = debugging(debug_socket_path(directory, base))
     server = opcua_attachment(
-        opcua, opcua_writable, opcua_user, opcua_interval / 1000, opcua_symbols, name, notify
+        opcua, opcua_writable, opcua_user, opcua_interval / 1000, opcua_symbols, name, notify,
+        max_connections=opcua_max_connections, max_sessions=opcua_max_sessions,
+        login_timeout=opcua_login_timeout / 1000,
     )
     if server is not None:
         attach = together(attach, server)
@@ -113,7 +131,8 @@ def serve(
     run_live(
         base, directory, identity={"command": "asictl serve", "port": name},
         started=started, wait=wait, notify=notify, max_connections=max_connections,
-        session_timeout=session_timeout / 1000, attach=attach,
+        session_timeout=session_timeout / 1000, idle_timeout=idle_timeout / 1000,
+        attach=attach,
     )
     click.echo(f"asictl: board {name} stopped; its state is saved", err=True)
 

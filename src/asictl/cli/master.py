@@ -22,6 +22,7 @@ from asictl.cli.board_options import BoardOptions, board_options, master_wait, o
 from asictl.cli.guard_options import real_master_option, unconfirmed_format_option
 from asictl.cli.options import lib_option, one_of
 from asictl.cli.terminal import progress
+from asictl.diagnostics import printable
 from asictl.errors import ExitCode, UserError
 from asictl.files import STDOUT, shown_name, write_output
 from asictl.host.connection import cable_setup_slaves
@@ -246,12 +247,15 @@ def _cable_hint(master: Master, summary: str) -> None:
 
 
 def _control_command(
-    name: str, help_text: str, action: Callable[[Transport], int], *, needs_program: bool = False
+    name: str, help_text: str, action: Callable[[Transport], int], what: str, *,
+    needs_program: bool = False,
 ) -> click.Command:
     @click.command(name, help=help_text)
     @board_options
-    def command(**board: Unpack[BoardOptions]) -> None:
+    @real_master_option
+    def command(real_master: bool, **board: Unpack[BoardOptions]) -> None:
         with open_master(**board) as master:
+            check_overwrite(master, what, real_master=real_master)
             if needs_program and not program_info(master.transport).valid:
                 raise UserError(
                     f"{master.name}: no valid program in the master to start "
@@ -278,6 +282,7 @@ start_command = _control_command(
     "(normal operation, and no configuration error unless ignore_config_errors)." + _EXIT_STATUS
     + "\n\n\b\nExamples:\n  asictl download demos/blink.asi\n  asictl start",
     lambda transport: set_start(transport, start=True),
+    "set the start flag (the control program starts driving the outputs)",
     needs_program=True,
 )
 stop_command = _control_command(
@@ -286,6 +291,7 @@ stop_command = _control_command(
     "AS-i master (ACF /s-)." + _EXIT_STATUS
     + "\n\n\b\nExamples:\n  asictl download demos/blink.asi --start\n  asictl stop",
     lambda transport: set_start(transport, start=False),
+    "clear the start flag (the control program stops)",
 )
 @click.command("reset")
 @board_options
@@ -293,7 +299,8 @@ stop_command = _control_command(
     "--hardware", is_flag=True,
     help="Reset the board itself (PAGE bit 4 held 200 ms, AsiPc2Reset): a power-up.",
 )
-def reset_command(hardware: bool, **board: Unpack[BoardOptions]) -> None:
+@real_master_option
+def reset_command(hardware: bool, real_master: bool, **board: Unpack[BoardOptions]) -> None:
     """Set the reset bit: the master reloads the program from its EEPROM and clears the
     program's flags; the start flag stays as it is.
 
@@ -320,6 +327,11 @@ def reset_command(hardware: bool, **board: Unpack[BoardOptions]) -> None:
             ExitCode.USAGE,
         )
     with open_master(**board) as master:
+        check_overwrite(
+            master, "reset the board (a power-up: everything volatile is lost)" if hardware
+            else "reset the master (it reloads its program and clears the program's flags)",
+            real_master=real_master,
+        )
         if hardware:
             from asictl.host.hardware_reset import hardware_reset
 
@@ -363,6 +375,6 @@ def status_command(as_json: bool, **board: Unpack[BoardOptions]) -> None:
     if as_json:
         click.echo(json.dumps(status.to_json(), indent=2))
     else:
-        click.echo(render(status), nl=False)
+        click.echo(printable(render(status)), nl=False)  # names from a symbol table
     if status.missing or status.unexpected or status.wrong_profile:
         _cable_hint(master, "config error")

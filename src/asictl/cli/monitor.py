@@ -12,11 +12,12 @@ from typing import Unpack
 import click
 
 from asictl.cli.board_options import BoardOptions, board_options, master_address
+from asictl.diagnostics import printable
 from asictl.errors import missing_extra
 
 
 def _notify(text: str) -> None:
-    click.echo(f"asictl: {text}", err=True)
+    click.echo(f"asictl: {printable(text)}", err=True)
 
 
 @click.command("monitor")

@@ -10,7 +10,7 @@ from pathlib import Path, PurePath
 import click
 
 import asictl.quality.mutate as mutation
-from asictl.cli.options import Duration, lib_option
+from asictl.cli.options import Duration, Number, lib_option
 from asictl.errors import ExitCode, UserError
 from asictl.quality.mutate import PROVE_HINT, Result, Target, mutants_of, run_all, score
 from asictl.sim import SUFFIX
@@ -75,7 +75,7 @@ def _line(result: Result) -> str:
 def _summary(results: list[Result]) -> str:
     killed, counted = score(results)
     counts = {v: sum(1 for r in results if r.verdict == v)
-              for v in ("killed", "timeout", "survived", "equivalent", "invalid")}
+              for v in ("killed", "timeout", "survived", "died", "equivalent", "invalid")}
     share = 100.0 * killed / counted if counted else 100.0
     parts = ", ".join(f"{n} {v}" for v, n in counts.items() if n)
     return f"{len(results)} mutants: {parts or 'none'}; score {share:.1f}% ({killed}/{counted})"
@@ -88,7 +88,7 @@ def _summary(results: list[Result]) -> str:
               "of cores).")
 @click.option("--format", "fmt", type=click.Choice(["text", "json"]), default="text",
               show_default=True, help="json: one object with every mutant and the score.")
-@click.option("--min-score", type=click.FloatRange(0, 100), metavar="PERCENT",
+@click.option("--min-score", type=Number(0, 100), metavar="PERCENT",
               help="Exit 1 when the score is below PERCENT.")
 @click.option("--timeout", "timeout_ms", type=Duration(positive=True),
               metavar="TIME", help="Time limit of one mutant (default: 10 s plus five "

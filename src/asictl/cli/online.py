@@ -17,6 +17,7 @@ import click
 
 from asictl.cli.board_options import BoardOptions, board_options, open_master
 from asictl.cli.options import Duration
+from asictl.diagnostics import printable
 from asictl.errors import ExitCode, UserError
 from asictl.host.force_list import Entry, ForcedValue, forced_values
 from asictl.host.forcing import forced
@@ -243,5 +244,6 @@ def _watch_line(entry: Watched, value: int, elapsed: float, format_: str) -> str
                            "time": round(elapsed, 3)})
     bits = entry.width
     digits = max(1, (bits + 3) // 4)
-    return (f"{elapsed:8.3f}s  {entry.label:<24} {value:>5}  {value:0{digits}X}h  "
+    label = printable(entry.label, lines=False)  # a symbol table's name may hold anything
+    return (f"{elapsed:8.3f}s  {label:<24} {value:>5}  {value:0{digits}X}h  "
             f"{value:0{bits}b}b")

@@ -13,6 +13,11 @@ from asictl.cli.options import Duration
 from asictl.diagnostics import DiagnosticError, render_text
 from asictl.errors import ExitCode, UserError, missing_extra
 from asictl.host.transports.target import listen_address
+from asictl.opcua.limits import (
+    DEFAULT_LOGIN_TIMEOUT_S,
+    DEFAULT_MAX_CONNECTIONS,
+    DEFAULT_MAX_SESSIONS,
+)
 
 if TYPE_CHECKING:
     from asictl.host.live.server import Attachment
@@ -40,6 +45,18 @@ def opcua_options(command: F) -> F:
                      default="100ms", show_default=True, metavar="TIME",
                      help="How often the values are read from the board (the rate "
                      "subscriptions see changes at)."),
+        click.option("--opcua-max-connections", type=click.IntRange(1, 1000),
+                     default=DEFAULT_MAX_CONNECTIONS, show_default=True,
+                     help="OPC UA connections at once (one not yet logged in included); "
+                     "further ones are closed at once."),
+        click.option("--opcua-max-sessions", type=click.IntRange(1, 1000),
+                     default=DEFAULT_MAX_SESSIONS, show_default=True,
+                     help="OPC UA sessions at once; a further one is refused "
+                     "(BadMaxConnectionsReached)."),
+        click.option("--opcua-login-timeout", type=Duration(least_ms=100, limit_ms=600_000),
+                     default=f"{DEFAULT_LOGIN_TIMEOUT_S:g}s", show_default=True,
+                     metavar="TIME", help="Close an OPC UA connection that has not logged "
+                     "in (activated a session) this long after connecting."),
         click.option("--opcua-symbols", type=click.Path(dir_okay=False, exists=True),
                      metavar="FILE.symbols.toml",
                      help="A symbol table whose names become variables (docs/debugging.md)."),
@@ -51,10 +68,11 @@ def opcua_options(command: F) -> F:
 
 def opcua_attachment(
     opcua: str | None, writable: bool, user: str | None, interval: float,
-    symbols: str | None, name: str, notify: Callable[[str], None],
+    symbols: str | None, name: str, notify: Callable[[str], None], *,
+    max_connections: int, max_sessions: int, login_timeout: float,
 ) -> Attachment | None:
     """The OPC UA server the options ask for (None without --opcua); what is wrong with
-    them is said before the board is served."""
+    them is said before the board is served. ``login_timeout`` in seconds."""
     if opcua is None:
         given = [flag for flag, on in (("--opcua-writable", writable), ("--opcua-user", user),
                                        ("--opcua-symbols", symbols)) if on]
@@ -84,7 +102,10 @@ def opcua_attachment(
     if user is not None and not password:
         raise UserError(f"--opcua-user {user}: set its password in ${PASSWORD_ENV}",
                         ExitCode.USAGE)
-    options = OpcUaOptions(host, port, writable, user, password, interval, table)
+    options = OpcUaOptions(
+        host, port, writable, user, password, interval, table, max_connections=max_connections,
+        max_sessions=max_sessions, login_timeout=login_timeout,
+    )
     check_access(options)
 
     def started(url: str) -> None:

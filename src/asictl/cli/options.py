@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import click
 
 from asictl.readers.units import (
@@ -81,3 +83,17 @@ def one_of(**given: bool) -> str | None:
         raise click.UsageError(" and ".join("--" + name.replace("_", "-") for name in chosen)
                                + " contradict each other: give one")
     return chosen[0] if chosen else None
+class Number(click.FloatRange):
+    """A finite number between two bounds. click's ``FloatRange`` lets ``nan`` through
+    (every comparison with it is false), so ``--min-score nan`` would never fail; this
+    refuses ``nan`` and the infinities before the range is checked."""
+
+    name = "number"
+
+    def convert(self, value: object, param: click.Parameter | None,
+                ctx: click.Context | None) -> float:
+        number = click.FLOAT.convert(value, param, ctx)
+        if not math.isfinite(number):
+            self.fail(f"{value!r} is not a finite number", param, ctx)
+        result: float = super().convert(number, param, ctx)
+        return result

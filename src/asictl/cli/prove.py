@@ -44,9 +44,13 @@ def _line(outcome: object, written: Path | None) -> str:
     plural = "s" if cycles != 1 else ""
     if verdict is Verdict.PROVED:
         how = ("k-induction" if outcome.depth else "invariant") + f", depth {outcome.depth}"
+        if outcome.trivially:
+            how = f"trivially: {outcome.trivially}"
         text = f"proved       {outcome.prop.name} ({how})"
     elif verdict is Verdict.UNREACHABLE:
-        text = f"unreachable  {outcome.prop.name} (depth {outcome.depth})"
+        how = (f"trivially: {outcome.trivially}" if outcome.trivially
+               else f"depth {outcome.depth}")
+        text = f"unreachable  {outcome.prop.name} ({how})"
     elif verdict in (Verdict.REFUTED, Verdict.REACHED):
         text = f"{verdict.value:<12} {outcome.prop.name} in cycle {cycles}"
         if written is not None:
@@ -69,7 +73,8 @@ def _line(outcome: object, written: Path | None) -> str:
 @click.option("--depth", type=CycleCount(MAX_DEPTH), default="20", show_default=True,
               help="Cycles the search for counterexamples and the induction go to.")
 @click.option("--timeout", type=Duration(limit_ms=86_400_000, positive=True), default="30s",
-              show_default=True, help="Time for each property (30s, 5min).")
+              show_default=True,
+              help="Wall-clock time for each property, the first's from the start (30s, 5min).")
 @click.option("--unroll", type=click.IntRange(1, 1000), default=8, show_default=True,
               help="How often a backward jump is followed in one cycle.")
 @click.option("--format", "fmt", type=_HELP_FORMAT, default="text", show_default=True)
@@ -120,6 +125,7 @@ def prove(files: tuple[Path, ...], properties: Path | None, depth: Cycles, timeo
             click.echo(exc.text, nl=False, err=True)
             ctx.exit(int(exc.exit_code))
         reports.append(report)
+        click.echo(report.warnings, nl=False, err=True)
         if fmt == "text":
             slaves = " ".join(str(a) for a in report.slaves) or "none"
             click.echo(f"{report.properties}: {report.program}, {report.cycle_ms:g} ms "
@@ -147,7 +153,8 @@ def _says(outcome: object) -> str:
 
     assert isinstance(outcome, Outcome)
     if outcome.verdict is not Verdict.BOUNDED:
-        return outcome.verdict.value
+        return outcome.verdict.value + (f" (trivially: {outcome.trivially})"
+                                        if outcome.trivially else "")
     shown = "not reached" if outcome.prop.kind.value == "reachable" else "holds"
     return f"{shown} up to {outcome.depth + 1} cycles"
 
@@ -175,6 +182,7 @@ def _json(report: object) -> dict[str, object]:
                 "scenario": str(report.written[o.prop.name])
                 if o.prop.name in report.written else None,
                 "note": o.note or None,
+                "trivially": o.trivially or None,
             }
             for o in report.outcomes
         ],

@@ -4,24 +4,27 @@ from __future__ import annotations
 
 import math
 import os
+import signal
+import tempfile
 import time
 from collections.abc import Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
-from typing import Unpack
+from typing import TextIO, Unpack
 
 import click
 
 from asictl.cli.board_options import BoardOptions, board_options, open_master
-from asictl.cli.options import Duration
-from asictl.errors import UserError
-from asictl.files import real_path, write_output
+from asictl.cli.options import Duration, Number
+from asictl.diagnostics import printable
+from asictl.errors import ExitCode, UserError
+from asictl.files import open_atomic, real_path
 from asictl.host.master import Master
 from asictl.host.status import MasterStatus, StoredProgram
 from asictl.sim import SUFFIX
-from asictl.sim.recording import Sample, choose, slave_operands, to_scenario
+from asictl.sim.recording import Recording, choose, slave_operands
 
 #: The default tolerance window of a recording's expectations.
 DEFAULT_TOLERANCE_MS = 100
@@ -113,7 +116,7 @@ class _Reader:
 @click.option("--signals", help='What to record: comma-separated shell patterns over I a.b, '
               'Q a.b and F y.b, e.g. "I 4.*,Q 17.*,F 0.0" (default: every input and output '
               "of the slaves on the bus).")
-@click.option("--tolerance-ms", type=click.FloatRange(0, 60_000),
+@click.option("--tolerance-ms", type=Number(0, 60_000),
               help="The expectations' tolerance window (within_ms): a change may come this "
               f"much earlier or later in a replay [default: {DEFAULT_TOLERANCE_MS} ms, or twice "
               "the sampling interval if that is longer].")
@@ -126,12 +129,16 @@ def record(duration: float, output: Path, force: bool, signals: str | None,
     a scenario: its input changes become set steps, its output changes (and those of the
     flags --signals chooses) expectations with a tolerance window.
 
-    The master is read as often as it answers, for --duration; Ctrl-C ends the recording
-    early and writes what was recorded. Replay it with 'asictl sim PROGRAM --scenario
+    The master is read as often as it answers, for --duration, and each change goes to
+    disk at once (memory stays the same however long it records). Ctrl-C, SIGTERM or
+    SIGHUP end the recording early, and so does a board that stops answering: what was
+    recorded is written all the same, a whole scenario, and the message says what ended
+    it. Replay it with 'asictl sim PROGRAM --scenario
     OUTPUT': the unchanged program passes, a changed one fails at the first expectation
     where it behaves otherwise, naming the IL line that last wrote the operand.
 
-    Exit status: 0 recorded, 1 the master did not answer, 2 bad usage.
+    Exit status: 0 recorded (also when ended early by Ctrl-C or a signal), 1 the master
+    did not answer (or stopped answering: what came before is written), 2 bad usage.
 
     \b
     Examples:
@@ -142,7 +149,6 @@ def record(duration: float, output: Path, force: bool, signals: str | None,
     if output.is_file() and not force:
         raise UserError(f"{output}: exists; not overwritten (use --force)")
     patterns = [p for p in signals.split(",") if p.strip()] if signals else None
-    samples: list[Sample] = []
     read = _Reader(board)
     status = read.first()
     detected = {int(a): s.cdi for a, s in status.slaves.items() if int(a) in status.lds
@@ -153,27 +159,104 @@ def record(duration: float, output: Path, force: bool, signals: str | None,
                         + (f" matches --signals '{signals}'" if patterns else ""))
     names = {*inputs, *expected}
     read.flags = any(name.startswith("F") for name in names)
-    click.echo(f"asictl: recording {read.name} for {seconds:g} s: {len(inputs)} inputs, "
-               f"{len(expected)} outputs and flags (Ctrl-C ends it early)", err=True)
+    click.echo(printable(f"asictl: recording {read.name} for {seconds:g} s: {len(inputs)} "
+                         f"inputs, {len(expected)} outputs and flags (Ctrl-C ends it early)"),
+               err=True)
+    with _spool(output) as spool:
+        recording = Recording(inputs, expected, spool)
+        ended = _sample(read, recording, names, seconds)
+        if ended is not None:
+            click.echo(printable(f"asictl: recording ended early: {ended}"), err=True)
+        if not recording.count:
+            raise UserError(f"{read.name}: no sample in {duration:g} ms"
+                            + (f" ({ended})" if ended else ""))
+        with _held():  # the file is written whole, whatever signal comes now
+            _write(recording, output, tolerance_ms, program, read.name)
+    every = recording.every_ms
+    click.echo(printable(f"asictl: {output}: {recording.count} samples over "
+                         f"{recording.span_ms / 1000:.1f} s (one every {every:.0f} ms), "
+                         f"{len(inputs)} inputs and {len(expected)} outputs and flags "
+                         "recorded"), err=True)
+    if ended is not None and ended.startswith("the board"):
+        raise UserError(f"{read.name}: the recording ended early: {ended}", ExitCode.FAILED)
+
+
+class _Ended(Exception):
+    """A signal that ends a recording (SIGTERM, SIGHUP): what was recorded is kept."""
+
+
+#: The signals that end a recording as Ctrl-C does (where the platform has them).
+_ENDING = [getattr(signal, name) for name in ("SIGTERM", "SIGHUP") if hasattr(signal, name)]
+
+
+def _sample(read: _Reader, recording: Recording, names: set[str], seconds: float
+            ) -> str | None:
+    """Sample until ``seconds`` have passed (None) or something ends the recording
+    early (what it was: Ctrl-C, a signal, the board gone); every sample goes to the
+    recording's spool at once."""
+    def end(number: int, _frame: object) -> None:
+        raise _Ended(signal.Signals(number).name)
+
+    before = {number: signal.signal(number, end) for number in _ENDING}
     started = time.monotonic()
     try:
         while True:
-            before = time.monotonic()
-            data = read()
-            at = (before + time.monotonic()) / 2 - started
+            ask = time.monotonic()
+            try:
+                data = read()
+            except (UserError, OSError) as exc:
+                if not recording.count:
+                    raise
+                return f"the board stopped answering ({exc})"
+            at = (ask + time.monotonic()) / 2 - started
             if at > seconds:
-                break
-            samples.append(Sample(at * 1000, data.values(names)))
+                return None
+            recording.add(at * 1000, data.values(names))
     except KeyboardInterrupt:
-        click.echo("asictl: recording ended early (Ctrl-C)", err=True)
-    name = read.name
-    if not samples:
-        raise UserError(f"{name}: no sample in {duration}")
-    if samples[0].at_ms:
-        first = samples[0].at_ms
-        samples = [Sample(s.at_ms - first, s.values) for s in samples]
-    span = samples[-1].at_ms
-    every = span / max(1, len(samples) - 1)
+        return "Ctrl-C"
+    except _Ended as exc:
+        return str(exc)
+    finally:
+        for number, handler in before.items():
+            signal.signal(number, handler)
+
+
+@contextmanager
+def _spool(output: Path) -> Iterator[TextIO]:
+    """The steps of a recording on disk as it goes: a file without a name beside the
+    output (it vanishes with the process, however it ends), else in the temporary
+    folder."""
+    folder = output.parent if output.parent.is_dir() else None
+    try:
+        # opened here to report its failure plainly, closed by the with below
+        spool = tempfile.TemporaryFile("w+", encoding="utf-8", dir=folder)  # noqa: SIM115
+    except OSError as exc:
+        raise UserError(f"{output}: cannot record beside it: {exc.strerror or exc}") from None
+    with spool:
+        yield spool
+
+
+@contextmanager
+def _held() -> Iterator[None]:
+    """Ctrl-C, SIGTERM and SIGHUP wait while the scenario is written (it takes a moment
+    after hours of recording), and take effect after it."""
+    caught: list[int] = []
+    numbers = [signal.SIGINT, *_ENDING]
+    before = {n: signal.signal(n, lambda number, _frame: caught.append(number))
+              for n in numbers}
+    try:
+        yield
+    finally:
+        for number, handler in before.items():
+            signal.signal(number, handler)
+    if caught:
+        click.echo(f"asictl: {signal.Signals(caught[0]).name} came while the scenario was "
+                   "written; it is whole", err=True)
+
+
+def _write(recording: Recording, output: Path, tolerance_ms: float | None,
+           program: Path | None, name: str) -> None:
+    span, every = recording.span_ms, recording.every_ms
     if tolerance_ms is None:  # a change is seen up to a sample late, its effect too
         tolerance_ms = max(DEFAULT_TOLERANCE_MS, math.ceil(2 * every / 10) * 10)
     when = datetime.now(UTC).strftime("%Y-%m-%d %H:%M UTC")
@@ -181,13 +264,10 @@ def record(duration: float, output: Path, force: bool, signals: str | None,
     if program is not None:
         named = str(Path(_relative(real_path(program), real_path(output).parent)))
     comment = (f"Recorded by asictl record from {name} at {when}: {span / 1000:.1f} s, "
-               f"{len(samples)} samples (one every {every:.0f} ms on average).\n"
+               f"{recording.count} samples (one every {every:.0f} ms on average).\n"
                f"Replay: asictl sim {program or 'PROGRAM'} --scenario {output}")
-    text = to_scenario(samples, inputs, expected, tolerance_ms, program=named, comment=comment)
-    write_output(output, text, inputs=[program] if program else [])
-    click.echo(f"asictl: {output}: {len(samples)} samples over {span / 1000:.1f} s "
-               f"(one every {every:.0f} ms), {len(inputs)} inputs and {len(expected)} "
-               "outputs and flags recorded", err=True)
+    with open_atomic(output, inputs=[program] if program else []) as out:
+        recording.write(out, tolerance_ms, program=named, comment=comment)
 
 
 def _relative(path: Path, folder: Path) -> Path:

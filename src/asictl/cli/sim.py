@@ -7,12 +7,13 @@ import json
 import sys
 import time
 from collections.abc import Iterator
+from concurrent.futures.process import BrokenProcessPool
 from pathlib import Path
 from xml.etree import ElementTree
 
 import click
 
-from asictl.cli.options import Duration, lib_option
+from asictl.cli.options import Duration, Number, lib_option
 from asictl.diagnostics import github_command
 from asictl.errors import ExitCode, UserError
 from asictl.files import refuse_inputs, write_output
@@ -24,6 +25,7 @@ from asictl.sim.coverage import summary as coverage_summary
 from asictl.sim.engine import line_map_of
 from asictl.sim.scenario import MAX_TIME_MS
 from asictl.sim.session import (
+    WORKER_DIED,
     Invalid,
     Outcome,
     as_json,
@@ -270,15 +272,47 @@ def _outcomes(
     paths: list[str], lib: tuple[str, ...], jobs: int, coverage: bool = False
 ) -> Iterator[Outcome]:
     """Each scenario's outcome in the order of ``paths`` as soon as it and every one
-    before it are done; worker processes when ``jobs`` > 1."""
+    before it are done; worker processes when ``jobs`` > 1.
+
+    A worker that dies (the OOM killer, a signal) breaks the whole pool, and the pool
+    cannot say which scenario it was running: every scenario not done by then runs
+    again, each in a worker of its own, so that the one whose worker dies again is an
+    ERROR row and the others still have their results."""
     if jobs <= 1 or len(paths) <= 1:
         for path in paths:
             yield run_file(path, lib, coverage)
         return
     with concurrent.futures.ProcessPoolExecutor(max_workers=min(jobs, len(paths))) as pool:
         futures = [pool.submit(run_file, path, lib, coverage) for path in paths]
-        for future in futures:
+        done = 0
+        try:
+            for future in futures:
+                yield future.result()
+                done += 1
+            return
+        except BrokenProcessPool:
+            pass
+    with concurrent.futures.ThreadPoolExecutor(max_workers=jobs) as threads:
+        again = [_kept(future) or threads.submit(_alone, path, lib, coverage)
+                 for path, future in zip(paths[done:], futures[done:], strict=True)]
+        for future in again:
             yield future.result()
+
+
+def _kept(future: concurrent.futures.Future[Outcome]) -> concurrent.futures.Future[Outcome] | None:
+    """A scenario's future when it finished before its pool broke."""
+    if future.done() and not future.cancelled() and future.exception() is None:
+        return future
+    return None
+
+
+def _alone(path: str, lib: tuple[str, ...], coverage: bool) -> Outcome:
+    """One scenario in a worker process of its own; its death is its ERROR row."""
+    with concurrent.futures.ProcessPoolExecutor(max_workers=1) as pool:
+        try:
+            return pool.submit(run_file, path, lib, coverage).result()
+        except BrokenProcessPool:
+            return Outcome(path, "ERROR", died=True, message=WORKER_DIED)
 
 
 @click.command()
@@ -298,7 +332,7 @@ def _outcomes(
 @click.option("--coverage-format", type=click.Choice(FORMATS), default=None,
               help="Format of --coverage (default: by its suffix, .json json, .info or "
               ".lcov lcov, else cobertura; sonarqube: its generic coverage XML).")
-@click.option("--coverage-fail-under", type=click.FloatRange(0, 100), metavar="PERCENT",
+@click.option("--coverage-fail-under", type=Number(0, 100), metavar="PERCENT",
               help="Exit 1 when less than PERCENT of the statement lines ran.")
 def test(paths: tuple[Path, ...], junit: Path | None, jobs: int | None,
          lib: tuple[str, ...], fmt: str, coverage_path: Path | None,
@@ -318,8 +352,9 @@ def test(paths: tuple[Path, ...], junit: Path | None, jobs: int | None,
     pytest runs the same scenarios ('pytest DIR', with --asictl-coverage FILE for the
     coverage), together with Python tests that use asictl.testing (docs/testing.md).
 
-    Exit status: 0 all passed, 1 a scenario failed, a program has errors (or coverage is
-    below --coverage-fail-under), 2 a scenario is invalid.
+    Exit status: 0 all passed, 1 a scenario failed, a program has errors (or a worker
+    process died, an ERROR row, or coverage is below --coverage-fail-under), 2 a scenario
+    is invalid.
 
     \b
     Examples:
@@ -377,6 +412,6 @@ def test(paths: tuple[Path, ...], junit: Path | None, jobs: int | None,
                            f"--coverage-fail-under {coverage_fail_under:g}%", err=True)
     if any(o.bug for o in outcomes):
         ctx.exit(int(ExitCode.BUG))
-    if any(o.status == "ERROR" for o in outcomes):
-        ctx.exit(max(o.exit_code for o in outcomes if o.status == "ERROR"))
+    if any(o.status == "ERROR" and not o.died for o in outcomes):
+        ctx.exit(max(o.exit_code for o in outcomes if o.status == "ERROR" and not o.died))
     ctx.exit(int(ExitCode.OK if passed == len(outcomes) and not below else ExitCode.FAILED))

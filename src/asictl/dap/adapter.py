@@ -396,8 +396,23 @@ def resolve(args: dict[str, JSON], key: str) -> Path | None:
     value = args.get(key)
     if value in (None, ""):
         return None
+    cwd = args.get("cwd")
+    base = Path(_path_text(args, "cwd")) if isinstance(cwd, str) and cwd else Path(os.getcwd())
+    return base / Path(_path_text(args, key)).expanduser()
+
+
+def _path_text(args: dict[str, JSON], key: str) -> str:
+    """A path argument's text, refused (a request error) where no file system could take
+    it: a NUL byte, or a lone surrogate that no file name encodes (JSON lets an editor
+    send ``"\\ud800"``); either would fail deep in ``open`` as an internal error."""
+    value = args.get(key)
     if not isinstance(value, str):
         raise UserError(f"'{key}' must be a path, not {value!r}")
-    cwd = args.get("cwd")
-    base = Path(cwd) if isinstance(cwd, str) and cwd else Path(os.getcwd())
-    return base / Path(value).expanduser()
+    if "\0" in value:
+        raise UserError(f"'{key}' is not a path: it holds a NUL character")
+    try:
+        os.fsencode(value)
+    except UnicodeError:
+        raise UserError(f"'{key}' is not a path: it holds a character no file name "
+                        f"can have ({value!a})") from None
+    return value

@@ -30,10 +30,13 @@ from asictl.source import SourceText
 NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,63}")
 #: How often a master's whole upload is tried before it counts as failed.
 DEFAULT_ATTEMPTS = 2
+#: The time a master's whole work may take, every attempt together (seconds): a gateway
+#: that answers each request slowly but in time (dripping bytes) fails within it.
+DEFAULT_LIMIT_S = 120.0
 #: Keys a master's table (and ``[defaults]``, which gives any of them to every master) takes.
 MASTER_KEYS = (
     "port", "io", "state_dir", "modbus", "unit", "baud", "parity", "stopbits",
-    "timeout", "retries", "attempts", "line", "groups",
+    "timeout", "retries", "attempts", "limit", "line", "groups",
 )
 _TOP_KEYS = ("defaults", "masters")
 
@@ -49,6 +52,8 @@ class FleetMaster:
     attempts: int = DEFAULT_ATTEMPTS
     line: str | None = None
     groups: tuple[str, ...] = ()
+    #: seconds the whole work on it may take, every attempt together
+    limit: float = DEFAULT_LIMIT_S
 
 
 @dataclass(frozen=True)
@@ -177,21 +182,24 @@ def _unknown(
                                                        place.strip()))
 
 
-def _timeout(reader: _Reading, value: object, span: Span) -> float:
-    """A gateway's time-out in seconds, written as a time with its unit (``"500ms"``); a
-    bare number is refused with both readings, as it was once seconds while a number in
-    every other file is milliseconds."""
+def _duration(
+    reader: _Reading, key: str, value: object, span: Span, low_ms: float, high_ms: float,
+    default_s: float, allowed: str,
+) -> float:
+    """A time in seconds, written with its unit (``"500ms"``) from ``low_ms`` to
+    ``high_ms``; a bare number is refused with both readings, as a gateway's time-out was
+    once seconds while a number in every other file is milliseconds."""
     if value is None:
-        return DEFAULT_TIMEOUT_S
+        return default_s
     try:
         if isinstance(value, int | float) and not isinstance(value, bool):
             raise UnitError(f"give a unit: \"{value:g}s\" or \"{value:g}ms\"")
-        ms = parse_duration(value, limit_ms=60_000) if isinstance(value, str) else math.nan
-        if not ms >= 10:
-            raise UnitError('a time from 10ms to 60s, such as "500ms"')
+        ms = parse_duration(value, limit_ms=high_ms) if isinstance(value, str) else math.nan
+        if not ms >= low_ms:
+            raise UnitError(allowed)
     except UnitError as exc:
-        reader.error(f"timeout: {exc}", span)
-        return DEFAULT_TIMEOUT_S
+        reader.error(f"{key}: {exc}", span)
+        return default_s
     return ms / 1000
 
 
@@ -233,7 +241,10 @@ def _master(
             reader.header_span(table),
         )
     unit = int(number("unit", UNITS[0], UNITS[-1], 1, True))
-    timeout = _timeout(reader, values.get("timeout"), span("timeout"))
+    timeout = _duration(reader, "timeout", values.get("timeout"), span("timeout"), 10, 60_000,
+                        DEFAULT_TIMEOUT_S, 'a time from 10ms to 60s, such as "500ms"')
+    limit = _duration(reader, "limit", values.get("limit"), span("limit"), 1000, 3_600_000,
+                      DEFAULT_LIMIT_S, 'a time from 1s to 1h, such as "30s"')
     retries = int(number("retries", 0, 20, DEFAULT_RETRIES, True))
     attempts = int(number("attempts", 1, 10, DEFAULT_ATTEMPTS, True))
     baud = int(number("baud", 1, 10**6, 9600, True))
@@ -281,4 +292,4 @@ def _master(
         port=port or "300h", io=io, state_dir=directory, modbus=modbus, unit=unit, baud=baud,
         parity=parity, stopbits=stopbits, timeout=timeout, retries=retries,
     )
-    return FleetMaster(name, address, reached, attempts, line, tuple(groups))
+    return FleetMaster(name, address, reached, attempts, line, tuple(groups), limit)

@@ -4,9 +4,11 @@ The masters are reached as the single-master commands reach them (host.connectio
 ``open_board``), a bounded number at a time in threads: a master's work is mostly
 waiting for its answers (a Modbus round trip, a live board's socket), so a few threads
 keep many masters busy. Each master has its own time-out and retries per request (its
-``MasterAddress``) and its own number of attempts at the whole work; what goes wrong on
-one master (no answer, a refusal, a corrupt image, a board another process holds) is
-that master's outcome and never stops the others. Anything else is a bug and propagates.
+``MasterAddress``), its own number of attempts at the whole work, and its own limit on
+the time of the whole work, every attempt together (``FleetMaster.limit``: a gateway
+that drips its answers fails within it). What goes wrong on one master (no answer, a
+refusal, a corrupt image, a board another process holds, its limit) is that master's
+outcome and never stops the others. Anything else is a bug and propagates.
 """
 
 from __future__ import annotations
@@ -22,6 +24,7 @@ from asictl.fleet.inventory import FleetMaster
 from asictl.host.connection import open_board
 from asictl.host.emulated.boards import state_directory, state_file
 from asictl.host.master import Master
+from asictl.host.transports.modbus import ModbusTransport
 from asictl.host.transports.ports import parse_port
 
 #: Masters worked on at once unless the command says otherwise.
@@ -63,6 +66,7 @@ def _absent_board(master: FleetMaster) -> str | None:
 
 def _attempt(master: FleetMaster, work: Callable[[FleetMaster, Master], T]) -> Outcome[T]:
     started = time.monotonic()
+    deadline = started + master.limit
     error = "not tried"
     for attempt in range(1, master.attempts + 1):
         absent = _absent_board(master)
@@ -70,9 +74,14 @@ def _attempt(master: FleetMaster, work: Callable[[FleetMaster, Master], T]) -> O
             return Outcome(master, None, absent, attempt, time.monotonic() - started)
         try:
             with open_board(master.address, notify=_quiet) as connected:
+                if isinstance(connected.transport, ModbusTransport):
+                    connected.transport.deadline = deadline
                 value = work(master, connected)
         except (UserError, OSError) as exc:
             error = str(exc) or type(exc).__name__
+            if time.monotonic() >= deadline:
+                error = f"not done within its limit of {master.limit:g} s ({error})"
+                return Outcome(master, None, error, attempt, time.monotonic() - started)
             continue
         return Outcome(master, value, None, attempt, time.monotonic() - started)
     return Outcome(master, None, error, master.attempts, time.monotonic() - started)

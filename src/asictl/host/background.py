@@ -14,6 +14,8 @@ from collections.abc import Awaitable, Callable, Iterator
 from contextlib import AbstractContextManager, contextmanager, suppress
 from typing import Protocol, TypeVar
 
+from asictl.host.event_loop import run_serving
+
 
 class Stoppable(Protocol):
     def stop(self) -> None: ...
@@ -48,7 +50,7 @@ def in_thread(
                     started.append((server, asyncio.get_running_loop()))
                     await serve(server, ready.set)
 
-                asyncio.run(run())
+                run_serving(run())
         except BaseException as exc:  # reported to the caller's thread
             errors.append(exc)
             ready.set()

@@ -138,8 +138,9 @@ def _undefined_block(pc: int) -> Callable[[], int]:
 
 #: Kinds of translated code: a block, a block that loops to its own start (called with the
 #: iterations the budget allows, see ``Writer.finish``), a region (regions.py: called
-#: when its most instructions and cycles fit the budget; it leaves the ones it ran in
-#: ``iterations``), and a block standing in for a region until its address is hot.
+#: when one pass's most instructions and cycles fit the budget, with the budget left for
+#: the passes round its loop; it leaves the ones it ran in ``iterations``), and a block
+#: standing in for a region until its address is hot.
 _BLOCK, _LOOP, _REGION, _WARM = 0, 1, 2, 3
 #: How often a block runs before a region replaces it. Translating a region costs some
 #: 30 us per instruction; a program cycle repeats thousands of times, code run once
@@ -426,7 +427,7 @@ class Emulator:
                     block, n, cycles, kind = self._warm(key)
                 if kind == _REGION:
                     if icount + n <= ilimit and ccount + cycles <= climit:
-                        key = block()
+                        key = block(ilimit - icount, climit - ccount)
                         icount += iterations[0]
                         ccount += iterations[1]
                         continue

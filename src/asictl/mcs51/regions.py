@@ -11,6 +11,12 @@ block; leaving it (a backward jump, a call or return, a computed jump, a registe
 switch, a stop address, the size limit) returns the successor's cache key, as a block
 does.
 
+A backward jump to the region's own entry (a loop with a ``JNB`` or ``JC`` in its body:
+a superblock) does not leave it: the function's body is a ``while`` loop, and that jump
+starts the next pass when a whole pass still fits the budget the caller passes in
+(``room_i`` instructions, ``room_c`` machine cycles), so the cached bytes and registers
+stay in locals for every round instead of being stored and loaded around a dispatch.
+
 What makes a region faster than its blocks, besides saving the dispatches:
 
 * ACC, the carry and PSW stay in locals across the whole region.
@@ -26,7 +32,8 @@ What makes a region faster than its blocks, besides saving the dispatches:
   the condition is evaluated before anything that could change what they read.
 * Instructions and machine cycles are counted per basic block and handed back in
   ``iterations[0]`` and ``iterations[1]``. The emulator calls a region only when the
-  sum over all its instructions fits the run's budget, so budgets stay exact.
+  sum over all its instructions fits the run's budget, and a pass round the loop starts
+  only when that sum still fits, so budgets stay exact.
 """
 
 from __future__ import annotations
@@ -93,8 +100,8 @@ class _Node:
 
 @dataclass(frozen=True)
 class Region:
-    """A region's generated source and the most instructions and cycles a run through
-    it can take (the sum over all of them: each runs at most once)."""
+    """A region's generated source and the most instructions and cycles one pass
+    through it can take (the sum over all of them: each runs at most once a pass)."""
 
     source: str
     instructions: int
@@ -117,7 +124,7 @@ def build_region(
     blocks = _basic_blocks(nodes, order)
     if any(entry in nodes[a].targets and not nodes[a].bank_changes for a in blocks[0]):
         return None
-    source = _Emitter(nodes, blocks, bank).source()
+    source = _Emitter(nodes, blocks, bank, entry).source()
     return Region(
         source,
         sum(n.instructions for n in nodes.values()),
@@ -207,10 +214,16 @@ def _basic_blocks(nodes: dict[int, _Node], order: list[int]) -> list[list[int]]:
 class _Emitter:
     """Writes a region's function from its basic blocks."""
 
-    def __init__(self, nodes: dict[int, _Node], blocks: list[list[int]], bank: int) -> None:
+    def __init__(
+        self, nodes: dict[int, _Node], blocks: list[list[int]], bank: int, entry: int
+    ) -> None:
         self.nodes = nodes
         self.blocks = blocks
         self.bank = bank
+        self.entry = entry
+        #: a pass's most instructions and cycles: the next pass starts if they fit
+        self.pass_instructions = sum(n.instructions for n in nodes.values())
+        self.pass_cycles = sum(n.cycles for n in nodes.values())
         cached = [n for n in nodes.values() if not n.computed_iram]
         text = "\n".join(
             line for n in cached for line in n.lines if isinstance(line, str)
@@ -238,20 +251,20 @@ class _Emitter:
 
     def source(self) -> str:
         out = self.out
-        out.append("    def region():")
+        out.append("    def region(room_i, room_c):")
         out += ["        " + load for load in self.loads]
         out += [f"        r{cell} = iram[{cell}]" for cell in self.cells]
+        out += ["        n = 0", "        k = 0", "        while True:"]
         for index, block in enumerate(self.blocks):
             first = self.nodes[block[0]]
             count = sum(self.nodes[a].instructions for a in block)
             cycles = sum(self.nodes[a].cycles for a in block)
             if index == 0:
-                depth = 2
-                out += [f"        n = {count}", f"        k = {cycles}"]
-            else:
                 depth = 3
-                out += [f"        if nxt == {first.address}:",
-                        f"            n += {count}", f"            k += {cycles}"]
+            else:
+                depth = 4
+                out.append(f"            if nxt == {first.address}:")
+            out += ["    " * depth + f"n += {count}", "    " * depth + f"k += {cycles}"]
             for index, address in enumerate(block):
                 following = self.nodes[block[index + 1]] if index + 1 < len(block) else None
                 self._instruction(self.nodes[address], depth, following)
@@ -379,16 +392,19 @@ class _Emitter:
         return [f"r{cell} = iram[{cell}]" for cell in self.cells]
 
     def _transfer(self, node: _Node, target: int | str, depth: int, computed: bool) -> None:
-        """Go on at ``target``: within the region (``nxt``), or leave it with everything
-        stored. ``computed``: the cached bytes are in memory now, not in the locals."""
-        if (
-            isinstance(target, int)
-            and target > node.address
-            and target in self.nodes
-            and not node.bank_changes
-        ):
-            self._put([*(self._load_cells() if computed else []), f"nxt = {target}"], depth)
+        """Go on at ``target``: within the region (``nxt``), round its loop when the
+        target is the entry and another pass fits the budget, or leave it with
+        everything stored. ``computed``: the cached bytes are in memory now, not in the
+        locals."""
+        inside = isinstance(target, int) and target in self.nodes and not node.bank_changes
+        reload = self._load_cells() if computed else []
+        if inside and isinstance(target, int) and target > node.address:
+            self._put([*reload, f"nxt = {target}"], depth)
             return
+        if inside and target == self.entry:
+            room = (f"if n + {self.pass_instructions} <= room_i"
+                    f" and k + {self.pass_cycles} <= room_c:")
+            self._put([room, *("    " + line for line in [*reload, "continue"])], depth)
         lines = [] if computed else self._store_cells()
         lines += self.stores
         lines += ["iterations[0] = n", "iterations[1] = k"]

@@ -38,6 +38,7 @@ from textual.geometry import Size
 from textual.screen import ModalScreen
 from textual.widgets import Footer, Input, RichLog, Static
 
+from asictl.diagnostics import printable
 from asictl.errors import UserError
 from asictl.host.commissioning import Change, check_address, image_changes, write_flags
 from asictl.host.cycle_units import cycle_text
@@ -357,7 +358,7 @@ class MonitorApp(App[None]):
     def _paint(self) -> None:
         status = self.status
         if status is None:
-            self._set("top", Text(f"master gone: {self.error}", style="bold red"))
+            self._set("top", Text(f"master gone: {printable(str(self.error))}", style="bold red"))
             return
         self.query_one("#middle").set_class(self.error is not None, "gone")
         self._set("top", _top(
@@ -505,7 +506,8 @@ class MonitorApp(App[None]):
 
     def log_event(self, text: str, style: str = "") -> None:
         stamp = time.strftime("%H:%M:%S ")
-        self.query_one("#log", RichLog).write(Text(stamp, style="dim") + Text(text, style=style))
+        line = Text(stamp, style="dim") + Text(printable(text), style=style)  # a board's text
+        self.query_one("#log", RichLog).write(line)
 
     def _refused(self, what: str) -> bool:
         """A key that would act on the master, while it is gone: refused, and said so."""

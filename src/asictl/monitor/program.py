@@ -16,6 +16,7 @@ from collections.abc import Callable, Mapping
 
 from rich.text import Text
 
+from asictl.diagnostics import printable
 from asictl.host.listing import Listing
 from asictl.observe.online import CycleLines, LineValues
 
@@ -38,14 +39,15 @@ def render_rows(
 ) -> Text:
     """Rows ``top`` .. ``top + height`` of the listing, each with its values (in hex
     with ``hex_values``: ASI_MON shows hex) and its operand's name in ``names``
-    (operand -> name, the board's symbol table)."""
+    (operand -> name, the board's symbol table). A file name, a comment or a name
+    that holds control characters shows them escaped."""
     text = Text()
     columns = source_width(listing, width)
     for row in listing.lines[top : top + height]:
         if text:
             text.append("\n")
         if row.number == 0:
-            label = f"── {row.file} "
+            label = f"── {printable(row.file, lines=False)} "
             text.append(label + "─" * max(0, width - len(label) - 1), style="bold cyan")
             continue
         stopped = stop_line == str(row.where)
@@ -53,13 +55,13 @@ def render_rows(
         values = None if lines is None else lines.lines.get(row.where)
         grey = row.code and values is not None and not values.ran
         text.append(f"{row.number:>4} ", style="dim")
-        source = row.text if row.text is not None else ""
+        source = printable(row.text, lines=False) if row.text is not None else ""
         text.append(_fit(source, columns), style="dim" if grey or not row.code else "")
         if row.code and values is not None:
             _values(text, values, _hex if hex_values else str)
         name = (names or {}).get(row.operand or "")
         if name and values is not None and values.ran and values.operand is not None:
-            text.append(f" ({name})", style="cyan")
+            text.append(f" ({printable(name, lines=False)})", style="cyan")
     return text
 
 

@@ -32,6 +32,7 @@ import lark
 from asictl.il import ast
 from asictl.observe.operands import Operand, parse_operand, read_number
 from asictl.observe.symbols import SymbolTable
+from asictl.readers.suggest import did_you_mean
 from asictl.readers.units import parse_duration
 
 #: Parentheses and ``not`` nested deeper than this are refused.
@@ -451,7 +452,9 @@ class _Builder:
         try:
             return Ref(written, parse_operand(written, self.variables, self.symbols), start)
         except ValueError as exc:
-            raise ConditionError(str(exc), start, len(written)) from None
+            names = [name for name, _ in self.symbols.entries.values()] if self.symbols else []
+            raise ConditionError(str(exc) + did_you_mean(written, names), start,
+                                 len(written)) from None
 
     def number(self, written: str, start: int) -> Number | Duration:
         """``12``, ``0x0C``, ``0b1100`` (and the IL's ``0Ch``), or a duration (``2s``):

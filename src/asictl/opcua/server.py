@@ -25,7 +25,9 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import hmac
+import inspect
 import logging
+import time
 from collections.abc import Awaitable, Callable
 from dataclasses import dataclass, replace
 from typing import Any
@@ -34,6 +36,7 @@ from asyncua import ua
 from asyncua.common.node import Node
 from asyncua.crypto.permission_rules import User, UserRole
 from asyncua.server.address_space import NodeData
+from asyncua.server.internal_session import InternalSession
 from asyncua.server.server import Server
 from asyncua.ua.attribute_ids import AttributeIds
 from asyncua.ua.status_codes import StatusCodes
@@ -49,6 +52,12 @@ from asictl.host.transports.target import is_loopback
 from asictl.observe.operands import Operand, image_symbols, parse_operand
 from asictl.observe.symbols import SymbolTable
 from asictl.observe.view import host_write, read_on_board, wake
+from asictl.opcua.limits import (
+    DEFAULT_LOGIN_TIMEOUT_S,
+    DEFAULT_MAX_CONNECTIONS,
+    DEFAULT_MAX_SESSIONS,
+    MAX_SESSION_TIMEOUT_S,
+)
 from asictl.platform import pc2
 from asictl.platform.master import SLAVES
 
@@ -66,8 +75,9 @@ V = ua.VariantType
 @dataclass(frozen=True)
 class OpcUaOptions:
     """Where and how to serve: ``host``:``port``, the refresh interval, whether clients may
-    write, the user and password clients must give (None: anonymous, loopback only), and
-    the symbol table whose names become variables."""
+    write, the user and password clients must give (None: anonymous, loopback only), the
+    symbol table whose names become variables, and the limits on clients: connections,
+    sessions, and the seconds a connection has to log in."""
 
     host: str = "127.0.0.1"
     port: int = DEFAULT_PORT
@@ -76,6 +86,9 @@ class OpcUaOptions:
     password: str | None = None
     interval: float = DEFAULT_INTERVAL_S
     symbols: SymbolTable | None = None
+    max_connections: int = DEFAULT_MAX_CONNECTIONS
+    max_sessions: int = DEFAULT_MAX_SESSIONS
+    login_timeout: float = DEFAULT_LOGIN_TIMEOUT_S
 
     @property
     def url(self) -> str:
@@ -96,12 +109,31 @@ def check_access(options: OpcUaOptions) -> None:
         )
 
 
+#: Failed logins a client (an address) may make before it must wait; each further one
+#: doubles the wait, from LOGIN_WAIT_S up to LOGIN_WAIT_MAX_S.
+LOGIN_FREE = 5
+LOGIN_WAIT_S = 0.5
+LOGIN_WAIT_MAX_S = 30.0
+#: The clients whose failures are remembered at once (the oldest are forgotten first).
+LOGIN_CLIENTS = 4096
+
+
 class _Login:
     """asyncua's user manager: the one user and password, or anonymous where allowed;
-    never the administrator role."""
+    never the administrator role.
 
-    def __init__(self, user: str | None, password: str | None) -> None:
+    Wrong passwords are rate-limited per client address: after ``LOGIN_FREE`` failures a
+    client must wait (half a second, doubling with each further failure, at most 30 s)
+    before its next attempt is even looked at; an attempt before then is refused as a
+    wrong one is (BadUserAccessDenied), and a right one ends the wait. Refusing, rather
+    than sleeping, keeps the one event loop every client shares free."""
+
+    def __init__(self, user: str | None, password: str | None,
+                 clock: Callable[[], float] | None = None) -> None:
         self.user, self.password = user, password
+        self._clock = clock or time.monotonic
+        #: client address -> (failures, the time before which it is refused)
+        self._failures: dict[str, tuple[int, float]] = {}
 
     def get_user(
         self, iserver: Any, username: str | None = None, password: str | None = None,
@@ -109,14 +141,44 @@ class _Login:
     ) -> User | None:
         if self.user is None:
             return User(role=UserRole.User)
-        if username is None or password is None or self.password is None:
+        return self.check(_client_of_caller(), username, password)
+
+    def check(self, client: str, username: str | None, password: str | None) -> User | None:
+        """The user, if ``client`` may try now and the login is right."""
+        now = self._clock()
+        failures, until = self._failures.get(client, (0, 0.0))
+        if now < until:
             return None
-        given = (username.encode(), password.encode())
-        if hmac.compare_digest(given[0], self.user.encode()) & hmac.compare_digest(
-            given[1], self.password.encode()
-        ):
-            return User(role=UserRole.User, name=username)
+        if username is not None and password is not None and self.password is not None \
+                and self.user is not None:
+            given = (username.encode(), password.encode())
+            if hmac.compare_digest(given[0], self.user.encode()) & hmac.compare_digest(
+                given[1], self.password.encode()
+            ):
+                self._failures.pop(client, None)
+                return User(role=UserRole.User, name=username)
+        failures += 1
+        wait = 0.0 if failures < LOGIN_FREE else min(
+            LOGIN_WAIT_MAX_S, LOGIN_WAIT_S * 2 ** (failures - LOGIN_FREE))
+        self._failures.pop(client, None)  # to the end: the newest
+        self._failures[client] = (failures, now + wait)
+        while len(self._failures) > LOGIN_CLIENTS:
+            del self._failures[next(iter(self._failures))]
         return None
+
+
+def _client_of_caller() -> str:
+    """The address of the client whose session asks for a login: asyncua calls the user
+    manager from the session's ``activate_session``, whose name is the client's peer
+    name (host, port); the host alone is the client (each connection has a new port).
+    '' where that cannot be seen (then all such clients share one limit)."""
+    frame = inspect.currentframe()
+    caller = frame.f_back.f_back if frame is not None and frame.f_back is not None else None
+    session = caller.f_locals.get("self") if caller is not None else None
+    name = getattr(session, "name", None)
+    if isinstance(name, tuple) and name:
+        return str(name[0])
+    return ""
 
 
 class BoardSpace:
@@ -276,6 +338,8 @@ class BoardSpace:
             board = self.live.board
             if not board.bus.at(address):  # nothing on the cable there to deliver them
                 raise _refused(StatusCodes.BadNotWritable)
+            if not 0 <= int(value) <= 0xF:  # four input bits: 200 is no value of them
+                raise _refused(StatusCodes.BadOutOfRange)
             run_action(board, "inputs", {"changes": [[address, 0xF, int(value) & 0xF]]})
             self._saved()
 
@@ -287,17 +351,39 @@ class BoardSpace:
         if not self.live.save_changes():
             raise _refused(StatusCodes.BadResourceUnavailable)
 
-    async def _start(self, parent: ua.NodeId) -> list[ua.Variant]:
+    async def _start(self, parent: ua.NodeId, *arguments: ua.Variant
+                     ) -> list[ua.Variant] | ua.StatusCode:
+        return _answered(self._started, arguments)
+
+    async def _stop(self, parent: ua.NodeId, *arguments: ua.Variant
+                    ) -> list[ua.Variant] | ua.StatusCode:
+        return _answered(self._stopped, arguments)
+
+    def _started(self) -> None:
         if self.program is None or not self.program.info.valid:
             raise _refused(StatusCodes.BadInvalidState)  # as 'asictl start'
         set_start(self.master.transport, start=True)
         self._saved()
-        return []
 
-    async def _stop(self, parent: ua.NodeId) -> list[ua.Variant]:
+    def _stopped(self) -> None:
         set_start(self.master.transport, start=False)
         self._saved()
-        return []
+
+
+def _answered(action: Callable[[], None], arguments: tuple[ua.Variant, ...]
+              ) -> list[ua.Variant] | ua.StatusCode:
+    """A method's answer: asyncua answers every exception a method raises with
+    BadUnexpectedError, but a status it returns is the call's status. Start and Stop
+    take no argument: one is BadTooManyArguments (asyncua does not hold a call to the
+    method's declared arguments); a program that cannot start BadInvalidState; a change
+    not saved BadResourceUnavailable."""
+    try:
+        if arguments:
+            raise _refused(StatusCodes.BadTooManyArguments)
+        action()
+    except UaStatusCodeError as exc:
+        return ua.StatusCode(exc.code)
+    return []
 
 
 def _refused(code: int) -> Exception:
@@ -355,6 +441,22 @@ def _slave_value(status: MasterStatus, address: int, field: str) -> Any:
     }[field]
 
 
+def _limit_clients(server: Server, options: OpcUaOptions) -> None:
+    """No more than the options' connections and sessions, and no connection that has
+    not logged in after ``login_timeout``: clients that connect and wait, or log in and
+    vanish, cost a bounded number of descriptors, so the live board's own socket can
+    always accept. Further connections are closed at once; a further session is refused
+    with BadMaxConnectionsReached (asyncua counts sessions per process: there is one
+    OPC UA server in it)."""
+    server.iserver.max_connections = options.max_connections
+    server.iserver.max_pending_activation_seconds = options.login_timeout
+    server.iserver.max_session_timeout_ms = MAX_SESSION_TIMEOUT_S * 1000
+    server.iserver.min_session_timeout_ms = min(
+        server.iserver.min_session_timeout_ms, MAX_SESSION_TIMEOUT_S * 1000
+    )
+    InternalSession.max_connections = options.max_sessions
+
+
 def opcua_attachment(
     options: OpcUaOptions, name: str, notify: Callable[[str], None],
     started: Callable[[str], None] | None = None,
@@ -376,6 +478,7 @@ async def _serve(
     logging.getLogger("asyncua").setLevel(logging.CRITICAL)  # its tracebacks per bad client
     server = Server(user_manager=_Login(options.user, options.password))  # type: ignore[arg-type]
     await server.init()
+    _limit_clients(server, options)
     server.set_endpoint(options.url)
     server.set_server_name(f"asictl board {name}")
     server.set_security_policy([ua.SecurityPolicyType.NoSecurity])

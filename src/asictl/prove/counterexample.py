@@ -18,7 +18,9 @@ import z3
 
 from asictl.il import ast
 from asictl.observe.condition import Expr, Negation, refs
+from asictl.observe.symbols import SymbolTable
 from asictl.prove.engine import Outcome, Step, Verdict, condition
+from asictl.prove.names import named
 from asictl.prove.props import Kind, Properties, Property
 from asictl.sim.scenario import SlaveSpec
 from asictl.sim.scenario_writer import ScenarioWriter
@@ -103,6 +105,9 @@ def scenario_text(props: Properties, program: Path, target: Path, prop: Property
                 f"{target.name} {fate}.")
     if outcome.note:
         out.comment(f"note: {outcome.note}")
+    names = _names(outcome.trace, masks, expected, props.symbols)
+    if names:
+        out.comment(f"names: {names}")
     out.program(Path(os.path.relpath(program.resolve(), target.resolve().parent)).as_posix())
     out.master(cycle_ms, props.slaves)
     _steps(out, outcome.trace, masks, cycle_ms, expected)
@@ -140,13 +145,27 @@ def difference_text(old: Path, new: Path, target: Path, trace: list[Step],
     return out.text()
 
 
+def _names(trace: list[Step], masks: dict[int, int], expected: list[Expectation],
+           symbols: SymbolTable) -> str:
+    """``I 1.0 (Start), Q 3.1 (PumpB)``: the operands the scenario sets and expects that
+    the program's symbol table names."""
+    inputs: dict[int, int] = {}
+    flags: dict[int, int] = {}
+    texts = [key for step in trace for key in _changes(step, inputs, flags, masks)]
+    texts += [e.text for e in expected]
+    shown = [named(text, symbols) for text in dict.fromkeys(texts)]
+    return ", ".join(text for text in shown if text.endswith(")"))
+
+
 def _changes(step: Step, inputs: dict[int, int], flags: dict[int, int],
              masks: dict[int, int]) -> dict[str, str]:
     sets = {}
     for address, value in sorted(step.inputs.items()):
-        if inputs.get(address, 0) != value:
-            sets[f"I {address}"] = _number(value, 4)
-            inputs[address] = value
+        old = inputs.get(address, 0)
+        # bit by bit, only the bits that change: a slave's other inputs hold their value
+        sets.update({f"I {address}.{b}": _number(value >> b & 1, 1)
+                     for b in range(4) if (old ^ value) >> b & 1})
+        inputs[address] = value
     for n, value in sorted(step.host.items()):
         mask = masks[n]
         value &= mask

@@ -24,13 +24,16 @@ from asictl.observe.condition import Truth
 from asictl.platform.master import asi_cycle_us
 from asictl.prove.engine import Machine, Outcome, Setup, Step, Verdict
 from asictl.prove.props import Kind, Property
+from asictl.prove.scope import uses
 from asictl.prove.session import cycles_of
 from asictl.prove.symbolic import (
     Key,
+    TimeLimit,
     Unmodelled,
     build_cycle,
     cell_name,
     host_masks,
+    operand_cells,
     product,
 )
 from asictl.readers.units import Cycles
@@ -59,11 +62,41 @@ class Equivalence:
     refused: Unmodelled | None = None
 
 
-def _observed(host: Iterable[ast.Operand], extra: Iterable[ast.Operand]) -> list[Key]:
+_FLAGS = (ast.OperandKind.F, ast.OperandKind.FY, ast.OperandKind.FW)
+
+
+def _observed(host: Iterable[ast.Operand], extra: Iterable[ast.Operand],
+              map_counters: bool) -> list[Key]:
+    """The cells compared after every cycle: the outputs, the host's flags and ``extra``
+    (flags, timers, counters, variables)."""
+    extra = list(extra)
     cells: list[Key] = [("Q", n) for n in range(16)]
-    for n in sorted(host_masks([*host, *extra])):
+    for n in sorted(host_masks([*host, *(o for o in extra if o.kind in _FLAGS)])):
         cells.append(("F", n))
+    for operand in extra:
+        if operand.kind not in _FLAGS:
+            cells += [c for c in operand_cells(operand, map_counters) if c not in cells]
     return cells
+
+
+def readable(*programs: Program) -> list[ast.Operand]:
+    """Everything of these programs a scenario can expect or a host can read besides the
+    outputs: each flag byte, timer, counter and variable byte they use. Two programs the
+    same on all of it are the same for every test (mutation testing's ``equivalent``)."""
+    found: dict[tuple[object, ...], ast.Operand] = {}
+    K = ast.OperandKind
+    for program in programs:
+        for operand, _ in uses(program):
+            if operand.kind in (K.F, K.FY):
+                found[("F", operand.address)] = ast.Operand.of(K.FY, operand.address)
+            elif operand.kind is K.FW:
+                for n in (operand.address, operand.address + 1):
+                    found[("F", n)] = ast.Operand.of(K.FY, n)
+            elif operand.kind in (K.T, K.C, K.VAR):
+                width = ast.Width.WORD if operand.kind is not K.VAR else ast.Width.BYTE
+                found[(operand.kind, key(operand.name), operand.address)] = ast.Operand(
+                    operand.kind, operand.address, -1, width, operand.name)
+    return list(found.values())
 
 
 def equivalent(
@@ -92,6 +125,10 @@ def equivalent(
     except Unmodelled as exc:
         return Equivalence("unknown", 0, time.monotonic() - start, note=str(exc),
                            refused=exc)
+    except TimeLimit:
+        seconds = time.monotonic() - start
+        return Equivalence("unknown", 0, seconds, note=f"time limit ({timeout_s:g} s) while "
+                           f"building the model, {seconds:.1f} s since the start")
 
 
 def _program_of(side: Program | Build) -> Program | None:
@@ -108,18 +145,18 @@ def _equivalent(first: Program, second: Program, start: float, *, timeout_s: flo
     depth = cycles_of(depth, cycle_us / 1000)
     host = [operand for program in (first, second)
             for operand, _ in read_directives(program.sources).host_flags]
-    observed = _observed(host, observe)
+    observed = _observed(host, observe, first.options.map_counters)
+    deadline = start + timeout_s  # building the two models counts
     cycles = [build_cycle(program, slaves=bus, cycle_us=cycle_us, host_flags=host,
-                          watch=observed, prefix=f"{side}.")
+                          watch=observed, prefix=f"{side}.", deadline=deadline)
               for side, program in (("a", first), ("b", second))]
     both = product(*cycles)
     pairs = [(("a", *cell), ("b", *cell)) for cell in observed]
     same = Property("same outputs", Kind.ALWAYS, Truth(True), 0)
     machine = Machine(first, Setup(bus, cycle_us, tuple(host)), [], [], prebuilt=both,
-                      observed=pairs, twins=_twins(first, second))
-    machine.find_invariants(time.monotonic() + timeout_s)
-    outcome: Outcome = machine.decide(same, depth=depth, timeout_s=max(
-        0.1, timeout_s - (time.monotonic() - start)))
+                      observed=pairs, twins=_twins(first, second), deadline=deadline)
+    machine.find_invariants(deadline)
+    outcome: Outcome = machine.decide(same, depth=depth, timeout_s=timeout_s, since=start)
     verdict = {Verdict.PROVED: "equivalent", Verdict.REFUTED: "different"}.get(
         outcome.verdict, "unknown")
     result = Equivalence(verdict, outcome.depth + 1 if outcome.trace else outcome.depth,
@@ -143,18 +180,13 @@ def _memory(program: Program) -> tuple[set[tuple[Key, int]], set[tuple[Key, int]
     """The flag and variable bits, and the timers and counters, a program uses."""
     bits: set[tuple[Key, int]] = set()
     words: set[tuple[Key, int]] = set()
-    for module in program.modules():
-        for section in module.sections:
-            for node in ast.nodes(section):
-                if not isinstance(node, ast.Statement | ast.GatingLine):
-                    continue
-                for operand, _ in ast.operands(node):
-                    if operand.kind is ast.OperandKind.F:
-                        bits.add((("a", "F", operand.address), operand.bit))
-                    elif operand.kind is ast.OperandKind.VAR and operand.bit >= 0:
-                        bits.add((("a", "V", key(operand.name), operand.address), operand.bit))
-                    elif operand.kind in (ast.OperandKind.T, ast.OperandKind.C):
-                        words.add((("a", operand.kind.value, operand.address), -1))
+    for operand, _ in uses(program):
+        if operand.kind is ast.OperandKind.F:
+            bits.add((("a", "F", operand.address), operand.bit))
+        elif operand.kind is ast.OperandKind.VAR and operand.bit >= 0:
+            bits.add((("a", "V", key(operand.name), operand.address), operand.bit))
+        elif operand.kind in (ast.OperandKind.T, ast.OperandKind.C):
+            words.add((("a", operand.kind.value, operand.address), -1))
     return bits, words
 
 
@@ -175,6 +207,14 @@ def _twins(first: Program, second: Program) -> list[tuple[tuple[Key, int], tuple
 
 
 def _operand_text(cell: Key) -> str:
-    if cell[0] == "Q":
+    """A compared cell as a scenario names it (a timer in 10 ms ticks)."""
+    kind = cell[0]
+    if kind == "Q":
         return f"QB {2 * int(cell[1])}"
+    if kind == "T":
+        return f"T {cell[1]} (10 ms ticks)"
+    if kind == "C":
+        return f"CV {cell[1]}"
+    if kind == "V":
+        return f"{cell[1]} {cell[2]}"
     return f"FY {cell[1]}"

@@ -25,6 +25,7 @@ the age of the oldest trigger not yet answered; it is bad when it reaches N.
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
@@ -47,6 +48,7 @@ from asictl.observe.condition import (
     Truth,
     is_condition,
     refs,
+    show,
 )
 from asictl.platform.master import TICK_US
 from asictl.prove.props import Kind, Property
@@ -58,6 +60,7 @@ from asictl.prove.symbolic import (
     Key,
     build_cycle,
     cell_name,
+    check_deadline,
     operand_cells,
     operand_value,
     width,
@@ -113,6 +116,8 @@ class Outcome:
     note: str = ""
     #: the property's operands (as written) after the last cycle of the trace
     values: dict[str, int] = field(default_factory=dict)
+    #: why a proof holds whatever the program does ("": it is a real proof)
+    trivially: str = ""
 
 
 def _value(expr: Expr, read: Callable[[ast.Operand], z3.BitVecRef]) -> z3.BitVecRef:
@@ -161,6 +166,12 @@ def condition(expr: Expr, read: Callable[[ast.Operand], z3.BitVecRef]) -> z3.Boo
             return _COMPARE[op](_value(left, read), _value(right, read))
         case Number() | Duration() | Register():
             raise AssertionError(f"{expr} is no condition of a property")
+
+
+def _round_up(cycles: int) -> int:
+    """Up to two significant digits: 2021 -> 2100, a depth a person would type."""
+    step: int = 10 ** max(0, len(str(cycles)) - 2)
+    return math.ceil(cycles / step) * step
 
 
 def watched_cells(exprs: Iterable[Expr], map_counters: bool) -> list[Key]:
@@ -324,6 +335,10 @@ class Machine:
     scope: frozenset[Key] | None = None
     #: each cell -> the cells its value after a cycle depends on
     depends: dict[Key, frozenset[Key]] = field(default_factory=dict)
+    #: how notes name an operand (``Q 3.1`` -> ``Q 3.1 (PumpB)``, prove/names.py)
+    label: Callable[[str], str] = str
+    #: when (time.monotonic) building the model must be done: past it, ``TimeLimit``
+    deadline: float | None = None
 
     def __post_init__(self) -> None:
         self.map_counters = self.program.options.map_counters
@@ -339,13 +354,13 @@ class Machine:
                 self.program, slaves=self.setup.slaves, cycle_us=self.setup.cycle_us,
                 host_flags=self.setup.host_flags,
                 watch=watched_cells(exprs, self.map_counters), unroll=self.unroll,
+                deadline=self.deadline,
             )
         names = {var.decl().name(): cell for cell, var in self.cycle.pre.items()}
-        self.depends = {
-            cell: frozenset(names[c.decl().name()] for c in _constants(term)
-                            if c.decl().name() in names)
-            for cell, term in self.cycle.post.items()
-        }
+        for cell, term in self.cycle.post.items():
+            check_deadline(self.deadline)
+            self.depends[cell] = frozenset(names[c.decl().name()] for c in _constants(term)
+                                           if c.decl().name() in names)
         self.overrun_cells = frozenset(
             names[c.decl().name()] for c in _constants(self.cycle.overrun)
             if c.decl().name() in names)
@@ -477,18 +492,20 @@ class Machine:
     def _constants(self) -> set[int]:
         """Every value the constant register can be loaded with (and its reset value)."""
         values = {0}
-        for module in self.program.modules():
-            for section in module.sections:
-                for node in ast.nodes(section):
-                    if isinstance(node, ast.Load):
-                        operand = node.operand
-                        if operand.kind is K.KT:
-                            values.add(timer_ticks(operand.address))
-                        elif operand.kind is K.KC:
-                            values.add(operand.address)
-                        elif operand.kind is K.KP:
-                            values.add(operand.address << 4 | operand.bit)
+        values.update(timer_ticks(ms) for ms in self._loaded(K.KT))
+        values.update(self._loaded(K.KC))
+        values.update(address << 4 | bit for address, bit in self._loaded_pairs(K.KP))
         return values
+
+    def _loaded_pairs(self, kind: ast.OperandKind) -> list[tuple[int, int]]:
+        """(address, bit) of every constant of ``kind`` an ``L`` loads."""
+        return [(node.operand.address, node.operand.bit)
+                for module in self.program.modules() for section in module.sections
+                for node in ast.nodes(section)
+                if isinstance(node, ast.Load) and node.operand.kind is kind]
+
+    def _loaded(self, kind: ast.OperandKind) -> list[int]:
+        return [address for address, _ in self._loaded_pairs(kind)]
 
     def find_invariants(self, deadline: float) -> None:
         """Houdini: drop every candidate a reachable state (the first one) or a step from
@@ -525,9 +542,19 @@ class Machine:
 
     # -------------------------------------------------------------- deciding
 
-    def decide(self, prop: Property, *, depth: int, timeout_s: float) -> Outcome:
+    def decide(self, prop: Property, *, depth: int, timeout_s: float,
+               since: float | None = None) -> Outcome:
+        """One property's verdict within ``timeout_s`` from ``since`` (time.monotonic;
+        default now: a command's first property counts the model's building too)."""
         start = time.monotonic()
-        deadline = start + timeout_s
+        origin = start if since is None else since
+        deadline = origin + timeout_s
+
+        def out_of_time(k: int) -> Outcome:
+            return Outcome(prop, Verdict.UNKNOWN, k, time.monotonic() - start,
+                           note=f"time limit ({timeout_s:g} s) after {k} cycles, "
+                                f"{time.monotonic() - origin:.1f} s since it started")
+
         self.current = prop
         self.scope = self.cone(prop)
         if prop.kind is Kind.RESPONSE:  # a response is judged over its whole window
@@ -568,26 +595,119 @@ class Machine:
                                    f"more than {self.cycle.loops[0].bound} times, the most "
                                    "the model follows")
                 verdict = Verdict.REACHED if reach else Verdict.REFUTED
+                note = "; ".join(n for n in (note, self._firmware_note()) if n)
                 return Outcome(prop, verdict, k, time.monotonic() - start, trace, note,
                                self._values(prop, base, model, k))
             if result != z3.unsat:
-                return Outcome(prop, Verdict.UNKNOWN, k, time.monotonic() - start,
-                               note=f"time limit ({timeout_s:g} s) after {k} cycles")
+                return out_of_time(k)
             step_solver.set("timeout", left_ms())
             step_bad = z3.Or(self.bad(step, k), step.overruns[k])
             outcome = step_solver.check(step_bad)
             if outcome == z3.unsat:
                 verdict = Verdict.UNREACHABLE if reach else Verdict.PROVED
-                return Outcome(prop, verdict, k, time.monotonic() - start)
+                return Outcome(prop, verdict, k, time.monotonic() - start,
+                               trivially=self.trivially(prop))
             step_solver.add(z3.Not(step_bad))
             if outcome != z3.sat:
-                return Outcome(prop, Verdict.UNKNOWN, k, time.monotonic() - start,
-                               note=f"time limit ({timeout_s:g} s) after {k} cycles")
+                return out_of_time(k)
         if self._pdr(prop, deadline) is True:
             verdict = Verdict.UNREACHABLE if reach else Verdict.PROVED
             return Outcome(prop, verdict, depth, time.monotonic() - start,
-                           note="by an inductive invariant (PDR), beyond k-induction")
-        return Outcome(prop, Verdict.BOUNDED, depth, time.monotonic() - start)
+                           note="by an inductive invariant (PDR), beyond k-induction",
+                           trivially=self.trivially(prop))
+        return Outcome(prop, Verdict.BOUNDED, depth, time.monotonic() - start,
+                       note=self.beyond(depth))
+
+    def presets(self) -> dict[int, int]:
+        """Timer -> the longest time (ms, in whole ticks) a ``S T n`` starts it with: the
+        last ``L KT`` before it in the same module, or else any the program loads."""
+        found: dict[int, int] = {}
+        loaded = [timer_ticks(c) * 10 for c in self._loaded(K.KT)]
+        for module in self.program.modules():
+            last: int | None = None
+            for section in module.sections:
+                for node in ast.nodes(section):
+                    if isinstance(node, ast.Load) and node.operand.kind is K.KT:
+                        last = timer_ticks(node.operand.address) * 10
+                    elif (isinstance(node, ast.Store) and node.op is ast.StoreOp.SET
+                          and node.operand.kind is K.T):
+                        n = node.operand.address
+                        ms = last if last is not None else max(loaded, default=0)
+                        found[n] = max(found.get(n, 0), ms)
+        return found
+
+    def beyond(self, depth: int) -> str:
+        """What a bounded verdict of the current property misses: each timer in its cone
+        that runs longer than the cycles searched, and a depth that would cover them."""
+        cycle_ms = self.setup.cycle_us / 1000
+        cycles = depth + 1
+        parts: list[str] = []
+        most = 0
+        for n, ms in sorted(self.presets().items()):
+            if self.scope is not None and ("T", n) not in self.scope:
+                continue
+            needed = math.ceil(ms / cycle_ms)
+            if needed < cycles:
+                continue
+            timer = self.label(f"T {n}")
+            parts.append(f"{timer} is loaded with {ms} ms = {needed} cycles of {cycle_ms:g} "
+                         f"ms: not covered by depth {cycles}")
+            most = max(most, needed)
+        if not parts:
+            return ""
+        suggested = _round_up(most + cycles)
+        seconds = math.ceil(suggested * cycle_ms / 1000)
+        return "; ".join(parts) + f"; try --depth {suggested} or --depth {seconds}s"
+
+    def _firmware_note(self) -> str:
+        """A counterexample or witness of a property that depends on a firmware block's
+        answer (left free: any answer) says so, since the master's firmware gives one
+        answer and the simulator may not replay it."""
+        answers = {var.decl().name() for name, var in self.cycle.inputs.items()
+                   if name.startswith("fw.")}
+        cells = self.scope if self.scope is not None else frozenset(self.cycle.post)
+        if not any(c.decl().name() in answers for cell in cells if cell in self.cycle.post
+                   for c in _constants(self.cycle.post[cell])):
+            return ""
+        return ("it may rest on a firmware block's answer (PSeg after GetLAS, SetPP, "
+                "PARAM ...), which the proof leaves free: the simulator's firmware answers "
+                "as the master does, so the scenario may not show it")
+
+    def trivially(self, prop: Property) -> str:
+        """Why a proved ``prop`` holds whatever the program does, or "" if it does not:
+        its condition decides alike in every state (a tautology, or a contradiction for
+        never and reachable), or no cycle can change its value, so the reset decides it
+        (it names nothing the program writes). Such a verdict says nothing about the
+        program, and the report says so rather than a bare "proved"."""
+        if self.observed:
+            return ""
+        cycle = self.cycle
+        decides = prop.then if prop.kind is Kind.RESPONSE else prop.expr
+        assert decides is not None
+        wanted = prop.kind in (Kind.ALWAYS, Kind.RESPONSE)
+
+        def read(cells: dict[Key, z3.BitVecRef]) -> Callable[[ast.Operand], z3.BitVecRef]:
+            return lambda operand: operand_value(operand, cells.__getitem__,
+                                                 self.map_counters)
+
+        before = read(cycle.pre)
+        solver = z3.Solver()
+        solver.set("timeout", 2000)
+        says = "every state" if wanted else "no state"
+        if solver.check(condition(decides, before) != wanted) == z3.unsat:
+            return f"'{show(decides)}' holds in {says}"
+        solver.add(*(condition(a, before) for a in self.assume))
+        if solver.check(condition(decides, before) != wanted) == z3.unsat:
+            return f"'{show(decides)}' holds in {says} [assume] allows"
+        if prop.kind is Kind.RESPONSE:
+            return ""
+        after = read(cycle.post)
+        solver.add(*(condition(a, after) for a in self.assume))
+        if solver.check(condition(prop.expr, before) != condition(prop.expr, after)) \
+                == z3.unsat:
+            return (f"no cycle of the program changes '{show(prop.expr)}', so it is as "
+                    "after the reset")
+        return ""
 
     def _pdr(self, prop: Property, deadline: float) -> bool | None:
         """Property-directed reachability (z3's Spacer engine) on the cycle as Horn

@@ -13,16 +13,18 @@ Nothing here needs z3: a properties file is checked before the prover starts.
 
 from __future__ import annotations
 
+import hashlib
 import re
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from enum import StrEnum
 from pathlib import Path
 
 from asictl.codes import ScenarioCode
-from asictl.diagnostics import DiagnosticError, Reporter
-from asictl.observe.condition import ConditionError, Expr, parse_expression, show
+from asictl.diagnostics import Diagnostic, DiagnosticError, Reporter
+from asictl.observe.condition import ConditionError, Expr, parse_expression, refs, show
 from asictl.observe.symbols import SymbolTable
+from asictl.prove.scope import Scope
 from asictl.readers.tomlfile import Document, KeyPath, read_toml
 from asictl.readers.units import UnitError, parse_cycles
 from asictl.sim.scenario import SlaveSpec, read_master
@@ -58,9 +60,16 @@ class Property:
 
     @property
     def slug(self) -> str:
-        """The name as a file name part: ``never both directions`` -> ``never-both-directions``."""
+        """The name as a file name part, unique per name and the same in every run:
+        ``never both directions`` -> ``never-both-directions``. A name the plain form
+        cannot be read back from (capitals, punctuation, letters outside ASCII:
+        ``Tür zu``, ``a.b`` beside ``a-b``) gets the first ten hex digits of its
+        SHA-256 as well (``t-r-zu-5d1c...``), so no two names share a file."""
         slug = re.sub(r"[^a-z0-9]+", "-", self.name.lower()).strip("-")
-        return slug or "property"
+        if slug and self.name == slug.replace("-", " "):
+            return slug
+        digest = hashlib.sha256(self.name.encode("utf-8", "surrogatepass")).hexdigest()[:10]
+        return f"{slug or 'property'}-{digest}"
 
     def text(self) -> str:
         """The property as the file says it."""
@@ -80,6 +89,10 @@ class Properties:
     slaves: list[SlaveSpec] | None
     assume: list[Expr]
     properties: list[Property]
+    #: what is suspicious but not wrong (W431), to be shown with the verdicts
+    warnings: list[Diagnostic] = field(default_factory=list)
+    #: the program's symbol table, to name operands in notes and scenarios
+    symbols: SymbolTable = field(default_factory=SymbolTable)
 
 
 @dataclass
@@ -98,8 +111,11 @@ def read_properties(
     source: SourceText,
     variables: Mapping[str, int] | None = None,
     symbols: SymbolTable | None = None,
+    scope: Scope | None = None,
 ) -> Properties:
-    """Parse and check a properties file; ``DiagnosticError`` with every mistake."""
+    """Parse and check a properties file; ``DiagnosticError`` with every mistake.
+    With the program's ``scope``, every operand must exist on its bus and in it (E430),
+    and a never/always property the program cannot change is warned of (W431)."""
     document = read_toml(source.name, source.text)
     data = document.data
     reading = _Reading(document, Reporter())
@@ -112,6 +128,7 @@ def read_properties(
         else:
             reading.error("program is a file name", ("program",))
     cycle_ms, slaves = read_master(document, reading.report, ScenarioCode.PROPERTIES)
+    bus = None if slaves is None else [spec.address for spec in slaves]
 
     def expression(value: object, path: KeyPath) -> Expr | None:
         key = next(str(p) for p in reversed(path) if isinstance(p, str))
@@ -120,11 +137,19 @@ def read_properties(
                           path)
             return None
         try:
-            return parse_expression(value, variables, symbols)
+            expr = parse_expression(value, variables, symbols)
         except ConditionError as exc:
             reading.report.error(ScenarioCode.CONDITION, exc.message,
                                  document.inside(path, exc.offset, exc.length))
             return None
+        wrong = False
+        for ref in refs(expr) if scope is not None else ():
+            problem = scope.problem(ref.operand, bus) if scope is not None else None
+            if problem is not None:
+                reading.report.error(ScenarioCode.NO_SUCH_OPERAND, problem,
+                                     document.inside(path, ref.offset, len(ref.text)))
+                wrong = True
+        return None if wrong else expr
 
     assume: list[Expr] = []
     table = data.get("assume", {})
@@ -154,9 +179,28 @@ def read_properties(
         found = _property(reading, ("property", index), entry, expression, names)
         if found is not None:
             properties.append(found)
+            if scope is not None:
+                _environment_only(reading, ("property", index), found, scope)
     if reading.report.has_errors:
         raise DiagnosticError(reading.report.diagnostics)
-    return Properties(source.name, program_path, cycle_ms, slaves, assume, properties)
+    return Properties(source.name, program_path, cycle_ms, slaves, assume, properties,
+                      reading.report.diagnostics, symbols or SymbolTable())
+
+
+def _environment_only(reading: _Reading, path: KeyPath, prop: Property, scope: Scope) -> None:
+    """W431: a never/always property over inputs (or host-written flags) alone, which no
+    line of the program writes: its verdict says nothing about the program."""
+    if prop.kind not in (Kind.NEVER, Kind.ALWAYS):
+        return
+    found = list(refs(prop.expr))
+    if found and all(scope.environment(ref.operand) for ref in found):
+        first = found[0]
+        names = ", ".join(dict.fromkeys(ref.text for ref in found))
+        reading.report.warning(
+            ScenarioCode.ENVIRONMENT_ONLY,
+            f"property '{prop.name}' is decided by the environment alone: the program "
+            f"writes none of {names}",
+            reading.document.inside((*path, prop.kind.value), first.offset, len(first.text)))
 
 
 def _property(reading: _Reading, path: KeyPath, entry: dict[str, object],

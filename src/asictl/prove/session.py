@@ -22,8 +22,10 @@ from asictl.platform.master import TICK_US, asi_cycle_us
 from asictl.prove import MAX_DEPTH
 from asictl.prove.counterexample import MARK, expectations, file_name, scenario_text
 from asictl.prove.engine import Machine, Outcome, Setup, Verdict
+from asictl.prove.names import named
 from asictl.prove.props import Properties, program_for, read_properties
-from asictl.prove.symbolic import UNROLL, Unmodelled
+from asictl.prove.scope import Scope
+from asictl.prove.symbolic import UNROLL, TimeLimit, Unmodelled
 from asictl.readers.units import Cycles, UnitError
 from asictl.sim.engine import Simulation, variables_of
 from asictl.sim.scenario import Scenario, scenario_program
@@ -52,6 +54,8 @@ class Report:
     #: property name -> the scenario written for it
     written: dict[str, Path] = field(default_factory=dict)
     seconds: float = 0.0
+    #: the warnings about the properties (W431), rendered with their source lines
+    warnings: str = ""
 
     @property
     def passed(self) -> bool:
@@ -85,7 +89,7 @@ def load(properties: Path, program: Path | None, lib: tuple[str, ...]) -> tuple[
     variables = {} if built.image is None else variables_of(built.image.pmap)
     try:
         symbols = symbols_for(program, lambda text: str(parse_operand(text, variables)))
-        props = read_properties(source, variables, symbols)
+        props = read_properties(source, variables, symbols, Scope.of(built.program))
     except DiagnosticError as exc:
         raise Invalid(render_text(exc.diagnostics, _texts(properties, program))) from None
     return props, program, built
@@ -141,21 +145,28 @@ def prove(properties: Path, *, program: Path | None = None, lib: tuple[str, ...]
     setup, cycle_ms = setup_of(props, built)
     depth = cycles_of(depth, cycle_ms)
     assert built.program is not None
-    try:
+    try:  # the limit holds from the start: reading and building the model count
         machine = Machine(built.program, setup, props.assume, props.properties,
-                          unroll=unroll)
+                          unroll=unroll, label=lambda text: named(text, props.symbols),
+                          deadline=start + timeout_s)
     except Unmodelled as exc:
         raise Invalid(render_text(
             [Diagnostic(Severity.ERROR, ScenarioCode.UNMODELLED, str(exc), exc.span)],
             built.texts)) from None
-    machine.find_invariants(time.monotonic() + timeout_s)
+    except TimeLimit:
+        return _out_of_time(props, properties, program_path, cycle_ms, setup, timeout_s,
+                            start)
+    machine.find_invariants(start + timeout_s)
     report = Report(properties, program_path, cycle_ms, setup.slaves,
                     list(machine.invariant_names),
                     [(loop.line, loop.bound) for loop in machine.cycle.loops])
+    if props.warnings:
+        report.warnings = render_text(props.warnings, _texts(properties))
     directory = out_dir if out_dir is not None else properties.parent
     pending: list[tuple[Path, str, str]] = []
-    for prop in props.properties:
-        outcome = machine.decide(prop, depth=depth, timeout_s=timeout_s)
+    for number, prop in enumerate(props.properties):
+        outcome = machine.decide(prop, depth=depth, timeout_s=timeout_s,
+                                 since=start if number == 0 else None)
         report.outcomes.append(outcome)
         if outcome.trace is not None and outcome.verdict in (Verdict.REFUTED,
                                                              Verdict.REACHED):
@@ -171,14 +182,31 @@ def prove(properties: Path, *, program: Path | None = None, lib: tuple[str, ...]
     if pending:
         directory.mkdir(parents=True, exist_ok=True)
     for target, name, text in pending:
-        write_atomic(target, text)
+        write_atomic(target, text, follow_links=False)
         report.written[name] = target
     report.seconds = time.monotonic() - start
     return report
 
 
+def _out_of_time(props: Properties, properties: Path, program: Path, cycle_ms: float,
+                 setup: Setup, timeout_s: float, start: float) -> Report:
+    """Every property unknown: the model was not built within the first one's limit."""
+    seconds = time.monotonic() - start
+    report = Report(properties, program, cycle_ms, setup.slaves, [], [], seconds=seconds)
+    note = (f"time limit ({timeout_s:g} s) while building the model, {seconds:.1f} s "
+            "since the start")
+    report.outcomes = [Outcome(prop, Verdict.UNKNOWN, 0, seconds, note=note)
+                       for prop in props.properties]
+    return report
+
+
 def check_target(target: Path, inputs: set[Path], force: bool) -> None:
-    """Replace only what this command wrote before (its first line says so)."""
+    """Replace only what this command wrote before (its first line says so), and never
+    through a symbolic link: one planted at a counterexample's name (by anyone who can
+    write to the folder) would have the proof write wherever it points."""
+    if target.is_symlink():
+        raise UserError(f"{target}: is a symbolic link; a counterexample is not written "
+                        "through one (remove it)")
     if real_path(target) in inputs:
         raise UserError(f"{target}: is an input of this proof; not overwritten")
     if force or not target.is_file():

@@ -28,6 +28,7 @@ long as the time to the next tick is 1 us to 10 ms, which it always is after a c
 from __future__ import annotations
 
 import heapq
+import time
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from typing import assert_never
@@ -56,6 +57,17 @@ CONSTANT: Key = ("K",)
 TICK: Key = ("R",)
 #: How often a backward jump is followed in one cycle unless the caller says otherwise.
 UNROLL = 8
+
+
+class TimeLimit(Exception):
+    """The deadline passed while the model was being built: a program of many loops
+    can take longer to build than to decide, and the command's limit counts it too."""
+
+
+def check_deadline(deadline: float | None) -> None:
+    """Raise ``TimeLimit`` once ``deadline`` (time.monotonic) has passed."""
+    if deadline is not None and time.monotonic() > deadline:
+        raise TimeLimit
 
 
 class Unmodelled(Exception):
@@ -195,6 +207,14 @@ def timers_of(program: Program) -> tuple[int, ...]:
     }))
 
 
+def counter_high_bytes(program: Program) -> tuple[int, ...]:
+    """The flag bytes whose bits 4-7 the master keeps at 0: the high bytes of the mapped
+    counters (``map_counters``), whatever the program or the host writes there."""
+    if not program.options.map_counters:
+        return ()
+    return tuple(COUNTER_FLAG_BASE + 2 * n + 1 for n in range(MAPPED_COUNTERS))
+
+
 def refuse_unmodelled(program: Program) -> None:
     """Raise ``Unmodelled`` for the first construct the symbolic cycle cannot run."""
     for module in program.modules():
@@ -215,8 +235,9 @@ class _Builder:
     """Runs the program once over symbolic cells, as ``Interpreter._run`` does."""
 
     def __init__(self, program: Program, *, map_counters: bool, unroll: int,
-                 fresh: Callable[[str, int], z3.BitVecRef]) -> None:
+                 fresh: Callable[[str, int], z3.BitVecRef], deadline: float | None) -> None:
         self.program = program
+        self.deadline = deadline
         self.map_counters = map_counters
         self.unroll = unroll
         self.fresh = fresh
@@ -275,6 +296,7 @@ class _Builder:
             pending[pc].append(entry)
 
         while queue:
+            check_deadline(self.deadline)
             pc = heapq.heappop(queue)
             g, s = self.merge(pending.pop(pc))
             while True:
@@ -581,18 +603,20 @@ def build_cycle(
     watch: Iterable[Key] = (),
     unroll: int = UNROLL,
     prefix: str = "",
+    deadline: float | None = None,
 ) -> Cycle:
     """The transition of one program cycle of ``program`` on a bus with ``slaves``, with
     program cycles ``cycle_us`` apart; ``watch`` are cells a caller reads after the cycle
     (a property's operands) besides those the program touches. ``prefix`` names the
-    variables (two programs side by side need two sets)."""
+    variables (two programs side by side need two sets). Past ``deadline``
+    (time.monotonic) the building stops with ``TimeLimit``."""
     refuse_unmodelled(program)
 
     def fresh(name: str, bits: int) -> z3.BitVecRef:
         return z3.BitVec(prefix + name, bits)
 
     builder = _Builder(program, map_counters=program.options.map_counters, unroll=unroll,
-                       fresh=fresh)
+                       fresh=fresh, deadline=deadline)
     on_bus = tuple(sorted(set(slaves)))
     timers = timers_of(program)
     start = _State({}, z3.BoolVal(False))
@@ -613,15 +637,24 @@ def build_cycle(
             values[("I2", byte)] = builder.var(("I", byte))
             values[("I", byte)] = z3.Concat(*nibbles)
     masks = host_masks(host_flags)
+    mapped = counter_high_bytes(program)
     for n, mask in sorted(masks.items()):
         written = builder.input(f"host.{n}", 8)
+        if n in mapped:  # the board keeps what the host writes there within 0..15
+            written = written & 0x0F
         values[("F", n)] = (builder.var(("F", n)) & (~mask & 0xFF)) | (written & mask)
     _, end = builder.run(builder.main, z3.BoolVal(True), start)
+    for n in mapped:  # and what the program left there, after every cycle
+        if ("F", n) in end.values:
+            end.values[("F", n)] = end.values[("F", n)] & 0x0F
     for cell in watch:
         builder.get(end, cell)
     for cell in list(builder.pre):
         builder.get(end, cell)
-    post = {cell: z3.simplify(value) for cell, value in end.values.items()}
+    post = {}
+    for cell, value in end.values.items():
+        check_deadline(deadline)
+        post[cell] = z3.simplify(value)
     for cell in post:
         builder.var(cell)
     overrun = z3.simplify(z3.Or(*builder.overrun)) if builder.overrun else z3.BoolVal(False)

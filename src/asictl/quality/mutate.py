@@ -17,9 +17,11 @@ survivors it could never prove). The score is killed / (mutants - equivalent - i
 
 Each mutant runs in a process of its own, forked from this one (it inherits the
 parsed programs and scenarios; nothing but its verdict is sent back), at most ``jobs``
-at once; a process past its time limit is killed. The limit is on the scenarios; the
-proof of a mutant that passed them all has ``prove_s`` of its own, and one out of
-time leaves the mutant a survivor.
+at once; a process past its time limit is killed. A process that dies without an
+answer (the OOM killer, a signal) runs its mutant once more; dying again, the mutant is
+``died`` and counts as not killed, so a dead worker can never raise the score. The
+limit is on the scenarios; the proof of a mutant that passed them all has ``prove_s``
+of its own, and one out of time leaves the mutant a survivor.
 """
 
 from __future__ import annotations
@@ -29,6 +31,7 @@ import importlib
 import multiprocessing
 import multiprocessing.connection
 import os
+import signal
 import time
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
@@ -90,7 +93,8 @@ class Mutant:
 @dataclass
 class Result:
     mutant: Mutant
-    #: killed, timeout, survived, equivalent or invalid; killed and timeout count as killed
+    #: killed, timeout, survived, died, equivalent or invalid; killed and timeout count as
+    #: killed, died (its worker process died twice) as not killed
     verdict: str
     #: the scenario that killed it, the reason it is invalid or equivalent
     detail: str = ""
@@ -292,10 +296,13 @@ def prove_equivalent(original: Build, mutant: Build,
     difference = find_difference(original, mutant)
     if difference is not None:
         return "survived", str(difference)
-    prove: Any = importlib.import_module("asictl.prove")
-    answer = prove.equivalent(original, mutant, timeout_s=prove_s)
+    diff: Any = importlib.import_module("asictl.prove.diff")
+    # equivalent for what a scenario can expect: outputs, flags, timers, counters
+    programs = [build.source_program() for build in (original, mutant)]
+    observe = diff.readable(*(p for p in programs if p is not None))
+    answer = diff.equivalent(original, mutant, timeout_s=prove_s, observe=observe)
     if answer.verdict == "equivalent":
-        return "equivalent", "proved equivalent"
+        return "equivalent", "proved equivalent (outputs, flags, timers and counters)"
     return None
 
 
@@ -347,6 +354,7 @@ def _run_pending(
 ) -> None:
     timeout_s, prove_s = limits
     position = 0
+    died: set[int] = set()
     while position < len(pending) or running:
         while position < len(pending) and len(running) < max(1, jobs):
             index = pending[position]
@@ -366,16 +374,27 @@ def _run_pending(
         for index, worker in list(running.items()):
             mutant = queue[index][1]
             elapsed = time.monotonic() - worker.start
-            if worker.pipe.poll():
-                try:
-                    kind, detail = worker.pipe.recv()
-                except EOFError:  # the process died without a word
-                    kind, detail = "invalid", "the worker process ended without an answer"
-                if kind == _PROVING:  # the scenarios passed: the proof's own time limit
-                    worker.proving, worker.limit = True, elapsed + prove_s + PROOF_MARGIN
+            answer = _answer(worker)
+            if answer is not None and answer[0] == _PROVING:
+                # the scenarios passed: the proof has a time limit of its own
+                worker.proving, worker.limit = True, elapsed + prove_s + PROOF_MARGIN
+                continue
+            if answer is not None:
+                kind, detail = answer
+            elif not worker.process.is_alive():  # died without a word: killed, OOM
+                worker.process.join()
+                last = _answer(worker)  # unless it answered just before it ended
+                if last is not None and last[0] != _PROVING:
+                    kind, detail = last
+                elif index not in died:  # once more: the death may have been passing
+                    died.add(index)
+                    pending.insert(position, index)
+                    worker.pipe.close()
+                    del running[index]
                     continue
-            elif not worker.process.is_alive():
-                kind, detail = "invalid", "the worker process ended without an answer"
+                else:
+                    kind, detail = "died", (f"its worker process {_death(worker.process)}, "
+                                            "twice: counted as not killed")
             elif elapsed > worker.limit:
                 worker.process.kill()
                 kind, detail = ("survived", "the proof of equivalence ran out of time") \
@@ -390,6 +409,30 @@ def _run_pending(
                 done(results[index])
 
 
+def _answer(worker: _Worker) -> tuple[str, str] | None:
+    """What the worker sent, if anything; None when it has said nothing (yet, or ever:
+    a process that has ended and left nothing in the pipe died)."""
+    if not worker.pipe.poll():
+        return None
+    try:
+        kind, detail = worker.pipe.recv()
+    except EOFError:  # the pipe closed without a word: the process is gone
+        worker.process.join()
+        return None
+    return str(kind), str(detail)
+
+
+def _death(process: Any) -> str:
+    """How a worker ended, for a mutant's detail: 'was killed by SIGKILL', 'exited 1'."""
+    code = process.exitcode
+    if code is not None and code < 0:
+        try:
+            return f"was killed by {signal.Signals(-code).name}"
+        except ValueError:
+            return f"was killed by signal {-code}"
+    return f"exited {code} without an answer"
+
+
 def _child(target: Target, mutant: Mutant, send: Any, prove_s: float) -> None:
     try:
         answer = verdict(target, mutant, lambda: send.send((_PROVING, "")), prove_s)
@@ -400,7 +443,9 @@ def _child(target: Target, mutant: Mutant, send: Any, prove_s: float) -> None:
 
 
 def score(results: list[Result]) -> tuple[int, int]:
-    """(killed, counted): timeouts are killed; equivalent and invalid mutants not counted."""
+    """(killed, counted): timeouts are killed; a mutant whose worker died twice counts as
+    not killed (a dead worker can only lower the score); equivalent and invalid mutants
+    are not counted."""
     killed = sum(1 for r in results if r.verdict in ("killed", "timeout"))
-    counted = sum(1 for r in results if r.verdict in ("killed", "timeout", "survived"))
+    counted = sum(1 for r in results if r.verdict in ("killed", "timeout", "survived", "died"))
     return killed, counted

@@ -229,7 +229,10 @@ class _Scanner:
         raw = text[i + 1 : j]
         if quote == "'" or "\\" not in raw:
             return raw
-        return str(tomllib.loads(f"k = {text[i : j + 1]}")["k"])
+        try:
+            return str(tomllib.loads(f"k = {text[i : j + 1]}")["k"])
+        except tomllib.TOMLDecodeError:  # an invalid escape (placing the error it is)
+            return raw
 
 
 def _escaped(text: str, at: int) -> bool:

@@ -312,11 +312,12 @@ class Simulation:
             self._paused = True
             self.board.pause()
 
-    def _need_slave(self, address: int, step: Step | None, line: int, what: str) -> Slave:
+    def _need_slave(self, address: int, step: Step | None, line: int, what: str,
+                    verb: str = "sets") -> Slave:
         slaves = self.board.bus.at(address)
         if not slaves:
             when = f"at {format_instant(step.at_ms)}: " if step is not None else ""
-            message = f"{when}'{what}' sets slave {address}, which is not on the bus"
+            message = f"{when}'{what}' {verb} slave {address}, which is not on the bus"
             if step is None:
                 raise ValueError(message)
             raise DiagnosticError([Diagnostic(
@@ -480,6 +481,22 @@ class Simulation:
             self.board.press_set_button()
         for operand, value, line in step.set:
             self.set(operand, value, step=step, line=line)
+        for operand, _, line in step.expect:
+            self._need_output(operand, step, line)
+
+    def _need_output(self, operand: Operand, step: Step, line: int) -> None:
+        """An expectation of a slave's outputs needs the slave: one never on the bus reads
+        0, so a typo in its address would pass whatever the program does. (A slave the
+        scenario removes stays one it may expect of: its outputs are 0 by then.)"""
+        node = operand.node
+        if node.kind not in (ast.OperandKind.Q, ast.OperandKind.QB):
+            return
+        addresses = (node.address, node.address + 1) if node.kind is ast.OperandKind.QB \
+            else (node.address,)
+        named = {spec.address for s in self.scenario.steps for spec in s.add_slaves}
+        named.update(a for s in self.scenario.steps for a in s.remove_slaves)
+        if not any(a in named or self.board.bus.at(a) for a in addresses):
+            self._need_slave(node.address, step, line, str(operand), "expects")
 
     def _observe(self) -> None:
         """Called by the board after each AS-i cycle that ran: time 0, stops, and the

@@ -472,9 +472,12 @@ class Plant:
     models: list[Model] = field(default_factory=list)
 
     def add(self, model: Model) -> Model:
-        """Add a model; ``ValueError`` if it writes an input another model writes."""
+        """Add a model; ``ValueError`` if it writes an input another model writes, or
+        has another's name (its trace lanes would be two lanes of one name)."""
         mine = {bit: operand for operand in model.driven() for bit in bits_of(operand)}
         for other in self.models:
+            if other.name == model.name:
+                raise ValueError(f"a plant model is named '{model.name}' already")
             for operand in other.driven():
                 for bit in bits_of(operand):
                     if bit in mine:

@@ -12,8 +12,11 @@ otherwise fails at the first expectation where it differs.
 from __future__ import annotations
 
 import fnmatch
+import io
+import json
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
+from typing import TextIO
 
 from asictl.platform.master import IO_CODE_BITS
 from asictl.sim.scenario_writer import ScenarioWriter
@@ -60,24 +63,74 @@ def choose(inputs: list[str], outputs: list[str], patterns: Sequence[str] | None
     return matched(inputs), matched(outputs) + matched(flags)
 
 
+class Recording:
+    """A recording as it goes, in bounded memory: each sample's changes (a step) are
+    written to ``spool`` at once, and only the last value of each operand is kept, so an
+    hour of 124 signals costs no more memory than a second (a sample of 31 slaves is
+    some 20 kB as Python objects; a step on the spool is the few values that changed).
+    ``write`` turns the spool into the scenario when the recording ends, however it
+    ends: the tolerance window and the summary need its length."""
+
+    def __init__(self, inputs: Sequence[str], expected: Sequence[str], spool: TextIO) -> None:
+        self.inputs = list(inputs)
+        self.expected = list(expected)
+        self._spool = spool
+        self._last: dict[str, int] = {}
+        self._first_ms: float | None = None
+        #: the samples taken, and the time of the last one since the first
+        self.count = 0
+        self.span_ms = 0.0
+
+    def add(self, at_ms: float, values: Mapping[str, int]) -> None:
+        """One sample, ``at_ms`` on any clock (times are written since the first)."""
+        if self._first_ms is None:
+            self._first_ms = at_ms
+        first = self.count == 0
+        sets = {n: values[n] for n in self.inputs
+                if n in values and (first or self._last.get(n) != values[n])}
+        expects = {n: values[n] for n in self.expected
+                   if n in values and (first or self._last.get(n) != values[n])}
+        self._last.update(values)
+        self.count += 1
+        self.span_ms = at_ms - self._first_ms
+        if sets or expects or first:
+            self._spool.write(json.dumps([round(self.span_ms), sets, expects]) + "\n")
+
+    @property
+    def every_ms(self) -> float:
+        """The average sampling interval."""
+        return self.span_ms / max(1, self.count - 1)
+
+    def write(self, out: TextIO, tolerance_ms: float, *, program: str | None = None,
+              comment: str = "") -> None:
+        """The scenario (TOML text) to ``out``, step by step from the spool."""
+        writer = ScenarioWriter()
+        writer.comment(comment)
+        if program is not None:
+            writer.program(program)
+        self._spool.flush()
+        self._spool.seek(0)
+        for line in self._spool:
+            at_ms, sets, expects = json.loads(line)
+            writer.step(at_ms, set=sets, expect=expects, within_ms=tolerance_ms)
+            if len(writer.lines) >= STEP_LINES:
+                out.write(writer.drain())
+        out.write(writer.drain())
+
+
+#: How many lines of steps ``Recording.write`` holds before it writes them out.
+STEP_LINES = 4096
+
+
 def to_scenario(
     samples: Sequence[Sample], inputs: Sequence[str], expected: Sequence[str],
     tolerance_ms: float, *, program: str | None = None, comment: str = "",
 ) -> str:
-    """The scenario of a recording (TOML text). Times are whole milliseconds since the
-    first sample."""
-    out = ScenarioWriter()
-    out.comment(comment)
-    if program is not None:
-        out.program(program)
-    last: dict[str, int] = {}
-    for index, sample in enumerate(samples):
-        sets = {n: sample.values[n] for n in inputs if n in sample.values
-                and (index == 0 or last.get(n) != sample.values[n])}
-        expects = {n: sample.values[n] for n in expected if n in sample.values
-                   and (index == 0 or last.get(n) != sample.values[n])}
-        last.update(sample.values)
-        if not sets and not expects and index:
-            continue
-        out.step(round(sample.at_ms), set=sets, expect=expects, within_ms=tolerance_ms)
-    return out.text()
+    """The scenario of a recording (TOML text) held in memory. Times are whole
+    milliseconds since the first sample."""
+    recording = Recording(inputs, expected, io.StringIO())
+    for sample in samples:
+        recording.add(sample.at_ms, sample.values)
+    out = io.StringIO()
+    recording.write(out, tolerance_ms, program=program, comment=comment)
+    return out.getvalue()

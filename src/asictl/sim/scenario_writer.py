@@ -56,6 +56,13 @@ class ScenarioWriter:
     def text(self) -> str:
         return "\n".join(self.lines) + "\n"
 
+    def drain(self) -> str:
+        """The text so far, forgotten here: a long scenario (a recording of hours) is
+        written out piece by piece; the pieces joined are what ``text`` would be."""
+        text = self.text() if self.lines else ""
+        self.lines.clear()
+        return text
+
 
 def _visible(line: str) -> str:
     return "".join(f"\\x{ord(c):02x}" if (ord(c) < 0x20 and c != "\t") or ord(c) == 0x7F

@@ -320,6 +320,8 @@ class Outcome:
     bug: bool = False
     #: an ERROR row's exit status: FAILED for a program with errors, else USAGE
     exit_code: int = ExitCode.USAGE
+    #: its worker process died (the OOM killer, a signal): a result, not bad input
+    died: bool = False
     markers: list[str] = field(default_factory=list)
     #: failures as (line, text) for test runners that show the scenario line
     failures: list[tuple[int, str]] = field(default_factory=list)
@@ -331,6 +333,11 @@ class Outcome:
     names: dict[str, str] = field(default_factory=dict)
     #: what the scenario reached of its program, when asked for
     coverage: Coverage | None = None
+
+
+#: the ERROR row of a scenario whose worker process died, twice (``asictl test -j``)
+WORKER_DIED = ("its worker process died (killed by a signal or the out-of-memory killer), "
+               "also when run again alone")
 
 
 def run_file(path: str, lib: tuple[str, ...] = (), coverage: bool = False) -> Outcome:

@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from asictl.errors import missing_extra
-from asictl.files import write_atomic
+from asictl.files import shown_name, write_atomic
 
 
 @dataclass
@@ -114,7 +114,9 @@ def to_csv(trace: Trace) -> str:
     """One row per time at which any signal changes: time_ms, then every signal's value."""
     buffer = io.StringIO()
     writer = csv.writer(buffer, lineterminator="\n")
-    writer.writerow(["time_ms", *(s.name for s in trace.signals)])
+    # a plant model's name is the user's text: an escape sequence in it must not reach
+    # the terminal of whoever views the file
+    writer.writerow(["time_ms", *(shown_name(s.name) for s in trace.signals)])
     for t in trace.times():
         writer.writerow([f"{t:g}", *(s.value_at(t) for s in trace.signals)])
     return buffer.getvalue()

@@ -8,9 +8,16 @@ is attached (``run_live``'s ``attach``). What keeps one client from holding up t
 - a request does at most what the protocol allows (requests.py), and the server turns to
   the other clients after each one;
 - only the owner's processes are served (the peer's user, ``SO_PEERCRED``);
-- at most ``max_connections`` connections at once: further ones are closed at once, so
-  a flood (or a process out of descriptors) costs no more descriptors, and each such
-  condition is logged as one line (then at most once a minute), never once per event;
+- at most ``max_connections`` connections at once; a further one waits its turn (in
+  order of arrival, up to ``WAITING_PER_SLOT`` times as many) for at most
+  ``admit_wait`` seconds, then hears the board is busy (exit 1: try again); one beyond
+  the waiting places hears it at once, so a flood costs a bounded number of descriptors;
+- a slot is kept for the owner's commands: while one waits, the connection silent
+  longest (no request for ``EVICT_AFTER_S``, no session, not inside a request) is
+  closed to make room, and any connection silent for ``idle_timeout`` is closed; each
+  is told why (its command prints it), so idle connections never lock the board away;
+- each such condition is logged as one line (then at most once a minute), never once
+  per event;
 - a session (a command's hold on the board) whose client sends nothing for
   ``session_timeout`` seconds (a stopped or hung command) is ended: the clients waiting
   for it are told of the limit, and the silent client hears why when it speaks again.
@@ -26,6 +33,7 @@ import asyncio
 import contextlib
 import os
 import time
+from collections import deque
 from collections.abc import Awaitable, Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
@@ -38,6 +46,7 @@ from asictl.host.background import NotStarted, in_thread
 from asictl.host.condition_log import ConditionLog
 from asictl.host.emulated.boards import emulated_board, lock_file, state_file
 from asictl.host.emulated.locking import note_holder
+from asictl.host.event_loop import run_serving
 from asictl.host.live import requests
 from asictl.host.live.board import LiveBoard
 from asictl.host.live.client import refuse_if_served
@@ -61,6 +70,15 @@ PACING_S = 0.01
 DEFAULT_MAX_CONNECTIONS = 32
 #: Seconds a session may go without a request by default before it is ended.
 DEFAULT_SESSION_TIMEOUT_S = 10.0
+#: Seconds a connection may go without a request by default before it is closed.
+DEFAULT_IDLE_TIMEOUT_S = 60.0
+#: Seconds a connection beyond the limit waits for a slot by default before it is told
+#: the board is busy (a command takes a fraction of a second: the wait is for a turn).
+DEFAULT_ADMIT_WAIT_S = 10.0
+#: Connections that may wait for a slot, per slot; one more hears "busy" at once.
+WAITING_PER_SLOT = 4
+#: A connection silent this long (and holding no session) makes way for one waiting.
+EVICT_AFTER_S = 1.0
 
 
 @dataclass(eq=False)
@@ -86,6 +104,8 @@ class LiveServer:
         on_watch: Callable[[], None] | None = None,
         max_connections: int = DEFAULT_MAX_CONNECTIONS,
         session_timeout: float | None = DEFAULT_SESSION_TIMEOUT_S,
+        idle_timeout: float | None = DEFAULT_IDLE_TIMEOUT_S,
+        admit_wait: float = DEFAULT_ADMIT_WAIT_S,
         log: Callable[[str], None] | None = None,
     ) -> None:
         self.live = live
@@ -99,11 +119,15 @@ class LiveServer:
         self.on_watch = on_watch
         self.max_connections = max_connections
         self.session_timeout = session_timeout or None
+        self.idle_timeout = idle_timeout or None
+        self.admit_wait = admit_wait
         self.conditions = ConditionLog(log or (lambda message: None))
         self._owner: _Connection | None = None
         self._free: asyncio.Condition | None = None
         self._stop: asyncio.Event | None = None
         self._clients: set[_Connection] = set()
+        #: connections waiting for a slot, in order of arrival
+        self._waiting: deque[tuple[_Connection, asyncio.Future[None]]] = deque()
         self._socket_id: Identity = None
 
     @property
@@ -183,11 +207,17 @@ class LiveServer:
         return answer
 
     async def _client(self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
-        if not self._admit(writer):
-            writer.close()
-            return
         conn = _Connection(writer=writer)
-        self._clients.add(conn)
+        if not self._stranger_refused(writer) and await self._admit(conn):
+            await self._converse(conn, reader, writer)
+        else:
+            writer.close()
+
+    async def _converse(
+        self, conn: _Connection, reader: asyncio.StreamReader, writer: asyncio.StreamWriter
+    ) -> None:
+        """Answer ``conn``'s requests until it leaves (or is closed: silent, or broke the
+        framing); ``conn`` has its slot."""
         try:
             while True:
                 request = await read_message(reader, limit=MAX_REQUEST)
@@ -210,30 +240,108 @@ class LiveServer:
         except (OSError, asyncio.CancelledError):
             pass
         finally:
-            self._clients.discard(conn)
+            self._leave(conn)
             await self._release(conn)
             writer.close()
 
-    def _admit(self, writer: asyncio.StreamWriter) -> bool:
-        """Only the owner's processes, and no more than ``max_connections`` at once."""
+    def _stranger_refused(self, writer: asyncio.StreamWriter) -> bool:
+        """Only the owner's processes are served: another user's is told so."""
         uid = peer_uid(writer.get_extra_info("socket"))
-        if uid is not None and uid != os.geteuid():
-            self.conditions.event(
-                "stranger", f"refused a connection of another user (uid {uid}): the live "
-                "board serves its owner only",
-            )
-            writer.write(encode({
-                "ok": False, "exit": int(ExitCode.FAILED),
-                "error": "this live board serves only the user who runs it",
-            }))
+        if uid is None or uid == os.geteuid():
             return False
-        if len(self._clients) >= self.max_connections:
-            self.conditions.event(
-                "limit", f"{self.max_connections} clients connected (--max-connections): "
-                "refusing further ones until some leave",
-            )
-            return False
+        self.conditions.event(
+            "stranger", f"refused a connection of another user (uid {uid}): the live "
+            "board serves its owner only",
+        )
+        writer.write(encode({
+            "ok": False, "exit": int(ExitCode.FAILED),
+            "error": "this live board serves only the user who runs it",
+        }))
         return True
+
+    async def _admit(self, conn: _Connection) -> bool:
+        """A slot for ``conn``: at once if one is free and nobody waits, else after its
+        turn in line (at most ``admit_wait`` seconds); False: it was told the board is
+        busy."""
+        if len(self._clients) < self.max_connections and not self._waiting:
+            self._clients.add(conn)
+            return True
+        if len(self._waiting) >= self.max_connections * WAITING_PER_SLOT:
+            self.conditions.event(
+                "limit", f"{self.max_connections} clients connected (--max-connections) "
+                f"and {len(self._waiting)} waiting: telling further ones the board is busy",
+            )
+            return self._busy(conn)
+        turn: asyncio.Future[None] = asyncio.get_running_loop().create_future()
+        self._waiting.append((conn, turn))
+        try:
+            await asyncio.wait_for(turn, self.admit_wait)
+        except TimeoutError:
+            self.conditions.event(
+                "busy", f"{self.max_connections} clients connected (--max-connections): "
+                f"told clients that waited {self.admit_wait:g} s the board is busy",
+            )
+            return self._busy(conn)
+        finally:
+            with contextlib.suppress(ValueError):
+                self._waiting.remove((conn, turn))
+        return True
+
+    def _busy(self, conn: _Connection) -> bool:
+        assert conn.writer is not None
+        conn.writer.write(encode({
+            "ok": False, "exit": int(ExitCode.FAILED),
+            "error": f"the live board is busy: {self.max_connections} clients are "
+            "connected (serve --max-connections) and others wait their turn; try again",
+        }))
+        return False
+
+    def _leave(self, conn: _Connection) -> None:
+        """``conn``'s slot goes to the first connection waiting that still waits."""
+        if conn not in self._clients:
+            return
+        self._clients.discard(conn)
+        while self._waiting:
+            waiting, turn = self._waiting.popleft()
+            if not turn.done():
+                self._clients.add(waiting)
+                waiting.last = time.monotonic()  # its silence counts from now
+                turn.set_result(None)
+                return
+
+    def _close_silent(self) -> None:
+        """Close connections silent for ``idle_timeout``, and while others wait for a
+        slot, those silent longest (``EVICT_AFTER_S``, holding no session) to make room:
+        each hears why before it is closed."""
+        now = time.monotonic()
+        silent = sorted(
+            (conn for conn in self._clients
+             if not conn.busy and conn.ended is None and conn.writer is not None),
+            key=lambda conn: conn.last,
+        )
+        room = sum(1 for _, turn in self._waiting if not turn.done())
+        for conn in silent:
+            quiet = now - conn.last
+            if self.idle_timeout is not None and quiet >= self.idle_timeout:
+                self.conditions.event(
+                    "idle", f"closing connections silent for {self.idle_timeout:g} s "
+                    "(--idle-timeout)",
+                )
+                self._close(conn, f"it sent nothing for {self.idle_timeout:g} s")
+            elif room > 0 and quiet >= EVICT_AFTER_S and conn is not self._owner:
+                room -= 1
+                self.conditions.event(
+                    "evict", f"{self.max_connections} clients connected (--max-connections)"
+                    " and others waiting: closing the one silent longest for each",
+                )
+                self._close(conn, f"it sent nothing for {quiet:.0f} s while other "
+                            "clients waited for a place")
+
+    def _close(self, conn: _Connection, why: str) -> None:
+        conn.ended = f"the live board closed this connection: {why}; run the command again"
+        assert conn.writer is not None
+        conn.writer.write(encode({"ok": False, "error": conn.ended, "exit": int(ExitCode.FAILED)}))
+        conn.writer.close()
 
     # ------------------------------------------------------------------ running
 
@@ -275,6 +383,7 @@ class LiveServer:
                 if self.on_tick is not None:
                     self.on_tick()
                 await self._end_silent_session()
+                self._close_silent()
                 if time.monotonic() - watched >= WATCH_S:
                     watched = time.monotonic()
                     server = await self._watch(server)
@@ -285,7 +394,7 @@ class LiveServer:
             if file_identity(self.path) == self._socket_id:  # never another's socket
                 with contextlib.suppress(FileNotFoundError):
                     self.path.unlink()
-            for conn in list(self._clients):
+            for conn in [*self._clients, *(waiting for waiting, _ in self._waiting)]:
                 if conn.writer is not None:
                     conn.writer.close()
             await server.wait_closed()
@@ -349,6 +458,7 @@ def run_live(
     wait: bool = False, notify: Callable[[str], None] | None = None,
     save_interval: float = SAVE_INTERVAL_S, max_connections: int = DEFAULT_MAX_CONNECTIONS,
     session_timeout: float | None = DEFAULT_SESSION_TIMEOUT_S,
+    idle_timeout: float | None = DEFAULT_IDLE_TIMEOUT_S,
 ) -> None:
     """Serve the board at ``base`` live until SIGINT/SIGTERM, holding its lock throughout.
 
@@ -371,6 +481,7 @@ def run_live(
         server = _server(
             board, directory, base, identity, interval=save_interval, notify=notify,
             max_connections=max_connections, session_timeout=session_timeout,
+            idle_timeout=idle_timeout,
         )
         keeper = server.keeper
         assert keeper is not None
@@ -415,7 +526,7 @@ def run_live(
                     raise result
 
         try:
-            asyncio.run(main())
+            run_serving(main())
         except OSError as exc:
             raise UserError(f"cannot serve: {exc.strerror or exc}") from None
         finally:

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import logging
 import struct
+import time
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from typing import TypeVar
@@ -106,8 +107,24 @@ class ModbusTransport:
         self.unit = unit
         self.name = name
         self.retries = retries
+        #: when (time.monotonic) the whole work must be done, every request's time-out and
+        #: retries within it; None: each request bounded alone (fleet sets a master's limit)
+        self.deadline: float | None = None
+        self._timeout = client.comm_params.timeout_connect or DEFAULT_TIMEOUT_S
         for response in CLIENT_PDUS:
             client.register(response)
+
+    def _keep_deadline(self, what: str) -> None:
+        """Refuse a request once the deadline has passed, and shorten its time-out so
+        that it and its retries end by then: a gateway that drips each answer just
+        within the time-out cannot stretch the work past it."""
+        if self.deadline is None:
+            return
+        left = self.deadline - time.monotonic()
+        if left <= 0:
+            raise JobError(JobStatus.INTERFACE_ERROR,
+                           f"{what}: the time limit for {self.name} ran out")
+        self.client.comm_params.timeout_connect = min(self._timeout, left / (self.retries + 1))
 
     # --- one request, its failures as JobErrors ------------------------------------------
 
@@ -119,6 +136,7 @@ class ModbusTransport:
         INTERFACE_ERROR, the word ASI_CTRL shows when the PC2's interface fails.
         """
         request.dev_id = self.unit
+        self._keep_deadline(what)
         try:
             response = self.client.execute(False, request)
         except ConnectionException as exc:
