@@ -15,6 +15,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
+from typing import assert_never
 
 from asictl.il import ast
 from asictl.il.loader import Program
@@ -40,8 +41,10 @@ def places(node: ast.Operand) -> tuple[Place, ...]:
             return ((node.kind.value.rstrip("B"), node.address >> 1),)
         case K.VAR:
             return ((ast.key(node.name), node.address),)
-        case _:
+        case K.PSEG | K.T | K.C | K.KT | K.KC | K.KB | K.KW | K.KP:
             return ((node.kind.value, node.address),)
+        case _:
+            assert_never(node.kind)
 
 
 def uses(program: Program) -> Iterator[ast.Use]:
