@@ -216,6 +216,10 @@ class BoardSpace:
     ]:
         def setter(node: NodeData, attr: AttributeIds, value: ua.DataValue) -> None:
             if not self._refreshing and value.Value is not None:
+                # asyncua holds a write to the variable's type but not to its value
+                # rank: an array of that type ([] too) is no value of a scalar
+                if value.Value.is_array or isinstance(value.Value.Value, list):
+                    raise _refused(StatusCodes.BadTypeMismatch)
                 write(value.Value.Value)
             node.attributes[attr].value = value
 
