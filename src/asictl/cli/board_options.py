@@ -17,7 +17,7 @@ from typing import TypedDict, TypeVar, Unpack
 import click
 from click.core import ParameterSource
 
-from asictl.cli.options import Duration
+from asictl.cli.options import Duration, apply_options
 from asictl.cli.serial_options import serial_options, unit_option
 from asictl.diagnostics import printable
 from asictl.errors import UserError
@@ -88,9 +88,7 @@ def board_options(command: _Callback) -> _Callback:
             help="--modbus: how often a request is repeated after a time-out or CRC error.",
         ),
     ]
-    for option in reversed(options):
-        command = option(command)
-    return command
+    return apply_options(command, options)
 
 
 #: The options that name a PC2 board, which --modbus excludes.

@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING, TypeVar
 
 import click
 
-from asictl.cli.options import Duration
+from asictl.cli.options import Duration, apply_options
 from asictl.diagnostics import DiagnosticError, render_text
 from asictl.errors import ExitCode, UserError, missing_extra
 from asictl.host.transports.target import listen_address
@@ -61,9 +61,7 @@ def opcua_options(command: F) -> F:
                      metavar="FILE.symbols.toml",
                      help="A symbol table whose names become variables (docs/debugging.md)."),
     ]
-    for option in reversed(options):
-        command = option(command)
-    return command
+    return apply_options(command, options)
 
 
 def opcua_attachment(

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Sequence
+from typing import TypeVar
 
 import click
 
@@ -97,3 +99,15 @@ class Number(click.FloatRange):
             self.fail(f"{value!r} is not a finite number", param, ctx)
         result: float = super().convert(number, param, ctx)
         return result
+
+
+_Command = TypeVar("_Command", bound=Callable[..., object])
+
+
+def apply_options(command: _Command,
+                  options: Sequence[Callable[[_Command], _Command]]) -> _Command:
+    """``command`` with ``options`` added, listed in ``--help`` in the order given (a
+    decorator applied last comes first, so they are applied in reverse)."""
+    for option in reversed(options):
+        command = option(command)
+    return command

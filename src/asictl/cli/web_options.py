@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING, TypeVar
 
 import click
 
-from asictl.cli.options import Duration
+from asictl.cli.options import Duration, apply_options
 from asictl.errors import ExitCode, UserError, missing_extra
 from asictl.host.transports.target import is_loopback, listen_address
 
@@ -42,9 +42,7 @@ def web_options(command: F) -> F:
                      default="50ms", show_default=True, metavar="TIME",
                      help="How often the board is read while a page listens."),
     ]
-    for option in reversed(options):
-        command = option(command)
-    return command
+    return apply_options(command, options)
 
 
 def _token(token_file: str | None) -> str | None:

@@ -46,6 +46,12 @@ STATE_SIZE = 80
 IMAGE_BYTES = 16
 
 
+def slave_bit(slave: int, bit: int) -> tuple[int, int]:
+    """The image byte and bit of a slave's data bit: two slaves to a byte, the odd one in
+    the high nibble."""
+    return slave // 2, (slave % 2) * 4 + bit
+
+
 @dataclass(frozen=True)
 class Layout:
     """The S7 address of every operand of one program."""
@@ -61,12 +67,12 @@ class Layout:
         """The S7 bit of an I, I2, Q, F or variable bit operand."""
         a, b = operand.address, operand.bit
         match operand.kind:
-            case K.I:
-                return f"I {a // 2}.{(a % 2) * 4 + b}"
-            case K.Q:
-                return f"Q {a // 2}.{(a % 2) * 4 + b}"
+            case K.I | K.Q:
+                byte, bit = slave_bit(a, b)
+                return f"{operand.kind.value} {byte}.{bit}"
             case K.I2:
-                return f"DB{STATE_DB}.DBX {I2_BASE + a // 2}.{(a % 2) * 4 + b}"
+                byte, bit = slave_bit(a, b)
+                return f"DB{STATE_DB}.DBX {I2_BASE + byte}.{bit}"
             case K.F:
                 return f"M {a}.{b}"
             case K.VAR:

@@ -25,7 +25,7 @@ from itertools import pairwise
 from typing import assert_never
 
 from asictl.export.gaps import Unfinished, gap, host_flags, il_comment, unfinished
-from asictl.export.layout import Layout, layout_of
+from asictl.export.layout import Layout, layout_of, slave_bit
 from asictl.il import ast
 from asictl.il.ast import key
 from asictl.il.language import COUNTER_FLAG_BASE, PARAM_FLAG, TC_MAX_VALUE
@@ -136,7 +136,8 @@ class _Names:
             case K.I | K.Q | K.F:
                 return self._located(operand, self.layout.bit(operand), "BOOL")
             case K.I2:
-                return f"IL_I2[{a // 2}].{(a % 2) * 4 + b}"
+                byte, bit = slave_bit(a, b)
+                return f"IL_I2[{byte}].{bit}"
             case K.VAR:
                 return f"{operand.name}[{a}].{b}"
             case (
