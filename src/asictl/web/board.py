@@ -118,6 +118,7 @@ class WebBoard:
     def _changing(self, what: str) -> None:
         if self.live.in_session():
             raise self._busy(what)
+        self.live.refuse_change(what)  # a debugger holds the master still
         self.live.sync()
 
     def _saved(self) -> None:

@@ -7,8 +7,19 @@ from collections.abc import Awaitable, Callable
 from typing import Protocol
 
 from asictl.board.board import Pc2Board
+from asictl.errors import ExitCode, UserError
 from asictl.host.live.protocol import JSON
-from asictl.platform.pc2 import ACK, COMMAND, COMMAND_TIMEOUT_MS, NAK
+from asictl.platform.pc2 import (
+    ACK,
+    ADDRESS_EXT,
+    COMMAND,
+    COMMAND_TIMEOUT_MS,
+    NAK,
+    PROGRAM_BUFFER,
+    PROGRAM_BUFFER_SIZE,
+    READ_ONLY_COMMANDS,
+    Command,
+)
 
 #: Master time one catch-up may run at most (after the process was stopped, say).
 MAX_CATCH_UP_MS = 1000.0
@@ -24,6 +35,18 @@ class Hold(Protocol):
     def advance(self, ms: float) -> None: ...
 
     def refusal(self, action: str) -> str | None: ...
+
+    def halted(self) -> str | None:
+        """While the master stands still: what holds it, and where (``halted at
+        breakpoint line 6 by asictl dap (pid 7)``); None while it runs."""
+        ...
+
+
+class HeldBoard(UserError):
+    """A change asked of a board a debugger holds halted: it would happen behind the
+    debugger's back, or wait for a cycle that does not come (exit 1)."""
+
+    exit_code = ExitCode.FAILED
 
 
 class LiveBoard:
@@ -71,9 +94,49 @@ class LiveBoard:
         if lag > 0:
             self.advance(lag)
 
+    def halted(self) -> str | None:
+        """What holds the master still (``Hold.halted``); None while it runs."""
+        return self.hold.halted() if self.hold is not None else None
+
+    def refuse_change(self, what: str) -> None:
+        """``HeldBoard`` naming the holder if the master is halted: ``what`` would change it."""
+        halted = self.halted()
+        if halted is not None:
+            raise HeldBoard(f"the board is {halted}: {what} would change it, and is not "
+                            "done; continue or detach in the debugger first")
+
+    def check_write(self, address: int) -> None:
+        """A host's write to the DPRAM at ``address``: while the master is halted only a
+        command's parameters and the program buffer may be written (what the commands
+        that only read take), nothing the program or the master would read."""
+        if address not in _PARAMETERS and address not in _BUFFER:
+            self.refuse_change(f"writing DPRAM {address:03X}h")
+
     def run_command(self) -> None:
-        """Run the board until the command just written is acknowledged (or times out)."""
+        """Run the board until the command just written is acknowledged (or times out).
+        A halted board answers a command that only reads at once, from the halted state,
+        and refuses (FFh) and reports one that would change it (``HeldBoard``)."""
         board, waited = self.board, 0.0
+        code = board.dpram_byte(COMMAND)
+        if self.halted() is not None:
+            read_only = code in READ_ONLY_COMMANDS
+            board.answer_command(run=read_only)
+            if not read_only:
+                self.refuse_change(f"command {code}{_named(code)}")
+            return
         while board.dpram_byte(COMMAND) not in (ACK, NAK) and waited < COMMAND_TIMEOUT_MS:
             self.advance(COMMAND_STEP_MS)
             waited += COMMAND_STEP_MS
+
+
+#: What a command's caller writes: the command byte and its parameters, the program buffer.
+_PARAMETERS = range(COMMAND, ADDRESS_EXT + 1)
+_BUFFER = range(PROGRAM_BUFFER, PROGRAM_BUFFER + PROGRAM_BUFFER_SIZE)
+
+
+def _named(code: int) -> str:
+    """`` (write control flags)`` for a code the PC2 knows, else nothing."""
+    try:
+        return f" ({Command(code).name.lower().replace('_', ' ')})"
+    except ValueError:
+        return ""

@@ -15,7 +15,7 @@ from collections.abc import Awaitable
 from dataclasses import dataclass
 
 from asictl.errors import ExitCode, UserError
-from asictl.host.emulated.actions import run_action
+from asictl.host.emulated.actions import VIEWS, run_action
 from asictl.host.live.board import LiveBoard
 from asictl.host.live.protocol import (
     JSON,
@@ -105,6 +105,8 @@ def _accesses(live: LiveBoard, accesses: list[tuple[str, int, JSON]]) -> list[li
             )
             if command and commands == MAX_COMMANDS:
                 raise RequestTooLarge(f"more than {MAX_COMMANDS} commands in one request")
+            if offset == PORT_DATA:
+                live.check_write(board.pointer)
             board.io_write(offset, value)
             if command:
                 commands += 1
@@ -126,11 +128,17 @@ def attached_action(live: LiveBoard, request: dict[str, JSON]) -> Awaitable[JSON
 
 def action(live: LiveBoard, request: dict[str, JSON]) -> JSON:
     """One of the actions of ``host.emulated.actions``, as the request names it (unless a
-    debugger holding the board refuses it)."""
+    debugger holding the board refuses it, or holds it halted and the action would
+    change it). The view says what holds the board halted (``held``)."""
     name, args = request.get("name"), request.get("args") or {}
     if not isinstance(name, str) or not isinstance(args, dict):
         raise ProtocolError("an action needs a name and arguments")
     refusal = live.hold.refusal(name) if live.hold is not None else None
     if refusal is not None:
         raise UserError(refusal, ExitCode.FAILED)
-    return run_action(live.board, name, args)
+    if name not in VIEWS:
+        live.refuse_change(f"'{name}'")
+    result = run_action(live.board, name, args)
+    if name == "view":
+        result["held"] = live.halted()
+    return result
