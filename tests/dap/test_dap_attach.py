@@ -251,6 +251,12 @@ def test_a_board_halted_at_a_breakpoint_answers_reads_and_names_its_holder(serve
             result = CliRunner().invoke(main, [*change, "--state-dir", str(state)])
             assert result.exit_code == 1, (change, result.output)
             assert f"the board is {held}" in result.stderr, (change, result.stderr)
+        watcher = open_live(state, 0x300)
+        assert watcher is not None
+        changes, _ = watcher.changes(0)
+        watcher.close()
+        dap = f"asictl dap (pid {client.process.pid})"
+        assert [(c.text, c.who) for c in changes][-1] == ("debugger attached", dap)
         client.request("setBreakpoints", {"source": {"path": str(program)},
                                           "breakpoints": []})
         client.request("continue", {"threadId": 1})

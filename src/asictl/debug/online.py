@@ -123,6 +123,7 @@ class OnlineDebugger:
         self.hooks.install()
         wake(board)  # the master skips cycles that repeat the last: the hooks need one
         live.hold = self
+        live.changes.note("debugger attached", who)
 
     # ------------------------------------------------------------------ the hold
 
@@ -243,6 +244,7 @@ class OnlineDebugger:
         self._work.put(None)
         self._worker.join(timeout=5)
         self.live.rebase()
+        self.live.changes.note("debugger detached", self.who)
 
     def add_breakpoint(self, file: str, line: int, condition: str,
                        hit_condition: str) -> Breakpoint:

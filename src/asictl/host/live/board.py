@@ -8,6 +8,7 @@ from typing import Protocol
 
 from asictl.board.board import Pc2Board
 from asictl.errors import ExitCode, UserError
+from asictl.host.live.changes import ChangeLog, command_change, command_name, write_change
 from asictl.host.live.protocol import JSON
 from asictl.platform.pc2 import (
     ACK,
@@ -18,7 +19,6 @@ from asictl.platform.pc2 import (
     PROGRAM_BUFFER,
     PROGRAM_BUFFER_SIZE,
     READ_ONLY_COMMANDS,
-    Command,
 )
 
 #: Master time one catch-up may run at most (after the process was stopped, say).
@@ -70,6 +70,8 @@ class LiveBoard:
         #: attached to the board that runs host commands of its own between the command's
         #: requests (the OPC UA server's refresh) waits until it is over
         self.in_session: Callable[[], bool] = lambda: False
+        #: what clients changed, for the others' event logs
+        self.changes = ChangeLog()
 
     def advance(self, ms: float) -> None:
         """Let ``ms`` of master time pass, through the hold if there is one."""
@@ -105,38 +107,39 @@ class LiveBoard:
             raise HeldBoard(f"the board is {halted}: {what} would change it, and is not "
                             "done; continue or detach in the debugger first")
 
-    def check_write(self, address: int) -> None:
-        """A host's write to the DPRAM at ``address``: while the master is halted only a
+    def before_write(self, address: int, value: int, who: str) -> None:
+        """``who`` is about to write ``value`` to the DPRAM at ``address``: noted if it is
+        a change of data (changes.write_change). While the master is halted only a
         command's parameters and the program buffer may be written (what the commands
         that only read take), nothing the program or the master would read."""
+        change = write_change(address, value)
         if address not in _PARAMETERS and address not in _BUFFER:
-            self.refuse_change(f"writing DPRAM {address:03X}h")
+            self.refuse_change(change or f"writing DPRAM {address:03X}h")
+        if change is not None:
+            self.changes.note(change, who)
 
-    def run_command(self) -> None:
-        """Run the board until the command just written is acknowledged (or times out).
-        A halted board answers a command that only reads at once, from the halted state,
-        and refuses (FFh) and reports one that would change it (``HeldBoard``)."""
+    def run_command(self, who: str = "this process") -> None:
+        """Run the board until the command just written is acknowledged (or times out),
+        and note the change it made as ``who``'s. A halted board answers a command that
+        only reads at once, from the halted state, and refuses (FFh) and reports one that
+        would change it (``HeldBoard``)."""
         board, waited = self.board, 0.0
         code = board.dpram_byte(COMMAND)
         if self.halted() is not None:
             read_only = code in READ_ONLY_COMMANDS
             board.answer_command(run=read_only)
             if not read_only:
-                self.refuse_change(f"command {code}{_named(code)}")
+                self.refuse_change(f"command {code}{command_name(code)}")
             return
         while board.dpram_byte(COMMAND) not in (ACK, NAK) and waited < COMMAND_TIMEOUT_MS:
             self.advance(COMMAND_STEP_MS)
             waited += COMMAND_STEP_MS
+        change = command_change(board, code) if board.dpram_byte(COMMAND) == ACK else None
+        if change is not None:
+            self.changes.note(change, who)
 
 
 #: What a command's caller writes: the command byte and its parameters, the program buffer.
 _PARAMETERS = range(COMMAND, ADDRESS_EXT + 1)
 _BUFFER = range(PROGRAM_BUFFER, PROGRAM_BUFFER + PROGRAM_BUFFER_SIZE)
 
-
-def _named(code: int) -> str:
-    """`` (write control flags)`` for a code the PC2 knows, else nothing."""
-    try:
-        return f" ({Command(code).name.lower().replace('_', ' ')})"
-    except ValueError:
-        return ""

@@ -27,6 +27,7 @@ from asictl.host.emulated.actions import SETTLE_MS, VIEWS
 from asictl.host.emulated.boards import lock_file
 from asictl.host.emulated.locking import is_free
 from asictl.host.emulated.state_files import UnsafeStateFolder, check_folder
+from asictl.host.live.changes import Change
 from asictl.host.live.protocol import (
     JSON,
     LENGTH,
@@ -182,6 +183,16 @@ class LiveClient:
         if "result" not in answer:
             raise self._malformed("'result' missing")
         return answer["result"]
+
+    def changes(self, since: int | None) -> tuple[list[Change], int]:
+        """What clients changed on the board after the change numbered ``since`` (None:
+        nothing yet, from now on), and the number to ask from next time."""
+        answer = self.request({"op": "changes", "since": since})
+        rows, after = self._field(answer, "changes", list), self._field(answer, "next", int)
+        try:
+            return [Change.from_json(row) for row in rows], after
+        except (TypeError, ValueError):
+            raise self._malformed("'changes' is not a list of changes") from None
 
     def close(self) -> None:
         self.sock.close()
