@@ -309,3 +309,29 @@ def test_other_clients_changes_reach_the_events_with_their_names(board: WebBoard
         "FORCE F 3.0=1 by asictl force (pid 7)", "FORCE F 4.0=1 by the web page"]
     assert listener.latest is not None  # heard at once
     assert board.changes() == []
+
+
+class _Halted:
+    """A debugger's hold at a breakpoint (debug.online), as the live board sees it."""
+
+    def advance(self, ms: float) -> None:
+        """The master stands still."""
+
+    def refusal(self, action: str) -> str | None:
+        return None
+
+    def halted(self) -> str:
+        return "halted at breakpoint line 6 by asictl dap (pid 7)"
+
+
+def test_a_board_halted_by_a_debugger_is_read_and_named_and_not_changed(board: WebBoard):
+    board.live.hold = _Halted()
+    web = client(board)
+    status = web.get("/api/status").json()
+    assert status["held"] == "halted at breakpoint line 6 by asictl dap (pid 7)"
+    refused = web.post("/api/force", json={"assignments": ["F 3.0=1"]}, headers=BEARER)
+    assert refused.status_code == 409, refused.text
+    assert ("the board is halted at breakpoint line 6 by asictl dap (pid 7): forcing would "
+            "change it") in refused.json()["error"]
+    board.live.hold = None
+    assert board.status().forced == [] and board.changes() == []
