@@ -8,7 +8,13 @@ from typing import Protocol
 
 from asictl.board.board import Pc2Board
 from asictl.errors import ExitCode, UserError
-from asictl.host.live.changes import ChangeLog, command_change, command_name, write_change
+from asictl.host.live.changes import (
+    ChangeLog,
+    command_change,
+    command_name,
+    write_change,
+    write_refused,
+)
 from asictl.host.live.protocol import JSON
 from asictl.platform.pc2 import (
     ACK,
@@ -112,9 +118,9 @@ class LiveBoard:
         a change of data (changes.write_change). While the master is halted only a
         command's parameters and the program buffer may be written (what the commands
         that only read take), nothing the program or the master would read."""
-        change = write_change(address, value)
         if address not in _PARAMETERS and address not in _BUFFER:
-            self.refuse_change(change or f"writing DPRAM {address:03X}h")
+            self.refuse_change(write_refused(address, value))
+        change = write_change(address, value)
         if change is not None:
             self.changes.note(change, who)
 

@@ -106,6 +106,21 @@ def write_change(address: int, value: int) -> str | None:
     return None
 
 
+def write_refused(address: int, value: int) -> str:
+    """A host's write to the DPRAM, in words, for a refusal while the board is halted."""
+    if address == CONTROL_FLAGS:
+        return f"writing the AS-i Control flags ({CONTROL_FLAGS:03X}h: start, stop, reset)"
+    return write_change(address, value) or f"writing DPRAM {address:03X}h"
+
+
+def action_refused(board: Pc2Board, name: str, args: dict[str, JSON]) -> str:
+    """An action, in words, for a refusal: before it ran, its arguments may not read."""
+    try:
+        return action_change(board, name, args)
+    except (KeyError, TypeError, ValueError):
+        return f"'{name}'"
+
+
 def action_change(board: Pc2Board, name: str, args: dict[str, JSON]) -> str:
     """An emulated-board action that changed the board, in words, operands named by the
     program's symbol table: ``FORCE Q 3.1 (PumpB)=1``."""

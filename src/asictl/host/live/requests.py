@@ -17,7 +17,7 @@ from dataclasses import dataclass
 from asictl.errors import ExitCode, UserError
 from asictl.host.emulated.actions import VIEWS, run_action
 from asictl.host.live.board import LiveBoard
-from asictl.host.live.changes import action_change
+from asictl.host.live.changes import action_change, action_refused
 from asictl.host.live.protocol import (
     JSON,
     MAX_ACCESSES,
@@ -141,8 +141,8 @@ def action(live: LiveBoard, request: dict[str, JSON], who: str) -> JSON:
     refusal = live.hold.refusal(name) if live.hold is not None else None
     if refusal is not None:
         raise UserError(refusal, ExitCode.FAILED)
-    if name not in VIEWS:
-        live.refuse_change(f"'{name}'")
+    if name not in VIEWS and live.halted() is not None:
+        live.refuse_change(action_refused(live.board, name, args))
     result = run_action(live.board, name, args)
     if name == "view":
         result["held"] = live.halted()
