@@ -178,10 +178,10 @@ def _equivalence(first: object, second: object, old: Path, new: Path, depth: Cyc
     elif result.verdict == "different" and result.trace is not None:
         target = scenario_path or new.with_name(new.stem + ".differs.scenario.toml")
         check_target(target, {real_path(old), real_path(new)}, force)
+        symbols = _symbols(new, old)
         write_atomic(target, difference_text(old, new, target, result.trace,
                                              result.host_masks, result.cycle_ms,
-                                             result.differences))
-        symbols = _symbols(new, old)
+                                             result.differences, symbols=symbols))
         shown = ", ".join(f"{named(bit, symbols)} is {a} in {old.name}, {b} in {new.name}"
                           for k, (x, y) in result.differences.items()
                           for bit, a, b in bits_of(k, x, y))
