@@ -18,6 +18,7 @@ from asictl.build import build_file
 from asictl.cli import main
 from asictl.il.loader import Program
 from asictl.prove import equivalent
+from asictl.prove.diff import readable
 from asictl.sim.engine import Simulation, variables_of
 from asictl.sim.scenario import load_scenario
 
@@ -106,7 +107,7 @@ def test_a_refactoring_is_proved_equivalent_by_its_state_matched(tmp_path: Path,
     assert result.cycles == 0  # proved by the matched state, nothing unrolled
 
 
-def test_a_flag_renamed_in_a_60_line_program_is_proved_equivalent(tmp_path: Path):
+def test_a_flag_renamed_in_an_80_line_program_is_proved_equivalent(tmp_path: Path):
     text = _composed()
     assert len(text.splitlines()) >= 60
     for flag, renamed in (("F 0.1", "F 40.3"), ("F 20.1", "F 41.6"), ("T 6", "T 12")):
@@ -123,6 +124,9 @@ CHANGES = {
                                     "O   I 1.0\n        O   I 1.1"), "Q 2.0 (Both)"),
     "no edge, a level": ("edge", ("        AN  F 10.1\n        =   F 10.2",
                                   "        =   F 10.2"), "Q 2.1 (Odd)"),
+    # 400 cycles of 10 ms before the two differ: beyond unrolling, found by the random
+    # run of both programs, with the simulator's clock phase so that it replays
+    "a timer 1 s shorter": ("timer", ("KT 5000", "KT 4000"), "Q 2.0 (Running)"),
 }
 
 
@@ -150,3 +154,33 @@ def test_a_real_change_is_refuted_with_a_scenario_that_replays(tmp_path: Path, r
         scenario = load_scenario(scenario_path, variables_of(built.image.pmap))
         outcomes[program.name] = Simulation(built, scenario).run().passed
     assert outcomes == {"old.asi": True, "new.asi": False}
+
+
+def test_a_renamed_flag_the_host_can_read_is_a_difference(tmp_path: Path):
+    """Equivalent means the same for whoever looks: a flag is the program's own unless
+    the host writes it (``; asictl: host``) or the caller observes it, as mutation
+    testing observes every flag, timer and counter (``readable``)."""
+    text = _demo("sequence")
+    (tmp_path / "old.asi").write_text(text)
+    (tmp_path / "new.asi").write_text(_replace(text, ("F 0.1", "F 7.3")))
+    old, new = _program(tmp_path / "old.asi"), _program(tmp_path / "new.asi")
+    assert equivalent(old, new, timeout_s=120, cycle_ms=10).verdict == "equivalent"
+    seen = equivalent(old, new, timeout_s=120, cycle_ms=10, observe=readable(old, new))
+    assert seen.verdict == "different" and {"FY 0", "FY 7"} & set(seen.differences)
+    host = "; asictl: host F 0.1\n"
+    (tmp_path / "old.asi").write_text(host + text)
+    (tmp_path / "new.asi").write_text(host + _replace(text, ("F 0.1", "F 7.3")))
+    old, new = _program(tmp_path / "old.asi"), _program(tmp_path / "new.asi")
+    assert equivalent(old, new, timeout_s=120, cycle_ms=10).verdict == "different"
+
+
+def test_the_command_line_proves_a_rename_at_10_ms_within_the_default_limit(
+        tmp_path: Path, runner):
+    text = _demo("timer")
+    (tmp_path / "old.asi").write_text(text)
+    (tmp_path / "new.asi").write_text(_replace(text, ("F 0.0", "F 7.1"), ("T 6", "T 9")))
+    result = runner.invoke(main, ["diff", str(tmp_path / "old.asi"), str(tmp_path / "new.asi"),
+                                  "--equivalent", "--cycle-ms", "10"])
+    assert result.exit_code == 0, result.output
+    assert "equivalent: the same outputs for every input sequence (10 ms cycles" \
+        in result.output

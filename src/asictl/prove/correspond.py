@@ -24,12 +24,12 @@ from __future__ import annotations
 import random
 import time
 from collections.abc import Iterable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from asictl.il import ast
 from asictl.il.ast import key
 from asictl.il.loader import Program
-from asictl.il.oracle import Interpreter, PlcState
+from asictl.il.oracle import Interpreter, PlcState, runs_alone
 from asictl.platform.master import TICK_US
 from asictl.prove.scope import uses
 from asictl.prove.symbolic import Key, counter_high_bytes, width
@@ -115,19 +115,34 @@ def _longest_cycles(programs: Iterable[Program], cycle_us: int) -> int:
     return max(10, -(-longest * 1000 // cycle_us) + 2)
 
 
-def _run(programs: tuple[Program, Program], cells: tuple[list[Key], list[Key]], *,
-         slaves: tuple[int, ...], cycle_us: int, host_masks: dict[int, int], seed: int,
-         budget_s: float) -> tuple[list[list[int]], list[list[int]]]:
-    """Each program's cells after every cycle of one random run of both."""
+@dataclass
+class Run:
+    """One random run of both programs: each one's cells after every cycle, and what the
+    slaves and the host gave every cycle (each slave's four inputs, each host flag
+    byte)."""
+
+    records: tuple[list[list[int]], list[list[int]]] = field(default_factory=lambda: ([], []))
+    steps: list[tuple[dict[int, int], dict[int, int]]] = field(default_factory=list)
+    #: the compared cells (index in each program's cells) that differed after the last
+    #: cycle; empty when none did
+    differed: list[tuple[int, int]] = field(default_factory=list)
+
+
+def _run(programs: tuple[Program, Program], cells: tuple[list[Key], list[Key]],
+         compared: list[tuple[int, int]], *, slaves: tuple[int, ...], cycle_us: int,
+         host_masks: dict[int, int], phase_us: int | None, seed: int,
+         budget_s: float) -> Run:
+    """Both programs on the same random inputs, until the budget is spent or the
+    ``compared`` cells differ."""
     machines = [Interpreter(p, map_counters=p.options.map_counters) for p in programs]
     mapped = [counter_high_bytes(p) for p in programs]
-    records: tuple[list[list[int]], list[list[int]]] = ([], [])
+    run = Run()
     rng = random.Random(seed)
     longest = _longest_cycles(programs, cycle_us)
     inputs = bytearray(16)
     held = dict.fromkeys(slaves, 0)
     host = dict.fromkeys(host_masks, 0)
-    until_tick = rng.randint(1, TICK_US)
+    until_tick = phase_us if phase_us is not None else rng.randint(1, TICK_US)
     deadline = time.monotonic() + budget_s
     for cycle in range(CYCLES):
         if cycle % 64 == 63 and time.monotonic() > deadline:
@@ -144,7 +159,7 @@ def _run(programs: tuple[Program, Program], cells: tuple[list[Key], list[Key]], 
             if rng.random() < 0.2:
                 host[n] = rng.randrange(256)
         try:
-            for machine, high, cellist, record in zip(machines, mapped, cells, records,
+            for machine, high, cellist, record in zip(machines, mapped, cells, run.records,
                                                       strict=True):
                 flags = machine.state.flags
                 for n, mask in host_masks.items():
@@ -155,7 +170,15 @@ def _run(programs: tuple[Program, Program], cells: tuple[list[Key], list[Key]], 
                     flags[n] &= 0x0F
                 record.append([_read(machine.state, cell) for cell in cellist])
         except (CycleTimeout, KeyError, IndexError):
-            break  # a loop the master would stop, or a cell the interpreter lacks
+            # a loop the master would stop, or a cell the interpreter lacks
+            del run.records[0][cycle:], run.records[1][cycle:]
+            break
+        run.steps.append(({a: inputs[a >> 1] >> (a & 1) * 4 & 0xF for a in slaves},
+                          dict(host)))
+        first, second = run.records[0][-1], run.records[1][-1]
+        run.differed = [(i, j) for i, j in compared if first[i] != second[j]]
+        if run.differed:
+            break
         until_tick -= cycle_us
         ticks = 0
         while until_tick <= 0:
@@ -163,34 +186,57 @@ def _run(programs: tuple[Program, Program], cells: tuple[list[Key], list[Key]], 
             until_tick += TICK_US
         for machine in machines:
             machine.tick(ticks)
-    return records
+    return run
+
+
+@dataclass
+class Correspondence:
+    """What a random run of both programs showed: the candidate pairs and, when the
+    compared cells differed after some cycle, that cycle's run (the inputs of every
+    cycle up to it, and each compared cell that differed with its two values)."""
+
+    pairs: list[Pair]
+    steps: list[tuple[dict[int, int], dict[int, int]]] = field(default_factory=list)
+    differences: dict[tuple[Key, Key], tuple[int, int]] = field(default_factory=dict)
 
 
 def corresponding(first: Program, second: Program, cells: tuple[list[Key], list[Key]], *,
-                  slaves: tuple[int, ...], cycle_us: int, host_masks: dict[int, int],
-                  seed: int = 0, budget_s: float = SECONDS) -> list[Pair]:
+                  compared: list[tuple[Key, Key]], slaves: tuple[int, ...], cycle_us: int,
+                  host_masks: dict[int, int], phase_us: int | None = None, seed: int = 0,
+                  budget_s: float = SECONDS) -> Correspondence:
     """Candidate pairs of elements of the two programs' ``cells`` (each program's own
     cells, as its symbolic cycle names them) that held the same value after every cycle
-    of a random run of both."""
-    runs = _run((first, second), cells, slaves=slaves, cycle_us=cycle_us,
-                host_masks=host_masks, seed=seed, budget_s=budget_s)
-    if not runs[0] or len(runs[0]) != len(runs[1]):
-        return []
+    of a random run of both; or the run that made a ``compared`` pair differ. A
+    difference is told only for programs that run alone (``runs_alone``): the run gives
+    no firmware answers, so it is not the master's run of programs that ask for them.
+    ``phase_us`` is the time from the first cycle's start to the first 10 ms tick."""
+    alone = runs_alone(first) and runs_alone(second)
+    index = [{cell: n for n, cell in enumerate(cellist)} for cellist in cells]
+    pairs = [(index[0][a], index[1][b]) for a, b in compared
+             if a in index[0] and b in index[1]] if alone else []
+    run = _run((first, second), cells, pairs, slaves=slaves, cycle_us=cycle_us,
+               host_masks=host_masks, phase_us=phase_us, seed=seed, budget_s=budget_s)
+    if run.differed:
+        last = (run.records[0][-1], run.records[1][-1])
+        return Correspondence([], run.steps, {
+            (cells[0][i], cells[1][j]): (last[0][i], last[1][j]) for i, j in run.differed})
+    if not run.records[0]:
+        return Correspondence([])
     used = (_used(first), _used(second))
     either = used[0] | used[1]
     histories: list[dict[Element, tuple[int, ...]]] = []
-    for cellist, record in zip(cells, runs, strict=True):
+    for cellist, record in zip(cells, run.records, strict=True):
         history: dict[Element, tuple[int, ...]] = {}
-        for index, cell in enumerate(cellist):
+        for n, cell in enumerate(cellist):
             if cell[0] == "R":
                 continue
-            values = tuple(row[index] for row in record)
+            values = tuple(row[n] for row in record)
             history[(cell, -1)] = values
             if width(cell) == 8:
                 history.update(((cell, bit), tuple(v >> bit & 1 for v in values))
                                for bit in range(8) if (cell, bit) in either)
         histories.append(history)
-    return _pairs(histories[0], histories[1], used)
+    return Correspondence(_pairs(histories[0], histories[1], used))
 
 
 def _kind(element: Element) -> str:

@@ -31,11 +31,11 @@ from asictl.il.loader import Program
 from asictl.il.pragmas import read_directives
 from asictl.observe.condition import Truth
 from asictl.platform.master import asi_cycle_us
-from asictl.prove.correspond import Pair, corresponding
+from asictl.prove.correspond import Correspondence, Pair, corresponding
 from asictl.prove.engine import Machine, Outcome, Setup, Step, Verdict
 from asictl.prove.props import Kind, Property
 from asictl.prove.scope import uses
-from asictl.prove.session import cycles_of
+from asictl.prove.session import cycles_of, simulator_phase
 from asictl.prove.symbolic import (
     TICK,
     Cycle,
@@ -133,7 +133,8 @@ def equivalent(
         return Equivalence("unknown", 0, 0.0, note="a build without IL source")
     try:
         return _equivalent(programs[0], programs[1], start, timeout_s=timeout_s,
-                           depth=depth, slaves=slaves, cycle_ms=cycle_ms, observe=observe)
+                           depth=depth, slaves=slaves, cycle_ms=cycle_ms, observe=observe,
+                           built=first if isinstance(first, Build) else None)
     except Unmodelled as exc:
         return Equivalence("unknown", 0, time.monotonic() - start, note=str(exc),
                            refused=exc)
@@ -149,7 +150,7 @@ def _program_of(side: Program | Build) -> Program | None:
 
 def _equivalent(first: Program, second: Program, start: float, *, timeout_s: float,
                 depth: int | Cycles, slaves: Iterable[int] | None, cycle_ms: float | None,
-                observe: Iterable[ast.Operand]) -> Equivalence:
+                observe: Iterable[ast.Operand], built: Build | None) -> Equivalence:
     bus = tuple(sorted(set(slaves) if slaves is not None else
                        {s.address for p in (first, second) for s in p.slaves}))
     cycle_us = (round(cycle_ms * 1000) if cycle_ms is not None
@@ -163,12 +164,29 @@ def _equivalent(first: Program, second: Program, start: float, *, timeout_s: flo
                           watch=observed, prefix=f"{side}.", deadline=deadline)
               for side, program in (("a", first), ("b", second))]
     both = product(*cycles)
+    # the scenario written runs the first program: its clock phase in the simulator
+    phase = simulator_phase(built, cycle_us) if built is not None else None
+    run = _correspondence(first, second, cycles, observed, both.host_masks, phase)
+    if len(run.steps) > depth + 1 and run.differences:
+        # seen on a run of both, later than the search goes: no proof can make them the
+        # same; a difference within the depth is searched for, as the shortest
+        result = Equivalence("different", len(run.steps), time.monotonic() - start,
+                             [Step(inputs, host) for inputs, host in run.steps],
+                             slaves=bus, cycle_ms=cycle_us / 1000,
+                             host_masks=both.host_masks,
+                             note="found on a random run of both programs")
+        for (cell, _), values in run.differences.items():
+            _tell(result, cell, *values)
+        return result
     pairs = [(("a", *cell), ("b", *cell)) for cell in observed]
     same = Property("same outputs", Kind.ALWAYS, Truth(True), 0)
-    twins = _twins(first, second, cycles, both.host_masks)
-    machine = Machine(first, Setup(bus, cycle_us, tuple(host)), [], [], prebuilt=both,
+    twins = [Pair((("a", *pair.first[0]), pair.first[1]),
+                  (("b", *pair.second[0]), pair.second[1]), pair.inverted)
+             for pair in run.pairs]
+    machine = Machine(first, Setup(bus, cycle_us, tuple(host), phase), [], [], prebuilt=both,
                       observed=pairs, twins=twins, deadline=deadline)
-    machine.find_invariants(deadline)
+    if not run.differences:
+        machine.find_invariants(deadline)
     outcome: Outcome = machine.decide(same, depth=depth, timeout_s=timeout_s, since=start)
     verdict = {Verdict.PROVED: "equivalent", Verdict.REFUTED: "different"}.get(
         outcome.verdict, "unknown")
@@ -181,26 +199,32 @@ def _equivalent(first: Program, second: Program, start: float, *, timeout_s: flo
     for a, b in pairs:
         x, y = outcome.values.get(cell_name(a)), outcome.values.get(cell_name(b))
         if x is not None and y is not None and x != y:
-            scale = 10 if a[1] == "T" else 1  # a timer's ticks as TV reads them: ms
-            result.differences[_operand_text(a[1:])] = (x * scale, y * scale)
+            _tell(result, a[1:], x, y)
     return result
 
 
-def _twins(first: Program, second: Program, cycles: list[Cycle], masks: dict[int, int]
-           ) -> list[Pair]:
-    """The elements of the two programs that may always be equal (a refactoring's
-    renamed flags, timers and counters among them), each under its side: those a random
-    run of both shows equal (``prove/correspond.py``), or, when the run cannot be made,
-    every cell both programs keep at the same place."""
+def _tell(result: Equivalence, cell: Key, first: int, second: int) -> None:
+    """A compared cell's two values after the last cycle, as a scenario names them."""
+    scale = 10 if cell[0] == "T" else 1  # a timer's ticks as TV reads them: ms
+    result.differences[_operand_text(cell)] = (first * scale, second * scale)
+
+
+def _correspondence(first: Program, second: Program, cycles: list[Cycle],
+                    observed: list[Key], masks: dict[int, int],
+                    phase: int | None) -> Correspondence:
+    """A random run of both programs: the elements that may always be equal (a
+    refactoring's renamed flags, timers and counters among them), or the compared cells
+    seen to differ (``prove/correspond.py``). When the run could not be made, every cell
+    both programs keep at the same place is a candidate."""
     own = (sorted(cycles[0].post, key=cell_name), sorted(cycles[1].post, key=cell_name))
-    found = corresponding(first, second, own, slaves=cycles[0].slaves,
-                          cycle_us=cycles[0].cycle_us, host_masks=masks)
-    if not found:
-        found = [Pair((cell, -1), (cell, -1)) for cell in own[0]
-                 if cell in cycles[1].post and cell != TICK]
-    return [Pair((("a", *pair.first[0]), pair.first[1]),
-                 (("b", *pair.second[0]), pair.second[1]), pair.inverted)
-            for pair in found if TICK not in (pair.first[0], pair.second[0])]
+    run = corresponding(first, second, own, compared=[(cell, cell) for cell in observed],
+                        slaves=cycles[0].slaves, cycle_us=cycles[0].cycle_us,
+                        host_masks=masks, phase_us=phase)
+    if not run.pairs and not run.differences:
+        run.pairs = [Pair((cell, -1), (cell, -1)) for cell in own[0]
+                     if cell in cycles[1].post]
+    run.pairs = [pair for pair in run.pairs if TICK not in (pair.first[0], pair.second[0])]
+    return run
 
 
 def _operand_text(cell: Key) -> str:

@@ -523,7 +523,7 @@ class Machine:
         for initial in (True, False):
             if not remaining:
                 break
-            solver = z3.Solver()
+            solver = z3.SolverFor("QF_BV")
             path = _Path(self, solver, "h.", initial=initial)
             assumed = [z3.Bool(f"h.assume.{n}") for n in range(len(remaining))]
             if not initial:
