@@ -31,7 +31,7 @@ from asictl.il.loader import Program
 from asictl.il.pragmas import read_directives
 from asictl.observe.condition import Truth
 from asictl.platform.master import asi_cycle_us
-from asictl.prove.correspond import Correspondence, Pair, corresponding
+from asictl.prove.correspond import SECONDS, Correspondence, Pair, corresponding
 from asictl.prove.engine import Machine, Outcome, Setup, Step, Verdict
 from asictl.prove.props import Kind, Property
 from asictl.prove.scope import uses
@@ -166,7 +166,9 @@ def _equivalent(first: Program, second: Program, start: float, *, timeout_s: flo
     both = product(*cycles)
     # the scenario written runs the first program: its clock phase in the simulator
     phase = simulator_phase(built, cycle_us) if built is not None else None
-    run = _correspondence(first, second, cycles, observed, both.host_masks, phase)
+    # the run takes at most a quarter of the time left: the proof needs the rest
+    budget = min(SECONDS, (deadline - time.monotonic()) / 4)
+    run = _correspondence(first, second, cycles, observed, both.host_masks, phase, budget)
     if len(run.steps) > depth + 1 and run.differences:
         # seen on a run of both, later than the search goes: no proof can make them the
         # same; a difference within the depth is searched for, as the shortest
@@ -210,8 +212,8 @@ def _tell(result: Equivalence, cell: Key, first: int, second: int) -> None:
 
 
 def _correspondence(first: Program, second: Program, cycles: list[Cycle],
-                    observed: list[Key], masks: dict[int, int],
-                    phase: int | None) -> Correspondence:
+                    observed: list[Key], masks: dict[int, int], phase: int | None,
+                    budget_s: float) -> Correspondence:
     """A random run of both programs: the elements that may always be equal (a
     refactoring's renamed flags, timers and counters among them), or the compared cells
     seen to differ (``prove/correspond.py``). When the run could not be made, every cell
@@ -219,7 +221,7 @@ def _correspondence(first: Program, second: Program, cycles: list[Cycle],
     own = (sorted(cycles[0].post, key=cell_name), sorted(cycles[1].post, key=cell_name))
     run = corresponding(first, second, own, compared=[(cell, cell) for cell in observed],
                         slaves=cycles[0].slaves, cycle_us=cycles[0].cycle_us,
-                        host_masks=masks, phase_us=phase)
+                        host_masks=masks, phase_us=phase, budget_s=budget_s)
     if not run.pairs and not run.differences:
         run.pairs = [Pair((cell, -1), (cell, -1)) for cell in own[0]
                      if cell in cycles[1].post]
