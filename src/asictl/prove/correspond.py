@@ -17,6 +17,12 @@ it proves (``Machine.find_invariants``, Houdini's algorithm), so a coincidence o
 random run costs a round of the solver, never a wrong verdict; and a pair that holds
 in every run holds in this one too, so nothing true is left out, unless the run never
 sets either element (then it is tried when both places are the program's own, a rename).
+
+The same run may show the compared cells (the outputs, say) differ after some cycle.
+That is a difference by the language's own rules, the reference interpreter's, from one
+phase of the 10 ms clock the prover allows; it is told, with the run's inputs, only of
+programs that run alone (``runs_alone``: the run gives no firmware answers), and it finds
+what unrolling cannot reach: a timer one second shorter shows after hundreds of cycles.
 """
 
 from __future__ import annotations

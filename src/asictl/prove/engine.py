@@ -594,6 +594,7 @@ class Machine:
             result = base_solver.check(bad, fixed)
             note = ""
             if result == z3.unsat and phase is not None:
+                base_solver.set("timeout", left_ms())  # what the first check left
                 result = base_solver.check(bad)
                 note = ("found only for another phase of the 10 ms clock than the "
                         "simulator's: the scenario may not show it")
