@@ -169,9 +169,9 @@ def _equivalent(first: Program, second: Program, start: float, *, timeout_s: flo
     # the run takes at most a quarter of the time left: the proof needs the rest
     budget = min(SECONDS, (deadline - time.monotonic()) / 4)
     run = _correspondence(first, second, cycles, observed, both.host_masks, phase, budget)
-    if len(run.steps) > depth + 1 and run.differences:
-        # seen on a run of both, later than the search goes: no proof can make them the
-        # same; a difference within the depth is searched for, as the shortest
+
+    def seen() -> Equivalence:
+        """The difference the run of both programs showed."""
         result = Equivalence("different", len(run.steps), time.monotonic() - start,
                              [Step(inputs, host) for inputs, host in run.steps],
                              slaves=bus, cycle_ms=cycle_us / 1000,
@@ -180,6 +180,11 @@ def _equivalent(first: Program, second: Program, start: float, *, timeout_s: flo
         for (cell, _), values in run.differences.items():
             _tell(result, cell, *values)
         return result
+
+    if len(run.steps) > depth + 1 and run.differences:
+        # later than the search goes: no proof can make them the same; a difference
+        # within the depth is searched for below, as the shortest
+        return seen()
     pairs = [(("a", *cell), ("b", *cell)) for cell in observed]
     same = Property("same outputs", Kind.ALWAYS, Truth(True), 0)
     twins = [Pair((("a", *pair.first[0]), pair.first[1]),
@@ -190,6 +195,8 @@ def _equivalent(first: Program, second: Program, start: float, *, timeout_s: flo
     if not run.differences:
         machine.find_invariants(deadline)
     outcome: Outcome = machine.decide(same, depth=depth, timeout_s=timeout_s, since=start)
+    if run.differences and outcome.verdict is not Verdict.REFUTED:
+        return seen()  # the search ran out of time: what the run saw still stands
     verdict = {Verdict.PROVED: "equivalent", Verdict.REFUTED: "different"}.get(
         outcome.verdict, "unknown")
     result = Equivalence(verdict, outcome.depth + 1 if outcome.trace else outcome.depth,
