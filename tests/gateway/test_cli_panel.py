@@ -73,7 +73,7 @@ def test_mode_held_6_s_configures_a_short_press_protects_and_the_lock_stops_both
     assert status["mode"] == "protected"
     assert status["lps"] == [], "a short press does not store the configuration"
     assert status["display"] == {
-        "code": 5, "text": "05", "blinking": False,
+        "code": 5, "text": "  05", "blinking": False,
         "meaning": "slave 5 is wrongly configured (found first)",
     }
 
@@ -138,7 +138,7 @@ def test_the_first_commissioning_of_the_manuals_appendix(served):
     assert panel["display"]["code"] == 1 and not panel["display"]["blinking"]
     panel = served.press("set", "--hold", "6s")
     assert panel["display"] == {
-        "code": 1, "text": "01", "blinking": True,
+        "code": 1, "text": "  01", "blinking": True,
         "meaning": "target address 1: set programs the slave with address 0 to it",
     }
     served.press("set")
