@@ -1,0 +1,209 @@
+"""``asictl report merge``: the reports of a run's shards put together as one run's.
+
+A CI matrix runs ``test``, ``mutate`` or ``prove`` with ``--shard I/N`` in N jobs; each
+writes its share of the report, and the merge gives what one run over all files would
+have written: the same entries in the same order (by path), the counts and the score
+worked out again from them. Each kind is read in the form that loses nothing: JUnit XML
+(``test --junit``), asictl's json coverage (``test --coverage FILE.json``, from which
+any coverage format can be written), ``mutate --format json`` and ``prove --format
+json``. An entry in two inputs means the inputs are not shards of one split: refused.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Callable, Sequence
+from pathlib import Path, PurePath
+from typing import Any
+from xml.etree import ElementTree
+
+import click
+
+from asictl.cli import junit
+from asictl.cli.mutate import json_report
+from asictl.errors import UserError
+from asictl.files import write_output
+from asictl.observe.coverage import Coverage
+from asictl.sim.coverage import FORMATS, format_for, from_json, render
+from asictl.source import read_bounded
+
+#: A report larger than this is no shard's report.
+MAX_REPORT_BYTES = 256 * 1024 * 1024
+
+#: What each kind is, for messages.
+_KINDS = {
+    "junit": "JUnit XML (test --junit)",
+    "coverage": "json coverage (test --coverage FILE.json)",
+    "mutation": "a mutation report (mutate --format json)",
+    "proof": "a proof report (prove --format json)",
+}
+
+
+@click.group("report")
+def report() -> None:
+    """Reports of several runs as one: the shards of a CI matrix (docs/testing.md).
+
+    \b
+    Example:
+      asictl test demos --shard 1/2 --junit junit-1.xml
+      asictl test demos --shard 2/2 --junit junit-2.xml
+      asictl report merge junit-1.xml junit-2.xml -o junit.xml
+    """
+
+
+@report.command("merge")
+@click.argument("files", nargs=-1, required=True,
+                type=click.Path(dir_okay=False, path_type=Path))
+@click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path),
+              default="-", show_default=True, help="Where to write the merged report.")
+@click.option("--coverage-format", type=click.Choice(FORMATS), default=None,
+              help="Format of merged coverage (default: by the suffix of --output, as "
+              "test --coverage; json on standard output).")
+def merge(files: tuple[Path, ...], output: Path, coverage_format: str | None) -> None:
+    """Merge FILES, the reports of the shards of one run (--shard I/N), into one.
+
+    FILES are all of one kind: JUnit XML from 'test --junit', json coverage from 'test
+    --coverage FILE.json' (written merged in any of test's coverage formats), 'mutate
+    --format json' or 'prove --format json'. The result is what one run over every
+    shard's files writes, entries in the order of their paths, counts and score worked
+    out again; only times differ. Coverage must be json: Cobertura and lcov do not keep
+    conditions apart from branches.
+
+    Exit status: 0 merged, 2 a file is unreadable, of no kind asictl merges, of another
+    kind than the first, or names an entry another file names too (not shards of one
+    split).
+
+    \b
+    Example:
+      asictl test demos --shard 1/2 --coverage coverage-1.json
+      asictl test demos --shard 2/2 --coverage coverage-2.json
+      asictl report merge coverage-1.json coverage-2.json -o coverage.xml
+    """
+    for n, path in enumerate(files):
+        if path in files[:n]:
+            raise UserError(f"{path}: given twice")
+    read = [(path, _read(path)) for path in files]
+    kinds = {path: _kind(path, document) for path, document in read}
+    first = kinds[files[0]]
+    for path, kind in kinds.items():
+        if kind != first:
+            raise UserError(f"{path}: {_KINDS[kind]}, but {files[0]} is {_KINDS[first]}: "
+                            "merge reports of one kind at a time")
+    documents = [document for _, document in read]
+    if first == "coverage":
+        fmt = (coverage_format or "json" if str(output) == "-"
+               else format_for(str(output), coverage_format))
+        text = render(_coverage(files, documents), fmt)
+    else:
+        text = _MERGE[first](list(files), documents)
+    write_output(output, text, inputs=files)
+
+
+def _read(path: Path) -> Any:
+    """The report at ``path``: an XML root element or a JSON value."""
+    raw = read_bounded(path, MAX_REPORT_BYTES, "a report")
+    text = raw.decode("utf-8", errors="replace")
+    if text.lstrip().startswith("<"):
+        try:
+            return ElementTree.fromstring(raw)
+        except ElementTree.ParseError as exc:
+            raise UserError(f"{path}: not well-formed XML: {exc}") from None
+    try:
+        return json.loads(text)
+    except ValueError as exc:
+        raise UserError(f"{path}: neither XML nor JSON: {exc}") from None
+
+
+def _kind(path: Path, document: Any) -> str:
+    if isinstance(document, ElementTree.Element):
+        if document.tag == junit.SUITE:
+            return "junit"
+        if document.tag == "coverage":
+            raise UserError(f"{path}: XML coverage cannot be merged exactly: write each "
+                            "shard's coverage as json (test --coverage FILE.json)")
+        raise UserError(f"{path}: <{document.tag}> is not a report asictl writes")
+    if isinstance(document, dict):
+        if document.get("format") == "asictl-coverage":
+            return "coverage"
+        if isinstance(document.get("mutants"), list):
+            return "mutation"
+        if isinstance(document.get("files"), list):
+            return "proof"
+    raise UserError(f"{path}: not a report asictl merges; it merges "
+                    + ", ".join(_KINDS.values()))
+
+
+def _once(entries: Sequence[tuple[Path, Any, tuple[str, ...]]]) -> list[Any]:
+    """The entries (report file, entry, its name: paths) sorted by name; an entry two
+    report files name is refused."""
+    seen: dict[tuple[str, ...], Path] = {}
+    for file, _, name in entries:
+        other = seen.setdefault(name, file)
+        if other != file:
+            raise UserError(f"{' '.join(name)} is in both {other} and {file}: these are "
+                            "not the shards of one split (same N, each I once)")
+    return [entry for _, entry, _ in
+            sorted(entries, key=lambda e: tuple(PurePath(part) for part in e[2]))]
+
+
+def _shape(file: Path, what: str) -> UserError:
+    return UserError(f"{file}: not {what} as asictl writes it")
+
+
+def _junit(files: list[Path], documents: list[ElementTree.Element]) -> str:
+    cases = []
+    for file, document in zip(files, documents, strict=True):
+        for case in document.findall("testcase"):
+            name = case.get("name")
+            if name is None:
+                raise _shape(file, _KINDS["junit"])
+            cases.append((file, case, (name,)))
+    return junit.suite(_once(cases))
+
+
+def _coverage(files: tuple[Path, ...], documents: list[dict[str, Any]]) -> Coverage:
+    merged = Coverage()
+    for file, document in zip(files, documents, strict=True):
+        try:
+            merged.merge(from_json(document))
+        except (KeyError, TypeError, ValueError, AttributeError):
+            raise _shape(file, _KINDS["coverage"]) from None
+    return merged
+
+
+def _mutation(files: list[Path], documents: list[dict[str, Any]]) -> str:
+    mutants = []
+    for file, document in zip(files, documents, strict=True):
+        rows = document["mutants"]
+        if not all(isinstance(r, dict) and isinstance(r.get("file"), str)
+                   and isinstance(r.get("verdict"), str) for r in rows):
+            raise _shape(file, _KINDS["mutation"])
+        mutants += [(file, row) for row in rows]
+    checked = all(d.get("equivalence_checked") is True for d in documents)
+    return json.dumps(json_report(_by_file(mutants), checked), indent=2) + "\n"
+
+
+def _by_file(mutants: list[tuple[Path, dict[str, Any]]]) -> list[dict[str, Any]]:
+    """The mutants of each program kept together in their order, the programs in the
+    order of their paths; a program in two reports is refused."""
+    groups: dict[tuple[Path, str], list[dict[str, Any]]] = {}
+    for report_file, row in mutants:
+        groups.setdefault((report_file, row["file"]), []).append(row)
+    ordered = _once([(report_file, rows, (name,))
+                     for (report_file, name), rows in groups.items()])
+    return [row for rows in ordered for row in rows]
+
+
+def _proof(files: list[Path], documents: list[dict[str, Any]]) -> str:
+    reports = []
+    for file, document in zip(files, documents, strict=True):
+        for entry in document["files"]:
+            if not isinstance(entry, dict) or not isinstance(entry.get("properties"), str):
+                raise _shape(file, _KINDS["proof"])
+            reports.append((file, entry, (entry["properties"], str(entry.get("program")))))
+    return json.dumps({"files": _once(reports)}, indent=2) + "\n"
+
+
+_MERGE: dict[str, Callable[[list[Path], list[Any]], str]] = {
+    "junit": _junit, "mutation": _mutation, "proof": _proof,
+}

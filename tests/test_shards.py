@@ -1,0 +1,184 @@
+"""``--shard I/N`` of test, mutate and prove, and ``asictl report merge``: the merged
+reports of the shards are the report of one run over all files, byte for byte once the
+times (JUnit ``time``, json ``seconds``, Cobertura's ``timestamp``) are blanked, since
+they differ between any two runs."""
+
+from __future__ import annotations
+
+import json
+import re
+import shutil
+from pathlib import Path
+
+import pytest
+from click.testing import CliRunner, Result
+
+from asictl.cli import main
+
+DEMOS = Path(__file__).resolve().parent.parent / "demos"
+#: small programs, each with its scenario and properties; three files for two shards
+#: make the shards unequal, for five leave two empty
+PROGRAMS = ("blink", "logic", "edge")
+
+
+def _timeless(text: str) -> str:
+    text = re.sub(r'\b(time|timestamp)="[^"]*"', r'\1=""', text)
+    return re.sub(r'"seconds": [^,\n}]+', '"seconds": 0', text)
+
+
+@pytest.fixture
+def project(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
+    """A folder with copies of a few demos (Cobertura names the current folder)."""
+    folder = tmp_path / "demos"
+    folder.mkdir()
+    for name in PROGRAMS:
+        for suffix in (".asi", ".scenario.toml", ".props.toml"):
+            shutil.copy(DEMOS / f"{name}{suffix}", folder)
+    monkeypatch.chdir(tmp_path)
+    return tmp_path
+
+
+def _asictl(*args: str) -> Result:
+    return CliRunner().invoke(main, list(args), catch_exceptions=False)
+
+
+def _ok(*args: str) -> Result:
+    result = _asictl(*args)
+    assert result.exit_code == 0, (args, result.output)
+    return result
+
+
+def _read(path: str) -> str:
+    return Path(path).read_text(encoding="utf-8")
+
+
+@pytest.mark.parametrize("total", [2, 5])
+def test_the_merged_junit_and_coverage_are_those_of_one_run(project: Path, total: int):
+    _ok("test", "demos", "-j", "1", "--junit", "all.xml", "--coverage", "all.json")
+    shards = [str(i) for i in range(1, total + 1)]
+    for i in shards:
+        result = _ok("test", "demos", "-j", "1", "--shard", f"{i}/{total}",
+                     "--junit", f"junit-{i}.xml", "--coverage", f"coverage-{i}.json")
+        if int(i) > len(PROGRAMS):
+            assert "0 passed, 0 failed" in result.output
+            assert f"shard {i}/{total} has no scenario files (3 in all)" in result.output
+    _ok("report", "merge", *[f"junit-{i}.xml" for i in shards], "-o", "merged.xml")
+    assert _timeless(_read("merged.xml")) == _timeless(_read("all.xml"))
+    assert "<testcase" in _read("merged.xml")
+    _ok("report", "merge", *[f"coverage-{i}.json" for i in shards], "-o", "merged.json")
+    assert _read("merged.json") == _read("all.json")
+    # the merged json written in each of test's coverage formats is what test writes
+    for name, fmt in [("all.xml", "cobertura"), ("all.info", "lcov"),
+                      ("all.sonar.xml", "sonarqube")]:
+        _ok("test", "demos", "-j", "1", "--coverage", f"full-{name}",
+            "--coverage-format", fmt)
+        _ok("report", "merge", *[f"coverage-{i}.json" for i in shards],
+            "-o", f"merged-{name}", "--coverage-format", fmt)
+        assert _timeless(_read(f"merged-{name}")) == _timeless(_read(f"full-{name}"))
+
+
+def test_each_scenario_runs_in_one_shard(project: Path):
+    ran = []
+    for i in (1, 2, 3):
+        result = _ok("test", "demos", "-j", "1", "--shard", f"{i}/3", "--format", "json")
+        scenarios = [s["path"] for s in json.loads(result.stdout)["scenarios"]]
+        assert len(scenarios) == 1
+        ran += scenarios
+    assert sorted(ran) == sorted(f"demos/{p}.scenario.toml" for p in PROGRAMS)
+
+
+def test_the_merged_mutation_report_is_that_of_one_run(project: Path):
+    whole = _ok("mutate", "demos", "-j", "1", "--format", "json").stdout
+    for i in (1, 2):
+        Path(f"mutants-{i}.json").write_text(
+            _ok("mutate", "demos", "-j", "1", "--format", "json", "--shard", f"{i}/2").stdout,
+            encoding="utf-8")
+    merged = _ok("report", "merge", "mutants-1.json", "mutants-2.json").stdout
+    assert _timeless(merged) == _timeless(whole)
+    shards = [{m["file"] for m in json.loads(_read(f"mutants-{i}.json"))["mutants"]}
+              for i in (1, 2)]
+    assert not shards[0] & shards[1]
+    assert shards[0] | shards[1] == {f"demos/{p}.asi" for p in PROGRAMS}
+
+
+def test_the_merged_proof_report_is_that_of_one_run(project: Path):
+    files = sorted(str(p.relative_to(project)) for p in project.glob("demos/*.props.toml"))
+    whole = _ok("prove", *files, "--format", "json").stdout
+    for i in (1, 2):
+        Path(f"proofs-{i}.json").write_text(
+            _ok("prove", *files, "--format", "json", "--shard", f"{i}/2").stdout,
+            encoding="utf-8")
+    merged = _ok("report", "merge", "proofs-2.json", "proofs-1.json").stdout
+    assert _timeless(merged) == _timeless(whole)
+    assert len(json.loads(merged)["files"]) == len(PROGRAMS)
+
+
+@pytest.mark.parametrize("command", [["test", "demos"], ["mutate", "demos"],
+                                     ["prove", "demos/blink.asi"]])
+@pytest.mark.parametrize(("value", "says"), [
+    ("0/2", "'0/2': I counts from 1 to N (2)"),
+    ("3/2", "'3/2': I counts from 1 to N (2)"),
+    ("1/0", "'1/0': N is at least 1"),
+    ("half", "'half' is not I/N (e.g. 1/4) or auto"),
+])
+def test_a_shard_that_is_none_is_a_usage_error(project: Path, command: list[str],
+                                                value: str, says: str):
+    result = _asictl(*command, "--shard", value)
+    assert result.exit_code == 2
+    assert f"Invalid value for '--shard': {says}" in result.output
+    assert "Traceback" not in result.output
+
+
+def test_shard_auto_takes_gitlab_parallel(project: Path, monkeypatch: pytest.MonkeyPatch):
+    monkeypatch.setenv("CI_NODE_INDEX", "2")
+    monkeypatch.setenv("CI_NODE_TOTAL", "3")
+    result = _ok("test", "demos", "-j", "1", "--shard", "auto", "--format", "json")
+    assert [s["path"] for s in json.loads(result.stdout)["scenarios"]] == sorted(
+        f"demos/{p}.scenario.toml" for p in PROGRAMS)[1:2]
+    monkeypatch.setenv("CI_NODE_INDEX", "4")
+    result = _asictl("test", "demos", "--shard", "auto")
+    assert result.exit_code == 2
+    assert "CI_NODE_INDEX/CI_NODE_TOTAL '4/3': I counts from 1 to N (3)" in result.output
+
+
+@pytest.fixture
+def shards(project: Path) -> Path:
+    for i in (1, 2):
+        _ok("test", "demos", "-j", "1", "--shard", f"{i}/2", "--junit", f"junit-{i}.xml",
+            "--coverage", f"coverage-{i}.json")
+    return project
+
+
+@pytest.mark.parametrize(("files", "says"), [
+    (["junit-1.xml", "coverage-2.json"], "coverage-2.json: json coverage (test --coverage "
+     "FILE.json), but junit-1.xml is JUnit XML (test --junit): merge reports of one kind"),
+    (["junit-1.xml", "copy.xml"], "demos/blink.scenario.toml is in both junit-1.xml and "
+     "copy.xml: these are not the shards of one split"),
+    (["junit-1.xml", "junit-1.xml"], "junit-1.xml: given twice"),
+    (["cobertura.xml"], "cobertura.xml: XML coverage cannot be merged exactly: write each "
+     "shard's coverage as json"),
+    (["demos/blink.props.toml"], "demos/blink.props.toml: neither XML nor JSON"),
+    (["other.json"], "other.json: not a report asictl merges"),
+    (["broken.xml"], "broken.xml: not well-formed XML"),
+    (["bad-coverage.json"], "bad-coverage.json: not json coverage (test --coverage "
+     "FILE.json) as asictl writes it"),
+    (["missing.xml"], "missing.xml: cannot read"),
+])
+def test_what_merge_refuses(shards: Path, files: list[str], says: str):
+    shutil.copy("junit-1.xml", "copy.xml")
+    _ok("test", "demos", "-j", "1", "--coverage", "cobertura.xml")
+    Path("other.json").write_text('{"scenarios": []}', encoding="utf-8")
+    Path("broken.xml").write_text("<testsuite>", encoding="utf-8")
+    Path("bad-coverage.json").write_text('{"format": "asictl-coverage", "files": {"a": 1}}',
+                                         encoding="utf-8")
+    result = _asictl("report", "merge", *files, "-o", "out.xml")
+    assert result.exit_code == 2, result.output
+    assert f"asictl: error: {says}" in result.output
+    assert not Path("out.xml").exists()
+
+
+def test_merge_never_writes_over_a_shard(shards: Path):
+    before = _read("junit-1.xml")
+    result = _asictl("report", "merge", "junit-1.xml", "junit-2.xml", "-o", "junit-1.xml")
+    assert result.exit_code == 2
+    assert _read("junit-1.xml") == before
