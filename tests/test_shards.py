@@ -182,3 +182,72 @@ def test_merge_never_writes_over_a_shard(shards: Path):
     result = _asictl("report", "merge", "junit-1.xml", "junit-2.xml", "-o", "junit-1.xml")
     assert result.exit_code == 2
     assert _read("junit-1.xml") == before
+
+
+#: one program, a scenario for each way of its jump: each shard alone covers 4 of its 6
+#: lines, the two together all
+JUMP = """\
+[SETUP]
+1: iiii, 0
+2: oooo, 0
+
+[PROGRAM]
+        A   I 1.0
+        JC  = high
+        R   Q 2.0
+        BE
+high:   S   Q 2.0
+        BE
+"""
+
+
+def test_coverage_fail_under_judges_the_merged_run(project: Path):
+    folder = project / "jump"
+    folder.mkdir()
+    (folder / "jump.asi").write_text(JUMP, encoding="utf-8")
+    for name, value in (("high", 1), ("low", 0)):
+        (folder / f"{name}.scenario.toml").write_text(
+            f'program = "jump.asi"\n[[step]]\nat_ms = 0\nset = {{ "I 1.0" = {value} }}\n'
+            f'[[step]]\nat_ms = 50\nexpect = {{ "Q 2.0" = {value} }}\n', encoding="utf-8")
+    for i in (1, 2):
+        result = _asictl("test", "jump", "-j", "1", "--shard", f"{i}/2",
+                         "--coverage", f"jump-{i}.json", "--coverage-fail-under", "100")
+        assert result.exit_code == 1
+        assert "coverage: lines 66% (4/6)" in result.output
+    merged = _ok("report", "merge", "jump-1.json", "jump-2.json",
+                 "--coverage-fail-under", "100", "-o", "merged.json")
+    assert "coverage: lines 100% (6/6), branches 100% (2/2), conditions 100% (2/2)" in (
+        merged.output)
+    _ok("test", "jump", "-j", "1", "--coverage", "all.json")
+    assert _read("merged.json") == _read("all.json")
+    result = _asictl("report", "merge", "jump-1.json", "--coverage-fail-under", "70.5")
+    assert result.exit_code == 1
+    assert "line coverage 66.67% is below --coverage-fail-under 70.5%" in result.output
+
+
+def test_a_bar_for_another_kind_is_a_usage_error(shards: Path):
+    result = _asictl("report", "merge", "junit-1.xml", "junit-2.xml", "--min-score", "80")
+    assert result.exit_code == 2
+    assert ("--min-score is a bar for a mutation report (mutate --format json); "
+            "junit-1.xml is JUnit XML") in result.output
+
+
+def test_min_score_on_merged_mutants(project: Path):
+    mutants = []
+    for i in (1, 2):
+        Path(f"mutants-{i}.json").write_text(
+            _ok("mutate", "demos/blink.scenario.toml", "demos/edge.scenario.toml", "-j", "1",
+                "--format", "json", "--shard", f"{i}/2").stdout, encoding="utf-8")
+        mutants += json.loads(_read(f"mutants-{i}.json"))["mutants"]
+    killed = sum(m["verdict"] in ("killed", "timeout") for m in mutants)
+    counted = sum(m["verdict"] in ("killed", "timeout", "survived", "died") for m in mutants)
+    share = 100 * killed / counted
+    assert share < 100  # some survive, so the bar can be missed
+    merged = _ok("report", "merge", "mutants-1.json", "mutants-2.json",
+                 "--min-score", repr(share), "-o", "merged.json")
+    assert json.loads(_read("merged.json"))["score"] == round(share, 2)
+    assert merged.exit_code == 0
+    result = _asictl("report", "merge", "mutants-1.json", "mutants-2.json",
+                     "--min-score", "100", "-o", "merged.json")
+    assert result.exit_code == 1
+    assert f"mutation score {share:.1f}% is below --min-score 100%" in result.output

@@ -10,7 +10,14 @@ from pathlib import Path, PurePath
 import click
 
 import asictl.quality.mutate as mutation
-from asictl.cli.options import Duration, Number, lib_option, shard_option, take_shard
+from asictl.cli.options import (
+    Duration,
+    below_bar,
+    lib_option,
+    min_score_option,
+    shard_option,
+    take_shard,
+)
 from asictl.errors import ExitCode, UserError
 from asictl.quality.mutate import PROVE_HINT, Result, Target, mutants_of, run_all, score
 from asictl.readers.shard import Shard
@@ -80,7 +87,7 @@ def _summary(results: list[Result]) -> str:
     killed, counted = score(r.verdict for r in results)
     counts = {v: sum(1 for r in results if r.verdict == v)
               for v in ("killed", "timeout", "survived", "died", "equivalent", "invalid")}
-    share = _share(killed, counted)
+    share = percent_killed(killed, counted)
     parts = ", ".join(f"{n} {v}" for v, n in counts.items() if n)
     return f"{len(results)} mutants: {parts or 'none'}; score {share:.1f}% ({killed}/{counted})"
 
@@ -92,8 +99,7 @@ def _summary(results: list[Result]) -> str:
               "of cores).")
 @click.option("--format", "fmt", type=click.Choice(["text", "json"]), default="text",
               show_default=True, help="json: one object with every mutant and the score.")
-@click.option("--min-score", type=Number(0, 100), metavar="PERCENT",
-              help="Exit 1 when the score is below PERCENT.")
+@min_score_option
 @click.option("--timeout", "timeout_ms", type=Duration(positive=True),
               metavar="TIME", help="Time limit of one mutant (default: 10 s plus five "
               "times what its program's scenarios take unchanged).")
@@ -148,17 +154,14 @@ def mutate(paths: tuple[Path, ...], jobs: int | None, fmt: str, min_score: float
          "seconds": round(r.seconds, 3)}
         for r in results
     ], checked)
-    share = _share(*score(r.verdict for r in results))
+    share = percent_killed(*score(r.verdict for r in results))
     if fmt == "json":
         click.echo(json.dumps(report, indent=2))
     else:
         click.echo(_summary(results))
         if not checked and any(r.verdict == "survived" for r in results):
             click.echo(f"note: {PROVE_HINT}")
-    below = min_score is not None and share < min_score
-    if below:
-        click.echo(f"asictl: error: mutation score {share:.1f}% is below --min-score "
-                   f"{min_score:g}%", err=True)
+    below = below_bar("mutation score", share, min_score, "--min-score", 1)
     ctx.exit(int(ExitCode.FAILED if below else ExitCode.OK))
 
 
@@ -167,9 +170,9 @@ def json_report(mutants: list[dict[str, object]], checked: bool) -> dict[str, ob
     puts the shards' mutants together with this too)."""
     killed, counted = score(str(m["verdict"]) for m in mutants)
     return {"mutants": mutants, "killed": killed, "counted": counted,
-            "score": round(_share(killed, counted), 2), "equivalence_checked": checked}
+            "score": round(percent_killed(killed, counted), 2), "equivalence_checked": checked}
 
 
-def _share(killed: int, counted: int) -> float:
-    """The score in percent; no mutant to count is all of them."""
+def percent_killed(killed: int, counted: int) -> float:
+    """The score in percent, killed of counted; no mutant to count is all of them."""
     return 100.0 * killed / counted if counted else 100.0

@@ -147,6 +147,28 @@ class Number(click.FloatRange):
         return result
 
 
+#: ``--coverage-fail-under`` of ``test`` and ``report merge`` (the shards' coverage).
+coverage_fail_under_option = click.option(
+    "--coverage-fail-under", type=Number(0, 100), metavar="PERCENT",
+    help="Exit 1 when less than PERCENT of the statement lines ran.",
+)
+#: ``--min-score`` of ``mutate`` and ``report merge`` (the shards' mutants).
+min_score_option = click.option(
+    "--min-score", type=Number(0, 100), metavar="PERCENT",
+    help="Exit 1 when the mutation score is below PERCENT.",
+)
+
+
+def below_bar(what: str, share: float, bar: float | None, option: str, digits: int) -> bool:
+    """Whether ``share`` (percent) is below the ``bar`` an ``option`` such as
+    ``--min-score`` set; if so, says it on standard error with ``digits`` decimals."""
+    if bar is None or share >= bar:
+        return False
+    click.echo(f"asictl: error: {what} {share:.{digits}f}% is below {option} {bar:g}%",
+               err=True)
+    return True
+
+
 def apply_options(command: _Command,
                   options: Sequence[Callable[[_Command], _Command]]) -> _Command:
     """``command`` with ``options`` added, listed in ``--help`` in the order given (a

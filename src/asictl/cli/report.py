@@ -12,7 +12,7 @@ json``. An entry in two inputs means the inputs are not shards of one split: ref
 from __future__ import annotations
 
 import json
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from pathlib import Path, PurePath
 from typing import Any
 from xml.etree import ElementTree
@@ -20,11 +20,13 @@ from xml.etree import ElementTree
 import click
 
 from asictl.cli import junit
-from asictl.cli.mutate import json_report
-from asictl.errors import UserError
+from asictl.cli.mutate import json_report, percent_killed
+from asictl.cli.options import below_bar, coverage_fail_under_option, min_score_option
+from asictl.errors import ExitCode, UserError
 from asictl.files import write_output
 from asictl.observe.coverage import Coverage
-from asictl.sim.coverage import FORMATS, format_for, from_json, render
+from asictl.sim.coverage import FORMATS, format_for, from_json, percent, render
+from asictl.sim.coverage import summary as coverage_summary
 from asictl.source import read_bounded
 
 #: A report larger than this is no shard's report.
@@ -59,7 +61,10 @@ def report() -> None:
 @click.option("--coverage-format", type=click.Choice(FORMATS), default=None,
               help="Format of merged coverage (default: by the suffix of --output, as "
               "test --coverage; json on standard output).")
-def merge(files: tuple[Path, ...], output: Path, coverage_format: str | None) -> None:
+@coverage_fail_under_option
+@min_score_option
+def merge(files: tuple[Path, ...], output: Path, coverage_format: str | None,
+          coverage_fail_under: float | None, min_score: float | None) -> None:
     """Merge FILES, the reports of the shards of one run (--shard I/N), into one.
 
     FILES are all of one kind: JUnit XML from 'test --junit', json coverage from 'test
@@ -69,9 +74,14 @@ def merge(files: tuple[Path, ...], output: Path, coverage_format: str | None) ->
     out again; only times differ. Coverage must be json: Cobertura and lcov do not keep
     conditions apart from branches.
 
-    Exit status: 0 merged, 2 a file is unreadable, of no kind asictl merges, of another
-    kind than the first, or names an entry another file names too (not shards of one
-    split).
+    Merged coverage prints test's summary line ('coverage: lines 93% (112/120), ...') on
+    standard error; the bars --coverage-fail-under (coverage) and --min-score (mutants)
+    belong here, where the whole run is seen, not on each shard.
+
+    Exit status: 0 merged, 1 below --coverage-fail-under or --min-score (the report is
+    written all the same), 2 a file is unreadable, of no kind asictl merges, of another
+    kind than the first or than the bar given, or names an entry another file names too
+    (not shards of one split).
 
     \b
     Example:
@@ -90,13 +100,31 @@ def merge(files: tuple[Path, ...], output: Path, coverage_format: str | None) ->
             raise UserError(f"{path}: {_KINDS[kind]}, but {files[0]} is {_KINDS[first]}: "
                             "merge reports of one kind at a time")
     documents = [document for _, document in read]
+    for bar, option, kind in ((coverage_fail_under, "--coverage-fail-under", "coverage"),
+                              (min_score, "--min-score", "mutation")):
+        if bar is not None and first != kind:
+            raise click.UsageError(f"{option} is a bar for {_KINDS[kind]}; "
+                                   f"{files[0]} is {_KINDS[first]}")
+    below = False
     if first == "coverage":
+        coverage = _coverage(files, documents)
         fmt = (coverage_format or "json" if str(output) == "-"
                else format_for(str(output), coverage_format))
-        text = render(_coverage(files, documents), fmt)
+        text = render(coverage, fmt)
+        click.echo(coverage_summary(coverage), err=True)
+        below = below_bar("line coverage", percent(*coverage.totals()["lines"]),
+                          coverage_fail_under, "--coverage-fail-under", 2)
+    elif first == "mutation":
+        report = _mutation(files, documents)
+        text = json.dumps(report, indent=2) + "\n"
+        below = below_bar("mutation score", percent_killed(report["killed"], report["counted"]),
+                          min_score, "--min-score", 1)
+    elif first == "junit":
+        text = _junit(files, documents)
     else:
-        text = _MERGE[first](list(files), documents)
+        text = _proof(files, documents)
     write_output(output, text, inputs=files)
+    click.get_current_context().exit(int(ExitCode.FAILED if below else ExitCode.OK))
 
 
 def _read(path: Path) -> Any:
@@ -150,7 +178,7 @@ def _shape(file: Path, what: str) -> UserError:
     return UserError(f"{file}: not {what} as asictl writes it")
 
 
-def _junit(files: list[Path], documents: list[ElementTree.Element]) -> str:
+def _junit(files: tuple[Path, ...], documents: list[ElementTree.Element]) -> str:
     cases = []
     for file, document in zip(files, documents, strict=True):
         for case in document.findall("testcase"):
@@ -171,7 +199,7 @@ def _coverage(files: tuple[Path, ...], documents: list[dict[str, Any]]) -> Cover
     return merged
 
 
-def _mutation(files: list[Path], documents: list[dict[str, Any]]) -> str:
+def _mutation(files: tuple[Path, ...], documents: list[dict[str, Any]]) -> dict[str, Any]:
     mutants = []
     for file, document in zip(files, documents, strict=True):
         rows = document["mutants"]
@@ -180,7 +208,7 @@ def _mutation(files: list[Path], documents: list[dict[str, Any]]) -> str:
             raise _shape(file, _KINDS["mutation"])
         mutants += [(file, row) for row in rows]
     checked = all(d.get("equivalence_checked") is True for d in documents)
-    return json.dumps(json_report(_by_file(mutants), checked), indent=2) + "\n"
+    return json_report(_by_file(mutants), checked)
 
 
 def _by_file(mutants: list[tuple[Path, dict[str, Any]]]) -> list[dict[str, Any]]:
@@ -194,7 +222,7 @@ def _by_file(mutants: list[tuple[Path, dict[str, Any]]]) -> list[dict[str, Any]]
     return [row for rows in ordered for row in rows]
 
 
-def _proof(files: list[Path], documents: list[dict[str, Any]]) -> str:
+def _proof(files: tuple[Path, ...], documents: list[dict[str, Any]]) -> str:
     reports = []
     for file, document in zip(files, documents, strict=True):
         for entry in document["files"]:
@@ -203,7 +231,3 @@ def _proof(files: list[Path], documents: list[dict[str, Any]]) -> str:
             reports.append((file, entry, (entry["properties"], str(entry.get("program")))))
     return json.dumps({"files": _once(reports)}, indent=2) + "\n"
 
-
-_MERGE: dict[str, Callable[[list[Path], list[Any]], str]] = {
-    "junit": _junit, "mutation": _mutation, "proof": _proof,
-}

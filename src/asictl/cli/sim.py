@@ -14,7 +14,14 @@ from xml.etree import ElementTree
 import click
 
 from asictl.cli import junit
-from asictl.cli.options import Duration, Number, lib_option, shard_option, take_shard
+from asictl.cli.options import (
+    Duration,
+    below_bar,
+    coverage_fail_under_option,
+    lib_option,
+    shard_option,
+    take_shard,
+)
 from asictl.diagnostics import github_command
 from asictl.errors import ExitCode, UserError
 from asictl.files import refuse_inputs, write_output
@@ -330,8 +337,7 @@ def _alone(path: str, lib: tuple[str, ...], coverage: bool) -> Outcome:
 @click.option("--coverage-format", type=click.Choice(FORMATS), default=None,
               help="Format of --coverage (default: by its suffix, .json json, .info or "
               ".lcov lcov, else cobertura; sonarqube: its generic coverage XML).")
-@click.option("--coverage-fail-under", type=Number(0, 100), metavar="PERCENT",
-              help="Exit 1 when less than PERCENT of the statement lines ran.")
+@coverage_fail_under_option
 def test(paths: tuple[Path, ...], junit_path: Path | None, jobs: int | None,
          shard: Shard | None, lib: tuple[str, ...], fmt: str, coverage_path: Path | None,
          coverage_format: str | None, coverage_fail_under: float | None) -> None:
@@ -404,12 +410,8 @@ def test(paths: tuple[Path, ...], junit_path: Path | None, jobs: int | None,
         if coverage_path is not None:
             text = render(coverage, format_for(str(coverage_path), coverage_format))
             write_output(coverage_path, text, inputs=[*read, *coverage.files_read()])
-        if coverage_fail_under is not None:
-            lines = percent(*coverage.totals()["lines"])
-            below = lines < coverage_fail_under
-            if below:
-                click.echo(f"asictl: error: line coverage {lines:.2f}% is below "
-                           f"--coverage-fail-under {coverage_fail_under:g}%", err=True)
+        below = below_bar("line coverage", percent(*coverage.totals()["lines"]),
+                          coverage_fail_under, "--coverage-fail-under", 2)
     if any(o.bug for o in outcomes):
         ctx.exit(int(ExitCode.BUG))
     if any(o.status == "ERROR" and not o.died for o in outcomes):
