@@ -47,9 +47,9 @@ def report() -> None:
 
     \b
     Example:
-      asictl test demos --shard 1/2 --junit junit-1.xml
-      asictl test demos --shard 2/2 --junit junit-2.xml
-      asictl report merge junit-1.xml junit-2.xml -o junit.xml
+      asictl test demos/blink.scenario.toml demos/jump.scenario.toml --shard 1/2 --junit j1.xml
+      asictl test demos/blink.scenario.toml demos/jump.scenario.toml --shard 2/2 --junit j2.xml
+      asictl report merge j1.xml j2.xml -o junit.xml
     """
 
 
@@ -85,9 +85,9 @@ def merge(files: tuple[Path, ...], output: Path, coverage_format: str | None,
 
     \b
     Example:
-      asictl test demos --shard 1/2 --coverage coverage-1.json
-      asictl test demos --shard 2/2 --coverage coverage-2.json
-      asictl report merge coverage-1.json coverage-2.json -o coverage.xml
+      asictl test demos/blink.scenario.toml demos/jump.scenario.toml --shard 1/2 --coverage c1.json
+      asictl test demos/blink.scenario.toml demos/jump.scenario.toml --shard 2/2 --coverage c2.json
+      asictl report merge c1.json c2.json -o coverage.xml --coverage-fail-under 80
     """
     for n, path in enumerate(files):
         if path in files[:n]:
