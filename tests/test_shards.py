@@ -163,6 +163,13 @@ def shards(project: Path) -> Path:
     (["bad-coverage.json"], "bad-coverage.json: not json coverage (test --coverage "
      "FILE.json) as asictl writes it"),
     (["missing.xml"], "missing.xml: cannot read"),
+    (["deep.json"], "deep.json: JSON nested too deeply for a report"),
+    (["deep.xml"], "deep.xml: not JUnit XML (test --junit) as asictl writes it"),
+    (["nameless.xml"], "nameless.xml: not JUnit XML (test --junit) as asictl writes it"),
+    (["bad-mutants.json"], "bad-mutants.json: not a mutation report (mutate --format json) "
+     "as asictl writes it"),
+    (["bad-proofs.json"], "bad-proofs.json: not a proof report (prove --format json) as "
+     "asictl writes it"),
 ])
 def test_what_merge_refuses(shards: Path, files: list[str], says: str):
     shutil.copy("junit-1.xml", "copy.xml")
@@ -171,6 +178,12 @@ def test_what_merge_refuses(shards: Path, files: list[str], says: str):
     Path("broken.xml").write_text("<testsuite>", encoding="utf-8")
     Path("bad-coverage.json").write_text('{"format": "asictl-coverage", "files": {"a": 1}}',
                                          encoding="utf-8")
+    Path("deep.json").write_text("[" * 100_000 + "]" * 100_000, encoding="utf-8")
+    Path("deep.xml").write_text('<testsuite><testcase name="a">' + "<x>" * 5000
+                                + "</x>" * 5000 + "</testcase></testsuite>", encoding="utf-8")
+    Path("nameless.xml").write_text("<testsuite><testcase/></testsuite>", encoding="utf-8")
+    Path("bad-mutants.json").write_text('{"mutants": [{"file": 1}]}', encoding="utf-8")
+    Path("bad-proofs.json").write_text('{"files": [{"program": "a.asi"}]}', encoding="utf-8")
     result = _asictl("report", "merge", *files, "-o", "out.xml")
     assert result.exit_code == 2, result.output
     assert f"asictl: error: {says}" in result.output

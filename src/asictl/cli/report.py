@@ -140,6 +140,8 @@ def _read(path: Path) -> Any:
         return json.loads(text)
     except ValueError as exc:
         raise UserError(f"{path}: neither XML nor JSON: {exc}") from None
+    except RecursionError:
+        raise UserError(f"{path}: JSON nested too deeply for a report") from None
 
 
 def _kind(path: Path, document: Any) -> str:
@@ -183,7 +185,9 @@ def _junit(files: tuple[Path, ...], documents: list[ElementTree.Element]) -> str
     for file, document in zip(files, documents, strict=True):
         for case in document.findall("testcase"):
             name = case.get("name")
-            if name is None:
+            # a case holds at most a failure or error, text only (the suite is laid
+            # out again, recursively)
+            if name is None or any(len(child) for child in case):
                 raise _shape(file, _KINDS["junit"])
             cases.append((file, case, (name,)))
     return junit.suite(_once(cases))
