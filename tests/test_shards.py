@@ -74,7 +74,10 @@ def test_the_merged_junit_and_coverage_are_those_of_one_run(project: Path, total
             "--coverage-format", fmt)
         _ok("report", "merge", *[f"coverage-{i}.json" for i in shards],
             "-o", f"merged-{name}", "--coverage-format", fmt)
-        assert _timeless(_read(f"merged-{name}")) == _timeless(_read(f"full-{name}"))
+        if fmt == "cobertura":  # the only one with a time in it
+            assert _timeless(_read(f"merged-{name}")) == _timeless(_read(f"full-{name}"))
+        else:
+            assert _read(f"merged-{name}") == _read(f"full-{name}")
 
 
 def test_each_scenario_runs_in_one_shard(project: Path):
@@ -101,14 +104,16 @@ def test_the_merged_mutation_report_is_that_of_one_run(project: Path):
     assert shards[0] | shards[1] == {f"demos/{p}.asi" for p in PROGRAMS}
 
 
-def test_the_merged_proof_report_is_that_of_one_run(project: Path):
+@pytest.mark.parametrize("total", [2, 4])
+def test_the_merged_proof_report_is_that_of_one_run(project: Path, total: int):
     files = sorted(str(p.relative_to(project)) for p in project.glob("demos/*.props.toml"))
     whole = _ok("prove", *files, "--format", "json").stdout
-    for i in (1, 2):
+    shards = range(total, 0, -1)  # the order of the inputs does not matter
+    for i in shards:
         Path(f"proofs-{i}.json").write_text(
-            _ok("prove", *files, "--format", "json", "--shard", f"{i}/2").stdout,
+            _ok("prove", *files, "--format", "json", "--shard", f"{i}/{total}").stdout,
             encoding="utf-8")
-    merged = _ok("report", "merge", "proofs-2.json", "proofs-1.json").stdout
+    merged = _ok("report", "merge", *[f"proofs-{i}.json" for i in shards]).stdout
     assert _timeless(merged) == _timeless(whole)
     assert len(json.loads(merged)["files"]) == len(PROGRAMS)
 
