@@ -6,8 +6,12 @@ they differ between any two runs."""
 from __future__ import annotations
 
 import json
+import os
 import re
+import shlex
 import shutil
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -269,3 +273,80 @@ def test_min_score_on_merged_mutants(project: Path):
                      "--min-score", "100", "-o", "merged.json")
     assert result.exit_code == 1
     assert f"mutation score {share:.1f}% is below --min-score 100%" in result.output
+
+
+def _recipes() -> dict[str, str]:
+    """The CI recipes of docs/testing.md's section on shards, by what runs them."""
+    page = (Path(__file__).resolve().parent.parent / "docs" / "testing.md").read_text()
+    section = page.split("\n## Shards", 1)[1].split("\n## ", 1)[0]
+    blocks = re.findall(r"^```yaml\n(.*?)^```$", section, re.M | re.S)
+    return {"github": next(b for b in blocks if "matrix:" in b),
+            "gitlab": next(b for b in blocks if "parallel:" in b)}
+
+
+def _commands(job: str) -> list[str]:
+    return re.findall(r"^\s*- (?:run: )?(asictl .*)$", job, re.M)
+
+
+def _bash(command: str, env: dict[str, str]) -> subprocess.CompletedProcess[str]:
+    define = f'asictl() {{ {shlex.quote(sys.executable)} -m asictl "$@"; }}\n'
+    return subprocess.run(["bash", "-c", define + command], capture_output=True, text=True,
+                          env={**os.environ, **env}, timeout=600)
+
+
+def _recipe_env(project: Path) -> dict[str, str]:
+    return {"PYTHONPATH": os.pathsep.join(
+        [str(Path(__file__).resolve().parent.parent / "src"), os.environ.get("PYTHONPATH", "")]),
+        "ASICTL_STATE_DIR": str(project / "state")}
+
+
+def _found(pattern: str, text: str) -> str:
+    match = re.search(pattern, text)
+    assert match, pattern
+    return match[1]
+
+
+def test_the_github_actions_recipe_runs_as_its_matrix_would(
+        project: Path, monkeypatch: pytest.MonkeyPatch):
+    recipe = _recipes()["github"]
+    tests, merge = recipe.split("\n  plc-report:", 1)
+    total = len(_found(r"shard: \[([\d, ]+)\]", tests).split(","))
+    assert "SHARD: ${{ matrix.shard }}" in tests and f"/{total} " in tests
+    monkeypatch.chdir(project / "demos")  # the repository's root: the programs are in it
+    env = _recipe_env(project)
+    for i in range(1, total + 1):
+        for command in _commands(tests):
+            result = _bash(command, {**env, "SHARD": str(i)})
+            assert result.returncode == 0, (i, command, result.stdout, result.stderr)
+    summary = project / "summary.md"
+    for command in _commands(merge):
+        result = _bash(command, {**env, "GITHUB_STEP_SUMMARY": str(summary)})
+        assert result.returncode == 0, (command, result.stdout, result.stderr)
+    assert _read("junit.xml").count("<testcase") == len(PROGRAMS)
+    assert summary.read_text().startswith("coverage: lines ")
+    assert "end_of_record" in _read("coverage.info")
+
+
+def test_the_gitlab_parallel_recipe_runs_as_gitlab_would(
+        project: Path, monkeypatch: pytest.MonkeyPatch):
+    recipe = _recipes()["gitlab"]
+    tests, merge = recipe.split("\nplc-coverage:", 1)
+    total = int(_found(r"parallel: (\d+)", tests))
+    monkeypatch.chdir(project / "demos")
+    env = _recipe_env(project)
+    for i in range(1, total + 1):
+        for command in _commands(tests):
+            result = _bash(command, {**env, "CI_NODE_INDEX": str(i),
+                                     "CI_NODE_TOTAL": str(total)})
+            assert result.returncode == 0, (i, command, result.stdout, result.stderr)
+    (command,) = _commands(merge)
+    result = _bash(command, env)
+    assert result.returncode == 0, (command, result.stdout, result.stderr)
+    # GitLab's coverage regex finds the merged line coverage in the job's log
+    found = re.search(_found(r"coverage: '/(.*)/'", merge), result.stdout + result.stderr)
+    _ok("test", ".", "-j", "1", "--coverage", "all.json")
+    lines = json.loads(_read("all.json"))["totals"]["lines"]
+    assert found and int(found[1]) == lines["covered"] * 100 // lines["total"]
+    assert _read("coverage.xml").count("<class ") == len(PROGRAMS)
+    assert sorted(Path().glob("junit-*.xml")) == [Path(f"junit-{i}.xml")
+                                                   for i in range(1, total + 1)]
