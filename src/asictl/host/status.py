@@ -355,11 +355,17 @@ def view_fields(view: View | None) -> dict[str, Any]:
     }
     panel = view.get("panel")
     if isinstance(panel, dict):
-        fields.update(
-            display=Display.from_json(panel["display"]), leds=dict(panel["leds"]),
-            panel="gateway", keys_locked=bool(panel["keys_locked"]),
-        )
+        fields.update(panel_fields(panel))
     return fields
+
+
+def panel_fields(panel: dict[str, Any]) -> dict[str, Any]:
+    """The ``MasterStatus`` fields the emulated gateway's front panel gives (its ``view``):
+    the display and LEDs as the panel shows them, its key lock."""
+    return {
+        "display": Display.from_json(panel["display"]), "leds": dict(panel["leds"]),
+        "panel": "gateway", "keys_locked": bool(panel["keys_locked"]),
+    }
 
 
 def gateway_panel(ec: int, software: str) -> dict[str, Any]:

@@ -69,7 +69,7 @@ from asictl.monitor.program import heading, render_rows
 from asictl.monitor.source import MonitorSource, Snapshot, toggle_start
 from asictl.observe.online import CycleLines
 from asictl.observe.operands import Assignment, Operand, parse_assignment, parse_operand
-from asictl.platform.display import LEDS, Display
+from asictl.platform.display import DIGITS, LEDS, Display
 from asictl.platform.master import IO_CODE_BITS, SLAVES
 from asictl.platform.pc2 import HiFlag
 
@@ -947,7 +947,7 @@ def _panel(status: MasterStatus) -> Text:
     source = "gateway panel" if status.panel == "gateway" else "gateway (from its flags)"
     display = status.display
     text.append(f"{source}  ", style="bold")
-    text.append(f" {display.text or '  '} ", style="reverse blink" if display.blinking
+    text.append(f" {display.text or ' ' * DIGITS} ", style="reverse blink" if display.blinking
                 else "reverse")
     text.append(f"  {display.meaning}" + (", blinking" if display.blinking else ""))
     if status.keys_locked:

@@ -39,7 +39,7 @@ from asictl.host.live.protocol import (
     socket_path,
 )
 from asictl.host.transports.ports import port_name
-from asictl.platform.pc2 import PORT_DATA
+from asictl.platform.pc2 import IO_BASES, PORT_DATA
 
 #: How long a client waits for an answer (a session may wait longer: it is announced).
 ANSWER_TIMEOUT_S = 30.0
@@ -328,6 +328,46 @@ def refuse_if_served(directory: Path, base: int) -> None:
             f"{server.get('command', 'another process')} (pid {server.get('pid', '?')})",
             ExitCode.FAILED,
         )
+
+
+#: The names of this machine's own address: a gateway listening on one is found under any.
+_LOOPBACK = frozenset({"127.0.0.1", "localhost", "::1"})
+
+
+def served_panel(directory: Path, host: str, tcp_port: int, unit: int) -> JSON | None:
+    """The front panel of the gateway ``asictl gateway serve`` runs here for Modbus TCP
+    ``host:tcp_port`` and ``unit``, None if none does (a real gateway, another machine's).
+
+    What the display shows is partly the gateway's own knowledge (a message it latched
+    after a key press, the slave it found wrong first), held in no register; a status read
+    over Modbus takes the display from the panel itself where it can, so that it and
+    ``gateway panel`` read one display."""
+    for base in IO_BASES:
+        try:
+            client = open_live(directory, base)
+        except UserError:
+            continue
+        if client is None:
+            continue
+        try:
+            view = client.action("panel") if client.server.get("front_panel") else None
+        except UserError:
+            view = None
+        finally:
+            client.close()
+        if isinstance(view, dict) and view.get("unit") == unit and _same_address(
+            view.get("modbus_tcp"), host, tcp_port
+        ):
+            return view
+    return None
+
+
+def _same_address(listening: JSON, host: str, tcp_port: int) -> bool:
+    if not isinstance(listening, list) or len(listening) != 2:
+        return False
+    their_host, their_port = listening
+    same_host = their_host == host or {their_host, host} <= _LOOPBACK
+    return same_host and their_port == tcp_port
 
 
 def served_by(client: LiveClient) -> str:
