@@ -86,8 +86,7 @@ def looping(case: oracle.Case) -> oracle.Case:
     """The drawn program with its final ``SJMP $`` jumping back to its start instead: a
     loop whose body branches forward (a superblock), run for a few rounds and stopped by
     the budget somewhere in a pass. A ``JC`` to the next instruction opens the body, so
-    that even a body drawn without a branch is more than one block that loops to itself
-    (which runs as a block, not a region)."""
+    that even a body drawn without a branch has more than one basic block."""
     body = b"\x40\x00" + case.program[:-2]
     back = -(len(body) + 2) & 0xFF
     return dataclasses.replace(

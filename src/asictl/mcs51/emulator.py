@@ -484,11 +484,8 @@ class Emulator:
         if heat < self.hot:
             return plain
         region = build_region(self.code, key & 0xFFFF, key >> 13 & 24, self._stops)
-        if region is None:
-            entry = plain
-        else:
-            source = f"{_FACTORY_HEADER}{region.source}\n    return region\n"
-            entry = (_instantiate(source, self), region.instructions, region.cycles, _REGION)
+        source = f"{_FACTORY_HEADER}{region.source}\n    return region\n"
+        entry = (_instantiate(source, self), region.instructions, region.cycles, _REGION)
         self._blocks[key] = entry
         return entry
 
