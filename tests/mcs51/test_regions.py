@@ -161,6 +161,30 @@ def test_a_device_sees_the_bytes_a_region_keeps_in_locals() -> None:
     assert emu.iram[0x30] == emu.iram[0x31] == 0x41
 
 
+@pytest.mark.parametrize("engine", ["region", "block"])
+def test_a_device_sees_and_moves_the_dptr_translated_code_keeps_in_a_local(engine: str) -> None:
+    """DPTR lives in a local of translated code: a device called through ``MOVX @R0``
+    reads the value the code gave it and may change it, as in the interpreter."""
+    # MOV DPTR,#1234h; INC DPTR; MOV R0,#5; MOVX @R0,A; INC DPTR; MOVX @DPTR,A; SJMP $
+    program = bytes.fromhex("901234 a3 7805 f2 a3 f0 80fe")
+    translated = region_emulator() if engine == "region" else Emulator(regions=False)
+    results = []
+    for emu in (translated, Emulator(translate=False)):
+        emu.code.load(0x0100, program)
+        seen = []
+
+        def device(address: int, value: int, emu: Emulator = emu, seen: list = seen) -> None:
+            seen.append((address, value, emu.dptr))
+            emu.dptr = 0x2000
+
+        emu.xdata.map(0xFF00, 0xFFFF, write=device)  # P2 is FFh: MOVX @R0 reaches FF05h
+        emu.pc, emu.a = 0x0100, 0x5A
+        assert emu.run(until=0x0109) is StopReason.UNTIL
+        results.append((seen, emu.dptr, emu.xdata.ram[0x2001], emu.instructions, emu.cycles))
+    assert results[0] == results[1] == ([(0xFF05, 0x5A, 0x1235)], 0x2001, 0x5A, 6, 11)
+    assert regions_built(translated) == (engine == "region")
+
+
 def test_a_region_is_used_only_once_its_address_is_hot() -> None:
     # MOV C,20h.0; ANL C,/20h.1; JNC +2; SETB 21h.0; RET
     program = bytes.fromhex("a200 b001 5002 d208 22")
