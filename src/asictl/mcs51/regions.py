@@ -30,10 +30,15 @@ What makes a region faster than its blocks, besides saving the dispatches:
   a network ``MOV C,a / ANL C,/b / ORL C,c / MOV d,C`` becomes
   ``if (a) and not (b) or (c): d |= m else: d &= ~m``. Only bit reads are folded, and
   the condition is evaluated before anything that could change what they read.
-* Instructions and machine cycles are counted per basic block and handed back in
-  ``iterations[0]`` and ``iterations[1]``. The emulator calls a region only when the
-  sum over all its instructions fits the run's budget, and a pass round the loop starts
-  only when that sum still fits, so budgets stay exact.
+* Instructions and machine cycles are counted per basic block, both in one local (the
+  cycles above bit 32: one addition a block), and handed back in ``iterations[0]`` and
+  ``iterations[1]``. The emulator calls a region only when the sum over all its
+  instructions fits the run's budget, and a pass round the loop starts only when the
+  cycles so far leave room for that sum in both budgets (an instruction takes at least
+  a cycle, so that is one comparison; with an instruction budget it may leave early,
+  and the emulator calls it again with what is left), so budgets stay exact.
+* ``nxt`` is tested only before a basic block that some path skips: the blocks every
+  path goes through (where the branches meet again) run without a test.
 """
 
 from __future__ import annotations
