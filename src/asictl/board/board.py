@@ -58,6 +58,7 @@ _COUNTER_HIGH_BYTES = frozenset(d.FLAGS + n for n in COUNTER_HIGH_FLAGS)
 _WATCHDOG_ENABLE = d.WATCHDOG_ENABLE
 _INTERRUPT_ENABLE = d.INTERRUPT_ENABLE
 _NORMAL = Phase.NORMAL
+_MAP_COUNTERS = int(ControlFlag.MAP_COUNTERS)
 
 
 class Pc2Board:
@@ -391,7 +392,11 @@ class Pc2Board:
 
     def _timers_running(self) -> bool:
         ram = self._ram
-        return any(ram[address] or ram[address + 1] for address, _ in self._timer_places)
+        # a loop, not any(): a generator costs more, every tick
+        for address, _ in self._timer_places:  # noqa: SIM110
+            if ram[address] or ram[address + 1]:
+                return True
+        return False
 
     # ------------------------------------------------------------------ the AS-i cycle
 
@@ -494,7 +499,7 @@ class Pc2Board:
         except Exception as exc:  # whatever the program did, the master carries on
             self._halt(StopReason.PROGRAM_FAULT, _fault(exc))
             return
-        if self._counters_mapped():
+        if control.flags & _MAP_COUNTERS:
             ram = self._ram
             for address in _COUNTER_HIGH_BYTES:
                 ram[address] &= 0x0F
@@ -658,6 +663,12 @@ class Pc2Board:
         return self._control.state
 
     @property
+    def running(self) -> bool:
+        """Does the control program run? (``control_state`` is RUNNING; asked after
+        every cycle, without building the enum.)"""
+        return self._control.running
+
+    @property
     def stop_reason(self) -> StopReason:
         return self._control.reason
 
@@ -671,7 +682,7 @@ class Pc2Board:
         return ControlFlag(self._control.flags_byte())
 
     def _counters_mapped(self) -> bool:
-        return bool(self._control.flags & ControlFlag.MAP_COUNTERS)
+        return bool(self._control.flags & _MAP_COUNTERS)  # an int: asked every cycle
 
     @property
     def program_status(self) -> d.ProgramStatus:

@@ -37,6 +37,7 @@ Trace = Callable[[Emulator, int], None]
 
 _RET = 0x22
 _SP, _PSW = 0x81, 0xD0
+_TRAP = StopReason.TRAP  # the end of every cycle: a module constant
 
 
 class CycleTimeout(Exception):
@@ -120,18 +121,20 @@ class ProgramRunner:
     def cycle(self, inputs: bytes | bytearray | None = None) -> None:
         """One program cycle; raises ``CycleTimeout`` when the budget runs out."""
         cpu = self.cpu
-        trace = self.watch(inputs) if self.watch is not None else None
-        io = self._io if cpu.xdata.plain else None  # the copies assume plain XDATA RAM
+        watch = self.watch
+        trace = watch(inputs) if watch is not None else None
+        xdata = cpu.xdata
+        io = self._io if xdata.plain else None  # the copies assume plain XDATA RAM
         flags: Sequence[int]
         if io is not None:
-            flags = io.copy_in(cpu.iram, cpu.xdata.ram, self.inputs, inputs)
+            flags = io.copy_in(cpu.iram, xdata.ram, self.inputs, inputs)
         else:
             flags = self._copy_in(inputs)
         self.enter()
         start = cpu.cycles
         reason = cpu.run(max_cycles=self.budget, trace=trace)
         self.last_cycles = cpu.cycles - start
-        if reason is not StopReason.TRAP:
+        if reason is not _TRAP:
             jumps = looping_jumps(cpu)
             address = jumps[-1] if jumps else cpu.pc
             cpu.xdata.write(pc2.STOP_ADDRESS, address & 0xFF)  # for the host: which loop
@@ -141,7 +144,7 @@ class ProgramRunner:
                 f"{address:04X}h)"
             )
         if io is not None:
-            io.copy_out(cpu.iram, cpu.xdata.ram, self.outputs, flags)
+            io.copy_out(cpu.iram, xdata.ram, self.outputs, flags)
         else:
             self._copy_out(flags)
 

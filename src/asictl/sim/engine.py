@@ -502,7 +502,7 @@ class Simulation:
         """Called by the board after each AS-i cycle that ran: time 0, stops, and the
         observers' ``after_cycle``."""
         board = self.board
-        running = board.control_state is d.ControlState.RUNNING
+        running = board.running
         for watch in self._after_any_cycle:
             watch()
         if self._t0 is None:
