@@ -186,20 +186,24 @@ class ProgramRunner:
         sfr[_SP] = sp + 2 & 0xFF
         cpu.pc = self.program.code_base
 
-    def tick(self, ticks: int = 1) -> None:
-        """``ticks`` x 10 ms of master time: running timers count down, status follows."""
+    def tick(self, ticks: int = 1) -> bool:
+        """``ticks`` x 10 ms of master time: running timers count down, status follows.
+        Returns whether a timer ran (a tick of stopped timers changes nothing)."""
         xdata = self.cpu.xdata
-        ram = xdata.ram if xdata.plain else None
+        # plain RAM, the common case, is read and written without a Python call
+        read, write = ((xdata.ram.__getitem__, xdata.ram.__setitem__) if xdata.plain
+                       else (xdata.read, xdata.write))
+        ran = False
         for address, location, bit in self._timers:
-            if ram is not None and not (ram[address] or ram[address + 1]):
-                continue  # stopped: the common case, read without a call
-            remaining = xdata.read(address) | xdata.read(address + 1) << 8
+            remaining = read(address) | read(address + 1) << 8
             if remaining:
+                ran = True
                 remaining = max(0, remaining - ticks)
-                xdata.write(address, remaining & 0xFF)
-                xdata.write(address + 1, remaining >> 8)
+                write(address, remaining & 0xFF)
+                write(address + 1, remaining >> 8)
                 if not remaining:
                     self.write(location, self.read(location) & ~(1 << bit) & 0xFF)
+        return ran
 
     def _firmware_trap(self, name: str) -> Callable[[Emulator], None]:
         def trap(cpu: Emulator) -> None:
