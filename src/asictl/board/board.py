@@ -59,6 +59,8 @@ _WATCHDOG_ENABLE = d.WATCHDOG_ENABLE
 _INTERRUPT_ENABLE = d.INTERRUPT_ENABLE
 _NORMAL = Phase.NORMAL
 _MAP_COUNTERS = int(ControlFlag.MAP_COUNTERS)
+#: At most this many program cycles run unprobed between two busy probes (``_quiet``).
+_PROBE_GAP = 16
 
 
 class Pc2Board:
@@ -143,7 +145,10 @@ class Pc2Board:
         self._seen: bytes | None = None
         self._leap_ok = False
         self._quiet = False
+        #: program cycles until the next one is probed for a fixed point, and the gap
+        #: after the last busy probe (it doubles while the probes find the program busy)
         self._probe_wait = 0
+        self._probe_gap = 0
         for slave in bus:
             slave.outputs = 0
         images.write_identity()
@@ -383,20 +388,13 @@ class Pc2Board:
                 self._read_host_flags()
                 self._images.write_status()  # the W/w and O/o letters change with it
         runner = self._control.runner
-        if self._control.running and runner is not None and self._timers_running():
+        if self._control.running and runner is not None:
             try:
-                runner.tick()
+                if runner.tick():  # a tick of stopped timers changes nothing
+                    self._dpram.stirred = True
             except Exception as exc:  # as in a program cycle: never out of ``advance``
                 self._halt(StopReason.PROGRAM_FAULT, _fault(exc))
-            self._dpram.stirred = True
-
-    def _timers_running(self) -> bool:
-        ram = self._ram
-        # a loop, not any(): a generator costs more, every tick
-        for address, _ in self._timer_places:  # noqa: SIM110
-            if ram[address] or ram[address + 1]:
-                return True
-        return False
+                self._dpram.stirred = True
 
     # ------------------------------------------------------------------ the AS-i cycle
 
@@ -464,7 +462,7 @@ class Pc2Board:
 
     def _update_control(self) -> None:
         control, ec = self._control, self._ec
-        blocker = control.blocker(normal=ec.phase is Phase.NORMAL, config_ok=ec.config_ok)
+        blocker = control.blocker(normal=ec.phase is _NORMAL, config_ok=ec.config_ok)
         if control.running:
             if blocker is StopReason.NONE:
                 return
@@ -509,7 +507,11 @@ class Pc2Board:
         self._program_ready_us = self._now_us + math.ceil(duration)
         if before is not None:
             self._quiet = calls == self._firmware.calls and self._unchanged(runner, before)
-            self._probe_wait = 0 if self._quiet else 16
+            # A program that settles soon after a change (a blinker's toggle) is probed
+            # again soon; one busy every cycle only every _PROBE_GAP cycles: a probe
+            # copies and compares 32 KB.
+            self._probe_gap = 0 if self._quiet else min(_PROBE_GAP, 2 * self._probe_gap + 1)
+            self._probe_wait = self._probe_gap
             if self._unread_addresses:
                 self._note_quiet(runner, before if self._quiet else None)
         else:
@@ -517,9 +519,9 @@ class Pc2Board:
             self._quiet = False
             self._seen, self._leap_ok = None, False
         sent = self.forces.outputs(runner.outputs) if self._forcing else runner.outputs
-        odi = bytes(sent).translate(_INVERT)
+        odi = sent.translate(_INVERT)
         if odi != self._odi_written:
-            self._odi_written = odi
+            self._odi_written = odi = bytes(odi)
             dpram.put(d.ODI, odi)
         self._images.update_settings()
 
@@ -535,10 +537,10 @@ class Pc2Board:
         copies into I2 when the program reads I2 (an input change reaches I2 one cycle
         after I, so a cycle that changed only that image still changes the next one)."""
         cpu = runner.cpu
-        inputs = bytes(runner.inputs) if runner.reads_previous_inputs else b""
-        return (
-            bytes(cpu.iram) + bytes(cpu.sfr) + inputs + bytes(cpu.xdata.ram[: layout.DATA_LIMIT])
-        )
+        inputs = runner.inputs if runner.reads_previous_inputs else b""
+        # joined in one copy (XDATA's 32 KB are the bulk of it)
+        return b"".join((cpu.iram, cpu.sfr, inputs,
+                         memoryview(cpu.xdata.ram)[: layout.DATA_LIMIT]))
 
     def _note_quiet(self, runner: ProgramRunner, snapshot: bytes | None) -> None:
         """May the ticks of the running unread timers be counted down in one step? Only
