@@ -59,6 +59,7 @@ _WATCHDOG_ENABLE = d.WATCHDOG_ENABLE
 _INTERRUPT_ENABLE = d.INTERRUPT_ENABLE
 _NORMAL = Phase.NORMAL
 _MAP_COUNTERS = int(ControlFlag.MAP_COUNTERS)
+_NO_STOP = StopReason.NONE
 #: At most this many program cycles run unprobed between two busy probes (``_quiet``).
 _PROBE_GAP = 16
 
@@ -405,15 +406,19 @@ class Pc2Board:
             self._read_host_images()
         if self._command_pending:
             self.answer_command()
-        ec.step(self._now_us)
+        if not ec.settled:  # a settled execution control has nothing to do
+            ec.step(self._now_us)
         self._images.update()
-        self._update_control()
+        control = self._control
+        if not control.running or control.blocker(
+                normal=ec.phase is _NORMAL, config_ok=ec.config_ok) is not _NO_STOP:
+            self._update_control()  # a running program that may go on is the common case
         if ec.exchange(self._outputs()):
             self._dpram.put(d.IDI, ec.idi)
             self._dpram.interrupt(InterruptSource.IDI_CHANGE)
         if self._forcing:  # a host's write to a forced flag never reaches the program
             self.forces.rewrite_flags(self._ram, d.FLAGS)
-        if self._control.running and self._now_us >= self._program_ready_us:
+        if control.running and self._now_us >= self._program_ready_us:
             self._program_cycle()
         if self._ram[_INTERRUPT_ENABLE] & _ASI_CYCLE and ec.phase is _NORMAL:
             self._dpram.interrupt(InterruptSource.ASI_CYCLE)
@@ -464,11 +469,11 @@ class Pc2Board:
         control, ec = self._control, self._ec
         blocker = control.blocker(normal=ec.phase is _NORMAL, config_ok=ec.config_ok)
         if control.running:
-            if blocker is StopReason.NONE:
+            if blocker is _NO_STOP:
                 return
             control.stop(blocker)
             self.safe_outputs()
-        elif blocker is StopReason.NONE:
+        elif blocker is _NO_STOP:
             control.start()
             self._program_ready_us = self._now_us
             self._dpram.stirred = True
