@@ -24,11 +24,12 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import gc
 import hmac
 import inspect
 import logging
 import time
-from collections.abc import Awaitable, Callable
+from collections.abc import AsyncIterator, Awaitable, Callable
 from dataclasses import dataclass, replace
 from datetime import UTC
 from typing import Any
@@ -59,6 +60,7 @@ from asictl.opcua.limits import (
     DEFAULT_MAX_SESSIONS,
     MAX_SESSION_TIMEOUT_S,
 )
+from asictl.opcua.standard_space import CachedStandardSpace
 from asictl.platform import pc2
 from asictl.platform.master import SLAVES
 
@@ -500,13 +502,35 @@ def opcua_attachment(
     return attach
 
 
+@contextlib.asynccontextmanager
+async def _kept_for_good() -> AsyncIterator[None]:
+    """The address space, built without the garbage collector and then frozen out of
+    its reach: asyncua's standard nodes and the board's are some 650,000 objects the
+    collector tracks, all living as long as the server; the collections that building
+    them set off (each going through all built so far) took 40 to 50 % of the time to
+    build them, and would go on visiting them in every full collection while serving
+    (docs/performance.md)."""
+    collecting = gc.isenabled()
+    gc.disable()
+    try:
+        yield
+    finally:
+        gc.freeze()
+        if collecting:
+            gc.enable()
+
+
 async def _serve(
     live: LiveBoard, name: str, options: OpcUaOptions, notify: Callable[[str], None],
     stop: asyncio.Event, started: Callable[[str], None] | None,
 ) -> None:
     logging.getLogger("asyncua").setLevel(logging.CRITICAL)  # its tracebacks per bad client
-    server = Server(user_manager=_Login(options.user, options.password))  # type: ignore[arg-type]
-    await server.init()
+    login = _Login(options.user, options.password)
+    server = Server(iserver=CachedStandardSpace(user_manager=login))  # type: ignore[arg-type]
+    space = BoardSpace(server, live, name, options)
+    async with _kept_for_good():
+        await server.init()
+        await space.build()
     _limit_clients(server, options)
     server.set_endpoint(options.url)
     server.set_server_name(f"asictl board {name}")
@@ -514,8 +538,6 @@ async def _serve(
     server.set_identity_tokens(
         [ua.UserNameIdentityToken] if options.user is not None else [ua.AnonymousIdentityToken]
     )
-    space = BoardSpace(server, live, name, options)
-    await space.build()
     await server.start()
     assert server.bserver is not None
     if started is not None:
