@@ -11,6 +11,7 @@ from pathlib import Path
 
 import pytest
 from asyncua import Client, ua
+from asyncua.server.address_space import AddressSpace
 from asyncua.server.server import Server
 from asyncua.server.standard_address_space import standard_address_space
 from test_opcua import NAMESPACE, node, served
@@ -59,6 +60,16 @@ def test_a_cache_that_does_not_load_is_built_anew(cache: Path):
     assert len(asyncio.run(standard_nodes())) > 5000
     with cache.open("rb") as stored:  # replaced by the nodes built
         assert len(pickle.load(stored)) > 5000
+
+
+def test_a_cache_that_cannot_be_written_leaves_nothing(cache: Path,
+                                                        monkeypatch: pytest.MonkeyPatch):
+    def unpicklable(_space: object, _path: object) -> None:
+        raise pickle.PicklingError("a node of a later asyncua")
+
+    monkeypatch.setattr(AddressSpace, "dump", unpicklable)
+    assert len(asyncio.run(standard_nodes())) > 5000  # served all the same
+    assert list(cache.parent.iterdir()) == []  # no half-written file either
 
 
 def test_no_cache_where_others_may_write(cache: Path):

@@ -53,14 +53,19 @@ class CachedStandardSpace(InternalServer):
 
 
 def _store(server: InternalServer, path: Path) -> None:
-    """The nodes asyncua just built, written whole under their final name or not at all
-    (a start that cannot write them goes on without)."""
-    with contextlib.suppress(OSError):
+    """The nodes asyncua just built, written whole under their final name or not at all:
+    the cache only saves time, so a start that cannot write it (the disk full, a node
+    that a later asyncua makes unpicklable) goes on without."""
+    try:
         handle, name = tempfile.mkstemp(dir=path.parent, prefix=".opcua-", suffix=".tmp")
-        os.close(handle)
-        try:
-            server.aspace.dump(name)
-            os.replace(name, path)
-        finally:
-            with contextlib.suppress(FileNotFoundError):
-                os.unlink(name)
+    except OSError:
+        return
+    os.close(handle)
+    try:
+        server.aspace.dump(name)
+        os.replace(name, path)
+    except Exception:  # whatever pickling or writing raises: not cached
+        pass
+    finally:
+        with contextlib.suppress(FileNotFoundError):
+            os.unlink(name)
