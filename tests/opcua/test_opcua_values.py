@@ -7,6 +7,8 @@ bits are, and the board's browse names are in its own namespace, so a browse pat
 from __future__ import annotations
 
 import asyncio
+import subprocess
+import sys
 from collections.abc import Iterator
 from datetime import UTC, datetime
 from pathlib import Path
@@ -160,3 +162,9 @@ def test_browse_names_are_in_the_boards_namespace(url: str):
                     assert (await child.read_browse_name()).NamespaceIndex == 2, child
 
     asyncio.run(session())
+    # and as the finding was met: asyncua's own command-line reader, by browse path
+    read = subprocess.run(
+        [sys.executable, "-c", "from asyncua.tools import uaread; uaread()", "-u", url,
+         "-p", "0:Objects,2:Master,2:Phase"], capture_output=True, text=True, timeout=60,
+    )
+    assert read.returncode == 0 and read.stdout.strip() == "normal operation", read
