@@ -205,7 +205,7 @@ class BoardSpace:
 
     def browse_name(self, name: str) -> ua.QualifiedName:
         """A browse name in the board's namespace, as its node ids are: a client browsing
-        by path (``2:Objects/2:Master/2:Phase``) names it so."""
+        by path (``0:Objects/2:Master/2:Phase``) names it so."""
         return ua.QualifiedName(name, self.ns)
 
     async def variable(
@@ -509,7 +509,8 @@ async def _kept_for_good() -> AsyncIterator[None]:
     collector tracks, all living as long as the server; the collections that building
     them set off (each going through all built so far) took 40 to 50 % of the time to
     build them, and would go on visiting them in every full collection while serving
-    (docs/performance.md)."""
+    (docs/performance.md). Building them leaves no garbage in cycles (none was found),
+    so nothing is collected before freezing, which would cost a full collection."""
     collecting = gc.isenabled()
     gc.disable()
     try:
