@@ -13,7 +13,8 @@ from asictl.prove.session import prove as prove_file
 
 pytest.importorskip("z3")
 
-#: Q 3.1 comes on 20 s after I 1.0 did (an on-delay), Q 3.2 follows I 1.1 at once.
+#: Q 3.1 comes on 20 s after I 1.0 did (an on-delay), Q 3.2 follows I 1.1 at once; FW 20
+#: shows the time left (a timer's word read, so every cycle is searched one by one).
 LONG = """[SETUP]
 1: iiii, 0
 3: oooo, 0
@@ -33,6 +34,9 @@ LONG = """[SETUP]
 ***
         A   I 1.1
         =   Q 3.2
+***
+        L   T 1
+        T   FW 20
 ***
 """
 

@@ -51,6 +51,7 @@ from asictl.observe.condition import (
     show,
 )
 from asictl.platform.master import TICK_US
+from asictl.prove.jump import idle
 from asictl.prove.props import Kind, Property
 from asictl.prove.symbolic import (
     CONSTANT,
@@ -65,6 +66,7 @@ from asictl.prove.symbolic import (
     operand_value,
     width,
 )
+from asictl.prove.timers import Candidate, Fact, States, started, waiting
 from asictl.readers.units import timer_ticks
 
 K = ast.OperandKind
@@ -186,10 +188,15 @@ class _Path:
     """States after consecutive cycles, as solver variables, with the constraints that
     tie each to the one before."""
 
-    def __init__(self, machine: Machine, solver: z3.Solver, tag: str, *, initial: bool) -> None:
+    def __init__(self, machine: Machine, solver: z3.Solver, tag: str, *, initial: bool,
+                 jumps: bool = False) -> None:
         self.machine = machine
         self.solver = solver
         self.tag = tag
+        #: a step after the first may stand for many idle cycles (``prove/jump.py``)
+        self.jumps = jumps
+        #: per state: the cycles of the step that led to it (1 without jumps)
+        self.cycles: list[z3.BitVecRef] = []
         self.states: list[dict[Key, z3.BitVecRef]] = []
         self.inputs: list[dict[str, z3.BitVecRef]] = []
         self.monitors: list[dict[str, z3.ExprRef]] = []
@@ -208,6 +215,7 @@ class _Path:
             machine.start_monitors(self, 0)
         else:
             self.states.append(self._fresh(0))
+            self.cycles.append(z3.BitVecVal(1, 32))
             self.inputs.append({})
             self.overruns.append(z3.BoolVal(False))
             machine.free_monitors(self, 0)
@@ -225,9 +233,19 @@ class _Path:
         pairs = [(var, before[cell]) for cell, var in cycle.pre.items() if cell in self.cells]
         pairs += [(var, inputs[name]) for name, var in cycle.inputs.items()]
         after = self._fresh(index)
+        nexts: dict[Key, z3.ExprRef] = {cell: z3.substitute(cycle.post[cell], *pairs)
+                                        for cell in self.cells}
+        cycles = z3.BitVecVal(1, 32)
+        if self.jumps and index:
+            cycles = z3.BitVec(f"{self.tag}cycles@{index}", 32)
+            stored = {n: z3.substitute(term, *pairs) for n, term in cycle.stored.items()}
+            nexts, rules = idle(cycles, self.states[-1], nexts, stored, cycle.cycle_us,
+                                f"{self.tag}{index}.")
+            self.solver.add(*rules)
         for cell in self.cells:
             if not (index == 0 and cell == TICK):  # set as the phase
-                self.solver.add(after[cell] == z3.substitute(cycle.post[cell], *pairs))
+                self.solver.add(after[cell] == nexts[cell])
+        self.cycles.append(cycles)
         self.overruns.append(z3.substitute(cycle.overrun, *pairs))
         self.states.append(after)
         self.inputs.append(inputs)
@@ -279,9 +297,8 @@ def _constants(term: z3.ExprRef) -> set[z3.ExprRef]:
     return found
 
 
-def _same_bit(first: Key, i: int, second: Key, j: int) -> Callable[[_Path, int],
-                                                                    z3.BoolRef]:
-    def fact(path: _Path, index: int) -> z3.BoolRef:
+def _same_bit(first: Key, i: int, second: Key, j: int) -> Fact:
+    def fact(path: States, index: int) -> z3.BoolRef:
         x, y = path.states[index][first], path.states[index][second]
         if i < 0:
             whole: z3.BoolRef = x == y
@@ -292,8 +309,8 @@ def _same_bit(first: Key, i: int, second: Key, j: int) -> Callable[[_Path, int],
     return fact
 
 
-def _at_most(cell: Key, bound: int) -> Callable[[_Path, int], z3.BoolRef]:
-    def fact(path: _Path, index: int) -> z3.BoolRef:
+def _at_most(cell: Key, bound: int) -> Fact:
+    def fact(path: States, index: int) -> z3.BoolRef:
         result: z3.BoolRef = z3.ULE(path.states[index][cell], bound)
         return result
 
@@ -326,8 +343,7 @@ class Machine:
     #: (cell, bit); bit -1 for a whole word (a timer, a counter)
     twins: list[tuple[tuple[Key, int], tuple[Key, int]]] = field(default_factory=list)
     #: proved facts about every reachable state, as functions of a state, with their cells
-    invariants: list[tuple[Callable[[_Path, int], z3.BoolRef], frozenset[Key]]] = field(
-        default_factory=list)
+    invariants: list[tuple[Fact, frozenset[Key]]] = field(default_factory=list)
     invariant_names: list[str] = field(default_factory=list)
     #: the property being decided now (its monitor)
     current: Property | None = None
@@ -419,10 +435,16 @@ class Machine:
             return
         trigger, answer = self._response(path, index)
         active, age = before["active"], before["age"]
+        assert isinstance(age, z3.BitVecRef)
+        cycles = path.cycles[index]  # a trigger waits through all of a step's cycles
+        if path.jumps:
+            path.solver.add(z3.ULE(z3.ZeroExt(16, age) + cycles, 0xFFFF))
+        waited = z3.Extract(15, 0, cycles)
         path.monitors.append({
             "active": z3.And(z3.Not(answer), z3.Or(active, trigger)),
             "age": z3.If(answer, z3.BitVecVal(0, 16),
-                         z3.If(active, age + 1, z3.BitVecVal(0, 16))),
+                         z3.If(active, age + waited,
+                               z3.If(trigger, waited - 1, z3.BitVecVal(0, 16)))),
         })
 
     def _response(self, path: _Path, index: int) -> tuple[z3.BoolRef, z3.BoolRef]:
@@ -449,11 +471,10 @@ class Machine:
 
     # -------------------------------------------------------------- invariants
 
-    def candidates(self) -> list[tuple[str, Callable[[_Path, int], z3.BoolRef],
-                                       frozenset[Key]]]:
+    def candidates(self) -> list[Candidate]:
         """Facts that may hold in every reachable state, drawn from the program, each
         with the cells it reads."""
-        found: list[tuple[str, Callable[[_Path, int], z3.BoolRef], frozenset[Key]]] = []
+        found: list[Candidate] = []
         cells = self.cycle.post
         if TICK in cells:
             found.append(("the 10 ms clock's next tick within 10 ms", lambda p, i: z3.And(
@@ -472,6 +493,7 @@ class Machine:
             for bound in presets:
                 found.append((f"timer {n} holds at most {bound * 10} ms",
                               _at_most(("T", n), bound), frozenset({("T", n)})))
+        found += started(self.program, frozenset(cells), self.map_counters)
         for cell in cells:
             if cell[0] == "C":
                 found.append((f"counter {cell[1]} at most {TC_MAX_VALUE}",
@@ -508,13 +530,20 @@ class Machine:
         return [address for address, _ in self._loaded_pairs(kind)]
 
     def find_invariants(self, deadline: float) -> None:
-        """Houdini: drop every candidate a reachable state (the first one) or a step from
-        states satisfying all remaining candidates violates, until none is violated."""
+        """The facts every reachable state satisfies, proved among ``candidates``."""
         self.current = None
         self.scope = None
-        remaining = self.candidates()
-        if not remaining:
-            return
+        remaining = self.houdini(self.candidates(), deadline)
+        self.invariants = [(fact, cells) for _, fact, cells in remaining]
+        self.invariant_names = [name for name, _, _ in remaining]
+
+    def houdini(self, candidates: list[Candidate], deadline: float) -> list[Candidate]:
+        """Houdini: drop every candidate a reachable state (the first one) or a step from
+        states satisfying all remaining candidates (and the invariants already proved)
+        violates, until none is violated; out of time, none. Over the current property's
+        cone and with its monitor, when one is being decided: a fact about the monitor
+        then holds in every state of a run that was good before it."""
+        remaining = list(candidates)
         for initial in (True, False):
             while remaining:
                 solver = z3.Solver()
@@ -523,6 +552,7 @@ class Machine:
                 if not initial:
                     for _, fact, _ in remaining:
                         solver.add(fact(path, 0))
+                    self._strengthen(path, 0, self.invariants)
                     path.extend()
                 last = len(path.states) - 1
                 checks = [fact(path, last) for _, fact, _ in remaining]
@@ -531,14 +561,29 @@ class Machine:
                 if result == z3.unsat:
                     break
                 if result != z3.sat:
-                    remaining = []  # out of time: assume nothing
-                    break
+                    return []  # out of time: assume nothing
                 model = solver.model()
                 remaining = [candidate for candidate, check in zip(remaining, checks,
                                                                    strict=True)
                              if z3.is_true(model.eval(check, model_completion=True))]
-        self.invariants = [(fact, cells) for _, fact, cells in remaining]
-        self.invariant_names = [name for name, _, _ in remaining]
+        return remaining
+
+    def _waiting_facts(self, prop: Property, deadline: float) -> list[
+            tuple[Fact, frozenset[Key]]]:
+        """For a response whose cone holds timers: the proved facts that tie its waiting
+        trigger to a running timer (``timers.waiting``), found within a quarter of the
+        time left."""
+        assert self.scope is not None
+        if prop.kind is not Kind.RESPONSE:
+            return []
+        timers = [n for n in self.cycle.timers if ("T", n) in self.scope]
+        presets = sorted({min(c, TC_MAX_VALUE) for c in self._constants()})
+        candidates = waiting(timers, presets, self.setup.cycle_us, self.scope)
+        if not candidates:
+            return []
+        now = time.monotonic()
+        found = self.houdini(candidates, now + max(0.0, deadline - now) / 4)
+        return [(fact, cells) for _, fact, cells in found]
 
     # -------------------------------------------------------------- deciding
 
@@ -560,9 +605,10 @@ class Machine:
         if prop.kind is Kind.RESPONSE:  # a response is judged over its whole window
             depth = max(depth, self.window(prop) + 2)
         base_solver, step_solver = z3.Solver(), z3.Solver()
-        base = _Path(self, base_solver, "b.", initial=True)
+        base = _Path(self, base_solver, "b.", initial=True, jumps=self.jumps_possible(prop))
         step = _Path(self, step_solver, "s.", initial=False)
-        self._strengthen(step, 0)
+        facts = self.invariants + self._waiting_facts(prop, deadline)
+        self._strengthen(step, 0, facts)
         reach = prop.kind is Kind.REACHABLE
         fixed = z3.Bool("b.simulator_phase")
         phase = self.setup.phase_us
@@ -576,7 +622,7 @@ class Machine:
             if k:
                 base.extend()
                 step.extend()
-                self._strengthen(step, k)
+                self._strengthen(step, k, facts)
             bad = z3.Or(self.bad(base, k), base.overruns[k])
             base_solver.set("timeout", left_ms())
             result = base_solver.check(bad, fixed)
@@ -596,8 +642,8 @@ class Machine:
                                    "the model follows")
                 verdict = Verdict.REACHED if reach else Verdict.REFUTED
                 note = "; ".join(n for n in (note, self._firmware_note()) if n)
-                return Outcome(prop, verdict, k, time.monotonic() - start, trace, note,
-                               self._values(prop, base, model, k))
+                return Outcome(prop, verdict, len(trace) - 1, time.monotonic() - start,
+                               trace, note, self._values(prop, base, model, k))
             if result != z3.unsat:
                 return out_of_time(k)
             step_solver.set("timeout", left_ms())
@@ -610,13 +656,16 @@ class Machine:
             step_solver.add(z3.Not(step_bad))
             if outcome != z3.sat:
                 return out_of_time(k)
-        if self._pdr(prop, deadline) is True:
+        if self._pdr(prop, deadline, facts) is True:
             verdict = Verdict.UNREACHABLE if reach else Verdict.PROVED
             return Outcome(prop, verdict, depth, time.monotonic() - start,
                            note="by an inductive invariant (PDR), beyond k-induction",
                            trivially=self.trivially(prop))
-        return Outcome(prop, Verdict.BOUNDED, depth, time.monotonic() - start,
-                       note=self.beyond(depth))
+        note = self.beyond(depth)
+        if base.jumps and note:
+            note += ("; runs longer than that were searched too, each stretch of idle "
+                     "cycles (where only timers count down) as one step")
+        return Outcome(prop, Verdict.BOUNDED, depth, time.monotonic() - start, note=note)
 
     def presets(self) -> dict[int, int]:
         """Timer -> the longest time (ms, in whole ticks) a ``S T n`` starts it with: the
@@ -709,7 +758,8 @@ class Machine:
                     "after the reset")
         return ""
 
-    def _pdr(self, prop: Property, deadline: float) -> bool | None:
+    def _pdr(self, prop: Property, deadline: float,
+             known: list[tuple[Fact, frozenset[Key]]]) -> bool | None:
         """Property-directed reachability (z3's Spacer engine) on the cycle as Horn
         clauses: True when it finds an inductive invariant that excludes every bad state,
         None when it cannot say in the time left."""
@@ -747,7 +797,7 @@ class Machine:
         head, ties = arguments(start, 0, "p0.m.")
         before, ties0 = arguments(path, 0, "p.m0.")
         after, ties1 = arguments(path, 1, "p.m1.")
-        facts = [fact(path, 0) for fact, cells in self.invariants if cells <= path.cells]
+        facts = [fact(path, 0) for fact, cells in known if cells <= path.cells]
         constants = {v for term in [*head, *before, *after, *ties, *ties0, *ties1,
                                     *first.constraints, *rules.constraints]
                      for v in _constants(term)}
@@ -764,8 +814,10 @@ class Machine:
             return None
         return True if result == z3.unsat else None
 
-    def _strengthen(self, path: _Path, index: int) -> None:
-        for fact, cells in self.invariants:
+    @staticmethod
+    def _strengthen(path: _Path, index: int,
+                    facts: list[tuple[Fact, frozenset[Key]]]) -> None:
+        for fact, cells in facts:
             if cells <= path.cells:
                 path.solver.add(fact(path, index))
 
@@ -781,6 +833,7 @@ class Machine:
                 for expr in exprs for ref in refs(expr)}
 
     def _trace(self, path: _Path, model: z3.ModelRef, last: int) -> list[Step]:
+        """The input of every cycle: a step of many idle cycles, its inputs as often."""
         steps = []
         for index in range(last + 1):
             inputs = path.inputs[index]
@@ -788,5 +841,24 @@ class Machine:
                       for a in self.cycle.slaves}
             host = {n: model.eval(inputs[f"host.{n}"], model_completion=True).as_long()
                     for n in self.cycle.host_masks}
-            steps.append(Step(slaves, host))
+            repeat = model.eval(path.cycles[index], model_completion=True).as_long()
+            steps += [Step(slaves, host) for _ in range(repeat)]
         return steps
+
+    def jumps_possible(self, prop: Property) -> bool:
+        """Whether a step of the search may stand for many idle cycles (``prove/jump.py``):
+        the program reads the timers it depends on only as bits (never ``L T n``), no
+        assumption or
+        property reads a timer's word (``TV n``), and one program is decided (``diff``
+        compares every word)."""
+        if self.observed or self.twins or not self.cycle.timers:
+            return False
+        if any(isinstance(node, ast.Load) and node.operand.kind is K.T
+               and (self.scope is None or ("T", node.operand.address) in self.scope)
+               for module in self.program.modules() for section in module.sections
+               for node in ast.nodes(section)):
+            return False
+        exprs = [*self.assume, prop.expr] + ([prop.then] if prop.then is not None else [])
+        return not any(ref.operand.node.kind is K.T
+                       and ref.operand.node.width is not ast.Width.BIT
+                       for expr in exprs for ref in refs(expr))
