@@ -70,6 +70,8 @@ from asictl.prove.timers import Candidate, Fact, States, started, waiting
 from asictl.readers.units import timer_ticks
 
 K = ast.OperandKind
+#: Seconds (and four times the plain check's) a check with steps of idle cycles may take.
+JUMP_BUDGET_S = 2.0
 
 
 class Verdict(StrEnum):
@@ -604,16 +606,15 @@ class Machine:
         self.scope = self.cone(prop)
         if prop.kind is Kind.RESPONSE:  # a response is judged over its whole window
             depth = max(depth, self.window(prop) + 2)
-        base_solver, step_solver = z3.Solver(), z3.Solver()
-        base = _Path(self, base_solver, "b.", initial=True, jumps=self.jumps_possible(prop))
-        step = _Path(self, step_solver, "s.", initial=False)
+        step = _Path(self, z3.Solver(), "s.", initial=False)
         facts = self.invariants + self._waiting_facts(prop, deadline)
         self._strengthen(step, 0, facts)
         reach = prop.kind is Kind.REACHABLE
-        fixed = z3.Bool("b.simulator_phase")
-        phase = self.setup.phase_us
-        if phase is not None and base.phase is not None:
-            base_solver.add(z3.Implies(fixed, base.phase == phase))
+        base, fixed = self._base_path("b.", jumps=False)
+        # beside it, steps of idle cycles (prove/jump.py): each check within a budget,
+        # as they can be much harder; the first out of its budget ends them
+        jumping = self._base_path("j.", jumps=True) if self.jumps_possible(prop) else None
+        steps = 0  # the steps of idle cycles searched
 
         def left_ms() -> int:
             return max(1, int((deadline - time.monotonic()) * 1000))
@@ -623,49 +624,83 @@ class Machine:
                 base.extend()
                 step.extend()
                 self._strengthen(step, k, facts)
-            bad = z3.Or(self.bad(base, k), base.overruns[k])
-            base_solver.set("timeout", left_ms())
-            result = base_solver.check(bad, fixed)
-            note = ""
-            if result == z3.unsat and phase is not None:
-                result = base_solver.check(bad)
-                note = ("found only for another phase of the 10 ms clock than the "
-                        "simulator's: the scenario may not show it")
+            began = time.monotonic()
+            result, note = self._base_check(base, k, fixed, left_ms())
             if result == z3.sat:
-                model = base_solver.model()
-                trace = self._trace(base, model, k)
-                if z3.is_true(model.eval(base.overruns[k], model_completion=True)):
-                    loops = ", ".join(f"line {loop.line}" for loop in self.cycle.loops)
-                    return Outcome(prop, Verdict.UNKNOWN, k, time.monotonic() - start, trace,
-                                   f"in cycle {k + 1} a backward jump ({loops}) is taken "
-                                   f"more than {self.cycle.loops[0].bound} times, the most "
-                                   "the model follows")
-                verdict = Verdict.REACHED if reach else Verdict.REFUTED
-                note = "; ".join(n for n in (note, self._firmware_note()) if n)
-                return Outcome(prop, verdict, len(trace) - 1, time.monotonic() - start,
-                               trace, note, self._values(prop, base, model, k))
+                return self._found(prop, base, k, note, start)
             if result != z3.unsat:
                 return out_of_time(k)
-            step_solver.set("timeout", left_ms())
+            spent = time.monotonic() - began
+            step.solver.set("timeout", left_ms())
             step_bad = z3.Or(self.bad(step, k), step.overruns[k])
-            outcome = step_solver.check(step_bad)
+            outcome = step.solver.check(step_bad)
             if outcome == z3.unsat:
                 verdict = Verdict.UNREACHABLE if reach else Verdict.PROVED
                 return Outcome(prop, verdict, k, time.monotonic() - start,
                                trivially=self.trivially(prop))
-            step_solver.add(z3.Not(step_bad))
+            step.solver.add(z3.Not(step_bad))
             if outcome != z3.sat:
                 return out_of_time(k)
+            if jumping is not None:
+                path, switch = jumping
+                if k:
+                    path.extend()
+                budget = min(left_ms(), int((JUMP_BUDGET_S + 4 * spent) * 1000))
+                result, note = self._base_check(path, k, switch, budget)
+                if result == z3.sat:
+                    return self._found(prop, path, k, note, start)
+                if result == z3.unsat:
+                    steps = k + 1
+                else:
+                    jumping = None
         if self._pdr(prop, deadline, facts) is True:
             verdict = Verdict.UNREACHABLE if reach else Verdict.PROVED
             return Outcome(prop, verdict, depth, time.monotonic() - start,
                            note="by an inductive invariant (PDR), beyond k-induction",
                            trivially=self.trivially(prop))
         note = self.beyond(depth)
-        if base.jumps and note:
-            note += ("; runs longer than that were searched too, each stretch of idle "
-                     "cycles (where only timers count down) as one step")
+        if steps and note:
+            note += (f"; runs of up to {steps} steps were searched too, each stretch of "
+                     "idle cycles (where only timers count down) one step")
         return Outcome(prop, Verdict.BOUNDED, depth, time.monotonic() - start, note=note)
+
+    def _base_path(self, tag: str, *, jumps: bool) -> tuple[_Path, z3.BoolRef]:
+        """A path from the reset for the base case, and the switch that holds its clock
+        to the simulator's phase (so that a counterexample replays tick for tick)."""
+        path = _Path(self, z3.Solver(), tag, initial=True, jumps=jumps)
+        fixed = z3.Bool(f"{tag}simulator_phase")
+        if self.setup.phase_us is not None and path.phase is not None:
+            path.solver.add(z3.Implies(fixed, path.phase == self.setup.phase_us))
+        return path, fixed
+
+    def _base_check(self, path: _Path, k: int, fixed: z3.BoolRef,
+                    timeout_ms: int) -> tuple[z3.CheckSatResult, str]:
+        """Whether the state after step ``k`` of ``path`` can be bad: first with the
+        simulator's phase of the clock, then with any (saying so)."""
+        bad = z3.Or(self.bad(path, k), path.overruns[k])
+        path.solver.set("timeout", timeout_ms)
+        result = path.solver.check(bad, fixed)
+        if result == z3.unsat and self.setup.phase_us is not None:
+            return path.solver.check(bad), ("found only for another phase of the 10 ms "
+                                            "clock than the simulator's: the scenario may "
+                                            "not show it")
+        return result, ""
+
+    def _found(self, prop: Property, path: _Path, k: int, note: str,
+               start: float) -> Outcome:
+        """The verdict of a base case that found a bad state after step ``k``."""
+        model = path.solver.model()
+        trace = self._trace(path, model, k)
+        if z3.is_true(model.eval(path.overruns[k], model_completion=True)):
+            loops = ", ".join(f"line {loop.line}" for loop in self.cycle.loops)
+            return Outcome(prop, Verdict.UNKNOWN, len(trace) - 1, time.monotonic() - start,
+                           trace, f"in cycle {len(trace)} a backward jump ({loops}) is taken "
+                                  f"more than {self.cycle.loops[0].bound} times, the most "
+                                  "the model follows")
+        verdict = Verdict.REACHED if prop.kind is Kind.REACHABLE else Verdict.REFUTED
+        note = "; ".join(n for n in (note, self._firmware_note()) if n)
+        return Outcome(prop, verdict, len(trace) - 1, time.monotonic() - start, trace, note,
+                       self._values(prop, path, model, k))
 
     def presets(self) -> dict[int, int]:
         """Timer -> the longest time (ms, in whole ticks) a ``S T n`` starts it with: the

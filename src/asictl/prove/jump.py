@@ -32,17 +32,10 @@ import z3
 
 from asictl.platform.master import TICK_US
 from asictl.prove.symbolic import TICK, Key
+from asictl.prove.timers import WIDE, wide
 
 #: The most cycles one step stands for: 2**24 cycles, 46 hours at 10 ms.
 MOST = 1 << 24
-#: Bits for cycles times microseconds, and ticks.
-_WIDE = 64
-
-
-def _wide(term: z3.BitVecRef) -> z3.BitVecRef:
-    result: z3.BitVecRef = z3.ZeroExt(_WIDE - term.size(), term)
-    return result
-
 
 def idle(cycles: z3.BitVecRef, before: dict[Key, z3.BitVecRef], after: dict[Key, z3.ExprRef],
          stored: dict[int, z3.BoolRef], cycle_us: int, tag: str) -> tuple[
@@ -53,14 +46,14 @@ def idle(cycles: z3.BitVecRef, before: dict[Key, z3.BitVecRef], after: dict[Key,
     and the constraints that make a step of more than one cycle idle."""
     jump = z3.UGT(cycles, 1)
     rules: list[z3.BoolRef] = [z3.UGE(cycles, 1), z3.ULE(cycles, MOST)]
-    ticks = z3.BitVec(f"{tag}ticks", _WIDE)
+    ticks = z3.BitVec(f"{tag}ticks", WIDE)
     result = dict(after)
     for cell, term in after.items():
         if cell[0] != "T" and cell != TICK:
             rules.append(z3.Implies(jump, term == before[cell]))
     if TICK in before:
-        phase = _wide(before[TICK])
-        spent = _wide(cycles) * cycle_us
+        phase = wide(before[TICK])
+        spent = wide(cycles) * cycle_us
         # the ticks in the N cycle times after the phase: the first at ``phase``
         rules.append(z3.If(z3.UGT(phase, spent), ticks == 0, z3.And(
             z3.UGE(ticks, 1), z3.ULE(phase + (ticks - 1) * TICK_US, spent),
@@ -78,7 +71,7 @@ def idle(cycles: z3.BitVecRef, before: dict[Key, z3.BitVecRef], after: dict[Key,
         store = stored[int(cell[1])]
         rules.append(z3.Implies(jump, z3.If(
             store, z3.And(term == held, z3.Or(held == 0, z3.UGT(held, most))),
-            z3.Or(held == 0, z3.UGT(_wide(held), ticks)))))
+            z3.Or(held == 0, z3.UGT(wide(held), ticks)))))
         counted = z3.If(held == 0, held, held - z3.Extract(15, 0, ticks))
         result[cell] = z3.If(jump, z3.If(store, term, counted), term)
     return result, rules

@@ -143,19 +143,20 @@ def _running_while_waiting(timer: Key) -> Fact:
     return fact
 
 
-#: Bits wide enough for ticks * 10,000 us plus cycles * the cycle time in us.
-_WIDE = 64
+#: Bits wide enough for ticks times 10,000 us plus cycles times the cycle time in us.
+WIDE = 64
+
+
+def wide(term: z3.ExprRef) -> z3.BitVecRef:
+    """A bit-vector zero-extended to ``WIDE`` bits."""
+    assert isinstance(term, z3.BitVecRef)
+    result: z3.BitVecRef = z3.ZeroExt(WIDE - term.size(), term)
+    return result
 
 
 def _left_and_waited(timer: Key, preset: int, cycle_us: int) -> Fact:
     def fact(path: States, index: int) -> z3.BoolRef:
         state, monitor = path.states[index], path.monitors[index]
-
-        def wide(term: z3.ExprRef) -> z3.BitVecRef:
-            assert isinstance(term, z3.BitVecRef)
-            result: z3.BitVecRef = z3.ZeroExt(_WIDE - term.size(), term)
-            return result
-
         spent = (wide(state[TICK]) + wide(state[timer]) * TICK_US
                  + wide(monitor["age"]) * cycle_us)
         result: z3.BoolRef = z3.Implies(monitor["active"],
