@@ -236,6 +236,7 @@ def test_the_responses_are_proved_without_unrolling_the_timer(tmp_path: Path):
     props.write_text("[master]\ncycle_ms = 10\n" + _responses([600, 490]))
     report = prove(props, timeout_s=120.0)
     first, second = report.outcomes
+    assert "while timer 2 runs, I 1.0 is 1" in report.invariants
     assert first.verdict is Verdict.PROVED and first.depth <= 1
     assert second.verdict is Verdict.REFUTED and len(second.trace or []) == 50
     _replay(report)
@@ -255,6 +256,42 @@ def test_a_counterexample_behind_a_long_timer_is_found_and_replays(
     assert outcome.verdict is Verdict.REFUTED
     assert outcome.trace is not None and len(outcome.trace) * cycle_ms >= preset
     assert outcome.depth == len(outcome.trace) - 1
+    _replay(report)
+
+
+#: T 1 restarted in every cycle the input is on (a timer the idle cycles store into),
+#: T 2 an on-delay from its rising edge; Q 2.1 when the input is on, T 1 runs and T 2
+#: has run out: 20 s after the input came on.
+RETRIGGERED = SETUP + """        L   KT 500
+        A   I 1.0
+        S   T 1
+***
+        L   KT 20000
+        A   I 1.0
+        AN  I2 1.0
+        S   T 2
+***
+        AN  I 1.0
+        R   T 2
+***
+        A   I 1.0
+        A   T 1
+        AN  T 2
+        =   Q 2.1
+***
+"""
+
+
+def test_a_timer_stored_in_every_idle_cycle_keeps_its_value_through_the_steps(
+        tmp_path: Path):
+    (tmp_path / "p.asi").write_text(RETRIGGERED)
+    props = tmp_path / "p.props.toml"
+    props.write_text('[master]\ncycle_ms = 10\n[[property]]\nname = "never both"\n'
+                     'never = "Q 2.1"\n')
+    report = prove(props, timeout_s=120.0, depth=10)
+    (outcome,) = report.outcomes
+    assert outcome.verdict is Verdict.REFUTED
+    assert outcome.trace is not None and len(outcome.trace) > 2000
     _replay(report)
 
 
