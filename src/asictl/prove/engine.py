@@ -20,7 +20,14 @@ tick phase, each response monitor's age) are filtered by Houdini's algorithm unt
 remains is inductive; only proved facts are assumed.
 
 A ``when A then B within N`` property is checked as a safety property with a monitor:
-the age of the oldest trigger not yet answered; it is bad when it reaches N.
+the age of the oldest trigger not yet answered; it is bad when it reaches N. For one,
+the facts that tie a waiting trigger to a running timer (``prove/timers.py``) are proved
+the same way, over the monitor, and strengthen its induction step.
+
+Beside the base case, a second path from the reset lets each step stand for a stretch
+of idle cycles (``prove/jump.py``), so that a counterexample thousands of cycles behind
+a timer is found in a few steps; its checks have a budget, and the first out of it ends
+that search.
 """
 
 from __future__ import annotations
@@ -886,8 +893,9 @@ class Machine:
         assumption or
         property reads a timer's word (``TV n``), and one program is decided (``diff``
         compares every word)."""
-        if self.observed or self.twins or not self.cycle.timers:
-            return False
+        if self.observed or self.twins or not any(
+                self.scope is None or ("T", n) in self.scope for n in self.cycle.timers):
+            return False  # (no timer the property depends on: no idle cycles to jump)
         if any(isinstance(node, ast.Load) and node.operand.kind is K.T
                and (self.scope is None or ("T", node.operand.address) in self.scope)
                for module in self.program.modules() for section in module.sections

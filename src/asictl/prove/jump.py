@@ -60,8 +60,8 @@ def idle(cycles: z3.BitVecRef, before: dict[Key, z3.BitVecRef], after: dict[Key,
             z3.ULT(spent, phase + ticks * TICK_US))))
         moved = z3.Extract(15, 0, phase + ticks * TICK_US - spent)
         result[TICK] = z3.If(jump, moved, after[TICK])
-    else:
-        rules.append(ticks == 0)
+    else:  # no clock followed, so no timer either: nothing to jump over
+        rules.append(z3.Not(jump))
     whole, rest = divmod(cycle_us, TICK_US)
     most = whole + (1 if rest else 0)  # ticks in one cycle
     for cell, term in after.items():
