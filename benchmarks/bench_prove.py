@@ -77,23 +77,8 @@ def large_program() -> tuple[str, str]:
     return "\n".join(lines) + "\n", "\n".join(props) + "\n"
 
 
-ONDELAY = """[SETUP]
-1: iiii, 0
-2: oooo, 0
-[PROGRAM]
-        L   KT {preset}
-        A   I 1.0
-        AN  I2 1.0
-        S   T 2
-***
-        AN  I 1.0
-        R   T 2
-***
-        A   I 1.0
-        AN  T 2
-        =   Q 2.0
-***
-"""
+#: The on-delay demo (Q 2.0 when I 1.0 has been on for the preset), its preset a field.
+ONDELAY = (DEMOS / "ondelay.asi").read_text().replace("KT 2000", "KT {preset}")
 
 
 def _response(ms: int) -> str:
