@@ -29,7 +29,7 @@ from asictl.il import ast
 from asictl.il.oracle import Interpreter, PlcState
 from asictl.observe.condition import holds
 from asictl.observe.operands import Operand
-from asictl.prove.engine import Verdict
+from asictl.prove.engine import Outcome, Verdict
 from asictl.prove.props import Kind, Property
 from asictl.prove.session import prove
 
@@ -234,21 +234,29 @@ def test_the_responses_are_proved_without_unrolling_the_timer(tmp_path: Path):
     _replay(report)
 
 
+def _never_on(tmp_path: Path, program: str, output: str, cycle_ms: int = 10,
+              timeout_s: float = 120.0) -> Outcome:
+    """``never = OUTPUT`` on ``program``, searched 10 cycles deep; the one verdict, after
+    every scenario written was replayed."""
+    (tmp_path / "p.asi").write_text(program)
+    props = tmp_path / "p.props.toml"
+    props.write_text(f'[master]\ncycle_ms = {cycle_ms}\n[[property]]\nname = "never on"\n'
+                     f'never = "{output}"\n')
+    report = prove(props, timeout_s=timeout_s, depth=10)
+    _replay(report)
+    (outcome,) = report.outcomes
+    return outcome
+
+
 @pytest.mark.parametrize("preset, cycle_ms", [(20_000, 10), (40_000, 7), (30_000, 1000)])
 def test_a_counterexample_behind_a_long_timer_is_found_and_replays(
         tmp_path: Path, preset: int, cycle_ms: int):
     """Thousands of idle cycles behind the timer, searched in a few steps; the scenario
     holds every cycle, and the simulator runs out the timer and fails at its end."""
-    (tmp_path / "p.asi").write_text(ONDELAY.format(preset=preset))
-    props = tmp_path / "p.props.toml"
-    props.write_text(f'[master]\ncycle_ms = {cycle_ms}\n[[property]]\nname = "never on"\n'
-                     'never = "Q 2.0"\n')
-    report = prove(props, timeout_s=120.0, depth=10)
-    (outcome,) = report.outcomes
+    outcome = _never_on(tmp_path, ONDELAY.format(preset=preset), "Q 2.0", cycle_ms)
     assert outcome.verdict is Verdict.REFUTED
     assert outcome.trace is not None and len(outcome.trace) * cycle_ms >= preset
     assert outcome.depth == len(outcome.trace) - 1
-    _replay(report)
 
 
 #: T 1 restarted in every cycle the input is on (a timer the idle cycles store into),
@@ -265,15 +273,9 @@ RETRIGGERED = ONDELAY.format(preset=20000).replace("[PROGRAM]\n", """[PROGRAM]
 
 def test_a_timer_stored_in_every_idle_cycle_keeps_its_value_through_the_steps(
         tmp_path: Path):
-    (tmp_path / "p.asi").write_text(RETRIGGERED)
-    props = tmp_path / "p.props.toml"
-    props.write_text('[master]\ncycle_ms = 10\n[[property]]\nname = "never on"\n'
-                     'never = "Q 2.1"\n')
-    report = prove(props, timeout_s=120.0, depth=10)
-    (outcome,) = report.outcomes
+    outcome = _never_on(tmp_path, RETRIGGERED, "Q 2.1")
     assert outcome.verdict is Verdict.REFUTED
     assert outcome.trace is not None and len(outcome.trace) > 2000
-    _replay(report)
 
 
 def test_a_program_that_reads_a_timer_word_is_searched_cycle_by_cycle(tmp_path: Path):
@@ -285,12 +287,7 @@ def test_a_program_that_reads_a_timer_word_is_searched_cycle_by_cycle(tmp_path: 
         =   Q 2.1
 ***
 """
-    (tmp_path / "p.asi").write_text(program)
-    props = tmp_path / "p.props.toml"
-    props.write_text('[master]\ncycle_ms = 10\n[[property]]\nname = "never on"\n'
-                     'never = "Q 2.0"\n')
-    report = prove(props, timeout_s=10.0, depth=10)
-    (outcome,) = report.outcomes
+    outcome = _never_on(tmp_path, program, "Q 2.0", timeout_s=10.0)
     assert outcome.verdict in (Verdict.BOUNDED, Verdict.UNKNOWN)  # PDR, or the load
     assert "idle" not in outcome.note
 
