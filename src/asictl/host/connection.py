@@ -34,10 +34,10 @@ from asictl.host.pc2_master import Pc2Master
 from asictl.host.transports.driver import DevPort, Pc2Driver
 from asictl.host.transports.ports import port_name
 from asictl.host.transports.target import DEFAULT_RETRIES, DEFAULT_TIMEOUT_S, parse_target
-from asictl.image.eeprom import ProgramImage
 
 if TYPE_CHECKING:
     from asictl.host.live.client import LiveClient
+    from asictl.image.eeprom import ProgramImage
 
 #: Hears why a command waits, or what it found (``--port auto``).
 Notify = Callable[[str], None]

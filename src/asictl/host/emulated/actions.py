@@ -20,18 +20,22 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from asictl.board.asi import BusError, Slave
-from asictl.board.board import Pc2Board
 from asictl.board.forcing import Area, ForceError, Forces
 from asictl.errors import ExitCode, UserError
 from asictl.observe.operands import read_number
 from asictl.platform.master import IO_CODE_BITS, SLAVES, TICK_MS
 from asictl.readers.profile import read_profile
 
+if TYPE_CHECKING:
+    # The board (and its 8051 emulator) is named only: the commands' parsers and the
+    # live board's client use this module without loading it.
+    from asictl.board.board import Pc2Board
+
 JSON = Any
-Action = Callable[[Pc2Board, dict[str, JSON]], JSON]
+Action = Callable[["Pc2Board", dict[str, JSON]], JSON]
 
 #: Master time an emulated board runs after a download or a change of its cable:
 #: config_ok's delay after the configuration was written, so the command's report shows
