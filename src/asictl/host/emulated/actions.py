@@ -274,6 +274,10 @@ ACTIONS: dict[str, Action] = {
 }
 #: Actions that only look: a command running them need not save the board's state.
 VIEWS = frozenset({"bus", "view", "lines", "forced"})
+#: Changes the running program sees in its next cycle, whose answer is all the command
+#: reports (the slaves' inputs, the force list): unlike a change of the cable, they need
+#: no time to settle before a report on a board that runs on by itself (a live one).
+NEXT_CYCLE = frozenset({"inputs", "force", "unforce"})
 
 
 def run_action(board: Pc2Board, name: str, args: dict[str, JSON]) -> JSON:
