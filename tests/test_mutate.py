@@ -302,14 +302,16 @@ def test_a_survivor_seen_to_differ_on_random_inputs_is_not_given_to_the_prover(
 ):
     """The timer constants one step off survive the scenario; random inputs show them
     different (so the prover is not asked, a test of its own below agrees), and the
-    report says where they differ."""
+    report says where they differ: the output bit, by its name in the symbol table."""
     _delay_project(tmp_path, monkeypatch)
+    (tmp_path / "delay.symbols.toml").write_text('Lamp = "Q 2.0"\nStart = "I 1.0"\n')
     code, output = _mutate(".", "--format", "json")
     assert code == 0, output
     by_change = {m["change"]: m for m in json.loads(output)["mutants"]}
     for change in ("L KT 300 -> L KT 290", "L KT 300 -> L KT 310"):
         assert by_change[change]["verdict"] == "survived"
-        assert by_change[change]["detail"].startswith("not equivalent: QB 2 differs")
+        assert by_change[change]["detail"].startswith(
+            "not equivalent: Q 2.0 (Lamp) differs from the original's after ")
         assert by_change[change]["seconds"] < mutation.PROVE_SECONDS  # no proof was tried
 
 

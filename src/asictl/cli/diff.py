@@ -148,10 +148,10 @@ def _equivalence(first: object, second: object, old: Path, new: Path, depth: Cyc
         raise missing_extra("asictl diff --equivalent", "prove", str(exc)) from None
     from asictl.files import real_path, write_atomic
     from asictl.il.loader import Program
+    from asictl.observe.names import named_bits
     from asictl.observe.operands import parse_operand
     from asictl.prove.counterexample import difference_text
     from asictl.prove.diff import equivalent as decide
-    from asictl.prove.names import bits_of, named
     from asictl.prove.session import check_target
 
     assert isinstance(first, Program) and isinstance(second, Program)
@@ -182,9 +182,9 @@ def _equivalence(first: object, second: object, old: Path, new: Path, depth: Cyc
                                              result.host_masks, result.cycle_ms,
                                              result.differences))
         symbols = _symbols(new, old)
-        shown = ", ".join(f"{named(bit, symbols)} is {a} in {old.name}, {b} in {new.name}"
+        shown = ", ".join(f"{bit} is {a} in {old.name}, {b} in {new.name}"
                           for k, (x, y) in result.differences.items()
-                          for bit, a, b in bits_of(k, x, y))
+                          for bit, a, b in named_bits(k, x, y, symbols))
         lines.append(f"different after cycle {result.cycles}: {shown}")
         lines.append(f"  scenario: {target} (passes on {old.name}, fails on {new.name})")
         entry["scenario"] = str(target)

@@ -36,7 +36,24 @@ def _files(paths: tuple[Path, ...], properties: Path | None) -> list[tuple[Path,
     return pairs
 
 
-def _line(outcome: object, written: Path | None) -> str:
+def _operands(outcome: object, symbols: object) -> str:
+    """``Q 2.0 (Forward) = 1, Q 2.1 = 1``: the property's operands after the last cycle
+    of a counterexample or witness (a response's: the answer's), each named as the
+    symbol table names it."""
+    from asictl.observe.condition import refs
+    from asictl.observe.names import named
+    from asictl.observe.symbols import SymbolTable
+    from asictl.prove.engine import Outcome
+
+    assert isinstance(outcome, Outcome) and isinstance(symbols, SymbolTable)
+    prop = outcome.prop
+    expr = prop.expr if prop.then is None else prop.then
+    shown = {named(str(ref.operand), symbols): outcome.values[ref.text]
+             for ref in refs(expr) if ref.text in outcome.values}
+    return ", ".join(f"{text} = {value}" for text, value in shown.items())
+
+
+def _line(outcome: object, written: Path | None, symbols: object) -> str:
     from asictl.prove.engine import Outcome, Verdict
 
     assert isinstance(outcome, Outcome)
@@ -53,6 +70,9 @@ def _line(outcome: object, written: Path | None) -> str:
         text = f"unreachable  {outcome.prop.name} ({how})"
     elif verdict in (Verdict.REFUTED, Verdict.REACHED):
         text = f"{verdict.value:<12} {outcome.prop.name} in cycle {cycles}"
+        values = _operands(outcome, symbols)
+        if values:
+            text += f" with {values}"
         if written is not None:
             text += f": {written}"
     elif verdict is Verdict.BOUNDED:
@@ -83,10 +103,13 @@ def _line(outcome: object, written: Path | None) -> str:
               "properties file].")
 @click.option("--force", is_flag=True,
               help="Replace files in the way that asictl prove did not write.")
+@click.option("--symbols", type=click.Path(dir_okay=False, path_type=Path),
+              help="The symbol table that names operands in properties and verdicts "
+              "[default: NAME.symbols.toml beside NAME.asi].")
 @lib_option
 def prove(files: tuple[Path, ...], properties: Path | None, depth: Cycles, timeout: float,
           unroll: int, fmt: str, counterexamples: Path | None, force: bool,
-          lib: tuple[str, ...]) -> None:
+          symbols: Path | None, lib: tuple[str, ...]) -> None:
     """Prove a program's properties (NAME.props.toml) for every input sequence.
 
     A property says what must never or always hold, what must follow a condition
@@ -120,7 +143,7 @@ def prove(files: tuple[Path, ...], properties: Path | None, depth: Cycles, timeo
         try:
             report = prove_file(props_path, program=program, lib=lib, depth=depth,
                                 timeout_s=timeout / 1000, out_dir=counterexamples, force=force,
-                                unroll=unroll)
+                                unroll=unroll, symbols=symbols)
         except Invalid as exc:
             click.echo(exc.text, nl=False, err=True)
             ctx.exit(int(exc.exit_code))
@@ -134,7 +157,8 @@ def prove(files: tuple[Path, ...], properties: Path | None, depth: Cycles, timeo
                 click.echo(f"  backward jump at line {line} followed up to {bound} times "
                            "a cycle")
             for outcome in report.outcomes:
-                click.echo("  " + _line(outcome, report.written.get(outcome.prop.name)))
+                click.echo("  " + _line(outcome, report.written.get(outcome.prop.name),
+                                        report.symbols))
     if fmt == "json":
         click.echo(json.dumps({"files": [_json(r) for r in reports]}, indent=2))
     else:

@@ -18,9 +18,9 @@ import z3
 
 from asictl.il import ast
 from asictl.observe.condition import Expr, Negation, refs
+from asictl.observe.names import named
 from asictl.observe.symbols import SymbolTable
 from asictl.prove.engine import Outcome, Step, Verdict, condition
-from asictl.prove.names import named
 from asictl.prove.props import Kind, Properties, Property
 from asictl.sim.scenario import SlaveSpec
 from asictl.sim.scenario_writer import ScenarioWriter

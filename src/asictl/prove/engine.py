@@ -335,7 +335,7 @@ class Machine:
     scope: frozenset[Key] | None = None
     #: each cell -> the cells its value after a cycle depends on
     depends: dict[Key, frozenset[Key]] = field(default_factory=dict)
-    #: how notes name an operand (``Q 3.1`` -> ``Q 3.1 (PumpB)``, prove/names.py)
+    #: how notes name an operand (``Q 3.1`` -> ``Q 3.1 (PumpB)``, observe/names.py)
     label: Callable[[str], str] = str
     #: when (time.monotonic) building the model must be done: past it, ``TimeLimit``
     deadline: float | None = None

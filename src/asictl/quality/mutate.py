@@ -43,6 +43,7 @@ from asictl.diagnostics import DiagnosticError
 from asictl.il import ast
 from asictl.il.loader import Program
 from asictl.observe.coverage import LineKey
+from asictl.observe.symbols import SymbolTable
 from asictl.quality.refute import find_difference
 from asictl.sim.session import Prepared, simulate
 
@@ -269,7 +270,7 @@ def verdict(target: Target, mutant: Mutant, proving: Callable[[], None] | None =
             return "killed", f"{prepared.scenario.file}:{failure.line}: {failure}"
     if proving is not None:
         proving()
-    proved = prove_equivalent(original, built, prove_s)
+    proved = prove_equivalent(original, built, prove_s, target.scenarios[0].symbols)
     if proved is not None:
         return proved
     return "survived", ""
@@ -285,17 +286,18 @@ def prove_available() -> bool:
     return True
 
 
-def prove_equivalent(original: Build, mutant: Build,
-                     prove_s: float = PROVE_SECONDS) -> tuple[str, str] | None:
+def prove_equivalent(original: Build, mutant: Build, prove_s: float = PROVE_SECONDS,
+                     symbols: SymbolTable | None = None) -> tuple[str, str] | None:
     """Ask the prover whether a surviving mutant behaves as the original; None when it
     is not installed or cannot tell. A survivor seen to differ from the original on
     random inputs first (quality/refute.py) is one no proof can make equivalent: it is
-    ``survived`` at once, the difference its detail."""
+    ``survived`` at once, the difference its detail (its bits named by ``symbols``, the
+    program's table)."""
     if not prove_available():
         return None
     difference = find_difference(original, mutant)
     if difference is not None:
-        return "survived", str(difference)
+        return "survived", difference.describe(symbols or SymbolTable())
     diff: Any = importlib.import_module("asictl.prove.diff")
     # equivalent for what a scenario can expect: outputs, flags, timers, counters
     programs = [build.source_program() for build in (original, mutant)]
