@@ -252,6 +252,54 @@ class _Path:
         return condition(expr, self.reader(index))
 
 
+def _quiet(path: _Path, model: z3.ModelRef, last: int, wanted: list[z3.BoolRef],
+           deadline: float) -> z3.ModelRef:
+    """The same failure (``wanted`` still true after cycle ``last``) with as few input
+    changes as the search can find, so that a counterexample shows what matters: each
+    slave's and host flag's bits, cycle by cycle from the first, hold their value (0
+    before the first cycle) unless holding it makes the failure impossible. Inputs
+    outside the property's cone of influence appear in no constraint of the path, so
+    they always hold and are never set; within the cone, an input is changed only where
+    the failure needs it. The search is greedy, first the whole input and then bit by
+    bit, and stops at ``deadline`` with the best found so far."""
+    solver = path.solver
+    solver.push()
+    scopes = 1
+    try:
+        solver.add(*wanted)
+        for index in range(last + 1):
+            for name, var in path.inputs[index].items():
+                if not name.startswith(("in.", "host.")):
+                    continue  # a firmware block's answer: not the scenario's to set
+                before = (path.inputs[index - 1][name] if index
+                          else z3.BitVecVal(0, var.size()))
+                holds = [var == before] + [
+                    z3.Extract(b, b, var) == z3.Extract(b, b, before)
+                    for b in range(var.size())]
+                for hold in holds:
+                    if z3.is_true(model.eval(hold, model_completion=True)):
+                        solver.add(hold)
+                        if hold is holds[0]:
+                            break
+                        continue
+                    left = int((deadline - time.monotonic()) * 1000)
+                    if left < 50:
+                        return model
+                    solver.set("timeout", left)
+                    solver.push()
+                    solver.add(hold)
+                    if solver.check() == z3.sat:
+                        model = solver.model()
+                        scopes += 1  # kept
+                        if hold is holds[0]:
+                            break
+                    else:
+                        solver.pop()
+    finally:
+        solver.pop(scopes)
+    return model
+
+
 class _Collector:
     """Constraints gathered for Horn clauses instead of a solver."""
 
@@ -587,13 +635,16 @@ class Machine:
                         "simulator's: the scenario may not show it")
             if result == z3.sat:
                 model = base_solver.model()
-                trace = self._trace(base, model, k)
                 if z3.is_true(model.eval(base.overruns[k], model_completion=True)):
                     loops = ", ".join(f"line {loop.line}" for loop in self.cycle.loops)
-                    return Outcome(prop, Verdict.UNKNOWN, k, time.monotonic() - start, trace,
+                    return Outcome(prop, Verdict.UNKNOWN, k, time.monotonic() - start,
+                                   self._trace(base, model, k),
                                    f"in cycle {k + 1} a backward jump ({loops}) is taken "
                                    f"more than {self.cycle.loops[0].bound} times, the most "
                                    "the model follows")
+                wanted = [self.bad(base, k)] + ([] if note else [fixed])
+                model = _quiet(base, model, k, wanted, deadline)
+                trace = self._trace(base, model, k)
                 verdict = Verdict.REACHED if reach else Verdict.REFUTED
                 note = "; ".join(n for n in (note, self._firmware_note()) if n)
                 return Outcome(prop, verdict, k, time.monotonic() - start, trace, note,
