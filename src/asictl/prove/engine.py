@@ -118,6 +118,9 @@ class Outcome:
     values: dict[str, int] = field(default_factory=dict)
     #: why a proof holds whatever the program does ("": it is a real proof)
     trivially: str = ""
+    #: the phase the trace assumes: microseconds from time 0 to the first 10 ms tick;
+    #: None when the property does not depend on the clock (any phase does)
+    phase_us: int | None = None
 
 
 def _value(expr: Expr, read: Callable[[ast.Operand], z3.BitVecRef]) -> z3.BitVecRef:
@@ -612,7 +615,7 @@ class Machine:
         step = _Path(self, step_solver, "s.", initial=False)
         self._strengthen(step, 0)
         reach = prop.kind is Kind.REACHABLE
-        fixed = z3.Bool("b.simulator_phase")
+        fixed: z3.BoolRef = z3.Bool("b.simulator_phase")
         phase = self.setup.phase_us
         if phase is not None and base.phase is not None:
             base_solver.add(z3.Implies(fixed, base.phase == phase))
@@ -631,24 +634,14 @@ class Machine:
             note = ""
             if result == z3.unsat and phase is not None:
                 result = base_solver.check(bad)
-                note = ("found only for another phase of the 10 ms clock than the "
-                        "simulator's: the scenario may not show it")
+                note = "another"
             if result == z3.sat:
-                model = base_solver.model()
-                if z3.is_true(model.eval(base.overruns[k], model_completion=True)):
-                    loops = ", ".join(f"line {loop.line}" for loop in self.cycle.loops)
-                    return Outcome(prop, Verdict.UNKNOWN, k, time.monotonic() - start,
-                                   self._trace(base, model, k),
-                                   f"in cycle {k + 1} a backward jump ({loops}) is taken "
-                                   f"more than {self.cycle.loops[0].bound} times, the most "
-                                   "the model follows")
-                wanted = [self.bad(base, k)] + ([] if note else [fixed])
-                model = _quiet(base, model, k, wanted, deadline)
-                trace = self._trace(base, model, k)
-                verdict = Verdict.REACHED if reach else Verdict.REFUTED
-                note = "; ".join(n for n in (note, self._firmware_note()) if n)
-                return Outcome(prop, verdict, k, time.monotonic() - start, trace, note,
-                               self._values(prop, base, model, k))
+                found = self._failure(prop, base, base_solver.model(), k, start, deadline,
+                                      fixed=None if note else fixed)
+                if note and found.verdict is not Verdict.UNKNOWN:
+                    found = self._on_simulator_phase(prop, base, k, fixed, start,
+                                                     deadline) or found
+                return found
             if result != z3.unsat:
                 return out_of_time(k)
             step_solver.set("timeout", left_ms())
@@ -668,6 +661,50 @@ class Machine:
                            trivially=self.trivially(prop))
         return Outcome(prop, Verdict.BOUNDED, depth, time.monotonic() - start,
                        note=self.beyond(depth))
+
+    def _failure(self, prop: Property, base: _Path, model: z3.ModelRef, k: int,
+                 start: float, deadline: float, *, fixed: z3.BoolRef | None) -> Outcome:
+        """The counterexample or witness of a model of the base case at cycle ``k``
+        (``fixed``: found with the simulator's phase of the clock, which it then keeps),
+        made quiet; unknown when the cycle overran its loop bound."""
+        if z3.is_true(model.eval(base.overruns[k], model_completion=True)):
+            loops = ", ".join(f"line {loop.line}" for loop in self.cycle.loops)
+            return Outcome(prop, Verdict.UNKNOWN, k, time.monotonic() - start,
+                           self._trace(base, model, k),
+                           f"in cycle {k + 1} a backward jump ({loops}) is taken more than "
+                           f"{self.cycle.loops[0].bound} times, the most the model follows")
+        wanted = [self.bad(base, k)] + ([] if fixed is None else [fixed])
+        model = _quiet(base, model, k, wanted, deadline)
+        verdict = Verdict.REACHED if prop.kind is Kind.REACHABLE else Verdict.REFUTED
+        phase = (None if base.phase is None
+                 else model.eval(base.phase, model_completion=True).as_long())
+        note = ""
+        if fixed is None and phase is not None and self.setup.phase_us is not None:
+            note = (f"found only with the first 10 ms tick {phase / 1000:g} ms after time 0, "
+                    f"where asictl sim has it at {self.setup.phase_us / 1000:g} ms: the "
+                    "scenario may not show it")
+        note = "; ".join(n for n in (note, self._firmware_note()) if n)
+        return Outcome(prop, verdict, k, time.monotonic() - start, self._trace(base, model, k),
+                       note, self._values(prop, base, model, k), phase_us=phase)
+
+    def _on_simulator_phase(self, prop: Property, base: _Path, k: int, fixed: z3.BoolRef,
+                            start: float, deadline: float) -> Outcome | None:
+        """A failure found at cycle ``k`` only for another phase of the clock than the
+        simulator's, looked for again with the simulator's over the cycles a shift of
+        the clock by up to one tick needs: one that ``asictl sim`` replays is worth the
+        few cycles more. None when there is none (or no time)."""
+        more = -(-TICK_US // self.setup.cycle_us) + 1
+        for j in range(k + 1, k + more + 1):
+            base.extend()
+            left = int((deadline - time.monotonic()) * 1000)
+            if left < 50:
+                return None
+            base.solver.set("timeout", left)
+            if base.solver.check(self.bad(base, j), z3.Not(base.overruns[j]), fixed) \
+                    == z3.sat:
+                return self._failure(prop, base, base.solver.model(), j, start, deadline,
+                                     fixed=fixed)
+        return None
 
     def presets(self) -> dict[int, int]:
         """Timer -> the longest time (ms, in whole ticks) a ``S T n`` starts it with: the

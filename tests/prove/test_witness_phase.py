@@ -1,0 +1,93 @@
+"""A witness or counterexample that depends on the 10 ms clock says the phase it assumes
+(the time from time 0 to the first tick), which is the one ``asictl sim`` has for that
+program and master; replayed there it reproduces, tick for tick: a witness passes, a
+counterexample fails at its last step. One about no timer says that any phase does."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import pytest
+
+from asictl.build import build_file
+from asictl.prove.engine import Verdict
+from asictl.prove.props import read_properties
+from asictl.prove.session import prove as prove_file
+from asictl.prove.session import setup_of
+from asictl.sim.engine import Simulation, variables_of
+from asictl.sim.scenario import load_scenario
+from asictl.source import read_source
+
+pytest.importorskip("z3")
+
+#: T 1 runs 50 ms from I 1.0: what it has left after a cycle depends on how many ticks
+#: fell between the cycles, so on the clock's phase. Q 4.1 (another output byte than
+#: Q 2.0's) follows I 1.1 alone.
+PROGRAM = """[SETUP]
+1: iiii, 0
+2: oooo, 0
+4: oooo, 0
+
+[PROGRAM]
+        L   KT 50
+        A   I 1.0
+        S   T 1
+        A   T 1
+        =   Q 2.0
+***
+        A   I 1.1
+        =   Q 4.1
+***
+"""
+
+PROPS = """[master]
+cycle_ms = {cycle}
+[[property]]
+name = "twenty left"
+reachable = "TV 1 == 20"
+[[property]]
+name = "never ten left"
+never = "TV 1 == 10"
+[[property]]
+name = "the timer runs"
+reachable = "Q 2.0"
+[[property]]
+name = "the lamp"
+never = "Q 4.1"
+"""
+
+
+@pytest.mark.parametrize("cycle", [3, 7, 15])
+def test_a_witness_replays_on_the_phase_it_says(tmp_path: Path, cycle: int):
+    (tmp_path / "p.asi").write_text(PROGRAM)
+    props = tmp_path / "p.props.toml"
+    props.write_text(PROPS.format(cycle=cycle))
+    report = prove_file(props, timeout_s=300.0)
+    built = build_file(tmp_path / "p.asi")
+    assert built.image is not None
+    setup, _ = setup_of(read_properties(read_source(props)), built)
+    assert setup.phase_us is not None
+    simulator = f"the first 10 ms tick {setup.phase_us / 1000:g} ms after time 0"
+    replayed = 0
+    for outcome in report.outcomes:
+        if outcome.verdict not in (Verdict.REFUTED, Verdict.REACHED):
+            continue
+        path = report.written[outcome.prop.name]
+        text = path.read_text()
+        [said] = re.findall(r"^# phase: (.*)$", text, re.MULTILINE)
+        assert "found only" not in outcome.note, outcome.note
+        if outcome.prop.name == "the lamp":  # no timer: any phase
+            assert outcome.phase_us is None and said.startswith("any")
+        else:
+            assert outcome.phase_us == setup.phase_us and said.startswith(simulator)
+        scenario = load_scenario(path, variables_of(built.image.pmap))
+        result = Simulation(built, scenario).run()
+        if outcome.verdict is Verdict.REACHED:
+            assert result.passed, (path.name, [str(f) for f in result.failures])
+        else:
+            last = max(step.at_ms for step in scenario.steps)
+            assert result.failures and {f.at_ms for f in result.failures} == {last}, \
+                path.name
+        replayed += 1
+    assert replayed >= 3
