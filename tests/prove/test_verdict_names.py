@@ -7,6 +7,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
+from test_counterexample_bits import PROGRAM as LATCH
 
 from asictl.cli import main
 from asictl.il.ast import key
@@ -16,19 +17,7 @@ from asictl.quality.refute import Difference
 
 pytest.importorskip("z3")
 
-PROGRAM = """[SETUP]
-1: iiii, 0
-3: oooo, 0
-
-[PROGRAM]
-        A   I 1.0
-        A   I 1.1
-        S   Q 3.1
-***
-        A   I 1.2
-        R   Q 3.1
-***
-        L   KT 5000
+PROGRAM = LATCH + """        L   KT 5000
         A   I 1.3
         S   T 1
         A   T 1

@@ -9,14 +9,13 @@ import re
 from pathlib import Path
 
 import pytest
+from replay import assert_replays
 
 from asictl.build import build_file
 from asictl.prove.engine import Verdict
 from asictl.prove.props import read_properties
 from asictl.prove.session import prove as prove_file
 from asictl.prove.session import setup_of
-from asictl.sim.engine import Simulation, variables_of
-from asictl.sim.scenario import load_scenario
 from asictl.source import read_source
 
 pytest.importorskip("z3")
@@ -81,13 +80,6 @@ def test_a_witness_replays_on_the_phase_it_says(tmp_path: Path, cycle: int):
             assert outcome.phase_us is None and said.startswith("any")
         else:
             assert outcome.phase_us == setup.phase_us and said.startswith(simulator)
-        scenario = load_scenario(path, variables_of(built.image.pmap))
-        result = Simulation(built, scenario).run()
-        if outcome.verdict is Verdict.REACHED:
-            assert result.passed, (path.name, [str(f) for f in result.failures])
-        else:
-            last = max(step.at_ms for step in scenario.steps)
-            assert result.failures and {f.at_ms for f in result.failures} == {last}, \
-                path.name
+        assert_replays(tmp_path / "p.asi", path, outcome.verdict)
         replayed += 1
     assert replayed >= 3
