@@ -120,6 +120,15 @@ def test_text_report_and_min_score(project: Path):
     assert _mutate(".", "--min-score", "50")[0] == 0
 
 
+def test_a_killed_mutants_detail_names_the_operand_by_the_symbol_table(project: Path):
+    (project / "machine.symbols.toml").write_text('Forward = "Q 2.0"\n')
+    code, output = _mutate(".", "--format", "json")
+    assert code == 0, output
+    detail = {(m["line"], m["change"]): m["detail"]
+              for m in json.loads(output)["mutants"]}[(6, "A I 1.0 -> AN I 1.0")]
+    assert detail.endswith("Q 2.0 (Forward) expected 1, got 0"), detail
+
+
 def test_the_missing_scenario_kills_the_survivors(project: Path):
     (project / "stop.scenario.toml").write_text(STOP)
     code, output = _mutate(".", "--format", "json", "--min-score", "100")

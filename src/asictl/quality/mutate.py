@@ -43,6 +43,7 @@ from asictl.diagnostics import DiagnosticError
 from asictl.il import ast
 from asictl.il.loader import Program
 from asictl.observe.coverage import LineKey
+from asictl.observe.names import named
 from asictl.observe.symbols import SymbolTable
 from asictl.quality.refute import find_difference
 from asictl.sim.session import Prepared, simulate
@@ -265,8 +266,9 @@ def verdict(target: Target, mutant: Mutant, proving: Callable[[], None] | None =
         return "equivalent", "the same 8051 code"
     for prepared in target.scenarios:
         run = simulate(dataclasses.replace(prepared, build=built), fail_fast=True)
-        if run.result.failures:
-            failure = run.result.failures[0]
+        if run.result.failures:  # its operand named as every note names one
+            failure = dataclasses.replace(run.result.failures[0], written=named(
+                str(run.result.failures[0].operand), prepared.symbols))
             return "killed", f"{prepared.scenario.file}:{failure.line}: {failure}"
     if proving is not None:
         proving()
