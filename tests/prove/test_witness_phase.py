@@ -1,7 +1,8 @@
 """A witness or counterexample that depends on the 10 ms clock says the phase it assumes
-(the time from time 0 to the first tick), which is the one ``asictl sim`` has for that
-program and master; replayed there it reproduces, tick for tick: a witness passes, a
-counterexample fails at its last step. One about no timer says that any phase does."""
+(``first_tick_ms``, the time from time 0 to the first tick), the one ``asictl sim`` has
+for that program and master where it can be; replayed, it reproduces tick for tick: a
+witness passes, a counterexample fails at its last step, on any phase it names. One
+about no timer says that any phase does."""
 
 from __future__ import annotations
 
@@ -67,19 +68,41 @@ def test_a_witness_replays_on_the_phase_it_says(tmp_path: Path, cycle: int):
     assert built.image is not None
     setup, _ = setup_of(read_properties(read_source(props)), built)
     assert setup.phase_us is not None
-    simulator = f"the first 10 ms tick {setup.phase_us / 1000:g} ms after time 0"
     replayed = 0
     for outcome in report.outcomes:
         if outcome.verdict not in (Verdict.REFUTED, Verdict.REACHED):
             continue
         path = report.written[outcome.prop.name]
         text = path.read_text()
-        [said] = re.findall(r"^# phase: (.*)$", text, re.MULTILINE)
+        said = re.findall(r"^first_tick_ms = (.*)$", text, re.MULTILINE)
         assert "found only" not in outcome.note, outcome.note
         if outcome.prop.name == "the lamp":  # no timer: any phase
-            assert outcome.phase_us is None and said.startswith("any")
+            assert outcome.phase_us is None and not said
+            assert "# phase: any" in text
         else:
-            assert outcome.phase_us == setup.phase_us and said.startswith(simulator)
+            assert outcome.phase_us == setup.phase_us
+            assert said == [f"{setup.phase_us / 1000:g}"]
         assert_replays(tmp_path / "p.asi", path, outcome.verdict)
         replayed += 1
     assert replayed >= 3
+
+
+@pytest.mark.parametrize("cycle", [3, 7, 15])
+def test_a_witness_for_any_phase_replays_on_the_phase_it_names(
+        tmp_path: Path, cycle: int, monkeypatch: pytest.MonkeyPatch):
+    """Without the simulator's phase to prefer, the solver picks any: the scenario's
+    first_tick_ms moves the simulator's clock there, and it replays all the same."""
+    import asictl.prove.session as session
+
+    monkeypatch.setattr(session, "_phase", lambda *_: None)
+    (tmp_path / "p.asi").write_text(PROGRAM)
+    props = tmp_path / "p.props.toml"
+    props.write_text(PROPS.format(cycle=cycle))
+    report = prove_file(props, timeout_s=300.0)
+    phases = set()
+    for outcome in report.outcomes:
+        if outcome.verdict in (Verdict.REFUTED, Verdict.REACHED):
+            phases.add(outcome.phase_us)
+            assert_replays(tmp_path / "p.asi", report.written[outcome.prop.name],
+                           outcome.verdict)
+    assert len(phases) >= 2  # the clock's phase and none, at the least

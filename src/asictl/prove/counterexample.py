@@ -103,25 +103,19 @@ def scenario_text(props: Properties, program: Path, target: Path, prop: Property
                 f"{prop.text()}\n"
                 f"{cycles} program cycle{'s' if cycles != 1 else ''}; asictl sim --scenario "
                 f"{target.name} {fate}.")
-    out.comment(f"phase: {_phase(outcome)}")
+    if outcome.phase_us is None:
+        out.comment("phase: any (the property does not depend on the 10 ms clock)")
     if outcome.note:
         out.comment(f"note: {outcome.note}")
     names = _names(outcome.trace, masks, expected, props.symbols)
     if names:
         out.comment(f"names: {names}")
     out.program(Path(os.path.relpath(program.resolve(), target.resolve().parent)).as_posix())
-    out.master(cycle_ms, props.slaves)
+    # the clock's phase the trace assumes (the prover leaves it free), so that it replays
+    out.master(cycle_ms, props.slaves,
+               None if outcome.phase_us is None else outcome.phase_us / 1000)
     _steps(out, outcome.trace, masks, cycle_ms, expected)
     return out.text()
-
-
-def _phase(outcome: Outcome) -> str:
-    """The phase of the 10 ms clock the scenario assumes (docs/prove.md): the prover
-    leaves it free, so a trace that depends on it holds for the one it names."""
-    if outcome.phase_us is None:
-        return "any (the property does not depend on the 10 ms clock)"
-    return (f"the first 10 ms tick {outcome.phase_us / 1000:g} ms after time 0, then "
-            "every 10 ms")
 
 
 def _steps(out: ScenarioWriter, trace: list[Step], masks: dict[int, int], cycle_ms: float,

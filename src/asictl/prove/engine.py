@@ -680,9 +680,9 @@ class Machine:
                  else model.eval(base.phase, model_completion=True).as_long())
         note = ""
         if fixed is None and phase is not None and self.setup.phase_us is not None:
-            note = (f"found only with the first 10 ms tick {phase / 1000:g} ms after time 0, "
-                    f"where asictl sim has it at {self.setup.phase_us / 1000:g} ms: the "
-                    "scenario may not show it")
+            note = (f"found only with the first 10 ms tick {phase / 1000:g} ms after time 0 "
+                    "(the scenario's first_tick_ms), where asictl sim has it at "
+                    f"{self.setup.phase_us / 1000:g} ms unless told")
         note = "; ".join(n for n in (note, self._firmware_note()) if n)
         return Outcome(prop, verdict, k, time.monotonic() - start, self._trace(base, model, k),
                        note, self._values(prop, base, model, k), phase_us=phase)

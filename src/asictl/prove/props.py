@@ -127,7 +127,7 @@ def read_properties(
             program_path = Path(source.name).parent / program
         else:
             reading.error("program is a file name", ("program",))
-    cycle_ms, slaves = read_master(document, reading.report, ScenarioCode.PROPERTIES)
+    cycle_ms, slaves, _ = read_master(document, reading.report, ScenarioCode.PROPERTIES)
     bus = None if slaves is None else [spec.address for spec in slaves]
 
     def expression(value: object, path: KeyPath) -> Expr | None:
