@@ -636,12 +636,8 @@ class Machine:
                 result = base_solver.check(bad)
                 note = "another"
             if result == z3.sat:
-                found = self._failure(prop, base, base_solver.model(), k, start, deadline,
-                                      fixed=None if note else fixed)
-                if note and found.verdict is not Verdict.UNKNOWN:
-                    found = self._on_simulator_phase(prop, base, k, fixed, start,
-                                                     deadline) or found
-                return found
+                return self._failure(prop, base, base_solver.model(), k, start, deadline,
+                                     fixed=None if note else fixed)
             if result != z3.unsat:
                 return out_of_time(k)
             step_solver.set("timeout", left_ms())
@@ -686,25 +682,6 @@ class Machine:
         note = "; ".join(n for n in (note, self._firmware_note()) if n)
         return Outcome(prop, verdict, k, time.monotonic() - start, self._trace(base, model, k),
                        note, self._values(prop, base, model, k), phase_us=phase)
-
-    def _on_simulator_phase(self, prop: Property, base: _Path, k: int, fixed: z3.BoolRef,
-                            start: float, deadline: float) -> Outcome | None:
-        """A failure found at cycle ``k`` only for another phase of the clock than the
-        simulator's, looked for again with the simulator's over the cycles a shift of
-        the clock by up to one tick needs: one that ``asictl sim`` replays is worth the
-        few cycles more. None when there is none (or no time)."""
-        more = -(-TICK_US // self.setup.cycle_us) + 1
-        for j in range(k + 1, k + more + 1):
-            base.extend()
-            left = int((deadline - time.monotonic()) * 1000)
-            if left < 50:
-                return None
-            base.solver.set("timeout", left)
-            if base.solver.check(self.bad(base, j), z3.Not(base.overruns[j]), fixed) \
-                    == z3.sat:
-                return self._failure(prop, base, base.solver.model(), j, start, deadline,
-                                     fixed=fixed)
-        return None
 
     def presets(self) -> dict[int, int]:
         """Timer -> the longest time (ms, in whole ticks) a ``S T n`` starts it with: the
