@@ -14,8 +14,11 @@ the compiled 8051 code (``asictl sim``):
   step (a witness passes);
 - ``holds up to N cycles``: none breaks it within N cycles.
 
-With 10 ms cycles the clock ticks once between two cycles whatever its phase, so the
-interpreter's run needs no phase. The default run takes ``ASICTL_SOUNDNESS_EXAMPLES``
+The programs run with 4, 10 or 25 ms cycles, so none, one, two or three ticks of the
+10 ms clock fall between two cycles, as its phase has it: the interpreter runs every
+input sequence on five phases (and on the one a counterexample names), a proof must
+hold on all of them, a counterexample be the shortest on its own and no longer than any
+other's. The default run takes ``ASICTL_SOUNDNESS_EXAMPLES``
 programs (8) to a depth of 5 cycles, a few seconds; ``-m slow`` takes 25 times as many
 to a depth of 7.
 """
@@ -54,6 +57,11 @@ FLAGS = ["F 0.0", "F 0.1", "F 0.2"]
 READ = INPUTS + OUTPUTS + FLAGS + ["T 1", "I2 1.0"]
 WRITTEN = OUTPUTS + FLAGS
 OBSERVED = INPUTS + OUTPUTS + FLAGS + ["T 1"]
+#: 10 ms: one tick between two cycles, whatever the clock's phase; 4 ms: none or one;
+#: 25 ms: two or three
+CYCLES_MS = (10, 4, 25)
+#: phases of the clock (time 0 to the first tick, in us) every verdict is checked on
+PHASES_US = (1, 2_500, 5_000, 7_500, 10_000)
 
 
 @st.composite
@@ -104,7 +112,7 @@ def properties(draw: st.DrawFn) -> str:
         else:
             text += f'{kind} = "{draw(conditions())}"\n'
         found.append(text)
-    return "[master]\ncycle_ms = 10\n" + "".join(found)
+    return f"[master]\ncycle_ms = {draw(st.sampled_from(CYCLES_MS))}\n" + "".join(found)
 
 
 def _reader(state: PlcState) -> Callable[[Operand], int]:
@@ -137,19 +145,35 @@ class _Node:
     pending: int | None = None
 
 
-def _first_bad(program: Program, prop: Property, depth: int) -> int | None:
+def _ticks(cycle_us: int, phase_us: int, cycle: int) -> int:
+    """The ticks between the start of cycle ``cycle`` - 1 and its own (counted from 1;
+    none before the first), the first at ``phase_us`` and then every 10 ms: a tick at
+    a cycle's start comes before it (the timing contract)."""
+    if cycle == 1:
+        return 0
+
+    def until(t: int) -> int:  # ticks at or before t
+        return 0 if t < phase_us else (t - phase_us) // 10_000 + 1
+
+    return until((cycle - 1) * cycle_us) - until((cycle - 2) * cycle_us)
+
+
+def _first_bad(program: Program, prop: Property, depth: int, cycle_us: int,
+               phase_us: int) -> int | None:
     """The fewest cycles after which some input sequence breaks ``prop`` (for
-    ``reachable``: reaches it), or None within ``depth`` cycles: every input sequence,
-    breadth first over the distinct states (and response monitors) they reach."""
+    ``reachable``: reaches it) on the clock's phase ``phase_us``, or None within
+    ``depth`` cycles: every input sequence, breadth first over the distinct states (and
+    response monitors) they reach."""
     interp = Interpreter(program)
     frontier: dict[tuple[object, ...], _Node] = {("reset",): _Node(interp.state)}
     for cycle in range(1, depth + 1):
         after: dict[tuple[object, ...], _Node] = {}
+        ticks = _ticks(cycle_us, phase_us, cycle)
         for node in frontier.values():
             for nibble in range(8):
                 interp.state = copy.deepcopy(node.state)
-                if cycle > 1:
-                    interp.tick(1)
+                if ticks:
+                    interp.tick(ticks)
                 interp.cycle(bytes([nibble << 4]) + bytes(15))
                 read = _reader(interp.state)
                 pending, bad = _judge(prop, read, node.pending)
@@ -191,20 +215,24 @@ def verdicts_agree(program: str, props: str, depth: int) -> None:
         report = prove_file(Path(folder) / "p.props.toml", timeout_s=120.0, depth=depth)
         built = build_file(Path(folder) / "p.asi")
         assert built.program is not None
+        cycle_us = round(report.cycle_ms * 1000)
         for outcome in report.outcomes:
             prop = outcome.prop
-            first = _first_bad(built.program, prop, depth + 1)
-            where = f"{program}\n{props}\n{outcome.verdict}: {outcome.note}"
+            cycles = outcome.depth + 1
+            first = {phase: _first_bad(built.program, prop, depth + 1, cycle_us, phase)
+                     for phase in {*PHASES_US, outcome.phase_us or 1}}
+            where = f"{program}\n{props}\n{outcome.verdict}: {outcome.note}\n{first}"
             match outcome.verdict:
                 case Verdict.PROVED | Verdict.UNREACHABLE:
-                    assert first is None, f"{where}\nbroken after {first} cycles"
+                    assert set(first.values()) == {None}, where
                 case Verdict.REFUTED | Verdict.REACHED:
-                    assert first == outcome.depth + 1, \
-                        f"{where}\nthe shortest: {first} cycles, the prover's {outcome.depth + 1}"
+                    # the shortest on its phase, and none shorter on any other
+                    assert first[outcome.phase_us or 1] == cycles, where
+                    assert all(n is None or n >= cycles for n in first.values()), where
                     assert_replays(Path(folder) / "p.asi",
                                    report.written[prop.name], outcome.verdict)
                 case Verdict.BOUNDED:
-                    assert first is None or first > outcome.depth + 1, where
+                    assert all(n is None or n > cycles for n in first.values()), where
                 case Verdict.UNKNOWN:
                     pass
             SEEN[outcome.verdict] = SEEN.get(outcome.verdict, 0) + 1
