@@ -13,6 +13,7 @@ import pytest
 from replay import assert_replays
 
 from asictl.build import build_file
+from asictl.cli import main
 from asictl.prove.engine import Verdict
 from asictl.prove.props import read_properties
 from asictl.prove.session import prove as prove_file
@@ -113,3 +114,22 @@ def test_a_witness_for_any_phase_replays_on_the_phase_it_names(
             assert_replays(tmp_path / "p.asi", report.written[outcome.prop.name],
                            outcome.verdict)
     assert len(phases) >= 2  # the clock's phase and none, at the least
+
+
+def test_a_difference_that_rests_on_the_clock_replays_on_its_phase(tmp_path: Path, runner):
+    """Two programs whose timers differ by one tick: the scenario that tells them apart
+    names the phase it needs, and replays on it (passes on the old, fails on the new at
+    its last step), whatever phase the solver picked."""
+    old = tmp_path / "old.asi"
+    new = tmp_path / "new.asi"
+    running = PROGRAM.replace("S   T 1\n", "S   T 1\n***\n")  # Q 2.0 = T 1 running
+    old.write_text(running)
+    new.write_text(running.replace("KT 50", "KT 60"))
+    for cycle in ("3", "7", "15"):
+        scenario = tmp_path / f"differs.{cycle}.scenario.toml"
+        result = runner.invoke(main, ["diff", str(old), str(new), "--equivalent",
+                                      "--cycle-ms", cycle, "--scenario", str(scenario)])
+        assert result.exit_code == 1, result.output
+        assert re.search(r"^first_tick_ms = [0-9.]+$", scenario.read_text(), re.MULTILINE)
+        assert_replays(old, scenario, Verdict.REACHED)  # passes on the old
+        assert_replays(new, scenario, Verdict.REFUTED)  # fails at its last step on the new

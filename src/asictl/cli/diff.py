@@ -180,7 +180,8 @@ def _equivalence(first: object, second: object, old: Path, new: Path, depth: Cyc
         check_target(target, {real_path(old), real_path(new)}, force)
         write_atomic(target, difference_text(old, new, target, result.trace,
                                              result.host_masks, result.cycle_ms,
-                                             result.differences))
+                                             result.differences,
+                                             phase_us=result.phase_us))
         symbols = _symbols(new, old)
         shown = ", ".join(f"{bit} is {a} in {old.name}, {b} in {new.name}"
                           for k, (x, y) in result.differences.items()

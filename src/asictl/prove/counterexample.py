@@ -111,11 +111,15 @@ def scenario_text(props: Properties, program: Path, target: Path, prop: Property
     if names:
         out.comment(f"names: {names}")
     out.program(Path(os.path.relpath(program.resolve(), target.resolve().parent)).as_posix())
-    # the clock's phase the trace assumes (the prover leaves it free), so that it replays
-    out.master(cycle_ms, props.slaves,
-               None if outcome.phase_us is None else outcome.phase_us / 1000)
+    out.master(cycle_ms, props.slaves, _first_tick_ms(outcome.phase_us))
     _steps(out, outcome.trace, masks, cycle_ms, expected)
     return out.text()
+
+
+def _first_tick_ms(phase_us: int | None) -> float | None:
+    """The phase of the clock a trace assumes, as a scenario's ``first_tick_ms``: the
+    prover leaves it free, and the scenario replays only on the one it found."""
+    return None if phase_us is None else phase_us / 1000
 
 
 def _steps(out: ScenarioWriter, trace: list[Step], masks: dict[int, int], cycle_ms: float,
@@ -135,15 +139,17 @@ def _steps(out: ScenarioWriter, trace: list[Step], masks: dict[int, int], cycle_
 def difference_text(old: Path, new: Path, target: Path, trace: list[Step],
                     masks: dict[int, int], cycle_ms: float,
                     differences: dict[str, tuple[int, int]],
-                    slaves: list[SlaveSpec] | None = None) -> str:
+                    slaves: list[SlaveSpec] | None = None,
+                    phase_us: int | None = None) -> str:
     """The scenario that tells two programs apart: it expects what ``old`` does, so it
-    passes on ``old`` and fails on ``new`` at its last step."""
+    passes on ``old`` and fails on ``new`` at its last step (on the clock's phase
+    ``phase_us`` the trace needs, if any)."""
     out = ScenarioWriter()
     out.comment(f"{_MARKED} a difference between {old.name} and {new.name}\n"
                 f"passes on {old.name}; asictl sim {new.name} --scenario {target.name} "
                 "fails at the last step.")
     out.program(Path(os.path.relpath(old.resolve(), target.resolve().parent)).as_posix())
-    out.master(cycle_ms, slaves)
+    out.master(cycle_ms, slaves, _first_tick_ms(phase_us))
     _steps(out, trace, masks, cycle_ms,
            [Expectation(text, first) for text, (first, _) in differences.items()])
     return out.text()

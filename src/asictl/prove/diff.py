@@ -60,6 +60,9 @@ class Equivalence:
     note: str = ""
     #: the construct that could not be modelled, when that made the verdict "unknown"
     refused: Unmodelled | None = None
+    #: for "different": the phase of the 10 ms clock the trace needs (us from time 0 to
+    #: the first tick; None: any)
+    phase_us: int | None = None
 
 
 _FLAGS = (ast.OperandKind.F, ast.OperandKind.FY, ast.OperandKind.FW)
@@ -162,7 +165,7 @@ def _equivalent(first: Program, second: Program, start: float, *, timeout_s: flo
     result = Equivalence(verdict, outcome.depth + 1 if outcome.trace else outcome.depth,
                          time.monotonic() - start, outcome.trace, slaves=bus,
                          cycle_ms=cycle_us / 1000, host_masks=both.host_masks,
-                         note=outcome.note)
+                         note=outcome.note, phase_us=outcome.phase_us)
     if outcome.verdict is Verdict.BOUNDED:
         result.note = f"no difference within {depth + 1} cycles, and no proof"
     for a, b in pairs:
