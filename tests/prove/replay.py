@@ -1,5 +1,6 @@
-"""A scenario the prover wrote, replayed by the simulator (the compiled 8051 code on the
-emulated master): a witness must pass, a counterexample fail at its last step only."""
+"""Whether a scenario passes on each of some programs under the simulator: how the tests
+check that a distinguishing scenario written by ``diff --equivalent`` replays, and that a
+counterexample or witness written by ``prove`` does."""
 
 from __future__ import annotations
 
@@ -11,7 +12,20 @@ from asictl.sim.engine import Simulation, variables_of
 from asictl.sim.scenario import load_scenario
 
 
+def passes(scenario_path: Path, *programs: Path) -> dict[str, bool]:
+    """Each program's file name -> whether the scenario passes on it."""
+    outcomes = {}
+    for program in programs:
+        built = build_file(program)
+        assert built.image is not None
+        scenario = load_scenario(scenario_path, variables_of(built.image.pmap))
+        outcomes[program.name] = Simulation(built, scenario).run().passed
+    return outcomes
+
+
 def assert_replays(program: Path, scenario_path: Path, verdict: Verdict) -> None:
+    """A witness (``REACHED``) passes on ``program``; a counterexample fails, at its last
+    step only."""
     built = build_file(program)
     assert built.image is not None
     scenario = load_scenario(scenario_path, variables_of(built.image.pmap))
