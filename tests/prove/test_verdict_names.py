@@ -4,6 +4,7 @@ testing's notes name the bits of an output byte the same way."""
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import pytest
@@ -90,3 +91,19 @@ def test_symbols_given_on_the_command_line(tmp_path: Path, runner):
     # a table that is not there is bad input
     code, output = _run(runner, tmp_path, "--symbols", str(tmp_path / "none.toml"))
     assert code == 2 and "none.toml" in output
+
+
+def test_json_gives_the_operands_named_and_the_phase(tmp_path: Path, runner):
+    (tmp_path / "p.asi").write_text(PROGRAM)
+    (tmp_path / "p.props.toml").write_text(PROPS)
+    (tmp_path / "p.symbols.toml").write_text(SYMBOLS)
+    code, output = _run(runner, tmp_path, "--format", "json")
+    assert code == 1, output
+    results = {r["name"]: r for r in json.loads(output)["files"][0]["results"]}
+    latch = results["latch never with I 1.3"]
+    assert latch["operands"] == [
+        {"operand": "Q 3.1", "named": "Q 3.1 (PumpB)", "value": 1},
+        {"operand": "I 1.3", "named": "I 1.3", "value": 1}]
+    timer = results["the timer output can come on"]
+    assert timer["operands"][0]["named"] == "Q 3.2 (Running)"
+    assert 0 < timer["first_tick_ms"] <= 10

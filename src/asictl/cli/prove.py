@@ -36,10 +36,10 @@ def _files(paths: tuple[Path, ...], properties: Path | None) -> list[tuple[Path,
     return pairs
 
 
-def _operands(outcome: object, symbols: object) -> str:
-    """``Q 2.0 (Forward) = 1, Q 2.1 = 1``: the property's operands after the last cycle
-    of a counterexample or witness (a response's: the answer's), each named as the
-    symbol table names it."""
+def _operands(outcome: object, symbols: object) -> list[tuple[str, str, int]]:
+    """(operand, as named, value): the property's operands after the last cycle of a
+    counterexample or witness (a response's: the answer's), each named as the symbol
+    table names it (``Q 2.0 (Forward)``)."""
     from asictl.observe.condition import refs
     from asictl.observe.names import named
     from asictl.observe.symbols import SymbolTable
@@ -48,9 +48,9 @@ def _operands(outcome: object, symbols: object) -> str:
     assert isinstance(outcome, Outcome) and isinstance(symbols, SymbolTable)
     prop = outcome.prop
     expr = prop.expr if prop.then is None else prop.then
-    shown = {named(str(ref.operand), symbols): outcome.values[ref.text]
+    found = {str(ref.operand): outcome.values[ref.text]
              for ref in refs(expr) if ref.text in outcome.values}
-    return ", ".join(f"{text} = {value}" for text, value in shown.items())
+    return [(text, named(text, symbols), value) for text, value in found.items()]
 
 
 def _line(outcome: object, written: Path | None, symbols: object) -> str:
@@ -70,7 +70,8 @@ def _line(outcome: object, written: Path | None, symbols: object) -> str:
         text = f"unreachable  {outcome.prop.name} ({how})"
     elif verdict in (Verdict.REFUTED, Verdict.REACHED):
         text = f"{verdict.value:<12} {outcome.prop.name} in cycle {cycles}"
-        values = _operands(outcome, symbols)
+        values = ", ".join(f"{shown} = {value}"
+                           for _, shown, value in _operands(outcome, symbols))
         if values:
             text += f" with {values}"
         if written is not None:
@@ -207,6 +208,9 @@ def _json(report: object) -> dict[str, object]:
                 if o.prop.name in report.written else None,
                 "note": o.note or None,
                 "trivially": o.trivially or None,
+                "operands": [{"operand": text, "named": shown, "value": value}
+                             for text, shown, value in _operands(o, report.symbols)],
+                "first_tick_ms": None if o.phase_us is None else o.phase_us / 1000,
             }
             for o in report.outcomes
         ],
