@@ -33,6 +33,9 @@ from asictl.readers.units import UnitError, duration_ms
 MAX_MS = 24 * 3_600_000.0
 #: How many parts a conveyor may carry at once (a scenario cannot flood the simulation).
 MAX_PARTS = 10_000
+#: A time no simulation reaches, in microseconds (146,000 years): a model's moment
+#: further off (a belt crawling at 1e-300 mm/s, whose run is an infinite float) is never.
+NEVER_US = 2**62
 K = ast.OperandKind
 
 
@@ -72,6 +75,12 @@ def bits_of(operand: Operand) -> frozenset[tuple[str, int, int]]:
 
 def _us(ms: float) -> int:
     return round(ms * 1000)
+
+
+def _ceil_us(us: float) -> int:
+    """``us`` rounded up to a whole microsecond, at most ``NEVER_US`` (an infinite or
+    huge quotient of a tiny speed or rate has no integer)."""
+    return math.ceil(us) if us < NEVER_US else NEVER_US
 
 
 class Model:
@@ -133,7 +142,7 @@ class Model:
     def _after(self, dt: float) -> int:
         """The microsecond ``dt`` microseconds after the last evaluation (at least one;
         a rounding error of a level's arithmetic does not make it the next one)."""
-        return self._t + max(1, math.ceil(dt - 1e-3))
+        return self._t + max(1, _ceil_us(dt - 1e-3))
 
 
 class Cylinder(Model):
@@ -231,7 +240,7 @@ class Conveyor(Model):
 
     def _run(self, mm: float) -> int:
         """The belt's run in microseconds that carries a part ``mm`` far."""
-        return math.ceil(mm * 1_000_000 / self.speed - 1e-6)
+        return _ceil_us(mm * 1_000_000 / self.speed - 1e-6)
 
     def position_mm(self, run: int) -> float:
         return run * self.speed / 1_000_000
