@@ -31,7 +31,7 @@ from asictl.il.ast import key
 from asictl.observe.condition import Condition, ConditionError, parse_condition
 from asictl.observe.operands import SETTABLE, Operand, check_value, parse_operand
 from asictl.observe.symbols import SymbolTable, load_symbols, symbols_for
-from asictl.readers.units import duration_ms
+from asictl.readers.units import duration_ms, format_duration, format_instant
 from asictl.sim.engine import Simulation, variables_of
 from asictl.sim.plant import Model, read_model
 from asictl.sim.scenario import MAX_TIME_MS, Scenario, parse_slave
@@ -279,8 +279,8 @@ class Plc:
         if self._advance(end, test):
             return self.time_ms
         trace = self._sim.trace_now().window(start, end)
-        message = (f"{_caller()}: at {self.time_ms:g} ms: '{condition}' did not hold within "
-                   f"{(end - start) / 1000:g} s (from {start:g} ms)")
+        message = (f"{_caller()}: at {format_instant(self.time_ms)}: '{condition}' did not "
+                   f"hold within {format_duration(end - start)} (from {format_instant(start)})")
         lanes = {lane.name for lane in self._sim.plant.lanes()}
         raise TimedOut("\n".join([message, *self.stops, *_last_rows(trace, test, lanes)]),
                        trace)
@@ -292,7 +292,7 @@ class Plc:
         wanted = _whole(value, text)
         got = self[text]
         if got != wanted:
-            lines = [f"{_caller()}: at {self.time_ms:g} ms: {text} expected {wanted}, "
+            lines = [f"{_caller()}: at {format_instant(self.time_ms)}: {text} expected {wanted}, "
                      f"got {got}", *self.stops]
             raise ExpectationFailed("\n".join(lines))
 

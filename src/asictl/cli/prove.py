@@ -10,7 +10,7 @@ import click
 from asictl.cli.options import CycleCount, Duration, lib_option
 from asictl.errors import ExitCode, missing_extra
 from asictl.prove import MAX_DEPTH
-from asictl.readers.units import Cycles
+from asictl.readers.units import Cycles, format_duration
 
 _HELP_FORMAT = click.Choice(["text", "json"])
 
@@ -60,7 +60,7 @@ def _line(outcome: object, written: Path | None) -> str:
         text = f"{shown} up to {cycles} cycle{plural}: {outcome.prop.name} (no proof)"
     else:
         text = f"unknown      {outcome.prop.name}"
-    text += f" [{outcome.seconds:.2f} s]"
+    text += f" [{format_duration(outcome.seconds * 1000)}]"
     if outcome.note:
         text += f"\n    note: {outcome.note}"
     return text
@@ -143,7 +143,7 @@ def prove(files: tuple[Path, ...], properties: Path | None, depth: Cycles, timeo
         for outcome in outcomes:
             counts[outcome.verdict.value] = counts.get(outcome.verdict.value, 0) + 1
         shown = ", ".join(f"{n} {v}" for v, n in counts.items()) or "no properties"
-        click.echo(f"{shown} in {sum(r.seconds for r in reports):.2f} s")
+        click.echo(f"{shown} in {format_duration(sum(r.seconds for r in reports) * 1000)}")
     ctx.exit(int(ExitCode.OK if all(r.passed for r in reports) else ExitCode.FAILED))
 
 

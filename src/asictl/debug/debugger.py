@@ -33,7 +33,13 @@ from asictl.observe.operands import (
 from asictl.observe.symbols import SymbolTable
 from asictl.observe.view import ProgramView
 from asictl.platform.pc2 import STOP_ADDRESS, STOPS_AT_AN_ADDRESS
-from asictl.readers.units import UnitError, format_instant, parse_duration
+from asictl.readers.units import (
+    TICK_MS,
+    UnitError,
+    format_duration,
+    format_instant,
+    parse_duration,
+)
 from asictl.runtime.line_map import LineMap, SourceLine
 from asictl.sim.engine import Simulation, source_texts, variables_of
 from asictl.sim.session import Prepared
@@ -164,13 +170,13 @@ class Values:
             return f"{word} ({word:04X}h)"
         if upper == "KREG":
             k = view.constant
-            return (f"{k} ({k:03X}h; as L KT {k * 10} ms, as L KC {k}, "
-                    f"as L KP {k >> 4 & 0x1F}.{k & 0xF})")
+            return (f"{k} ({k:03X}h; as L KT {k} ticks, {format_duration(k * TICK_MS)}, "
+                    f"as L KC {k}, as L KP {k >> 4 & 0x1F}.{k & 0xF})")
         operand = self.operand(text)
         value = view.read(operand)
         node = operand.node
         if operand.is_bit and node.kind is ast.OperandKind.T:
-            return f"{value} (remaining {view.timer_ms(node.address) or 0} ms)"
+            return f"{value} (remaining {format_duration(view.timer_ms(node.address) or 0)})"
         if operand.is_bit and node.kind is ast.OperandKind.C:
             return f"{value} (value {view.counter(node.address) or 0})"
         if node.width is not ast.Width.BYTE:  # a bit, CV n, TV n

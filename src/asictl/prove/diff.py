@@ -36,7 +36,7 @@ from asictl.prove.symbolic import (
     operand_cells,
     product,
 )
-from asictl.readers.units import Cycles
+from asictl.readers.units import Cycles, format_duration
 
 # ---------------------------------------------------------------------- behaviour
 
@@ -127,8 +127,10 @@ def equivalent(
                            refused=exc)
     except TimeLimit:
         seconds = time.monotonic() - start
-        return Equivalence("unknown", 0, seconds, note=f"time limit ({timeout_s:g} s) while "
-                           f"building the model, {seconds:.1f} s since the start")
+        return Equivalence("unknown", 0, seconds,
+                           note=f"time limit ({format_duration(timeout_s * 1000)}) while "
+                           f"building the model, {format_duration(seconds * 1000)} since the "
+                           "start")
 
 
 def _program_of(side: Program | Build) -> Program | None:

@@ -65,7 +65,7 @@ from asictl.prove.symbolic import (
     operand_value,
     width,
 )
-from asictl.readers.units import timer_ticks
+from asictl.readers.units import format_duration, timer_ticks
 
 K = ast.OperandKind
 
@@ -552,8 +552,9 @@ class Machine:
 
         def out_of_time(k: int) -> Outcome:
             return Outcome(prop, Verdict.UNKNOWN, k, time.monotonic() - start,
-                           note=f"time limit ({timeout_s:g} s) after {k} cycles, "
-                                f"{time.monotonic() - origin:.1f} s since it started")
+                           note=f"time limit ({format_duration(timeout_s * 1000)}) after {k} "
+                                f"cycles, {format_duration((time.monotonic() - origin) * 1000)}"
+                                " since it started")
 
         self.current = prop
         self.scope = self.cone(prop)

@@ -26,7 +26,7 @@ from asictl.prove.names import named
 from asictl.prove.props import Properties, program_for, read_properties
 from asictl.prove.scope import Scope
 from asictl.prove.symbolic import UNROLL, TimeLimit, Unmodelled
-from asictl.readers.units import Cycles, UnitError
+from asictl.readers.units import Cycles, UnitError, format_duration
 from asictl.sim.engine import Simulation, variables_of
 from asictl.sim.scenario import Scenario, scenario_program
 from asictl.source import read_source
@@ -193,8 +193,8 @@ def _out_of_time(props: Properties, properties: Path, program: Path, cycle_ms: f
     """Every property unknown: the model was not built within the first one's limit."""
     seconds = time.monotonic() - start
     report = Report(properties, program, cycle_ms, setup.slaves, [], [], seconds=seconds)
-    note = (f"time limit ({timeout_s:g} s) while building the model, {seconds:.1f} s "
-            "since the start")
+    note = (f"time limit ({format_duration(timeout_s * 1000)}) while building the model, "
+            f"{format_duration(seconds * 1000)} since the start")
     report.outcomes = [Outcome(prop, Verdict.UNKNOWN, 0, seconds, note=note)
                        for prop in props.properties]
     return report
