@@ -14,7 +14,10 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import re
+import subprocess
+import sys
 from collections.abc import Mapping
 from datetime import date
 from pathlib import Path
@@ -25,7 +28,8 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from asictl.cli import main
-from asictl.sim.plant import TYPES
+from asictl.observe.operands import Operand, parse_operand
+from asictl.sim.plant import TYPES, Barrier, Conveyor
 from asictl.testing import Plc
 
 #: Slave 1 has the inputs I 1.0 to I 1.3, slave 2 the outputs Q 2.0 to Q 2.3; the
@@ -200,6 +204,23 @@ def test_a_hostile_plant_table_is_simulated_or_refused_plainly(scenario_file, ta
 def test_a_hostile_plant_table_is_simulated_or_refused_plainly_long_run(scenario_file, tables,
                                                                         raw):
     simulated_plainly(scenario_file, scenario_text(tables, raw))
+
+
+def test_a_full_belt_under_every_barrier_runs_in_seconds(scenario_file):
+    """10,000 parts (the most a belt holds) under 32 barriers (the most it has): each
+    part's run moved one by one and each edge of each part a moment to evaluate took
+    minutes (16 barriers: 39 s, 32: past a minute; hours with more barriers, now
+    refused). The deadline is generous for a shared machine; it takes about 3 s."""
+    scenario_file.write_text(scenario_text([{
+        "type": "conveyor", "motor": "Q 2.1", "length_mm": 1000, "speed_mm_s": 1_000_000,
+        "parts_at_ms": [i / 20 for i in range(10_000)],
+        "barriers": [{"input": f"F {10 + i // 8}.{i % 8}", "at_mm": i} for i in range(32)],
+    }], raw=False))
+    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[2] / "src")}
+    result = subprocess.run([sys.executable, "-m", "asictl", "sim", "--scenario",
+                             str(scenario_file)], capture_output=True, text=True, env=env,
+                            timeout=60)
+    assert result.returncode == 0, result.stderr
 
 
 # ---------------------------------------------------------------- plant models in Python
@@ -382,3 +403,93 @@ def test_a_hostile_python_model_is_told_plainly(drive, actions):
 @given(actions=st.lists(ACTIONS, min_size=1, max_size=4))
 def test_a_hostile_python_model_is_told_plainly_long_run(drive, actions):
     model_answers_plainly(drive, actions)
+
+
+# ---------------------------------------------------------------- the belt, part by part
+
+
+class NaiveBelt:
+    """A belt moved part by part, each barrier asked of each part: the reference the
+    conveyor's searches must agree with."""
+
+    def __init__(self, belt: Conveyor) -> None:
+        self.edges = belt._edges
+        self.length = belt.length
+        self.parts: list[int] = []
+
+    def advance(self, dt: int, running: bool) -> None:
+        self.parts = [run + dt for run in self.parts] if running else self.parts
+
+    def put(self) -> None:
+        self.parts.append(0)
+
+    def leave(self) -> None:
+        self.parts = [run for run in self.parts if run < self.length]
+
+    def inputs(self) -> list[int]:
+        return [int(any(start <= run < end for run in self.parts)) for start, end in self.edges]
+
+
+class Outputs:
+    """The motor and the part sensor as a schedule gives them; the barriers as written."""
+
+    def __init__(self, motor: Operand, part_on: Operand) -> None:
+        self.motor, self.part_on = motor, part_on
+        self.values = {str(motor): 0, str(part_on): 0}
+        self.written: dict[str, int] = {}
+
+    def read(self, operand: Operand) -> int:
+        return self.values.get(str(operand), 0)
+
+    def write(self, operand: Operand, value: int) -> None:
+        self.written[str(operand)] = value
+
+
+@settings(max_examples=60, deadline=5000, suppress_health_check=[HealthCheck.too_slow])
+@given(at_mm=st.lists(st.integers(0, 1000), min_size=1, max_size=6),
+       part_mm=st.integers(1, 120), speed=st.sampled_from([50, 100, 333, 1000]),
+       events=st.lists(st.tuples(st.integers(1, 400_000), st.sampled_from(["motor", "part"])),
+                       max_size=40))
+def test_the_belt_agrees_with_moving_each_part(at_mm, part_mm, speed, events):
+    """The conveyor's barriers, evaluated at its own next changes and at the moments the
+    motor or the part sensor changes, hold what moving every part and asking every
+    barrier of every part gives; between two of its next changes no barrier changes
+    (the reference is asked at every edge of every part), and at each something does."""
+    motor, part_on = parse_operand("Q 2.1"), parse_operand("Q 2.2")
+    inputs = [parse_operand(f"F 10.{i}") for i in range(len(at_mm))]
+    belt = Conveyor("belt", motor, 1000, speed, part_on=part_on, part_mm=part_mm,
+                    barriers=[Barrier(i, at) for i, at in zip(inputs, at_mm, strict=True)])
+    naive = NaiveBelt(belt)
+    io = Outputs(motor, part_on)
+    pending = sorted(events)
+    now = 0
+    belt.update(0, io)
+    while pending or belt.next_change() is not None:
+        change = belt.next_change()
+        if pending and (change is None or pending[0][0] < change):
+            at, what = pending.pop(0)
+        else:
+            assert change is not None
+            at, what = change, ""
+        # every moment the reference would change in between: nothing changes there
+        edges = sorted({start - run for start, _ in naive.edges for run in naive.parts}
+                       | {end - run for _, end in naive.edges for run in naive.parts})
+        for step in (e for e in edges if 0 < e < at - now) if io.values[str(motor)] else ():
+            between = NaiveBelt(belt)
+            between.parts = [run + step for run in naive.parts]
+            assert between.inputs() == naive.inputs(), (now, step, at)
+        before = (naive.inputs(), len(naive.parts))
+        naive.advance(at - now, bool(io.values[str(motor)]))
+        naive.leave()
+        belt.update(at / 1000, io)
+        now = at
+        if not what:  # the belt's own next change: a barrier changed, or a part left
+            assert (naive.inputs(), len(naive.parts)) != before, now
+        if what:
+            key = str(motor if what == "motor" else part_on)
+            io.values[key] ^= 1
+            if what == "part" and io.values[key]:
+                naive.put()
+            belt.update(at / 1000, io)
+        assert [io.written.get(str(i), 0) for i in inputs] == naive.inputs(), now
+        assert belt.parts == naive.parts  # the one furthest along first
