@@ -44,6 +44,7 @@ from asictl.il import ast
 from asictl.il.loader import Program
 from asictl.observe.coverage import LineKey
 from asictl.quality.refute import find_difference
+from asictl.readers.units import format_duration
 from asictl.sim.session import Prepared, simulate
 
 #: how long the prover may look for a survivor's proof of equivalence, by default: the
@@ -398,7 +399,8 @@ def _run_pending(
             elif elapsed > worker.limit:
                 worker.process.kill()
                 kind, detail = ("survived", "the proof of equivalence ran out of time") \
-                    if worker.proving else ("timeout", f"still running after {worker.limit:g} s")
+                    if worker.proving else ("timeout", "still running after "
+                                            f"{format_duration(worker.limit * 1000)}")
             else:
                 continue
             worker.process.join()
