@@ -7,9 +7,10 @@ from pathlib import Path
 
 import click
 
-from asictl.cli.options import CycleCount, Duration, lib_option
+from asictl.cli.options import CycleCount, Duration, lib_option, shard_option, take_shard
 from asictl.errors import ExitCode, missing_extra
 from asictl.prove import MAX_DEPTH
+from asictl.readers.shard import Shard
 from asictl.readers.units import Cycles, format_duration
 
 _HELP_FORMAT = click.Choice(["text", "json"])
@@ -83,10 +84,11 @@ def _line(outcome: object, written: Path | None) -> str:
               "properties file].")
 @click.option("--force", is_flag=True,
               help="Replace files in the way that asictl prove did not write.")
+@shard_option("files")
 @lib_option
 def prove(files: tuple[Path, ...], properties: Path | None, depth: Cycles, timeout: float,
           unroll: int, fmt: str, counterexamples: Path | None, force: bool,
-          lib: tuple[str, ...]) -> None:
+          shard: Shard | None, lib: tuple[str, ...]) -> None:
     """Prove a program's properties (NAME.props.toml) for every input sequence.
 
     A property says what must never or always hold, what must follow a condition
@@ -116,7 +118,10 @@ def prove(files: tuple[Path, ...], properties: Path | None, depth: Cycles, timeo
 
     ctx = click.get_current_context()
     reports = []
-    for props_path, program in _files(files, properties):
+    pairs = _files(files, properties)
+    # split by program where one properties file serves several (--properties)
+    keys = [program or props_path for props_path, program in pairs]
+    for props_path, program in take_shard(pairs, keys, shard, "files"):
         try:
             report = prove_file(props_path, program=program, lib=lib, depth=depth,
                                 timeout_s=timeout / 1000, out_dir=counterexamples, force=force,

@@ -20,7 +20,7 @@ from asictl.il import ast
 from asictl.observe.condition import Expr, Negation, refs
 from asictl.observe.symbols import SymbolTable
 from asictl.prove.engine import Outcome, Step, Verdict, condition
-from asictl.prove.names import named
+from asictl.prove.names import bits_of, named
 from asictl.prove.props import Kind, Properties, Property
 from asictl.sim.scenario import SlaveSpec
 from asictl.sim.scenario_writer import ScenarioWriter
@@ -131,17 +131,26 @@ def _steps(out: ScenarioWriter, trace: list[Step], masks: dict[int, int], cycle_
 def difference_text(old: Path, new: Path, target: Path, trace: list[Step],
                     masks: dict[int, int], cycle_ms: float,
                     differences: dict[str, tuple[int, int]],
-                    slaves: list[SlaveSpec] | None = None) -> str:
+                    slaves: list[SlaveSpec] | None = None,
+                    symbols: SymbolTable | None = None) -> str:
     """The scenario that tells two programs apart: it expects what ``old`` does, so it
-    passes on ``old`` and fails on ``new`` at its last step."""
+    passes on ``old`` and fails on ``new`` at its last step. A byte that differs is
+    expected bit by bit, only the bits that differ, the first of them (an output, where
+    one differs) named in a comment with its symbol."""
+    symbols = symbols if symbols is not None else SymbolTable()
+    bits = [bit for text, (first, second) in differences.items()
+            for bit in bits_of(text, first, second)]
     out = ScenarioWriter()
     out.comment(f"{_MARKED} a difference between {old.name} and {new.name}\n"
                 f"passes on {old.name}; asictl sim {new.name} --scenario {target.name} "
                 "fails at the last step.")
+    if bits:
+        text, first, second = bits[0]
+        out.comment(f"first difference: {named(text, symbols)} is {first} in {old.name}, "
+                    f"{second} in {new.name}")
     out.program(Path(os.path.relpath(old.resolve(), target.resolve().parent)).as_posix())
     out.master(cycle_ms, slaves)
-    _steps(out, trace, masks, cycle_ms,
-           [Expectation(text, first) for text, (first, _) in differences.items()])
+    _steps(out, trace, masks, cycle_ms, [Expectation(text, first) for text, first, _ in bits])
     return out.text()
 
 

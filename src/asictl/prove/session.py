@@ -28,7 +28,7 @@ from asictl.prove.scope import Scope
 from asictl.prove.symbolic import UNROLL, TimeLimit, Unmodelled
 from asictl.readers.units import Cycles, UnitError, format_duration
 from asictl.sim.engine import Simulation, variables_of
-from asictl.sim.scenario import Scenario, scenario_program
+from asictl.sim.scenario import Scenario, SlaveSpec, scenario_program
 from asictl.source import read_source
 
 
@@ -107,15 +107,18 @@ def setup_of(props: Properties, built: Build) -> tuple[Setup, float]:
                 else asi_cycle_us(len(slaves)))
     directives = read_directives(program.sources)
     host = tuple(operand for operand, _ in directives.host_flags)
-    return Setup(slaves, cycle_us, host, _phase(props, built, cycle_us)), cycle_us / 1000
+    phase = simulator_phase(built, cycle_us, props.slaves)
+    return Setup(slaves, cycle_us, host, phase), cycle_us / 1000
 
 
-def _phase(props: Properties, built: Build, cycle_us: int) -> int | None:
+def simulator_phase(built: Build, cycle_us: int,
+                    slaves: list[SlaveSpec] | None = None) -> int | None:
     """The time from time 0 to the first 10 ms tick in ``asictl sim`` of this program
-    and master, so that counterexamples about timers replay tick for tick."""
+    and master (``slaves`` default to its [SETUP]), so that counterexamples about timers
+    replay tick for tick; None when the simulator cannot start it."""
     if built.image is None:
         return None
-    scenario = Scenario("<phase>", None, cycle_us / 1000, props.slaves, [])
+    scenario = Scenario("<phase>", None, cycle_us / 1000, slaves, [])
     simulation = Simulation(built, scenario)
     simulation.start()
     if not simulation.started:

@@ -33,7 +33,7 @@ import multiprocessing.connection
 import os
 import signal
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, assert_never
@@ -444,10 +444,11 @@ def _child(target: Target, mutant: Mutant, send: Any, prove_s: float) -> None:
     send.close()
 
 
-def score(results: list[Result]) -> tuple[int, int]:
+def score(verdicts: Iterable[str]) -> tuple[int, int]:
     """(killed, counted): timeouts are killed; a mutant whose worker died twice counts as
     not killed (a dead worker can only lower the score); equivalent and invalid mutants
     are not counted."""
-    killed = sum(1 for r in results if r.verdict in ("killed", "timeout"))
-    counted = sum(1 for r in results if r.verdict in ("killed", "timeout", "survived", "died"))
+    seen = list(verdicts)
+    killed = sum(1 for v in seen if v in ("killed", "timeout"))
+    counted = sum(1 for v in seen if v in ("killed", "timeout", "survived", "died"))
     return killed, counted
