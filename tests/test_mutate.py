@@ -154,6 +154,7 @@ def test_a_mutant_past_its_time_limit_is_a_timeout_and_counts_as_killed(
     report = json.loads(output)
     ran = [m for m in report["mutants"] if m["detail"] != "no scenario runs this line"]
     assert {m["verdict"] for m in ran} == {"timeout"}
+    assert {m["detail"] for m in ran} == {"still running after 500 ms"}  # not 0.5 s
     assert report["killed"] == len(ran) == len(report["mutants"]) - 2
 
 

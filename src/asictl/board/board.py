@@ -409,9 +409,7 @@ class Pc2Board:
         if self._host_dirty:
             self._read_host_images()
         if self._command_pending:
-            self._command_pending = False
-            ok = self._commands.run(self._ram[d.COMMAND])
-            self._ram[d.COMMAND] = d.ACK if ok else d.NAK
+            self.answer_command()
         ec.step(self._now_us)
         self._images.update()
         self._update_control()
@@ -424,6 +422,14 @@ class Pc2Board:
             self._program_cycle()
         if self._ram[_INTERRUPT_ENABLE] & _ASI_CYCLE and ec.phase is _NORMAL:
             self._dpram.interrupt(InterruptSource.ASI_CYCLE)
+
+    def answer_command(self, *, run: bool = True) -> None:
+        """Answer the command the host wrote: run it (00h, or FFh if refused), or refuse
+        it unrun (``run=False``). The AS-i cycle does this; a live board held at a
+        breakpoint does it at once, since no cycle comes while the master stands still."""
+        self._command_pending = False
+        ok = run and self._commands.run(self._ram[d.COMMAND])
+        self._ram[d.COMMAND] = d.ACK if ok else d.NAK
 
     def _outputs(self) -> bytes | bytearray:
         """What the slaves receive: the program's outputs (the host's while it is

@@ -7,10 +7,11 @@ from pathlib import Path
 
 import click
 
-from asictl.cli.options import CycleCount, Duration, lib_option
+from asictl.cli.options import CycleCount, Duration, lib_option, shard_option, take_shard
 from asictl.errors import ExitCode, missing_extra
 from asictl.prove import MAX_DEPTH
-from asictl.readers.units import Cycles
+from asictl.readers.shard import Shard
+from asictl.readers.units import Cycles, format_duration
 
 _HELP_FORMAT = click.Choice(["text", "json"])
 
@@ -81,7 +82,7 @@ def _line(outcome: object, written: Path | None, symbols: object) -> str:
         text = f"{shown} up to {cycles} cycle{plural}: {outcome.prop.name} (no proof)"
     else:
         text = f"unknown      {outcome.prop.name}"
-    text += f" [{outcome.seconds:.2f} s]"
+    text += f" [{format_duration(outcome.seconds * 1000)}]"
     if outcome.note:
         text += f"\n    note: {outcome.note}"
     return text
@@ -107,10 +108,11 @@ def _line(outcome: object, written: Path | None, symbols: object) -> str:
 @click.option("--symbols", type=click.Path(dir_okay=False, path_type=Path),
               help="The symbol table that names operands in properties and verdicts "
               "[default: NAME.symbols.toml beside NAME.asi].")
+@shard_option("files")
 @lib_option
 def prove(files: tuple[Path, ...], properties: Path | None, depth: Cycles, timeout: float,
           unroll: int, fmt: str, counterexamples: Path | None, force: bool,
-          symbols: Path | None, lib: tuple[str, ...]) -> None:
+          symbols: Path | None, shard: Shard | None, lib: tuple[str, ...]) -> None:
     """Prove a program's properties (NAME.props.toml) for every input sequence.
 
     A property says what must never or always hold, what must follow a condition
@@ -140,7 +142,10 @@ def prove(files: tuple[Path, ...], properties: Path | None, depth: Cycles, timeo
 
     ctx = click.get_current_context()
     reports = []
-    for props_path, program in _files(files, properties):
+    pairs = _files(files, properties)
+    # split by program where one properties file serves several (--properties)
+    keys = [program or props_path for props_path, program in pairs]
+    for props_path, program in take_shard(pairs, keys, shard, "files"):
         try:
             report = prove_file(props_path, program=program, lib=lib, depth=depth,
                                 timeout_s=timeout / 1000, out_dir=counterexamples, force=force,
@@ -168,7 +173,7 @@ def prove(files: tuple[Path, ...], properties: Path | None, depth: Cycles, timeo
         for outcome in outcomes:
             counts[outcome.verdict.value] = counts.get(outcome.verdict.value, 0) + 1
         shown = ", ".join(f"{n} {v}" for v, n in counts.items()) or "no properties"
-        click.echo(f"{shown} in {sum(r.seconds for r in reports):.2f} s")
+        click.echo(f"{shown} in {format_duration(sum(r.seconds for r in reports) * 1000)}")
     ctx.exit(int(ExitCode.OK if all(r.passed for r in reports) else ExitCode.FAILED))
 
 

@@ -51,6 +51,7 @@ from asictl.observe.condition import (
     show,
 )
 from asictl.platform.master import TICK_US
+from asictl.prove.correspond import Pair
 from asictl.prove.props import Kind, Property
 from asictl.prove.symbolic import (
     CONSTANT,
@@ -65,7 +66,7 @@ from asictl.prove.symbolic import (
     operand_value,
     width,
 )
-from asictl.readers.units import timer_ticks
+from asictl.readers.units import format_duration, timer_ticks
 
 K = ast.OperandKind
 
@@ -330,17 +331,25 @@ def _constants(term: z3.ExprRef) -> set[z3.ExprRef]:
     return found
 
 
-def _same_bit(first: Key, i: int, second: Key, j: int) -> Callable[[_Path, int],
-                                                                    z3.BoolRef]:
+def _same(pair: Pair) -> Callable[[_Path, int], z3.BoolRef]:
+    """Two programs compared: an element of the first equal to one of the second (or to
+    its complement)."""
+    (first, i), (second, j) = pair.first, pair.second
+
     def fact(path: _Path, index: int) -> z3.BoolRef:
         x, y = path.states[index][first], path.states[index][second]
         if i < 0:
             whole: z3.BoolRef = x == y
             return whole
-        result: z3.BoolRef = z3.Extract(i, i, x) == z3.Extract(j, j, y)
+        result: z3.BoolRef = (z3.Extract(i, i, x) == z3.Extract(j, j, y)) != pair.inverted
         return result
 
     return fact
+
+
+def _element_text(element: tuple[Key, int]) -> str:
+    cell, bit = element
+    return cell_name(cell[1:]) + ("" if bit < 0 else f".{bit}")
 
 
 def _at_most(cell: Key, bound: int) -> Callable[[_Path, int], z3.BoolRef]:
@@ -373,9 +382,9 @@ class Machine:
     overrun_cells: frozenset[Key] = field(init=False)
     #: for two programs compared: the cells that must be equal after every cycle
     observed: list[tuple[Key, Key]] = field(default_factory=list)
-    #: for two programs compared: bits that may always be equal, one of each program
-    #: (cell, bit); bit -1 for a whole word (a timer, a counter)
-    twins: list[tuple[tuple[Key, int], tuple[Key, int]]] = field(default_factory=list)
+    #: for two programs compared: elements that may always be equal, one of each
+    #: program (``prove/correspond.py``), the cells under their side ("a", "b")
+    twins: list[Pair] = field(default_factory=list)
     #: proved facts about every reachable state, as functions of a state, with their cells
     invariants: list[tuple[Callable[[_Path, int], z3.BoolRef], frozenset[Key]]] = field(
         default_factory=list)
@@ -527,17 +536,13 @@ class Machine:
             if cell[0] == "C":
                 found.append((f"counter {cell[1]} at most {TC_MAX_VALUE}",
                               _at_most(cell, TC_MAX_VALUE), frozenset({cell})))
-        if self.observed:  # two programs compared: the cells they share stay equal
-            for cell in cells:
-                twin = ("b", *cell[1:])
-                if cell[0] == "a" and twin in cells:
-                    found.append((f"{cell_name(cell[1:])} equal in both",
-                                  _same_bit(cell, -1, twin, -1), frozenset({cell, twin})))
-        for (a, i), (b, j) in self.twins:
+        for pair in self.twins:
+            a, b = pair.first[0], pair.second[0]
             if a in cells and b in cells:
-                found.append((f"{cell_name(a[1:])}{'' if i < 0 else f'.{i}'} in the first "
-                              f"equal to {cell_name(b[1:])}{'' if j < 0 else f'.{j}'} in the "
-                              "second", _same_bit(a, i, b, j), frozenset({a, b})))
+                relation = "the complement of" if pair.inverted else "equal to"
+                found.append((f"{_element_text(pair.first)} in the first {relation} "
+                              f"{_element_text(pair.second)} in the second", _same(pair),
+                              frozenset({a, b})))
         return found
 
     def _constants(self) -> set[int]:
@@ -560,34 +565,41 @@ class Machine:
 
     def find_invariants(self, deadline: float) -> None:
         """Houdini: drop every candidate a reachable state (the first one) or a step from
-        states satisfying all remaining candidates violates, until none is violated."""
+        states satisfying all remaining candidates violates, until none is violated.
+        Each of the two checks builds its cycle once and asks again under assumptions
+        (a literal per candidate), so that a round costs a solver call, not a model."""
         self.current = None
         self.scope = None
         remaining = self.candidates()
-        if not remaining:
-            return
         for initial in (True, False):
-            while remaining:
-                solver = z3.Solver()
+            if not remaining:
+                break
+            solver = z3.SolverFor("QF_BV")
+            path = _Path(self, solver, "h.", initial=initial)
+            assumed = [z3.Bool(f"h.assume.{n}") for n in range(len(remaining))]
+            if not initial:
+                for literal, (_, fact, _) in zip(assumed, remaining, strict=True):
+                    solver.add(z3.Implies(literal, fact(path, 0)))
+                path.extend()
+            last = len(path.states) - 1
+            checks = [fact(path, last) for _, fact, _ in remaining]
+            alive = list(range(len(remaining)))
+            for round_ in range(len(remaining) + 1):
+                violated = z3.Bool(f"h.violated.{round_}")
+                solver.add(z3.Implies(violated, z3.Or(*(z3.Not(checks[n]) for n in alive))))
                 solver.set("timeout", max(1, int((deadline - time.monotonic()) * 1000)))
-                path = _Path(self, solver, "h.", initial=initial)
-                if not initial:
-                    for _, fact, _ in remaining:
-                        solver.add(fact(path, 0))
-                    path.extend()
-                last = len(path.states) - 1
-                checks = [fact(path, last) for _, fact, _ in remaining]
-                solver.add(z3.Or(*(z3.Not(c) for c in checks)))
-                result = solver.check()
+                result = solver.check(violated, *(assumed[n] for n in alive))
                 if result == z3.unsat:
                     break
                 if result != z3.sat:
-                    remaining = []  # out of time: assume nothing
+                    alive = []  # out of time: assume nothing
                     break
                 model = solver.model()
-                remaining = [candidate for candidate, check in zip(remaining, checks,
-                                                                   strict=True)
-                             if z3.is_true(model.eval(check, model_completion=True))]
+                alive = [n for n in alive
+                         if z3.is_true(model.eval(checks[n], model_completion=True))]
+                if not alive:
+                    break
+            remaining = [remaining[n] for n in alive]
         self.invariants = [(fact, cells) for _, fact, cells in remaining]
         self.invariant_names = [name for name, _, _ in remaining]
 
@@ -603,8 +615,9 @@ class Machine:
 
         def out_of_time(k: int) -> Outcome:
             return Outcome(prop, Verdict.UNKNOWN, k, time.monotonic() - start,
-                           note=f"time limit ({timeout_s:g} s) after {k} cycles, "
-                                f"{time.monotonic() - origin:.1f} s since it started")
+                           note=f"time limit ({format_duration(timeout_s * 1000)}) after {k} "
+                                f"cycles, {format_duration((time.monotonic() - origin) * 1000)}"
+                                " since it started")
 
         self.current = prop
         self.scope = self.cone(prop)
@@ -633,6 +646,7 @@ class Machine:
             result = base_solver.check(bad, fixed)
             note = ""
             if result == z3.unsat and phase is not None:
+                base_solver.set("timeout", left_ms())  # what the first check left
                 result = base_solver.check(bad)
                 note = "another"
             if result == z3.sat:

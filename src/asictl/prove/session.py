@@ -26,9 +26,9 @@ from asictl.prove.engine import Machine, Outcome, Setup, Verdict
 from asictl.prove.props import Properties, program_for, read_properties
 from asictl.prove.scope import Scope
 from asictl.prove.symbolic import UNROLL, TimeLimit, Unmodelled
-from asictl.readers.units import Cycles, UnitError
+from asictl.readers.units import Cycles, UnitError, format_duration
 from asictl.sim.engine import Simulation, variables_of
-from asictl.sim.scenario import Scenario, scenario_program
+from asictl.sim.scenario import Scenario, SlaveSpec, scenario_program
 from asictl.source import read_source
 
 
@@ -116,15 +116,18 @@ def setup_of(props: Properties, built: Build) -> tuple[Setup, float]:
                 else asi_cycle_us(len(slaves)))
     directives = read_directives(program.sources)
     host = tuple(operand for operand, _ in directives.host_flags)
-    return Setup(slaves, cycle_us, host, _phase(props, built, cycle_us)), cycle_us / 1000
+    phase = simulator_phase(built, cycle_us, props.slaves)
+    return Setup(slaves, cycle_us, host, phase), cycle_us / 1000
 
 
-def _phase(props: Properties, built: Build, cycle_us: int) -> int | None:
+def simulator_phase(built: Build, cycle_us: int,
+                    slaves: list[SlaveSpec] | None = None) -> int | None:
     """The time from time 0 to the first 10 ms tick in ``asictl sim`` of this program
-    and master, so that counterexamples about timers replay tick for tick."""
+    and master (``slaves`` default to its [SETUP]), so that counterexamples about timers
+    replay tick for tick; None when the simulator cannot start it."""
     if built.image is None:
         return None
-    scenario = Scenario("<phase>", None, cycle_us / 1000, props.slaves, [])
+    scenario = Scenario("<phase>", None, cycle_us / 1000, slaves, [])
     simulation = Simulation(built, scenario)
     simulation.start()
     if not simulation.started:
@@ -205,8 +208,8 @@ def _out_of_time(props: Properties, properties: Path, program: Path, cycle_ms: f
     seconds = time.monotonic() - start
     report = Report(properties, program, cycle_ms, setup.slaves, [], [], seconds=seconds,
                     symbols=props.symbols)
-    note = (f"time limit ({timeout_s:g} s) while building the model, {seconds:.1f} s "
-            "since the start")
+    note = (f"time limit ({format_duration(timeout_s * 1000)}) while building the model, "
+            f"{format_duration(seconds * 1000)} since the start")
     report.outcomes = [Outcome(prop, Verdict.UNKNOWN, 0, seconds, note=note)
                        for prop in props.properties]
     return report

@@ -33,7 +33,7 @@ import multiprocessing.connection
 import os
 import signal
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, assert_never
@@ -46,6 +46,7 @@ from asictl.observe.coverage import LineKey
 from asictl.observe.names import named
 from asictl.observe.symbols import SymbolTable
 from asictl.quality.refute import find_difference
+from asictl.readers.units import format_duration
 from asictl.sim.session import Prepared, simulate
 
 #: how long the prover may look for a survivor's proof of equivalence, by default: the
@@ -402,7 +403,8 @@ def _run_pending(
             elif elapsed > worker.limit:
                 worker.process.kill()
                 kind, detail = ("survived", "the proof of equivalence ran out of time") \
-                    if worker.proving else ("timeout", f"still running after {worker.limit:g} s")
+                    if worker.proving else ("timeout", "still running after "
+                                            f"{format_duration(worker.limit * 1000)}")
             else:
                 continue
             worker.process.join()
@@ -446,10 +448,11 @@ def _child(target: Target, mutant: Mutant, send: Any, prove_s: float) -> None:
     send.close()
 
 
-def score(results: list[Result]) -> tuple[int, int]:
+def score(verdicts: Iterable[str]) -> tuple[int, int]:
     """(killed, counted): timeouts are killed; a mutant whose worker died twice counts as
     not killed (a dead worker can only lower the score); equivalent and invalid mutants
     are not counted."""
-    killed = sum(1 for r in results if r.verdict in ("killed", "timeout"))
-    counted = sum(1 for r in results if r.verdict in ("killed", "timeout", "survived", "died"))
+    seen = list(verdicts)
+    killed = sum(1 for v in seen if v in ("killed", "timeout"))
+    counted = sum(1 for v in seen if v in ("killed", "timeout", "survived", "died"))
     return killed, counted

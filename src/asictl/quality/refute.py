@@ -21,8 +21,7 @@ import time
 from dataclasses import dataclass
 
 from asictl.build import Build
-from asictl.il import ast
-from asictl.il.loader import Program
+from asictl.il.oracle import runs_alone
 from asictl.observe.names import named_bits
 from asictl.observe.symbols import SymbolTable
 from asictl.platform.master import TICK_US, asi_cycle_us
@@ -60,19 +59,6 @@ class Difference:
                 "of random inputs")
 
 
-def _searchable(program: Program) -> bool:
-    """No firmware block calls, no PARAM, no ASM: the code runs alone."""
-    for module in program.modules():
-        if module.has_assembly():
-            return False
-        for node in module.code():
-            if isinstance(node, ast.Param):
-                return False
-            if isinstance(node, ast.CallFB) and ast.key(node.name) not in program.blocks:
-                return False
-    return True
-
-
 def find_difference(original: Build, mutant: Build, *, seed: int = 0,
                     budget_s: float = SECONDS) -> Difference | None:
     """The first cycle after which the two builds' outputs differ on one random run, or
@@ -81,7 +67,7 @@ def find_difference(original: Build, mutant: Build, *, seed: int = 0,
     not find the prover may still; either way no verdict changes, only how soon."""
     first, second = original.source_program(), mutant.source_program()
     if first is None or second is None or original.image is None or mutant.image is None \
-            or not (_searchable(first) and _searchable(second)):
+            or not (runs_alone(first) and runs_alone(second)):
         return None
     bus = sorted({s.address for program in (first, second) for s in program.slaves})
     cycle_us = asi_cycle_us(len(bus))
