@@ -130,8 +130,8 @@ def diff(old: Path, new: Path, equivalent: bool, depth: Cycles, timeout: float,
                    "changed, moved, added or removed")
     failed = bool(differ)
     if equivalent:
-        failed = _equivalence(first, second, old, new, depth, timeout / 1000, cycle_ms, observe,
-                              scenario_path, force, fmt, report)
+        failed = _equivalence(built_old, built_new, old, new, depth, timeout / 1000, cycle_ms,
+                              observe, scenario_path, force, fmt, report)
     if fmt == "json":
         click.echo(json.dumps(report, indent=2))
     ctx.exit(int(ExitCode.FAILED if failed else ExitCode.OK))
@@ -146,15 +146,15 @@ def _equivalence(first: object, second: object, old: Path, new: Path, depth: Cyc
         import z3  # noqa: F401
     except ImportError as exc:
         raise missing_extra("asictl diff --equivalent", "prove", str(exc)) from None
+    from asictl.build import Build
     from asictl.files import real_path, write_atomic
-    from asictl.il.loader import Program
+    from asictl.observe.names import named_bits
     from asictl.observe.operands import parse_operand
     from asictl.prove.counterexample import difference_text
     from asictl.prove.diff import equivalent as decide
-    from asictl.prove.names import bits_of, named
     from asictl.prove.session import check_target
 
-    assert isinstance(first, Program) and isinstance(second, Program)
+    assert isinstance(first, Build) and isinstance(second, Build)  # with IL source
     extra = []
     for text in (observe or "").split(","):
         if text.strip():
@@ -178,13 +178,14 @@ def _equivalence(first: object, second: object, old: Path, new: Path, depth: Cyc
     elif result.verdict == "different" and result.trace is not None:
         target = scenario_path or new.with_name(new.stem + ".differs.scenario.toml")
         check_target(target, {real_path(old), real_path(new)}, force)
+        symbols = _symbols(new, old)
         write_atomic(target, difference_text(old, new, target, result.trace,
                                              result.host_masks, result.cycle_ms,
-                                             result.differences))
-        symbols = _symbols(new, old)
-        shown = ", ".join(f"{named(bit, symbols)} is {a} in {old.name}, {b} in {new.name}"
+                                             result.differences, symbols=symbols,
+                                             phase_us=result.phase_us))
+        shown = ", ".join(f"{bit} is {a} in {old.name}, {b} in {new.name}"
                           for k, (x, y) in result.differences.items()
-                          for bit, a, b in bits_of(k, x, y))
+                          for bit, a, b in named_bits(k, x, y, symbols))
         lines.append(f"different after cycle {result.cycles}: {shown}")
         lines.append(f"  scenario: {target} (passes on {old.name}, fails on {new.name})")
         entry["scenario"] = str(target)

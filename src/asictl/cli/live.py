@@ -228,10 +228,11 @@ def show(as_json: bool = False, **board: Unpack[BoardOptions]) -> None:
 @click.argument("address")
 @click.argument("profile")
 @click.option(
-    "--address-fault", type=click.Choice(["set", "store"]),
-    help="A slave whose address programming fails: 'set', the new address does not take "
-    "(status 06h, the gateway's display 92); 'store', it is kept only until a power-up "
-    "(07h, display 93).",
+    "--address-fault", type=click.Choice(["delete", "set", "store"]),
+    help="A slave whose address programming fails: 'delete', it cannot be set to address "
+    "0 and keeps its address (status 05h, STATUS 83A4h, the gateway's display 92); 'set', "
+    "the new address does not take (06h, display 92); 'store', it is kept only until a "
+    "power-up (07h, display 93).",
 )
 @board_options
 def plug(

@@ -120,6 +120,12 @@ class Command(IntEnum):
     READ_TELEGRAM_COUNTERS = 129
     EMC_TEST_MODE = 130
 
+#: The commands that change nothing a program or a host could tell: refresh the control
+#: flags and cycle times (51), copy the EEPROM (53) or the communication memory (56) to
+#: the program buffer. ``asictl probe`` issues only these; a live board halted at a
+#: breakpoint still answers them.
+READ_ONLY_COMMANDS = frozenset({Command.GET_STATUS, Command.UPLOAD, Command.READ_COMM_MEMORY})
+
 
 #: Command 130 (EMC test mode, manual 7.3, lines 443-457): its parameters in program buffer
 #: bytes 0-5 (byte 0: bit 0 repetitions allowed, bit 1 answers checked, bits 3-7 the

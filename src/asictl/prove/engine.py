@@ -51,6 +51,7 @@ from asictl.observe.condition import (
     show,
 )
 from asictl.platform.master import TICK_US
+from asictl.prove.correspond import Pair
 from asictl.prove.props import Kind, Property
 from asictl.prove.symbolic import (
     CONSTANT,
@@ -65,7 +66,7 @@ from asictl.prove.symbolic import (
     operand_value,
     width,
 )
-from asictl.readers.units import timer_ticks
+from asictl.readers.units import format_duration, timer_ticks
 
 K = ast.OperandKind
 
@@ -118,6 +119,9 @@ class Outcome:
     values: dict[str, int] = field(default_factory=dict)
     #: why a proof holds whatever the program does ("": it is a real proof)
     trivially: str = ""
+    #: the phase the trace assumes: microseconds from time 0 to the first 10 ms tick;
+    #: None when the property does not depend on the clock (any phase does)
+    phase_us: int | None = None
 
 
 def _value(expr: Expr, read: Callable[[ast.Operand], z3.BitVecRef]) -> z3.BitVecRef:
@@ -252,6 +256,54 @@ class _Path:
         return condition(expr, self.reader(index))
 
 
+def _quiet(path: _Path, model: z3.ModelRef, last: int, wanted: list[z3.BoolRef],
+           deadline: float) -> z3.ModelRef:
+    """The same failure (``wanted`` still true after cycle ``last``) with as few input
+    changes as the search can find, so that a counterexample shows what matters: each
+    slave's and host flag's bits, cycle by cycle from the first, hold their value (0
+    before the first cycle) unless holding it makes the failure impossible. Inputs
+    outside the property's cone of influence appear in no constraint of the path, so
+    they always hold and are never set; within the cone, an input is changed only where
+    the failure needs it. The search is greedy, first the whole input and then bit by
+    bit, and stops at ``deadline`` with the best found so far."""
+    solver = path.solver
+    solver.push()
+    scopes = 1
+    try:
+        solver.add(*wanted)
+        for index in range(last + 1):
+            for name, var in path.inputs[index].items():
+                if not name.startswith(("in.", "host.")):
+                    continue  # a firmware block's answer: not the scenario's to set
+                before = (path.inputs[index - 1][name] if index
+                          else z3.BitVecVal(0, var.size()))
+                holds = [var == before] + [
+                    z3.Extract(b, b, var) == z3.Extract(b, b, before)
+                    for b in range(var.size())]
+                for hold in holds:
+                    if z3.is_true(model.eval(hold, model_completion=True)):
+                        solver.add(hold)
+                        if hold is holds[0]:
+                            break
+                        continue
+                    left = int((deadline - time.monotonic()) * 1000)
+                    if left < 50:
+                        return model
+                    solver.set("timeout", left)
+                    solver.push()
+                    solver.add(hold)
+                    if solver.check() == z3.sat:
+                        model = solver.model()
+                        scopes += 1  # kept
+                        if hold is holds[0]:
+                            break
+                    else:
+                        solver.pop()
+    finally:
+        solver.pop(scopes)
+    return model
+
+
 class _Collector:
     """Constraints gathered for Horn clauses instead of a solver."""
 
@@ -279,17 +331,25 @@ def _constants(term: z3.ExprRef) -> set[z3.ExprRef]:
     return found
 
 
-def _same_bit(first: Key, i: int, second: Key, j: int) -> Callable[[_Path, int],
-                                                                    z3.BoolRef]:
+def _same(pair: Pair) -> Callable[[_Path, int], z3.BoolRef]:
+    """Two programs compared: an element of the first equal to one of the second (or to
+    its complement)."""
+    (first, i), (second, j) = pair.first, pair.second
+
     def fact(path: _Path, index: int) -> z3.BoolRef:
         x, y = path.states[index][first], path.states[index][second]
         if i < 0:
             whole: z3.BoolRef = x == y
             return whole
-        result: z3.BoolRef = z3.Extract(i, i, x) == z3.Extract(j, j, y)
+        result: z3.BoolRef = (z3.Extract(i, i, x) == z3.Extract(j, j, y)) != pair.inverted
         return result
 
     return fact
+
+
+def _element_text(element: tuple[Key, int]) -> str:
+    cell, bit = element
+    return cell_name(cell[1:]) + ("" if bit < 0 else f".{bit}")
 
 
 def _at_most(cell: Key, bound: int) -> Callable[[_Path, int], z3.BoolRef]:
@@ -322,9 +382,9 @@ class Machine:
     overrun_cells: frozenset[Key] = field(init=False)
     #: for two programs compared: the cells that must be equal after every cycle
     observed: list[tuple[Key, Key]] = field(default_factory=list)
-    #: for two programs compared: bits that may always be equal, one of each program
-    #: (cell, bit); bit -1 for a whole word (a timer, a counter)
-    twins: list[tuple[tuple[Key, int], tuple[Key, int]]] = field(default_factory=list)
+    #: for two programs compared: elements that may always be equal, one of each
+    #: program (``prove/correspond.py``), the cells under their side ("a", "b")
+    twins: list[Pair] = field(default_factory=list)
     #: proved facts about every reachable state, as functions of a state, with their cells
     invariants: list[tuple[Callable[[_Path, int], z3.BoolRef], frozenset[Key]]] = field(
         default_factory=list)
@@ -335,7 +395,7 @@ class Machine:
     scope: frozenset[Key] | None = None
     #: each cell -> the cells its value after a cycle depends on
     depends: dict[Key, frozenset[Key]] = field(default_factory=dict)
-    #: how notes name an operand (``Q 3.1`` -> ``Q 3.1 (PumpB)``, prove/names.py)
+    #: how notes name an operand (``Q 3.1`` -> ``Q 3.1 (PumpB)``, observe/names.py)
     label: Callable[[str], str] = str
     #: when (time.monotonic) building the model must be done: past it, ``TimeLimit``
     deadline: float | None = None
@@ -476,17 +536,13 @@ class Machine:
             if cell[0] == "C":
                 found.append((f"counter {cell[1]} at most {TC_MAX_VALUE}",
                               _at_most(cell, TC_MAX_VALUE), frozenset({cell})))
-        if self.observed:  # two programs compared: the cells they share stay equal
-            for cell in cells:
-                twin = ("b", *cell[1:])
-                if cell[0] == "a" and twin in cells:
-                    found.append((f"{cell_name(cell[1:])} equal in both",
-                                  _same_bit(cell, -1, twin, -1), frozenset({cell, twin})))
-        for (a, i), (b, j) in self.twins:
+        for pair in self.twins:
+            a, b = pair.first[0], pair.second[0]
             if a in cells and b in cells:
-                found.append((f"{cell_name(a[1:])}{'' if i < 0 else f'.{i}'} in the first "
-                              f"equal to {cell_name(b[1:])}{'' if j < 0 else f'.{j}'} in the "
-                              "second", _same_bit(a, i, b, j), frozenset({a, b})))
+                relation = "the complement of" if pair.inverted else "equal to"
+                found.append((f"{_element_text(pair.first)} in the first {relation} "
+                              f"{_element_text(pair.second)} in the second", _same(pair),
+                              frozenset({a, b})))
         return found
 
     def _constants(self) -> set[int]:
@@ -509,34 +565,41 @@ class Machine:
 
     def find_invariants(self, deadline: float) -> None:
         """Houdini: drop every candidate a reachable state (the first one) or a step from
-        states satisfying all remaining candidates violates, until none is violated."""
+        states satisfying all remaining candidates violates, until none is violated.
+        Each of the two checks builds its cycle once and asks again under assumptions
+        (a literal per candidate), so that a round costs a solver call, not a model."""
         self.current = None
         self.scope = None
         remaining = self.candidates()
-        if not remaining:
-            return
         for initial in (True, False):
-            while remaining:
-                solver = z3.Solver()
+            if not remaining:
+                break
+            solver = z3.SolverFor("QF_BV")
+            path = _Path(self, solver, "h.", initial=initial)
+            assumed = [z3.Bool(f"h.assume.{n}") for n in range(len(remaining))]
+            if not initial:
+                for literal, (_, fact, _) in zip(assumed, remaining, strict=True):
+                    solver.add(z3.Implies(literal, fact(path, 0)))
+                path.extend()
+            last = len(path.states) - 1
+            checks = [fact(path, last) for _, fact, _ in remaining]
+            alive = list(range(len(remaining)))
+            for round_ in range(len(remaining) + 1):
+                violated = z3.Bool(f"h.violated.{round_}")
+                solver.add(z3.Implies(violated, z3.Or(*(z3.Not(checks[n]) for n in alive))))
                 solver.set("timeout", max(1, int((deadline - time.monotonic()) * 1000)))
-                path = _Path(self, solver, "h.", initial=initial)
-                if not initial:
-                    for _, fact, _ in remaining:
-                        solver.add(fact(path, 0))
-                    path.extend()
-                last = len(path.states) - 1
-                checks = [fact(path, last) for _, fact, _ in remaining]
-                solver.add(z3.Or(*(z3.Not(c) for c in checks)))
-                result = solver.check()
+                result = solver.check(violated, *(assumed[n] for n in alive))
                 if result == z3.unsat:
                     break
                 if result != z3.sat:
-                    remaining = []  # out of time: assume nothing
+                    alive = []  # out of time: assume nothing
                     break
                 model = solver.model()
-                remaining = [candidate for candidate, check in zip(remaining, checks,
-                                                                   strict=True)
-                             if z3.is_true(model.eval(check, model_completion=True))]
+                alive = [n for n in alive
+                         if z3.is_true(model.eval(checks[n], model_completion=True))]
+                if not alive:
+                    break
+            remaining = [remaining[n] for n in alive]
         self.invariants = [(fact, cells) for _, fact, cells in remaining]
         self.invariant_names = [name for name, _, _ in remaining]
 
@@ -552,8 +615,9 @@ class Machine:
 
         def out_of_time(k: int) -> Outcome:
             return Outcome(prop, Verdict.UNKNOWN, k, time.monotonic() - start,
-                           note=f"time limit ({timeout_s:g} s) after {k} cycles, "
-                                f"{time.monotonic() - origin:.1f} s since it started")
+                           note=f"time limit ({format_duration(timeout_s * 1000)}) after {k} "
+                                f"cycles, {format_duration((time.monotonic() - origin) * 1000)}"
+                                " since it started")
 
         self.current = prop
         self.scope = self.cone(prop)
@@ -564,7 +628,7 @@ class Machine:
         step = _Path(self, step_solver, "s.", initial=False)
         self._strengthen(step, 0)
         reach = prop.kind is Kind.REACHABLE
-        fixed = z3.Bool("b.simulator_phase")
+        fixed: z3.BoolRef = z3.Bool("b.simulator_phase")
         phase = self.setup.phase_us
         if phase is not None and base.phase is not None:
             base_solver.add(z3.Implies(fixed, base.phase == phase))
@@ -582,22 +646,12 @@ class Machine:
             result = base_solver.check(bad, fixed)
             note = ""
             if result == z3.unsat and phase is not None:
+                base_solver.set("timeout", left_ms())  # what the first check left
                 result = base_solver.check(bad)
-                note = ("found only for another phase of the 10 ms clock than the "
-                        "simulator's: the scenario may not show it")
+                note = "another"
             if result == z3.sat:
-                model = base_solver.model()
-                trace = self._trace(base, model, k)
-                if z3.is_true(model.eval(base.overruns[k], model_completion=True)):
-                    loops = ", ".join(f"line {loop.line}" for loop in self.cycle.loops)
-                    return Outcome(prop, Verdict.UNKNOWN, k, time.monotonic() - start, trace,
-                                   f"in cycle {k + 1} a backward jump ({loops}) is taken "
-                                   f"more than {self.cycle.loops[0].bound} times, the most "
-                                   "the model follows")
-                verdict = Verdict.REACHED if reach else Verdict.REFUTED
-                note = "; ".join(n for n in (note, self._firmware_note()) if n)
-                return Outcome(prop, verdict, k, time.monotonic() - start, trace, note,
-                               self._values(prop, base, model, k))
+                return self._failure(prop, base, base_solver.model(), k, start, deadline,
+                                     fixed=None if note else fixed)
             if result != z3.unsat:
                 return out_of_time(k)
             step_solver.set("timeout", left_ms())
@@ -617,6 +671,31 @@ class Machine:
                            trivially=self.trivially(prop))
         return Outcome(prop, Verdict.BOUNDED, depth, time.monotonic() - start,
                        note=self.beyond(depth))
+
+    def _failure(self, prop: Property, base: _Path, model: z3.ModelRef, k: int,
+                 start: float, deadline: float, *, fixed: z3.BoolRef | None) -> Outcome:
+        """The counterexample or witness of a model of the base case at cycle ``k``
+        (``fixed``: found with the simulator's phase of the clock, which it then keeps),
+        made quiet; unknown when the cycle overran its loop bound."""
+        if z3.is_true(model.eval(base.overruns[k], model_completion=True)):
+            loops = ", ".join(f"line {loop.line}" for loop in self.cycle.loops)
+            return Outcome(prop, Verdict.UNKNOWN, k, time.monotonic() - start,
+                           self._trace(base, model, k),
+                           f"in cycle {k + 1} a backward jump ({loops}) is taken more than "
+                           f"{self.cycle.loops[0].bound} times, the most the model follows")
+        wanted = [self.bad(base, k)] + ([] if fixed is None else [fixed])
+        model = _quiet(base, model, k, wanted, deadline)
+        verdict = Verdict.REACHED if prop.kind is Kind.REACHABLE else Verdict.REFUTED
+        phase = (None if base.phase is None
+                 else model.eval(base.phase, model_completion=True).as_long())
+        note = ""
+        if fixed is None and phase is not None and self.setup.phase_us is not None:
+            note = (f"found only with the first 10 ms tick {phase / 1000:g} ms after time 0 "
+                    "(the scenario's first_tick_ms), where asictl sim has it at "
+                    f"{self.setup.phase_us / 1000:g} ms unless told")
+        note = "; ".join(n for n in (note, self._firmware_note()) if n)
+        return Outcome(prop, verdict, k, time.monotonic() - start, self._trace(base, model, k),
+                       note, self._values(prop, base, model, k), phase_us=phase)
 
     def presets(self) -> dict[int, int]:
         """Timer -> the longest time (ms, in whole ticks) a ``S T n`` starts it with: the

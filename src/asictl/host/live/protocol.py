@@ -10,7 +10,10 @@ emulated-only actions of ``host.emulated.actions`` (the cable, the set button, t
 timers and counters, and ``lines``: the program's IL lines with their values in the
 latest cycle, for which the board runs one cycle under line hooks and removes them
 again), or those a server attached to the board adds (``LiveBoard.actions``: the
-gateway's front panel). A failure is ``{"ok": false, "error": TEXT, "exit": CODE}``.
+gateway's front panel); ``{"op": "changes", "since": SERIAL or null}`` for what clients
+changed after the change numbered SERIAL (host.live.changes; null: none yet, from now
+on), answered by ``{"ok": true, "changes": [[SERIAL, TIME, TEXT, WHO], ...], "next":
+SERIAL}``. A failure is ``{"ok": false, "error": TEXT, "exit": CODE}``.
 
 Register accesses are batched (writes wait until a read needs their effect, and a block
 of data reads is one access with a count), so a download moves a 240-byte block per

@@ -181,14 +181,17 @@ class LiveServer:
         if op == "end":
             await self._release(conn)
             return {"ok": True}
+        if op == "changes":
+            return self._changes(request.get("since"))
         await self._session(conn)
         self.live.sync()
         if op == "io":
-            answer = {"ok": True, "reads": requests.io(self.live, conn.pointer, request.get("ops"))}
+            answer = {"ok": True, "reads": requests.io(
+                self.live, conn.pointer, request.get("ops"), conn.who)}
         elif op == "action":
             attached = requests.attached_action(self.live, request)
             result = await attached if attached is not None else requests.action(
-                self.live, request
+                self.live, request, conn.who
             )
             answer = {"ok": True, "result": result}
         else:
@@ -202,6 +205,17 @@ class LiveServer:
                     "lost if the board stops before a save succeeds"
                 ) from None
         return answer
+
+    def _changes(self, since: JSON) -> JSON:
+        """The changes after ``since`` (none for a client that has seen none yet, or
+        numbers of a server before this one: it starts from now), and the number to ask
+        from next."""
+        log = self.live.changes
+        after = log.serial
+        if isinstance(since, int) and not isinstance(since, bool):
+            after = min(since, after)
+        return {"ok": True, "changes": [c.to_json() for c in log.since(after)],
+                "next": log.serial}
 
     async def _client(self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
         conn = _Connection(writer=writer)
