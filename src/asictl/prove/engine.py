@@ -58,6 +58,7 @@ from asictl.observe.condition import (
     show,
 )
 from asictl.platform.master import TICK_US
+from asictl.prove.correspond import Pair
 from asictl.prove.jump import idle
 from asictl.prove.props import Kind, Property
 from asictl.prove.symbolic import (
@@ -74,7 +75,7 @@ from asictl.prove.symbolic import (
     width,
 )
 from asictl.prove.timers import Candidate, Fact, States, started, waiting
-from asictl.readers.units import timer_ticks
+from asictl.readers.units import format_duration, timer_ticks
 
 K = ast.OperandKind
 #: Seconds (and four times the plain check's) a check with steps of idle cycles may take.
@@ -129,6 +130,9 @@ class Outcome:
     values: dict[str, int] = field(default_factory=dict)
     #: why a proof holds whatever the program does ("": it is a real proof)
     trivially: str = ""
+    #: the phase the trace assumes: microseconds from time 0 to the first 10 ms tick;
+    #: None when the property does not depend on the clock (any phase does)
+    phase_us: int | None = None
 
 
 def _value(expr: Expr, read: Callable[[ast.Operand], z3.BitVecRef]) -> z3.BitVecRef:
@@ -279,6 +283,54 @@ class _Path:
         return condition(expr, self.reader(index))
 
 
+def _quiet(path: _Path, model: z3.ModelRef, last: int, wanted: list[z3.BoolRef],
+           deadline: float) -> z3.ModelRef:
+    """The same failure (``wanted`` still true after cycle ``last``) with as few input
+    changes as the search can find, so that a counterexample shows what matters: each
+    slave's and host flag's bits, cycle by cycle from the first, hold their value (0
+    before the first cycle) unless holding it makes the failure impossible. Inputs
+    outside the property's cone of influence appear in no constraint of the path, so
+    they always hold and are never set; within the cone, an input is changed only where
+    the failure needs it. The search is greedy, first the whole input and then bit by
+    bit, and stops at ``deadline`` with the best found so far."""
+    solver = path.solver
+    solver.push()
+    scopes = 1
+    try:
+        solver.add(*wanted)
+        for index in range(last + 1):
+            for name, var in path.inputs[index].items():
+                if not name.startswith(("in.", "host.")):
+                    continue  # a firmware block's answer: not the scenario's to set
+                before = (path.inputs[index - 1][name] if index
+                          else z3.BitVecVal(0, var.size()))
+                holds = [var == before] + [
+                    z3.Extract(b, b, var) == z3.Extract(b, b, before)
+                    for b in range(var.size())]
+                for hold in holds:
+                    if z3.is_true(model.eval(hold, model_completion=True)):
+                        solver.add(hold)
+                        if hold is holds[0]:
+                            break
+                        continue
+                    left = int((deadline - time.monotonic()) * 1000)
+                    if left < 50:
+                        return model
+                    solver.set("timeout", left)
+                    solver.push()
+                    solver.add(hold)
+                    if solver.check() == z3.sat:
+                        model = solver.model()
+                        scopes += 1  # kept
+                        if hold is holds[0]:
+                            break
+                    else:
+                        solver.pop()
+    finally:
+        solver.pop(scopes)
+    return model
+
+
 class _Collector:
     """Constraints gathered for Horn clauses instead of a solver."""
 
@@ -306,16 +358,25 @@ def _constants(term: z3.ExprRef) -> set[z3.ExprRef]:
     return found
 
 
-def _same_bit(first: Key, i: int, second: Key, j: int) -> Fact:
+def _same(pair: Pair) -> Fact:
+    """Two programs compared: an element of the first equal to one of the second (or to
+    its complement)."""
+    (first, i), (second, j) = pair.first, pair.second
+
     def fact(path: States, index: int) -> z3.BoolRef:
         x, y = path.states[index][first], path.states[index][second]
         if i < 0:
             whole: z3.BoolRef = x == y
             return whole
-        result: z3.BoolRef = z3.Extract(i, i, x) == z3.Extract(j, j, y)
+        result: z3.BoolRef = (z3.Extract(i, i, x) == z3.Extract(j, j, y)) != pair.inverted
         return result
 
     return fact
+
+
+def _element_text(element: tuple[Key, int]) -> str:
+    cell, bit = element
+    return cell_name(cell[1:]) + ("" if bit < 0 else f".{bit}")
 
 
 def _at_most(cell: Key, bound: int) -> Fact:
@@ -348,9 +409,9 @@ class Machine:
     overrun_cells: frozenset[Key] = field(init=False)
     #: for two programs compared: the cells that must be equal after every cycle
     observed: list[tuple[Key, Key]] = field(default_factory=list)
-    #: for two programs compared: bits that may always be equal, one of each program
-    #: (cell, bit); bit -1 for a whole word (a timer, a counter)
-    twins: list[tuple[tuple[Key, int], tuple[Key, int]]] = field(default_factory=list)
+    #: for two programs compared: elements that may always be equal, one of each
+    #: program (``prove/correspond.py``), the cells under their side ("a", "b")
+    twins: list[Pair] = field(default_factory=list)
     #: proved facts about every reachable state, as functions of a state, with their cells
     invariants: list[tuple[Fact, frozenset[Key]]] = field(default_factory=list)
     invariant_names: list[str] = field(default_factory=list)
@@ -360,7 +421,7 @@ class Machine:
     scope: frozenset[Key] | None = None
     #: each cell -> the cells its value after a cycle depends on
     depends: dict[Key, frozenset[Key]] = field(default_factory=dict)
-    #: how notes name an operand (``Q 3.1`` -> ``Q 3.1 (PumpB)``, prove/names.py)
+    #: how notes name an operand (``Q 3.1`` -> ``Q 3.1 (PumpB)``, observe/names.py)
     label: Callable[[str], str] = str
     #: when (time.monotonic) building the model must be done: past it, ``TimeLimit``
     deadline: float | None = None
@@ -507,17 +568,13 @@ class Machine:
             if cell[0] == "C":
                 found.append((f"counter {cell[1]} at most {TC_MAX_VALUE}",
                               _at_most(cell, TC_MAX_VALUE), frozenset({cell})))
-        if self.observed:  # two programs compared: the cells they share stay equal
-            for cell in cells:
-                twin = ("b", *cell[1:])
-                if cell[0] == "a" and twin in cells:
-                    found.append((f"{cell_name(cell[1:])} equal in both",
-                                  _same_bit(cell, -1, twin, -1), frozenset({cell, twin})))
-        for (a, i), (b, j) in self.twins:
+        for pair in self.twins:
+            a, b = pair.first[0], pair.second[0]
             if a in cells and b in cells:
-                found.append((f"{cell_name(a[1:])}{'' if i < 0 else f'.{i}'} in the first "
-                              f"equal to {cell_name(b[1:])}{'' if j < 0 else f'.{j}'} in the "
-                              "second", _same_bit(a, i, b, j), frozenset({a, b})))
+                relation = "the complement of" if pair.inverted else "equal to"
+                found.append((f"{_element_text(pair.first)} in the first {relation} "
+                              f"{_element_text(pair.second)} in the second", _same(pair),
+                              frozenset({a, b})))
         return found
 
     def _constants(self) -> set[int]:
@@ -551,30 +608,39 @@ class Machine:
         states satisfying all remaining candidates (and the invariants already proved)
         violates, until none is violated; out of time, none. Over the current property's
         cone and with its monitor, when one is being decided: a fact about the monitor
-        then holds in every state of a run that was good before it."""
+        then holds in every state of a run that was good before it. Each of the two
+        checks builds its cycle once and asks again under assumptions (a literal per
+        candidate), so that a round costs a solver call, not a model."""
         remaining = list(candidates)
         for initial in (True, False):
-            while remaining:
-                solver = z3.Solver()
+            if not remaining:
+                break
+            solver = z3.SolverFor("QF_BV")
+            path = _Path(self, solver, "h.", initial=initial)
+            assumed = [z3.Bool(f"h.assume.{n}") for n in range(len(remaining))]
+            if not initial:
+                for literal, (_, fact, _) in zip(assumed, remaining, strict=True):
+                    solver.add(z3.Implies(literal, fact(path, 0)))
+                self._strengthen(path, 0, self.invariants)
+                path.extend()
+            last = len(path.states) - 1
+            checks = [fact(path, last) for _, fact, _ in remaining]
+            alive = list(range(len(remaining)))
+            for round_ in range(len(remaining) + 1):
+                violated = z3.Bool(f"h.violated.{round_}")
+                solver.add(z3.Implies(violated, z3.Or(*(z3.Not(checks[n]) for n in alive))))
                 solver.set("timeout", max(1, int((deadline - time.monotonic()) * 1000)))
-                path = _Path(self, solver, "h.", initial=initial)
-                if not initial:
-                    for _, fact, _ in remaining:
-                        solver.add(fact(path, 0))
-                    self._strengthen(path, 0, self.invariants)
-                    path.extend()
-                last = len(path.states) - 1
-                checks = [fact(path, last) for _, fact, _ in remaining]
-                solver.add(z3.Or(*(z3.Not(c) for c in checks)))
-                result = solver.check()
+                result = solver.check(violated, *(assumed[n] for n in alive))
                 if result == z3.unsat:
                     break
                 if result != z3.sat:
                     return []  # out of time: assume nothing
                 model = solver.model()
-                remaining = [candidate for candidate, check in zip(remaining, checks,
-                                                                   strict=True)
-                             if z3.is_true(model.eval(check, model_completion=True))]
+                alive = [n for n in alive
+                         if z3.is_true(model.eval(checks[n], model_completion=True))]
+                if not alive:
+                    break
+            remaining = [remaining[n] for n in alive]
         return remaining
 
     def _waiting_facts(self, prop: Property, deadline: float) -> list[
@@ -606,8 +672,9 @@ class Machine:
 
         def out_of_time(k: int) -> Outcome:
             return Outcome(prop, Verdict.UNKNOWN, k, time.monotonic() - start,
-                           note=f"time limit ({timeout_s:g} s) after {k} cycles, "
-                                f"{time.monotonic() - origin:.1f} s since it started")
+                           note=f"time limit ({format_duration(timeout_s * 1000)}) after {k} "
+                                f"cycles, {format_duration((time.monotonic() - origin) * 1000)}"
+                                " since it started")
 
         self.current = prop
         self.scope = self.cone(prop)
@@ -632,9 +699,10 @@ class Machine:
                 step.extend()
                 self._strengthen(step, k, facts)
             began = time.monotonic()
-            result, note = self._base_check(base, k, fixed, left_ms())
+            result, any_phase = self._base_check(base, k, fixed, left_ms)
             if result == z3.sat:
-                return self._found(prop, base, k, note, start)
+                return self._failure(prop, base, k, start, deadline,
+                                     fixed=None if any_phase else fixed)
             if result != z3.unsat:
                 return out_of_time(k)
             spent = time.monotonic() - began
@@ -652,10 +720,15 @@ class Machine:
                 path, switch = jumping
                 if k:
                     path.extend()
-                budget = min(left_ms(), int((JUMP_BUDGET_S + 4 * spent) * 1000))
-                result, note = self._base_check(path, k, switch, budget)
+                budget_ms = min(left_ms(), int((JUMP_BUDGET_S + 4 * spent) * 1000))
+
+                def budget(ms: int = budget_ms) -> int:
+                    return ms
+
+                result, any_phase = self._base_check(path, k, switch, budget)
                 if result == z3.sat:
-                    return self._found(prop, path, k, note, start)
+                    return self._failure(prop, path, k, start, deadline,
+                                         fixed=None if any_phase else switch)
                 if result == z3.unsat:
                     steps = k + 1
                 else:
@@ -681,33 +754,46 @@ class Machine:
         return path, fixed
 
     def _base_check(self, path: _Path, k: int, fixed: z3.BoolRef,
-                    timeout_ms: int) -> tuple[z3.CheckSatResult, str]:
+                    left_ms: Callable[[], int]) -> tuple[z3.CheckSatResult, bool]:
         """Whether the state after step ``k`` of ``path`` can be bad: first with the
-        simulator's phase of the clock, then with any (saying so)."""
+        simulator's phase of the clock, then with any (the second of the answer: found
+        only so), each check within what ``left_ms`` leaves it."""
         bad = z3.Or(self.bad(path, k), path.overruns[k])
-        path.solver.set("timeout", timeout_ms)
+        path.solver.set("timeout", left_ms())
         result = path.solver.check(bad, fixed)
         if result == z3.unsat and self.setup.phase_us is not None:
-            return path.solver.check(bad), ("found only for another phase of the 10 ms "
-                                            "clock than the simulator's: the scenario may "
-                                            "not show it")
-        return result, ""
+            path.solver.set("timeout", left_ms())  # what the first check left
+            return path.solver.check(bad), True
+        return result, False
 
-    def _found(self, prop: Property, path: _Path, k: int, note: str,
-               start: float) -> Outcome:
-        """The verdict of a base case that found a bad state after step ``k``."""
+    def _failure(self, prop: Property, path: _Path, k: int, start: float, deadline: float,
+                 *, fixed: z3.BoolRef | None) -> Outcome:
+        """The counterexample or witness of the model ``path``'s solver found after step
+        ``k`` (``fixed``: found with the simulator's phase of the clock, which it then
+        keeps), made quiet; unknown when the cycle overran its loop bound. A step of idle
+        cycles is as many cycles in the trace, so its length counts the cycles."""
         model = path.solver.model()
-        trace = self._trace(path, model, k)
         if z3.is_true(model.eval(path.overruns[k], model_completion=True)):
+            trace = self._trace(path, model, k)
             loops = ", ".join(f"line {loop.line}" for loop in self.cycle.loops)
             return Outcome(prop, Verdict.UNKNOWN, len(trace) - 1, time.monotonic() - start,
                            trace, f"in cycle {len(trace)} a backward jump ({loops}) is taken "
                                   f"more than {self.cycle.loops[0].bound} times, the most "
                                   "the model follows")
+        wanted = [self.bad(path, k)] + ([] if fixed is None else [fixed])
+        model = _quiet(path, model, k, wanted, deadline)
         verdict = Verdict.REACHED if prop.kind is Kind.REACHABLE else Verdict.REFUTED
+        phase = (None if path.phase is None
+                 else model.eval(path.phase, model_completion=True).as_long())
+        note = ""
+        if fixed is None and phase is not None and self.setup.phase_us is not None:
+            note = (f"found only with the first 10 ms tick {phase / 1000:g} ms after time 0 "
+                    "(the scenario's first_tick_ms), where asictl sim has it at "
+                    f"{self.setup.phase_us / 1000:g} ms unless told")
         note = "; ".join(n for n in (note, self._firmware_note()) if n)
-        return Outcome(prop, verdict, len(trace) - 1, time.monotonic() - start, trace, note,
-                       self._values(prop, path, model, k))
+        trace = self._trace(path, model, k)
+        return Outcome(prop, verdict, len(trace) - 1, time.monotonic() - start, trace,
+                       note, self._values(prop, path, model, k), phase_us=phase)
 
     def presets(self) -> dict[int, int]:
         """Timer -> the longest time (ms, in whole ticks) a ``S T n`` starts it with: the

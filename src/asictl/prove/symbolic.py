@@ -42,7 +42,7 @@ from asictl.il.language import COUNTER_FLAG_BASE, MAPPED_COUNTERS, PARAM_FLAG
 from asictl.il.language import TC_MAX_VALUE as TC_MAX
 from asictl.il.loader import Program
 from asictl.il.oracle import Scope, scope_of
-from asictl.platform.master import TICK_US
+from asictl.platform.master import TICK_US, flag_keeps
 from asictl.readers.units import timer_ticks
 
 K = ast.OperandKind
@@ -500,10 +500,18 @@ class _Builder:
         place, bit = self.bit_place(operand)
         byte = self.get(s, place)
         if op is ast.StoreOp.ASSIGN:
-            s.values[place] = _with_bit(byte, bit, rlo)
+            self.put(s, place, _with_bit(byte, bit, rlo))
         else:
-            s.values[place] = _ite(rlo, _with_bit(byte, bit, z3.BoolVal(op is ast.StoreOp.SET)),
-                                  byte)
+            self.put(s, place, _ite(rlo, _with_bit(byte, bit, z3.BoolVal(op is ast.StoreOp.SET)),
+                                    byte))
+
+    def put(self, s: _State, cell: Key, value: z3.BitVecRef) -> None:
+        """Write a byte cell; a flag byte keeps only the bits it keeps (``flag_keeps``)."""
+        if cell[0] == "F" and isinstance(cell[1], int):
+            keeps = flag_keeps(cell[1], self.map_counters)
+            if keeps != 0xFF:
+                value = value & keeps
+        s.values[cell] = value
 
     def load(self, s: _State, operand: ast.Operand) -> None:
         kind = operand.kind  # KT, KC and KP load the constant register, the rest ACCU1
@@ -542,15 +550,15 @@ class _Builder:
         n = operand.address
         match operand.kind:
             case K.FW:
-                s.values[("F", n)] = z3.Extract(15, 8, value)
-                s.values[("F", n + 1)] = _low(value)
+                self.put(s, ("F", n), z3.Extract(15, 8, value))
+                self.put(s, ("F", n + 1), _low(value))
             case K.T:
                 s.values[("T", n)] = _clamp(value)
                 s.values[_stored(n)] = _bv(1, 8)
             case K.C:
                 self.set_counter(s, n, _clamp(value))
             case K.IB | K.I2B | K.QB | K.FY | K.PSEG | K.VAR:
-                s.values[self.byte_cell(operand)] = _low(value)
+                self.put(s, self.byte_cell(operand), _low(value))
             case K.I | K.I2 | K.Q | K.F | K.KT | K.KC | K.KB | K.KW | K.KP:
                 raise AssertionError(f"T {operand} writes no word")
             case _:
