@@ -102,7 +102,7 @@ def test_a_witness_for_any_phase_replays_on_the_phase_it_names(
     first_tick_ms moves the simulator's clock there, and it replays all the same."""
     import asictl.prove.session as session
 
-    monkeypatch.setattr(session, "_phase", lambda *_: None)
+    monkeypatch.setattr(session, "simulator_phase", lambda *_: None)
     (tmp_path / "p.asi").write_text(PROGRAM)
     props = tmp_path / "p.props.toml"
     props.write_text(PROPS.format(cycle=cycle))

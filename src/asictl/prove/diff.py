@@ -180,7 +180,7 @@ def _equivalent(first: Program, second: Program, start: float, *, timeout_s: flo
         result = Equivalence("different", len(run.steps), time.monotonic() - start,
                              [Step(inputs, host) for inputs, host in run.steps],
                              slaves=bus, cycle_ms=cycle_us / 1000,
-                             host_masks=both.host_masks,
+                             host_masks=both.host_masks, phase_us=phase,
                              note="found on a random run of both programs")
         for (cell, _), values in run.differences.items():
             _tell(result, cell, *values)
