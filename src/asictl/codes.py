@@ -80,6 +80,7 @@ class AnalysisCode(StrEnum):
     UNREACHABLE = "W715"
     LABEL_UNUSED = "W716"
     BLOCK_UNUSED = "W717"
+    ANSWER_READ_EARLY = "W718"
     BAD_DIRECTIVE = "W721"
 
 
@@ -222,6 +223,7 @@ TITLES: dict[str, str] = {
     "W715": "unreachable code",
     "W716": "label never jumped to",
     "W717": "function block never called",
+    "W718": "slave's answer read in the cycle that asked for it",
     "W721": "invalid asictl directive",
 }
 

@@ -7,6 +7,7 @@ from modbus_helpers import FakeClock
 
 from asictl.board.asi import AsiBus, Slave
 from asictl.board.board import Pc2Board
+from asictl.gateway.panel import SELF_TEST_MS
 from asictl.gateway.slave import GatewaySlave
 
 
@@ -17,7 +18,7 @@ def board() -> Pc2Board:
     board.bus.attach(Slave(1, io_code=0x0, id_code=0x1))
     board.bus.attach(Slave(6, io_code=0x8, id_code=0x2))
     board.bus.attach(Slave(13, io_code=0x7, id_code=0xF))
-    board.advance(100)
+    board.advance(SELF_TEST_MS + 100)  # past the front panel's display test (222)
     return board
 
 

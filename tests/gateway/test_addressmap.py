@@ -12,6 +12,7 @@ from modbus_helpers import (
     write_holding,
 )
 
+from asictl.board.asi import Slave
 from asictl.board.execution import Phase
 from asictl.gateway.addressmap import EXCEPTION_STATUS_ERROR
 from asictl.gateway.slave import GatewaySlave
@@ -142,6 +143,18 @@ def test_change_slave_address(gw, board):
     write_holding(gw, 1001, 30)  # no slave there
     write_holding(gw, 1002, 21)
     assert request(gw, 7) == bytes([7, EXCEPTION_STATUS_ERROR | d.Status.NO_SLAVE])
+
+
+def test_a_slave_that_cannot_be_deleted_is_status_05_in_function_7(gw, board):
+    """PC2 status byte 05 (10.2.7): the slave cannot be set to address 0, the first step
+    of every address change; the gateway keeps it as the exception status (6.3.10)."""
+    board.bus.attach(Slave(20, 0x0, 0x0, address_fault="delete"))
+    board.advance(20)
+    write_holding(gw, 1001, 20)
+    write_holding(gw, 1002, 21)
+    board.advance(20)
+    assert request(gw, 7) == bytes([7, EXCEPTION_STATUS_ERROR | d.Status.CANNOT_PROGRAM_ZERO])
+    assert board.bus.at(20) and not board.bus.at(21)
 
 
 def test_execute_command_answer_in_function_7(gw, board):

@@ -35,8 +35,18 @@ class Served:
     def status(self) -> dict:
         return json.loads(self.run("status", "--json").stdout)
 
+    def remote_status(self, host: str = "127.0.0.1") -> dict:
+        """``status --json`` through the gateway's Modbus TCP, as a client elsewhere."""
+        return json.loads(self.run(
+            "status", "--modbus", f"tcp://{host}:{self.modbus_port}", "--json"
+        ).stdout)
+
     def press(self, *args: str) -> dict:
         return json.loads(self.run("gateway", "press", *args, "--json").stdout)
+
+
+def panel_now(served: Served) -> dict:
+    return json.loads(served.run("gateway", "panel", "--json").stdout)
 
 
 @pytest.fixture
@@ -63,7 +73,7 @@ def test_mode_held_6_s_configures_a_short_press_protects_and_the_lock_stops_both
     assert status["mode"] == "protected"
     assert status["lps"] == [], "a short press does not store the configuration"
     assert status["display"] == {
-        "code": 5, "text": "05", "blinking": False,
+        "code": 5, "text": "  05", "blinking": False,
         "meaning": "slave 5 is wrongly configured (found first)",
     }
 
@@ -79,12 +89,12 @@ def test_mode_held_6_s_configures_a_short_press_protects_and_the_lock_stops_both
     text = served.run("status").stdout
     assert "display  82 (the keys are locked" in text
     assert "keys     locked (Modbus register 1007)" in text
-    remote = json.loads(served.run(
-        "status", "--modbus", f"tcp://127.0.0.1:{served.modbus_port}", "--json"
-    ).stdout)
-    assert remote["panel"] == "derived" and remote["keys_locked"] is True  # the letter 't'
+    remote = served.remote_status()
+    assert remote["panel"] == "gateway" and remote["keys_locked"] is True
     assert remote["leds"]["ser_active"] is True, "the client itself talks to the gateway"
-    assert remote["leds"]["prj_mode"] is False and remote["display"]["code"] == 5
+    assert remote["leds"]["prj_mode"] is False
+    assert remote["display"] == panel_now(served)["display"]
+    assert remote["display"]["code"] == 82, "the panel's display, not one worked out"
 
 
 def test_a_slave_0_when_leaving_configuration_mode_by_key_gives_80(served):
@@ -94,6 +104,9 @@ def test_a_slave_0_when_leaving_configuration_mode_by_key_gives_80(served):
     status = served.status()
     assert status["mode"] == "configuration" and status["display"]["code"] == 80
     assert "there is a slave with address 0" in status["display"]["meaning"]
+    remote = served.remote_status("localhost")
+    assert remote["panel"] == "gateway" and remote["display"]["code"] == 80
+    assert remote["display"] == panel_now(served)["display"]
     text = served.run("gateway", "panel").stdout
     assert text.startswith("display  80 (error leaving configuration mode")
     assert "leds     power, config err, U AS-i, AS-i active, prj mode on" in text
@@ -125,7 +138,7 @@ def test_the_first_commissioning_of_the_manuals_appendix(served):
     assert panel["display"]["code"] == 1 and not panel["display"]["blinking"]
     panel = served.press("set", "--hold", "6s")
     assert panel["display"] == {
-        "code": 1, "text": "01", "blinking": True,
+        "code": 1, "text": "  01", "blinking": True,
         "meaning": "target address 1: set programs the slave with address 0 to it",
     }
     served.press("set")

@@ -16,7 +16,7 @@ from modbus_helpers import FakeClock, read_holding, request, write_holding
 
 from asictl.board.asi import Slave
 from asictl.board.board import Pc2Board
-from asictl.gateway.panel import LONG_MS, FrontPanel
+from asictl.gateway.panel import LONG_MS, SELF_TEST_MS, FrontPanel
 from asictl.gateway.slave import GatewaySlave
 from asictl.host.transfer import Pc2Transport, StartMode, download
 from asictl.platform import display as dc
@@ -63,13 +63,38 @@ def addresses(board: Pc2Board) -> list[int]:
 # ---------------------------------------------------------------------- start-up (5.1)
 
 
+def test_power_up_is_a_second_of_all_segments_and_leds_then_the_master_state():
+    """222: "Nach dem Einschalten sind zunächst alle Segmente der Ziffernanzeige und alle
+    Leuchtdioden für ca. eine Sekunde eingeschaltet (Selbsttest)": code 88 (1367), all
+    four digits (4.1, line 125: "vierstellige Sieben-Segment-Anzeige") and every LED lit;
+    then the LEDs follow the flags and the display the master. A reset is a power-up too."""
+    board = Pc2Board()
+    board.bus.attach(Slave(5, 0x7, 0xF))
+    gw = GatewaySlave(board)
+    for _ in range(3):
+        shown = gw.panel.display()
+        assert shown.code == dc.SELF_TEST and shown.text == "8888"
+        assert gw.panel.leds() == dict.fromkeys(dc.LEDS, True)
+        run(gw, SELF_TEST_MS / 3 - 10)
+    run(gw, 40)
+    assert code(gw.panel) == 5, "the master reached normal operation meanwhile"
+    assert gw.panel.display().text == "  05", "a code in the right two of four digits"
+    assert not gw.panel.leds()["ser_active"], "the LEDs follow the flags again"
+    board.io_write(d.PORT_PAGE, d.PAGE_RESET_BIT)  # the host holds the board in reset
+    assert code(gw.panel) == dc.OFFLINE
+    board.io_write(d.PORT_PAGE, 0)
+    assert code(gw.panel) == dc.SELF_TEST, "the end of a reset is a power-up"
+    run(gw, SELF_TEST_MS)
+    assert code(gw.panel) != dc.SELF_TEST
+
+
 def test_power_up_shows_40_41_42_43_then_the_slaves():
-    """After a power-up: 40 offline, 41 detection, 42 activation, 43 start of normal
+    """After the display test: 40 offline, 41 detection, 42 activation, 43 start of normal
     operation (lines 226-244), each for as long as the master is in it; 41 stays while
     no slave answers (236)."""
     board = Pc2Board()
     gw = GatewaySlave(board)
-    assert code(gw.panel) == dc.OFFLINE  # before the first AS-i cycle
+    run(gw, SELF_TEST_MS)
     seen: list[int | None] = []
     board.observer = lambda: seen.append(code(gw.panel))
     board.advance(20)
@@ -230,7 +255,7 @@ def test_set_held_on_a_detected_slave_deletes_its_address(gw: GatewaySlave, boar
     run(gw, 2000)
     assert code(gw.panel) == 6, "the turn stands still on the slave shown at the press"
     run(gw, LONG_MS - 2000 + 50)
-    assert gw.panel.display().text == "00" and addresses(board) == [0, 1, 13]
+    assert gw.panel.display().text == "  00" and addresses(board) == [0, 1, 13]
     run(gw, HELD_MS - LONG_MS)
     assert code(gw.panel) in (0, 1, 13)
 
@@ -526,8 +551,8 @@ def test_a_press_needs_a_key_and_a_length(gw: GatewaySlave):
 
 
 def test_hardware_only_codes_are_never_shown_by_the_emulation():
-    """70-76 and 88 (1353-1367) are the hardware's own faults and its segment test."""
-    assert {70, 72, 73, 74, 75, 76, 88} == dc.HARDWARE_ONLY
+    """70-76 (1353-1359) are the hardware's own faults; 88, the display test, it shows."""
+    assert {70, 72, 73, 74, 75, 76} == dc.HARDWARE_ONLY
     assert all(code in dc.DISPLAY_TEXT for code in dc.HARDWARE_ONLY)
 
 
@@ -567,7 +592,7 @@ def test_any_key_sequence_keeps_the_gateway_sound(presses, locked):
     for address, io_code in ((1, 0x0), (6, 0x8), (13, 0x7)):
         board.bus.attach(Slave(address, io_code=io_code, id_code=0x1))
     gw = GatewaySlave(board, clock=FakeClock())
-    run(gw, 50, step=20)
+    run(gw, SELF_TEST_MS + 50, step=20)
     if locked:
         write_holding(gw, 1007, 1)
     before = (board.mode, board.execution.lps, bytes(board.execution.pcd))

@@ -84,6 +84,19 @@ def test_a_refused_address_change_says_why(kind, old, new, status):
 
 
 @KINDS
+@pytest.mark.parametrize("new", [6, 0])
+def test_a_slave_that_cannot_be_set_to_address_0_is_83a4(kind, new):
+    """Status byte 05 (PC2 manual 10.2.7: "slave could not be programmed to address 0"):
+    changing an address deletes it first, and this slave refuses; it keeps its address."""
+    board = board_with(Slave(5, 0x7, 0xF, address_fault="delete"))
+    with commissioning(board, kind) as tools, pytest.raises(JobError) as caught:
+        tools.change_address(5, new)
+    assert caught.value.status == 0x83A4
+    assert "[STATUS 83A4h]" in str(caught.value)
+    assert [s.address for s in board.bus] == [5]
+
+
+@KINDS
 def test_protected_mode_with_a_slave_zero_is_8385(kind):
     board = board_with(Slave(0, 0x7, 0xF))
     with commissioning(board, kind) as tools, pytest.raises(JobError) as caught:

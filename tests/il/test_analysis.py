@@ -226,8 +226,8 @@ def test_flag_bytes_and_words_count_any_bit_written():
 
 
 def test_param_writes_f127_and_map_counters_the_counter_flags():
-    assert check(program("    A I 1.0", "    L KP 5.3", "    PARAM", "***",
-                         "    A F 127.7", "    = Q 2.0")) == []
+    assert check(program("    A F 127.7", "    = Q 2.0", "***",
+                         "    A I 1.0", "    L KP 5.3", "    PARAM")) == []
     mapped = "[OPTIONS]\nmap_counters: yes\n" + program("    L FY 96", "    T FY 1")
     assert [c for c, _ in found(mapped)] == []
 

@@ -23,6 +23,10 @@ def gateway(tmp_path: Path) -> Iterator[Path]:
     state = tmp_path / "state"
     with serve_gateway(state):
         cli(state, "bus", "plug", "4", "iiii,0")
+        deadline = time.monotonic() + 10
+        while json.loads(cli(state, "gateway", "panel", "--json"))["display"]["code"] == 88:
+            assert time.monotonic() < deadline, "the display test lasts a second"
+            time.sleep(0.1)
         yield state
 
 
@@ -41,7 +45,7 @@ def test_the_panel_and_its_keys(gateway: Path):
         async with app.run_test(size=(170, 45)) as pilot:
             await settle(app, pilot)
             text = right(app)
-            assert "gateway panel   04   slave 4 is detected" in text
+            assert "gateway panel     04   slave 4 is detected" in text
             assert "● power" in text and "● prj mode" in text and "○ ser active" in text
             assert app.check_action("key", ("mode", 0.2)), "the keys are offered"
             await pilot.press("left_square_bracket")  # mode, short: protected mode

@@ -68,3 +68,45 @@ def test_the_high_byte_of_a_mapped_counter_stays_within_0_to_15(tmp_path: Path):
     assert built.image is not None
     witness = load_scenario(report.written["15 is reached"], variables_of(built.image.pmap))
     assert Simulation(built, witness).run().passed
+
+
+#: The program writes 255 to counter 0's high byte and reads it back in the same cycle.
+READ_BACK = """[OPTIONS]
+map_counters: yes
+
+[SETUP]
+1: iiii, 0
+
+[PROGRAM]
+        L   KB 255
+        T   FY 97
+        L   FY 97
+        T   FY 20
+        ON  F 0.0
+        S   F 99.7
+        A   F 99.7
+        =   F 21.0
+***
+"""
+
+READ_BACK_PROPERTIES = """[master]
+cycle_ms = 10
+[[property]]
+name = "the byte read back holds the count's four bits"
+always = "FY 20 == 15"
+[[property]]
+name = "a bit above them stays 0"
+never = "F 21.0"
+"""
+
+
+def test_a_mapped_high_byte_read_back_in_the_same_cycle_is_masked(tmp_path: Path):
+    (tmp_path / "p.asi").write_text(READ_BACK)
+    props = tmp_path / "p.props.toml"
+    props.write_text(READ_BACK_PROPERTIES)
+    report = prove_file(props, timeout_s=300.0)
+    verdicts = {o.prop.name: o.verdict for o in report.outcomes}
+    assert verdicts == {
+        "the byte read back holds the count's four bits": Verdict.PROVED,
+        "a bit above them stays 0": Verdict.PROVED,
+    }

@@ -16,10 +16,12 @@ from typing import Any
 
 from asictl.platform.master import DEFAULT_PARAMETER, SLAVES
 
-#: How a slave's address programming can fail (the gateway's display codes 92 and 93):
-#: "set", the new address cannot be set (the slave is left at address 0); "store", the
-#: slave takes it but cannot store it, so a power-up brings back the address it had.
-ADDRESS_FAULTS = ("", "set", "store")
+#: How a slave's address programming can fail (the PC2's status bytes 05-07, the gateway's
+#: display codes 92 and 93): "delete", the slave refuses Delete_Address, so it cannot be
+#: set to address 0 and keeps its address (05); "set", the new address cannot be set (the
+#: slave is left at address 0; 06); "store", the slave takes it but cannot store it, so a
+#: power-up brings back the address it had (07).
+ADDRESS_FAULTS = ("", "delete", "set", "store")
 
 
 class BusError(ValueError):
@@ -63,7 +65,9 @@ class Slave:
         #: the address in the slave's own EEPROM, which a power-up brings back
         self._stored_address = self._address
         if address_fault not in ADDRESS_FAULTS:
-            raise BusError(f"address fault must be one of 'set', 'store', not {address_fault!r}")
+            raise BusError(
+                f"address fault must be one of 'delete', 'set', 'store', not {address_fault!r}"
+            )
         self.address_fault = address_fault
         self.io_code = _nibble(io_code, "I/O code")
         self.id_code = _nibble(id_code, "ID code")
@@ -102,7 +106,10 @@ class Slave:
 
     def program_address(self, value: int) -> bool:
         """Address programming by the master (Change_Slave_Address): False when the
-        slave's ``address_fault`` spoils it (see ``ADDRESS_FAULTS``)."""
+        slave's ``address_fault`` spoils it (see ``ADDRESS_FAULTS``). A slave with an
+        address of its own is first deleted (set to 0), then given the new one."""
+        if self.address_fault == "delete" and self.address != 0:
+            return False  # Delete_Address refused: the slave keeps its address
         if self.address_fault == "set":
             self.address = 0  # the old address was deleted; the new one did not take
             return False

@@ -243,6 +243,14 @@ class Pc2Board:
         counterexamples)."""
         return self._next_tick_us
 
+    def move_next_tick(self, at_us: int) -> None:
+        """The next 10 ms tick at ``at_us`` (within the next 10 ms), and every 10 ms after
+        it: the clock's phase, which runs on its own on a real master, as a scenario
+        that depends on it asks (``first_tick_ms``)."""
+        if not self._now_us < at_us <= self._now_us + TICK_US:
+            raise ValueError(f"the next tick is within 10 ms from now, not at {at_us} us")
+        self._next_tick_us = at_us
+
     @property
     def now_us(self) -> int:
         return self._now_us
@@ -401,9 +409,7 @@ class Pc2Board:
         if self._host_dirty:
             self._read_host_images()
         if self._command_pending:
-            self._command_pending = False
-            ok = self._commands.run(self._ram[d.COMMAND])
-            self._ram[d.COMMAND] = d.ACK if ok else d.NAK
+            self.answer_command()
         ec.step(self._now_us)
         self._images.update()
         self._update_control()
@@ -416,6 +422,14 @@ class Pc2Board:
             self._program_cycle()
         if self._ram[_INTERRUPT_ENABLE] & _ASI_CYCLE and ec.phase is _NORMAL:
             self._dpram.interrupt(InterruptSource.ASI_CYCLE)
+
+    def answer_command(self, *, run: bool = True) -> None:
+        """Answer the command the host wrote: run it (00h, or FFh if refused), or refuse
+        it unrun (``run=False``). The AS-i cycle does this; a live board held at a
+        breakpoint does it at once, since no cycle comes while the master stands still."""
+        self._command_pending = False
+        ok = run and self._commands.run(self._ram[d.COMMAND])
+        self._ram[d.COMMAND] = d.ACK if ok else d.NAK
 
     def _outputs(self) -> bytes | bytearray:
         """What the slaves receive: the program's outputs (the host's while it is

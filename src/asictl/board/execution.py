@@ -456,6 +456,8 @@ class ExecutionControl:
         slave = self._slaves[old]
         if slave.program_address(new):
             return Status.OK
+        if old != 0 and slave.address == old:
+            return Status.CANNOT_PROGRAM_ZERO  # the first step, deleting the address, failed
         return Status.CANNOT_SET_ADDRESS if slave.address != new else Status.CANNOT_STORE_ADDRESS
 
     def execute_command(self, address: int, information: int) -> int | None:

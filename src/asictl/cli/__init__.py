@@ -60,6 +60,9 @@ COMMANDS: dict[str, tuple[str, str]] = {
         "asictl.cli.mutate:mutate", "Mutation testing: would the scenarios notice a changed "
         "program?"
     ),
+    "report": (
+        "asictl.cli.report:report", "Merge the reports of a run's shards (--shard I/N) into one."
+    ),
     "serve": (
         "asictl.cli.live:serve", "Keep an emulated board running in real time (a live board)."
     ),
@@ -123,7 +126,7 @@ SECTIONS: dict[str, tuple[str, ...]] = {
     "Master": ("download", "upload", "start", "stop", "reset", "status", "verify", "probe"),
     "Online": ("serve", "monitor", "watch", "write", "force", "unforce"),
     "Commissioning": ("bus", "slave", "mode", "store", "setup", "hiflags", "diag", "emc"),
-    "Simulation and tests": ("sim", "test", "record", "mutate", "debug"),
+    "Simulation and tests": ("sim", "test", "record", "mutate", "report", "debug"),
     "Verification": ("prove", "diff"),
     "Editors": ("lsp", "dap"),
     "Migration": ("export",),

@@ -169,7 +169,7 @@ def serve(
             slave, max_connections=max_connections, idle_timeout=idle_timeout / 1000,
             frame_timeout=frame_timeout / 1000, on_request=live.save_changes, log=_notify,
         )
-        live.actions.update(panel_actions(slave))
+        live.actions.update(panel_actions(slave, lambda: server.tcp_address))
 
         def where() -> str:
             now = slave.panel.interface

@@ -23,7 +23,7 @@ from asictl.errors import ExitCode, UserError
 from asictl.host.commissioning import image_changes
 from asictl.host.emulated.actions import parse_address, parse_number, parse_profile
 from asictl.host.emulated.boards import state_directory
-from asictl.host.live.server import (
+from asictl.host.live.limits import (
     DEFAULT_ADMIT_WAIT_S,
     DEFAULT_IDLE_TIMEOUT_S,
     DEFAULT_MAX_CONNECTIONS,
@@ -228,10 +228,11 @@ def show(as_json: bool = False, **board: Unpack[BoardOptions]) -> None:
 @click.argument("address")
 @click.argument("profile")
 @click.option(
-    "--address-fault", type=click.Choice(["set", "store"]),
-    help="A slave whose address programming fails: 'set', the new address does not take "
-    "(status 06h, the gateway's display 92); 'store', it is kept only until a power-up "
-    "(07h, display 93).",
+    "--address-fault", type=click.Choice(["delete", "set", "store"]),
+    help="A slave whose address programming fails: 'delete', it cannot be set to address "
+    "0 and keeps its address (status 05h, STATUS 83A4h, the gateway's display 92); 'set', "
+    "the new address does not take (06h, display 92); 'store', it is kept only until a "
+    "power-up (07h, display 93).",
 )
 @board_options
 def plug(

@@ -10,9 +10,17 @@ from pathlib import Path, PurePath
 import click
 
 import asictl.quality.mutate as mutation
-from asictl.cli.options import Duration, Number, lib_option
+from asictl.cli.options import (
+    Duration,
+    below_bar,
+    lib_option,
+    min_score_option,
+    shard_option,
+    take_shard,
+)
 from asictl.errors import ExitCode, UserError
 from asictl.quality.mutate import PROVE_HINT, Result, Target, mutants_of, run_all, score
+from asictl.readers.shard import Shard
 from asictl.sim import SUFFIX
 from asictl.sim.session import (
     Invalid,
@@ -31,9 +39,11 @@ def _shown(path: str) -> str:
         return path
 
 
-def _targets(paths: tuple[Path, ...], lib: tuple[str, ...]) -> list[Target]:
-    """The programs the scenarios under ``paths`` test, each with its scenarios; every
-    scenario must pass on the original program (else no mutant can be judged)."""
+def _targets(paths: tuple[Path, ...], lib: tuple[str, ...],
+             shard: Shard | None) -> list[Target]:
+    """The programs the scenarios under ``paths`` test (those of ``shard``), each with its
+    scenarios, in the order of their paths; every scenario must pass on the original
+    program (else no mutant can be judged)."""
     by_program: dict[Path, list[tuple[Path, Prepared]]] = defaultdict(list)
     scenarios = find_scenarios(paths)
     if not scenarios:
@@ -45,10 +55,11 @@ def _targets(paths: tuple[Path, ...], lib: tuple[str, ...]) -> list[Target]:
             raise UserError(f"{scenario}: {exc.message}\n{exc.text.rstrip()}",
                             exc.exit_code) from None
         by_program[prepared.program.resolve()].append((scenario, prepared))
+    programs = sorted(by_program, key=lambda key: Path(_shown(str(key))))
     targets = []
-    for key, tested in by_program.items():
+    for key in take_shard(programs, programs, shard, "programs"):
         target = Target(Path(_shown(str(key))), [])
-        for scenario, prepared in tested:
+        for scenario, prepared in by_program[key]:
             run = simulate(prepared, coverage=True, coverage_counts=False)
             if not run.result.passed:
                 raise UserError(
@@ -73,10 +84,10 @@ def _line(result: Result) -> str:
 
 
 def _summary(results: list[Result]) -> str:
-    killed, counted = score(results)
+    killed, counted = score(r.verdict for r in results)
     counts = {v: sum(1 for r in results if r.verdict == v)
               for v in ("killed", "timeout", "survived", "died", "equivalent", "invalid")}
-    share = 100.0 * killed / counted if counted else 100.0
+    share = percent_killed(killed, counted)
     parts = ", ".join(f"{n} {v}" for v, n in counts.items() if n)
     return f"{len(results)} mutants: {parts or 'none'}; score {share:.1f}% ({killed}/{counted})"
 
@@ -88,8 +99,7 @@ def _summary(results: list[Result]) -> str:
               "of cores).")
 @click.option("--format", "fmt", type=click.Choice(["text", "json"]), default="text",
               show_default=True, help="json: one object with every mutant and the score.")
-@click.option("--min-score", type=Number(0, 100), metavar="PERCENT",
-              help="Exit 1 when the score is below PERCENT.")
+@min_score_option
 @click.option("--timeout", "timeout_ms", type=Duration(positive=True),
               metavar="TIME", help="Time limit of one mutant (default: 10 s plus five "
               "times what its program's scenarios take unchanged).")
@@ -97,9 +107,11 @@ def _summary(results: list[Result]) -> str:
               default=f"{mutation.PROVE_SECONDS:g}s", show_default=True, metavar="TIME",
               help="Time the prover (the prove extra) may spend on one surviving mutant's "
               "proof of equivalence; out of time, the mutant stays a survivor.")
+@shard_option("programs")
 @lib_option
 def mutate(paths: tuple[Path, ...], jobs: int | None, fmt: str, min_score: float | None,
-           timeout_ms: float | None, prove_ms: float, lib: tuple[str, ...]) -> None:
+           timeout_ms: float | None, prove_ms: float, shard: Shard | None,
+           lib: tuple[str, ...]) -> None:
     """Mutation testing: change each program the scenarios under PATHs test (default:
     the current directory) in one place at a time, and run its scenarios.
 
@@ -119,7 +131,7 @@ def mutate(paths: tuple[Path, ...], jobs: int | None, fmt: str, min_score: float
       asictl mutate demos/blink.scenario.toml --min-score 80
     """
     ctx = click.get_current_context()
-    targets = _targets(paths, lib)
+    targets = _targets(paths, lib, shard)
     order = {id(m): i for i, m in enumerate(m for t in targets for m in t.mutants)}
     finished: dict[int, Result] = {}
     shown = 0
@@ -136,26 +148,31 @@ def mutate(paths: tuple[Path, ...], jobs: int | None, fmt: str, min_score: float
                       timeout_s=None if timeout_ms is None else timeout_ms / 1000,
                       prove_s=prove_ms / 1000, done=done)
     checked = mutation.prove_available()
-    killed, counted = score(results)
-    share = 100.0 * killed / counted if counted else 100.0
+    report = json_report([
+        {"file": _shown(r.mutant.file), "line": r.mutant.line, "column": r.mutant.column,
+         "change": r.mutant.change, "verdict": r.verdict, "detail": r.detail,
+         "seconds": round(r.seconds, 3)}
+        for r in results
+    ], checked)
+    share = percent_killed(*score(r.verdict for r in results))
     if fmt == "json":
-        report = {
-            "mutants": [
-                {"file": _shown(r.mutant.file), "line": r.mutant.line,
-                 "column": r.mutant.column, "change": r.mutant.change, "verdict": r.verdict,
-                 "detail": r.detail, "seconds": round(r.seconds, 3)}
-                for r in results
-            ],
-            "killed": killed, "counted": counted, "score": round(share, 2),
-            "equivalence_checked": checked,
-        }
         click.echo(json.dumps(report, indent=2))
     else:
         click.echo(_summary(results))
         if not checked and any(r.verdict == "survived" for r in results):
             click.echo(f"note: {PROVE_HINT}")
-    below = min_score is not None and share < min_score
-    if below:
-        click.echo(f"asictl: error: mutation score {share:.1f}% is below --min-score "
-                   f"{min_score:g}%", err=True)
+    below = below_bar("mutation score", share, min_score, "--min-score", 1)
     ctx.exit(int(ExitCode.FAILED if below else ExitCode.OK))
+
+
+def json_report(mutants: list[dict[str, object]], checked: bool) -> dict[str, object]:
+    """``mutate --format json``: every mutant, and the score they make (``report merge``
+    puts the shards' mutants together with this too)."""
+    killed, counted = score(str(m["verdict"]) for m in mutants)
+    return {"mutants": mutants, "killed": killed, "counted": counted,
+            "score": round(percent_killed(killed, counted), 2), "equivalence_checked": checked}
+
+
+def percent_killed(killed: int, counted: int) -> float:
+    """The score in percent, killed of counted; no mutant to count is all of them."""
+    return 100.0 * killed / counted if counted else 100.0

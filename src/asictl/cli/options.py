@@ -4,10 +4,12 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
+from pathlib import Path
 from typing import TypeVar
 
 import click
 
+from asictl.readers.shard import Shard, ShardError, select
 from asictl.readers.units import (
     Cycles,
     UnitError,
@@ -16,12 +18,56 @@ from asictl.readers.units import (
     parse_duration,
 )
 
+_Command = TypeVar("_Command", bound=Callable[..., object])
+_Item = TypeVar("_Item")
+
 #: ``--lib DIR`` (repeatable): where the loader looks for function-block files besides the
 #: program's folder; every command that builds a program takes it.
 lib_option = click.option(
     "--lib", "lib", multiple=True, type=click.Path(file_okay=False),
     help="Also look for function-block files here (repeatable; also $ASICTL_LIB).",
 )
+
+
+class ShardSpec(click.ParamType[Shard]):
+    """``I/N`` or ``auto`` (GitLab's ``CI_NODE_INDEX``/``CI_NODE_TOTAL``), read by
+    ``asictl.readers.shard``; a value that names no shard is a usage error."""
+
+    name = "I/N"
+
+    def convert(self, value: object, param: click.Parameter | None,
+                ctx: click.Context | None) -> Shard:
+        if isinstance(value, Shard):
+            return value
+        try:
+            return Shard.parse(str(value))
+        except ShardError as exc:
+            self.fail(str(exc), param, ctx)
+
+
+def shard_option(what: str) -> Callable[[_Command], _Command]:
+    """``--shard I/N`` of a command that runs one job of a CI matrix: its share of
+    ``what`` (docs/testing.md, "Shards")."""
+    return click.option(
+        "--shard", type=ShardSpec(), default=None, metavar="I/N",
+        help=f"Run only shard I of N (1-based) of the {what}, split by path, so that N "
+        "CI jobs run each once; 'auto' reads CI_NODE_INDEX/CI_NODE_TOTAL (GitLab). "
+        "'asictl report merge' joins the shards' reports.",
+    )
+
+
+def take_shard(items: Sequence[_Item], paths: Sequence[str | Path], shard: Shard | None,
+               what: str) -> list[_Item]:
+    """The items (``paths[i]`` the path of ``items[i]``) of ``shard``, all without one. A
+    shard left with none (more shards than files) says so and goes on: its job still
+    passes and writes its (empty) reports for the merge."""
+    if shard is None:
+        return list(items)
+    mine = select(items, paths, shard)
+    if not mine:
+        click.echo(f"asictl: note: shard {shard} has no {what} ({len(items)} in all)",
+                   err=True)
+    return mine
 
 
 class Duration(click.ParamType[float]):
@@ -101,7 +147,26 @@ class Number(click.FloatRange):
         return result
 
 
-_Command = TypeVar("_Command", bound=Callable[..., object])
+#: ``--coverage-fail-under`` of ``test`` and ``report merge`` (the shards' coverage).
+coverage_fail_under_option = click.option(
+    "--coverage-fail-under", type=Number(0, 100), metavar="PERCENT",
+    help="Exit 1 when less than PERCENT of the statement lines ran.",
+)
+#: ``--min-score`` of ``mutate`` and ``report merge`` (the shards' mutants).
+min_score_option = click.option(
+    "--min-score", type=Number(0, 100), metavar="PERCENT",
+    help="Exit 1 when the mutation score is below PERCENT.",
+)
+
+
+def below_bar(what: str, share: float, bar: float | None, option: str, digits: int) -> bool:
+    """Whether ``share`` (percent) is below the ``bar`` an ``option`` such as
+    ``--min-score`` set; if so, says it on standard error with ``digits`` decimals."""
+    if bar is None or share >= bar:
+        return False
+    click.echo(f"asictl: error: {what} {share:.{digits}f}% is below {option} {bar:g}%",
+               err=True)
+    return True
 
 
 def apply_options(command: _Command,

@@ -13,12 +13,22 @@ from xml.etree import ElementTree
 
 import click
 
-from asictl.cli.options import Duration, Number, lib_option
+from asictl.cli import junit
+from asictl.cli.options import (
+    Duration,
+    below_bar,
+    coverage_fail_under_option,
+    lib_option,
+    shard_option,
+    take_shard,
+)
 from asictl.diagnostics import github_command
 from asictl.errors import ExitCode, UserError
 from asictl.files import refuse_inputs, write_output
 from asictl.observe.coverage import Coverage
 from asictl.observe.iltrace import to_csv as rows_csv
+from asictl.readers.shard import Shard
+from asictl.readers.units import format_duration
 from asictl.sim import SUFFIX
 from asictl.sim.coverage import FORMATS, format_for, missing, percent, render
 from asictl.sim.coverage import summary as coverage_summary
@@ -157,14 +167,10 @@ def sim(
 
 
 def _junit(outcomes: list[Outcome], path: Path, inputs: list[Path]) -> None:
-    suite = ElementTree.Element(
-        "testsuite", name="asictl", tests=str(len(outcomes)),
-        failures=str(sum(1 for o in outcomes if o.status == "FAIL")),
-        errors=str(sum(1 for o in outcomes if o.status == "ERROR")),
-    )
+    cases = []
     for outcome in outcomes:
-        case = ElementTree.SubElement(
-            suite, "testcase", classname="asictl.scenario", name=outcome.path,
+        case = ElementTree.Element(
+            "testcase", classname="asictl.scenario", name=outcome.path,
             time=f"{outcome.seconds:.3f}",
         )
         if outcome.status == "ERROR":
@@ -173,9 +179,8 @@ def _junit(outcomes: list[Outcome], path: Path, inputs: list[Path]) -> None:
         elif outcome.status == "FAIL":
             failure = ElementTree.SubElement(case, "failure", message=outcome.summary)
             failure.text = "\n".join(outcome.events)
-    ElementTree.indent(suite)
-    write_output(path, ElementTree.tostring(suite, encoding="unicode", xml_declaration=True)
-                 + "\n", inputs=inputs)
+        cases.append(case)
+    write_output(path, junit.suite(cases), inputs=inputs)
 
 
 class _StatusLine:
@@ -205,7 +210,7 @@ class _SimProgress(_StatusLine):
         if wall - self.begun < 1.0 or wall - self.last < 0.2:
             return
         self.last = wall
-        sys.stderr.write(f"\r\x1b[K[sim] {now_ms / 1000:.1f} s of {end_ms / 1000:.1f} s "
+        sys.stderr.write(f"\r\x1b[K[sim] {format_duration(now_ms)} of {format_duration(end_ms)} "
                          f"master time ({100 * now_ms / end_ms if end_ms else 100:.0f}%)")
         sys.stderr.flush()
         self.shown = True
@@ -317,11 +322,12 @@ def _alone(path: str, lib: tuple[str, ...], coverage: bool) -> Outcome:
 
 @click.command()
 @click.argument("paths", nargs=-1, type=click.Path(path_type=Path))
-@click.option("--junit", type=click.Path(dir_okay=False, path_type=Path),
+@click.option("--junit", "junit_path", type=click.Path(dir_okay=False, path_type=Path),
               help="Also write the results as JUnit XML for CI systems.")
 @click.option("-j", "--jobs", type=click.IntRange(min=1), default=None,
               help="Scenarios run at once, in worker processes (default: the number of "
               "cores; 1 runs them one after the other here).")
+@shard_option("scenario files")
 @lib_option
 @click.option("--format", "fmt", type=click.Choice(["text", "github", "json"]), default="text",
               show_default=True, help="github: also a GitHub Actions annotation at the "
@@ -332,10 +338,9 @@ def _alone(path: str, lib: tuple[str, ...], coverage: bool) -> Outcome:
 @click.option("--coverage-format", type=click.Choice(FORMATS), default=None,
               help="Format of --coverage (default: by its suffix, .json json, .info or "
               ".lcov lcov, else cobertura; sonarqube: its generic coverage XML).")
-@click.option("--coverage-fail-under", type=Number(0, 100), metavar="PERCENT",
-              help="Exit 1 when less than PERCENT of the statement lines ran.")
-def test(paths: tuple[Path, ...], junit: Path | None, jobs: int | None,
-         lib: tuple[str, ...], fmt: str, coverage_path: Path | None,
+@coverage_fail_under_option
+def test(paths: tuple[Path, ...], junit_path: Path | None, jobs: int | None,
+         shard: Shard | None, lib: tuple[str, ...], fmt: str, coverage_path: Path | None,
          coverage_format: str | None, coverage_fail_under: float | None) -> None:
     """Run every *.scenario.toml under PATHs (default: the current directory).
 
@@ -360,11 +365,13 @@ def test(paths: tuple[Path, ...], junit: Path | None, jobs: int | None,
     Examples:
       asictl test demos
       asictl test demos/blink.scenario.toml --coverage coverage.xml --coverage-fail-under 80
+      asictl test demos --shard 1/2 --junit junit-1.xml --coverage coverage-1.json
     """
     ctx = click.get_current_context()
     scenarios = [str(p) for p in find_scenarios(paths)]
     if not scenarios:
         raise UserError(f"no {SUFFIX} files found")
+    scenarios = take_shard(scenarios, scenarios, shard, "scenario files")
     progress = _Progress(len(scenarios))
     outcomes: list[Outcome] = []
     collect = coverage_path is not None or coverage_fail_under is not None
@@ -388,8 +395,8 @@ def test(paths: tuple[Path, ...], junit: Path | None, jobs: int | None,
     else:
         click.echo(f"{passed} passed, {len(outcomes) - passed} failed")
     read = [Path(p) for p in (*scenarios, *(o.program for o in outcomes if o.program))]
-    if junit:
-        _junit(outcomes, junit, read)
+    if junit_path:
+        _junit(outcomes, junit_path, read)
     below = False
     if collect:
         coverage = Coverage()
@@ -404,12 +411,8 @@ def test(paths: tuple[Path, ...], junit: Path | None, jobs: int | None,
         if coverage_path is not None:
             text = render(coverage, format_for(str(coverage_path), coverage_format))
             write_output(coverage_path, text, inputs=[*read, *coverage.files_read()])
-        if coverage_fail_under is not None:
-            lines = percent(*coverage.totals()["lines"])
-            below = lines < coverage_fail_under
-            if below:
-                click.echo(f"asictl: error: line coverage {lines:.2f}% is below "
-                           f"--coverage-fail-under {coverage_fail_under:g}%", err=True)
+        below = below_bar("line coverage", percent(*coverage.totals()["lines"]),
+                          coverage_fail_under, "--coverage-fail-under", 2)
     if any(o.bug for o in outcomes):
         ctx.exit(int(ExitCode.BUG))
     if any(o.status == "ERROR" and not o.died for o in outcomes):

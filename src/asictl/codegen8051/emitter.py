@@ -45,6 +45,7 @@ from asictl.diagnostics import Span
 from asictl.il import ast
 from asictl.il.ast import key
 from asictl.il.language import PARAM_FLAG
+from asictl.platform.master import flag_keeps
 from asictl.readers.units import timer_ticks
 from asictl.runtime import layout
 from asictl.runtime.firmware import FIRMWARE_BLOCKS
@@ -244,6 +245,9 @@ class Emitter:
         if operand.kind is K.C:
             self.counter_set_reset(op, operand.address)
             return
+        keeps = flag_keeps(operand.address, self.pmap.map_counters)
+        if operand.kind is K.F and not keeps >> operand.bit & 1:
+            return  # bits 4-7 of a mapped counter's high byte stay 0: the write changes nothing
         placed = self.bit_location(operand)
         assert placed is not None
         location, bit = placed
@@ -386,6 +390,17 @@ class Emitter:
             self.emit("MOV", A, register)
             self.store_acc(location)
 
+    def write_flag_from(self, register: Reg, n: int) -> None:
+        """Flag byte n := the register, keeping only the bits the byte keeps (a mapped
+        counter's high byte holds four)."""
+        keeps = flag_keeps(n, self.pmap.map_counters)
+        if keeps == 0xFF:
+            self.write_from(register, self.pmap.flag(n))
+            return
+        self.emit("MOV", A, register)
+        self.emit("ANL", A, Imm(keeps))
+        self.store_acc(self.pmap.flag(n))
+
     def load(self, operand: ast.Operand) -> None:
         n = operand.address
         if operand.kind is K.KT:
@@ -430,8 +445,8 @@ class Emitter:
         n = operand.address
         match operand.kind:
             case K.FW:
-                self.write_from(R6, self.pmap.flag(n))
-                self.write_from(R7, self.pmap.flag(n + 1))
+                self.write_flag_from(R6, n)
+                self.write_flag_from(R7, n + 1)
             case K.T:
                 self._helpers.add("?CLAMP")
                 self.emit("LCALL", Ref("?CLAMP"))
@@ -444,7 +459,9 @@ class Emitter:
                 self.emit("LCALL", Ref("?CLAMP"))
                 self.dptr(self.pmap.counters[n])
                 self.write_word_from(R0, R1)
-            case K.IB | K.I2B | K.QB | K.FY | K.PSEG | K.VAR:
+            case K.FY:
+                self.write_flag_from(R7, n)
+            case K.IB | K.I2B | K.QB | K.PSEG | K.VAR:
                 self.write_from(R7, self.byte_location(operand))
             case K.I | K.I2 | K.Q | K.F | K.KT | K.KC | K.KB | K.KW | K.KP:
                 raise AssertionError(f"T {operand} writes no word")

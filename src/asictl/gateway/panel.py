@@ -1,5 +1,6 @@
-"""The gateway's front panel: seven LEDs, the two-digit display and the keys mode and set
-(gateway manual 4.2, 5.1-5.6, chapter 8; docs/modbus.md has every sequence with its lines).
+"""The gateway's front panel: seven LEDs, the four-digit display and the keys mode and set
+(gateway manual 4.1-4.2, 5.1-5.6, chapter 8; docs/modbus.md has every sequence with its
+lines).
 
 The panel is part of the gateway's firmware: it looks at the master's execution control
 directly and acts through the same host commands the Modbus side uses (``AddressMap``),
@@ -20,6 +21,9 @@ the short ones at release. The manual's timings:
   address shown when the key went down: that is "der gerade angezeigte Slave" (334).
 - Both keys held 5 s open the interface settings (382); there mode and set act at release
   whatever the press's length, as they do on a blinking target (322, 370).
+- For ``SELF_TEST_MS`` after a power-up every segment and every LED is lit, the self-test
+  ("für ca. eine Sekunde", 222; code 88, 1367); the master starts up meanwhile, and what it
+  reached shows when the test ends.
 
 What the manual leaves open is decided here and listed in docs/modbus.md: a message (80,
 81, 82, 90-95) stays until the next key press; the display shows 43 from the start of
@@ -48,6 +52,7 @@ from asictl.platform.pc2 import Command, EcFlag, HiFlag, Status
 
 LONG_MS = 5000.0
 TURN_MS = 500.0
+SELF_TEST_MS = 1000.0
 #: ser active stays lit this long after a telegram for the gateway (or the watchdog time).
 SER_ACTIVE_MS = 1000.0
 #: The master's 8051 copying the image from the EEPROM into RAM: a MOVX read, a MOVX
@@ -406,14 +411,24 @@ class FrontPanel:
         window = max(SER_ACTIVE_MS, watchdog_ms)
         return self.board.now_ms - self._last_telegram_ms <= window
 
+    def in_self_test(self) -> bool:
+        """The first second after a power-up (the end of a reset is one): all lit (222)."""
+        board = self.board
+        return not board.in_reset and board.now_ms - board.power_up_ms < SELF_TEST_MS
+
     def leds(self) -> dict[str, bool]:
+        if self.in_self_test():
+            return dict.fromkeys(dc.LEDS, True)
         ec = EcFlag.OFFLINE_READY if self.board.in_reset else self.board.execution.ec_flags
         return dc.leds(int(ec), ser_active=self.ser_active())
 
     def display(self) -> Display:
         """The display now, the most urgent thing first: the settings menu, a deletion
         while set is held, a message, the copy of the program, the start-up phases, then
-        what the keys selected, then the basic state of the mode (1341, 1343)."""
+        what the keys selected, then the basic state of the mode (1341, 1343); before all
+        of them, in the first second after a power-up, the self-test (222)."""
+        if self.in_self_test():
+            return Display(dc.SELF_TEST, dc.display_text(dc.SELF_TEST))
         menu = self._menu
         if menu is not None:
             if menu.step == "address":

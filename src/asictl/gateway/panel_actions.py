@@ -24,14 +24,19 @@ JSON = Any
 POLL_S = 0.01
 
 
-def panel_actions(slave: GatewaySlave) -> dict[str, Callable[[dict[str, JSON]], Awaitable[JSON]]]:
+def panel_actions(
+    slave: GatewaySlave, tcp: Callable[[], tuple[str, int] | None] = lambda: None
+) -> dict[str, Callable[[dict[str, JSON]], Awaitable[JSON]]]:
+    """``tcp``: where the gateway listens for Modbus TCP, if it does; ``panel`` says it, so
+    that a status read through that address finds this panel (``served_panel``)."""
     panel = slave.panel
 
     async def view(args: dict[str, JSON]) -> JSON:
         return {**run_action(slave.board, "view", args), "panel": panel.view()}
 
     async def show(args: dict[str, JSON]) -> JSON:
-        return panel.view()
+        listening = tcp()
+        return {**panel.view(), "modbus_tcp": None if listening is None else list(listening)}
 
     async def press(args: dict[str, JSON]) -> JSON:
         keys, hold_ms = args.get("keys"), args.get("hold_ms")

@@ -25,7 +25,7 @@ from collections.abc import Callable, Iterator
 from contextlib import AbstractContextManager, contextmanager
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from asictl.errors import ExitCode, UserError, missing_extra
 from asictl.host.emulated.boards import emulated_board, state_directory, state_file
@@ -33,11 +33,16 @@ from asictl.host.master import Master
 from asictl.host.pc2_master import Pc2Master
 from asictl.host.transports.driver import DevPort, Pc2Driver
 from asictl.host.transports.ports import port_name
-from asictl.host.transports.target import DEFAULT_RETRIES, DEFAULT_TIMEOUT_S, parse_target
-from asictl.image.eeprom import ProgramImage
+from asictl.host.transports.target import (
+    DEFAULT_RETRIES,
+    DEFAULT_TIMEOUT_S,
+    ModbusTarget,
+    parse_target,
+)
 
 if TYPE_CHECKING:
     from asictl.host.live.client import LiveClient
+    from asictl.image.eeprom import ProgramImage
 
 #: Hears why a command waits, or what it found (``--port auto``).
 Notify = Callable[[str], None]
@@ -68,7 +73,9 @@ class NotServed(UserError):
     exit_code = ExitCode.FAILED
 
 
-def _who() -> str:
+def client_name() -> str:
+    """How this command names itself to a live board (``asictl force (pid 7)``): the
+    board names it to other clients it keeps waiting or tells of its changes."""
     return f"{' '.join(['asictl', *sys.argv[1:2]])} (pid {os.getpid()})"
 
 
@@ -137,7 +144,7 @@ def _live_board(client: LiveClient, base: int, notify: Notify) -> Iterator[Maste
         notify(f"waiting for live board {name}, in use by {holder}")
 
     try:
-        with client.session(_who(), waiting):
+        with client.session(client_name(), waiting):
             port = LivePort(client)
             yield Pc2Master.over(Pc2Driver(port), name, action=LiveActions(client))
             port.flush()
@@ -171,7 +178,26 @@ def _gateway(address: MasterAddress) -> Iterator[Master]:
     with open_modbus(
         target, address.unit, timeout=address.timeout, retries=address.retries
     ) as transport:
-        yield ModbusMaster(transport)
+        yield ModbusMaster(transport, panel=_served_panel(address, target))
+
+
+def _served_panel(
+    address: MasterAddress, target: ModbusTarget
+) -> Callable[[], dict[str, Any] | None] | None:
+    """How to read the panel of the gateway at ``target``, if asictl may serve it here
+    (Modbus TCP: ``asictl gateway serve --tcp``)."""
+    host = target.host
+    if host is None or target.rtu:
+        return None
+    from asictl.host.live.client import served_panel
+
+    directory = state_directory(address.state_dir)
+
+    def read() -> dict[str, Any] | None:
+        view = served_panel(directory, host, target.port, address.unit)
+        return view if isinstance(view, dict) else None
+
+    return read
 
 
 def cable_setup_slaves(master: Master, image: ProgramImage) -> None:

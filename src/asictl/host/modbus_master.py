@@ -8,7 +8,9 @@ EEPROM, as the PC2 reports them, and the rest reported as not available.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+from typing import Any
 
 from asictl.host.commissioning import Commissioning, ModbusCommissioning
 from asictl.host.master import JSON, emulated_board
@@ -16,6 +18,7 @@ from asictl.host.status import (
     MasterStatus,
     derived_control_state,
     gateway_panel,
+    panel_fields,
     program_info,
     slave_data,
     slave_fields,
@@ -41,6 +44,9 @@ class ModbusMaster:
     gateway's board has them through its PC2 port, ``--port``)."""
 
     transport: ModbusTransport
+    #: the front panel of the gateway, where asictl serves it here (``served_panel``):
+    #: the display is then the panel's own, else worked out from the registers
+    panel: Callable[[], dict[str, Any] | None] | None = None
 
     driver = None
     action = None
@@ -55,7 +61,9 @@ class ModbusMaster:
         return control_summary(self.transport)
 
     def status(self) -> MasterStatus:
-        return read_status(self.transport)
+        status = read_status(self.transport)
+        view = self.panel() if self.panel is not None else None
+        return status if view is None else replace(status, **panel_fields(view))
 
     def tools(self) -> Commissioning:
         return ModbusCommissioning(self.transport)

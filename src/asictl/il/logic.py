@@ -1,4 +1,4 @@
-"""Mistakes in a program's logic that compile and run (W711-W717).
+"""Mistakes in a program's logic that compile and run (W711-W718).
 
 Each check answers one question a commissioning engineer would otherwise answer with
 the PLC running: does a second '=' overwrite the first one in the same cycle, is a timer
@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 from asictl.codes import AnalysisCode
 from asictl.diagnostics import Related, Reporter, Span
 from asictl.il import ast
+from asictl.il.answers import answers_read_early
 from asictl.il.ast import key
 from asictl.il.flow import Flow, flow_of
 from asictl.il.language import BUILTIN_TC, COUNTER_FLAG_BASE, MAPPED_COUNTERS
@@ -50,6 +51,7 @@ def check_logic(
         _assigned_twice(program, flows, report)
     for flow in flows.values():
         _unreachable(flow, report)
+    answers_read_early(program, flows, report)
     by_operand = index.by_operand()
     _unused_labels_and_blocks(program, index, by_operand, report)
     if index.has_assembly:

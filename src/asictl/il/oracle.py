@@ -18,6 +18,7 @@ from asictl.il.ast import key
 from asictl.il.language import COUNTER_FLAG_BASE, MAPPED_COUNTERS, PARAM_FLAG
 from asictl.il.language import TC_MAX_VALUE as TC_MAX
 from asictl.il.loader import Program
+from asictl.platform.master import flag_keeps
 from asictl.readers.units import timer_ticks
 from asictl.runtime.firmware import FirmwareServices
 from asictl.runtime.runner import CycleTimeout
@@ -90,6 +91,20 @@ def scope_of(module: ast.Module) -> Scope:
                 statements.append(statement)
     labels = {key(s.name): i for i, s in enumerate(statements) if isinstance(s, ast.Label)}
     return Scope(statements, labels, first_check)
+
+
+def runs_alone(program: Program) -> bool:
+    """No firmware block call, no PARAM, no ASM: the program's every cycle is decided by
+    its inputs alone, so a run without firmware services is a run of the master."""
+    for module in program.modules():
+        if module.has_assembly():
+            return False
+        for node in module.code():
+            if isinstance(node, ast.Param):
+                return False
+            if isinstance(node, ast.CallFB) and key(node.name) not in program.blocks:
+                return False
+    return True
 
 
 class Interpreter:
@@ -294,6 +309,7 @@ class Interpreter:
         match operand.kind:
             case K.F:
                 _set_bit(state.flags, address, bit, value)
+                state.flags[address] &= flag_keeps(address, self.map_counters)
             case K.I | K.I2 | K.Q:
                 _set_image_bit(self._image(operand.kind), address, bit, value)
             case K.VAR:
@@ -344,13 +360,15 @@ class Interpreter:
         n = operand.address
         match operand.kind:
             case K.FW:
-                state.flags[n] = value >> 8 & 0xFF
-                state.flags[n + 1] = value & 0xFF
+                state.flags[n] = value >> 8 & flag_keeps(n, self.map_counters)
+                state.flags[n + 1] = value & flag_keeps(n + 1, self.map_counters)
             case K.T:
                 state.timers[n] = min(value, TC_MAX)
             case K.C:
                 self._set_counter(n, min(value, TC_MAX))
-            case K.IB | K.I2B | K.QB | K.FY | K.PSEG | K.VAR:
+            case K.FY:
+                state.flags[n] = value & flag_keeps(n, self.map_counters)
+            case K.IB | K.I2B | K.QB | K.PSEG | K.VAR:
                 buffer, index = self._byte_location(operand)
                 buffer[index] = value & 0xFF
             case K.I | K.I2 | K.Q | K.F | K.KT | K.KC | K.KB | K.KW | K.KP:

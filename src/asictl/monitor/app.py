@@ -69,7 +69,7 @@ from asictl.monitor.program import heading, render_rows
 from asictl.monitor.source import MonitorSource, Snapshot, toggle_start
 from asictl.observe.online import CycleLines
 from asictl.observe.operands import Assignment, Operand, parse_assignment, parse_operand
-from asictl.platform.display import LEDS, Display
+from asictl.platform.display import DIGITS, LEDS, Display
 from asictl.platform.master import IO_CODE_BITS, SLAVES
 from asictl.platform.pc2 import HiFlag
 
@@ -846,10 +846,12 @@ def _top(
         "config ok" if s.config_ok else "CONFIGURATION ERROR",
         style="green" if s.config_ok else "bold red",
     )
-    text.append(f"   control program {s.control_state}")
-    stopped = stop_text(s)
-    if stopped:
-        text.append(f" ({stopped})", style="yellow")
+    if s.held:  # a debugger holds the master still
+        text.append(f"   control program {s.held}", style="bold yellow")
+    else:
+        text.append(f"   control program {s.control_state}")
+        if stopped := stop_text(s):
+            text.append(f" ({stopped})", style="yellow")
     if s.forced:  # the FORCE lamp
         text.append("   ")
         text.append(f" FORCE {len(s.forced)} ", style="bold white on magenta")
@@ -945,7 +947,7 @@ def _panel(status: MasterStatus) -> Text:
     source = "gateway panel" if status.panel == "gateway" else "gateway (from its flags)"
     display = status.display
     text.append(f"{source}  ", style="bold")
-    text.append(f" {display.text or '  '} ", style="reverse blink" if display.blinking
+    text.append(f" {display.text or ' ' * DIGITS} ", style="reverse blink" if display.blinking
                 else "reverse")
     text.append(f"  {display.meaning}" + (", blinking" if display.blinking else ""))
     if status.keys_locked:

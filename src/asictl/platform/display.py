@@ -1,5 +1,5 @@
-"""The gateway's front panel: its two-digit display and its seven LEDs (gateway manual,
-4.2 and chapter 8).
+"""The gateway's front panel: its four-digit display and its seven LEDs (gateway manual,
+4.1 line 125, 4.2 and chapter 8).
 
 The codes and what they mean, the LEDs and the rule each follows, and the display a
 master's state alone gives (``display_code``): the emulated gateway's panel
@@ -29,6 +29,8 @@ LEAVE_REFUSED = 80
 ADDRESS_ERROR = 81
 KEYS_LOCKED = 82
 PROGRAM_COPY = 83
+#: The display test at power-up: every segment and every LED lit for about a second (222).
+SELF_TEST = 88
 NO_SLAVE_ZERO = 90
 TARGET_TAKEN = 91
 NOT_SET = 92
@@ -54,7 +56,7 @@ DISPLAY_TEXT = {
     KEYS_LOCKED: "the keys are locked: until the master restarts, only the host can "
     "operate it (Modbus register 1007)",
     PROGRAM_COPY: "the control program is being read from the EEPROM and copied into RAM",
-    88: "display test at the AS-i master's start-up",
+    SELF_TEST: "display test at the AS-i master's start-up",
     NO_SLAVE_ZERO: "error changing a slave address in protected mode: there is no slave "
     "with address 0",
     TARGET_TAKEN: "error changing a slave address: the target address is taken",
@@ -66,8 +68,11 @@ DISPLAY_TEXT = {
     SURPLUS_SLAVE: "error changing a slave address in protected mode: the configuration "
     "error is a surplus slave, not a missing one",
 }
-#: The codes only real hardware shows: its own faults and its segment test at power-on.
-HARDWARE_ONLY = frozenset({70, 72, 73, 74, 75, 76, 88})
+#: The codes only real hardware shows: its own faults.
+HARDWARE_ONLY = frozenset({70, 72, 73, 74, 75, 76})
+#: The display has four digits ("vierstellige Sieben-Segment-Anzeige", 4.1 line 125); the
+#: codes and addresses are two digits, in the right two, and the test lights all four.
+DIGITS = 4
 
 #: The LEDs, left to right as 4.2 lists them (lines 140-147), and their labels.
 LEDS = {
@@ -92,8 +97,13 @@ class Display:
 
     @property
     def text(self) -> str:
-        """The two digits as they light up ("07"), or "" when blank."""
-        return "" if self.code is None else f"{self.code:02d}"
+        """The four digits as they light up: "  07" (a code in the right two), "8888"
+        (the display test), or "" when blank."""
+        if self.code is None:
+            return ""
+        if self.code == SELF_TEST:
+            return "8" * DIGITS
+        return f"{self.code:02d}".rjust(DIGITS)
 
     def to_json(self) -> dict[str, Any]:
         return {
@@ -110,10 +120,11 @@ class Display:
         )
 
     def shown(self) -> str:
-        """One line: ``07 blinking (the target address ...)`` or ``blank``."""
+        """One line: ``07 blinking (the target address ...)`` or ``blank`` (the digits
+        lit, without the dark ones before them)."""
         if self.code is None:
             return "blank"
-        return f"{self.text}{' blinking' if self.blinking else ''} ({self.meaning})"
+        return f"{self.text.lstrip()}{' blinking' if self.blinking else ''} ({self.meaning})"
 
 
 def leds(ec_flags: int, *, ser_active: bool, power: bool = True) -> dict[str, bool]:

@@ -47,6 +47,14 @@ MAPPED_COUNTERS = 15
 #: always 0 (whatever the program or the host writes there).
 COUNTER_HIGH_FLAGS = range(COUNTER_FLAG_BASE + 1, COUNTER_FLAG_BASE + 2 * MAPPED_COUNTERS, 2)
 
+
+def flag_keeps(n: int, map_counters: bool) -> int:
+    """The bits of flag byte ``n`` that keep what is written to them: all eight, but only
+    bits 0-3 of a mapped counter's high byte, so a program that writes it and reads it
+    back in the same cycle reads what the counter holds (the compiled code, the
+    interpreter and the prover all mask with this)."""
+    return 0x0F if map_counters and n in COUNTER_HIGH_FLAGS else 0xFF
+
 #: The AS-i I/O codes by their data bits D0..D3 (I input, O output, B both, T tristate).
 IO_CODE_BITS = (
     "iiii", "iiio", "iiib", "iioo", "iibb", "iooo", "ibbb", "bbbb",

@@ -22,6 +22,11 @@ class FirmwareBlock:
     #: PSeg[0] names a slave the block sends to or reads from as a projected slave
     #: (parameters, commands): for a slave not in [SETUP] the call cannot do its job
     for_projected_slave: bool = False
+    #: the PSeg bytes that carry what a slave answered: the block sends on the AS-i cable,
+    #: which a real master does in its management phase (manual 3.4.6), so the answer may
+    #: not be there in the cycle that called it (W718); empty for the blocks that only
+    #: read or write the master's own memory
+    slave_answer: tuple[int, ...] = ()
 
 
 _BLOCKS = (
@@ -45,6 +50,7 @@ _BLOCKS = (
         "PSeg[0] slave address, PSeg[1] parameter",
         "PSeg[0] status, PSeg[1] the slave's response",
         for_projected_slave=True,
+        slave_answer=(0, 1),
     ),
     FirmwareBlock(
         "GetPI",
@@ -94,6 +100,7 @@ _BLOCKS = (
         "change a slave's address",
         "PSeg[0] old address, PSeg[1] new address",
         "PSeg[0] 00h success, 82h..87h failures",
+        slave_answer=(0,),
     ),
     FirmwareBlock(
         "AutoAddr",
@@ -107,6 +114,7 @@ _BLOCKS = (
         "PSeg[0] slave address, PSeg[1] 5-bit information part",
         "PSeg[0] status, PSeg[1] 4-bit response",
         for_projected_slave=True,
+        slave_answer=(0, 1),
     ),
     FirmwareBlock(
         "RdEeprom",

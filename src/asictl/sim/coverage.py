@@ -17,6 +17,7 @@ from collections import defaultdict
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path, PurePath
+from typing import Any
 from xml.etree import ElementTree
 
 from asictl import __version__
@@ -135,6 +136,24 @@ def to_json(coverage: Coverage) -> str:
     }
     report = {"format": "asictl-coverage", "version": 1, "totals": totals, "files": files}
     return json.dumps(report, indent=2) + "\n"
+
+
+def from_json(report: Mapping[str, Any]) -> Coverage:
+    """The coverage a json report (``to_json``) holds, its files named as the report
+    names them: what ``asictl report merge`` adds up over the shards of a run. The
+    totals are left out: they follow from the rest. Raises KeyError, TypeError or
+    ValueError for a document of another shape."""
+    coverage = Coverage()
+    for file, kinds in report["files"].items():
+        for row in kinds["lines"]:
+            coverage.lines[(str(file), int(row["line"]))] = int(row["hits"])
+        for row in kinds["branches"]:
+            coverage.branches[(str(file), int(row["line"]))] = [int(row["taken"]),
+                                                                int(row["not_taken"])]
+        for row in kinds["conditions"]:
+            key = (str(file), int(row["line"]), int(row["column"]), str(row["operand"]))
+            coverage.conditions[key] = [int(row["zero"]), int(row["one"])]
+    return coverage
 
 
 def to_lcov(coverage: Coverage) -> str:

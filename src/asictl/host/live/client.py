@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import contextlib
 import os
+import select
 import socket
 import stat
 import time
@@ -22,10 +23,11 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from asictl.errors import ExitCode, UserError
-from asictl.host.emulated.actions import SETTLE_MS, VIEWS
+from asictl.host.emulated.actions import NEXT_CYCLE, SETTLE_MS, VIEWS
 from asictl.host.emulated.boards import lock_file
 from asictl.host.emulated.locking import is_free
 from asictl.host.emulated.state_files import UnsafeStateFolder, check_folder
+from asictl.host.live.changes import Change
 from asictl.host.live.protocol import (
     JSON,
     LENGTH,
@@ -37,10 +39,14 @@ from asictl.host.live.protocol import (
     socket_path,
 )
 from asictl.host.transports.ports import port_name
-from asictl.platform.pc2 import PORT_DATA
+from asictl.platform.pc2 import IO_BASES, PORT_DATA
 
 #: How long a client waits for an answer (a session may wait longer: it is announced).
 ANSWER_TIMEOUT_S = 30.0
+#: A wait for the board this short is not announced: a monitor's refresh holds it for a
+#: few milliseconds at a time, and a command behind it should not say so. (Half of the
+#: shortest session time-out a test sets, 1 s, so a wait that long is still heard.)
+QUIET_WAIT_S = 0.5
 
 
 class LiveClient:
@@ -135,11 +141,12 @@ class LiveClient:
     @contextmanager
     def session(self, who: str, waiting: Callable[[str], None] | None = None) -> Iterator[None]:
         """The board to this client alone; ``waiting`` hears who has it meanwhile (and
-        how long the server lets a silent holder keep it)."""
+        how long the server lets a silent holder keep it), unless it is free again within
+        ``QUIET_WAIT_S``."""
         self._send({"op": "begin", "who": who})
         answer = self._receive()
         if isinstance(answer, dict) and "waiting" in answer:
-            if waiting is not None:
+            if waiting is not None and not self._answered_within(QUIET_WAIT_S):
                 limit = answer.get("idle_limit")
                 waiting(str(answer["waiting"]) + (
                     f" (a session silent for {limit:g} s is ended)"
@@ -152,6 +159,10 @@ class LiveClient:
         finally:
             with contextlib.suppress(UserError):
                 self.request({"op": "end"})
+
+    def _answered_within(self, seconds: float) -> bool:
+        readable, _, _ = select.select([self.sock], [], [], seconds)
+        return bool(readable)
 
     def io(self, ops: list[JSON]) -> list[list[int]]:
         """The reads of ``ops``, each as many bytes as it asked for."""
@@ -172,6 +183,16 @@ class LiveClient:
         if "result" not in answer:
             raise self._malformed("'result' missing")
         return answer["result"]
+
+    def changes(self, since: int | None) -> tuple[list[Change], int]:
+        """What clients changed on the board after the change numbered ``since`` (None:
+        nothing yet, from now on), and the number to ask from next time."""
+        answer = self.request({"op": "changes", "since": since})
+        rows, after = self._field(answer, "changes", list), self._field(answer, "next", int)
+        try:
+            return [Change.from_json(row) for row in rows], after
+        except (TypeError, ValueError):
+            raise self._malformed("'changes' is not a list of changes") from None
 
     def close(self) -> None:
         self.sock.close()
@@ -309,6 +330,46 @@ def refuse_if_served(directory: Path, base: int) -> None:
         )
 
 
+#: The names of this machine's own address: a gateway listening on one is found under any.
+_LOOPBACK = frozenset({"127.0.0.1", "localhost", "::1"})
+
+
+def served_panel(directory: Path, host: str, tcp_port: int, unit: int) -> JSON | None:
+    """The front panel of the gateway ``asictl gateway serve`` runs here for Modbus TCP
+    ``host:tcp_port`` and ``unit``, None if none does (a real gateway, another machine's).
+
+    What the display shows is partly the gateway's own knowledge (a message it latched
+    after a key press, the slave it found wrong first), held in no register; a status read
+    over Modbus takes the display from the panel itself where it can, so that it and
+    ``gateway panel`` read one display."""
+    for base in IO_BASES:
+        try:
+            client = open_live(directory, base)
+        except UserError:
+            continue
+        if client is None:
+            continue
+        try:
+            view = client.action("panel") if client.server.get("front_panel") else None
+        except UserError:
+            view = None
+        finally:
+            client.close()
+        if isinstance(view, dict) and view.get("unit") == unit and _same_address(
+            view.get("modbus_tcp"), host, tcp_port
+        ):
+            return view
+    return None
+
+
+def _same_address(listening: JSON, host: str, tcp_port: int) -> bool:
+    if not isinstance(listening, list) or len(listening) != 2:
+        return False
+    their_host, their_port = listening
+    same_host = their_host == host or {their_host, host} <= _LOOPBACK
+    return same_host and their_port == tcp_port
+
+
 def served_by(client: LiveClient) -> str:
     server = client.server
     return f"{server.get('command', 'a live board')} (pid {server.get('pid', '?')})"
@@ -317,8 +378,10 @@ def served_by(client: LiveClient) -> str:
 @dataclass(frozen=True)
 class LiveActions:
     """``EmulatedBoard`` for a live board, through its socket. It runs on by itself:
-    after a change the command waits as long as a board loaded from its state file would
-    run on (``SETTLE_MS``), so its report shows the effect too."""
+    after a change of the cable the command waits as long as a board loaded from its
+    state file would run on (``SETTLE_MS``), so its report shows the effect too; after
+    one the program sees in its next cycle (``NEXT_CYCLE``: inputs, forces) it goes on
+    at once, as the action's answer is its report."""
 
     client: LiveClient
 
@@ -328,7 +391,7 @@ class LiveActions:
 
     def run(self, name: str, args: dict[str, JSON]) -> JSON:
         result = self.client.action(name, **args)
-        if name not in VIEWS:
+        if name not in VIEWS | NEXT_CYCLE:
             self.settle()
         return result
 
