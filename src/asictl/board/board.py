@@ -250,6 +250,14 @@ class Pc2Board:
         counterexamples)."""
         return self._next_tick_us
 
+    def move_next_tick(self, at_us: int) -> None:
+        """The next 10 ms tick at ``at_us`` (within the next 10 ms), and every 10 ms after
+        it: the clock's phase, which runs on its own on a real master, as a scenario
+        that depends on it asks (``first_tick_ms``)."""
+        if not self._now_us < at_us <= self._now_us + TICK_US:
+            raise ValueError(f"the next tick is within 10 ms from now, not at {at_us} us")
+        self._next_tick_us = at_us
+
     @property
     def now_us(self) -> int:
         return self._now_us

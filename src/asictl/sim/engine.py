@@ -509,6 +509,9 @@ class Simulation:
             if not running:
                 return
             self._t0 = board.now_ms
+            first_tick = self.scenario.first_tick_ms
+            if first_tick is not None:  # the clock's phase the scenario was written for
+                board.move_next_tick(board.now_us + round(first_tick * 1000))
         if running != self.running:
             self.running = running
             if not running:
