@@ -39,10 +39,10 @@ from asictl.host.transports.target import (
     ModbusTarget,
     parse_target,
 )
-from asictl.image.eeprom import ProgramImage
 
 if TYPE_CHECKING:
     from asictl.host.live.client import LiveClient
+    from asictl.image.eeprom import ProgramImage
 
 #: Hears why a command waits, or what it found (``--port auto``).
 Notify = Callable[[str], None]

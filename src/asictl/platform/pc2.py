@@ -30,6 +30,11 @@ PAGE_SIZE = 0x100
 
 MASTER_NAME = 0x0B0
 MASTER_NAME_SIZE = 48
+#: How asictl's emulation names itself, and the one way a command tells it from a real
+#: master (host/overwrite_guard.py): the board's version string in the name field says
+#: it, the emulated gateway's Modbus function 17 answers it. Nothing else (an address,
+#: the entry table) counts, so a look-alike that does not say it is treated as real.
+EMULATION_MARK = "asictl emulation"
 INSTALLED_SOFTWARE = 0x0E0
 INSTALLED_SOFTWARE_SIZE = 16
 VERSION_ID = 0x0F0

@@ -48,7 +48,7 @@ from asictl.prove.symbolic import (
     operand_cells,
     product,
 )
-from asictl.readers.units import Cycles
+from asictl.readers.units import Cycles, format_duration
 
 # ---------------------------------------------------------------------- behaviour
 
@@ -72,6 +72,9 @@ class Equivalence:
     note: str = ""
     #: the construct that could not be modelled, when that made the verdict "unknown"
     refused: Unmodelled | None = None
+    #: for "different": the phase of the 10 ms clock the trace needs (us from time 0 to
+    #: the first tick; None: any)
+    phase_us: int | None = None
 
 
 _FLAGS = (ast.OperandKind.F, ast.OperandKind.FY, ast.OperandKind.FW)
@@ -140,8 +143,10 @@ def equivalent(
                            refused=exc)
     except TimeLimit:
         seconds = time.monotonic() - start
-        return Equivalence("unknown", 0, seconds, note=f"time limit ({timeout_s:g} s) while "
-                           f"building the model, {seconds:.1f} s since the start")
+        return Equivalence("unknown", 0, seconds,
+                           note=f"time limit ({format_duration(timeout_s * 1000)}) while "
+                           f"building the model, {format_duration(seconds * 1000)} since the "
+                           "start")
 
 
 def _program_of(side: Program | Build) -> Program | None:
@@ -175,7 +180,7 @@ def _equivalent(first: Program, second: Program, start: float, *, timeout_s: flo
         result = Equivalence("different", len(run.steps), time.monotonic() - start,
                              [Step(inputs, host) for inputs, host in run.steps],
                              slaves=bus, cycle_ms=cycle_us / 1000,
-                             host_masks=both.host_masks,
+                             host_masks=both.host_masks, phase_us=phase,
                              note="found on a random run of both programs")
         for (cell, _), values in run.differences.items():
             _tell(result, cell, *values)
@@ -202,7 +207,7 @@ def _equivalent(first: Program, second: Program, start: float, *, timeout_s: flo
     result = Equivalence(verdict, outcome.depth + 1 if outcome.trace else outcome.depth,
                          time.monotonic() - start, outcome.trace, slaves=bus,
                          cycle_ms=cycle_us / 1000, host_masks=both.host_masks,
-                         note=outcome.note)
+                         note=outcome.note, phase_us=outcome.phase_us)
     if outcome.verdict is Verdict.BOUNDED:
         result.note = f"no difference within {depth + 1} cycles, and no proof"
     for a, b in pairs:

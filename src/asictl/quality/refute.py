@@ -22,6 +22,8 @@ from dataclasses import dataclass
 
 from asictl.build import Build
 from asictl.il.oracle import runs_alone
+from asictl.observe.names import named_bits
+from asictl.observe.symbols import SymbolTable
 from asictl.platform.master import TICK_US, asi_cycle_us
 from asictl.runtime import layout
 from asictl.runtime.runner import CycleTimeout, ProgramRunner
@@ -39,15 +41,22 @@ LONGEST_HOLD_US = 45_000_000
 
 @dataclass(frozen=True)
 class Difference:
-    """Where two programs were seen to differ: the output byte, and when (ms of random
-    inputs)."""
+    """Where two programs were seen to differ: the output byte (slaves 2n and 2n+1), its
+    value in the original and in the other, and when (ms of random inputs)."""
 
     output: int
+    original: int
+    other: int
     at_ms: int
 
-    def __str__(self) -> str:
-        return (f"not equivalent: QB {2 * self.output} differs from the original's after "
-                f"{self.at_ms} ms of random inputs")
+    def describe(self, symbols: SymbolTable) -> str:
+        """``not equivalent: Q 3.1 (PumpB) differs from the original's after 4986 ms of
+        random inputs``: the bits that differ, named by the program's symbol table."""
+        bits = named_bits(f"QB {2 * self.output}", self.original, self.other, symbols)
+        shown = ", ".join(bit for bit, _, _ in bits)
+        verb = "differs" if len(bits) == 1 else "differ"
+        return (f"not equivalent: {shown} {verb} from the original's after {self.at_ms} ms "
+                "of random inputs")
 
 
 def find_difference(original: Build, mutant: Build, *, seed: int = 0,
@@ -91,7 +100,7 @@ def find_difference(original: Build, mutant: Build, *, seed: int = 0,
         ours, theirs = runners[0].outputs, runners[1].outputs
         if ours != theirs:
             byte = next(i for i in range(16) if ours[i] != theirs[i])
-            return Difference(byte, now // 1000)
+            return Difference(byte, ours[byte], theirs[byte], now // 1000)
         # the cycles before the next tick repeat this one if it changed nothing and no
         # input changes: they are not run
         repeats = 0

@@ -14,8 +14,8 @@ from __future__ import annotations
 import time
 from collections import deque
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
-from asictl.board.board import Pc2Board
 from asictl.board.forcing import Area
 from asictl.host.force_list import Entry, forced_values
 from asictl.host.live.protocol import JSON
@@ -31,6 +31,9 @@ from asictl.platform.pc2 import (
     READ_ONLY_COMMANDS,
     Command,
 )
+
+if TYPE_CHECKING:
+    from asictl.board.board import Pc2Board
 
 #: Changes kept for clients that ask late (a monitor asks every refresh).
 KEPT = 200

@@ -23,7 +23,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from asictl.errors import ExitCode, UserError
-from asictl.host.emulated.actions import SETTLE_MS, VIEWS
+from asictl.host.emulated.actions import NEXT_CYCLE, SETTLE_MS, VIEWS
 from asictl.host.emulated.boards import lock_file
 from asictl.host.emulated.locking import is_free
 from asictl.host.emulated.state_files import UnsafeStateFolder, check_folder
@@ -378,8 +378,10 @@ def served_by(client: LiveClient) -> str:
 @dataclass(frozen=True)
 class LiveActions:
     """``EmulatedBoard`` for a live board, through its socket. It runs on by itself:
-    after a change the command waits as long as a board loaded from its state file would
-    run on (``SETTLE_MS``), so its report shows the effect too."""
+    after a change of the cable the command waits as long as a board loaded from its
+    state file would run on (``SETTLE_MS``), so its report shows the effect too; after
+    one the program sees in its next cycle (``NEXT_CYCLE``: inputs, forces) it goes on
+    at once, as the action's answer is its report."""
 
     client: LiveClient
 
@@ -389,7 +391,7 @@ class LiveActions:
 
     def run(self, name: str, args: dict[str, JSON]) -> JSON:
         result = self.client.action(name, **args)
-        if name not in VIEWS:
+        if name not in VIEWS | NEXT_CYCLE:
             self.settle()
         return result
 

@@ -28,15 +28,19 @@ checks each connecting process's user.
 
 from __future__ import annotations
 
-import asyncio
 import json
 import socket
 import struct
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from asictl.errors import ExitCode, UserError
 from asictl.host.transports.ports import port_name
+
+if TYPE_CHECKING:
+    # Only the servers' side reads from asyncio streams: a command's client does
+    # without asyncio (and the ssl module it loads).
+    import asyncio
 
 #: The largest answer a client accepts (the ``lines`` action's answer is the largest).
 MAX_MESSAGE = 1 << 20
@@ -108,5 +112,5 @@ async def read_message(
         if length > limit:
             return None
         return decode(await reader.readexactly(length))
-    except (asyncio.IncompleteReadError, ConnectionError, ValueError):
+    except (EOFError, ConnectionError, ValueError):  # EOFError: asyncio.IncompleteReadError
         return None

@@ -52,6 +52,12 @@ from asictl.host.live.board import LiveBoard
 from asictl.host.live.client import refuse_if_served
 from asictl.host.live.guard import WATCH_S, Identity, StatePlace
 from asictl.host.live.guard import identity as file_identity
+from asictl.host.live.limits import (
+    DEFAULT_ADMIT_WAIT_S,
+    DEFAULT_IDLE_TIMEOUT_S,
+    DEFAULT_MAX_CONNECTIONS,
+    DEFAULT_SESSION_TIMEOUT_S,
+)
 from asictl.host.live.protocol import (
     JSON,
     MAX_REQUEST,
@@ -66,15 +72,6 @@ from asictl.host.transports.ports import port_name
 
 #: How often master time catches up with the wall clock while nobody asks.
 PACING_S = 0.01
-#: Connections served at once by default (each command is one; a monitor is one).
-DEFAULT_MAX_CONNECTIONS = 32
-#: Seconds a session may go without a request by default before it is ended.
-DEFAULT_SESSION_TIMEOUT_S = 10.0
-#: Seconds a connection may go without a request by default before it is closed.
-DEFAULT_IDLE_TIMEOUT_S = 60.0
-#: Seconds a connection beyond the limit waits for a slot by default before it is told
-#: the board is busy (a command takes a fraction of a second: the wait is for a turn).
-DEFAULT_ADMIT_WAIT_S = 10.0
 #: Connections that may wait for a slot, per slot; one more hears "busy" at once.
 WAITING_PER_SLOT = 4
 #: A connection silent this long (and holding no session) makes way for one waiting.
