@@ -12,6 +12,7 @@ from il_strategies import ModelFirmware
 from asictl.codegen8051.compiler import compile_program
 from asictl.il.loader import load_program
 from asictl.il.oracle import Interpreter
+from asictl.platform.master import flag_keeps
 from asictl.runtime.program_map import LoadedProgram
 from asictl.runtime.runner import ProgramRunner
 from asictl.source import from_string
@@ -54,3 +55,24 @@ def test_a_read_back_of_a_mapped_counter_byte_is_the_same_compiled_and_interpret
     assert bytes(runner.flag(n) for n in range(128)) == bytes(interp.state.flags)
     for n in range(97, 127, 2):
         assert interp.state.flags[n] & 0xF0 == 0, f"FY {n} holds upper bits"
+
+
+def test_a_bit_write_keeps_the_count_the_host_wrote_into_the_high_byte() -> None:
+    """The differential test's shortest disagreement: the host writes 99h to FY 119
+    (counter 11's high byte), the program clears F 119.0. The board stores only 09h
+    (Pc2Board.io_write; scenario mapped_counter_bytes), so both sides start from it and
+    end with 08h: the bit write keeps the host's other count bits and adds no upper ones."""
+    program = _program("A I 0.0\n= F 119.0\n")
+    interp = Interpreter(program, firmware=ModelFirmware())
+    compiled = compile_program(program)
+    runner = ProgramRunner(
+        LoadedProgram(compiled.code, compiled.pmap, compiled.entry_points),
+        firmware=ModelFirmware(),
+    )
+    stored = 0x99 & flag_keeps(119, map_counters=True)
+    interp.state.flags[119] = stored
+    runner.write(compiled.pmap.flag(119), stored)
+    interp.cycle(bytes(16))
+    runner.cycle(bytes(16))
+    assert interp.state.flags[119] == runner.flag(119) == 0x08
+    assert interp.state.flags == bytearray(runner.flag(n) for n in range(128))
