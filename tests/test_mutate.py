@@ -302,14 +302,14 @@ def test_a_survivor_seen_to_differ_on_random_inputs_is_not_given_to_the_prover(
 ):
     """The timer constants one step off survive the scenario; random inputs show them
     different (so the prover is not asked, a test of its own below agrees), and the
-    report says where they differ."""
+    report says where they differ: in the timer's remaining time, from its start."""
     _delay_project(tmp_path, monkeypatch)
     code, output = _mutate(".", "--format", "json")
     assert code == 0, output
     by_change = {m["change"]: m for m in json.loads(output)["mutants"]}
     for change in ("L KT 300 -> L KT 290", "L KT 300 -> L KT 310"):
         assert by_change[change]["verdict"] == "survived"
-        assert by_change[change]["detail"].startswith("not equivalent: QB 2 differs")
+        assert by_change[change]["detail"].startswith("not equivalent: T 1 differs")
         assert by_change[change]["seconds"] < mutation.PROVE_SECONDS  # no proof was tried
 
 
@@ -319,6 +319,7 @@ def test_what_the_random_search_calls_different_the_prover_does_not_call_equival
     pytest.importorskip("z3")
     from asictl.build import build_file
     from asictl.prove import equivalent
+    from asictl.prove.diff import readable
     from asictl.quality.refute import find_difference
 
     root = Path(__file__).resolve().parent.parent
@@ -334,7 +335,9 @@ def test_what_the_random_search_calls_different_the_prover_does_not_call_equival
             difference = find_difference(original, built)
             if difference is None or difference.at_ms > 6:  # within the prover's depth
                 continue
-            answer = equivalent(original, built, timeout_s=20.0)
+            # what mutation testing compares: outputs, flags, timers and counters
+            observe = readable(original.program, built.program)
+            answer = equivalent(original, built, timeout_s=20.0, observe=observe)
             assert answer.verdict == "different", (name, mutant.change, answer)
             checked += 1
     assert checked >= 10
