@@ -174,7 +174,7 @@ def mutate(paths: tuple[Path, ...], jobs: int | None, fmt: str, min_score: float
         click.echo(_summary(results))
         if cache is not None:
             click.echo(f"note: {report['from_cache']} of {len(results)} verdicts from the cache "
-                       f"({_shown(str(cache.directory))})")
+                       f"({cache.directory})")
         if not checked and any(r.verdict == "survived" for r in results):
             click.echo(f"note: {PROVE_HINT}")
     for problem in cache.problems if cache is not None else ():
