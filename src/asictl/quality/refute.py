@@ -19,8 +19,13 @@ off thus shows in the cycle its timer starts, not only when it runs out after an
 of a scenario's time. Any such difference makes the two programs different by the
 prover's own definition (the same on all of it after every cycle, for every input
 sequence and every phase of the clock), so the proof is not tried: the verdict is the
-same, only sooner. Programs whose code depends on what this cannot give, the answers
-of firmware blocks and anything [ASSEMBLY] code may read, are left to the prover.
+same, only sooner.
+
+A firmware block (GetLAS, ...) answers every call of both programs with the same 16
+PSeg bytes, drawn once per run: the prover leaves each answer free, the same for both
+programs call for call, and one answer for every call is one of the answers it allows.
+Programs whose code depends on what this cannot give, PARAM's answer and its flag, and
+anything [ASSEMBLY] code may read, are left to the prover.
 """
 
 from __future__ import annotations
@@ -41,7 +46,8 @@ CYCLES = 20_000
 #: How much master time it covers at most, in microseconds: cycles that would repeat
 #: the last exactly (inputs held, no tick due, memory left as it was) are not run.
 MASTER_TIME_US = 300_000_000
-#: How long a search (both runs) may take, in seconds of wall time.
+#: How long each of the two runs may take, in seconds of this process's CPU time (not
+#: wall time: on a loaded machine the search finds what it finds on an idle one).
 SECONDS = 2.0
 #: The longest stretch an input is held, in microseconds (a timer runs out in 41 s).
 LONGEST_HOLD_US = 45_000_000
@@ -67,26 +73,34 @@ class Difference:
 
 
 def _searchable(program: Program) -> bool:
-    """No firmware block calls, no PARAM, no ASM: the code runs alone."""
+    """No PARAM, no ASM: the code runs alone (firmware blocks given fixed answers)."""
     for module in program.modules():
         if module.has_assembly():
             return False
-        for node in module.code():
-            if isinstance(node, ast.Param):
-                return False
-            if isinstance(node, ast.CallFB) and ast.key(node.name) not in program.blocks:
-                return False
+        if any(isinstance(node, ast.Param) for node in module.code()):
+            return False
     return True
+
+
+@dataclass(frozen=True)
+class _FixedAnswers:
+    """Firmware whose every block answers with the same PSeg bytes."""
+
+    answer: bytes
+
+    def call(self, name: str, pseg: bytearray) -> None:
+        pseg[:] = self.answer
 
 
 class _Pair:
     """The original's and the mutant's compiled code run side by side, from reset, with
     the master's clock at a given phase."""
 
-    def __init__(self, original: Build, mutant: Build, until_tick: int) -> None:
+    def __init__(self, original: Build, mutant: Build, rng: random.Random) -> None:
         assert original.image is not None and mutant.image is not None
-        self.runners = [ProgramRunner(original.image.loaded_program()),
-                        ProgramRunner(mutant.image.loaded_program())]
+        firmware = _FixedAnswers(rng.randbytes(16))
+        self.runners = [ProgramRunner(original.image.loaded_program(), firmware=firmware),
+                        ProgramRunner(mutant.image.loaded_program(), firmware=firmware)]
         first, second = (runner.pmap for runner in self.runners)
         #: (name, address in the original's XDATA, in the mutant's, bytes)
         self.cells = [(f"T {n}", first.timers[n], second.timers[n], 2)
@@ -96,7 +110,7 @@ class _Pair:
         self.cells += [(v.name, v.address, second.variables[k].address, v.size)
                        for k, v in sorted(first.variables.items())
                        if k in second.variables and second.variables[k].size == v.size]
-        self.until_tick = until_tick
+        self.until_tick = rng.randint(1, TICK_US)  # from the first cycle's start: the phase
         self.now = 0
 
     def cycle(self, inputs: bytearray) -> str | None:
@@ -136,20 +150,19 @@ class _Pair:
 def find_difference(original: Build, mutant: Build, *, seed: int = 0,
                     budget_s: float = SECONDS) -> Difference | None:
     """The first cycle after which the two builds differ in what the prover compares, on
-    the random run or else the counting one; None when neither showed one within the
-    budget (or the programs cannot be searched so). The budget is wall time: a large
-    program's cycles cost more, and what the search does not find the prover may still;
-    either way no verdict changes, only how soon."""
+    the random run or else the counting one; None when neither showed one within its
+    budget (or the programs cannot be searched so). The budget is CPU time, each run's
+    own: a large program's cycles cost more, and what the search does not find the
+    prover may still; either way no verdict changes, only how soon."""
     first, second = original.source_program(), mutant.source_program()
     if first is None or second is None or original.image is None or mutant.image is None \
             or not (_searchable(first) and _searchable(second)):
         return None
     bus = sorted({s.address for program in (first, second) for s in program.slaves})
-    deadline = time.monotonic() + budget_s
     rng = random.Random(seed)
     try:
-        return _random_run(original, mutant, bus, rng, deadline) or \
-            _counting_run(original, mutant, bus, rng, deadline)
+        return _random_run(original, mutant, bus, rng, time.process_time() + budget_s) or \
+            _counting_run(original, mutant, bus, rng, time.process_time() + budget_s)
     except CycleTimeout:  # a loop the master would end: the prover's to judge
         return None
 
@@ -158,12 +171,12 @@ def _random_run(original: Build, mutant: Build, bus: list[int], rng: random.Rand
                 deadline: float) -> Difference | None:
     """Inputs drawn at random, each slave's held for a random stretch."""
     cycle_us = asi_cycle_us(len(bus))
-    pair = _Pair(original, mutant, rng.randint(1, TICK_US))  # the clock's phase
+    pair = _Pair(original, mutant, rng)
     inputs = bytearray(16)
     held = dict.fromkeys(bus, 0)  # how many more cycles each slave's inputs stay
     cycle = 0
     while cycle < CYCLES and pair.now < MASTER_TIME_US:
-        if cycle % 256 == 255 and time.monotonic() > deadline:
+        if cycle % 256 == 255 and time.process_time() > deadline:
             return None
         for address in bus:
             if held[address] <= 0:
@@ -195,10 +208,10 @@ def _counting_run(original: Build, mutant: Build, bus: list[int], rng: random.Ra
     cycle_us = asi_cycle_us(len(bus))
     for address in bus:
         for bit in range(4):
-            pair = _Pair(original, mutant, rng.randint(1, TICK_US))
+            pair = _Pair(original, mutant, rng)
             inputs = bytearray(16)
             for cycle in range(TOGGLE_CYCLES):
-                if cycle % 256 == 255 and time.monotonic() > deadline:
+                if cycle % 256 == 255 and time.process_time() > deadline:
                     return None
                 _set_nibble(inputs, address, (cycle & 1) << bit)
                 what = pair.cycle(inputs)
