@@ -46,6 +46,10 @@ def main() -> None:
           f"{wall:.1f} s wall, {cpu:.1f} s CPU (bar: under 60 s wall)")
     print("verdicts: " + ", ".join(f"{n} {v}" for v, n in sorted(verdicts.items())))
     print(f"score {report['score']}% ({report['killed']}/{report['counted']})")
+    undecided = [m for m in report["mutants"] if m["verdict"] == "survived"
+                 and m["detail"] in ("", "the proof of equivalence ran out of time")]
+    print(f"survivors the prover was asked about and could not decide: {len(undecided)} "
+          f"({sum(m['seconds'] for m in undecided):.1f} s)")
     print("slowest programs (seconds of all their mutants):")
     for file, seconds in sorted(by_file.items(), key=lambda item: -item[1])[:5]:
         print(f"  {file}: {seconds:.1f} s")

@@ -1,5 +1,7 @@
 """asictl mutate: a weak suite leaves the mutant on the branch it never takes alive, the
-missing scenario kills it, and the score and its bar; each operator on the AST."""
+missing scenario kills it, and the score and its bar; each operator on the AST; the
+cache of verdicts (a second run reports what a fresh one does, a change to one program
+or scenario runs only that program's mutants again, a damaged cache file is ignored)."""
 
 from __future__ import annotations
 
@@ -18,6 +20,7 @@ from asictl.cli import main
 from asictl.diagnostics import DiagnosticError
 from asictl.il import ast
 from asictl.il.parser import parse_text
+from asictl.quality.cache import Cache, default_directory
 from asictl.quality.mutate import mutations
 
 PROGRAM = """\
@@ -414,3 +417,192 @@ def test_a_worker_that_dies_once_is_run_again(
 
 def _verdicts(report: dict[str, Any]) -> list[tuple[int, str, str]]:
     return [(m["line"], m["change"], m["verdict"]) for m in report["mutants"]]
+
+
+# ---------------------------------------------------------------------- the cache
+
+LAMP = """\
+[SETUP]
+1: iiii, 0
+2: oooo, 0
+
+[PROGRAM]
+        A   I 1.0
+        AN  I 1.1
+        =   Q 2.0
+        BE
+"""
+
+LAMP_SCENARIO = """\
+[master]
+cycle_ms = 5
+[[step]]
+at_ms = 0
+set = { "I 1.0" = 1 }
+[[step]]
+at_ms = 20
+expect = { "Q 2.0" = 1 }
+set = { "I 1.1" = 1 }
+[[step]]
+at_ms = 40
+expect = { "Q 2.0" = 0 }
+"""
+
+
+@pytest.fixture
+def two_programs(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
+    """src/ with two programs and their scenarios (for the cache: quality/cache.py)."""
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(mutation, "prove_available", lambda: False)  # forks inherit it
+    for name, text in (("machine.asi", PROGRAM), ("machine.scenario.toml", WEAK),
+                       ("lamp.asi", LAMP), ("lamp.scenario.toml", LAMP_SCENARIO)):
+        (tmp_path / "src" / name).parent.mkdir(exist_ok=True)
+        (tmp_path / "src" / name).write_text(text)
+    return tmp_path
+
+
+def _cached_run(*args: str) -> dict[str, Any]:
+    result = CliRunner().invoke(main, ["mutate", "src", "-j", "2", "--format", "json", *args])
+    assert result.exit_code == 0, result.output
+    report: dict[str, Any] = json.loads(result.stdout)
+    return report
+
+
+def _timeless(report: dict[str, Any]) -> list[dict[str, Any]]:
+    """The report's rows without what may differ between a fresh and a cached run."""
+    return [{k: v for k, v in row.items() if k not in ("seconds", "cached")}
+            for row in report["mutants"]]
+
+
+def _judged(report: dict[str, Any], file: str) -> list[dict[str, Any]]:
+    """The rows of one program's mutants that a run judges (not 'no scenario runs')."""
+    return [row for row in report["mutants"] if row["file"] == file
+            and row["detail"] != "no scenario runs this line"]
+
+
+def test_a_second_run_takes_every_verdict_from_the_cache_and_reports_the_same(
+        two_programs: Path):
+    cache = two_programs / "cache"
+    fresh = _cached_run("--cache", str(cache))
+    assert fresh["from_cache"] == 0
+    again = _cached_run("--cache", str(cache))
+    judged = _judged(again, "src/lamp.asi") + _judged(again, "src/machine.asi")
+    assert judged and all(row["cached"] for row in judged)
+    assert again["from_cache"] == len(judged)
+    assert _timeless(again) == _timeless(fresh)
+    assert {k: v for k, v in again.items() if k not in ("mutants", "from_cache")} == \
+        {k: v for k, v in fresh.items() if k not in ("mutants", "from_cache")}
+    assert _timeless(_cached_run("--no-cache")) == _timeless(fresh)
+
+
+def test_a_changed_program_runs_only_its_own_mutants_again(two_programs: Path):
+    cache = two_programs / "cache"
+    _cached_run("--cache", str(cache))
+    lamp = two_programs / "src" / "lamp.asi"
+    lamp.write_text(LAMP.replace("BE", "BE                  ; the lamp"))
+    again = _cached_run("--cache", str(cache))
+    assert not any(row["cached"] for row in _judged(again, "src/lamp.asi"))
+    machine = _judged(again, "src/machine.asi")
+    assert machine and all(row["cached"] for row in machine)
+    assert again["from_cache"] == len(machine)
+    # and the changed program's new verdicts are kept in turn
+    third = _cached_run("--cache", str(cache))
+    assert third["from_cache"] == len(machine) + len(_judged(third, "src/lamp.asi"))
+
+
+def test_a_changed_scenario_runs_its_program_s_mutants_again(two_programs: Path):
+    cache = two_programs / "cache"
+    fresh = _cached_run("--cache", str(cache))
+    scenario = two_programs / "src" / "machine.scenario.toml"
+    scenario.write_text(WEAK + """\
+[[step]]
+at_ms = 120
+set = { "I 1.2" = 1, "I 1.1" = 1 }
+[[step]]
+at_ms = 160
+expect = { "Q 2.1" = 0 }
+""")
+    again = _cached_run("--cache", str(cache))
+    assert not any(row["cached"] for row in _judged(again, "src/machine.asi"))
+    lamp = _judged(again, "src/lamp.asi")
+    assert lamp and all(row["cached"] for row in lamp)
+    # the new step presses stop: the mutant removing the jump to 'off' is killed now
+    before = {(r["line"], r["change"]): r["verdict"] for r in fresh["mutants"]}
+    after = {(r["line"], r["change"]): r["verdict"] for r in again["mutants"]}
+    assert before[(10, "JC = off -> removed")] == "survived"
+    assert after[(10, "JC = off -> removed")] == "killed"
+
+
+@pytest.mark.parametrize("damage", [
+    b"\x00\xff not json",
+    b'{"kind": "something else", "format": 1}',
+    b"[" * 100_000,
+    "flip",  # a verdict renamed to one asictl never writes
+    "extra",  # a row with a key of its own
+    "key",  # another program's key
+])
+def test_a_damaged_or_foreign_cache_file_is_ignored(two_programs: Path, damage: bytes | str):
+    cache = two_programs / "cache"
+    fresh = _cached_run("--cache", str(cache))
+    for file in cache.iterdir():
+        if isinstance(damage, bytes):
+            file.write_bytes(damage)
+            continue
+        document = json.loads(file.read_text())
+        if damage == "flip":
+            document["results"][0]["verdict"] = "killed-ish"
+        elif damage == "extra":
+            document["results"][0]["trust"] = "me"
+        else:
+            document["key"] = "0" * 64
+        file.write_text(json.dumps(document))
+    again = _cached_run("--cache", str(cache))
+    assert again["from_cache"] == 0
+    assert _timeless(again) == _timeless(fresh)
+    # and the file is written again, whole
+    assert _cached_run("--cache", str(cache))["from_cache"] > 0
+
+
+def test_no_cache_neither_reads_nor_writes(two_programs: Path):
+    cache = two_programs / "cache"
+    assert _cached_run("--no-cache")["from_cache"] == 0
+    assert not default_directory().exists()
+    _cached_run("--cache", str(cache))
+    assert _cached_run("--no-cache")["from_cache"] == 0
+    result = CliRunner().invoke(main, ["mutate", "src", "--cache", str(cache), "--no-cache"])
+    assert result.exit_code == 2
+    assert "--no-cache" in result.output and "Traceback" not in result.output
+
+
+def test_the_default_cache_is_under_xdg_cache_home(two_programs: Path,
+                                                     monkeypatch: pytest.MonkeyPatch):
+    monkeypatch.setenv("XDG_CACHE_HOME", str(two_programs / "xdg"))
+    assert _cached_run()["from_cache"] == 0
+    assert len(list((two_programs / "xdg" / "asictl" / "mutate").glob("*.json"))) == 2
+    assert _cached_run()["from_cache"] > 0
+    result = CliRunner().invoke(main, ["mutate", "src", "-j", "2"])
+    assert "verdicts from the cache" in result.output
+
+
+def test_a_cache_that_cannot_be_written_is_a_warning(two_programs: Path):
+    """The folder cannot be made (a file stands where it would go): the run is made and
+    reported all the same, with a warning; the exit status is the run's."""
+    (two_programs / "plain").write_text("a file, not a folder\n")
+    result = CliRunner().invoke(main, ["mutate", "src", "-j", "2",
+                                       "--cache", str(two_programs / "plain" / "cache")])
+    assert result.exit_code == 0, result.output
+    assert "warning:" in result.output and "results not kept" in result.output
+    assert "mutants:" in result.output
+
+
+def test_what_the_cache_never_keeps(tmp_path: Path):
+    """A mutant whose worker died, or whose judging failed inside asictl, is judged
+    again next time: neither says anything about the program."""
+    cache = Cache(tmp_path)
+    program = tmp_path / "p.asi"
+    cache.store(program, "k", [("a", "killed", "x.toml:3: failed"),
+                               ("b", "died", "its worker process was killed by SIGKILL"),
+                               ("c", "invalid", "internal error: KeyError: 3"),
+                               ("d", "survived", "")])
+    assert set(cache.load(program, "k")) == {"a", "d"}
+    assert cache.load(program, "another key") == {}
