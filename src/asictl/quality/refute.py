@@ -10,7 +10,8 @@ of that. Two runs are made. In the first the inputs are drawn at random and held
 random stretches (a timer needs its input held to run out). The second is for
 counters: one input bit at a time toggles every cycle, the others held off, long
 enough for a 12-bit counter to count through all its values (a bit of the count the
-random run never reaches, FY 97 of a mapped counter, shows only there).
+random run never reaches, FY 97 of a mapped counter, shows only there); it is made only
+for programs with a counter, and toggles only the input bits they read.
 
 What is compared after each cycle is what the prover's equivalence compares
 (prove/diff.py, ``readable``): the outputs, the flag bytes, and the remaining time of
@@ -162,7 +163,8 @@ def find_difference(original: Build, mutant: Build, *, seed: int = 0,
     rng = random.Random(seed)
     try:
         return _random_run(original, mutant, bus, rng, time.process_time() + budget_s) or \
-            _counting_run(original, mutant, bus, rng, time.process_time() + budget_s)
+            _counting_run(original, mutant, bus, _counted_inputs(first, second), rng,
+                          time.process_time() + budget_s)
     except CycleTimeout:  # a loop the master would end: the prover's to judge
         return None
 
@@ -201,23 +203,41 @@ def _random_run(original: Build, mutant: Build, bus: list[int], rng: random.Rand
     return None
 
 
-def _counting_run(original: Build, mutant: Build, bus: list[int], rng: random.Random,
+def _counted_inputs(*programs: Program) -> list[tuple[int, int]]:
+    """The input bits (slave, bit) these programs read, if one of them has a counter:
+    none otherwise (toggling an input finds nothing random inputs would not)."""
+    operands = [operand for program in programs for module in program.modules()
+                for section in module.sections for node in ast.nodes(section)
+                if isinstance(node, ast.Statement | ast.GatingLine)
+                for operand, _ in ast.operands(node)]
+    if not any(o.kind is ast.OperandKind.C for o in operands):
+        return []
+    bits: set[tuple[int, int]] = set()
+    for o in operands:
+        if o.kind in (ast.OperandKind.I, ast.OperandKind.I2) and o.bit >= 0:
+            bits.add((o.address, o.bit))
+        elif o.kind in (ast.OperandKind.IB, ast.OperandKind.I2B):
+            bits.update((2 * o.address + half, b) for half in (0, 1) for b in range(4))
+    return sorted(bits)
+
+
+def _counting_run(original: Build, mutant: Build, bus: list[int],
+                  inputs_read: list[tuple[int, int]], rng: random.Random,
                   deadline: float) -> Difference | None:
-    """Each input bit in turn toggling every cycle from reset, the others off: a counter
-    the bit counts runs through every count, up (or down from a preset)."""
+    """Each input bit read in turn toggling every cycle from reset, the others off: a
+    counter the bit counts runs through every count, up (or down from a preset)."""
     cycle_us = asi_cycle_us(len(bus))
-    for address in bus:
-        for bit in range(4):
-            pair = _Pair(original, mutant, rng)
-            inputs = bytearray(16)
-            for cycle in range(TOGGLE_CYCLES):
-                if cycle % 256 == 255 and time.process_time() > deadline:
-                    return None
-                _set_nibble(inputs, address, (cycle & 1) << bit)
-                what = pair.cycle(inputs)
-                if what is not None:
-                    return Difference(what, pair.now // 1000, (address, bit))
-                pair.advance(1, cycle_us)
+    for address, bit in inputs_read:
+        pair = _Pair(original, mutant, rng)
+        inputs = bytearray(16)
+        for cycle in range(TOGGLE_CYCLES):
+            if cycle % 256 == 255 and time.process_time() > deadline:
+                return None
+            _set_nibble(inputs, address, (cycle & 1) << bit)
+            what = pair.cycle(inputs)
+            if what is not None:
+                return Difference(what, pair.now // 1000, (address, bit))
+            pair.advance(1, cycle_us)
     return None
 
 
