@@ -22,6 +22,9 @@ answer (the OOM killer, a signal) runs its mutant once more; dying again, the mu
 ``died`` and counts as not killed, so a dead worker can never raise the score. The
 limit is on the scenarios; the proof of a mutant that passed them all has ``prove_s``
 of its own, and one out of time leaves the mutant a survivor.
+
+With a cache (quality/cache.py), a mutant whose program, scenarios, limits and asictl
+are those of a kept verdict is not run: its verdict is the kept one.
 """
 
 from __future__ import annotations
