@@ -9,6 +9,11 @@ it); the client side runs here, as the commands do:
 - refresh: ``MonitorSource.snapshot`` (what one monitor refresh reads) per second;
 - input to output: setting an input of the board's cable, then polling ``status`` until
   the program's output follows (the program ``Q 17.3 = I 4.0``), median;
+- one-shot commands: ``status``, ``bus inputs``, ``force`` and ``write`` each as a whole
+  process (the installed ``asictl`` script, start-up included), wall and CPU time
+  (user + system), medians of ``--runs``; first alone, then while a monitor (a process
+  reading ``MonitorSource.snapshot`` 4 times a second, as the monitor refreshes) and a
+  recorder (``asictl record``, which reads the board as often as it answers) are attached;
 - the program view: the server process's CPU time per second of wall time with no
   monitor, with a monitor refreshing its slave view 4 times a second, with its program
   view open (each refresh also asks for the latest cycle's lines, for which the board
@@ -24,7 +29,7 @@ it); the client side runs here, as the commands do:
 Usage:
 
     python3 benchmarks/bench_live.py [--runs 5] [--seconds 10] [--clients 200]
-        [--load-seconds 60] [--load-only]
+        [--load-seconds 60] [--load-only | --one-shot-only]
 """
 
 from __future__ import annotations
@@ -40,7 +45,7 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
-from bench_check import cpu_seconds
+from bench_check import console_script, cpu_seconds, timed_with_cpu
 from bench_compile import largest_fitting
 from live_load import mixed_load, report
 from live_load import serve as serve_gateway
@@ -111,6 +116,68 @@ def input_to_output(address: MasterAddress, runs: int) -> float:
                 break
         times.append(time.perf_counter() - started)
     return statistics.median(times)
+
+
+#: The one-shot commands timed as whole processes, against the served board running
+#: ``PROGRAM`` (slaves 4 and 17 on its cable).
+ONE_SHOT = (
+    ("status",),
+    ("bus", "inputs", "I 4.0=1"),
+    ("force", "F 10.0=1"),
+    ("write", "F 11.0=1"),
+)
+#: A monitor's reads: the status 4 times a second, each in a session of its own.
+MONITOR = """
+import sys, time
+from asictl.host.connection import MasterAddress
+from asictl.monitor.source import MonitorSource
+source = MonitorSource(MasterAddress(state_dir=sys.argv[1]))
+while True:
+    started = time.monotonic()
+    source.snapshot()
+    time.sleep(max(0.0, 0.25 - (time.monotonic() - started)))
+"""
+
+
+def one_shot(state: Path, runs: int) -> dict[str, tuple[float, float]]:
+    """Each of ``ONE_SHOT`` as a whole process: median wall and CPU seconds."""
+    asictl = console_script() or sys.exit("asictl is not installed (pip install -e .)")
+    return {
+        " ".join(command): timed_with_cpu([asictl, *command, "--state-dir", str(state)], runs)
+        for command in ONE_SHOT
+    }
+
+
+def attached(state: Path, tmp: Path) -> list[subprocess.Popen[bytes]]:
+    """A monitor and a recorder reading the served board, each a process of its own."""
+    monitor = subprocess.Popen([sys.executable, "-c", MONITOR, str(state)])
+    recorder = subprocess.Popen(
+        [sys.executable, "-m", "asictl", "record", "--duration", "1h", "--force",
+         "-o", str(tmp / "bench.scenario.toml"), "--state-dir", str(state)],
+        stderr=subprocess.DEVNULL,
+    )
+    time.sleep(2.0)  # both started and reading
+    for process in (monitor, recorder):
+        if process.poll() is not None:
+            sys.exit(f"{process.args!r} ended ({process.returncode})")
+    return [monitor, recorder]
+
+
+def one_shots(state: Path, tmp: Path, runs: int) -> None:
+    alone = one_shot(state, runs)
+    processes = attached(state, tmp)
+    try:
+        busy = one_shot(state, runs)
+    finally:
+        for process in processes:
+            process.send_signal(signal.SIGTERM)
+            process.wait(timeout=20)
+    print(f"one-shot commands, whole process (medians of {runs}; wall / CPU, alone and "
+          "with a monitor and a recorder attached):")
+    for name, (wall, cpu) in alone.items():
+        busy_wall, busy_cpu = busy[name]
+        print(f"  asictl {name:<22} {wall:.3f} s / {cpu:.3f} s   "
+              f"attached {busy_wall:.3f} s / {busy_cpu:.3f} s")
 
 
 BUSY = """[SETUP]
@@ -196,6 +263,8 @@ def main() -> None:
     parser.add_argument("--clients", type=int, default=200, help="clients of the mixed load")
     parser.add_argument("--load-seconds", type=float, default=60.0)
     parser.add_argument("--load-only", action="store_true", help="only the mixed load")
+    parser.add_argument("--one-shot-only", action="store_true",
+                        help="only the one-shot commands")
     args = parser.parse_args()
     if args.load_only:
         load(args.clients, args.load_seconds)
@@ -205,12 +274,17 @@ def main() -> None:
         process = serve(state)
         try:
             address = MasterAddress(state_dir=state)
+            if args.one_shot_only:
+                input_to_output(address, 1)  # the program, and its slaves on the cable
+                one_shots(state, Path(tmp), args.runs)
+                return
             seconds, size = time_download(address, args.runs)
             print(f"download of {size} bytes to a served board: {seconds:.2f} s (median)")
             rate = refresh_rate(address, 3.0)
             print(f"monitor refresh (status without the image): {rate:.0f} per second")
             latency = input_to_output(address, args.runs)
             print(f"input set -> output seen in status: {latency * 1000:.0f} ms (median)")
+            one_shots(state, Path(tmp), args.runs)
             program_view(address, process.pid, args.seconds)
         finally:
             process.send_signal(signal.SIGTERM)

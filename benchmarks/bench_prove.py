@@ -1,5 +1,12 @@
-"""How long ``asictl prove`` takes: every demo's properties file, and a 500-line program
-with 20 properties.
+"""How long ``asictl prove`` takes: every demo's properties file, properties behind
+timers, and a 500-line program with 20 properties.
+
+The timer cases are an on-delay (the input on for the preset turns the output on) at
+10 ms cycles: a response within 600 ms behind a 500 ms delay (proved by the facts that
+tie a waiting trigger to its timer), one within 490 ms (refuted at cycle 50), and
+counterexamples behind a 20 s and a 40 s delay (2,000 and 4,000 cycles, found with steps
+of idle cycles); and the 1 h timer demo (100 runs of a 36 s timer counted by a counter,
+1 s cycles) with a property the end of the hour breaks.
 
 The large program has 25 reversing-motor units (two directions, each latched against
 the other, a common stop, a 2 s on-delay before the motor runs in five of them) in
@@ -7,7 +14,7 @@ about 500 lines; its 20 properties are the units' mutual exclusions, their stops
 five timer responses. Each file is decided by the same call as ``asictl prove``, with
 counterexamples written to a temporary folder. Usage:
 
-    python3 benchmarks/bench_prove.py [--demos-only] [--timeout 60]
+    python3 benchmarks/bench_prove.py [--demos-only | --timers-only] [--timeout 60]
 """
 
 from __future__ import annotations
@@ -70,27 +77,70 @@ def large_program() -> tuple[str, str]:
     return "\n".join(lines) + "\n", "\n".join(props) + "\n"
 
 
-def run(props: Path, timeout: float) -> tuple[float, float, str]:
+#: The on-delay demo (Q 2.0 when I 1.0 has been on for the preset), its preset a field.
+ONDELAY = (DEMOS / "ondelay.asi").read_text().replace("KT 2000", "KT {preset}")
+
+
+def _response(ms: int) -> str:
+    return (f'[[property]]\nname = "on within {ms} ms"\nwhen = "I 1.0"\n'
+            f'then = "Q 2.0 or not I 1.0"\nwithin = "{ms}ms"\n')
+
+
+NEVER_ON = '[[property]]\nname = "never on"\nnever = "Q 2.0"\n'
+#: name, program, cycle_ms, properties, depth (cycles)
+TIMED_CASES = [
+    ("600 ms response, 500 ms delay", ONDELAY.format(preset=500), 10, _response(600), 20),
+    ("490 ms response, 500 ms delay", ONDELAY.format(preset=500), 10, _response(490), 20),
+    ("behind a 20 s delay", ONDELAY.format(preset=20000), 10, NEVER_ON, 20),
+    ("behind a 40 s delay", ONDELAY.format(preset=40000), 10, NEVER_ON, 20),
+    # 100 runs, each a cycle that restarts the timer and counts and a stretch of idle
+    # cycles: 200 steps at least
+    ("behind the 1 h timer demo", (DEMOS / "1h_timer.asi").read_text(), 1000,
+     '[[property]]\nname = "the hour never ends"\nnever = "Q 2.1"\n', 250),
+]
+
+
+def run(props: Path, timeout: float, depth: int = 20) -> tuple[float, float, str]:
     """Wall-clock and CPU seconds (the machine is shared: the CPU time is what the
     prover itself took), and the verdicts."""
     with tempfile.TemporaryDirectory() as out:
         start, cpu = time.perf_counter(), time.process_time()
-        report = prove(props, out_dir=Path(out), timeout_s=timeout)
+        report = prove(props, out_dir=Path(out), timeout_s=timeout, depth=depth)
         seconds, cpu = time.perf_counter() - start, time.process_time() - cpu
     counts: dict[str, int] = {}
     for outcome in report.outcomes:
-        counts[outcome.verdict.value] = counts.get(outcome.verdict.value, 0) + 1
+        verdict = outcome.verdict.value
+        if outcome.trace is not None:
+            verdict += f" (cycle {len(outcome.trace)})"
+        counts[verdict] = counts.get(verdict, 0) + 1
     return seconds, cpu, ", ".join(f"{n} {v}" for v, n in counts.items())
+
+
+def timed(timeout: float) -> None:
+    """The properties behind timers, each file a property."""
+    for name, program, cycle_ms, properties, depth in TIMED_CASES:
+        with tempfile.TemporaryDirectory() as folder:
+            (Path(folder) / "p.asi").write_text(program)
+            props = Path(folder) / "p.props.toml"
+            props.write_text(f"[master]\ncycle_ms = {cycle_ms}\n{properties}")
+            seconds, cpu, verdicts = run(props, timeout, depth)
+        print(f"{name:28} {seconds:6.2f} s {cpu:6.2f} s  {verdicts}")
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--demos-only", action="store_true")
+    which = parser.add_mutually_exclusive_group()
+    which.add_argument("--demos-only", action="store_true")
+    which.add_argument("--timers-only", action="store_true")
     parser.add_argument("--timeout", type=float, default=60.0,
                         help="seconds for each property (wall clock: generous on a shared machine)")
     args = parser.parse_args()
     total = total_cpu = 0.0
     print(f"{'':28} {'wall':>8} {'CPU':>8}")
+    if not args.demos_only:
+        timed(args.timeout)
+    if args.timers_only:
+        return
     for props in sorted(DEMOS.glob("*.props.toml")):
         seconds, cpu, verdicts = run(props, args.timeout)
         total += seconds

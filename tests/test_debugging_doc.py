@@ -31,7 +31,7 @@ def _sessions() -> list[tuple[str, list[str]]]:
 
 
 def _normal(lines: list[str]) -> list[str]:
-    return [re.sub(r"in \d+\.\d+ s$", "in T s", line) for line in lines]
+    return [re.sub(r"in [\d.]+ (µs|ms|s)$", "in T", line) for line in lines]
 
 
 @pytest.mark.parametrize(("command", "shown"), _sessions(), ids=lambda x: str(x)[:40])

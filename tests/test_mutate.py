@@ -123,6 +123,15 @@ def test_text_report_and_min_score(project: Path):
     assert _mutate(".", "--min-score", "50")[0] == 0
 
 
+def test_a_killed_mutants_detail_names_the_operand_by_the_symbol_table(project: Path):
+    (project / "machine.symbols.toml").write_text('Forward = "Q 2.0"\n')
+    code, output = _mutate(".", "--format", "json")
+    assert code == 0, output
+    detail = {(m["line"], m["change"]): m["detail"]
+              for m in json.loads(output)["mutants"]}[(6, "A I 1.0 -> AN I 1.0")]
+    assert detail.endswith("Q 2.0 (Forward) expected 1, got 0"), detail
+
+
 def test_the_missing_scenario_kills_the_survivors(project: Path):
     (project / "stop.scenario.toml").write_text(STOP)
     code, output = _mutate(".", "--format", "json", "--min-score", "100")
@@ -148,6 +157,7 @@ def test_a_mutant_past_its_time_limit_is_a_timeout_and_counts_as_killed(
     report = json.loads(output)
     ran = [m for m in report["mutants"] if m["detail"] != "no scenario runs this line"]
     assert {m["verdict"] for m in ran} == {"timeout"}
+    assert {m["detail"] for m in ran} == {"still running after 500 ms"}  # not 0.5 s
     assert report["killed"] == len(ran) == len(report["mutants"]) - 2
 
 
@@ -305,14 +315,17 @@ def test_a_survivor_seen_to_differ_on_random_inputs_is_not_given_to_the_prover(
 ):
     """The timer constants one step off survive the scenario; random inputs show them
     different (so the prover is not asked, a test of its own below agrees), and the
-    report says where they differ: in the timer's remaining time, from its start."""
+    report says where they differ: in the timer's remaining time, from its start, the
+    timer named by the symbol table."""
     _delay_project(tmp_path, monkeypatch)
+    (tmp_path / "delay.symbols.toml").write_text('Lamp = "Q 2.0"\nStart = "I 1.0"\nDelay = "T 1"\n')
     code, output = _mutate(".", "--format", "json")
     assert code == 0, output
     by_change = {m["change"]: m for m in json.loads(output)["mutants"]}
     for change in ("L KT 300 -> L KT 290", "L KT 300 -> L KT 310"):
         assert by_change[change]["verdict"] == "survived"
-        assert by_change[change]["detail"].startswith("not equivalent: T 1 differs")
+        assert by_change[change]["detail"].startswith(
+            "not equivalent: T 1 (Delay) differs from the original's after ")
         assert by_change[change]["seconds"] < mutation.PROVE_SECONDS  # no proof was tried
 
 

@@ -66,6 +66,22 @@ def test_an_expectation_fails_as_a_scenario_line():
                         str(caught.value))
 
 
+def test_times_past_a_minute_read_as_people_read_them():
+    """``at 7.2e+06 ms`` once: a time from a minute on as hours and minutes, the exact
+    milliseconds beside it; a wait as a duration."""
+    plc = Plc.load(ONDELAY, cycle_ms=5)
+    plc.run("2h")
+    with pytest.raises(ExpectationFailed) as caught:
+        plc.expect("Q 2.0", 1)
+    assert re.fullmatch(r"test_testing\.py:\d+: at 2 h 0 min \(7200000 ms\): Q 2\.0 "
+                        r"expected 1, got 0", str(caught.value))
+    with pytest.raises(TimedOut) as waited:
+        plc.run_until("Q 2.0", timeout="24.8s")
+    assert re.match(r"test_testing\.py:\d+: at 2 h 0 min \(7224800 ms\): 'Q 2\.0' did not "
+                    r"hold within 24\.8 s \(from 2 h 0 min \(7200000 ms\)\)",
+                    str(waited.value)), str(waited.value)
+
+
 def test_on_cycle_is_called_after_every_program_cycle_with_the_elapsed_time():
     plc = Plc.load(ONDELAY, cycle_ms=5)
     calls: list[tuple[float, float]] = []

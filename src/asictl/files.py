@@ -63,6 +63,30 @@ def write_stdout(data: str | bytes) -> None:
         raise UserError(f"standard output: cannot write: {exc.strerror or exc}") from None
 
 
+def cache_directory() -> Path | None:
+    """asictl's own cache directory, ``$XDG_CACHE_HOME/asictl`` (else ``~/.cache/asictl``),
+    made owner-only when new; None where there is none to be had, or where it is not
+    this user's alone (owned by another, or writable by group or others).
+
+    Private, never the shared temporary directory: the caches in it are pickles, and
+    loading one planted by another user would run their code.
+    """
+    base = os.environ.get("XDG_CACHE_HOME", "")
+    if not os.path.isabs(base):
+        base = os.path.join(os.path.expanduser("~"), ".cache")
+    if not os.path.isabs(base):  # no home directory
+        return None
+    directory = Path(base, "asictl")
+    try:
+        directory.mkdir(mode=0o700, parents=True, exist_ok=True)
+        status = directory.stat()
+    except OSError:
+        return None
+    if status.st_uid != os.getuid() or status.st_mode & (stat.S_IWGRP | stat.S_IWOTH):
+        return None
+    return directory
+
+
 def real_path(path: str | Path) -> Path:
     """Where ``path`` leads, as far as it leads: a symbolic-link loop ends the walk there
     (``Path.resolve`` raises a RuntimeError on one), so that the write that follows

@@ -31,7 +31,7 @@ from asictl.il.ast import key
 from asictl.observe.condition import Condition, ConditionError, parse_condition
 from asictl.observe.operands import SETTABLE, Operand, check_value, parse_operand
 from asictl.observe.symbols import SymbolTable, load_symbols, symbols_for
-from asictl.readers.units import duration_ms
+from asictl.readers.units import duration_ms, format_duration, format_instant
 from asictl.sim.engine import Simulation, variables_of
 from asictl.sim.plant import Model, read_model
 from asictl.sim.scenario import MAX_TIME_MS, Scenario, parse_slave
@@ -188,7 +188,9 @@ class Plc:
 
     def operand(self, text: str) -> Operand:
         """The operand ``text`` names (an operand as in IL, ``CV n``, ``TV n``, or a
-        symbol); ``ValueError`` if none."""
+        symbol); ``ValueError`` if none, ``TypeError`` if ``text`` is no text."""
+        if not isinstance(text, str):
+            raise TypeError(f"an operand is a text such as 'I 1.0', not {_shown(text)}")
         return parse_operand(text, self._variables, self.symbols)
 
     def __getitem__(self, text: str) -> int:
@@ -230,7 +232,8 @@ class Plc:
         arguments) after every program cycle (every ``cycle_ms``; every millisecond with
         ``cycle_ms=None``), with the time since its previous call: a plant model in
         Python, which reads outputs (``plc["Q 2.0"]``) and sets inputs. What it sets is
-        seen by the next cycle. Returns ``fn`` (a decorator)."""
+        seen by the next cycle; it returns nothing (a value returned, a coroutine of an
+        ``async def``, would be lost: ``TypeError``). Returns ``fn`` (a decorator)."""
         self._open()
         given: Callable[..., object] = fn
         call = functools.partial(given, self) if _positional(given) >= 2 else given
@@ -276,8 +279,8 @@ class Plc:
         if self._advance(end, test):
             return self.time_ms
         trace = self._sim.trace_now().window(start, end)
-        message = (f"{_caller()}: at {self.time_ms:g} ms: '{condition}' did not hold within "
-                   f"{(end - start) / 1000:g} s (from {start:g} ms)")
+        message = (f"{_caller()}: at {format_instant(self.time_ms)}: '{condition}' did not "
+                   f"hold within {format_duration(end - start)} (from {format_instant(start)})")
         lanes = {lane.name for lane in self._sim.plant.lanes()}
         raise TimedOut("\n".join([message, *self.stops, *_last_rows(trace, test, lanes)]),
                        trace)
@@ -289,7 +292,7 @@ class Plc:
         wanted = _whole(value, text)
         got = self[text]
         if got != wanted:
-            lines = [f"{_caller()}: at {self.time_ms:g} ms: {text} expected {wanted}, "
+            lines = [f"{_caller()}: at {format_instant(self.time_ms)}: {text} expected {wanted}, "
                      f"got {got}", *self.stops]
             raise ExpectationFailed("\n".join(lines))
 
@@ -334,7 +337,7 @@ class Plc:
         try:
             for fn, last in list(self._callbacks):
                 elapsed, last[0] = now - last[0], now
-                fn(elapsed)
+                _returns_nothing(fn(elapsed), fn)
         finally:
             self._in_model = False
 
@@ -368,6 +371,24 @@ class Plc:
                 return True
 
 
+def _returns_nothing(returned: object, fn: Callable[..., object]) -> None:
+    """A plant model acts by setting inputs; what it returns would be dropped unseen
+    (the inputs of a model that returns them, the whole body of an ``async def``)."""
+    if returned is None:
+        return
+    if inspect.iscoroutine(returned):
+        returned.close()  # never to run: no "never awaited" warning on top
+    name = getattr(fn, "__name__", None) or getattr(getattr(fn, "func", None), "__name__", "")
+    raise TypeError(f"the plant model {name or repr(fn)} (on_cycle) sets inputs and returns "
+                    f"nothing; it returned {_shown(returned)}")
+
+
+def _shown(value: object) -> str:
+    """``value`` for a message: its type and a short repr."""
+    text = repr(value)
+    return f"{type(value).__name__} {text[:60] + '...' if len(text) > 60 else text}"
+
+
 def _whole(value: object, text: str) -> int:
     """A value to set: a whole number or a bool; 0.5 is no bit and 1.7 no nibble value,
     so a fraction is refused rather than cut off."""
@@ -377,7 +398,7 @@ def _whole(value: object, text: str) -> int:
         if value.is_integer():
             return int(value)
         raise ValueError(f"'{text}' takes a whole number, not {value!r}")
-    raise TypeError(f"'{text}' takes a whole number, not {type(value).__name__} {value!r}")
+    raise TypeError(f"'{text}' takes a whole number, not {_shown(value)}")
 
 
 def _last_rows(trace: Trace, test: Condition, lanes: set[str]) -> list[str]:

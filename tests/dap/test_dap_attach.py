@@ -70,6 +70,13 @@ def served(tmp_path: Path) -> Iterator[tuple[Path, Path]]:
             raise
 
 
+def attach(client: DapClient, state: Path, program: Path) -> None:
+    """``client`` initialized and attached to the board served from ``state``."""
+    client.request("initialize", {})
+    client.request("attach", {"stateDir": str(state), "program": str(program)})
+    client.wait_event("initialized")
+
+
 def lamp(state: Path) -> int:
     status = json.loads(cli(state, "status", "--json"))
     return int(status["slaves"]["2"]["outputs"])
@@ -178,9 +185,7 @@ def test_a_download_while_attached_ends_the_session(served, tmp_path: Path):
     state, program = served
     client = DapClient(tmp_path)
     try:
-        client.request("initialize", {})
-        client.request("attach", {"stateDir": str(state), "program": str(program)})
-        client.wait_event("initialized")
+        attach(client, state, program)
         client.request("configurationDone")
         cli(state, "download", str(ROOT / "demos" / "blink.asi"), "--start")
         # the new [SETUP] may stop the old program first (its slaves are not the cable's):
@@ -213,14 +218,55 @@ def test_a_cycle_time_out_on_the_live_board_stops_at_its_loop(served, tmp_path: 
     cli(state, "bus", "match")
     client = DapClient(tmp_path)
     try:
-        client.request("initialize", {})
-        client.request("attach", {"stateDir": str(state), "program": str(loop)})
-        client.wait_event("initialized")
+        attach(client, state, loop)
         client.request("configurationDone")
         cli(state, "bus", "inputs", "I 1.0=1")  # into the endless loop
         stop = client.stopped()
         assert (stop["reason"], stop["line"]) == ("exception", 9)
         assert stop["text"].startswith("loop.asi:9: program cycle time-out")
         assert client.variables()["Inputs and outputs"]["I 1.0"] == "1"
+    finally:
+        client.close()
+
+
+def test_a_board_halted_at_a_breakpoint_answers_reads_and_names_its_holder(served,
+                                                                           tmp_path: Path):
+    """status, the monitor's reading and an upload answer from the halted state; a change
+    is refused with the debugger named, and happens neither now nor when it resumes."""
+    state, program = served
+    client = DapClient(tmp_path)
+    try:
+        attach(client, state, program)
+        client.request("setBreakpoints", {"source": {"path": str(program)},
+                                          "breakpoints": [{"line": 6}]})
+        client.request("configurationDone")
+        assert client.stopped()["line"] == 6
+        held = f"halted at breakpoint line 6 by asictl dap (pid {client.process.pid})"
+        result = CliRunner().invoke(main, ["status", "--state-dir", str(state)])
+        assert result.exit_code == 0, result.output
+        assert f"control  {held}\n" in result.stdout
+        assert json.loads(cli(state, "status", "--json"))["held"] == held
+        cli(state, "upload", "-o", str(tmp_path / "up.hex"))  # command 53, many times
+        for change in (["stop"], ["write", "F 5.0=1"], ["force", "Q 2.1=1"],
+                       ["bus", "inputs", "I 1.0=1"]):
+            result = CliRunner().invoke(main, [*change, "--state-dir", str(state)])
+            assert result.exit_code == 1, (change, result.output)
+            assert f"the board is {held}" in result.stderr, (change, result.stderr)
+        watcher = open_live(state, 0x300)
+        assert watcher is not None
+        changes, _ = watcher.changes(0)
+        watcher.close()
+        dap = f"asictl dap (pid {client.process.pid})"
+        assert [(c.text, c.who) for c in changes][-1] == ("debugger attached", dap)
+        client.request("setBreakpoints", {"source": {"path": str(program)},
+                                          "breakpoints": []})
+        client.request("continue", {"threadId": 1})  # answered before the board resumes
+        deadline = time.monotonic() + 10
+        status = json.loads(cli(state, "status", "--json"))
+        while status["held"] is not None and time.monotonic() < deadline:
+            time.sleep(0.05)
+            status = json.loads(cli(state, "status", "--json"))
+        assert status["held"] is None and status["control_state"] == "running"
+        assert status["forced"] == [] and status["slaves"]["1"]["inputs"] == 0
     finally:
         client.close()

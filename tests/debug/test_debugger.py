@@ -215,6 +215,54 @@ def _tmux() -> str:
     pytest.skip(message)
 
 
+def test_tab_completes_commands_files_and_what_names_a_value(tmp_path: Path):
+    program = tmp_path / "count.asi"
+    program.write_text(COUNTER)
+    (tmp_path / "count.symbols.toml").write_text('Start = "I 1.0"\nDown = "I 1.1"\n'
+                                                 'Lamp = "Q 2.0"\n')
+    session = Session(program)
+    complete = session.debugger.completions
+    try:
+        assert complete("pr") == ["print"]
+        assert complete("  c") == ["continue", "cycle"]
+        assert "quit" in complete("") and "p" not in complete("")  # names, not short ones
+        assert complete("print ") == ["ACCU1", "ACCU2", "C", "CV", "Down", "I", "KREG",
+                                      "Lamp", "RLO", "Start", "T"]
+        assert complete("print st") == ["Start"]  # as names are read: any case
+        assert complete("display RLO, I ") == ["1.0", "1.1", "1.2"]  # the program's
+        assert complete("p CV ") == ["0"] and complete("print Q ") == []
+        assert complete("set ") == ["Down", "I", "Start"]  # what can be set: no Lamp
+        assert complete("break co") == ["count.asi:"]
+        assert complete("break count.asi:6 ") == ["if"]
+        assert complete("break 6 if Start and n") == ["not"]
+        assert complete("break 6 if R") == ["RLO"]
+        assert complete("time 1") == complete("frobnicate ") == []
+        assert session.do("break count.asi: 6")[0].startswith("breakpoint 1 at count.asi:6")
+    finally:
+        session.debugger.close()
+
+
+def test_the_completer_gives_readline_the_matches_one_by_one(counter: Session):
+    from asictl.cli.debug import completer
+
+    class Line:
+        """The line typed so far, the cursor after ``before``."""
+
+        def __init__(self, before: str, after: str = "") -> None:
+            self.before, self.after = before, after
+
+        def get_line_buffer(self) -> str:
+            return self.before + self.after
+
+        def get_endidx(self) -> int:
+            return len(self.before)
+
+    complete = completer(counter.debugger, Line("print CV", " 0"))
+    assert [complete("CV", state) for state in range(3)] == ["CV ", None, None]
+    assert complete("C", 0) == "CV "  # state 0 asks again: the line decides, not the text
+    assert completer(counter.debugger, Line("break co"))("co", 0) == "count.asi:"  # no space
+
+
 def test_the_debugger_in_a_real_terminal_with_history(tmp_path: Path):
     tmux = _tmux()
     program = tmp_path / "count.asi"
@@ -254,6 +302,11 @@ def test_the_debugger_in_a_real_terminal_with_history(tmp_path: Path):
         keys("Up", "Up", "Enter")  # readline history: 'print CV 0' again
         screen = screen_until("CV 0 = 4095")
         assert "CV 0 = 4095" in screen, screen
+        keys("pr", "Tab", "CV", "Space", "Tab", "Enter")  # the command and the address
+        deadline = time.monotonic() + 30
+        while screen.count("CV 0 = 4095") < 2 and time.monotonic() < deadline:
+            screen = screen_until("")
+        assert screen.count("(asictl) print CV 0\nCV 0 = 4095") == 2, screen
         keys("quit", "Enter")
         deadline = time.monotonic() + 10
         while not history.exists() and time.monotonic() < deadline:
@@ -313,19 +366,26 @@ def test_an_empty_line_repeats_the_last_step_as_gdb_does(counter: Session, monke
 
 
 def test_print_shows_the_constant_register(tmp_path: Path):
-    """L KT/KC/KP load the constant register and leave the accumulators alone."""
+    """L KT/KC/KP load the constant register and leave the accumulators alone; KREG holds
+    ticks of 10 ms, and beside them the time they make as a timer's remaining time is
+    shown (``24.8 s``, never ``24810 ms``)."""
     program = tmp_path / "k.asi"
-    program.write_text("[SETUP]\n1: iiii, 0\n[PROGRAM]\n    L KB 7\n    L KT 500\n"
+    program.write_text("[SETUP]\n1: iiii, 0\n[PROGRAM]\n    L KB 7\n    L KT 24810\n"
                        "    A I 1.0\n    S T 1\n    BE\n")
     session = Session(program)
     try:
         session.do("break 6")
         session.do("continue")
         assert session.do("print KREG, ACCU1, ACCU2") == [
-            "KREG = 50 (032h; as L KT 500 ms, as L KC 50, as L KP 3.2)",
+            "KREG = 2481 (9B1h; as L KT 2481 ticks, 24.8 s, as L KC 2481, as L KP 27.1)",
             "ACCU1 = 7 (0007h)", "ACCU2 = 0 (0000h)",
         ]
-        assert session.debugger.value("KREG") == 50
+        assert session.debugger.value("KREG") == 2481
+        session.do("set I 1.0=1")
+        session.do("continue")
+        session.do("continue")  # T 1 started in the cycle before
+        [timer] = session.do("print T 1")
+        assert timer.startswith("T 1 = 1 (remaining 24.") and timer.endswith(" s)"), timer
     finally:
         session.debugger.close()
 

@@ -12,7 +12,14 @@ import pytest
 from click.testing import CliRunner
 
 from asictl.cli import main
-from asictl.host.status import STATUS_SCHEMA, MasterStatus, ProgramInfo, Timer, render
+from asictl.host.status import (
+    STATUS_SCHEMA,
+    MasterStatus,
+    ProgramInfo,
+    Timer,
+    render,
+    status_events,
+)
 from asictl.platform.display import Display
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -70,25 +77,39 @@ def test_a_fresh_board_says_no_slaves_detected_yet_and_spells_out_its_letters(ru
     assert "o online, A auto-address enabled, w watchdog off)" in text
 
 
+#: A status with nothing special in it, for the text form's tests.
+BASE = dict(port="tcp://x:502 unit 1", master_name="", version_id="",
+            installed_software="", ec_flags=0, phase="normal operation",
+            mode="protected", config_ok=True, power_fail=False, lps=[], lds=[1],
+            las=[1], missing=[], unexpected=[], wrong_profile=[],
+            display=Display.from_json({"code": None, "text": "", "blinking": False,
+                                       "meaning": ""}),
+            control_flags=0, start_flag=False, ignore_config_errors=False,
+            wait_for_set_button=False, map_counters=False, control_active=False,
+            control_state="idle", stop_reason=None, program_status="not loaded",
+            cycle_time_ms=0.03, max_cycle_time_ms=1.25,
+            program=ProgramInfo(present=False, valid=False))
+
+
 def test_cycle_times_and_timers_read_as_a_person_reads_them():
-    base = dict(port="tcp://x:502 unit 1", master_name="", version_id="",
-                installed_software="", ec_flags=0, phase="normal operation",
-                mode="protected", config_ok=True, power_fail=False, lps=[], lds=[1],
-                las=[1], missing=[], unexpected=[], wrong_profile=[],
-                display=Display.from_json({"code": None, "text": "", "blinking": False,
-                                           "meaning": ""}),
-                control_flags=0, start_flag=False, ignore_config_errors=False,
-                wait_for_set_button=False, map_counters=False, control_active=False,
-                control_state="idle", stop_reason=None, program_status="not loaded",
-                cycle_time_ms=0.03, max_cycle_time_ms=1.25,
-                program=ProgramInfo(present=False, valid=False))
     # cycles of tens of µs read in µs, not as 0.0 ms
-    assert "cycle    30 µs (max 1.25 ms)" in render(MasterStatus(**base))
-    timers = render(MasterStatus(**base, timers=[Timer(1, 0, False), Timer(2, 1500, True)]))
+    assert "cycle    30 µs (max 1.25 ms)" in render(MasterStatus(**BASE))
+    timers = render(MasterStatus(**BASE, timers=[Timer(1, 0, False), Timer(2, 1500, True)]))
     # a timer never started is not "elapsed"; times as a person reads them
     assert "timers   T 1: not running; T 2: running, 1.5 s left" in timers
-    gateway = render(MasterStatus(**base, cycle_times_known=False))
+    gateway = render(MasterStatus(**BASE, cycle_times_known=False))
     assert "cycle    n/a (the gateway does not report them)" in gateway
+
+
+def test_a_board_a_debugger_holds_says_so_in_the_text_and_as_events():
+    held = "halted at breakpoint line 6 by asictl dap (pid 7)"
+    running = MasterStatus(**{**BASE, "control_state": "running"})
+    halted = MasterStatus(**{**BASE, "control_state": "running", "held": held})
+    assert f"control  {held}\n" in render(halted)
+    assert "control  running\n" in render(running)
+    assert status_events(running, halted) == [held]
+    assert status_events(halted, running) == [
+        "running again: the debugger let the program go on"]
 
 
 def test_status_of_a_board_that_does_not_exist_says_so(run):

@@ -23,7 +23,7 @@ from hypothesis import strategies as st
 from live_helpers import ROOT, cli, read_message, start_serve, stop, wait_for
 
 from asictl.errors import UserError
-from asictl.host.live.client import open_live
+from asictl.host.live.client import QUIET_WAIT_S, open_live
 from asictl.host.live.protocol import (
     MAX_ACCESSES,
     MAX_COMMANDS,
@@ -277,11 +277,60 @@ def test_a_silent_session_is_ended_and_the_waiting_client_told(tmp_path):
     assert 0.9 < waited < 20
 
 
+def _holding(client, who: str, seconds: float, gap: float = 0.0,
+             rounds: int = 1) -> threading.Thread:
+    """A thread where ``client`` holds the board ``rounds`` times for ``seconds`` each,
+    ``gap`` apart (a monitor's refreshes); started once the first session is held."""
+    holding = threading.Event()
+
+    def hold() -> None:
+        for _ in range(rounds):
+            with client.session(who):
+                holding.set()
+                time.sleep(seconds)
+            time.sleep(gap)
+
+    thread = threading.Thread(target=hold)
+    thread.start()
+    holding.wait(5)
+    return thread
+
+
+def test_a_short_wait_for_the_board_is_not_announced(tmp_path):
+    with background_live(0x300, tmp_path, identity={"command": "test"}):
+        holder, waiter = open_live(tmp_path, 0x300), open_live(tmp_path, 0x300)
+        assert holder is not None and waiter is not None
+        heard: list[str] = []
+        thread = _holding(holder, "asictl monitor (pid 1)", 0.2)
+        started = time.monotonic()
+        with waiter.session("asictl status (pid 2)", heard.append):
+            waited = time.monotonic() - started
+        thread.join()
+    assert 0.05 < waited < QUIET_WAIT_S and heard == []
+
+
+def test_commands_beside_a_monitor_say_nothing_of_waiting(tmp_path):
+    """A monitor's refreshes hold the board briefly, over and over: the one-shot
+    commands between them wait a little each, silently."""
+    state = tmp_path / "state"
+    process = start_serve(state)
+    try:
+        monitor = open_live(state, 0x300)
+        assert monitor is not None
+        thread = _holding(monitor, "asictl monitor (pid 1)", 0.1, gap=0.01, rounds=30)
+        results = [cli(state, "status") for _ in range(4)]
+        thread.join()
+    finally:
+        stop(process)
+    assert all(result.exit_code == 0 for result in results)
+    assert [result.stderr for result in results] == [""] * 4
+
+
 CLIENT_HOLDING_A_SESSION = """
 import sys, time
 from pathlib import Path
 from asictl.errors import UserError
-from asictl.host.live.client import open_live
+from asictl.host.live.client import QUIET_WAIT_S, open_live
 client = open_live(Path(sys.argv[1]), 0x300)
 with client.session("asictl download (a stopped one)"):
     print("holding", flush=True)

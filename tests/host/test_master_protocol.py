@@ -69,6 +69,28 @@ def test_a_live_board_offers_the_capability_through_its_socket(tmp_path: Path):
         assert [s["address"] for s in master.emulated("bus")["slaves"]] == [9]
 
 
+def test_a_live_board_waits_after_a_change_of_the_cable_only(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+):
+    """A cable change needs config_ok's delay before the command reports the master's
+    state; an input or a force reaches the program in its next cycle, and the action's
+    answer is the command's report: a one-shot command does not wait after it."""
+    settled: list[str] = []
+    monkeypatch.setattr(LiveActions, "settle", lambda self: settled.append("settled"))
+    with background_live(0x300, tmp_path, identity={"command": "test"}), open_board(
+        MasterAddress(state_dir=tmp_path)
+    ) as master:
+        master.emulated("plug", address=4, io_code=0, id_code=0xF)
+        assert settled == ["settled"]
+        assert master.emulated("inputs", changes=[[4, 1, 1]]) == {"4": 1}
+        assert master.emulated("force", changes=[["flags", 10, 1, 1]]) == [["flags", 10, 1, 1]]
+        assert master.emulated("unforce", all=True)["released"] == 1
+        master.emulated("bus")
+        assert settled == ["settled"]
+        master.emulated("unplug", address=4)
+        assert settled == ["settled", "settled"]
+
+
 def test_a_gateway_has_no_dpram_and_no_emulated_actions():
     with background_gateway(GatewaySlave(Pc2Board())) as gateway:
         host, port = gateway.server.tcp_address

@@ -86,8 +86,7 @@ def looping(case: oracle.Case) -> oracle.Case:
     """The drawn program with its final ``SJMP $`` jumping back to its start instead: a
     loop whose body branches forward (a superblock), run for a few rounds and stopped by
     the budget somewhere in a pass. A ``JC`` to the next instruction opens the body, so
-    that even a body drawn without a branch is more than one block that loops to itself
-    (which runs as a block, not a region)."""
+    that even a body drawn without a branch has more than one basic block."""
     body = b"\x40\x00" + case.program[:-2]
     back = -(len(body) + 2) & 0xFF
     return dataclasses.replace(
@@ -160,6 +159,30 @@ def test_a_device_sees_the_bytes_a_region_keeps_in_locals() -> None:
     assert regions_built(emu) == 1
     assert seen == [(0x0000, 5, 0x11)]
     assert emu.iram[0x30] == emu.iram[0x31] == 0x41
+
+
+@pytest.mark.parametrize("engine", ["region", "block"])
+def test_a_device_sees_and_moves_the_dptr_translated_code_keeps_in_a_local(engine: str) -> None:
+    """DPTR lives in a local of translated code: a device called through ``MOVX @R0``
+    reads the value the code gave it and may change it, as in the interpreter."""
+    # MOV DPTR,#1234h; INC DPTR; MOV R0,#5; MOVX @R0,A; INC DPTR; MOVX @DPTR,A; SJMP $
+    program = bytes.fromhex("901234 a3 7805 f2 a3 f0 80fe")
+    translated = region_emulator() if engine == "region" else Emulator(regions=False)
+    results = []
+    for emu in (translated, Emulator(translate=False)):
+        emu.code.load(0x0100, program)
+        seen = []
+
+        def device(address: int, value: int, emu: Emulator = emu, seen: list = seen) -> None:
+            seen.append((address, value, emu.dptr))
+            emu.dptr = 0x2000
+
+        emu.xdata.map(0xFF00, 0xFFFF, write=device)  # P2 is FFh: MOVX @R0 reaches FF05h
+        emu.pc, emu.a = 0x0100, 0x5A
+        assert emu.run(until=0x0109) is StopReason.UNTIL
+        results.append((seen, emu.dptr, emu.xdata.ram[0x2001], emu.instructions, emu.cycles))
+    assert results[0] == results[1] == ([(0xFF05, 0x5A, 0x1235)], 0x2001, 0x5A, 6, 11)
+    assert regions_built(translated) == (engine == "region")
 
 
 def test_a_region_is_used_only_once_its_address_is_hot() -> None:

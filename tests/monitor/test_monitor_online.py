@@ -6,7 +6,10 @@ from __future__ import annotations
 
 import asyncio
 import json
+import os
 import re
+import subprocess
+import sys
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -17,6 +20,7 @@ from asictl.host.connection import MasterAddress
 from asictl.monitor.app import MonitorApp
 from asictl.monitor.source import MonitorSource
 
+ROOT = Path(__file__).resolve().parents[2]
 SYMBOLS = 'Start = "I 4.0"\nLamp = "Q 17.3"\nMark = "F 10.0"\n'
 
 
@@ -150,5 +154,32 @@ def test_the_program_view_names_operands_by_the_boards_symbol_table(board):
                 if line.split() and line.split()[0].isdigit()}
         assert rows["6"].endswith("0 (Start)"), rows["6"]
         assert rows["7"].endswith("0 (Lamp)"), rows["7"]
+
+    run(board, check)
+
+
+def asictl_process(state: Path, *args: str) -> int:
+    """``asictl ARGS`` in a process of its own, as another user of the board runs it;
+    its pid, once it ended well without waiting for the board aloud."""
+    process = subprocess.Popen(
+        [sys.executable, "-m", "asictl", *args, "--state-dir", str(state)],
+        env={**os.environ, "PYTHONPATH": str(ROOT / "src")}, stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE, text=True)
+    _, stderr = process.communicate(timeout=60)
+    assert process.returncode == 0 and "waiting" not in stderr, stderr
+    return process.pid
+
+
+def test_other_clients_changes_are_logged_with_their_names_and_their_reads_never(board):
+    """A change by another command shows as one line naming it; another client's reads
+    (a status, as a second monitor's refreshes are) and this monitor's waits do not."""
+
+    async def check(app, pilot):
+        pid = await asyncio.to_thread(asictl_process, board, "force", "Lamp=1")
+        await asyncio.to_thread(asictl_process, board, "status")
+        await settle(app, pilot, 3)
+        log = log_text(app)
+        assert log.count(f"FORCE Q 17.3 (Lamp)=1 by asictl force (pid {pid})") == 1, log
+        assert "asictl status" not in log and "waiting for" not in log, log
 
     run(board, check)

@@ -347,3 +347,18 @@ def test_a_comment_a_file_name_or_a_symbol_with_an_escape_sequence_shows_escaped
     shown = render_rows(listing, None, top=0, height=2, width=120).plain
     assert "\x1b" not in shown and "\x07" not in shown and "\x9b" not in shown
     assert "p\\x1b]0;x\\x07.asi" in shown and "; \\x1b[2J" in shown
+
+
+def test_a_line_loading_a_timer_constant_shows_kreg_as_a_time_beside_its_ticks():
+    from asictl.host.listing import ListedLine, Listing
+    from asictl.monitor.program import render_rows
+    from asictl.observe.online import CycleLines, LineValues
+
+    listing = Listing((ListedLine("p.asi", 1, "L KT 2481", code=True),
+                       ListedLine("p.asi", 2, "L KC 2481", code=True)))
+    lines = CycleLines("id", "running", 0.0, "", {
+        row.where: LineValues(row.where, 1, 1, 2481, 0, None, 2481) for row in listing.lines
+    })
+    timer, counter = render_rows(listing, lines, top=0, height=2, width=120).plain.splitlines()
+    assert "2481" in timer and timer.endswith("KT 24.8 s")
+    assert "2481" in counter and "KT" not in counter.split("L KC")[1]

@@ -5,16 +5,18 @@ decimal, 0x, 0b and the IL's forms, each checked against what the operand holds.
 from __future__ import annotations
 
 import pytest
-from hypothesis import given
+from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from asictl.il import ast
 from asictl.il.parser import parse_text
 from asictl.observe.operands import (
     check_value,
+    il_operand,
     parse_assignment,
     parse_operand,
     parse_value,
+    plain_operand,
     read_number,
 )
 from asictl.observe.symbols import SymbolTable
@@ -147,3 +149,42 @@ def test_the_il_readers_operands_read_back_with_any_value_form(parts, value, for
     assignment = parse_assignment(f"{text}={form(value)}")
     assert assignment.operand.node == statement.operand  # the IL's own operand
     assert assignment.value == value
+
+
+# the plain forms are read without the IL reader, each exactly as the IL reader reads it
+_marks = st.sampled_from([
+    "I", "i", "I2", "i2", "Q", "q", "F", "f", "IB", "ib", "I2B", "i2b", "QB", "FY", "fy",
+    "PSeg", "PSEG", "pseg", "T", "t", "C", "c", "FW", "KT", "CV", "X", "IX", "I2X", "Reading",
+])
+_blanks = st.sampled_from(["", " ", "  ", "\t"])
+_digits = st.text("0123456789", max_size=6)
+_texts = st.builds(
+    lambda *parts: "".join(parts), _blanks, _marks, _blanks, _digits,
+    st.sampled_from(["", ".", " .", ". ", "..", " "]), _digits,
+    st.sampled_from(["", " ", "h", "d", "x", ".1"]),
+)
+
+
+@settings(max_examples=1000)
+@given(_texts)
+def test_a_plain_form_is_read_as_the_il_reader_reads_it(text: str):
+    plain = plain_operand(text)
+    if plain is not None:
+        assert plain == il_operand(text)
+        assert str(plain) == str(il_operand(text))
+
+
+_timers = st.tuples(st.sampled_from(["T", "C"]), st.integers(0, 1023))
+
+
+@given(_bits | _bytes | _timers, st.sampled_from(["{} {}", "{}{}", "{}  {}", " {} {} "]))
+def test_every_image_operand_as_it_prints_is_a_plain_form(parts, spacing: str):
+    """What commands are given most (``force "F 10.0=1"``, a symbol table's operands)
+    never waits for the IL reader to load."""
+    mark, number = parts[0], f"{parts[1]}" + (f".{parts[2]}" if len(parts) == 3 else "")
+    if mark == "I2" and "{}{}" in spacing:
+        mark = "I2 "  # glued, I2 4.0 would read as I 24.0
+    text = spacing.format(mark, number)
+    node = il_operand(text)
+    assert node is not None
+    assert plain_operand(text) == node

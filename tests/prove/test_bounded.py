@@ -3,6 +3,7 @@ that runs longer than the cycles searched, and a depth that would cover it."""
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import pytest
@@ -13,7 +14,8 @@ from asictl.prove.session import prove as prove_file
 
 pytest.importorskip("z3")
 
-#: Q 3.1 comes on 20 s after I 1.0 did (an on-delay), Q 3.2 follows I 1.1 at once.
+#: Q 3.1 comes on 20 s after I 1.0 did (an on-delay), Q 3.2 follows I 1.1 at once; FW 20
+#: shows the time left (a timer's word read, so every cycle is searched one by one).
 LONG = """[SETUP]
 1: iiii, 0
 3: oooo, 0
@@ -33,6 +35,9 @@ LONG = """[SETUP]
 ***
         A   I 1.1
         =   Q 3.2
+***
+        L   T 1
+        T   FW 20
 ***
 """
 
@@ -61,6 +66,17 @@ def test_a_timer_outside_the_cone_is_not_named(tmp_path: Path):
                    '[[property]]\nname = "x"\nreachable = "Q 3.2 and not I 1.1"\n')
     report = prove_file(props, depth=3, timeout_s=300.0)
     assert all("T 1" not in o.note for o in report.outcomes)
+
+
+def test_a_time_limit_reads_as_a_duration(tmp_path: Path):
+    """``time limit (24.8161 s)`` once, or ``(2.48161e-05 s)``: the limit and the time
+    spent as durations people read."""
+    props = _files(tmp_path, '[[property]]\nname = "x"\nnever = "Q 3.1"\n')
+    [outcome] = prove_file(props, depth=5, timeout_s=24.8161e-6).outcomes
+    assert outcome.verdict is Verdict.UNKNOWN
+    assert re.fullmatch(r"time limit \(24\.8 µs\) (while building the model|after \d+ "
+                        r"cycles), [\d.]+ (µs|ms|s) since (the start|it started)",
+                        outcome.note), outcome.note
 
 
 def test_the_timeout_says_what_time_it_counts(runner):

@@ -331,6 +331,11 @@ BAD = [
      'parts_at = ["1s", "2"]', 6, 1, "parts_at: '2' has no unit"),
     ('type = "rule"\nwhen = "Q 2.0"\nset = { "I 1.0" = 1 }\nafter = true', 5, 1,
      "after: the time is a number of milliseconds or a text with a unit, not true/false"),
+    ('type = "conveyor"\nmotor = "Q 2.1"\nlength_mm = 100\nspeed_mm_s = 10\nbarriers = ['
+     + ", ".join(f'{{ input = "F {i // 8}.{i % 8}", at_mm = 1 }}' for i in range(33)) + "]",
+     6, 1, "barriers: at most 32, not 33"),
+    ('type = "tank"\nfill = "Q 2.0"\nswitches = [ { input = "I 1.0", at = 5 }, '
+     '{ input = "I 1.0", at = 50 } ]', 1, 1, "'I 1.0' is driven twice by tank1"),
 ]
 
 

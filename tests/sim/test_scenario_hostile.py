@@ -37,6 +37,11 @@ def sim(tmp_path: Path, scenario: str, *args: str):
     ("[master]\ncycle_ms = inf\n", 3, "not inf"),
     ("[master]\ncycle_ms = nan\n", 3, "not nan"),
     ("[master]\ncycle_ms = 1e12\n", 3, "not 1000000000000.0"),
+    ("[master]\nfirst_tick_ms = 0\n", 3, "first_tick_ms is a time in milliseconds from "
+     "0.001 to 10, not 0"),
+    ("[master]\nfirst_tick_ms = 10.5\n", 3, "not 10.5"),
+    ("[master]\nfirst_tick_ms = nan\n", 3, "not nan"),
+    ("[master]\nfirst_tick_ms = true\n", 3, "first_tick_ms is a time"),
     ("x = " + "[" * 500 + "]" * 500 + "\n", 2, "nested more than 32 deep"),
     ("[[step]]\nat_ms = 0\nset = { \"I 31.0\" = " + "9" * 5000 + " }\n", 1, "not valid TOML"),
 ])

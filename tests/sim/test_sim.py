@@ -171,7 +171,7 @@ def test_plot(tmp_path: Path):
 
 def _normal(text: str) -> str:
     """Output without wall-clock times (they differ from run to run)."""
-    text = re.sub(r"in \d+\.\d+ s", "in T s", text)
+    text = re.sub(r"in [\d.]+ (µs|ms|s)\b", "in T", text)
     return re.sub(r'time="\d+\.\d+"', 'time="T"', text)
 
 

@@ -235,3 +235,16 @@ def test_plot_marks_failures_in_red(counter: Path, tmp_path: Path):
     pixels = image.imread(png)
     red = (pixels[..., 0] > 0.9) & (pixels[..., 1] < 0.2) & (pixels[..., 2] < 0.2)
     assert red.sum() > 20
+
+
+def test_long_times_read_as_people_read_them():
+    """An hour of master time is ``1 h 0 min``, not ``3602.1 s`` or ``3.6021e+06 ms``;
+    the exact milliseconds stand beside a moment."""
+    timer = Path(__file__).resolve().parents[2] / "demos" / "1h_timer.asi"
+    result = run("sim", str(timer))
+    assert result.exit_code == 0, result.output
+    assert "expectations, 0 failed; 1 h 0 min of master time in " in result.stdout
+    short = run("sim", str(timer), "--duration", "2min")
+    assert short.exit_code == 2
+    assert ("--duration 2 min 0 s (120000 ms) ends before the scenario's last step at "
+            "1 h 0 min (3602100 ms)") in short.stderr

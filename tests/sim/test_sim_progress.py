@@ -44,6 +44,6 @@ def test_the_progress_line_waits_a_second_then_shows_and_clears(monkeypatch):
     assert terminal.getvalue() == ""  # a short run shows nothing
     progress.begun -= 2
     progress(30000.0, 60000.0)
-    assert terminal.getvalue() == "\r\x1b[K[sim] 30.0 s of 60.0 s master time (50%)"
+    assert terminal.getvalue() == "\r\x1b[K[sim] 30 s of 1 min 0 s master time (50%)"
     progress.clear()
     assert terminal.getvalue().endswith("\r\x1b[K") and not progress.shown

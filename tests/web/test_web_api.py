@@ -15,12 +15,13 @@ from starlette.testclient import TestClient
 from web_program import PROGRAM, TOKEN, downloaded
 
 from asictl.host.emulated.boards import emulated_board
+from asictl.host.live import requests
 from asictl.host.live.board import LiveBoard
 from asictl.host.status import MasterStatus
 from asictl.web.access import COOKIE, CSRF_HEADER, Access
 from asictl.web.app import MAX_BODY, create_app
 from asictl.web.board import WebBoard
-from asictl.web.stream import Hub
+from asictl.web.stream import Hub, Listener
 
 BEARER = {"Authorization": f"Bearer {TOKEN}"}
 
@@ -289,3 +290,48 @@ def test_while_a_command_holds_the_board_reads_answer_the_last_status_and_change
     assert "another command holds the board" in refused.json()["error"]
     board.live.in_session = lambda: False
     assert web.get("/api/status").json()["forced"] == []
+
+
+def test_other_clients_changes_reach_the_events_with_their_names(board: WebBoard):
+    """A change through the board's socket (here: its request, as the server runs it)
+    and one of the page's own are events, each once; reads are none."""
+    hub, listener = Hub(), Listener()
+    hub.listeners.add(listener)
+    hub.publish(board.status())
+    assert listener.latest is not None
+    listener.latest = None
+    requests.action(board.live, {"name": "force", "args": {"changes": [["flags", 3, 1, 1]]}},
+                    "asictl force (pid 7)")
+    board.force(["F 4.0=1"])
+    board.status()
+    hub.changes(board.changes())
+    assert [e["text"] for e in hub.events][-2:] == [
+        "FORCE F 3.0=1 by asictl force (pid 7)", "FORCE F 4.0=1 by the web page"]
+    assert listener.latest is not None  # heard at once
+    assert board.changes() == []
+
+
+class _Halted:
+    """A debugger's hold at a breakpoint (debug.online), as the live board sees it."""
+
+    def advance(self, ms: float) -> None:
+        """The master stands still."""
+
+    def refusal(self, action: str) -> str | None:
+        return None
+
+    def halted(self) -> str:
+        return "halted at breakpoint line 6 by asictl dap (pid 7)"
+
+
+def test_a_board_halted_by_a_debugger_is_read_and_named_and_not_changed(board: WebBoard):
+    board.live.hold = _Halted()
+    web = client(board)
+    status = web.get("/api/status").json()
+    assert status["held"] == "halted at breakpoint line 6 by asictl dap (pid 7)"
+    refused = web.post("/api/force", json={"assignments": ["F 3.0=1"]}, headers=BEARER)
+    assert refused.status_code == 409, refused.text
+    assert ("the board is halted at breakpoint line 6 by asictl dap (pid 7): forcing would "
+            "change it") in refused.json()["error"]
+    board.live.hold = None
+    assert board.status().forced == [] and board.changes() == []

@@ -58,6 +58,10 @@ _COUNTER_HIGH_BYTES = frozenset(d.FLAGS + n for n in COUNTER_HIGH_FLAGS)
 _WATCHDOG_ENABLE = d.WATCHDOG_ENABLE
 _INTERRUPT_ENABLE = d.INTERRUPT_ENABLE
 _NORMAL = Phase.NORMAL
+_MAP_COUNTERS = int(ControlFlag.MAP_COUNTERS)
+_NO_STOP = StopReason.NONE
+#: At most this many program cycles run unprobed between two busy probes (``_quiet``).
+_PROBE_GAP = 16
 
 
 class Pc2Board:
@@ -142,7 +146,10 @@ class Pc2Board:
         self._seen: bytes | None = None
         self._leap_ok = False
         self._quiet = False
+        #: program cycles until the next one is probed for a fixed point, and the gap
+        #: after the last busy probe (it doubles while the probes find the program busy)
         self._probe_wait = 0
+        self._probe_gap = 0
         for slave in bus:
             slave.outputs = 0
         images.write_identity()
@@ -242,6 +249,14 @@ class Pc2Board:
         """Master time of the next 10 ms tick (the clock's phase, for the prover's
         counterexamples)."""
         return self._next_tick_us
+
+    def move_next_tick(self, at_us: int) -> None:
+        """The next 10 ms tick at ``at_us`` (within the next 10 ms), and every 10 ms after
+        it: the clock's phase, which runs on its own on a real master, as a scenario
+        that depends on it asks (``first_tick_ms``)."""
+        if not self._now_us < at_us <= self._now_us + TICK_US:
+            raise ValueError(f"the next tick is within 10 ms from now, not at {at_us} us")
+        self._next_tick_us = at_us
 
     @property
     def now_us(self) -> int:
@@ -382,16 +397,13 @@ class Pc2Board:
                 self._read_host_flags()
                 self._images.write_status()  # the W/w and O/o letters change with it
         runner = self._control.runner
-        if self._control.running and runner is not None and self._timers_running():
+        if self._control.running and runner is not None:
             try:
-                runner.tick()
+                if runner.tick():  # a tick of stopped timers changes nothing
+                    self._dpram.stirred = True
             except Exception as exc:  # as in a program cycle: never out of ``advance``
                 self._halt(StopReason.PROGRAM_FAULT, _fault(exc))
-            self._dpram.stirred = True
-
-    def _timers_running(self) -> bool:
-        ram = self._ram
-        return any(ram[address] or ram[address + 1] for address, _ in self._timer_places)
+                self._dpram.stirred = True
 
     # ------------------------------------------------------------------ the AS-i cycle
 
@@ -401,21 +413,31 @@ class Pc2Board:
         if self._host_dirty:
             self._read_host_images()
         if self._command_pending:
-            self._command_pending = False
-            ok = self._commands.run(self._ram[d.COMMAND])
-            self._ram[d.COMMAND] = d.ACK if ok else d.NAK
-        ec.step(self._now_us)
+            self.answer_command()
+        if not ec.settled:  # a settled execution control has nothing to do
+            ec.step(self._now_us)
         self._images.update()
-        self._update_control()
+        control = self._control
+        if not control.running or control.blocker(
+                normal=ec.phase is _NORMAL, config_ok=ec.config_ok) is not _NO_STOP:
+            self._update_control()  # a running program that may go on is the common case
         if ec.exchange(self._outputs()):
             self._dpram.put(d.IDI, ec.idi)
             self._dpram.interrupt(InterruptSource.IDI_CHANGE)
         if self._forcing:  # a host's write to a forced flag never reaches the program
             self.forces.rewrite_flags(self._ram, d.FLAGS)
-        if self._control.running and self._now_us >= self._program_ready_us:
+        if control.running and self._now_us >= self._program_ready_us:
             self._program_cycle()
         if self._ram[_INTERRUPT_ENABLE] & _ASI_CYCLE and ec.phase is _NORMAL:
             self._dpram.interrupt(InterruptSource.ASI_CYCLE)
+
+    def answer_command(self, *, run: bool = True) -> None:
+        """Answer the command the host wrote: run it (00h, or FFh if refused), or refuse
+        it unrun (``run=False``). The AS-i cycle does this; a live board held at a
+        breakpoint does it at once, since no cycle comes while the master stands still."""
+        self._command_pending = False
+        ok = run and self._commands.run(self._ram[d.COMMAND])
+        self._ram[d.COMMAND] = d.ACK if ok else d.NAK
 
     def _outputs(self) -> bytes | bytearray:
         """What the slaves receive: the program's outputs (the host's while it is
@@ -453,13 +475,13 @@ class Pc2Board:
 
     def _update_control(self) -> None:
         control, ec = self._control, self._ec
-        blocker = control.blocker(normal=ec.phase is Phase.NORMAL, config_ok=ec.config_ok)
+        blocker = control.blocker(normal=ec.phase is _NORMAL, config_ok=ec.config_ok)
         if control.running:
-            if blocker is StopReason.NONE:
+            if blocker is _NO_STOP:
                 return
             control.stop(blocker)
             self.safe_outputs()
-        elif blocker is StopReason.NONE:
+        elif blocker is _NO_STOP:
             control.start()
             self._program_ready_us = self._now_us
             self._dpram.stirred = True
@@ -488,7 +510,7 @@ class Pc2Board:
         except Exception as exc:  # whatever the program did, the master carries on
             self._halt(StopReason.PROGRAM_FAULT, _fault(exc))
             return
-        if self._counters_mapped():
+        if control.flags & _MAP_COUNTERS:
             ram = self._ram
             for address in _COUNTER_HIGH_BYTES:
                 ram[address] &= 0x0F
@@ -498,7 +520,11 @@ class Pc2Board:
         self._program_ready_us = self._now_us + math.ceil(duration)
         if before is not None:
             self._quiet = calls == self._firmware.calls and self._unchanged(runner, before)
-            self._probe_wait = 0 if self._quiet else 16
+            # A program that settles soon after a change (a blinker's toggle) is probed
+            # again soon; one busy every cycle only every _PROBE_GAP cycles: a probe
+            # copies and compares 32 KB.
+            self._probe_gap = 0 if self._quiet else min(_PROBE_GAP, 2 * self._probe_gap + 1)
+            self._probe_wait = self._probe_gap
             if self._unread_addresses:
                 self._note_quiet(runner, before if self._quiet else None)
         else:
@@ -506,9 +532,9 @@ class Pc2Board:
             self._quiet = False
             self._seen, self._leap_ok = None, False
         sent = self.forces.outputs(runner.outputs) if self._forcing else runner.outputs
-        odi = bytes(sent).translate(_INVERT)
+        odi = sent.translate(_INVERT)
         if odi != self._odi_written:
-            self._odi_written = odi
+            self._odi_written = odi = bytes(odi)
             dpram.put(d.ODI, odi)
         self._images.update_settings()
 
@@ -524,10 +550,10 @@ class Pc2Board:
         copies into I2 when the program reads I2 (an input change reaches I2 one cycle
         after I, so a cycle that changed only that image still changes the next one)."""
         cpu = runner.cpu
-        inputs = bytes(runner.inputs) if runner.reads_previous_inputs else b""
-        return (
-            bytes(cpu.iram) + bytes(cpu.sfr) + inputs + bytes(cpu.xdata.ram[: layout.DATA_LIMIT])
-        )
+        inputs = runner.inputs if runner.reads_previous_inputs else b""
+        # joined in one copy (XDATA's 32 KB are the bulk of it)
+        return b"".join((cpu.iram, cpu.sfr, inputs,
+                         memoryview(cpu.xdata.ram)[: layout.DATA_LIMIT]))
 
     def _note_quiet(self, runner: ProgramRunner, snapshot: bytes | None) -> None:
         """May the ticks of the running unread timers be counted down in one step? Only
@@ -652,6 +678,12 @@ class Pc2Board:
         return self._control.state
 
     @property
+    def running(self) -> bool:
+        """Does the control program run? (``control_state`` is RUNNING; asked after
+        every cycle, without building the enum.)"""
+        return self._control.running
+
+    @property
     def stop_reason(self) -> StopReason:
         return self._control.reason
 
@@ -665,7 +697,7 @@ class Pc2Board:
         return ControlFlag(self._control.flags_byte())
 
     def _counters_mapped(self) -> bool:
-        return bool(self._control.flags & ControlFlag.MAP_COUNTERS)
+        return bool(self._control.flags & _MAP_COUNTERS)  # an int: asked every cycle
 
     @property
     def program_status(self) -> d.ProgramStatus:

@@ -39,6 +39,11 @@ class Phase(Enum):
     NORMAL = "normal operation"
 
 
+# Asked every AS-i cycle (``settled``, ``exchange``, ``in_step``): module constants.
+_NORMAL = Phase.NORMAL
+_SETTLED_PHASES = (Phase.NORMAL, Phase.OFFLINE)
+
+
 def _changed_bytes(old: bytes, new: bytes | bytearray) -> list[int]:
     return [k for k in range(16) if old[k] != new[k]]
 
@@ -155,7 +160,7 @@ class ExecutionControl:
         return (
             not self._dirty
             and self.bus.topology == self._topology
-            and self.phase in (Phase.NORMAL, Phase.OFFLINE)
+            and self.phase in _SETTLED_PHASES
             and self._ok_since is None
             and not self._lossy
         )
@@ -322,7 +327,7 @@ class ExecutionControl:
         slave's data changed: the slaves keep what they got, so this is what the cycle
         would do anyway.
         """
-        if self.phase is not Phase.NORMAL or not self.data_exchange_active:
+        if self.phase is not _NORMAL or not self.data_exchange_active:
             return False
         if self.emc is not None:
             self.emc.cycle(self.bus)
@@ -365,7 +370,7 @@ class ExecutionControl:
 
     def in_step(self, outputs: bytes | bytearray) -> bool:
         """The slaves hold ``outputs`` and the IDI their inputs: an exchange changes nothing."""
-        if self.phase is not Phase.NORMAL or not self.data_exchange_active:
+        if self.phase is not _NORMAL or not self.data_exchange_active:
             return True
         if self.emc is not None:
             return self.emc.steady(self.bus)

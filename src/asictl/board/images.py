@@ -18,6 +18,7 @@ from asictl.board.dpram import Dpram
 from asictl.board.execution import ExecutionControl
 from asictl.platform import pc2 as d
 from asictl.platform.pc2 import (
+    EMULATION_MARK,
     ControlState,
     HiFlag,
     InterruptSource,
@@ -27,11 +28,6 @@ from asictl.platform.pc2 import (
 )
 
 MASTER_NAME = b"AS-i PC2 Master / AS-i Control".ljust(32, b"\0")
-#: How asictl's emulation names itself, and the one way a command tells it from a real
-#: master (host/overwrite_guard.py): the board's version string says it, the emulated
-#: gateway's Modbus function 17 answers it. Nothing else (an address, the entry table)
-#: counts, so a look-alike that does not say it is treated as real.
-EMULATION_MARK = "asictl emulation"
 MASTER_VERSION = EMULATION_MARK.encode("ascii").ljust(16, b"\0")
 #: The firmware version ID at 0F0h, also what the GetId block returns: eight ASCII digits,
 #: which the manual's own board check CheckAsiPc2 (10.3.3) requires 64 bytes after the

@@ -1,15 +1,18 @@
-"""``asictl debug``: the IL debugger, interactive (with readline history) or scripted."""
+"""``asictl debug``: the IL debugger, interactive (with readline history and Tab
+completion) or scripted."""
 
 from __future__ import annotations
 
 import contextlib
 import os
+from collections.abc import Callable
 from pathlib import Path
+from typing import Protocol
 
 import click
 
 from asictl.cli.options import Duration, lib_option
-from asictl.debug.debugger import DebugError, Debugger
+from asictl.debug.debugger import WORD_BREAKS, DebugError, Debugger
 from asictl.errors import ExitCode, UserError
 from asictl.sim.scenario import MAX_TIME_MS
 from asictl.sim.session import Invalid, prepare, scenario_for
@@ -96,6 +99,31 @@ def _moves_on(command: str) -> bool:
     return bool(words) and words[0].lower() in REPEATED
 
 
+class LineBuffer(Protocol):
+    """What completion needs of readline: the line typed so far and where the cursor is."""
+
+    def get_line_buffer(self) -> str: ...
+
+    def get_endidx(self) -> int: ...
+
+
+def completer(debugger: Debugger, line: LineBuffer) -> Callable[[str, int], str | None]:
+    """readline's completer: asked with state 0, 1, ... for the matches of the word
+    before the cursor until it answers None; the matches are the debugger's
+    ``completions`` of the line up to the cursor, each with the space that follows a
+    word (Python's readline adds none), but a file's ``count.asi:``, which its line
+    number follows."""
+    matches: list[str] = []
+
+    def complete(text: str, state: int) -> str | None:
+        if state == 0:
+            found = debugger.completions(line.get_line_buffer()[:line.get_endidx()])
+            matches[:] = [word if word.endswith(":") else f"{word} " for word in found]
+        return matches[state] if state < len(matches) else None
+
+    return complete
+
+
 def _interactive(debugger: Debugger) -> None:
     history = _history_file()
     try:
@@ -106,6 +134,11 @@ def _interactive(debugger: Debugger) -> None:
         with contextlib.suppress(OSError):
             readline.read_history_file(history)
         readline.set_history_length(1000)
+        readline.set_completer_delims(WORD_BREAKS)
+        readline.set_completer(completer(debugger, readline))
+        # macOS's Python links libedit, which reads its own key bindings
+        libedit = "libedit" in (readline.__doc__ or "")
+        readline.parse_and_bind("bind ^I rl_complete" if libedit else "tab: complete")
     last = ""
     try:
         while True:

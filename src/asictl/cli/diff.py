@@ -79,10 +79,13 @@ class _Bad(Exception):
               help="Replace a file in the way that asictl did not write.")
 @click.option("--format", "fmt", type=click.Choice(["text", "json"]), default="text",
               show_default=True)
+@click.option("--symbols", type=click.Path(dir_okay=False, path_type=Path),
+              help="The symbol table that names operands in the verdict and the scenario "
+              "[default: NAME.symbols.toml beside NEW, else beside OLD].")
 @lib_option
 def diff(old: Path, new: Path, equivalent: bool, depth: Cycles, timeout: float,
          cycle_ms: float | None, observe: str | None, scenario_path: Path | None,
-         force: bool, fmt: str, lib: tuple[str, ...]) -> None:
+         force: bool, fmt: str, symbols: Path | None, lib: tuple[str, ...]) -> None:
     """Compare two versions of a program network by network (renamed labels and moved
     networks recognised); OLD and NEW are .asi files, uploaded files or .hex images
     that carry their source.
@@ -130,8 +133,8 @@ def diff(old: Path, new: Path, equivalent: bool, depth: Cycles, timeout: float,
                    "changed, moved, added or removed")
     failed = bool(differ)
     if equivalent:
-        failed = _equivalence(first, second, old, new, depth, timeout / 1000, cycle_ms, observe,
-                              scenario_path, force, fmt, report)
+        failed = _equivalence(built_old, built_new, old, new, depth, timeout / 1000, cycle_ms,
+                              observe, scenario_path, force, fmt, report, symbols)
     if fmt == "json":
         click.echo(json.dumps(report, indent=2))
     ctx.exit(int(ExitCode.FAILED if failed else ExitCode.OK))
@@ -140,21 +143,21 @@ def diff(old: Path, new: Path, equivalent: bool, depth: Cycles, timeout: float,
 def _equivalence(first: object, second: object, old: Path, new: Path, depth: Cycles,
                  timeout: float, cycle_ms: float | None, observe: str | None,
                  scenario_path: Path | None, force: bool, fmt: str,
-                 report: dict[str, object]) -> bool:
+                 report: dict[str, object], symbols_path: Path | None) -> bool:
     """Decide and report; True when not proved equivalent."""
     try:
         import z3  # noqa: F401
     except ImportError as exc:
         raise missing_extra("asictl diff --equivalent", "prove", str(exc)) from None
+    from asictl.build import Build
     from asictl.files import real_path, write_atomic
-    from asictl.il.loader import Program
+    from asictl.observe.names import named_bits
     from asictl.observe.operands import parse_operand
     from asictl.prove.counterexample import difference_text
     from asictl.prove.diff import equivalent as decide
-    from asictl.prove.names import bits_of, named
     from asictl.prove.session import check_target
 
-    assert isinstance(first, Program) and isinstance(second, Program)
+    assert isinstance(first, Build) and isinstance(second, Build)  # with IL source
     extra = []
     for text in (observe or "").split(","):
         if text.strip():
@@ -178,13 +181,14 @@ def _equivalence(first: object, second: object, old: Path, new: Path, depth: Cyc
     elif result.verdict == "different" and result.trace is not None:
         target = scenario_path or new.with_name(new.stem + ".differs.scenario.toml")
         check_target(target, {real_path(old), real_path(new)}, force)
+        symbols = _symbols(new, old, explicit=symbols_path)
         write_atomic(target, difference_text(old, new, target, result.trace,
                                              result.host_masks, result.cycle_ms,
-                                             result.differences))
-        symbols = _symbols(new, old)
-        shown = ", ".join(f"{named(bit, symbols)} is {a} in {old.name}, {b} in {new.name}"
+                                             result.differences, symbols=symbols,
+                                             phase_us=result.phase_us))
+        shown = ", ".join(f"{bit} is {a} in {old.name}, {b} in {new.name}"
                           for k, (x, y) in result.differences.items()
-                          for bit, a, b in bits_of(k, x, y))
+                          for bit, a, b in named_bits(k, x, y, symbols))
         lines.append(f"different after cycle {result.cycles}: {shown}")
         lines.append(f"  scenario: {target} (passes on {old.name}, fails on {new.name})")
         entry["scenario"] = str(target)
@@ -198,17 +202,23 @@ def _equivalence(first: object, second: object, old: Path, new: Path, depth: Cyc
     return result.verdict != "equivalent"
 
 
-def _symbols(*programs: Path) -> SymbolTable:
-    """The symbol table beside the first program that has one (NAME.symbols.toml)."""
+def _symbols(*programs: Path, explicit: Path | None = None) -> SymbolTable:
+    """The table ``--symbols`` names, else the one beside the first program that has one
+    (NAME.symbols.toml)."""
     from asictl.diagnostics import DiagnosticError, render_text
     from asictl.observe.operands import parse_operand
-    from asictl.observe.symbols import symbols_for
+    from asictl.observe.symbols import load_symbols, symbols_for
 
-    for program in programs:
-        try:
-            table = symbols_for(program, lambda text: str(parse_operand(text)))
-        except DiagnosticError as exc:
-            raise UserError(render_text(exc.diagnostics, {}).rstrip()) from None
-        if table:
-            return table
+    def check(text: str) -> str:
+        return str(parse_operand(text))
+
+    try:
+        if explicit is not None:
+            return load_symbols(explicit, check)
+        for program in programs:
+            table = symbols_for(program, check)
+            if table:
+                return table
+    except DiagnosticError as exc:
+        raise UserError(render_text(exc.diagnostics, {}).rstrip()) from None
     return SymbolTable()

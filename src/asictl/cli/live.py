@@ -23,7 +23,7 @@ from asictl.errors import ExitCode, UserError
 from asictl.host.commissioning import image_changes
 from asictl.host.emulated.actions import parse_address, parse_number, parse_profile
 from asictl.host.emulated.boards import state_directory
-from asictl.host.live.server import (
+from asictl.host.live.limits import (
     DEFAULT_ADMIT_WAIT_S,
     DEFAULT_IDLE_TIMEOUT_S,
     DEFAULT_MAX_CONNECTIONS,

@@ -17,7 +17,6 @@ from typing import Unpack
 
 import click
 
-from asictl.build import build_file
 from asictl.cli.board_options import BoardOptions, board_options, master_wait, open_master
 from asictl.cli.guard_options import real_master_option, unconfirmed_format_option
 from asictl.cli.options import lib_option, one_of
@@ -115,6 +114,8 @@ def download_command(
             )
             raw_images.restore(master, file, raw_image, restore_setup=restore_setup)
         return
+    from asictl.build import build_file  # the compiler: only a download loads it
+
     check_readable(file)  # before a board is opened: a missing one would be created
     with open_master(**board) as master:
         check_overwrite(master, "download an image in asictl's format", real_master=real_master,

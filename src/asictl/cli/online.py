@@ -11,7 +11,7 @@ import itertools
 import json
 import time
 from dataclasses import asdict
-from typing import Unpack
+from typing import TYPE_CHECKING, Unpack
 
 import click
 
@@ -24,7 +24,10 @@ from asictl.host.forcing import forced
 from asictl.host.master import Master
 from asictl.host.status import StoredProgram
 from asictl.host.symbols import Names
-from asictl.host.watch import Watched
+
+if TYPE_CHECKING:
+    # watch's conditions bring their grammar (lark): only 'asictl watch' loads them
+    from asictl.host.watch import Watched
 
 
 def _forced_text(values: list[ForcedValue]) -> str:

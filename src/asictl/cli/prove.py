@@ -11,7 +11,7 @@ from asictl.cli.options import CycleCount, Duration, lib_option, shard_option, t
 from asictl.errors import ExitCode, missing_extra
 from asictl.prove import MAX_DEPTH
 from asictl.readers.shard import Shard
-from asictl.readers.units import Cycles
+from asictl.readers.units import Cycles, format_duration
 
 _HELP_FORMAT = click.Choice(["text", "json"])
 
@@ -37,7 +37,24 @@ def _files(paths: tuple[Path, ...], properties: Path | None) -> list[tuple[Path,
     return pairs
 
 
-def _line(outcome: object, written: Path | None) -> str:
+def _operands(outcome: object, symbols: object) -> list[tuple[str, str, int]]:
+    """(operand, as named, value): the property's operands after the last cycle of a
+    counterexample or witness (a response's: the answer's), each named as the symbol
+    table names it (``Q 2.0 (Forward)``)."""
+    from asictl.observe.condition import refs
+    from asictl.observe.names import named
+    from asictl.observe.symbols import SymbolTable
+    from asictl.prove.engine import Outcome
+
+    assert isinstance(outcome, Outcome) and isinstance(symbols, SymbolTable)
+    prop = outcome.prop
+    expr = prop.expr if prop.then is None else prop.then
+    found = {str(ref.operand): outcome.values[ref.text]
+             for ref in refs(expr) if ref.text in outcome.values}
+    return [(text, named(text, symbols), value) for text, value in found.items()]
+
+
+def _line(outcome: object, written: Path | None, symbols: object) -> str:
     from asictl.prove.engine import Outcome, Verdict
 
     assert isinstance(outcome, Outcome)
@@ -54,6 +71,10 @@ def _line(outcome: object, written: Path | None) -> str:
         text = f"unreachable  {outcome.prop.name} ({how})"
     elif verdict in (Verdict.REFUTED, Verdict.REACHED):
         text = f"{verdict.value:<12} {outcome.prop.name} in cycle {cycles}"
+        values = ", ".join(f"{shown} = {value}"
+                           for _, shown, value in _operands(outcome, symbols))
+        if values:
+            text += f" with {values}"
         if written is not None:
             text += f": {written}"
     elif verdict is Verdict.BOUNDED:
@@ -61,7 +82,7 @@ def _line(outcome: object, written: Path | None) -> str:
         text = f"{shown} up to {cycles} cycle{plural}: {outcome.prop.name} (no proof)"
     else:
         text = f"unknown      {outcome.prop.name}"
-    text += f" [{outcome.seconds:.2f} s]"
+    text += f" [{format_duration(outcome.seconds * 1000)}]"
     if outcome.note:
         text += f"\n    note: {outcome.note}"
     return text
@@ -84,11 +105,14 @@ def _line(outcome: object, written: Path | None) -> str:
               "properties file].")
 @click.option("--force", is_flag=True,
               help="Replace files in the way that asictl prove did not write.")
+@click.option("--symbols", type=click.Path(dir_okay=False, path_type=Path),
+              help="The symbol table that names operands in properties and verdicts "
+              "[default: NAME.symbols.toml beside NAME.asi].")
 @shard_option("files")
 @lib_option
 def prove(files: tuple[Path, ...], properties: Path | None, depth: Cycles, timeout: float,
           unroll: int, fmt: str, counterexamples: Path | None, force: bool,
-          shard: Shard | None, lib: tuple[str, ...]) -> None:
+          symbols: Path | None, shard: Shard | None, lib: tuple[str, ...]) -> None:
     """Prove a program's properties (NAME.props.toml) for every input sequence.
 
     A property says what must never or always hold, what must follow a condition
@@ -125,7 +149,7 @@ def prove(files: tuple[Path, ...], properties: Path | None, depth: Cycles, timeo
         try:
             report = prove_file(props_path, program=program, lib=lib, depth=depth,
                                 timeout_s=timeout / 1000, out_dir=counterexamples, force=force,
-                                unroll=unroll)
+                                unroll=unroll, symbols=symbols)
         except Invalid as exc:
             click.echo(exc.text, nl=False, err=True)
             ctx.exit(int(exc.exit_code))
@@ -139,7 +163,8 @@ def prove(files: tuple[Path, ...], properties: Path | None, depth: Cycles, timeo
                 click.echo(f"  backward jump at line {line} followed up to {bound} times "
                            "a cycle")
             for outcome in report.outcomes:
-                click.echo("  " + _line(outcome, report.written.get(outcome.prop.name)))
+                click.echo("  " + _line(outcome, report.written.get(outcome.prop.name),
+                                        report.symbols))
     if fmt == "json":
         click.echo(json.dumps({"files": [_json(r) for r in reports]}, indent=2))
     else:
@@ -148,7 +173,7 @@ def prove(files: tuple[Path, ...], properties: Path | None, depth: Cycles, timeo
         for outcome in outcomes:
             counts[outcome.verdict.value] = counts.get(outcome.verdict.value, 0) + 1
         shown = ", ".join(f"{n} {v}" for v, n in counts.items()) or "no properties"
-        click.echo(f"{shown} in {sum(r.seconds for r in reports):.2f} s")
+        click.echo(f"{shown} in {format_duration(sum(r.seconds for r in reports) * 1000)}")
     ctx.exit(int(ExitCode.OK if all(r.passed for r in reports) else ExitCode.FAILED))
 
 
@@ -188,6 +213,9 @@ def _json(report: object) -> dict[str, object]:
                 if o.prop.name in report.written else None,
                 "note": o.note or None,
                 "trivially": o.trivially or None,
+                "operands": [{"operand": text, "named": shown, "value": value}
+                             for text, shown, value in _operands(o, report.symbols)],
+                "first_tick_ms": None if o.phase_us is None else o.phase_us / 1000,
             }
             for o in report.outcomes
         ],

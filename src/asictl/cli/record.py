@@ -23,6 +23,7 @@ from asictl.errors import ExitCode, UserError
 from asictl.files import open_atomic, real_path
 from asictl.host.master import Master
 from asictl.host.status import MasterStatus, StoredProgram
+from asictl.readers.units import format_duration
 from asictl.sim import SUFFIX
 from asictl.sim.recording import Recording, choose, slave_operands
 
@@ -159,8 +160,9 @@ def record(duration: float, output: Path, force: bool, signals: str | None,
                         + (f" matches --signals '{signals}'" if patterns else ""))
     names = {*inputs, *expected}
     read.flags = any(name.startswith("F") for name in names)
-    click.echo(printable(f"asictl: recording {read.name} for {seconds:g} s: {len(inputs)} "
-                         f"inputs, {len(expected)} outputs and flags (Ctrl-C ends it early)"),
+    click.echo(printable(f"asictl: recording {read.name} for "
+                         f"{format_duration(seconds * 1000)}: {len(inputs)} inputs, "
+                         f"{len(expected)} outputs and flags (Ctrl-C ends it early)"),
                err=True)
     with _spool(output) as spool:
         recording = Recording(inputs, expected, spool)
@@ -168,13 +170,14 @@ def record(duration: float, output: Path, force: bool, signals: str | None,
         if ended is not None:
             click.echo(printable(f"asictl: recording ended early: {ended}"), err=True)
         if not recording.count:
-            raise UserError(f"{read.name}: no sample in {duration:g} ms"
+            raise UserError(f"{read.name}: no sample in {format_duration(duration)}"
                             + (f" ({ended})" if ended else ""))
         with _held():  # the file is written whole, whatever signal comes now
             _write(recording, output, tolerance_ms, program, read.name)
     every = recording.every_ms
     click.echo(printable(f"asictl: {output}: {recording.count} samples over "
-                         f"{recording.span_ms / 1000:.1f} s (one every {every:.0f} ms), "
+                         f"{format_duration(recording.span_ms)} (one every "
+                         f"{format_duration(every)}), "
                          f"{len(inputs)} inputs and {len(expected)} outputs and flags "
                          "recorded"), err=True)
     if ended is not None and ended.startswith("the board"):
@@ -263,8 +266,8 @@ def _write(recording: Recording, output: Path, tolerance_ms: float | None,
     named = None
     if program is not None:
         named = str(Path(_relative(real_path(program), real_path(output).parent)))
-    comment = (f"Recorded by asictl record from {name} at {when}: {span / 1000:.1f} s, "
-               f"{recording.count} samples (one every {every:.0f} ms on average).\n"
+    comment = (f"Recorded by asictl record from {name} at {when}: {format_duration(span)}, "
+               f"{recording.count} samples (one every {format_duration(every)} on average).\n"
                f"Replay: asictl sim {program or 'PROGRAM'} --scenario {output}")
     with open_atomic(output, inputs=[program] if program else []) as out:
         recording.write(out, tolerance_ms, program=named, comment=comment)

@@ -28,6 +28,7 @@ from asictl.files import refuse_inputs, write_output
 from asictl.observe.coverage import Coverage
 from asictl.observe.iltrace import to_csv as rows_csv
 from asictl.readers.shard import Shard
+from asictl.readers.units import format_duration
 from asictl.sim import SUFFIX
 from asictl.sim.coverage import FORMATS, format_for, missing, percent, render
 from asictl.sim.coverage import summary as coverage_summary
@@ -209,7 +210,7 @@ class _SimProgress(_StatusLine):
         if wall - self.begun < 1.0 or wall - self.last < 0.2:
             return
         self.last = wall
-        sys.stderr.write(f"\r\x1b[K[sim] {now_ms / 1000:.1f} s of {end_ms / 1000:.1f} s "
+        sys.stderr.write(f"\r\x1b[K[sim] {format_duration(now_ms)} of {format_duration(end_ms)} "
                          f"master time ({100 * now_ms / end_ms if end_ms else 100:.0f}%)")
         sys.stderr.flush()
         self.shown = True

@@ -26,6 +26,7 @@ from asictl.debug.inventory import Inventory
 from asictl.debug.online import debug_socket_path
 from asictl.diagnostics import DiagnosticError, render_text
 from asictl.errors import UserError
+from asictl.host.connection import client_name
 from asictl.host.emulated.boards import state_directory
 from asictl.host.live.client import LiveClient
 from asictl.host.transports.ports import parse_port, port_name
@@ -161,7 +162,7 @@ def attach(args: dict[str, JSON], out: Callable[[str], None]) -> AttachedTarget:
                         f"one with 'asictl serve --port {port_name(base)}'") from None
     client = LiveClient(sock, path)
     try:
-        described = client.request({"op": "attach", "symbols": [
+        described = client.request({"op": "attach", "who": client_name(), "symbols": [
             list(entry) for entry in symbols.entries.values()]})
     except UserError:
         client.close()

@@ -19,7 +19,7 @@ from asictl.debug.inventory import Inventory
 from asictl.errors import UserError
 from asictl.lsp.framing import JSON
 from asictl.observe.locate import call_chain
-from asictl.readers.units import UnitError
+from asictl.readers.units import UnitError, format_instant
 from asictl.readers.units import duration_ms as read_duration
 from asictl.runtime.line_map import SourceLine
 from asictl.sim.engine import source_texts
@@ -119,7 +119,7 @@ class SimulatedTarget:
         debugger = self.debugger
         line = debugger.line
         if line is None:
-            return [Frame(f"between cycles, master time {debugger.now():g} ms", None)]
+            return [Frame(f"between cycles, master time {format_instant(debugger.now())}", None)]
         callers = [c for c in call_chain(debugger.runner.cpu, debugger.line_map) if c != line]
         return [Frame(self._name(at, debugger.cycle), at) for at in [line, *reversed(callers)]]
 

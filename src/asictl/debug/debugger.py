@@ -23,6 +23,7 @@ from asictl.il import ast
 from asictl.mcs51.isa import SFRS
 from asictl.observe.condition import Condition, ConditionError, parse_condition
 from asictl.observe.hooks import LineHooks
+from asictl.observe.iltrace import line_operands
 from asictl.observe.locate import call_chain, current_line, describe
 from asictl.observe.operands import (
     SETTABLE,
@@ -33,7 +34,13 @@ from asictl.observe.operands import (
 from asictl.observe.symbols import SymbolTable
 from asictl.observe.view import ProgramView
 from asictl.platform.pc2 import STOP_ADDRESS, STOPS_AT_AN_ADDRESS
-from asictl.readers.units import UnitError, format_instant, parse_duration
+from asictl.readers.units import (
+    TICK_MS,
+    UnitError,
+    format_duration,
+    format_instant,
+    parse_duration,
+)
 from asictl.runtime.line_map import LineMap, SourceLine
 from asictl.sim.engine import Simulation, source_texts, variables_of
 from asictl.sim.session import Prepared
@@ -52,6 +59,10 @@ _HIT_CONDITION = re.compile(r"^\s*(==|=|>=|<=|>|<|%)?\s*(\d+)\s*$")
 #: The IL machine's registers as ``print`` and conditions name them, and where the
 #: program view has each (KREG: the 12-bit constant register of L KT, L KC and L KP).
 _REGISTERS = {"RLO": "rlo", "ACCU1": "accu1", "ACCU2": "accu2", "KREG": "constant"}
+#: The commands that end the session.
+_QUIT = ("q", "quit", "exit")
+#: What ends a word at the prompt: Tab completes the word after the last of these.
+WORD_BREAKS = " \t,=()<>!"
 #: Which of them a condition may name alone (a bit).
 _REGISTER_BITS = {name: name == "RLO" for name in _REGISTERS}
 
@@ -164,13 +175,13 @@ class Values:
             return f"{word} ({word:04X}h)"
         if upper == "KREG":
             k = view.constant
-            return (f"{k} ({k:03X}h; as L KT {k * 10} ms, as L KC {k}, "
-                    f"as L KP {k >> 4 & 0x1F}.{k & 0xF})")
+            return (f"{k} ({k:03X}h; as L KT {k} ticks, {format_duration(k * TICK_MS)}, "
+                    f"as L KC {k}, as L KP {k >> 4 & 0x1F}.{k & 0xF})")
         operand = self.operand(text)
         value = view.read(operand)
         node = operand.node
         if operand.is_bit and node.kind is ast.OperandKind.T:
-            return f"{value} (remaining {view.timer_ms(node.address) or 0} ms)"
+            return f"{value} (remaining {format_duration(view.timer_ms(node.address) or 0)})"
         if operand.is_bit and node.kind is ast.OperandKind.C:
             return f"{value} (value {view.counter(node.address) or 0})"
         if node.width is not ast.Width.BYTE:  # a bit, CV n, TV n
@@ -250,6 +261,9 @@ class Debugger:
         self.runner = runner
         self.values = Values(self.sim.view, self._operand, variables_of(runner.pmap),
                              self.symbols)
+        #: the operands the program's lines work on, for Tab to complete
+        self._used = list({str(o): o for o in line_operands(self.sim.program).values()}
+                          .values())
         self.hooks = LineHooks(runner, self.line_map, on_line=self._on_line,
                                on_cycle_start=self._on_cycle_start)
         self.hooks.install()
@@ -282,20 +296,10 @@ class Debugger:
         try:
             if not verb:
                 return True
-            if verb in ("q", "quit", "exit"):
+            if verb in _QUIT:
                 self.close()
                 return False
-            handler = {
-                "b": self._break, "break": self._break, "delete": self._delete,
-                "d": self._delete, "breaks": self._list_breaks, "info": self._list_breaks,
-                "s": self._step, "step": self._step, "n": self._next, "next": self._next,
-                "finish": self._finish,
-                "c": self._continue, "continue": self._continue, "cycle": self._cycle,
-                "time": self._time, "p": self._print, "print": self._print,
-                "display": self._display, "undisplay": self._undisplay,
-                "set": self._set, "w": self._where, "where": self._where,
-                "l": self._list, "list": self._list, "help": self._help, "h": self._help,
-            }.get(verb)
+            handler = self._handlers().get(verb)
             if handler is None:
                 raise DebugError(f"unknown command '{command}' ('help' lists them)")
             handler(rest)
@@ -303,6 +307,56 @@ class Debugger:
             self.out(f"error: {exc}")
             self.failed = True
         return True
+
+    def _handlers(self) -> dict[str, Callable[[str], None]]:
+        """Each command (and its short name) with what does it; ``quit`` aside."""
+        return {
+            "b": self._break, "break": self._break, "delete": self._delete,
+            "d": self._delete, "breaks": self._list_breaks, "info": self._list_breaks,
+            "s": self._step, "step": self._step, "n": self._next, "next": self._next,
+            "finish": self._finish,
+            "c": self._continue, "continue": self._continue, "cycle": self._cycle,
+            "time": self._time, "p": self._print, "print": self._print,
+            "display": self._display, "undisplay": self._undisplay,
+            "set": self._set, "w": self._where, "where": self._where,
+            "l": self._list, "list": self._list, "help": self._help, "h": self._help,
+        }
+
+    def completions(self, before: str) -> list[str]:
+        """What Tab offers for the word that ends ``before`` (the line up to the cursor;
+        words end at ``WORD_BREAKS``): the commands' names for the first word; after
+        ``break`` the program's files (``count.asi:``), then ``if`` and, in a condition,
+        what names a value; after ``print``, ``display`` and ``set`` what names a value
+        (``set``: what can be set). What names a value: the registers, the symbols, the
+        kinds of operand the program uses and, after a kind (``Q``), the addresses of
+        that kind it uses (``31.0``)."""
+        *head, word = re.split(f"[{re.escape(WORD_BREAKS)}]", before.lstrip())
+        if not head:
+            found = [verb for verb in [*self._handlers(), *_QUIT] if len(verb) > 1]
+        else:
+            verb, given = head[0].lower(), [w for w in head if w]
+            previous = given[-1] if given else ""
+            if verb in ("b", "break") and "if" in given[1:]:
+                found = [*self._names(previous, settable=False), "and", "or", "not"]
+            elif verb in ("b", "break"):
+                files = {f"{line.file}:" for line in self.line_map.lines()}
+                found = list(files) if len(given) == 1 else ["if"]
+            elif verb in ("p", "print", "display", "set"):
+                found = self._names(previous, settable=verb == "set")
+            else:
+                found = []
+        return sorted({f for f in found if f.casefold().startswith(word.casefold())})
+
+    def _names(self, previous: str, *, settable: bool) -> list[str]:
+        """What names a value (``completions``): after a kind of operand, its addresses
+        in the program; else registers (not to set), symbols and the kinds."""
+        used = [str(o).partition(" ") for o in self._used if o.settable or not settable]
+        kind_given = previous.upper()
+        if kind_given in {"CV", "TV", *ast.OperandKind.__members__}:
+            return [address for kind, _, address in used if kind == kind_given]
+        symbols = [name for name, text in self.symbols.entries.values()
+                   if not settable or self._operand(text).settable]
+        return [*([] if settable else _REGISTERS), *symbols, *(kind for kind, _, _ in used)]
 
     def _help(self, _: str) -> None:
         self.out(HELP)
@@ -333,6 +387,7 @@ class Debugger:
 
     def _resolve_line(self, text: str) -> SourceLine:
         file, _, number = text.rpartition(":")
+        number = number.strip()  # 'count.asi: 12', as Tab completes the file
         file = PurePath(file).name if file else self.main_file
         if not (number.isascii() and number.isdigit()):  # not '²', which int() refuses
             raise DebugError(f"'{text}' is not a line: 12 or {self.main_file}:12")

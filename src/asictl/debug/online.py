@@ -9,16 +9,20 @@ slice of master time, and the worker waits while it is paused.
 
 While the program is paused the whole master stands still, as a PLC halted at a
 breakpoint does: master time, the AS-i cycle and the timers. Other clients still read
-the communication memory; a command they write is not executed until the program runs
-again (it times out), and the monitor's program view (the ``lines`` action) is turned
-away while a debugger holds the board, since both would watch the same lines. When the
+the communication memory and get answers to the commands that only read (51, 53, 56:
+``asictl status``, the monitor, an upload), from the halted state, which the ``view``
+action names (``host.live.board``); a command or action that would change the board is
+refused with the debugger's name, and the monitor's program view (the ``lines`` action)
+is turned away while a debugger holds the board, since both would watch the same lines. When the
 debugger detaches, or its connection drops, the program runs on from where it was, and
 master time follows the wall clock again from there.
 
 The requests, one at a time, in the live board's framing (a 4-byte length and JSON):
-``attach``, ``breakpoints``, ``resume`` (``how``), ``interrupt``, ``state``, ``frames``,
-``values`` (``names``), ``set`` (``name``, ``value``), ``detach``; answers are
-``{"ok": true, ...}`` or ``{"ok": false, "error": TEXT}``.
+``attach`` (``who``: the client, ``asictl dap (pid 7)``, which other clients of a
+halted board are told; ``symbols``), ``breakpoints``, ``resume`` (``how``),
+``interrupt``, ``state``, ``frames``, ``values`` (``names``), ``set`` (``name``,
+``value``), ``detach``; answers are ``{"ok": true, ...}`` or ``{"ok": false, "error":
+TEXT}``.
 """
 
 from __future__ import annotations
@@ -76,7 +80,7 @@ def debug_socket_path(directory: Path, base: int) -> Path:
 class OnlineDebugger:
     """One debugger holding one live board; made by ``attach``, ended by ``detach``."""
 
-    def __init__(self, live: LiveBoard, symbols: SymbolTable) -> None:
+    def __init__(self, live: LiveBoard, symbols: SymbolTable, who: str = "a debugger") -> None:
         board = live.board
         runner, image = board.program, board.loaded_image
         if runner is None or image is None:
@@ -87,6 +91,8 @@ class OnlineDebugger:
         if live.hold is not None:
             raise DebugError("another debugger holds this board")
         self.live, self.board, self.runner, self.image = live, board, runner, image
+        #: the debugging client, as it named itself: ``asictl dap (pid 7)``
+        self.who = who
         self.line_map = image.line_map
         self.variables = {name: v.size for name, v in runner.pmap.variables.items()}
         self.symbols = symbols
@@ -117,6 +123,7 @@ class OnlineDebugger:
         self.hooks.install()
         wake(board)  # the master skips cycles that repeat the last: the hooks need one
         live.hold = self
+        live.changes.note("debugger attached", who)
 
     # ------------------------------------------------------------------ the hold
 
@@ -130,9 +137,20 @@ class OnlineDebugger:
 
     def refusal(self, action: str) -> str | None:
         if action in _WATCHING:
-            return ("a debugger holds this board (asictl dap): the program view shows no "
+            return (f"a debugger holds this board ({self.who}): the program view shows no "
                     "values until it detaches")
         return None
+
+    def halted(self) -> str | None:
+        """``halted at breakpoint line 6 by asictl dap (pid 7)`` while the program is
+        paused (at a breakpoint, after a step, or asked to pause); None while it runs."""
+        pause = self.paused
+        if pause is None:
+            return None
+        at = "at breakpoint " if pause.breakpoint is not None else "at "
+        where = (f"{at}line {pause.line.line}" if pause.line is not None
+                 else "between program cycles")
+        return f"halted {where} by {self.who}"
 
     def _run(self) -> None:
         """The worker: runs the board for each slice the loop hands it."""
@@ -226,6 +244,7 @@ class OnlineDebugger:
         self._work.put(None)
         self._worker.join(timeout=5)
         self.live.rebase()
+        self.live.changes.note("debugger detached", self.who)
 
     def add_breakpoint(self, file: str, line: int, condition: str,
                        hit_condition: str) -> Breakpoint:
@@ -399,7 +418,8 @@ async def _client(live: LiveBoard, reader: asyncio.StreamReader,
                         # without a table of its own the client gets the board's, the
                         # one the download stored with the program
                         debugger = OnlineDebugger(
-                            live, given or image_symbols(live.board.loaded_image))
+                            live, given or image_symbols(live.board.loaded_image),
+                            str(request.get("who") or "a debugger"))
                     answer = {"ok": True, **debugger.describe()}
                 elif debugger is None:
                     raise DebugError("attach first")

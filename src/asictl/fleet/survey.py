@@ -26,6 +26,7 @@ from asictl.host.emulated.boards import state_directory, state_file
 from asictl.host.master import Master
 from asictl.host.transports.modbus import ModbusTransport
 from asictl.host.transports.ports import parse_port
+from asictl.readers.units import format_duration
 
 #: Masters worked on at once unless the command says otherwise.
 DEFAULT_JOBS = 8
@@ -80,7 +81,8 @@ def _attempt(master: FleetMaster, work: Callable[[FleetMaster, Master], T]) -> O
         except (UserError, OSError) as exc:
             error = str(exc) or type(exc).__name__
             if time.monotonic() >= deadline:
-                error = f"not done within its limit of {master.limit:g} s ({error})"
+                limit = format_duration(master.limit * 1000)
+                error = f"not done within its limit of {limit} ({error})"
                 return Outcome(master, None, error, attempt, time.monotonic() - started)
             continue
         return Outcome(master, value, None, attempt, time.monotonic() - started)

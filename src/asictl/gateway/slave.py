@@ -23,7 +23,6 @@ from pymodbus.pdu import ModbusPDU
 from pymodbus.pdu.other_message import ReportDeviceIdResponse
 
 from asictl.board.board import Pc2Board
-from asictl.board.images import EMULATION_MARK
 from asictl.gateway.addressmap import MAX_BITS, AddressMap, ExceptionCode, ModbusError
 from asictl.gateway.panel import FrontPanel
 from asictl.gateway.requestlog import request_line
@@ -31,7 +30,7 @@ from asictl.host.transports import gateway_pdus as pdus
 from asictl.platform import pc2 as d
 from asictl.platform.gateway import UNITS, Interface
 from asictl.platform.master import EEPROM_SIZE
-from asictl.platform.pc2 import Command
+from asictl.platform.pc2 import EMULATION_MARK, Command
 
 #: The gateway's own name (function 65, P = 1: at most 32 characters, gateway manual
 #: 6.3.12); version and ID come from the master.

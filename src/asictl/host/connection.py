@@ -39,10 +39,10 @@ from asictl.host.transports.target import (
     ModbusTarget,
     parse_target,
 )
-from asictl.image.eeprom import ProgramImage
 
 if TYPE_CHECKING:
     from asictl.host.live.client import LiveClient
+    from asictl.image.eeprom import ProgramImage
 
 #: Hears why a command waits, or what it found (``--port auto``).
 Notify = Callable[[str], None]
@@ -73,7 +73,9 @@ class NotServed(UserError):
     exit_code = ExitCode.FAILED
 
 
-def _who() -> str:
+def client_name() -> str:
+    """How this command names itself to a live board (``asictl force (pid 7)``): the
+    board names it to other clients it keeps waiting or tells of its changes."""
     return f"{' '.join(['asictl', *sys.argv[1:2]])} (pid {os.getpid()})"
 
 
@@ -142,7 +144,7 @@ def _live_board(client: LiveClient, base: int, notify: Notify) -> Iterator[Maste
         notify(f"waiting for live board {name}, in use by {holder}")
 
     try:
-        with client.session(_who(), waiting):
+        with client.session(client_name(), waiting):
             port = LivePort(client)
             yield Pc2Master.over(Pc2Driver(port), name, action=LiveActions(client))
             port.flush()

@@ -9,7 +9,7 @@ unless the user gave the override (``--real-master``; for an image in asictl's f
 also ``--unconfirmed-format``).
 
 Emulation is recognised only by what asictl's emulation says about itself
-(``board.images.EMULATION_MARK``): a PC2 board's version string in its name field
+(``platform.pc2.EMULATION_MARK``): a PC2 board's version string in its name field
 (DPRAM 0B0h-0DFh), a gateway's answer to Modbus function 17. Never by a loopback
 address, a state directory or the entry table at FF00h: a look-alike that does not say
 it is treated as real.
@@ -19,11 +19,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from asictl.board.images import EMULATION_MARK
 from asictl.errors import ExitCode, UserError
 from asictl.host.master import Master
 from asictl.host.status import read_program
-from asictl.platform.pc2 import MASTER_NAME, MASTER_NAME_SIZE
+from asictl.platform.pc2 import EMULATION_MARK, MASTER_NAME, MASTER_NAME_SIZE
 
 REAL_MASTER = "--real-master"
 UNCONFIRMED_FORMAT = "--unconfirmed-format"

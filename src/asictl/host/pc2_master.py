@@ -8,14 +8,17 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
-from asictl.board.board import Pc2Board
-from asictl.host.commissioning import Commissioning, Pc2Commissioning
 from asictl.host.emulated.actions import LoadedBoard
 from asictl.host.master import JSON, EmulatedBoard, emulated_board
 from asictl.host.status import MasterStatus, StoredProgram, View, control_summary, read_status
 from asictl.host.transfer import Pc2Transport
 from asictl.host.transports.driver import EmulatedPort, Pc2Driver
+
+if TYPE_CHECKING:
+    from asictl.board.board import Pc2Board
+    from asictl.host.commissioning import Commissioning
 
 
 @dataclass(frozen=True)
@@ -57,6 +60,8 @@ class Pc2Master:
         return read_status(self.transport.driver, self.name, _view(self.action))
 
     def tools(self) -> Commissioning:
+        from asictl.host.commissioning import Pc2Commissioning  # only commissioning needs it
+
         return Pc2Commissioning(self.transport.driver, self.name)
 
     def emulated(self, name: str, **args: JSON) -> JSON:

@@ -198,6 +198,9 @@ class MasterStatus:
     symbols: dict[str, str] = field(default_factory=dict)
     #: whether the master reports its program cycle times (a gateway does not: 0 then)
     cycle_times_known: bool = True
+    #: a live board a debugger holds still: ``halted at breakpoint line 6 by asictl dap
+    #: (pid 7)``; None while the master runs
+    held: str | None = None
 
     def to_json(self) -> dict[str, Any]:
         """The object ``status --json`` prints (docs/commissioning.md has every key);
@@ -348,6 +351,7 @@ def view_fields(view: View | None) -> dict[str, Any]:
         "lcs": list(view["lcs"]),
         "timers": [Timer(t["number"], t["remaining_ms"], t["running"]) for t in view["timers"]],
         "counters": [Counter(c["number"], c["value"]) for c in view["counters"]],
+        "held": view.get("held"),
     }
     panel = view.get("panel")
     if isinstance(panel, dict):
@@ -653,6 +657,8 @@ def status_events(old: MasterStatus, new: MasterStatus) -> list[str]:
             why += [f"{n} not projected" for n in new.unexpected]
             why += [f"{w.slave} wrong profile" for w in new.wrong_profile]
             events.append("configuration error" + (f": {', '.join(why)}" if why else ""))
+    if old.held != new.held:
+        events.append(new.held or "running again: the debugger let the program go on")
     if (old.control_state, stop_text(old)) != (new.control_state, stop_text(new)):
         stopped = stop_text(new)
         events.append(f"control program {new.control_state}" + (f" ({stopped})" if stopped else ""))
@@ -683,7 +689,7 @@ def render(status: MasterStatus) -> str:
                           "map_counters", "control_active") if getattr(s, name)
     ]
     stopped = stop_text(s)
-    control = s.control_state + (f" ({stopped})" if stopped else "")
+    control = s.held or s.control_state + (f" ({stopped})" if stopped else "")
     p = s.program
     if p.valid:
         program = (

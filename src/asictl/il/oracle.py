@@ -93,6 +93,20 @@ def scope_of(module: ast.Module) -> Scope:
     return Scope(statements, labels, first_check)
 
 
+def runs_alone(program: Program) -> bool:
+    """No firmware block call, no PARAM, no ASM: the program's every cycle is decided by
+    its inputs alone, so a run without firmware services is a run of the master."""
+    for module in program.modules():
+        if module.has_assembly():
+            return False
+        for node in module.code():
+            if isinstance(node, ast.Param):
+                return False
+            if isinstance(node, ast.CallFB) and key(node.name) not in program.blocks:
+                return False
+    return True
+
+
 class Interpreter:
     """Runs a checked program cycle by cycle, as the master would."""
 

@@ -20,7 +20,6 @@ semantic checks' job.
 
 from __future__ import annotations
 
-import os
 import re
 import sys
 import threading
@@ -36,6 +35,7 @@ from lark.lexer import LexerState, LineCounter
 from lark.utils import TextSlice
 
 from asictl.diagnostics import Diagnostic, Span
+from asictl.files import cache_directory
 from asictl.il import ast
 from asictl.il.lean_parser import LeanParser
 from asictl.il.syntax_errors import diagnose
@@ -75,21 +75,14 @@ def _reserve(token: Token) -> Token:
 def _cache_file() -> str | bool:
     """Where lark keeps the analysed grammar: building it takes ~0.5 s, loading ~20 ms.
 
-    A private directory, not lark's default of the shared temporary directory: the cache
-    is a pickle, and loading one planted by another user would run their code.
+    asictl's private cache directory, not lark's default of the shared temporary
+    directory (files.cache_directory: the cache is a pickle).
     """
-    base = os.environ.get("XDG_CACHE_HOME", "")
-    if not os.path.isabs(base):
-        base = os.path.join(os.path.expanduser("~"), ".cache")
-    if not os.path.isabs(base):  # no home directory
-        return False
-    directory = os.path.join(base, "asictl")
-    try:
-        os.makedirs(directory, mode=0o700, exist_ok=True)
-    except OSError:
+    directory = cache_directory()
+    if directory is None:
         return False
     version = f"lark{lark.__version__}-py{sys.version_info[0]}.{sys.version_info[1]}"
-    return os.path.join(directory, f"il-grammar-{version}.cache")
+    return str(directory / f"il-grammar-{version}.cache")
 
 
 def grammar_text() -> str:

@@ -7,8 +7,8 @@ Every instruction's behaviour is written once, as Python source templates
   and the register bank at run time. Single-stepping and tracing use these.
 * **Blocks** (the translator): straight-line code from a start address up to the next
   jump, call, return or register-bank switch, compiled into one Python function with
-  every operand folded to a constant, register-bank addresses resolved, and ACC and
-  PSW held in local variables. Blocks are cached per (address, register bank).
+  every operand folded to a constant, register-bank addresses resolved, and ACC, PSW
+  and DPTR held in local variables. Blocks are cached per (address, register bank).
 
 Both paths come from the same templates, so they cannot disagree about what an
 instruction does; tests still compare them on random programs. Lengths and cycle
@@ -484,11 +484,8 @@ class Emulator:
         if heat < self.hot:
             return plain
         region = build_region(self.code, key & 0xFFFF, key >> 13 & 24, self._stops)
-        if region is None:
-            entry = plain
-        else:
-            source = f"{_FACTORY_HEADER}{region.source}\n    return region\n"
-            entry = (_instantiate(source, self), region.instructions, region.cycles, _REGION)
+        source = f"{_FACTORY_HEADER}{region.source}\n    return region\n"
+        entry = (_instantiate(source, self), region.instructions, region.cycles, _REGION)
         self._blocks[key] = entry
         return entry
 

@@ -30,10 +30,15 @@ What makes a region faster than its blocks, besides saving the dispatches:
   a network ``MOV C,a / ANL C,/b / ORL C,c / MOV d,C`` becomes
   ``if (a) and not (b) or (c): d |= m else: d &= ~m``. Only bit reads are folded, and
   the condition is evaluated before anything that could change what they read.
-* Instructions and machine cycles are counted per basic block and handed back in
-  ``iterations[0]`` and ``iterations[1]``. The emulator calls a region only when the
-  sum over all its instructions fits the run's budget, and a pass round the loop starts
-  only when that sum still fits, so budgets stay exact.
+* Instructions and machine cycles are counted per basic block, both in one local (the
+  cycles above bit 32: one addition a block), and handed back in ``iterations[0]`` and
+  ``iterations[1]``. The emulator calls a region only when the sum over all its
+  instructions fits the run's budget, and a pass round the loop starts only when the
+  cycles so far leave room for that sum in both budgets (an instruction takes at least
+  a cycle, so that is one comparison; with an instruction budget it may leave early,
+  and the emulator calls it again with what is left), so budgets stay exact.
+* ``nxt`` is tested only before a basic block that some path skips: the blocks every
+  path goes through (where the branches meet again) run without a test.
 """
 
 from __future__ import annotations
@@ -69,6 +74,12 @@ _FOLDS = {0xA2: "mov", 0x82: "and", 0xB0: "and not", 0x72: "or", 0xA0: "or not",
 #: Instructions that set the carry without reading it.
 _CARRY_SETTERS = frozenset({0xA2, 0xC3, 0xD3})
 _PSW, _ACC = 0xD0, 0xE0
+#: A region counts a pass's instructions and machine cycles in one local: the cycles
+#: above this bit, the instructions below (an instruction takes at least one cycle).
+_CYCLES_SHIFT = 32
+#: Most cycles one call goes round its loop for, so that the instructions never reach
+#: the cycles' bits.
+_MAX_CYCLES = 1 << 30
 #: Longest chain of folded operations before the carry is computed anyway.
 _MAX_FOLD = 12
 
@@ -110,9 +121,8 @@ class Region:
 
 def build_region(
     code: Sequence[int], entry: int, bank: int, stops: Collection[int]
-) -> Region | None:
-    """The region starting at ``entry`` in register bank base ``bank``, or None when the
-    code there loops straight back to its start (a block runs that as a loop)."""
+) -> Region:
+    """The region starting at ``entry`` in register bank base ``bank``."""
     nodes = _walk(code, entry, bank, stops)
     order = sorted(nodes)
     for address in order:
@@ -122,8 +132,6 @@ def build_region(
                 if successor > address and successor in nodes:
                     nodes[successor].predecessors.add(address)
     blocks = _basic_blocks(nodes, order)
-    if any(entry in nodes[a].targets and not nodes[a].bank_changes for a in blocks[0]):
-        return None
     source = _Emitter(nodes, blocks, bank, entry).source()
     return Region(
         source,
@@ -248,27 +256,57 @@ class _Emitter:
         self.carry: str | None = None
         self.folded = 0
         self.bits = Writer(static=True)  # writes bit tests
+        self.certain = self._certain()
 
     def source(self) -> str:
         out = self.out
         out.append("    def region(room_i, room_c):")
         out += ["        " + load for load in self.loads]
         out += [f"        r{cell} = iram[{cell}]" for cell in self.cells]
-        out += ["        n = 0", "        k = 0", "        while True:"]
-        for index, block in enumerate(self.blocks):
+        if self._loops():
+            # n <= k: a pass fits both budgets while the cycles so far leave room for it
+            room = f"min(room_i - {self.pass_instructions}, room_c - {self.pass_cycles})"
+            out.append(f"        last = min({room}, {_MAX_CYCLES}) + 1 << {_CYCLES_SHIFT}")
+        out += ["        n = 0", "        while True:"]
+        for block in self.blocks:
             first = self.nodes[block[0]]
             count = sum(self.nodes[a].instructions for a in block)
             cycles = sum(self.nodes[a].cycles for a in block)
-            if index == 0:
+            if first.address in self.certain:
                 depth = 3
             else:
                 depth = 4
                 out.append(f"            if nxt == {first.address}:")
-            out += ["    " * depth + f"n += {count}", "    " * depth + f"k += {cycles}"]
+            out.append("    " * depth + f"n += {cycles << _CYCLES_SHIFT | count}")
             for index, address in enumerate(block):
                 following = self.nodes[block[index + 1]] if index + 1 < len(block) else None
                 self._instruction(self.nodes[address], depth, following)
         return "\n".join(out)
+
+    def _loops(self) -> bool:
+        """Does a jump go back to the entry (round the region's loop)?"""
+        return any(self.entry in node.targets and not node.bank_changes
+                   for node in self.nodes.values())
+
+    def _inside(self, node: _Node, target: int | str) -> bool:
+        """Does ``node`` go on at ``target`` further down the region (through ``nxt``)?"""
+        return (isinstance(target, int) and target > node.address and target in self.nodes
+                and not node.bank_changes)
+
+    def _certain(self) -> set[int]:
+        """The basic blocks control certainly reaches when it gets to their place in the
+        function: every earlier path still in the region leads there, so ``nxt`` need
+        not be tested (nor set, unless a test lies on the way)."""
+        certain = set()
+        pending = {self.entry}
+        for block in self.blocks:
+            start, last = block[0], self.nodes[block[-1]]
+            if pending == {start}:
+                certain.add(start)
+            if start in pending:
+                pending.discard(start)
+                pending.update(t for t in _successors(last) if self._inside(last, t))
+        return certain
 
     def _instruction(self, node: _Node, depth: int, following: _Node | None) -> None:
         """One instruction at ``depth``; the last of its basic block (no ``following``)
@@ -396,17 +434,21 @@ class _Emitter:
         target is the entry and another pass fits the budget, or leave it with
         everything stored. ``computed``: the cached bytes are in memory now, not in the
         locals."""
-        inside = isinstance(target, int) and target in self.nodes and not node.bank_changes
         reload = self._load_cells() if computed else []
-        if inside and isinstance(target, int) and target > node.address:
-            self._put([*reload, f"nxt = {target}"], depth)
+        if isinstance(target, int) and self._inside(node, target):
+            tested = (node.address < block[0] < target and block[0] not in self.certain
+                      for block in self.blocks)
+            if target in self.certain and not any(tested):
+                self._put(reload or ["pass"], depth)
+            else:
+                self._put([*reload, f"nxt = {target}"], depth)
             return
-        if inside and target == self.entry:
-            room = (f"if n + {self.pass_instructions} <= room_i"
-                    f" and k + {self.pass_cycles} <= room_c:")
-            self._put([room, *("    " + line for line in [*reload, "continue"])], depth)
+        if target == self.entry and not node.bank_changes:
+            self._put(["if n < last:", *("    " + line for line in [*reload, "continue"])],
+                      depth)
         lines = [] if computed else self._store_cells()
         lines += self.stores
-        lines += ["iterations[0] = n", "iterations[1] = k"]
+        lines += [f"iterations[0] = n & {(1 << _CYCLES_SHIFT) - 1}",
+                  f"iterations[1] = n >> {_CYCLES_SHIFT}"]
         lines.append(f"return {translation_key(target, self.bank, node.bank_changes)}")
         self._put(lines, depth)

@@ -19,6 +19,9 @@ ACC, B, PSW = 0xE0, 0xF0, 0xD0
 SP, DPL, DPH = 0x81, 0x82, 0x83
 PORTS = (0x80, 0x90, 0xA0, 0xB0)  # P0-P3
 
+#: DPTR read from its two SFRs, into generated code's local ``dp``.
+_DPTR_IN_SFRS = "sfr[131] << 8 | sfr[130]"
+
 #: Parity of every byte value: 1 if it has an odd number of one bits.
 PARITY = bytes(bin(v).count("1") & 1 for v in range(256))
 
@@ -51,9 +54,10 @@ class Writer:
     semantic methods (``_add``, ``_mov``, ...) are shared and see only expressions.
 
     The generated code uses the locals ``a`` for ACC, ``c`` for the carry (0 or 1) and
-    ``psw`` for the rest of PSW (without carry and parity bits); every assignment to
-    them starts a line with ``a = ``, ``c = `` or ``psw = ``, which ``finish`` relies on
-    to decide what to load and store.
+    ``psw`` for the rest of PSW (without carry and parity bits), and in a block ``dp``
+    for DPTR (a MOVX through it, an ``INC DPTR`` then cost no SFR accesses); every
+    assignment to them starts a line with ``a = ``, ``c = ``, ``psw = `` or ``dp = ``,
+    which ``finish`` relies on to decide what to load and store.
     """
 
     def __init__(self, *, static: bool, bank: int = 0) -> None:
@@ -102,6 +106,8 @@ class Writer:
                 return "a"
             if d == PSW:
                 return "(psw | c << 7 | PAR[a])"
+            if d in (DPL, DPH) and self.static:
+                return "(dp & 255)" if d == DPL else "(dp >> 8)"
             if d in PORTS and not rmw:
                 return f"(sfr[{d}] & pins[{PORTS.index(d)}])"
             return f"sfr[{d}]"
@@ -123,6 +129,10 @@ class Writer:
                 self.emit(f"c = {value} >> 7")
                 self.emit(f"psw = {value} & 126")
                 self.bank_changes |= bool(bits & 0x18)
+            elif d == DPL and self.static:
+                self.emit(f"dp = dp & 65280 | ({value})")
+            elif d == DPH and self.static:
+                self.emit(f"dp = ({value}) << 8 | dp & 255")
             else:
                 self.emit(f"sfr[{d}] = {value}")
             return
@@ -308,7 +318,7 @@ class Writer:
         self.emit(f"iram[t] = {expr}")
 
     def dptr(self) -> str:
-        return "(sfr[131] << 8 | sfr[130])"
+        return "dp" if self.static else "(sfr[131] << 8 | sfr[130])"
 
     def call_device(self, call: str) -> None:
         """Call a bus device with the CPU state it may inspect brought up to date."""
@@ -316,8 +326,12 @@ class Writer:
         self.emit("sfr[224] = a")
         self.emit("sfr[208] = psw | c << 7")
         if self.static:
+            self.emit("sfr[131] = dp >> 8")
+            self.emit("sfr[130] = dp & 255")
             self.emit(f"emu.pc = {self.here}")
         self.emit(call)
+        if self.static:
+            self.emit(f"dp = {_DPTR_IN_SFRS}")
         self.emit(RELOAD)
 
     # -- the instruction set (one method per mnemonic) ------------------------------
@@ -381,6 +395,9 @@ class Writer:
         self._logic(ops, vals, "^")
 
     def _inc(self, ops: Operands, vals: Values) -> None:
+        if ops[0] is Operand.DPTR and self.static:
+            self.emit("dp = dp + 1 & 65535")
+            return
         if ops[0] is Operand.DPTR:
             self.emit("t = sfr[130] + 1")
             self.emit("if t == 256:")
@@ -399,8 +416,7 @@ class Writer:
         if dst is Operand.DPTR:
             imm = vals[1]
             if isinstance(imm, int):
-                self.emit(f"sfr[131] = {imm >> 8}")
-                self.emit(f"sfr[130] = {imm & 0xFF}")
+                self.emit(f"dp = {imm}")
             else:
                 self.emit(f"sfr[131] = {imm} >> 8")
                 self.emit(f"sfr[130] = {imm} & 255")
@@ -416,7 +432,7 @@ class Writer:
 
     def _movx_address(self, operand: Operand) -> str:
         if operand is Operand.AT_DPTR:
-            return self.temp(self.dptr())
+            return self.dptr() if self.static else self.temp(self.dptr())
         return self.temp(f"sfr[160] << 8 | {self.reg(_INDIRECT[operand])}")
 
     def _movx(self, ops: Operands, vals: Values) -> None:
@@ -671,4 +687,8 @@ def register_locals(text: str, bank_changes: bool) -> tuple[list[str], list[str]
         loads.append("c = sfr[208] >> 7")
     if re.search(r"^\s*(psw|c) = ", text, re.M):
         stores.append(f"sfr[208] = {'psw' if uses_psw else 'sfr[208] & 127'} | c << 7")
+    if re.search(r"\bdp\b", text):
+        loads.append(f"dp = {_DPTR_IN_SFRS}")
+    if re.search(r"^\s*dp = ", text, re.M):
+        stores += ["sfr[131] = dp >> 8", "sfr[130] = dp & 255"]
     return loads, stores

@@ -846,10 +846,12 @@ def _top(
         "config ok" if s.config_ok else "CONFIGURATION ERROR",
         style="green" if s.config_ok else "bold red",
     )
-    text.append(f"   control program {s.control_state}")
-    stopped = stop_text(s)
-    if stopped:
-        text.append(f" ({stopped})", style="yellow")
+    if s.held:  # a debugger holds the master still
+        text.append(f"   control program {s.held}", style="bold yellow")
+    else:
+        text.append(f"   control program {s.control_state}")
+        if stopped := stop_text(s):
+            text.append(f" ({stopped})", style="yellow")
     if s.forced:  # the FORCE lamp
         text.append("   ")
         text.append(f" FORCE {len(s.forced)} ", style="bold white on magenta")

@@ -6,12 +6,15 @@ header line of its own, so one scrollable list holds every line the program can 
 line with code shows the single-bit register (RLO), ACCU1, ACCU2, the constant register
 (KREG) and the value of its operand as the line left them in the latest cycle (in hex on
 request, as ASI_MON shows values); a line that did not run in it is grey with no values.
+A line that loads a timer constant (``L KT``) shows it as a time too, since KREG holds
+10 ms ticks.
 An image without its source (``compile --no-source``, an uploaded [RAW] file) still has
 its line map: the view lists the lines with code by number, with their values.
 """
 
 from __future__ import annotations
 
+import re
 from collections.abc import Callable, Mapping
 
 from rich.text import Text
@@ -19,6 +22,10 @@ from rich.text import Text
 from asictl.diagnostics import printable
 from asictl.host.listing import Listing
 from asictl.observe.online import CycleLines, LineValues
+from asictl.readers.units import TICK_MS, format_duration
+
+#: A line that loads a timer constant: its KREG is in 10 ms ticks, shown as a time too.
+_LOADS_KT = re.compile(r"\bL\s+KT\b", re.IGNORECASE)
 
 #: Columns of the values, right of the source.
 VALUES_WIDTH = 37
@@ -59,6 +66,8 @@ def render_rows(
         text.append(_fit(source, columns), style="dim" if grey or not row.code else "")
         if row.code and values is not None:
             _values(text, values, _hex if hex_values else str)
+            if values.ran and values.constant is not None and _LOADS_KT.search(source):
+                text.append(f"  KT {format_duration(values.constant * TICK_MS)}", style="dim")
         name = (names or {}).get(row.operand or "")
         if name and values is not None and values.ran and values.operand is not None:
             text.append(f" ({printable(name, lines=False)})", style="cyan")

@@ -14,6 +14,11 @@ from a thread (``background_live``): it *takes over*, and says so. When it canno
 board's lock is held by another process), the master is *gone* until it can; the screen
 says so in red and refuses the keys that act on the board.
 
+Each refresh of a live board also asks what other clients changed on it since the last
+(host.live.changes), for the event log: ``FORCE Q 3.1 (PumpB)=1 by asictl force (pid
+7)``, ``debugger attached by asictl dap (pid 8)``; reads are never changes, so another
+monitor's refreshes never show.
+
 The program image is read now and then and kept (``StoredProgram``): it names the IL
 line of a cycle time-out, and the program view shows its source. While the program view
 is open (``watch_lines``) each refresh also asks an emulated board for the IL lines of
@@ -30,9 +35,10 @@ from contextlib import ExitStack
 from dataclasses import dataclass
 
 from asictl.errors import UserError
-from asictl.host.connection import MasterAddress, NotServed, open_board
+from asictl.host.connection import MasterAddress, NotServed, client_name, open_board
 from asictl.host.emulated.boards import lock_file, state_directory
 from asictl.host.emulated.locking import is_free, read_holder
+from asictl.host.live.client import LiveActions, LiveClient
 from asictl.host.live.server import background_live
 from asictl.host.master import Master
 from asictl.host.status import MasterStatus, StoredProgram, read_program
@@ -93,6 +99,8 @@ class MonitorSource:
         self._took_over: float | None = None
         self._program: StoredProgram | None = None
         self._refreshes = 0
+        #: the live board's latest change this monitor has logged (None: none yet)
+        self._changes_seen: int | None = None
         #: the program view is open: each refresh asks for the latest cycle's lines
         self.watch_lines = False
         #: a refresh and a key's action take turns (they run in worker threads)
@@ -121,6 +129,8 @@ class MonitorSource:
             served = master.action.live if master.action is not None else None
             status = self._status(master)
             lines, note = self._lines(master) if self.watch_lines else (None, None)
+            if isinstance(master.action, LiveActions):
+                events += self._changes(master.action.client)
         if served == f"{OWN_SERVER} (pid {os.getpid()})":
             served = THIS_MONITOR
         if served is not None and served != self._served_by:
@@ -135,6 +145,13 @@ class MonitorSource:
             status, emulated=emulated, program=program, lines=lines, lines_note=note,
             served_by=self._served_by, took_over=self._took_over, events=tuple(events),
         )
+
+    def _changes(self, client: LiveClient) -> list[str]:
+        """What other clients changed on the live board since the last refresh (this
+        monitor's own keys are logged as they are pressed)."""
+        changes, self._changes_seen = client.changes(self._changes_seen)
+        me = client_name()
+        return [f"{change.text} by {change.who}" for change in changes if change.who != me]
 
     def _take_over(self, events: list[str]) -> None:
         """Serve the board from this process; ``UserError`` if another process holds it."""

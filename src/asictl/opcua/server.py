@@ -24,12 +24,14 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import gc
 import hmac
 import inspect
 import logging
 import time
-from collections.abc import Awaitable, Callable
+from collections.abc import AsyncIterator, Awaitable, Callable
 from dataclasses import dataclass, replace
+from datetime import UTC
 from typing import Any
 
 from asyncua import ua
@@ -58,6 +60,7 @@ from asictl.opcua.limits import (
     DEFAULT_MAX_SESSIONS,
     MAX_SESSION_TIMEOUT_S,
 )
+from asictl.opcua.standard_space import CachedStandardSpace
 from asictl.platform import pc2
 from asictl.platform.master import SLAVES
 
@@ -200,11 +203,17 @@ class BoardSpace:
     def node_id(self, text: str) -> ua.NodeId:
         return ua.NodeId(ua.String(text), ua.Int16(self.ns))
 
+    def browse_name(self, name: str) -> ua.QualifiedName:
+        """A browse name in the board's namespace, as its node ids are: a client browsing
+        by path (``0:Objects/2:Master/2:Phase``) names it so."""
+        return ua.QualifiedName(name, self.ns)
+
     async def variable(
         self, parent: Node, key: str, name: str, value: Any, kind: ua.VariantType,
         write: Callable[[Any], None] | None = None,
     ) -> Node:
-        node = await parent.add_variable(self.node_id(key), name, ua.Variant(value, kind))
+        node = await parent.add_variable(self.node_id(key), self.browse_name(name),
+                                         ua.Variant(value, kind))
         self.values[key] = (node, kind, value)
         if write is not None and self.options.writable:
             await node.set_writable()
@@ -221,6 +230,12 @@ class BoardSpace:
                 if value.Value.is_array or isinstance(value.Value.Value, list):
                     raise _refused(StatusCodes.BadTypeMismatch)
                 write(value.Value.Value)
+                # stamped when the board took it (a client's own source timestamp
+                # kept); in place, since asyncua hands this same value on to the
+                # subscriptions after the setter
+                now = ua.DateTime.now(UTC)
+                value.SourceTimestamp = value.SourceTimestamp or now
+                value.ServerTimestamp = now
             node.attributes[attr].value = value
 
         return setter
@@ -230,20 +245,23 @@ class BoardSpace:
         self.ns = await server.register_namespace(NAMESPACE)
         objects = server.nodes.objects
         status = self.read()
-        master = await objects.add_object(self.node_id("Master"), "Master")
+        master = await objects.add_object(self.node_id("Master"), self.browse_name("Master"))
         for key, name, kind in _MASTER:
             await self.variable(master, f"Master.{name}", name, _master_value(status, key), kind)
         if self.options.writable:
-            await master.add_method(self.node_id("Master.Start"), "Start", self._start, [], [])
-            await master.add_method(self.node_id("Master.Stop"), "Stop", self._stop, [], [])
-        slaves = await objects.add_folder(self.node_id("Slaves"), "Slaves")
+            await master.add_method(self.node_id("Master.Start"), self.browse_name("Start"),
+                                    self._start, [], [])
+            await master.add_method(self.node_id("Master.Stop"), self.browse_name("Stop"),
+                                    self._stop, [], [])
+        slaves = await objects.add_folder(self.node_id("Slaves"), self.browse_name("Slaves"))
         for address in SLAVE_ADDRESSES:
-            slave = await slaves.add_object(self.node_id(f"Slave.{address}"), f"Slave {address}")
+            slave = await slaves.add_object(self.node_id(f"Slave.{address}"),
+                                            self.browse_name(f"Slave {address}"))
             for field, kind in _SLAVE:
                 write = self._input_writer(address) if field == "Inputs" else None
                 await self.variable(slave, f"Slave.{address}.{field}", field,
                                     _slave_value(status, address, field), kind, write)
-        flags = await objects.add_folder(self.node_id("Flags"), "Flags")
+        flags = await objects.add_folder(self.node_id("Flags"), self.browse_name("Flags"))
         for byte in range(FLAG_BYTES):
             node = await self.variable(flags, f"FY {byte}", f"FY {byte}", status.flags[byte],
                                        V.Byte, self._flag_writer(byte, None))
@@ -251,18 +269,25 @@ class BoardSpace:
                 await self.variable(node, f"F {byte}.{bit}", f"F {byte}.{bit}",
                                     bool(status.flags[byte] >> bit & 1), V.Boolean,
                                     self._flag_writer(byte, bit))
-        self.timers = await objects.add_folder(self.node_id("Timers"), "Timers")
-        self.counters = await objects.add_folder(self.node_id("Counters"), "Counters")
+        self.timers = await objects.add_folder(self.node_id("Timers"), self.browse_name("Timers"))
+        self.counters = await objects.add_folder(self.node_id("Counters"),
+                                                 self.browse_name("Counters"))
         await self._timers_and_counters(status)
         # --opcua-symbols, else the table the download stored with the program
         table = self.options.symbols or image_symbols(self.program.image if self.program else None)
         if table:
-            folder = await objects.add_folder(self.node_id("Symbols"), "Symbols")
+            folder = await objects.add_folder(self.node_id("Symbols"),
+                                              self.browse_name("Symbols"))
             for name, text in table.entries.values():
                 operand = parse_operand(text)
                 self.symbols[name] = operand
-                await self.variable(folder, f"Symbol.{name}", name,
-                                    read_on_board(self.live.board, operand), V.Int32)
+                await self.variable(folder, f"Symbol.{name}", name, self._symbol(operand),
+                                    V.Boolean if operand.is_bit else V.Int32)
+
+    def _symbol(self, operand: Operand) -> bool | int:
+        """A symbol's value: a bit is a Boolean, as the flag bits are."""
+        value = read_on_board(self.live.board, operand)
+        return bool(value) if operand.is_bit else value
 
     @property
     def program(self) -> StoredProgram | None:
@@ -310,16 +335,18 @@ class BoardSpace:
         for counter in status.counters or []:
             now[f"C {counter.number}"] = counter.value
         for name, operand in self.symbols.items():
-            now[f"Symbol.{name}"] = read_on_board(self.live.board, operand)
+            now[f"Symbol.{name}"] = self._symbol(operand)
+        read_at = ua.DateTime.now(UTC)  # the source timestamp of every value read above
         self._refreshing = True
         try:
             for key, value in now.items():
                 node, kind, before = self.values[key]
                 if value != before:
                     self.values[key] = (node, kind, value)
-                    await self.server.write_attribute_value(
-                        node.nodeid, ua.DataValue(ua.Variant(value, kind))
-                    )
+                    await self.server.write_attribute_value(node.nodeid, ua.DataValue(
+                        ua.Variant(value, kind), SourceTimestamp=read_at,
+                        ServerTimestamp=ua.DateTime.now(UTC),
+                    ))
         finally:
             self._refreshing = False
 
@@ -475,13 +502,36 @@ def opcua_attachment(
     return attach
 
 
+@contextlib.asynccontextmanager
+async def _kept_for_good() -> AsyncIterator[None]:
+    """The address space, built without the garbage collector and then frozen out of
+    its reach: asyncua's standard nodes and the board's are some 650,000 objects the
+    collector tracks, all living as long as the server; the collections that building
+    them set off (each going through all built so far) took 40 to 50 % of the time to
+    build them, and would go on visiting them in every full collection while serving
+    (docs/performance.md). Building them leaves no garbage in cycles (none was found),
+    so nothing is collected before freezing, which would cost a full collection."""
+    collecting = gc.isenabled()
+    gc.disable()
+    try:
+        yield
+    finally:
+        gc.freeze()
+        if collecting:
+            gc.enable()
+
+
 async def _serve(
     live: LiveBoard, name: str, options: OpcUaOptions, notify: Callable[[str], None],
     stop: asyncio.Event, started: Callable[[str], None] | None,
 ) -> None:
     logging.getLogger("asyncua").setLevel(logging.CRITICAL)  # its tracebacks per bad client
-    server = Server(user_manager=_Login(options.user, options.password))  # type: ignore[arg-type]
-    await server.init()
+    login = _Login(options.user, options.password)
+    server = Server(iserver=CachedStandardSpace(user_manager=login))  # type: ignore[arg-type]
+    space = BoardSpace(server, live, name, options)
+    async with _kept_for_good():
+        await server.init()
+        await space.build()
     _limit_clients(server, options)
     server.set_endpoint(options.url)
     server.set_server_name(f"asictl board {name}")
@@ -489,8 +539,6 @@ async def _serve(
     server.set_identity_tokens(
         [ua.UserNameIdentityToken] if options.user is not None else [ua.AnonymousIdentityToken]
     )
-    space = BoardSpace(server, live, name, options)
-    await space.build()
     await server.start()
     assert server.bserver is not None
     if started is not None:

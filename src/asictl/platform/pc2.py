@@ -30,6 +30,11 @@ PAGE_SIZE = 0x100
 
 MASTER_NAME = 0x0B0
 MASTER_NAME_SIZE = 48
+#: How asictl's emulation names itself, and the one way a command tells it from a real
+#: master (host/overwrite_guard.py): the board's version string in the name field says
+#: it, the emulated gateway's Modbus function 17 answers it. Nothing else (an address,
+#: the entry table) counts, so a look-alike that does not say it is treated as real.
+EMULATION_MARK = "asictl emulation"
 INSTALLED_SOFTWARE = 0x0E0
 INSTALLED_SOFTWARE_SIZE = 16
 VERSION_ID = 0x0F0
@@ -114,6 +119,12 @@ class Command(IntEnum):
     UPDATE_DPRAM = 128
     READ_TELEGRAM_COUNTERS = 129
     EMC_TEST_MODE = 130
+
+#: The commands that change nothing a program or a host could tell: refresh the control
+#: flags and cycle times (51), copy the EEPROM (53) or the communication memory (56) to
+#: the program buffer. ``asictl probe`` issues only these; a live board halted at a
+#: breakpoint still answers them.
+READ_ONLY_COMMANDS = frozenset({Command.GET_STATUS, Command.UPLOAD, Command.READ_COMM_MEMORY})
 
 
 #: Command 130 (EMC test mode, manual 7.3, lines 443-457): its parameters in program buffer

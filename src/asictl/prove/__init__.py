@@ -4,7 +4,8 @@
 from the reference interpreter's rules; ``engine`` decides properties (bounded model
 checking for counterexamples and witnesses, k-induction strengthened with invariants it
 finds for proofs); ``counterexample`` writes what it finds as scenarios; ``diff``
-compares two programs network by network and decides whether they behave the same.
+compares two programs network by network and decides whether they behave the same, on the
+pairs of state elements ``correspond`` finds alike.
 """
 
 from __future__ import annotations

@@ -18,9 +18,9 @@ import z3
 
 from asictl.il import ast
 from asictl.observe.condition import Expr, Negation, refs
+from asictl.observe.names import bits_of, named
 from asictl.observe.symbols import SymbolTable
 from asictl.prove.engine import Outcome, Step, Verdict, condition
-from asictl.prove.names import named
 from asictl.prove.props import Kind, Properties, Property
 from asictl.sim.scenario import SlaveSpec
 from asictl.sim.scenario_writer import ScenarioWriter
@@ -103,15 +103,23 @@ def scenario_text(props: Properties, program: Path, target: Path, prop: Property
                 f"{prop.text()}\n"
                 f"{cycles} program cycle{'s' if cycles != 1 else ''}; asictl sim --scenario "
                 f"{target.name} {fate}.")
+    if outcome.phase_us is None:
+        out.comment("phase: any (the property does not depend on the 10 ms clock)")
     if outcome.note:
         out.comment(f"note: {outcome.note}")
     names = _names(outcome.trace, masks, expected, props.symbols)
     if names:
         out.comment(f"names: {names}")
     out.program(Path(os.path.relpath(program.resolve(), target.resolve().parent)).as_posix())
-    out.master(cycle_ms, props.slaves)
+    out.master(cycle_ms, props.slaves, _first_tick_ms(outcome.phase_us))
     _steps(out, outcome.trace, masks, cycle_ms, expected)
     return out.text()
+
+
+def _first_tick_ms(phase_us: int | None) -> float | None:
+    """The phase of the clock a trace assumes, as a scenario's ``first_tick_ms``: the
+    prover leaves it free, and the scenario replays only on the one it found."""
+    return None if phase_us is None else phase_us / 1000
 
 
 def _steps(out: ScenarioWriter, trace: list[Step], masks: dict[int, int], cycle_ms: float,
@@ -131,17 +139,28 @@ def _steps(out: ScenarioWriter, trace: list[Step], masks: dict[int, int], cycle_
 def difference_text(old: Path, new: Path, target: Path, trace: list[Step],
                     masks: dict[int, int], cycle_ms: float,
                     differences: dict[str, tuple[int, int]],
-                    slaves: list[SlaveSpec] | None = None) -> str:
+                    slaves: list[SlaveSpec] | None = None,
+                    symbols: SymbolTable | None = None,
+                    phase_us: int | None = None) -> str:
     """The scenario that tells two programs apart: it expects what ``old`` does, so it
-    passes on ``old`` and fails on ``new`` at its last step."""
+    passes on ``old`` and fails on ``new`` at its last step (on the clock's phase
+    ``phase_us`` the trace needs, if any). A byte that differs is expected bit by bit,
+    only the bits that differ, the first of them (an output, where one differs) named in
+    a comment with its symbol."""
+    symbols = symbols if symbols is not None else SymbolTable()
+    bits = [bit for text, (first, second) in differences.items()
+            for bit in bits_of(text, first, second)]
     out = ScenarioWriter()
     out.comment(f"{_MARKED} a difference between {old.name} and {new.name}\n"
                 f"passes on {old.name}; asictl sim {new.name} --scenario {target.name} "
                 "fails at the last step.")
+    if bits:
+        text, first, second = bits[0]
+        out.comment(f"first difference: {named(text, symbols)} is {first} in {old.name}, "
+                    f"{second} in {new.name}")
     out.program(Path(os.path.relpath(old.resolve(), target.resolve().parent)).as_posix())
-    out.master(cycle_ms, slaves)
-    _steps(out, trace, masks, cycle_ms,
-           [Expectation(text, first) for text, (first, _) in differences.items()])
+    out.master(cycle_ms, slaves, _first_tick_ms(phase_us))
+    _steps(out, trace, masks, cycle_ms, [Expectation(text, first) for text, first, _ in bits])
     return out.text()
 
 

@@ -3,10 +3,19 @@ network, is ``il/networks.py``'s).
 
 ``equivalent`` runs both programs side by side on one symbolic master (the same slaves,
 the same host writes, the same firmware answers call for call, one 10 ms clock) and asks
-whether any input sequence makes their outputs (and the flags the host writes, which it
-also reads) differ after some cycle: ``equivalent`` when k-induction (with the invariant
-that every cell both programs keep is equal) or PDR proves they never do, ``different``
-with the distinguishing input sequence, ``unknown`` when time runs out first.
+whether any input sequence makes what is compared differ after some cycle. What is
+compared is what a user of the program can see: the outputs, the flags the host writes
+(``; asictl: host``, which it also reads) and the ``observe`` operands; every other flag,
+timer and counter is the program's own, so renaming it changes nothing (mutation testing
+passes all of them as ``observe``: ``readable``).
+
+The proof matches the two programs' states rather than unrolling them: candidate pairs
+of elements that held the same value on a random run of both (``prove/correspond.py``),
+kept by Houdini's algorithm while their conjunction holds after the first cycle and is
+kept by one cycle of both (``Machine.find_invariants``); when that invariant makes the
+compared cells equal, the verdict is ``equivalent`` at depth 0. Otherwise k-induction on
+top of it, or PDR, may still prove it; ``different`` comes with the distinguishing input
+sequence (bounded model checking), ``unknown`` when time runs out first.
 """
 
 from __future__ import annotations
@@ -22,11 +31,14 @@ from asictl.il.loader import Program
 from asictl.il.pragmas import read_directives
 from asictl.observe.condition import Truth
 from asictl.platform.master import asi_cycle_us
+from asictl.prove.correspond import SECONDS, Correspondence, Pair, corresponding
 from asictl.prove.engine import Machine, Outcome, Setup, Step, Verdict
 from asictl.prove.props import Kind, Property
 from asictl.prove.scope import uses
-from asictl.prove.session import cycles_of
+from asictl.prove.session import cycles_of, simulator_phase
 from asictl.prove.symbolic import (
+    TICK,
+    Cycle,
     Key,
     TimeLimit,
     Unmodelled,
@@ -36,7 +48,7 @@ from asictl.prove.symbolic import (
     operand_cells,
     product,
 )
-from asictl.readers.units import Cycles
+from asictl.readers.units import Cycles, format_duration
 
 # ---------------------------------------------------------------------- behaviour
 
@@ -60,6 +72,9 @@ class Equivalence:
     note: str = ""
     #: the construct that could not be modelled, when that made the verdict "unknown"
     refused: Unmodelled | None = None
+    #: for "different": the phase of the 10 ms clock the trace needs (us from time 0 to
+    #: the first tick; None: any)
+    phase_us: int | None = None
 
 
 _FLAGS = (ast.OperandKind.F, ast.OperandKind.FY, ast.OperandKind.FW)
@@ -121,14 +136,17 @@ def equivalent(
         return Equivalence("unknown", 0, 0.0, note="a build without IL source")
     try:
         return _equivalent(programs[0], programs[1], start, timeout_s=timeout_s,
-                           depth=depth, slaves=slaves, cycle_ms=cycle_ms, observe=observe)
+                           depth=depth, slaves=slaves, cycle_ms=cycle_ms, observe=observe,
+                           built=first if isinstance(first, Build) else None)
     except Unmodelled as exc:
         return Equivalence("unknown", 0, time.monotonic() - start, note=str(exc),
                            refused=exc)
     except TimeLimit:
         seconds = time.monotonic() - start
-        return Equivalence("unknown", 0, seconds, note=f"time limit ({timeout_s:g} s) while "
-                           f"building the model, {seconds:.1f} s since the start")
+        return Equivalence("unknown", 0, seconds,
+                           note=f"time limit ({format_duration(timeout_s * 1000)}) while "
+                           f"building the model, {format_duration(seconds * 1000)} since the "
+                           "start")
 
 
 def _program_of(side: Program | Build) -> Program | None:
@@ -137,7 +155,7 @@ def _program_of(side: Program | Build) -> Program | None:
 
 def _equivalent(first: Program, second: Program, start: float, *, timeout_s: float,
                 depth: int | Cycles, slaves: Iterable[int] | None, cycle_ms: float | None,
-                observe: Iterable[ast.Operand]) -> Equivalence:
+                observe: Iterable[ast.Operand], built: Build | None) -> Equivalence:
     bus = tuple(sorted(set(slaves) if slaves is not None else
                        {s.address for p in (first, second) for s in p.slaves}))
     cycle_us = (round(cycle_ms * 1000) if cycle_ms is not None
@@ -151,68 +169,85 @@ def _equivalent(first: Program, second: Program, start: float, *, timeout_s: flo
                           watch=observed, prefix=f"{side}.", deadline=deadline)
               for side, program in (("a", first), ("b", second))]
     both = product(*cycles)
+    # the scenario written runs the first program: its clock phase in the simulator
+    phase = simulator_phase(built, cycle_us) if built is not None else None
+    # the run takes at most a quarter of the time left: the proof needs the rest
+    budget = min(SECONDS, (deadline - time.monotonic()) / 4)
+    run = _correspondence(first, second, cycles, observed, both.host_masks, phase, budget)
+
+    def seen() -> Equivalence:
+        """The difference the run of both programs showed."""
+        result = Equivalence("different", len(run.steps), time.monotonic() - start,
+                             [Step(inputs, host) for inputs, host in run.steps],
+                             slaves=bus, cycle_ms=cycle_us / 1000,
+                             host_masks=both.host_masks, phase_us=phase,
+                             note="found on a random run of both programs")
+        for (cell, _), values in run.differences.items():
+            _tell(result, cell, *values)
+        return result
+
+    if len(run.steps) > depth + 1 and run.differences:
+        # later than the search goes: no proof can make them the same; a difference
+        # within the depth is searched for below, as the shortest
+        return seen()
     pairs = [(("a", *cell), ("b", *cell)) for cell in observed]
     same = Property("same outputs", Kind.ALWAYS, Truth(True), 0)
-    machine = Machine(first, Setup(bus, cycle_us, tuple(host)), [], [], prebuilt=both,
-                      observed=pairs, twins=_twins(first, second), deadline=deadline)
-    machine.find_invariants(deadline)
+    twins = [Pair((("a", *pair.first[0]), pair.first[1]),
+                  (("b", *pair.second[0]), pair.second[1]), pair.inverted)
+             for pair in run.pairs]
+    machine = Machine(first, Setup(bus, cycle_us, tuple(host), phase), [], [], prebuilt=both,
+                      observed=pairs, twins=twins, deadline=deadline)
+    if not run.differences:
+        machine.find_invariants(deadline)
     outcome: Outcome = machine.decide(same, depth=depth, timeout_s=timeout_s, since=start)
+    if run.differences and outcome.verdict is not Verdict.REFUTED:
+        return seen()  # the search ran out of time: what the run saw still stands
     verdict = {Verdict.PROVED: "equivalent", Verdict.REFUTED: "different"}.get(
         outcome.verdict, "unknown")
     result = Equivalence(verdict, outcome.depth + 1 if outcome.trace else outcome.depth,
                          time.monotonic() - start, outcome.trace, slaves=bus,
                          cycle_ms=cycle_us / 1000, host_masks=both.host_masks,
-                         note=outcome.note)
+                         note=outcome.note, phase_us=outcome.phase_us)
     if outcome.verdict is Verdict.BOUNDED:
         result.note = f"no difference within {depth + 1} cycles, and no proof"
     for a, b in pairs:
         x, y = outcome.values.get(cell_name(a)), outcome.values.get(cell_name(b))
         if x is not None and y is not None and x != y:
-            result.differences[_operand_text(a[1:])] = (x, y)
+            _tell(result, a[1:], x, y)
     return result
 
 
-#: At most this many pairs of bits are tried as equal in both programs.
-_MOST_TWINS = 2000
+def _tell(result: Equivalence, cell: Key, first: int, second: int) -> None:
+    """A compared cell's two values after the last cycle, as a scenario names them."""
+    scale = 10 if cell[0] == "T" else 1  # a timer's ticks as TV reads them: ms
+    result.differences[_operand_text(cell)] = (first * scale, second * scale)
 
 
-def _memory(program: Program) -> tuple[set[tuple[Key, int]], set[tuple[Key, int]]]:
-    """The flag and variable bits, and the timers and counters, a program uses."""
-    bits: set[tuple[Key, int]] = set()
-    words: set[tuple[Key, int]] = set()
-    for operand, _ in uses(program):
-        if operand.kind is ast.OperandKind.F:
-            bits.add((("a", "F", operand.address), operand.bit))
-        elif operand.kind is ast.OperandKind.VAR and operand.bit >= 0:
-            bits.add((("a", "V", key(operand.name), operand.address), operand.bit))
-        elif operand.kind in (ast.OperandKind.T, ast.OperandKind.C):
-            words.add((("a", operand.kind.value, operand.address), -1))
-    return bits, words
-
-
-def _twins(first: Program, second: Program) -> list[tuple[tuple[Key, int], tuple[Key, int]]]:
-    """Pairs of bits (and of timers, of counters) that a refactoring may have renamed:
-    each of the first program's with each of the second's of the same kind."""
-    bits_a, words_a = _memory(first)
-    bits_b, words_b = _memory(second)
-
-    def other(place: tuple[Key, int]) -> tuple[Key, int]:
-        return ("b", *place[0][1:]), place[1]
-
-    found = [(x, other(y)) for x in sorted(words_a, key=str) for y in sorted(words_b, key=str)
-             if x[0][1] == y[0][1] and x != y]
-    found += [(x, other(y)) for x in sorted(bits_a, key=str) for y in sorted(bits_b, key=str)
-              if x != y]
-    return found[:_MOST_TWINS]
+def _correspondence(first: Program, second: Program, cycles: list[Cycle],
+                    observed: list[Key], masks: dict[int, int], phase: int | None,
+                    budget_s: float) -> Correspondence:
+    """A random run of both programs: the elements that may always be equal (a
+    refactoring's renamed flags, timers and counters among them), or the compared cells
+    seen to differ (``prove/correspond.py``). When the run could not be made, every cell
+    both programs keep at the same place is a candidate."""
+    own = (sorted(cycles[0].post, key=cell_name), sorted(cycles[1].post, key=cell_name))
+    run = corresponding(first, second, own, compared=[(cell, cell) for cell in observed],
+                        slaves=cycles[0].slaves, cycle_us=cycles[0].cycle_us,
+                        host_masks=masks, phase_us=phase, budget_s=budget_s)
+    if not run.pairs and not run.differences:
+        run.pairs = [Pair((cell, -1), (cell, -1)) for cell in own[0]
+                     if cell in cycles[1].post]
+    run.pairs = [pair for pair in run.pairs if TICK not in (pair.first[0], pair.second[0])]
+    return run
 
 
 def _operand_text(cell: Key) -> str:
-    """A compared cell as a scenario names it (a timer in 10 ms ticks)."""
+    """A compared cell as a scenario names it (a timer by the time it has left)."""
     kind = cell[0]
     if kind == "Q":
         return f"QB {2 * int(cell[1])}"
     if kind == "T":
-        return f"T {cell[1]} (10 ms ticks)"
+        return f"TV {cell[1]}"
     if kind == "C":
         return f"CV {cell[1]}"
     if kind == "V":

@@ -20,7 +20,14 @@ tick phase, each response monitor's age) are filtered by Houdini's algorithm unt
 remains is inductive; only proved facts are assumed.
 
 A ``when A then B within N`` property is checked as a safety property with a monitor:
-the age of the oldest trigger not yet answered; it is bad when it reaches N.
+the age of the oldest trigger not yet answered; it is bad when it reaches N. For one,
+the facts that tie a waiting trigger to a running timer (``prove/timers.py``) are proved
+the same way, over the monitor, and strengthen its induction step.
+
+Beside the base case, a second path from the reset lets each step stand for a stretch
+of idle cycles (``prove/jump.py``), so that a counterexample thousands of cycles behind
+a timer is found in a few steps; its checks have a budget, and the first out of it ends
+that search.
 """
 
 from __future__ import annotations
@@ -51,6 +58,8 @@ from asictl.observe.condition import (
     show,
 )
 from asictl.platform.master import TICK_US
+from asictl.prove.correspond import Pair
+from asictl.prove.jump import idle
 from asictl.prove.props import Kind, Property
 from asictl.prove.symbolic import (
     CONSTANT,
@@ -65,9 +74,12 @@ from asictl.prove.symbolic import (
     operand_value,
     width,
 )
-from asictl.readers.units import timer_ticks
+from asictl.prove.timers import Candidate, Fact, States, started, waiting
+from asictl.readers.units import format_duration, timer_ticks
 
 K = ast.OperandKind
+#: Seconds (and four times the plain check's) a check with steps of idle cycles may take.
+JUMP_BUDGET_S = 2.0
 
 
 class Verdict(StrEnum):
@@ -118,6 +130,9 @@ class Outcome:
     values: dict[str, int] = field(default_factory=dict)
     #: why a proof holds whatever the program does ("": it is a real proof)
     trivially: str = ""
+    #: the phase the trace assumes: microseconds from time 0 to the first 10 ms tick;
+    #: None when the property does not depend on the clock (any phase does)
+    phase_us: int | None = None
 
 
 def _value(expr: Expr, read: Callable[[ast.Operand], z3.BitVecRef]) -> z3.BitVecRef:
@@ -186,10 +201,15 @@ class _Path:
     """States after consecutive cycles, as solver variables, with the constraints that
     tie each to the one before."""
 
-    def __init__(self, machine: Machine, solver: z3.Solver, tag: str, *, initial: bool) -> None:
+    def __init__(self, machine: Machine, solver: z3.Solver, tag: str, *, initial: bool,
+                 jumps: bool = False) -> None:
         self.machine = machine
         self.solver = solver
         self.tag = tag
+        #: a step after the first may stand for many idle cycles (``prove/jump.py``)
+        self.jumps = jumps
+        #: per state: the cycles of the step that led to it (1 without jumps)
+        self.cycles: list[z3.BitVecRef] = []
         self.states: list[dict[Key, z3.BitVecRef]] = []
         self.inputs: list[dict[str, z3.BitVecRef]] = []
         self.monitors: list[dict[str, z3.ExprRef]] = []
@@ -208,6 +228,7 @@ class _Path:
             machine.start_monitors(self, 0)
         else:
             self.states.append(self._fresh(0))
+            self.cycles.append(z3.BitVecVal(1, 32))
             self.inputs.append({})
             self.overruns.append(z3.BoolVal(False))
             machine.free_monitors(self, 0)
@@ -225,9 +246,19 @@ class _Path:
         pairs = [(var, before[cell]) for cell, var in cycle.pre.items() if cell in self.cells]
         pairs += [(var, inputs[name]) for name, var in cycle.inputs.items()]
         after = self._fresh(index)
+        nexts: dict[Key, z3.ExprRef] = {cell: z3.substitute(cycle.post[cell], *pairs)
+                                        for cell in self.cells}
+        cycles = z3.BitVecVal(1, 32)
+        if self.jumps and index:
+            cycles = z3.BitVec(f"{self.tag}cycles@{index}", 32)
+            stored = {n: z3.substitute(term, *pairs) for n, term in cycle.stored.items()}
+            nexts, rules = idle(cycles, self.states[-1], nexts, stored, cycle.cycle_us,
+                                f"{self.tag}{index}.")
+            self.solver.add(*rules)
         for cell in self.cells:
             if not (index == 0 and cell == TICK):  # set as the phase
-                self.solver.add(after[cell] == z3.substitute(cycle.post[cell], *pairs))
+                self.solver.add(after[cell] == nexts[cell])
+        self.cycles.append(cycles)
         self.overruns.append(z3.substitute(cycle.overrun, *pairs))
         self.states.append(after)
         self.inputs.append(inputs)
@@ -250,6 +281,54 @@ class _Path:
 
     def holds(self, expr: Expr, index: int) -> z3.BoolRef:
         return condition(expr, self.reader(index))
+
+
+def _quiet(path: _Path, model: z3.ModelRef, last: int, wanted: list[z3.BoolRef],
+           deadline: float) -> z3.ModelRef:
+    """The same failure (``wanted`` still true after cycle ``last``) with as few input
+    changes as the search can find, so that a counterexample shows what matters: each
+    slave's and host flag's bits, cycle by cycle from the first, hold their value (0
+    before the first cycle) unless holding it makes the failure impossible. Inputs
+    outside the property's cone of influence appear in no constraint of the path, so
+    they always hold and are never set; within the cone, an input is changed only where
+    the failure needs it. The search is greedy, first the whole input and then bit by
+    bit, and stops at ``deadline`` with the best found so far."""
+    solver = path.solver
+    solver.push()
+    scopes = 1
+    try:
+        solver.add(*wanted)
+        for index in range(last + 1):
+            for name, var in path.inputs[index].items():
+                if not name.startswith(("in.", "host.")):
+                    continue  # a firmware block's answer: not the scenario's to set
+                before = (path.inputs[index - 1][name] if index
+                          else z3.BitVecVal(0, var.size()))
+                holds = [var == before] + [
+                    z3.Extract(b, b, var) == z3.Extract(b, b, before)
+                    for b in range(var.size())]
+                for hold in holds:
+                    if z3.is_true(model.eval(hold, model_completion=True)):
+                        solver.add(hold)
+                        if hold is holds[0]:
+                            break
+                        continue
+                    left = int((deadline - time.monotonic()) * 1000)
+                    if left < 50:
+                        return model
+                    solver.set("timeout", left)
+                    solver.push()
+                    solver.add(hold)
+                    if solver.check() == z3.sat:
+                        model = solver.model()
+                        scopes += 1  # kept
+                        if hold is holds[0]:
+                            break
+                    else:
+                        solver.pop()
+    finally:
+        solver.pop(scopes)
+    return model
 
 
 class _Collector:
@@ -279,21 +358,29 @@ def _constants(term: z3.ExprRef) -> set[z3.ExprRef]:
     return found
 
 
-def _same_bit(first: Key, i: int, second: Key, j: int) -> Callable[[_Path, int],
-                                                                    z3.BoolRef]:
-    def fact(path: _Path, index: int) -> z3.BoolRef:
+def _same(pair: Pair) -> Fact:
+    """Two programs compared: an element of the first equal to one of the second (or to
+    its complement)."""
+    (first, i), (second, j) = pair.first, pair.second
+
+    def fact(path: States, index: int) -> z3.BoolRef:
         x, y = path.states[index][first], path.states[index][second]
         if i < 0:
             whole: z3.BoolRef = x == y
             return whole
-        result: z3.BoolRef = z3.Extract(i, i, x) == z3.Extract(j, j, y)
+        result: z3.BoolRef = (z3.Extract(i, i, x) == z3.Extract(j, j, y)) != pair.inverted
         return result
 
     return fact
 
 
-def _at_most(cell: Key, bound: int) -> Callable[[_Path, int], z3.BoolRef]:
-    def fact(path: _Path, index: int) -> z3.BoolRef:
+def _element_text(element: tuple[Key, int]) -> str:
+    cell, bit = element
+    return cell_name(cell[1:]) + ("" if bit < 0 else f".{bit}")
+
+
+def _at_most(cell: Key, bound: int) -> Fact:
+    def fact(path: States, index: int) -> z3.BoolRef:
         result: z3.BoolRef = z3.ULE(path.states[index][cell], bound)
         return result
 
@@ -322,12 +409,11 @@ class Machine:
     overrun_cells: frozenset[Key] = field(init=False)
     #: for two programs compared: the cells that must be equal after every cycle
     observed: list[tuple[Key, Key]] = field(default_factory=list)
-    #: for two programs compared: bits that may always be equal, one of each program
-    #: (cell, bit); bit -1 for a whole word (a timer, a counter)
-    twins: list[tuple[tuple[Key, int], tuple[Key, int]]] = field(default_factory=list)
+    #: for two programs compared: elements that may always be equal, one of each
+    #: program (``prove/correspond.py``), the cells under their side ("a", "b")
+    twins: list[Pair] = field(default_factory=list)
     #: proved facts about every reachable state, as functions of a state, with their cells
-    invariants: list[tuple[Callable[[_Path, int], z3.BoolRef], frozenset[Key]]] = field(
-        default_factory=list)
+    invariants: list[tuple[Fact, frozenset[Key]]] = field(default_factory=list)
     invariant_names: list[str] = field(default_factory=list)
     #: the property being decided now (its monitor)
     current: Property | None = None
@@ -335,7 +421,7 @@ class Machine:
     scope: frozenset[Key] | None = None
     #: each cell -> the cells its value after a cycle depends on
     depends: dict[Key, frozenset[Key]] = field(default_factory=dict)
-    #: how notes name an operand (``Q 3.1`` -> ``Q 3.1 (PumpB)``, prove/names.py)
+    #: how notes name an operand (``Q 3.1`` -> ``Q 3.1 (PumpB)``, observe/names.py)
     label: Callable[[str], str] = str
     #: when (time.monotonic) building the model must be done: past it, ``TimeLimit``
     deadline: float | None = None
@@ -419,10 +505,16 @@ class Machine:
             return
         trigger, answer = self._response(path, index)
         active, age = before["active"], before["age"]
+        assert isinstance(age, z3.BitVecRef)
+        cycles = path.cycles[index]  # a trigger waits through all of a step's cycles
+        if path.jumps:
+            path.solver.add(z3.ULE(z3.ZeroExt(16, age) + cycles, 0xFFFF))
+        waited = z3.Extract(15, 0, cycles)
         path.monitors.append({
             "active": z3.And(z3.Not(answer), z3.Or(active, trigger)),
             "age": z3.If(answer, z3.BitVecVal(0, 16),
-                         z3.If(active, age + 1, z3.BitVecVal(0, 16))),
+                         z3.If(active, age + waited,
+                               z3.If(trigger, waited - 1, z3.BitVecVal(0, 16)))),
         })
 
     def _response(self, path: _Path, index: int) -> tuple[z3.BoolRef, z3.BoolRef]:
@@ -449,11 +541,10 @@ class Machine:
 
     # -------------------------------------------------------------- invariants
 
-    def candidates(self) -> list[tuple[str, Callable[[_Path, int], z3.BoolRef],
-                                       frozenset[Key]]]:
+    def candidates(self) -> list[Candidate]:
         """Facts that may hold in every reachable state, drawn from the program, each
         with the cells it reads."""
-        found: list[tuple[str, Callable[[_Path, int], z3.BoolRef], frozenset[Key]]] = []
+        found: list[Candidate] = []
         cells = self.cycle.post
         if TICK in cells:
             found.append(("the 10 ms clock's next tick within 10 ms", lambda p, i: z3.And(
@@ -472,21 +563,18 @@ class Machine:
             for bound in presets:
                 found.append((f"timer {n} holds at most {bound * 10} ms",
                               _at_most(("T", n), bound), frozenset({("T", n)})))
+        found += started(self.program, frozenset(cells), self.map_counters)
         for cell in cells:
             if cell[0] == "C":
                 found.append((f"counter {cell[1]} at most {TC_MAX_VALUE}",
                               _at_most(cell, TC_MAX_VALUE), frozenset({cell})))
-        if self.observed:  # two programs compared: the cells they share stay equal
-            for cell in cells:
-                twin = ("b", *cell[1:])
-                if cell[0] == "a" and twin in cells:
-                    found.append((f"{cell_name(cell[1:])} equal in both",
-                                  _same_bit(cell, -1, twin, -1), frozenset({cell, twin})))
-        for (a, i), (b, j) in self.twins:
+        for pair in self.twins:
+            a, b = pair.first[0], pair.second[0]
             if a in cells and b in cells:
-                found.append((f"{cell_name(a[1:])}{'' if i < 0 else f'.{i}'} in the first "
-                              f"equal to {cell_name(b[1:])}{'' if j < 0 else f'.{j}'} in the "
-                              "second", _same_bit(a, i, b, j), frozenset({a, b})))
+                relation = "the complement of" if pair.inverted else "equal to"
+                found.append((f"{_element_text(pair.first)} in the first {relation} "
+                              f"{_element_text(pair.second)} in the second", _same(pair),
+                              frozenset({a, b})))
         return found
 
     def _constants(self) -> set[int]:
@@ -508,37 +596,69 @@ class Machine:
         return [address for address, _ in self._loaded_pairs(kind)]
 
     def find_invariants(self, deadline: float) -> None:
-        """Houdini: drop every candidate a reachable state (the first one) or a step from
-        states satisfying all remaining candidates violates, until none is violated."""
+        """The facts every reachable state satisfies, proved among ``candidates``."""
         self.current = None
         self.scope = None
-        remaining = self.candidates()
-        if not remaining:
-            return
+        remaining = self.houdini(self.candidates(), deadline)
+        self.invariants = [(fact, cells) for _, fact, cells in remaining]
+        self.invariant_names = [name for name, _, _ in remaining]
+
+    def houdini(self, candidates: list[Candidate], deadline: float) -> list[Candidate]:
+        """Houdini: drop every candidate a reachable state (the first one) or a step from
+        states satisfying all remaining candidates (and the invariants already proved)
+        violates, until none is violated; out of time, none. Over the current property's
+        cone and with its monitor, when one is being decided: a fact about the monitor
+        then holds in every state of a run that was good before it. Each of the two
+        checks builds its cycle once and asks again under assumptions (a literal per
+        candidate), so that a round costs a solver call, not a model."""
+        remaining = list(candidates)
         for initial in (True, False):
-            while remaining:
-                solver = z3.Solver()
+            if not remaining:
+                break
+            solver = z3.SolverFor("QF_BV")
+            path = _Path(self, solver, "h.", initial=initial)
+            assumed = [z3.Bool(f"h.assume.{n}") for n in range(len(remaining))]
+            if not initial:
+                for literal, (_, fact, _) in zip(assumed, remaining, strict=True):
+                    solver.add(z3.Implies(literal, fact(path, 0)))
+                self._strengthen(path, 0, self.invariants)
+                path.extend()
+            last = len(path.states) - 1
+            checks = [fact(path, last) for _, fact, _ in remaining]
+            alive = list(range(len(remaining)))
+            for round_ in range(len(remaining) + 1):
+                violated = z3.Bool(f"h.violated.{round_}")
+                solver.add(z3.Implies(violated, z3.Or(*(z3.Not(checks[n]) for n in alive))))
                 solver.set("timeout", max(1, int((deadline - time.monotonic()) * 1000)))
-                path = _Path(self, solver, "h.", initial=initial)
-                if not initial:
-                    for _, fact, _ in remaining:
-                        solver.add(fact(path, 0))
-                    path.extend()
-                last = len(path.states) - 1
-                checks = [fact(path, last) for _, fact, _ in remaining]
-                solver.add(z3.Or(*(z3.Not(c) for c in checks)))
-                result = solver.check()
+                result = solver.check(violated, *(assumed[n] for n in alive))
                 if result == z3.unsat:
                     break
                 if result != z3.sat:
-                    remaining = []  # out of time: assume nothing
-                    break
+                    return []  # out of time: assume nothing
                 model = solver.model()
-                remaining = [candidate for candidate, check in zip(remaining, checks,
-                                                                   strict=True)
-                             if z3.is_true(model.eval(check, model_completion=True))]
-        self.invariants = [(fact, cells) for _, fact, cells in remaining]
-        self.invariant_names = [name for name, _, _ in remaining]
+                alive = [n for n in alive
+                         if z3.is_true(model.eval(checks[n], model_completion=True))]
+                if not alive:
+                    break
+            remaining = [remaining[n] for n in alive]
+        return remaining
+
+    def _waiting_facts(self, prop: Property, deadline: float) -> list[
+            tuple[Fact, frozenset[Key]]]:
+        """For a response whose cone holds timers: the proved facts that tie its waiting
+        trigger to a running timer (``timers.waiting``), found within a quarter of the
+        time left."""
+        assert self.scope is not None
+        if prop.kind is not Kind.RESPONSE:
+            return []
+        timers = [n for n in self.cycle.timers if ("T", n) in self.scope]
+        presets = sorted({min(c, TC_MAX_VALUE) for c in self._constants()})
+        candidates = waiting(timers, presets, self.setup.cycle_us, self.scope)
+        if not candidates:
+            return []
+        now = time.monotonic()
+        found = self.houdini(candidates, now + max(0.0, deadline - now) / 4)
+        return [(fact, cells) for _, fact, cells in found]
 
     # -------------------------------------------------------------- deciding
 
@@ -552,22 +672,23 @@ class Machine:
 
         def out_of_time(k: int) -> Outcome:
             return Outcome(prop, Verdict.UNKNOWN, k, time.monotonic() - start,
-                           note=f"time limit ({timeout_s:g} s) after {k} cycles, "
-                                f"{time.monotonic() - origin:.1f} s since it started")
+                           note=f"time limit ({format_duration(timeout_s * 1000)}) after {k} "
+                                f"cycles, {format_duration((time.monotonic() - origin) * 1000)}"
+                                " since it started")
 
         self.current = prop
         self.scope = self.cone(prop)
         if prop.kind is Kind.RESPONSE:  # a response is judged over its whole window
             depth = max(depth, self.window(prop) + 2)
-        base_solver, step_solver = z3.Solver(), z3.Solver()
-        base = _Path(self, base_solver, "b.", initial=True)
-        step = _Path(self, step_solver, "s.", initial=False)
-        self._strengthen(step, 0)
+        step = _Path(self, z3.Solver(), "s.", initial=False)
+        facts = self.invariants + self._waiting_facts(prop, deadline)
+        self._strengthen(step, 0, facts)
         reach = prop.kind is Kind.REACHABLE
-        fixed = z3.Bool("b.simulator_phase")
-        phase = self.setup.phase_us
-        if phase is not None and base.phase is not None:
-            base_solver.add(z3.Implies(fixed, base.phase == phase))
+        base, fixed = self._base_path("b.", jumps=False)
+        # beside it, steps of idle cycles (prove/jump.py): each check within a budget,
+        # as they can be much harder; the first out of its budget ends them
+        jumping = self._base_path("j.", jumps=True) if self.jumps_possible(prop) else None
+        steps = 0  # the steps of idle cycles searched
 
         def left_ms() -> int:
             return max(1, int((deadline - time.monotonic()) * 1000))
@@ -576,47 +697,103 @@ class Machine:
             if k:
                 base.extend()
                 step.extend()
-                self._strengthen(step, k)
-            bad = z3.Or(self.bad(base, k), base.overruns[k])
-            base_solver.set("timeout", left_ms())
-            result = base_solver.check(bad, fixed)
-            note = ""
-            if result == z3.unsat and phase is not None:
-                result = base_solver.check(bad)
-                note = ("found only for another phase of the 10 ms clock than the "
-                        "simulator's: the scenario may not show it")
+                self._strengthen(step, k, facts)
+            began = time.monotonic()
+            result, any_phase = self._base_check(base, k, fixed, left_ms)
             if result == z3.sat:
-                model = base_solver.model()
-                trace = self._trace(base, model, k)
-                if z3.is_true(model.eval(base.overruns[k], model_completion=True)):
-                    loops = ", ".join(f"line {loop.line}" for loop in self.cycle.loops)
-                    return Outcome(prop, Verdict.UNKNOWN, k, time.monotonic() - start, trace,
-                                   f"in cycle {k + 1} a backward jump ({loops}) is taken "
-                                   f"more than {self.cycle.loops[0].bound} times, the most "
-                                   "the model follows")
-                verdict = Verdict.REACHED if reach else Verdict.REFUTED
-                note = "; ".join(n for n in (note, self._firmware_note()) if n)
-                return Outcome(prop, verdict, k, time.monotonic() - start, trace, note,
-                               self._values(prop, base, model, k))
+                return self._failure(prop, base, k, start, deadline,
+                                     fixed=None if any_phase else fixed)
             if result != z3.unsat:
                 return out_of_time(k)
-            step_solver.set("timeout", left_ms())
+            spent = time.monotonic() - began
+            step.solver.set("timeout", left_ms())
             step_bad = z3.Or(self.bad(step, k), step.overruns[k])
-            outcome = step_solver.check(step_bad)
+            outcome = step.solver.check(step_bad)
             if outcome == z3.unsat:
                 verdict = Verdict.UNREACHABLE if reach else Verdict.PROVED
                 return Outcome(prop, verdict, k, time.monotonic() - start,
                                trivially=self.trivially(prop))
-            step_solver.add(z3.Not(step_bad))
+            step.solver.add(z3.Not(step_bad))
             if outcome != z3.sat:
                 return out_of_time(k)
-        if self._pdr(prop, deadline) is True:
+            if jumping is not None:
+                path, switch = jumping
+                if k:
+                    path.extend()
+                budget_ms = min(left_ms(), int((JUMP_BUDGET_S + 4 * spent) * 1000))
+
+                def budget(ms: int = budget_ms) -> int:
+                    return ms
+
+                result, any_phase = self._base_check(path, k, switch, budget)
+                if result == z3.sat:
+                    return self._failure(prop, path, k, start, deadline,
+                                         fixed=None if any_phase else switch)
+                if result == z3.unsat:
+                    steps = k + 1
+                else:
+                    jumping = None
+        if self._pdr(prop, deadline, facts) is True:
             verdict = Verdict.UNREACHABLE if reach else Verdict.PROVED
             return Outcome(prop, verdict, depth, time.monotonic() - start,
                            note="by an inductive invariant (PDR), beyond k-induction",
                            trivially=self.trivially(prop))
-        return Outcome(prop, Verdict.BOUNDED, depth, time.monotonic() - start,
-                       note=self.beyond(depth))
+        note = self.beyond(depth)
+        if steps and note:
+            note += (f"; runs of up to {steps} steps were searched too, each stretch of "
+                     "idle cycles (where only timers count down) one step")
+        return Outcome(prop, Verdict.BOUNDED, depth, time.monotonic() - start, note=note)
+
+    def _base_path(self, tag: str, *, jumps: bool) -> tuple[_Path, z3.BoolRef]:
+        """A path from the reset for the base case, and the switch that holds its clock
+        to the simulator's phase (so that a counterexample replays tick for tick)."""
+        path = _Path(self, z3.Solver(), tag, initial=True, jumps=jumps)
+        fixed = z3.Bool(f"{tag}simulator_phase")
+        if self.setup.phase_us is not None and path.phase is not None:
+            path.solver.add(z3.Implies(fixed, path.phase == self.setup.phase_us))
+        return path, fixed
+
+    def _base_check(self, path: _Path, k: int, fixed: z3.BoolRef,
+                    left_ms: Callable[[], int]) -> tuple[z3.CheckSatResult, bool]:
+        """Whether the state after step ``k`` of ``path`` can be bad: first with the
+        simulator's phase of the clock, then with any (the second of the answer: found
+        only so), each check within what ``left_ms`` leaves it."""
+        bad = z3.Or(self.bad(path, k), path.overruns[k])
+        path.solver.set("timeout", left_ms())
+        result = path.solver.check(bad, fixed)
+        if result == z3.unsat and self.setup.phase_us is not None:
+            path.solver.set("timeout", left_ms())  # what the first check left
+            return path.solver.check(bad), True
+        return result, False
+
+    def _failure(self, prop: Property, path: _Path, k: int, start: float, deadline: float,
+                 *, fixed: z3.BoolRef | None) -> Outcome:
+        """The counterexample or witness of the model ``path``'s solver found after step
+        ``k`` (``fixed``: found with the simulator's phase of the clock, which it then
+        keeps), made quiet; unknown when the cycle overran its loop bound. A step of idle
+        cycles is as many cycles in the trace, so its length counts the cycles."""
+        model = path.solver.model()
+        if z3.is_true(model.eval(path.overruns[k], model_completion=True)):
+            trace = self._trace(path, model, k)
+            loops = ", ".join(f"line {loop.line}" for loop in self.cycle.loops)
+            return Outcome(prop, Verdict.UNKNOWN, len(trace) - 1, time.monotonic() - start,
+                           trace, f"in cycle {len(trace)} a backward jump ({loops}) is taken "
+                                  f"more than {self.cycle.loops[0].bound} times, the most "
+                                  "the model follows")
+        wanted = [self.bad(path, k)] + ([] if fixed is None else [fixed])
+        model = _quiet(path, model, k, wanted, deadline)
+        verdict = Verdict.REACHED if prop.kind is Kind.REACHABLE else Verdict.REFUTED
+        phase = (None if path.phase is None
+                 else model.eval(path.phase, model_completion=True).as_long())
+        note = ""
+        if fixed is None and phase is not None and self.setup.phase_us is not None:
+            note = (f"found only with the first 10 ms tick {phase / 1000:g} ms after time 0 "
+                    "(the scenario's first_tick_ms), where asictl sim has it at "
+                    f"{self.setup.phase_us / 1000:g} ms unless told")
+        note = "; ".join(n for n in (note, self._firmware_note()) if n)
+        trace = self._trace(path, model, k)
+        return Outcome(prop, verdict, len(trace) - 1, time.monotonic() - start, trace,
+                       note, self._values(prop, path, model, k), phase_us=phase)
 
     def presets(self) -> dict[int, int]:
         """Timer -> the longest time (ms, in whole ticks) a ``S T n`` starts it with: the
@@ -709,7 +886,8 @@ class Machine:
                     "after the reset")
         return ""
 
-    def _pdr(self, prop: Property, deadline: float) -> bool | None:
+    def _pdr(self, prop: Property, deadline: float,
+             known: list[tuple[Fact, frozenset[Key]]]) -> bool | None:
         """Property-directed reachability (z3's Spacer engine) on the cycle as Horn
         clauses: True when it finds an inductive invariant that excludes every bad state,
         None when it cannot say in the time left."""
@@ -747,7 +925,7 @@ class Machine:
         head, ties = arguments(start, 0, "p0.m.")
         before, ties0 = arguments(path, 0, "p.m0.")
         after, ties1 = arguments(path, 1, "p.m1.")
-        facts = [fact(path, 0) for fact, cells in self.invariants if cells <= path.cells]
+        facts = [fact(path, 0) for fact, cells in known if cells <= path.cells]
         constants = {v for term in [*head, *before, *after, *ties, *ties0, *ties1,
                                     *first.constraints, *rules.constraints]
                      for v in _constants(term)}
@@ -764,8 +942,10 @@ class Machine:
             return None
         return True if result == z3.unsat else None
 
-    def _strengthen(self, path: _Path, index: int) -> None:
-        for fact, cells in self.invariants:
+    @staticmethod
+    def _strengthen(path: _Path, index: int,
+                    facts: list[tuple[Fact, frozenset[Key]]]) -> None:
+        for fact, cells in facts:
             if cells <= path.cells:
                 path.solver.add(fact(path, index))
 
@@ -781,6 +961,7 @@ class Machine:
                 for expr in exprs for ref in refs(expr)}
 
     def _trace(self, path: _Path, model: z3.ModelRef, last: int) -> list[Step]:
+        """The input of every cycle: a step of many idle cycles, its inputs as often."""
         steps = []
         for index in range(last + 1):
             inputs = path.inputs[index]
@@ -788,5 +969,25 @@ class Machine:
                       for a in self.cycle.slaves}
             host = {n: model.eval(inputs[f"host.{n}"], model_completion=True).as_long()
                     for n in self.cycle.host_masks}
-            steps.append(Step(slaves, host))
+            repeat = model.eval(path.cycles[index], model_completion=True).as_long()
+            steps += [Step(slaves, host) for _ in range(repeat)]
         return steps
+
+    def jumps_possible(self, prop: Property) -> bool:
+        """Whether a step of the search may stand for many idle cycles (``prove/jump.py``):
+        the program reads the timers it depends on only as bits (never ``L T n``), no
+        assumption or
+        property reads a timer's word (``TV n``), and one program is decided (``diff``
+        compares every word)."""
+        if self.observed or self.twins or not any(
+                self.scope is None or ("T", n) in self.scope for n in self.cycle.timers):
+            return False  # (no timer the property depends on: no idle cycles to jump)
+        if any(isinstance(node, ast.Load) and node.operand.kind is K.T
+               and (self.scope is None or ("T", node.operand.address) in self.scope)
+               for module in self.program.modules() for section in module.sections
+               for node in ast.nodes(section)):
+            return False
+        exprs = [*self.assume, prop.expr] + ([prop.then] if prop.then is not None else [])
+        return not any(ref.operand.node.kind is K.T
+                       and ref.operand.node.width is not ast.Width.BIT
+                       for expr in exprs for ref in refs(expr))

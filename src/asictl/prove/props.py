@@ -26,7 +26,7 @@ from asictl.observe.condition import ConditionError, Expr, parse_expression, ref
 from asictl.observe.symbols import SymbolTable
 from asictl.prove.scope import Scope
 from asictl.readers.tomlfile import Document, KeyPath, read_toml
-from asictl.readers.units import UnitError, parse_cycles
+from asictl.readers.units import UnitError, format_duration, parse_cycles
 from asictl.sim.scenario import SlaveSpec, read_master
 from asictl.source import SourceText
 
@@ -74,9 +74,9 @@ class Property:
     def text(self) -> str:
         """The property as the file says it."""
         if self.kind is Kind.RESPONSE:
-            assert self.then is not None
+            assert self.then is not None and (self.within_cycles, self.within_ms) != (None, None)
             within = (f"{self.within_cycles} cycles" if self.within_cycles is not None
-                      else f"{self.within_ms:g} ms")
+                      else format_duration(self.within_ms or 0.0))
             return f"when {show(self.expr)} then {show(self.then)} within {within}"
         return f"{self.kind.value} {show(self.expr)}"
 
@@ -127,7 +127,7 @@ def read_properties(
             program_path = Path(source.name).parent / program
         else:
             reading.error("program is a file name", ("program",))
-    cycle_ms, slaves = read_master(document, reading.report, ScenarioCode.PROPERTIES)
+    cycle_ms, slaves, _ = read_master(document, reading.report, ScenarioCode.PROPERTIES)
     bus = None if slaves is None else [spec.address for spec in slaves]
 
     def expression(value: object, path: KeyPath) -> Expr | None:

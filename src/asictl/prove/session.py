@@ -16,19 +16,19 @@ from asictl.diagnostics import Diagnostic, DiagnosticError, Severity, render_tex
 from asictl.errors import ExitCode, UserError
 from asictl.files import real_path, write_atomic
 from asictl.il.pragmas import read_directives
+from asictl.observe.names import named
 from asictl.observe.operands import parse_operand
-from asictl.observe.symbols import symbols_for
+from asictl.observe.symbols import SymbolTable, load_symbols, symbols_for
 from asictl.platform.master import TICK_US, asi_cycle_us
 from asictl.prove import MAX_DEPTH
 from asictl.prove.counterexample import MARK, expectations, file_name, scenario_text
 from asictl.prove.engine import Machine, Outcome, Setup, Verdict
-from asictl.prove.names import named
 from asictl.prove.props import Properties, program_for, read_properties
 from asictl.prove.scope import Scope
 from asictl.prove.symbolic import UNROLL, TimeLimit, Unmodelled
-from asictl.readers.units import Cycles, UnitError
+from asictl.readers.units import Cycles, UnitError, format_duration
 from asictl.sim.engine import Simulation, variables_of
-from asictl.sim.scenario import Scenario, scenario_program
+from asictl.sim.scenario import Scenario, SlaveSpec, scenario_program
 from asictl.source import read_source
 
 
@@ -56,6 +56,8 @@ class Report:
     seconds: float = 0.0
     #: the warnings about the properties (W431), rendered with their source lines
     warnings: str = ""
+    #: the program's symbol table: how the verdicts name operands (observe/names.py)
+    symbols: SymbolTable = field(default_factory=SymbolTable)
 
     @property
     def passed(self) -> bool:
@@ -70,9 +72,10 @@ def _texts(*paths: Path) -> dict[str, str]:
     return texts
 
 
-def load(properties: Path, program: Path | None, lib: tuple[str, ...]) -> tuple[
-        Properties, Path, Build]:
-    """The properties file and the program it is about, both checked."""
+def load(properties: Path, program: Path | None, lib: tuple[str, ...],
+         symbols: Path | None = None) -> tuple[Properties, Path, Build]:
+    """The properties file and the program it is about, both checked; the names are
+    those of ``symbols``, else of the table beside the program."""
     source = read_source(properties)
     try:
         named = read_properties(source).program  # the program line, before its symbols
@@ -87,11 +90,17 @@ def load(properties: Path, program: Path | None, lib: tuple[str, ...]) -> tuple[
                                          "to prove)\n",
                       ExitCode.FAILED if built.has_errors else ExitCode.USAGE)
     variables = {} if built.image is None else variables_of(built.image.pmap)
+
+    def check(text: str) -> str:
+        return str(parse_operand(text, variables))
+
     try:
-        symbols = symbols_for(program, lambda text: str(parse_operand(text, variables)))
-        props = read_properties(source, variables, symbols, Scope.of(built.program))
+        table = (symbols_for(program, check) if symbols is None
+                 else load_symbols(symbols, check))
+        props = read_properties(source, variables, table, Scope.of(built.program))
     except DiagnosticError as exc:
-        raise Invalid(render_text(exc.diagnostics, _texts(properties, program))) from None
+        shown = [properties, program] + ([symbols] if symbols is not None else [])
+        raise Invalid(render_text(exc.diagnostics, _texts(*shown))) from None
     return props, program, built
 
 
@@ -107,15 +116,18 @@ def setup_of(props: Properties, built: Build) -> tuple[Setup, float]:
                 else asi_cycle_us(len(slaves)))
     directives = read_directives(program.sources)
     host = tuple(operand for operand, _ in directives.host_flags)
-    return Setup(slaves, cycle_us, host, _phase(props, built, cycle_us)), cycle_us / 1000
+    phase = simulator_phase(built, cycle_us, props.slaves)
+    return Setup(slaves, cycle_us, host, phase), cycle_us / 1000
 
 
-def _phase(props: Properties, built: Build, cycle_us: int) -> int | None:
+def simulator_phase(built: Build, cycle_us: int,
+                    slaves: list[SlaveSpec] | None = None) -> int | None:
     """The time from time 0 to the first 10 ms tick in ``asictl sim`` of this program
-    and master, so that counterexamples about timers replay tick for tick."""
+    and master (``slaves`` default to its [SETUP]), so that counterexamples about timers
+    replay tick for tick; None when the simulator cannot start it."""
     if built.image is None:
         return None
-    scenario = Scenario("<phase>", None, cycle_us / 1000, props.slaves, [])
+    scenario = Scenario("<phase>", None, cycle_us / 1000, slaves, [])
     simulation = Simulation(built, scenario)
     simulation.start()
     if not simulation.started:
@@ -137,11 +149,12 @@ def cycles_of(depth: int | Cycles, cycle_ms: float) -> int:
 
 def prove(properties: Path, *, program: Path | None = None, lib: tuple[str, ...] = (),
           depth: int | Cycles = 20, timeout_s: float = 30.0, out_dir: Path | None = None,
-          force: bool = False, unroll: int = UNROLL) -> Report:
+          force: bool = False, unroll: int = UNROLL, symbols: Path | None = None) -> Report:
     """Decide every property of a properties file; write what was found as scenarios.
-    ``depth`` is cycles, or a time the program's cycle time turns into cycles."""
+    ``depth`` is cycles, or a time the program's cycle time turns into cycles;
+    ``symbols`` a symbol table other than the one beside the program."""
     start = time.monotonic()
-    props, program_path, built = load(properties, program, lib)
+    props, program_path, built = load(properties, program, lib, symbols)
     setup, cycle_ms = setup_of(props, built)
     depth = cycles_of(depth, cycle_ms)
     assert built.program is not None
@@ -159,7 +172,8 @@ def prove(properties: Path, *, program: Path | None = None, lib: tuple[str, ...]
     machine.find_invariants(start + timeout_s)
     report = Report(properties, program_path, cycle_ms, setup.slaves,
                     list(machine.invariant_names),
-                    [(loop.line, loop.bound) for loop in machine.cycle.loops])
+                    [(loop.line, loop.bound) for loop in machine.cycle.loops],
+                    symbols=props.symbols)
     if props.warnings:
         report.warnings = render_text(props.warnings, _texts(properties))
     directory = out_dir if out_dir is not None else properties.parent
@@ -192,9 +206,10 @@ def _out_of_time(props: Properties, properties: Path, program: Path, cycle_ms: f
                  setup: Setup, timeout_s: float, start: float) -> Report:
     """Every property unknown: the model was not built within the first one's limit."""
     seconds = time.monotonic() - start
-    report = Report(properties, program, cycle_ms, setup.slaves, [], [], seconds=seconds)
-    note = (f"time limit ({timeout_s:g} s) while building the model, {seconds:.1f} s "
-            "since the start")
+    report = Report(properties, program, cycle_ms, setup.slaves, [], [], seconds=seconds,
+                    symbols=props.symbols)
+    note = (f"time limit ({format_duration(timeout_s * 1000)}) while building the model, "
+            f"{format_duration(seconds * 1000)} since the start")
     report.outcomes = [Outcome(prop, Verdict.UNKNOWN, 0, seconds, note=note)
                        for prop in props.properties]
     return report

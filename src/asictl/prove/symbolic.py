@@ -30,7 +30,7 @@ from __future__ import annotations
 import heapq
 import time
 from collections.abc import Callable, Iterable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import assert_never
 
 import z3
@@ -131,6 +131,9 @@ class Cycle:
     timers: tuple[int, ...]
     #: the slaves on the bus (their inputs are free)
     slaves: tuple[int, ...]
+    #: timer -> true when the cycle stores into it (``S``, ``R``, ``T T n``, whether the
+    #: store changes it or not): a timer not stored into only counts down
+    stored: dict[int, z3.BoolRef] = field(default_factory=dict)
 
     @property
     def cells(self) -> list[Key]:
@@ -140,6 +143,12 @@ class Cycle:
         """The cells after a reset (all 0; the tick phase is the caller's to set after
         the first cycle)."""
         return {cell: z3.BitVecVal(0, width(cell)) for cell in self.post}
+
+
+def _stored(timer: int) -> Key:
+    """The mark (not a cell of the master) that a cycle stored into ``timer``: set while
+    the cycle is built, taken out of the state at its end (``Cycle.stored``)."""
+    return ("stored", timer)
 
 
 def _bv(value: int, bits: int) -> z3.BitVecRef:
@@ -481,6 +490,8 @@ class _Builder:
             cell = ("T", operand.address)
             value = _clamp(self.get(s, CONSTANT)) if op is ast.StoreOp.SET else _bv(0, 16)
             s.values[cell] = _ite(rlo, value, self.get(s, cell))
+            mark = _stored(operand.address)
+            s.values[mark] = _ite(rlo, _bv(1, 8), s.values[mark])
             return
         if operand.kind is K.C:
             value = _clamp(self.get(s, CONSTANT)) if op is ast.StoreOp.SET else _bv(0, 16)
@@ -543,6 +554,7 @@ class _Builder:
                 self.put(s, ("F", n + 1), _low(value))
             case K.T:
                 s.values[("T", n)] = _clamp(value)
+                s.values[_stored(n)] = _bv(1, 8)
             case K.C:
                 self.set_counter(s, n, _clamp(value))
             case K.IB | K.I2B | K.QB | K.FY | K.PSEG | K.VAR:
@@ -638,6 +650,7 @@ def build_cycle(
         for n in timers:
             remaining = builder.var(("T", n))
             values[("T", n)] = z3.If(z3.UGT(remaining, elapsed), remaining - elapsed, 0)
+            values[_stored(n)] = _bv(0, 8)
     for byte in range(16):  # I2 := I, I := the slaves' data
         nibbles = [builder.input(f"in.{a}", 4) if a in on_bus else _bv(0, 4)
                    for a in (2 * byte + 1, 2 * byte)]
@@ -655,6 +668,7 @@ def build_cycle(
     for n in mapped:  # and what the program left there, after every cycle
         if ("F", n) in end.values:
             end.values[("F", n)] = end.values[("F", n)] & 0x0F
+    stored = {n: z3.simplify(end.values.pop(_stored(n)) != 0) for n in timers}
     for cell in watch:
         builder.get(end, cell)
     for cell in list(builder.pre):
@@ -668,7 +682,7 @@ def build_cycle(
     overrun = z3.simplify(z3.Or(*builder.overrun)) if builder.overrun else z3.BoolVal(False)
     return Cycle(builder.pre, post, builder.inputs, masks, overrun,
                  sorted(builder.loops.values(), key=lambda loop: loop.line), cycle_us, timers,
-                 on_bus)
+                 on_bus, stored)
 
 
 # ---------------------------------------------------------------------- reading cells

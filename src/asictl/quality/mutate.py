@@ -46,8 +46,11 @@ from asictl.diagnostics import DiagnosticError
 from asictl.il import ast
 from asictl.il.loader import Program
 from asictl.observe.coverage import LineKey
+from asictl.observe.names import named
+from asictl.observe.symbols import SymbolTable
 from asictl.quality.cache import INTERNAL, Cache, Kept, target_key
 from asictl.quality.refute import find_difference
+from asictl.readers.units import format_duration
 from asictl.sim.session import Prepared, simulate
 
 #: how long the prover may look for a survivor's proof of equivalence, by default: the
@@ -312,12 +315,13 @@ def verdict(target: Target, mutant: Mutant, proving: Callable[[], None] | None =
         return "equivalent", "the same 8051 code"
     for prepared in target.scenarios:
         run = simulate(dataclasses.replace(prepared, build=built), fail_fast=True)
-        if run.result.failures:
-            failure = run.result.failures[0]
+        if run.result.failures:  # its operand named as every note names one
+            failure = dataclasses.replace(run.result.failures[0], written=named(
+                str(run.result.failures[0].operand), prepared.symbols))
             return "killed", f"{prepared.scenario.file}:{failure.line}: {failure}"
     if proving is not None:
         proving()
-    proved = prove_equivalent(original, built, prove_s)
+    proved = prove_equivalent(original, built, prove_s, target.scenarios[0].symbols)
     if proved is not None:
         return proved
     return "survived", ""
@@ -333,17 +337,18 @@ def prove_available() -> bool:
     return True
 
 
-def prove_equivalent(original: Build, mutant: Build,
-                     prove_s: float = PROVE_SECONDS) -> tuple[str, str] | None:
+def prove_equivalent(original: Build, mutant: Build, prove_s: float = PROVE_SECONDS,
+                     symbols: SymbolTable | None = None) -> tuple[str, str] | None:
     """Ask the prover whether a surviving mutant behaves as the original; None when it
     is not installed or cannot tell. A survivor seen to differ from the original on
     random inputs first (quality/refute.py) is one no proof can make equivalent: it is
-    ``survived`` at once, the difference its detail."""
+    ``survived`` at once, the difference its detail (its bits named by ``symbols``, the
+    program's table)."""
     if not prove_available():
         return None
     difference = find_difference(original, mutant)
     if difference is not None:
-        return "survived", str(difference)
+        return "survived", difference.describe(symbols or SymbolTable())
     diff: Any = importlib.import_module("asictl.prove.diff")
     # equivalent for what a scenario can expect: outputs, flags, timers, counters
     programs = [build.source_program() for build in (original, mutant)]
@@ -456,7 +461,8 @@ def _run_pending(
             elif elapsed > worker.limit:
                 worker.process.kill()
                 kind, detail = ("survived", "the proof of equivalence ran out of time") \
-                    if worker.proving else ("timeout", f"still running after {worker.limit:g} s")
+                    if worker.proving else ("timeout", "still running after "
+                                            f"{format_duration(worker.limit * 1000)}")
             else:
                 continue
             worker.process.join()

@@ -38,6 +38,8 @@ from dataclasses import dataclass
 from asictl.build import Build
 from asictl.il import ast
 from asictl.il.loader import Program
+from asictl.observe.names import named_bits
+from asictl.observe.symbols import SymbolTable
 from asictl.platform.master import TICK_US, asi_cycle_us
 from asictl.runtime import layout
 from asictl.runtime.runner import CycleTimeout, ProgramRunner
@@ -59,18 +61,28 @@ TOGGLE_CYCLES = 2 * 4096 + 16
 
 @dataclass(frozen=True)
 class Difference:
-    """Where two programs were seen to differ: what (``QB 2``, ``T 7``), when (ms of the
-    run), and on which inputs: random ones, or (slave, bit) toggling every cycle."""
+    """Where two programs were seen to differ: what (``QB 2``, ``FY 97``, ``T 7``), its
+    value in the original and in the other (a byte's, to name the bits that differ),
+    when (ms of the run), and on which inputs: random ones, or (slave, bit) toggling
+    every cycle."""
 
     what: str
+    original: int
+    other: int
     at_ms: int
     toggled: tuple[int, int] | None = None
 
-    def __str__(self) -> str:
+    def describe(self, symbols: SymbolTable) -> str:
+        """``not equivalent: Q 3.1 (PumpB) differs from the original's after 4986 ms of
+        random inputs``: the bits that differ (or the timer, the counter), named by the
+        program's symbol table."""
+        bits = named_bits(self.what, self.original, self.other, symbols)
+        shown = ", ".join(bit for bit, _, _ in bits)
+        verb = "differs" if len(bits) == 1 else "differ"
         inputs = "random inputs" if self.toggled is None else \
             "I {}.{} toggling every cycle".format(*self.toggled)
-        return (f"not equivalent: {self.what} differs from the original's after "
-                f"{self.at_ms} ms of {inputs}")
+        return (f"not equivalent: {shown} {verb} from the original's after {self.at_ms} ms "
+                f"of {inputs}")
 
 
 def _searchable(program: Program) -> bool:
@@ -114,22 +126,25 @@ class _Pair:
         self.until_tick = rng.randint(1, TICK_US)  # from the first cycle's start: the phase
         self.now = 0
 
-    def cycle(self, inputs: bytearray) -> str | None:
-        """One cycle of both; what differs after it (None: nothing the prover compares).
-        Raises ``CycleTimeout`` for a loop the master would end."""
+    def cycle(self, inputs: bytearray) -> tuple[str, int, int] | None:
+        """One cycle of both; what differs after it and its two values (None: nothing
+        the prover compares). Raises ``CycleTimeout`` for a loop the master would end."""
         for runner in self.runners:
             runner.cycle(inputs)
         ours, theirs = (runner.outputs for runner in self.runners)
         if ours != theirs:
-            return f"QB {2 * next(i for i in range(16) if ours[i] != theirs[i])}"
+            n = next(i for i in range(16) if ours[i] != theirs[i])
+            return f"QB {2 * n}", ours[n], theirs[n]
         a, b = (runner.cpu.xdata.ram for runner in self.runners)
         flags = slice(layout.FLAGS_BASE, layout.FLAGS_BASE + 128)
         if a[flags] != b[flags]:
             base = layout.FLAGS_BASE
-            return f"FY {next(n for n in range(128) if a[base + n] != b[base + n])}"
+            n = next(n for n in range(128) if a[base + n] != b[base + n])
+            return f"FY {n}", a[base + n], b[base + n]
         for name, x, y, size in self.cells:
             if a[x : x + size] != b[y : y + size]:
-                return name
+                return (name, int.from_bytes(a[x : x + size], "little"),
+                        int.from_bytes(b[y : y + size], "little"))
         return None
 
     def advance(self, steps: int, cycle_us: int) -> None:
@@ -157,7 +172,7 @@ def find_difference(original: Build, mutant: Build, *, seed: int = 0,
     prover may still; either way no verdict changes, only how soon."""
     first, second = original.source_program(), mutant.source_program()
     if first is None or second is None or original.image is None or mutant.image is None \
-            or not (_searchable(first) and _searchable(second)):
+            or not (runs_alone(first) and runs_alone(second)):
         return None
     bus = sorted({s.address for program in (first, second) for s in program.slaves})
     rng = random.Random(seed)
@@ -187,10 +202,10 @@ def _random_run(original: Build, mutant: Build, bus: list[int], rng: random.Rand
                     rng.randint(cycle_us, LONGEST_HOLD_US)
                 held[address] = -(-hold_us // cycle_us)
         before = pair.memory()
-        what = pair.cycle(inputs)
+        seen = pair.cycle(inputs)
         cycle += 1
-        if what is not None:
-            return Difference(what, pair.now // 1000)
+        if seen is not None:
+            return Difference(*seen, pair.now // 1000)
         # the cycles before the next tick repeat this one if it changed nothing and no
         # input changes: they are not run
         repeats = 0
@@ -234,9 +249,9 @@ def _counting_run(original: Build, mutant: Build, bus: list[int],
             if cycle % 256 == 255 and time.process_time() > deadline:
                 return None
             _set_nibble(inputs, address, (cycle & 1) << bit)
-            what = pair.cycle(inputs)
-            if what is not None:
-                return Difference(what, pair.now // 1000, (address, bit))
+            seen = pair.cycle(inputs)
+            if seen is not None:
+                return Difference(*seen, pair.now // 1000, (address, bit))
             pair.advance(1, cycle_us)
     return None
 

@@ -26,29 +26,54 @@ def _place(location: Location) -> str:
     return f"{'iram' if location.space is Space.IRAM else 'xram'}[{location.address}]"
 
 
+def _gather(name: str, source: str, addresses: list[int]) -> tuple[list[str], str]:
+    """A tuple of the bytes at ``addresses`` of ``source``, read in one C call
+    (``operator.itemgetter``): the getter's definition and the expression."""
+    if len(addresses) == 1:  # an itemgetter of one index answers the byte, not a tuple
+        return [], f"({source}[{addresses[0]}],)"
+    return [f"{name} = itemgetter({', '.join(map(str, addresses))})"], f"{name}({source})"
+
+
 def _source(pmap: ProgramMap) -> str:
     def cells(kind: CellKind) -> list[tuple[int, Location]]:
         return sorted((i, loc) for (k, i), loc in pmap.cells.items() if k is kind)
 
-    flags = cells(CellKind.F)
+    flags = cells(CellKind.F)  # flag cells are in internal RAM
     before = [f"f{n}" for n, _ in flags]
+    after = [f"v{n}" for n, _ in flags]
+    getters = ["from operator import itemgetter"]
     lines = ["def copy_in(iram, xram, inputs, new):"]
     # the previous cycle's inputs first, then this cycle's
     lines += [f"    {_place(loc)} = inputs[{k}]" for k, loc in cells(CellKind.I2)]
     lines += ["    if new is not None:", "        inputs[:] = new"]
     lines += [f"    {_place(loc)} = inputs[{k}]" for k, loc in cells(CellKind.I)]
-    for n, loc in flags:  # flag cells are in internal RAM
-        lines += [f"    f{n} = xram[{layout.FLAGS_BASE + n}]", f"    iram[{loc.address}] = f{n}"]
-    lines.append(f"    return ({''.join(name + ', ' for name in before)})")
+    if flags:
+        getter, values = _gather("_communication_flags", "xram",
+                                 [layout.FLAGS_BASE + n for n, _ in flags])
+        getters += getter
+        lines += [f"    flags = {values}",
+                  f"    {', '.join(_place(loc) for _, loc in flags)}, = flags",
+                  "    return flags"]
+    else:
+        lines.append("    return ()")
     lines.append("def copy_out(iram, xram, outputs, before):")
-    lines += [f"    outputs[{k}] = {_place(loc)}" for k, loc in cells(CellKind.Q)]
-    if before:
-        lines.append(f"    {', '.join(before)}, = before")
-    for n, loc in flags:
-        lines += [f"    v = iram[{loc.address}]", f"    if v != f{n}:",
-                  f"        xram[{layout.FLAGS_BASE + n}] = v"]
+    outputs = cells(CellKind.Q)
+    if outputs and all(loc.space is Space.IRAM for _, loc in outputs):
+        getter, values = _gather("_output_cells", "iram", [loc.address for _, loc in outputs])
+        getters += getter
+        lines.append(f"    {', '.join(f'outputs[{k}]' for k, _ in outputs)}, = {values}")
+    else:
+        lines += [f"    outputs[{k}] = {_place(loc)}" for k, loc in outputs]
+    if flags:  # only the flags the program changed go back
+        getter, values = _gather("_flag_cells", "iram", [loc.address for _, loc in flags])
+        getters += getter
+        lines += [f"    after = {values}", "    if after != before:",
+                  f"        {', '.join(before)}, = before", f"        {', '.join(after)}, = after"]
+        for (n, _), old, new in zip(flags, before, after, strict=True):
+            lines += [f"        if {new} != {old}:",
+                      f"            xram[{layout.FLAGS_BASE + n}] = {new}"]
     lines.append("    return None")
-    return "\n".join(lines) + "\n"
+    return "\n".join(getters + lines) + "\n"
 
 
 @functools.lru_cache(maxsize=64)

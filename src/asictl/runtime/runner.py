@@ -37,6 +37,7 @@ Trace = Callable[[Emulator, int], None]
 
 _RET = 0x22
 _SP, _PSW = 0x81, 0xD0
+_TRAP = StopReason.TRAP  # the end of every cycle: a module constant
 
 
 class CycleTimeout(Exception):
@@ -120,18 +121,20 @@ class ProgramRunner:
     def cycle(self, inputs: bytes | bytearray | None = None) -> None:
         """One program cycle; raises ``CycleTimeout`` when the budget runs out."""
         cpu = self.cpu
-        trace = self.watch(inputs) if self.watch is not None else None
-        io = self._io if cpu.xdata.plain else None  # the copies assume plain XDATA RAM
+        watch = self.watch
+        trace = watch(inputs) if watch is not None else None
+        xdata = cpu.xdata
+        io = self._io if xdata.plain else None  # the copies assume plain XDATA RAM
         flags: Sequence[int]
         if io is not None:
-            flags = io.copy_in(cpu.iram, cpu.xdata.ram, self.inputs, inputs)
+            flags = io.copy_in(cpu.iram, xdata.ram, self.inputs, inputs)
         else:
             flags = self._copy_in(inputs)
         self.enter()
         start = cpu.cycles
         reason = cpu.run(max_cycles=self.budget, trace=trace)
         self.last_cycles = cpu.cycles - start
-        if reason is not StopReason.TRAP:
+        if reason is not _TRAP:
             jumps = looping_jumps(cpu)
             address = jumps[-1] if jumps else cpu.pc
             cpu.xdata.write(pc2.STOP_ADDRESS, address & 0xFF)  # for the host: which loop
@@ -141,7 +144,7 @@ class ProgramRunner:
                 f"{address:04X}h)"
             )
         if io is not None:
-            io.copy_out(cpu.iram, cpu.xdata.ram, self.outputs, flags)
+            io.copy_out(cpu.iram, xdata.ram, self.outputs, flags)
         else:
             self._copy_out(flags)
 
@@ -183,20 +186,24 @@ class ProgramRunner:
         sfr[_SP] = sp + 2 & 0xFF
         cpu.pc = self.program.code_base
 
-    def tick(self, ticks: int = 1) -> None:
-        """``ticks`` x 10 ms of master time: running timers count down, status follows."""
+    def tick(self, ticks: int = 1) -> bool:
+        """``ticks`` x 10 ms of master time: running timers count down, status follows.
+        Returns whether a timer ran (a tick of stopped timers changes nothing)."""
         xdata = self.cpu.xdata
-        ram = xdata.ram if xdata.plain else None
+        # plain RAM, the common case, is read and written without a Python call
+        read, write = ((xdata.ram.__getitem__, xdata.ram.__setitem__) if xdata.plain
+                       else (xdata.read, xdata.write))
+        ran = False
         for address, location, bit in self._timers:
-            if ram is not None and not (ram[address] or ram[address + 1]):
-                continue  # stopped: the common case, read without a call
-            remaining = xdata.read(address) | xdata.read(address + 1) << 8
+            remaining = read(address) | read(address + 1) << 8
             if remaining:
+                ran = True
                 remaining = max(0, remaining - ticks)
-                xdata.write(address, remaining & 0xFF)
-                xdata.write(address + 1, remaining >> 8)
+                write(address, remaining & 0xFF)
+                write(address + 1, remaining >> 8)
                 if not remaining:
                     self.write(location, self.read(location) & ~(1 << bit) & 0xFF)
+        return ran
 
     def _firmware_trap(self, name: str) -> Callable[[Emulator], None]:
         def trap(cpu: Emulator) -> None:

@@ -502,13 +502,16 @@ class Simulation:
         """Called by the board after each AS-i cycle that ran: time 0, stops, and the
         observers' ``after_cycle``."""
         board = self.board
-        running = board.control_state is d.ControlState.RUNNING
+        running = board.running
         for watch in self._after_any_cycle:
             watch()
         if self._t0 is None:
             if not running:
                 return
             self._t0 = board.now_ms
+            first_tick = self.scenario.first_tick_ms
+            if first_tick is not None:  # the clock's phase the scenario was written for
+                board.move_next_tick(board.now_us + round(first_tick * 1000))
         if running != self.running:
             self.running = running
             if not running:

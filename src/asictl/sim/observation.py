@@ -59,7 +59,7 @@ class Refusal:
     @property
     def text(self) -> str:
         more = (f" (and {self.count - 1} more time{'s' if self.count > 2 else ''} "
-                f"until {self.last_ms:g} ms)" if self.count > 1 else "")
+                f"until {format_instant(self.last_ms)})" if self.count > 1 else "")
         where = f"{self.where}: " if self.where else ""
         return f"{where}firmware block {self.block} refused (status {self.status:02X}h){more}"
 

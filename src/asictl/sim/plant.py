@@ -19,6 +19,7 @@ sees it.
 
 from __future__ import annotations
 
+import bisect
 import math
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
@@ -33,6 +34,12 @@ from asictl.readers.units import UnitError, duration_ms
 MAX_MS = 24 * 3_600_000.0
 #: How many parts a conveyor may carry at once (a scenario cannot flood the simulation).
 MAX_PARTS = 10_000
+#: How many barriers a conveyor, and level switches a tank, may have (each evaluation
+#: looks at each, and each may change at its own moments).
+MAX_SENSORS = 32
+#: A time no simulation reaches, in microseconds (146,000 years): a model's moment
+#: further off (a belt crawling at 1e-300 mm/s, whose run is an infinite float) is never.
+NEVER_US = 2**62
 K = ast.OperandKind
 
 
@@ -72,6 +79,12 @@ def bits_of(operand: Operand) -> frozenset[tuple[str, int, int]]:
 
 def _us(ms: float) -> int:
     return round(ms * 1000)
+
+
+def _ceil_us(us: float) -> int:
+    """``us`` rounded up to a whole microsecond, at most ``NEVER_US`` (an infinite or
+    huge quotient of a tiny speed or rate has no integer)."""
+    return math.ceil(us) if us < NEVER_US else NEVER_US
 
 
 class Model:
@@ -133,7 +146,7 @@ class Model:
     def _after(self, dt: float) -> int:
         """The microsecond ``dt`` microseconds after the last evaluation (at least one;
         a rounding error of a level's arithmetic does not make it the next one)."""
-        return self._t + max(1, math.ceil(dt - 1e-3))
+        return self._t + max(1, _ceil_us(dt - 1e-3))
 
 
 class Cylinder(Model):
@@ -208,7 +221,14 @@ class Conveyor(Model):
     """A belt of ``length_mm`` moving at ``speed_mm_s`` while ``motor`` is on; parts are
     put on at 0 mm at the times ``parts_at_ms`` and on each rising edge of ``part_on``,
     and leave at the end. Lanes: the parts on the belt, and the position of the one
-    furthest along (mm)."""
+    furthest along (mm).
+
+    The belt keeps its own run and each part the run at which it was put on, so moving
+    is one addition and a barrier's next change a search, whatever the number of parts
+    (each part's run once moved one by one, and every edge of every part was a moment to
+    evaluate: 10,000 parts under many barriers took hours). The gaps between parts never
+    change while they ride; a barrier stays covered over the parts that follow one
+    another less than its width apart, so each width keeps where such a chain breaks."""
 
     kind = "conveyor"
 
@@ -223,15 +243,31 @@ class Conveyor(Model):
         self.length = self._run(length_mm)
         self._edges = [(self._run(b.at_mm), self._run(b.at_mm + part_mm)) for b in self.barriers]
         self._arrivals = sorted({_us(t) for t in parts_at_ms}, reverse=True)
-        #: each part's run: the microseconds the belt moved since it was put on
-        self.parts: list[int] = []
+        #: the microseconds the belt has moved
+        self._belt = 0
+        #: the belt's run when each part was put on, oldest first; those before
+        #: ``_head`` have left
+        self._put_at: list[int] = []
+        self._head = 0
+        #: a barrier's width -> the parts (indices into ``_put_at``) that trail the one
+        #: before by more than it
+        self._breaks: dict[int, list[int]] = {end - start: [] for start, end in self._edges}
         self.delivered = 0
         self.running = False
         self._part_on = False
 
+    @property
+    def parts(self) -> list[int]:
+        """Each part's run, the microseconds the belt moved since it was put on; the
+        one furthest along first."""
+        return [self._run_of(i) for i in range(self._head, len(self._put_at))]
+
+    def _run_of(self, index: int) -> int:
+        return self._belt - self._put_at[index]
+
     def _run(self, mm: float) -> int:
         """The belt's run in microseconds that carries a part ``mm`` far."""
-        return math.ceil(mm * 1_000_000 / self.speed - 1e-6)
+        return _ceil_us(mm * 1_000_000 / self.speed - 1e-6)
 
     def position_mm(self, run: int) -> float:
         return run * self.speed / 1_000_000
@@ -241,24 +277,41 @@ class Conveyor(Model):
 
     def lanes(self) -> list[Lane]:
         return [
-            Lane(f"{self.name} parts", 16, lambda: len(self.parts)),
-            Lane(f"{self.name} position", 16,
-                 lambda: round(self.position_mm(max(self.parts))) if self.parts else 0),
+            Lane(f"{self.name} parts", 16, lambda: len(self._put_at) - self._head),
+            Lane(f"{self.name} position", 16, lambda: round(self.position_mm(
+                self._run_of(self._head))) if self._on_belt() else 0),
         ]
 
+    def _on_belt(self) -> bool:
+        return self._head < len(self._put_at)
+
     def _put(self) -> None:
-        if len(self.parts) < MAX_PARTS:
-            self.parts.append(0)
+        count = len(self._put_at) - self._head
+        if count >= MAX_PARTS:
+            return
+        if count:
+            gap = self._run_of(-1)
+            for width, breaks in self._breaks.items():
+                if gap > width:
+                    breaks.append(len(self._put_at))
+        self._put_at.append(self._belt)
 
     def _advance(self, dt: int, now: int) -> None:
-        if self.running and dt:
-            self.parts = [run + dt for run in self.parts]
+        if self.running:
+            self._belt += dt
         while self._arrivals and self._arrivals[-1] <= now:
             self._arrivals.pop()
             self._put()
-        kept = [run for run in self.parts if run < self.length]
-        self.delivered += len(self.parts) - len(kept)
-        self.parts = kept
+        head = self._head
+        while head < len(self._put_at) and self._run_of(head) >= self.length:
+            head += 1
+        self.delivered += head - self._head
+        self._head = head
+        if head > 1024 and 2 * head > len(self._put_at):  # forget the parts that left
+            del self._put_at[:head]
+            for width, breaks in self._breaks.items():
+                self._breaks[width] = [i - head for i in breaks if i > head]
+            self._head = 0
 
     def _sense(self, io: PlantIO) -> None:
         self.running = io.read(self.motor) != 0
@@ -268,24 +321,45 @@ class Conveyor(Model):
                 self._put()
             self._part_on = on
 
+    def _furthest_short_of(self, run: int) -> int:
+        """The index of the part furthest along whose run is short of ``run`` (the
+        length of ``_put_at``: none is)."""
+        return bisect.bisect_right(self._put_at, self._belt - run, lo=self._head)
+
     def _inputs(self) -> list[tuple[Operand, int]]:
-        return [
-            (barrier.input, int(any(start <= run < end for run in self.parts)))
-            for barrier, (start, end) in zip(self.barriers, self._edges, strict=True)
-        ]
+        found = []
+        for barrier, (start, end) in zip(self.barriers, self._edges, strict=True):
+            i = self._furthest_short_of(end)
+            covered = i < len(self._put_at) and self._run_of(i) >= start
+            found.append((barrier.input, int(covered)))
+        return found
 
     @property
     def moving(self) -> bool:
-        return self.running and bool(self.parts)
+        return self.running and self._on_belt()
 
     def next_change(self) -> int | None:
         times = [self._arrivals[-1]] if self._arrivals else []
-        if self.running:
-            for run in self.parts:
-                ahead = [edge - run for start, end in self._edges for edge in (start, end)]
-                ahead.append(self.length - run)
-                times += [self._after(step) for step in ahead if step > 0]
+        if self.running and self._on_belt():
+            times.append(self._after(self.length - self._run_of(self._head)))
+            times += [self._after(run) for start, end in self._edges
+                      if (run := self._barrier_change(start, end)) is not None]
         return min(times, default=None)
+
+    def _barrier_change(self, start: int, end: int) -> int | None:
+        """How much further the belt runs until the barrier seeing ``[start, end)``
+        changes (None: never): a free one is covered when the part nearest short of it
+        reaches ``start``; a covered one is free when the chain of parts in it and
+        closing up behind it has passed ``end``."""
+        i = self._furthest_short_of(end)
+        if i == len(self._put_at):
+            return None
+        if self._run_of(i) < start:
+            return start - self._run_of(i)
+        breaks = self._breaks[end - start]
+        j = bisect.bisect_right(breaks, i)
+        last = breaks[j] - 1 if j < len(breaks) else len(self._put_at) - 1
+        return end - self._run_of(last)
 
 
 @dataclass(frozen=True)
@@ -472,9 +546,14 @@ class Plant:
     models: list[Model] = field(default_factory=list)
 
     def add(self, model: Model) -> Model:
-        """Add a model; ``ValueError`` if it writes an input another model writes, or
-        has another's name (its trace lanes would be two lanes of one name)."""
-        mine = {bit: operand for operand in model.driven() for bit in bits_of(operand)}
+        """Add a model; ``ValueError`` if it writes an input twice or one another model
+        writes, or has another's name (its trace lanes would be two lanes of one name)."""
+        mine: dict[tuple[str, int, int], Operand] = {}
+        for operand in model.driven():
+            for bit in bits_of(operand):
+                if bit in mine:
+                    raise ValueError(f"'{operand}' is driven twice by {model.name}")
+                mine[bit] = operand
         for other in self.models:
             if other.name == model.name:
                 raise ValueError(f"a plant model is named '{model.name}' already")
@@ -604,6 +683,8 @@ class _Table:
         value = self.data.get(key, [])
         if not isinstance(value, list) or not all(isinstance(v, dict) for v in value):
             raise self.fail(f"{key} is a list of tables: [ {{ input = \"I 1.3\", ... }} ]", key)
+        if len(value) > MAX_SENSORS:
+            raise self.fail(f"{key}: at most {MAX_SENSORS}, not {len(value)}", key)
         return value
 
     def values(self, key: str) -> dict[Operand, int]:

@@ -9,7 +9,7 @@ from dataclasses import dataclass, field
 from asictl.observe.coverage import Coverage
 from asictl.observe.iltrace import LineRow
 from asictl.observe.operands import Operand
-from asictl.readers.units import format_instant
+from asictl.readers.units import format_duration, format_instant
 from asictl.sim.observation import Refusal, Stop
 from asictl.sim.scenario import Scenario, Step
 from asictl.sim.trace import Trace
@@ -34,7 +34,7 @@ class Failure:
 
     def __str__(self) -> str:
         name = self.written or str(self.operand)
-        window = f" (within {self.step.within_ms:g} ms)" if self.step.within_ms else ""
+        window = f" (within {format_duration(self.step.within_ms)})" if self.step.within_ms else ""
         text = (f"at {format_instant(self.step.at_ms)}{window}: {name} expected "
                 f"{self.expected}, got {self.got}")
         return f"{text}; last written by {self.writer}" if self.writer else text

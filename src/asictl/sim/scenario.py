@@ -21,6 +21,7 @@ from asictl.diagnostics import DiagnosticError, Reporter
 from asictl.observe.condition import Condition, ConditionError, parse_condition
 from asictl.observe.operands import Operand, check_value, parse_operand
 from asictl.observe.symbols import SymbolTable
+from asictl.platform.master import TICK_US
 from asictl.readers.profile import read_profile
 from asictl.readers.tomlfile import Document, KeyPath, read_toml
 from asictl.readers.units import UnitError, duration_ms
@@ -81,6 +82,9 @@ class Scenario:
     markers: list[str] = field(default_factory=list)
     #: the ``[[plant]]`` models, as read (a simulation runs copies)
     plants: list[Model] = field(default_factory=list)
+    #: the time from time 0 to the master's first 10 ms tick (None: as the start-up
+    #: leaves it), so that a run that depends on the clock's phase replays
+    first_tick_ms: float | None = None
 
     @property
     def end_ms(self) -> float:
@@ -95,6 +99,8 @@ class Scenario:
 
 _TOP_KEYS = ("program", "master", "step", "markers", "plant")
 _MASTER_KEYS = ("cycle_ms", "slaves")
+#: only in a scenario: a proof holds for every phase of the clock
+_SCENARIO_MASTER_KEYS = (*_MASTER_KEYS, "first_tick_ms")
 _STEP_KEYS = {"at_ms", "at", "set", "expect", "add_slaves", "remove_slaves", "power_fail",
               "press_set_button", "within_ms", "within"}
 
@@ -322,7 +328,8 @@ def read_scenario(
             program_path = Path(source.name).parent / str(data["program"])
         else:
             reading.error(_PROGRAM_NAME, ("program",))
-    cycle_ms, slaves = read_master(document, reading.report, ScenarioCode.INVALID)
+    cycle_ms, slaves, first_tick_ms = read_master(document, reading.report,
+                                                  ScenarioCode.INVALID, scenario=True)
     raw_steps = data.get("step", [])
     if not isinstance(raw_steps, list):
         reading.error("steps are [[step]] tables", ("step",))
@@ -331,21 +338,33 @@ def read_scenario(
     plants = _plants(reading, data.get("plant", []), steps)
     if reading.report.has_errors:
         raise DiagnosticError(reading.report.diagnostics)
-    return Scenario(source.name, program_path, cycle_ms, slaves, steps, list(markers), plants)
+    return Scenario(source.name, program_path, cycle_ms, slaves, steps, list(markers), plants,
+                    first_tick_ms)
 
 
-def read_master(document: Document, report: Reporter, code: str
-                ) -> tuple[float | None, list[SlaveSpec] | None]:
+def read_master(document: Document, report: Reporter, code: str, *, scenario: bool = False
+                ) -> tuple[float | None, list[SlaveSpec] | None, float | None]:
     """The ``[master]`` table of a scenario or a properties file (its cycle time and
-    slaves), problems reported with ``code``: one reading for both kinds of file."""
+    slaves; a scenario's also the time to the first 10 ms tick), problems reported with
+    ``code``: one reading for both kinds of file."""
     reading = _Reading(document, None, SymbolTable())
     master = document.data.get("master", {})
-    cycle_ms = slaves = None
+    cycle_ms = slaves = first_tick_ms = None
     if not isinstance(master, dict):
         reading.error("[master] is a table", ("master",))
         master = {}
-    reading.report.extend(document.unknown_keys(("master",), master, _MASTER_KEYS,
-                                                "in [master]"))
+    keys = _SCENARIO_MASTER_KEYS if scenario else _MASTER_KEYS
+    reading.report.extend(document.unknown_keys(("master",), master, keys, "in [master]"))
+    if scenario and "first_tick_ms" in master:
+        value = master["first_tick_ms"]
+        number = isinstance(value, int | float) and not isinstance(value, bool)
+        ms = round(float(value) * 1000) / 1000 if number and math.isfinite(value) else 0.0
+        if 0 < ms <= TICK_US / 1000:  # whole microseconds, as all master time
+            first_tick_ms = ms
+        else:
+            reading.error(f"first_tick_ms is a time in milliseconds from 0.001 to "
+                          f"{TICK_US / 1000:g}, not {_show(value)}",
+                          ("master", "first_tick_ms"), at_value=True)
     if "cycle_ms" in master:
         value = master["cycle_ms"]
         cycle_ms = _cycle(value)
@@ -357,7 +376,7 @@ def read_master(document: Document, report: Reporter, code: str
         slaves = _slaves(reading, master["slaves"], ("master", "slaves"))
     report.extend(d if d.code != ScenarioCode.INVALID else replace(d, code=code)
                   for d in reading.report.diagnostics)
-    return cycle_ms, slaves
+    return cycle_ms, slaves, first_tick_ms
 
 
 class _PlantPlace:

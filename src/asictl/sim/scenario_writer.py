@@ -33,8 +33,11 @@ class ScenarioWriter:
     def program(self, path: str) -> None:
         self.lines.append(f"program = {toml_string(path)}")
 
-    def master(self, cycle_ms: float, slaves: Sequence[SlaveSpec] | None = None) -> None:
+    def master(self, cycle_ms: float, slaves: Sequence[SlaveSpec] | None = None,
+               first_tick_ms: float | None = None) -> None:
         self.lines += ["", "[master]", f"cycle_ms = {cycle_ms:g}"]
+        if first_tick_ms is not None:
+            self.lines.append(f"first_tick_ms = {first_tick_ms:g}")
         if slaves is not None:
             listed = ", ".join(
                 f'{s.address} = "{s.io_code:X}h,{s.id_code:X}h,{s.parameter:X}h"'

@@ -26,7 +26,7 @@ from asictl.errors import ExitCode, UserError
 from asictl.observe.coverage import Coverage
 from asictl.observe.operands import SETTABLE, parse_assignment, parse_operand
 from asictl.observe.symbols import SymbolTable, symbols_for
-from asictl.readers.units import format_instant
+from asictl.readers.units import format_duration, format_instant
 from asictl.sim import SUFFIX
 from asictl.sim.engine import SimResult, Simulation, variables_of
 from asictl.sim.plant import Plant
@@ -152,7 +152,8 @@ def prepare(
     cut = sum(1 for s in scenario.steps if s.at_ms > end)
     if cut and not allow_partial:
         raise UserError(
-            f"--duration {end:g} ms ends before the scenario's last step at {last:g} ms "
+            f"--duration {format_instant(end)} ends before the scenario's last step at "
+            f"{format_instant(last)} "
             f"({cut} step{'s' if cut != 1 else ''} would not run); run longer, or pass "
             "--allow-partial"
         )
@@ -275,7 +276,8 @@ def summary(run: Run) -> str:
     partial = f" ({cut} step{'s' if cut != 1 else ''} after the end not run)" if cut else ""
     return (
         f"{r.checked} expectation{'s' if r.checked != 1 else ''}, {failed} failed; "
-        f"{r.end_ms / 1000:g} s of master time in {run.seconds:.2f} s{partial}"
+        f"{format_duration(r.end_ms)} of master time in {format_duration(run.seconds * 1000)}"
+        f"{partial}"
     )
 
 

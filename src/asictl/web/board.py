@@ -37,6 +37,8 @@ from asictl.host.transfer import StartMode, download, linked_for, set_start, upl
 from asictl.host.watch import watch_list
 from asictl.source import decode
 
+#: Who the web page's changes are noted as (host.live.changes).
+WEB_PAGE = "the web page"
 #: The names a downloaded program's files may have (no folder, nothing hidden).
 FILE_NAME = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.-]{0,63}")
 
@@ -53,7 +55,7 @@ class LiveActions:
         return "this process"
 
     def run(self, name: str, args: dict[str, JSON]) -> JSON:
-        return requests.action(self._live, {"name": name, "args": args})
+        return requests.action(self._live, {"name": name, "args": args}, WEB_PAGE)
 
     def settle(self) -> None:
         """The live board runs by itself."""
@@ -76,6 +78,13 @@ class WebBoard:
         self.reader = LiveStatus(live, name, LiveActions(live))
         self.master = self.reader.master
         self.last: MasterStatus | None = None
+        self._changes_seen = live.changes.serial
+
+    def changes(self) -> list[str]:
+        """What clients changed on the board since the last call (host.live.changes)."""
+        log = self.live.changes
+        changes, self._changes_seen = log.since(self._changes_seen), log.serial
+        return [f"{change.text} by {change.who}" for change in changes]
 
     def status(self) -> MasterStatus:
         """The status now, or while a command holds the board the one read last."""
@@ -118,6 +127,7 @@ class WebBoard:
     def _changing(self, what: str) -> None:
         if self.live.in_session():
             raise self._busy(what)
+        self.live.refuse_change(what)  # a debugger holds the master still
         self.live.sync()
 
     def _saved(self) -> None:
@@ -261,4 +271,4 @@ class WebBoard:
     def lines(self) -> JSON:
         """The program's lines in the latest cycle (observe.online, the monitor's ``v``)."""
         self._changing("reading the program's values")
-        return requests.action(self.live, {"name": "lines", "args": {}})
+        return requests.action(self.live, {"name": "lines", "args": {}}, WEB_PAGE)

@@ -64,6 +64,7 @@ def web_attachment(
         def refresh() -> None:
             try:
                 hub.publish(board.status())
+                hub.changes(board.changes())
             except Busy:  # a command holds the board: the last reading stands
                 pass
             except UserError as exc:  # a board that does not answer (in reset)

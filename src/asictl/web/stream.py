@@ -77,6 +77,15 @@ class Hub:
         for listener in self.listeners:
             listener.offer(self.latest)
 
+    def changes(self, texts: list[str]) -> None:
+        """Clients' changes of the board: events the listeners hear at once, even where
+        the status shows none (a program downloaded again)."""
+        for text in texts:
+            self.event(text)
+        if texts and self.latest is not None:
+            for listener in self.listeners:
+                listener.offer(self.latest)
+
     def event(self, text: str) -> None:
         self.serial += 1
         self.events.append({"id": self.serial, "time": time.time(), "text": text})

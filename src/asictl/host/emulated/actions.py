@@ -20,18 +20,22 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from asictl.board.asi import BusError, Slave
-from asictl.board.board import Pc2Board
 from asictl.board.forcing import Area, ForceError, Forces
 from asictl.errors import ExitCode, UserError
 from asictl.observe.operands import read_number
 from asictl.platform.master import IO_CODE_BITS, SLAVES, TICK_MS
 from asictl.readers.profile import read_profile
 
+if TYPE_CHECKING:
+    # The board (and its 8051 emulator) is named only: the commands' parsers and the
+    # live board's client use this module without loading it.
+    from asictl.board.board import Pc2Board
+
 JSON = Any
-Action = Callable[[Pc2Board, dict[str, JSON]], JSON]
+Action = Callable[["Pc2Board", dict[str, JSON]], JSON]
 
 #: Master time an emulated board runs after a download or a change of its cable:
 #: config_ok's delay after the configuration was written, so the command's report shows
@@ -270,6 +274,10 @@ ACTIONS: dict[str, Action] = {
 }
 #: Actions that only look: a command running them need not save the board's state.
 VIEWS = frozenset({"bus", "view", "lines", "forced"})
+#: Changes the running program sees in its next cycle, whose answer is all the command
+#: reports (the slaves' inputs, the force list): unlike a change of the cable, they need
+#: no time to settle before a report on a board that runs on by itself (a live one).
+NEXT_CYCLE = frozenset({"inputs", "force", "unforce"})
 
 
 def run_action(board: Pc2Board, name: str, args: dict[str, JSON]) -> JSON:

@@ -19,13 +19,15 @@ import os
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from asictl.board.board import Pc2Board
 from asictl.errors import ExitCode, UserError
 from asictl.host.emulated.locking import exclusive
 from asictl.host.emulated.state_files import prepare_folder, read_private, write_private
 from asictl.host.transports.ports import port_name
+
+if TYPE_CHECKING:
+    from asictl.board.board import Pc2Board
 
 STATE_DIR_ENV = "ASICTL_STATE_DIR"
 #: Master time an emulated board runs after power-up before the host's first access: its
@@ -49,6 +51,10 @@ def state_file(directory: Path, base: int) -> Path:
 
 
 def _load(path: Path) -> Pc2Board:
+    # The board and its 8051 emulator load only here: a command that reaches a live
+    # board needs only the names of its files.
+    from asictl.board.board import Pc2Board
+
     raw = read_private(path)
     if raw is None:
         return Pc2Board()

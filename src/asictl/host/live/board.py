@@ -7,8 +7,25 @@ from collections.abc import Awaitable, Callable
 from typing import Protocol
 
 from asictl.board.board import Pc2Board
+from asictl.errors import ExitCode, UserError
+from asictl.host.live.changes import (
+    ChangeLog,
+    command_change,
+    command_name,
+    write_change,
+    write_refused,
+)
 from asictl.host.live.protocol import JSON
-from asictl.platform.pc2 import ACK, COMMAND, COMMAND_TIMEOUT_MS, NAK
+from asictl.platform.pc2 import (
+    ACK,
+    ADDRESS_EXT,
+    COMMAND,
+    COMMAND_TIMEOUT_MS,
+    NAK,
+    PROGRAM_BUFFER,
+    PROGRAM_BUFFER_SIZE,
+    READ_ONLY_COMMANDS,
+)
 
 #: Master time one catch-up may run at most (after the process was stopped, say).
 MAX_CATCH_UP_MS = 1000.0
@@ -24,6 +41,18 @@ class Hold(Protocol):
     def advance(self, ms: float) -> None: ...
 
     def refusal(self, action: str) -> str | None: ...
+
+    def halted(self) -> str | None:
+        """While the master stands still: what holds it, and where (``halted at
+        breakpoint line 6 by asictl dap (pid 7)``); None while it runs."""
+        ...
+
+
+class HeldBoard(UserError):
+    """A change asked of a board a debugger holds halted: it would happen behind the
+    debugger's back, or wait for a cycle that does not come (exit 1)."""
+
+    exit_code = ExitCode.FAILED
 
 
 class LiveBoard:
@@ -47,6 +76,8 @@ class LiveBoard:
         #: attached to the board that runs host commands of its own between the command's
         #: requests (the OPC UA server's refresh) waits until it is over
         self.in_session: Callable[[], bool] = lambda: False
+        #: what clients changed, for the others' event logs
+        self.changes = ChangeLog()
 
     def advance(self, ms: float) -> None:
         """Let ``ms`` of master time pass, through the hold if there is one."""
@@ -71,9 +102,50 @@ class LiveBoard:
         if lag > 0:
             self.advance(lag)
 
-    def run_command(self) -> None:
-        """Run the board until the command just written is acknowledged (or times out)."""
+    def halted(self) -> str | None:
+        """What holds the master still (``Hold.halted``); None while it runs."""
+        return self.hold.halted() if self.hold is not None else None
+
+    def refuse_change(self, what: str) -> None:
+        """``HeldBoard`` naming the holder if the master is halted: ``what`` would change it."""
+        halted = self.halted()
+        if halted is not None:
+            raise HeldBoard(f"the board is {halted}: {what} would change it, and is not "
+                            "done; continue or detach in the debugger first")
+
+    def before_write(self, address: int, value: int, who: str) -> None:
+        """``who`` is about to write ``value`` to the DPRAM at ``address``: noted if it is
+        a change of data (changes.write_change). While the master is halted only a
+        command's parameters and the program buffer may be written (what the commands
+        that only read take), nothing the program or the master would read."""
+        if address not in _PARAMETERS and address not in _BUFFER:
+            self.refuse_change(write_refused(address, value))
+        change = write_change(address, value)
+        if change is not None:
+            self.changes.note(change, who)
+
+    def run_command(self, who: str = "this process") -> None:
+        """Run the board until the command just written is acknowledged (or times out),
+        and note the change it made as ``who``'s. A halted board answers a command that
+        only reads at once, from the halted state, and refuses (FFh) and reports one that
+        would change it (``HeldBoard``)."""
         board, waited = self.board, 0.0
+        code = board.dpram_byte(COMMAND)
+        if self.halted() is not None:
+            read_only = code in READ_ONLY_COMMANDS
+            board.answer_command(run=read_only)
+            if not read_only:
+                self.refuse_change(f"command {code}{command_name(code)}")
+            return
         while board.dpram_byte(COMMAND) not in (ACK, NAK) and waited < COMMAND_TIMEOUT_MS:
             self.advance(COMMAND_STEP_MS)
             waited += COMMAND_STEP_MS
+        change = command_change(board, code) if board.dpram_byte(COMMAND) == ACK else None
+        if change is not None:
+            self.changes.note(change, who)
+
+
+#: What a command's caller writes: the command byte and its parameters, the program buffer.
+_PARAMETERS = range(COMMAND, ADDRESS_EXT + 1)
+_BUFFER = range(PROGRAM_BUFFER, PROGRAM_BUFFER + PROGRAM_BUFFER_SIZE)
+

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import contextlib
 import os
+import select
 import socket
 import stat
 import time
@@ -22,10 +23,11 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from asictl.errors import ExitCode, UserError
-from asictl.host.emulated.actions import SETTLE_MS, VIEWS
+from asictl.host.emulated.actions import NEXT_CYCLE, SETTLE_MS, VIEWS
 from asictl.host.emulated.boards import lock_file
 from asictl.host.emulated.locking import is_free
 from asictl.host.emulated.state_files import UnsafeStateFolder, check_folder
+from asictl.host.live.changes import Change
 from asictl.host.live.protocol import (
     JSON,
     LENGTH,
@@ -41,6 +43,10 @@ from asictl.platform.pc2 import IO_BASES, PORT_DATA
 
 #: How long a client waits for an answer (a session may wait longer: it is announced).
 ANSWER_TIMEOUT_S = 30.0
+#: A wait for the board this short is not announced: a monitor's refresh holds it for a
+#: few milliseconds at a time, and a command behind it should not say so. (Half of the
+#: shortest session time-out a test sets, 1 s, so a wait that long is still heard.)
+QUIET_WAIT_S = 0.5
 
 
 class LiveClient:
@@ -135,11 +141,12 @@ class LiveClient:
     @contextmanager
     def session(self, who: str, waiting: Callable[[str], None] | None = None) -> Iterator[None]:
         """The board to this client alone; ``waiting`` hears who has it meanwhile (and
-        how long the server lets a silent holder keep it)."""
+        how long the server lets a silent holder keep it), unless it is free again within
+        ``QUIET_WAIT_S``."""
         self._send({"op": "begin", "who": who})
         answer = self._receive()
         if isinstance(answer, dict) and "waiting" in answer:
-            if waiting is not None:
+            if waiting is not None and not self._answered_within(QUIET_WAIT_S):
                 limit = answer.get("idle_limit")
                 waiting(str(answer["waiting"]) + (
                     f" (a session silent for {limit:g} s is ended)"
@@ -152,6 +159,10 @@ class LiveClient:
         finally:
             with contextlib.suppress(UserError):
                 self.request({"op": "end"})
+
+    def _answered_within(self, seconds: float) -> bool:
+        readable, _, _ = select.select([self.sock], [], [], seconds)
+        return bool(readable)
 
     def io(self, ops: list[JSON]) -> list[list[int]]:
         """The reads of ``ops``, each as many bytes as it asked for."""
@@ -172,6 +183,16 @@ class LiveClient:
         if "result" not in answer:
             raise self._malformed("'result' missing")
         return answer["result"]
+
+    def changes(self, since: int | None) -> tuple[list[Change], int]:
+        """What clients changed on the board after the change numbered ``since`` (None:
+        nothing yet, from now on), and the number to ask from next time."""
+        answer = self.request({"op": "changes", "since": since})
+        rows, after = self._field(answer, "changes", list), self._field(answer, "next", int)
+        try:
+            return [Change.from_json(row) for row in rows], after
+        except (TypeError, ValueError):
+            raise self._malformed("'changes' is not a list of changes") from None
 
     def close(self) -> None:
         self.sock.close()
@@ -357,8 +378,10 @@ def served_by(client: LiveClient) -> str:
 @dataclass(frozen=True)
 class LiveActions:
     """``EmulatedBoard`` for a live board, through its socket. It runs on by itself:
-    after a change the command waits as long as a board loaded from its state file would
-    run on (``SETTLE_MS``), so its report shows the effect too."""
+    after a change of the cable the command waits as long as a board loaded from its
+    state file would run on (``SETTLE_MS``), so its report shows the effect too; after
+    one the program sees in its next cycle (``NEXT_CYCLE``: inputs, forces) it goes on
+    at once, as the action's answer is its report."""
 
     client: LiveClient
 
@@ -368,7 +391,7 @@ class LiveActions:
 
     def run(self, name: str, args: dict[str, JSON]) -> JSON:
         result = self.client.action(name, **args)
-        if name not in VIEWS:
+        if name not in VIEWS | NEXT_CYCLE:
             self.settle()
         return result
 

@@ -10,7 +10,10 @@ emulated-only actions of ``host.emulated.actions`` (the cable, the set button, t
 timers and counters, and ``lines``: the program's IL lines with their values in the
 latest cycle, for which the board runs one cycle under line hooks and removes them
 again), or those a server attached to the board adds (``LiveBoard.actions``: the
-gateway's front panel). A failure is ``{"ok": false, "error": TEXT, "exit": CODE}``.
+gateway's front panel); ``{"op": "changes", "since": SERIAL or null}`` for what clients
+changed after the change numbered SERIAL (host.live.changes; null: none yet, from now
+on), answered by ``{"ok": true, "changes": [[SERIAL, TIME, TEXT, WHO], ...], "next":
+SERIAL}``. A failure is ``{"ok": false, "error": TEXT, "exit": CODE}``.
 
 Register accesses are batched (writes wait until a read needs their effect, and a block
 of data reads is one access with a count), so a download moves a 240-byte block per
@@ -25,15 +28,19 @@ checks each connecting process's user.
 
 from __future__ import annotations
 
-import asyncio
 import json
 import socket
 import struct
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from asictl.errors import ExitCode, UserError
 from asictl.host.transports.ports import port_name
+
+if TYPE_CHECKING:
+    # Only the servers' side reads from asyncio streams: a command's client does
+    # without asyncio (and the ssl module it loads).
+    import asyncio
 
 #: The largest answer a client accepts (the ``lines`` action's answer is the largest).
 MAX_MESSAGE = 1 << 20
@@ -105,5 +112,5 @@ async def read_message(
         if length > limit:
             return None
         return decode(await reader.readexactly(length))
-    except (asyncio.IncompleteReadError, ConnectionError, ValueError):
+    except (EOFError, ConnectionError, ValueError):  # EOFError: asyncio.IncompleteReadError
         return None

@@ -15,8 +15,9 @@ from collections.abc import Awaitable
 from dataclasses import dataclass
 
 from asictl.errors import ExitCode, UserError
-from asictl.host.emulated.actions import run_action
+from asictl.host.emulated.actions import VIEWS, run_action
 from asictl.host.live.board import LiveBoard
+from asictl.host.live.changes import action_change, action_refused
 from asictl.host.live.protocol import (
     JSON,
     MAX_ACCESSES,
@@ -42,17 +43,18 @@ class Pointer:
     address: int = 0
 
 
-def io(live: LiveBoard, pointer: Pointer, ops: JSON) -> list[list[int]]:
+def io(live: LiveBoard, pointer: Pointer, ops: JSON, who: str) -> list[list[int]]:
     """Register accesses in order, from this client's pointer; the board's own
     auto-increment moves it, and it is kept for the client's next request (also after a
-    malformed access, as far as the accesses before it went)."""
+    malformed access, as far as the accesses before it went). The changes they make are
+    noted as ``who``'s."""
     accesses = _checked(ops)
     board = live.board
     page_bits = PAGE_RESET_BIT if board.in_reset else 0
     board.io_write(PORT_INDEX, pointer.address & 0xFF)
     board.io_write(PORT_PAGE, pointer.address >> 8 | page_bits)
     try:
-        return _accesses(live, accesses)
+        return _accesses(live, accesses, who)
     finally:
         pointer.address = board.pointer
 
@@ -89,7 +91,9 @@ def _checked(ops: JSON) -> list[tuple[str, int, JSON]]:
     return accesses
 
 
-def _accesses(live: LiveBoard, accesses: list[tuple[str, int, JSON]]) -> list[list[int]]:
+def _accesses(
+    live: LiveBoard, accesses: list[tuple[str, int, JSON]], who: str
+) -> list[list[int]]:
     board = live.board
     reads: list[list[int]] = []
     commands = 0
@@ -105,10 +109,12 @@ def _accesses(live: LiveBoard, accesses: list[tuple[str, int, JSON]]) -> list[li
             )
             if command and commands == MAX_COMMANDS:
                 raise RequestTooLarge(f"more than {MAX_COMMANDS} commands in one request")
+            if offset == PORT_DATA:
+                live.before_write(board.pointer, value, who)
             board.io_write(offset, value)
             if command:
                 commands += 1
-                live.run_command()
+                live.run_command(who)
     return reads
 
 
@@ -124,13 +130,22 @@ def attached_action(live: LiveBoard, request: dict[str, JSON]) -> Awaitable[JSON
     return attached(args)
 
 
-def action(live: LiveBoard, request: dict[str, JSON]) -> JSON:
+def action(live: LiveBoard, request: dict[str, JSON], who: str) -> JSON:
     """One of the actions of ``host.emulated.actions``, as the request names it (unless a
-    debugger holding the board refuses it)."""
+    debugger holding the board refuses it, or holds it halted and the action would
+    change it); one that changes the board is noted as ``who``'s. The view says what
+    holds the board halted (``held``)."""
     name, args = request.get("name"), request.get("args") or {}
     if not isinstance(name, str) or not isinstance(args, dict):
         raise ProtocolError("an action needs a name and arguments")
     refusal = live.hold.refusal(name) if live.hold is not None else None
     if refusal is not None:
         raise UserError(refusal, ExitCode.FAILED)
-    return run_action(live.board, name, args)
+    if name not in VIEWS and live.halted() is not None:
+        live.refuse_change(action_refused(live.board, name, args))
+    result = run_action(live.board, name, args)
+    if name == "view":
+        result["held"] = live.halted()
+    elif name not in VIEWS:
+        live.changes.note(action_change(live.board, name, args), who)
+    return result

@@ -52,6 +52,12 @@ from asictl.host.live.board import LiveBoard
 from asictl.host.live.client import refuse_if_served
 from asictl.host.live.guard import WATCH_S, Identity, StatePlace
 from asictl.host.live.guard import identity as file_identity
+from asictl.host.live.limits import (
+    DEFAULT_ADMIT_WAIT_S,
+    DEFAULT_IDLE_TIMEOUT_S,
+    DEFAULT_MAX_CONNECTIONS,
+    DEFAULT_SESSION_TIMEOUT_S,
+)
 from asictl.host.live.protocol import (
     JSON,
     MAX_REQUEST,
@@ -66,15 +72,6 @@ from asictl.host.transports.ports import port_name
 
 #: How often master time catches up with the wall clock while nobody asks.
 PACING_S = 0.01
-#: Connections served at once by default (each command is one; a monitor is one).
-DEFAULT_MAX_CONNECTIONS = 32
-#: Seconds a session may go without a request by default before it is ended.
-DEFAULT_SESSION_TIMEOUT_S = 10.0
-#: Seconds a connection may go without a request by default before it is closed.
-DEFAULT_IDLE_TIMEOUT_S = 60.0
-#: Seconds a connection beyond the limit waits for a slot by default before it is told
-#: the board is busy (a command takes a fraction of a second: the wait is for a turn).
-DEFAULT_ADMIT_WAIT_S = 10.0
 #: Connections that may wait for a slot, per slot; one more hears "busy" at once.
 WAITING_PER_SLOT = 4
 #: A connection silent this long (and holding no session) makes way for one waiting.
@@ -184,14 +181,17 @@ class LiveServer:
         if op == "end":
             await self._release(conn)
             return {"ok": True}
+        if op == "changes":
+            return self._changes(request.get("since"))
         await self._session(conn)
         self.live.sync()
         if op == "io":
-            answer = {"ok": True, "reads": requests.io(self.live, conn.pointer, request.get("ops"))}
+            answer = {"ok": True, "reads": requests.io(
+                self.live, conn.pointer, request.get("ops"), conn.who)}
         elif op == "action":
             attached = requests.attached_action(self.live, request)
             result = await attached if attached is not None else requests.action(
-                self.live, request
+                self.live, request, conn.who
             )
             answer = {"ok": True, "result": result}
         else:
@@ -205,6 +205,17 @@ class LiveServer:
                     "lost if the board stops before a save succeeds"
                 ) from None
         return answer
+
+    def _changes(self, since: JSON) -> JSON:
+        """The changes after ``since`` (none for a client that has seen none yet, or
+        numbers of a server before this one: it starts from now), and the number to ask
+        from next."""
+        log = self.live.changes
+        after = log.serial
+        if isinstance(since, int) and not isinstance(since, bool):
+            after = min(since, after)
+        return {"ok": True, "changes": [c.to_json() for c in log.since(after)],
+                "next": log.serial}
 
     async def _client(self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
         conn = _Connection(writer=writer)

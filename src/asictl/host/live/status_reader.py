@@ -4,6 +4,7 @@ the program image kept between readings as the monitor keeps it."""
 
 from __future__ import annotations
 
+from asictl.host.emulated.actions import LoadedBoard
 from asictl.host.live.board import LiveBoard
 from asictl.host.master import EmulatedBoard
 from asictl.host.pc2_master import Pc2Master
@@ -17,9 +18,10 @@ class LiveStatus:
 
     def __init__(self, live: LiveBoard, name: str, action: EmulatedBoard | None = None) -> None:
         self.live = live
-        self.master = (
-            Pc2Master.loaded(live.board, name) if action is None
-            else Pc2Master.over(Pc2Driver(EmulatedPort(live.board)), name, action=action)
+        # master time through the live board, so a debugger's hold is kept to
+        port = EmulatedPort(live.board, advance=live.advance, on_command=live.run_command)
+        self.master = Pc2Master.over(
+            Pc2Driver(port), name, action=action or LoadedBoard(live.board)
         )
         self.program: StoredProgram | None = None
         self._loaded: object = None

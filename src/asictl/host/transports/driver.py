@@ -12,15 +12,17 @@ from __future__ import annotations
 
 import os
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from typing import TYPE_CHECKING, Protocol, runtime_checkable
 
 from asictl.host.transports.jobs import Job, PortError
 from asictl.platform.pc2 import (
+    ACK,
     COMMAND,
     COMMAND_TIMEOUT_MS,
     DATA,
     DPRAM_SIZE,
+    NAK,
     PAGE_MASK,
     PAGE_SIZE,
     PORT_DATA,
@@ -60,23 +62,38 @@ class EmulatedPort:
     advances the board by ``EMULATED_POLL_MS`` first. A command the board executes
     within its next millisecond is then acknowledged on the first poll, and the 200 ms
     time-out is 200 polls of master time, however fast the host runs.
+
+    A live board served by this process (``host.live``) passes its own ``advance`` (master
+    time through a debugger's hold) and ``on_command`` (run a command just written as a
+    client's through the socket is run: to its acknowledge, or answered at once while a
+    debugger holds the master still).
     """
 
-    def __init__(self, board: Pc2Board) -> None:
+    def __init__(
+        self, board: Pc2Board, *, advance: Callable[[float], None] | None = None,
+        on_command: Callable[[], None] | None = None,
+    ) -> None:
         self.board = board
+        self._advance = advance or board.advance
+        self._on_command = on_command
         #: the DPRAM address the next data access goes to, followed like the board does
         self._pointer = 0
 
     def read(self, offset: int) -> int:
         if offset == PORT_DATA:
             if self._pointer == COMMAND:
-                self.board.advance(EMULATED_POLL_MS)
+                self._advance(EMULATED_POLL_MS)
             self._step()
         return self.board.io_read(offset)
 
     def write(self, offset: int, value: int) -> None:
         if offset == PORT_DATA:
+            command = self._pointer == COMMAND and value not in (ACK, NAK)
             self._step()
+            self.board.io_write(offset, value)
+            if command and self._on_command is not None:
+                self._on_command()
+            return
         elif offset == PORT_INDEX:
             self._pointer = self._pointer & ~0xFF | value & 0xFF
         elif offset == PORT_PAGE:

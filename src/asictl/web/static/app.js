@@ -93,7 +93,8 @@ function renderTop(status, events) {
   setPill("mode", status.mode + " mode", "info");
   const running = status.control_state === "running";
   const why = status.stop_reason ? " (" + status.stop_reason + ")" : "";
-  setPill("control", "program " + status.control_state + why, running ? "running" : "stopped");
+  if (status.held) setPill("control", "program " + status.held, "stopped");
+  else setPill("control", "program " + status.control_state + why, running ? "running" : "stopped");
   const forced = status.forced ? status.forced.length : 0;
   setPill("forces", "FORCE " + forced, forced ? "some" : "none");
 }
