@@ -172,7 +172,7 @@ def find_difference(original: Build, mutant: Build, *, seed: int = 0,
     prover may still; either way no verdict changes, only how soon."""
     first, second = original.source_program(), mutant.source_program()
     if first is None or second is None or original.image is None or mutant.image is None \
-            or not (runs_alone(first) and runs_alone(second)):
+            or not (_searchable(first) and _searchable(second)):
         return None
     bus = sorted({s.address for program in (first, second) for s in program.slaves})
     rng = random.Random(seed)
