@@ -7,6 +7,7 @@ always means the differential tests really ran.
 
 from __future__ import annotations
 
+import hashlib
 import os
 import shutil
 
@@ -18,6 +19,16 @@ pytest_plugins = ["pytester"]
 # The scenarios here are tested by the tests that name them; asictl's pytest plugin
 # (active wherever asictl is installed) must not collect them a second time.
 collect_ignore_glob = ["scenarios/*.scenario.toml"]
+
+
+@pytest.fixture(autouse=True)
+def _own_cache(request: pytest.FixtureRequest, monkeypatch: pytest.MonkeyPatch,
+               tmp_path_factory: pytest.TempPathFactory) -> None:
+    """Each test its own XDG cache folder (``asictl mutate`` keeps its verdicts there): a
+    verdict one test's monkeypatching produced must never answer for another's run. The
+    folder is only named here; the test that writes to it creates it."""
+    name = hashlib.sha256(request.node.nodeid.encode()).hexdigest()[:16]
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path_factory.getbasetemp() / "cache" / name))
 
 
 def require_tool(name: str, package: str) -> str:

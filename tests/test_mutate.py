@@ -1,5 +1,7 @@
 """asictl mutate: a weak suite leaves the mutant on the branch it never takes alive, the
-missing scenario kills it, and the score and its bar; each operator on the AST."""
+missing scenario kills it, and the score and its bar; each operator on the AST; the
+cache of verdicts (a second run reports what a fresh one does, a change to one program
+or scenario runs only that program's mutants again, a damaged cache file is ignored)."""
 
 from __future__ import annotations
 
@@ -18,6 +20,7 @@ from asictl.cli import main
 from asictl.diagnostics import DiagnosticError
 from asictl.il import ast
 from asictl.il.parser import parse_text
+from asictl.quality.cache import Cache, default_directory
 from asictl.quality.mutate import mutations
 
 PROGRAM = """\
@@ -312,16 +315,17 @@ def test_a_survivor_seen_to_differ_on_random_inputs_is_not_given_to_the_prover(
 ):
     """The timer constants one step off survive the scenario; random inputs show them
     different (so the prover is not asked, a test of its own below agrees), and the
-    report says where they differ: the output bit, by its name in the symbol table."""
+    report says where they differ: in the timer's remaining time, from its start, the
+    timer named by the symbol table."""
     _delay_project(tmp_path, monkeypatch)
-    (tmp_path / "delay.symbols.toml").write_text('Lamp = "Q 2.0"\nStart = "I 1.0"\n')
+    (tmp_path / "delay.symbols.toml").write_text('Lamp = "Q 2.0"\nStart = "I 1.0"\nDelay = "T 1"\n')
     code, output = _mutate(".", "--format", "json")
     assert code == 0, output
     by_change = {m["change"]: m for m in json.loads(output)["mutants"]}
     for change in ("L KT 300 -> L KT 290", "L KT 300 -> L KT 310"):
         assert by_change[change]["verdict"] == "survived"
         assert by_change[change]["detail"].startswith(
-            "not equivalent: Q 2.0 (Lamp) differs from the original's after ")
+            "not equivalent: T 1 (Delay) differs from the original's after ")
         assert by_change[change]["seconds"] < mutation.PROVE_SECONDS  # no proof was tried
 
 
@@ -331,11 +335,12 @@ def test_what_the_random_search_calls_different_the_prover_does_not_call_equival
     pytest.importorskip("z3")
     from asictl.build import build_file
     from asictl.prove import equivalent
+    from asictl.prove.diff import readable
     from asictl.quality.refute import find_difference
 
     root = Path(__file__).resolve().parent.parent
     checked = 0
-    for name in ("oscil.asi", "flipflop.asi", "edge.asi"):
+    for name in ("oscil.asi", "flipflop.asi", "edge.asi", "fb.asi"):  # fb: GetLAS, SetPP
         original = build_file(root / "demos" / name)
         assert original.program is not None
         for mutant in mutation.mutants_of(original.program):
@@ -346,7 +351,9 @@ def test_what_the_random_search_calls_different_the_prover_does_not_call_equival
             difference = find_difference(original, built)
             if difference is None or difference.at_ms > 6:  # within the prover's depth
                 continue
-            answer = equivalent(original, built, timeout_s=20.0)
+            # what mutation testing compares: outputs, flags, timers and counters
+            observe = readable(original.program, built.program)
+            answer = equivalent(original, built, timeout_s=20.0, observe=observe)
             assert answer.verdict == "different", (name, mutant.change, answer)
             checked += 1
     assert checked >= 10
@@ -394,7 +401,8 @@ def test_a_worker_that_dies_twice_counts_its_mutant_as_not_killed(
 ):
     clean = json.loads(_mutate(".", "--format", "json")[1])
     _dying(monkeypatch, {"JC = off -> JU = off", "JC = off -> removed"}, None)
-    code, output = _mutate(".", "--format", "json")
+    # judged afresh: the cache would answer with the clean run's verdicts
+    code, output = _mutate(".", "--format", "json", "--no-cache")
     assert code == 0, output
     report = json.loads(output)
     died = {m["change"]: m["detail"] for m in report["mutants"] if m["verdict"] == "died"}
@@ -404,7 +412,7 @@ def test_a_worker_that_dies_twice_counts_its_mutant_as_not_killed(
     assert report["killed"] == clean["killed"] - 1
     assert report["counted"] == clean["counted"]
     assert report["score"] < clean["score"]
-    code, text = _mutate(".", "--min-score", f"{clean['score'] - 0.01}")
+    code, text = _mutate(".", "--min-score", f"{clean['score'] - 0.01}", "--no-cache")
     assert code == 1
     assert "2 died" in text and "died: JC = off -> JU = off (its worker process" in text
 
@@ -415,10 +423,199 @@ def test_a_worker_that_dies_once_is_run_again(
     clean = json.loads(_mutate(".", "--format", "json")[1])
     (tmp_path / "marks").mkdir()
     _dying(monkeypatch, {"JC = off -> JU = off", "JC = off -> removed"}, tmp_path / "marks")
-    report = json.loads(_mutate(".", "--format", "json")[1])
+    report = json.loads(_mutate(".", "--format", "json", "--no-cache")[1])
     assert _verdicts(report) == _verdicts(clean)
     assert len(list((tmp_path / "marks").iterdir())) == 2  # each died once
 
 
 def _verdicts(report: dict[str, Any]) -> list[tuple[int, str, str]]:
     return [(m["line"], m["change"], m["verdict"]) for m in report["mutants"]]
+
+
+# ---------------------------------------------------------------------- the cache
+
+LAMP = """\
+[SETUP]
+1: iiii, 0
+2: oooo, 0
+
+[PROGRAM]
+        A   I 1.0
+        AN  I 1.1
+        =   Q 2.0
+        BE
+"""
+
+LAMP_SCENARIO = """\
+[master]
+cycle_ms = 5
+[[step]]
+at_ms = 0
+set = { "I 1.0" = 1 }
+[[step]]
+at_ms = 20
+expect = { "Q 2.0" = 1 }
+set = { "I 1.1" = 1 }
+[[step]]
+at_ms = 40
+expect = { "Q 2.0" = 0 }
+"""
+
+
+@pytest.fixture
+def two_programs(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
+    """src/ with two programs and their scenarios (for the cache: quality/cache.py)."""
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(mutation, "prove_available", lambda: False)  # forks inherit it
+    for name, text in (("machine.asi", PROGRAM), ("machine.scenario.toml", WEAK),
+                       ("lamp.asi", LAMP), ("lamp.scenario.toml", LAMP_SCENARIO)):
+        (tmp_path / "src" / name).parent.mkdir(exist_ok=True)
+        (tmp_path / "src" / name).write_text(text)
+    return tmp_path
+
+
+def _cached_run(*args: str) -> dict[str, Any]:
+    result = CliRunner().invoke(main, ["mutate", "src", "-j", "2", "--format", "json", *args])
+    assert result.exit_code == 0, result.output
+    report: dict[str, Any] = json.loads(result.stdout)
+    return report
+
+
+def _timeless(report: dict[str, Any]) -> list[dict[str, Any]]:
+    """The report's rows without what may differ between a fresh and a cached run."""
+    return [{k: v for k, v in row.items() if k not in ("seconds", "cached")}
+            for row in report["mutants"]]
+
+
+def _judged(report: dict[str, Any], file: str) -> list[dict[str, Any]]:
+    """The rows of one program's mutants that a run judges (not 'no scenario runs')."""
+    return [row for row in report["mutants"] if row["file"] == file
+            and row["detail"] != "no scenario runs this line"]
+
+
+def test_a_second_run_takes_every_verdict_from_the_cache_and_reports_the_same(
+        two_programs: Path):
+    cache = two_programs / "cache"
+    fresh = _cached_run("--cache", str(cache))
+    assert fresh["from_cache"] == 0
+    again = _cached_run("--cache", str(cache))
+    judged = _judged(again, "src/lamp.asi") + _judged(again, "src/machine.asi")
+    assert judged and all(row["cached"] for row in judged)
+    assert again["from_cache"] == len(judged)
+    assert _timeless(again) == _timeless(fresh)
+    assert {k: v for k, v in again.items() if k not in ("mutants", "from_cache")} == \
+        {k: v for k, v in fresh.items() if k not in ("mutants", "from_cache")}
+    assert _timeless(_cached_run("--no-cache")) == _timeless(fresh)
+
+
+def test_a_changed_program_runs_only_its_own_mutants_again(two_programs: Path):
+    cache = two_programs / "cache"
+    _cached_run("--cache", str(cache))
+    lamp = two_programs / "src" / "lamp.asi"
+    lamp.write_text(LAMP.replace("BE", "BE                  ; the lamp"))
+    again = _cached_run("--cache", str(cache))
+    assert not any(row["cached"] for row in _judged(again, "src/lamp.asi"))
+    machine = _judged(again, "src/machine.asi")
+    assert machine and all(row["cached"] for row in machine)
+    assert again["from_cache"] == len(machine)
+    # and the changed program's new verdicts are kept in turn
+    third = _cached_run("--cache", str(cache))
+    assert third["from_cache"] == len(machine) + len(_judged(third, "src/lamp.asi"))
+
+
+def test_a_changed_scenario_runs_its_program_s_mutants_again(two_programs: Path):
+    cache = two_programs / "cache"
+    fresh = _cached_run("--cache", str(cache))
+    scenario = two_programs / "src" / "machine.scenario.toml"
+    scenario.write_text(WEAK + """\
+[[step]]
+at_ms = 120
+set = { "I 1.2" = 1, "I 1.1" = 1 }
+[[step]]
+at_ms = 160
+expect = { "Q 2.1" = 0 }
+""")
+    again = _cached_run("--cache", str(cache))
+    assert not any(row["cached"] for row in _judged(again, "src/machine.asi"))
+    lamp = _judged(again, "src/lamp.asi")
+    assert lamp and all(row["cached"] for row in lamp)
+    # the new step presses stop: the mutant removing the jump to 'off' is killed now
+    before = {(r["line"], r["change"]): r["verdict"] for r in fresh["mutants"]}
+    after = {(r["line"], r["change"]): r["verdict"] for r in again["mutants"]}
+    assert before[(10, "JC = off -> removed")] == "survived"
+    assert after[(10, "JC = off -> removed")] == "killed"
+
+
+@pytest.mark.parametrize("damage", [
+    b"\x00\xff not json",
+    b'{"kind": "something else", "format": 1}',
+    b"[" * 100_000,
+    "flip",  # a verdict renamed to one asictl never writes
+    "extra",  # a row with a key of its own
+    "key",  # another program's key
+])
+def test_a_damaged_or_foreign_cache_file_is_ignored(two_programs: Path, damage: bytes | str):
+    cache = two_programs / "cache"
+    fresh = _cached_run("--cache", str(cache))
+    for file in cache.iterdir():
+        if isinstance(damage, bytes):
+            file.write_bytes(damage)
+            continue
+        document = json.loads(file.read_text())
+        if damage == "flip":
+            document["results"][0]["verdict"] = "killed-ish"
+        elif damage == "extra":
+            document["results"][0]["trust"] = "me"
+        else:
+            document["key"] = "0" * 64
+        file.write_text(json.dumps(document))
+    again = _cached_run("--cache", str(cache))
+    assert again["from_cache"] == 0
+    assert _timeless(again) == _timeless(fresh)
+    # and the file is written again, whole
+    assert _cached_run("--cache", str(cache))["from_cache"] > 0
+
+
+def test_no_cache_neither_reads_nor_writes(two_programs: Path):
+    cache = two_programs / "cache"
+    assert _cached_run("--no-cache")["from_cache"] == 0
+    assert not default_directory().exists()
+    _cached_run("--cache", str(cache))
+    assert _cached_run("--no-cache")["from_cache"] == 0
+    result = CliRunner().invoke(main, ["mutate", "src", "--cache", str(cache), "--no-cache"])
+    assert result.exit_code == 2
+    assert "--no-cache" in result.output and "Traceback" not in result.output
+
+
+def test_the_default_cache_is_under_xdg_cache_home(two_programs: Path,
+                                                     monkeypatch: pytest.MonkeyPatch):
+    monkeypatch.setenv("XDG_CACHE_HOME", str(two_programs / "xdg"))
+    assert _cached_run()["from_cache"] == 0
+    assert len(list((two_programs / "xdg" / "asictl" / "mutate").glob("*.json"))) == 2
+    assert _cached_run()["from_cache"] > 0
+    result = CliRunner().invoke(main, ["mutate", "src", "-j", "2"])
+    assert "verdicts from the cache" in result.output
+
+
+def test_a_cache_that_cannot_be_written_is_a_warning(two_programs: Path):
+    """The folder cannot be made (a file stands where it would go): the run is made and
+    reported all the same, with a warning; the exit status is the run's."""
+    (two_programs / "plain").write_text("a file, not a folder\n")
+    result = CliRunner().invoke(main, ["mutate", "src", "-j", "2",
+                                       "--cache", str(two_programs / "plain" / "cache")])
+    assert result.exit_code == 0, result.output
+    assert "warning:" in result.output and "results not kept" in result.output
+    assert "mutants:" in result.output
+
+
+def test_what_the_cache_never_keeps(tmp_path: Path):
+    """A mutant whose worker died, or whose judging failed inside asictl, is judged
+    again next time: neither says anything about the program."""
+    cache = Cache(tmp_path)
+    program = tmp_path / "p.asi"
+    cache.store(program, "k", [("a", "killed", "x.toml:3: failed"),
+                               ("b", "died", "its worker process was killed by SIGKILL"),
+                               ("c", "invalid", "internal error: KeyError: 3"),
+                               ("d", "survived", "")])
+    assert set(cache.load(program, "k")) == {"a", "d"}
+    assert cache.load(program, "another key") == {}

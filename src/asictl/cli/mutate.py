@@ -19,6 +19,7 @@ from asictl.cli.options import (
     take_shard,
 )
 from asictl.errors import ExitCode, UserError
+from asictl.quality.cache import Cache, default_directory
 from asictl.quality.mutate import PROVE_HINT, Result, Target, mutants_of, run_all, score
 from asictl.readers.shard import Shard
 from asictl.sim import SUFFIX
@@ -107,11 +108,16 @@ def _summary(results: list[Result]) -> str:
               default=f"{mutation.PROVE_SECONDS:g}s", show_default=True, metavar="TIME",
               help="Time the prover (the prove extra) may spend on one surviving mutant's "
               "proof of equivalence; out of time, the mutant stays a survivor.")
+@click.option("--cache", "cache_dir", type=click.Path(file_okay=False, path_type=Path),
+              metavar="DIR", help="Keep the verdicts in DIR and take those whose program, "
+              "scenarios, limits and asictl are unchanged from there (default: "
+              "$XDG_CACHE_HOME/asictl/mutate, or ~/.cache/asictl/mutate).")
+@click.option("--no-cache", is_flag=True, help="Judge every mutant afresh and keep nothing.")
 @shard_option("programs")
 @lib_option
 def mutate(paths: tuple[Path, ...], jobs: int | None, fmt: str, min_score: float | None,
-           timeout_ms: float | None, prove_ms: float, shard: Shard | None,
-           lib: tuple[str, ...]) -> None:
+           timeout_ms: float | None, prove_ms: float, cache_dir: Path | None,
+           no_cache: bool, shard: Shard | None, lib: tuple[str, ...]) -> None:
     """Mutation testing: change each program the scenarios under PATHs test (default:
     the current directory) in one place at a time, and run its scenarios.
 
@@ -123,6 +129,10 @@ def mutate(paths: tuple[Path, ...], jobs: int | None, fmt: str, min_score: float
     each mutant as FILE:LINE:COL: VERDICT: CHANGE and the score, killed / (mutants -
     equivalent - invalid).
 
+    A verdict is kept (--cache), and a second run takes it from there unless the
+    program, its scenarios, the time limits or asictl have changed: after a change to
+    one program only its mutants run again.
+
     Exit status: 0 done (and the score reaches --min-score), 1 below --min-score, a
     scenario fails on the unchanged program or a program has errors, 2 bad input.
 
@@ -131,6 +141,9 @@ def mutate(paths: tuple[Path, ...], jobs: int | None, fmt: str, min_score: float
       asictl mutate demos/blink.scenario.toml --min-score 80
     """
     ctx = click.get_current_context()
+    if no_cache and cache_dir is not None:
+        raise click.UsageError("--cache and --no-cache exclude each other")
+    cache = None if no_cache else Cache(cache_dir or default_directory())
     targets = _targets(paths, lib, shard)
     order = {id(m): i for i, m in enumerate(m for t in targets for m in t.mutants)}
     finished: dict[int, Result] = {}
@@ -146,12 +159,12 @@ def mutate(paths: tuple[Path, ...], jobs: int | None, fmt: str, min_score: float
 
     results = run_all(targets, jobs=jobs or default_jobs(),
                       timeout_s=None if timeout_ms is None else timeout_ms / 1000,
-                      prove_s=prove_ms / 1000, done=done)
+                      prove_s=prove_ms / 1000, done=done, cache=cache)
     checked = mutation.prove_available()
     report = json_report([
         {"file": _shown(r.mutant.file), "line": r.mutant.line, "column": r.mutant.column,
          "change": r.mutant.change, "verdict": r.verdict, "detail": r.detail,
-         "seconds": round(r.seconds, 3)}
+         "seconds": round(r.seconds, 3), "cached": r.cached}
         for r in results
     ], checked)
     share = percent_killed(*score(r.verdict for r in results))
@@ -159,18 +172,25 @@ def mutate(paths: tuple[Path, ...], jobs: int | None, fmt: str, min_score: float
         click.echo(json.dumps(report, indent=2))
     else:
         click.echo(_summary(results))
+        if cache is not None:
+            click.echo(f"note: {report['from_cache']} of {len(results)} verdicts from the cache "
+                       f"({cache.directory})")
         if not checked and any(r.verdict == "survived" for r in results):
             click.echo(f"note: {PROVE_HINT}")
+    for problem in cache.problems if cache is not None else ():
+        click.echo(f"asictl: warning: {problem}", err=True)
     below = below_bar("mutation score", share, min_score, "--min-score", 1)
     ctx.exit(int(ExitCode.FAILED if below else ExitCode.OK))
 
 
 def json_report(mutants: list[dict[str, object]], checked: bool) -> dict[str, object]:
-    """``mutate --format json``: every mutant, and the score they make (``report merge``
-    puts the shards' mutants together with this too)."""
+    """``mutate --format json``: every mutant, the score they make, and how many of their
+    verdicts came from the cache (``report merge`` puts the shards' mutants together
+    with this too)."""
     killed, counted = score(str(m["verdict"]) for m in mutants)
     return {"mutants": mutants, "killed": killed, "counted": counted,
-            "score": round(percent_killed(killed, counted), 2), "equivalence_checked": checked}
+            "score": round(percent_killed(killed, counted), 2), "equivalence_checked": checked,
+            "from_cache": sum(1 for m in mutants if m.get("cached") is True)}
 
 
 def percent_killed(killed: int, counted: int) -> float:

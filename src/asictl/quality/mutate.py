@@ -22,6 +22,9 @@ answer (the OOM killer, a signal) runs its mutant once more; dying again, the mu
 ``died`` and counts as not killed, so a dead worker can never raise the score. The
 limit is on the scenarios; the proof of a mutant that passed them all has ``prove_s``
 of its own, and one out of time leaves the mutant a survivor.
+
+With a cache (quality/cache.py), a mutant whose program, scenarios, limits and asictl
+are those of a kept verdict is not run: its verdict is the kept one.
 """
 
 from __future__ import annotations
@@ -45,6 +48,7 @@ from asictl.il.loader import Program
 from asictl.observe.coverage import LineKey
 from asictl.observe.names import named
 from asictl.observe.symbols import SymbolTable
+from asictl.quality.cache import INTERNAL, Cache, Kept, target_key
 from asictl.quality.refute import find_difference
 from asictl.readers.units import format_duration
 from asictl.sim.session import Prepared, simulate
@@ -92,6 +96,13 @@ class Mutant:
     index: int
     replacement: Node | None
 
+    @property
+    def name(self) -> str:
+        """The mutant among its program's: where, which node, what change (the key of
+        its kept result, quality/cache.py)."""
+        return (f"{self.file}:{self.line}:{self.column} "
+                f"[{self.module}.{self.section}.{self.index}] {self.change}")
+
 
 @dataclass
 class Result:
@@ -102,6 +113,8 @@ class Result:
     #: the scenario that killed it, the reason it is invalid or equivalent
     detail: str = ""
     seconds: float = 0.0
+    #: read from the cache (quality/cache.py), not judged in this run
+    cached: bool = False
 
 
 def _moved(operand: ast.Operand) -> ast.Operand | None:
@@ -247,8 +260,43 @@ class Target:
     #: changes nothing they run, so it survives without being run
     reached: set[LineKey] = field(default_factory=set)
 
+    #: the results a cache holds for this program's mutants under its key, by name
+    kept: dict[str, Kept] = field(default_factory=dict)
+
     def runs(self, mutant: Mutant) -> bool:
         return (os.path.abspath(mutant.file), mutant.line) in self.reached
+
+
+def _keeping(cache: Cache, targets: list[Target], settings: object,
+             done: Callable[[Result], None] | None) -> Callable[[Result], None]:
+    """Read each target's kept results into ``kept``; the ``done`` that keeps a
+    target's results in the cache once all its mutants have one (then calls ``done``)."""
+    owner: dict[int, int] = {}
+    keys: list[str] = []
+    pending: list[int] = []
+    finished: list[list[Result]] = []
+    for number, target in enumerate(targets):
+        texts = target.scenarios[0].build.texts
+        key = target_key(target.program, texts, [Path(p.scenario.file) for p in
+                                                 target.scenarios], settings)
+        keys.append(key)
+        target.kept = cache.load(target.program, key)
+        pending.append(len(target.mutants))
+        finished.append([])
+        owner.update((id(mutant), number) for mutant in target.mutants)
+
+    def keep(result: Result) -> None:
+        number = owner[id(result.mutant)]
+        finished[number].append(result)
+        pending[number] -= 1
+        if not pending[number]:
+            cache.store(targets[number].program, keys[number],
+                        [(r.mutant.name, r.verdict, r.detail) for r in finished[number]
+                         if r.verdict != "died"])
+        if done is not None:
+            done(result)
+
+    return keep
 
 
 def verdict(target: Target, mutant: Mutant, proving: Callable[[], None] | None = None,
@@ -327,18 +375,28 @@ class _Worker:
 def run_all(
     targets: list[Target], *, jobs: int, timeout_s: float | None = None,
     prove_s: float = PROVE_SECONDS, done: Callable[[Result], None] | None = None,
+    cache: Cache | None = None,
 ) -> list[Result]:
     """Every mutant of every target, ``jobs`` processes at once; results in the order of
     the mutants, ``done`` called as each finishes. ``timeout_s`` limits a mutant's
-    scenarios, ``prove_s`` the proof of one that passes them all."""
+    scenarios, ``prove_s`` the proof of one that passes them all. With a ``cache``, a
+    result kept under the same key is taken from it, and each program's results are
+    kept there as soon as the last of its mutants is judged."""
     context = multiprocessing.get_context("fork")
     queue = [(target, mutant) for target in targets for mutant in target.mutants]
     results: dict[int, Result] = {}
+    if cache is not None:
+        done = _keeping(cache, targets, (timeout_s, prove_s, prove_available()), done)
     for index, (target, mutant) in enumerate(queue):
         if not target.runs(mutant):
             results[index] = Result(mutant, "survived", "no scenario runs this line")
-            if done is not None:
-                done(results[index])
+        elif mutant.name in target.kept:
+            kept = target.kept[mutant.name]
+            results[index] = Result(mutant, kept.verdict, kept.detail, cached=True)
+        else:
+            continue
+        if done is not None:
+            done(results[index])
     pending = [index for index in range(len(queue)) if index not in results]
     # the mutants of the slowest programs first: the others fill the workers meanwhile
     pending.sort(key=lambda index: -queue[index][0].seconds)
@@ -443,7 +501,7 @@ def _child(target: Target, mutant: Mutant, send: Any, prove_s: float) -> None:
     try:
         answer = verdict(target, mutant, lambda: send.send((_PROVING, "")), prove_s)
     except Exception as exc:  # a bug: reported as the mutant's detail, never a hang
-        answer = ("invalid", f"internal error: {type(exc).__name__}: {exc}")
+        answer = ("invalid", f"{INTERNAL}{type(exc).__name__}: {exc}")
     send.send(answer)
     send.close()
 
