@@ -337,3 +337,22 @@ def test_generated_timer_programs_agree_with_the_interpreter(
     if outcome.verdict is Verdict.PROVED:
         assert broken(program, outcome.prop, ("I 1.0", "I 1.1"), 10, 5) is None
     _replay(report)
+
+
+def test_a_counterexample_found_with_idle_steps_is_as_short_as_cycle_by_cycle(
+        tmp_path: Path):
+    """A step of idle cycles may stand for any number of them: the solver's first pick
+    for a response that fails after 3 cycles was a step of 16,396. The failure found
+    with such steps is shortened until no shorter one is left, so it is the one the
+    plain search would find (3 cycles: I 1.0 off throughout), and it replays."""
+    (tmp_path / "p.asi").write_text(
+        "[SETUP]\n1: iiii, 0\n2: oooo, 0\n\n[PROGRAM]\n"
+        + "        L   KT 10\n        A   I 1.0\n        S   T 1\n***\n" * 2)
+    props = tmp_path / "p.props.toml"
+    props.write_text('[master]\ncycle_ms = 10\n[[property]]\nname = "p2"\n'
+                     'when = "not I 1.0"\nthen = "I 1.0 and T 1"\nwithin = "2 cycles"\n')
+    report = prove(props, timeout_s=120.0)
+    (outcome,) = report.outcomes
+    assert outcome.verdict is Verdict.REFUTED
+    assert outcome.trace is not None and len(outcome.trace) == 3
+    _replay(report)

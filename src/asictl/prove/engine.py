@@ -80,6 +80,9 @@ from asictl.readers.units import format_duration, timer_ticks
 K = ast.OperandKind
 #: Seconds (and four times the plain check's) a check with steps of idle cycles may take.
 JUMP_BUDGET_S = 2.0
+#: How many cycles further than a failure found with steps of idle cycles the plain
+#: search looks for a shorter one.
+SHORTER_CYCLES = 8
 
 
 class Verdict(StrEnum):
@@ -329,6 +332,39 @@ def _quiet(path: _Path, model: z3.ModelRef, last: int, wanted: list[z3.BoolRef],
     finally:
         solver.pop(scopes)
     return model
+
+
+def _fewest_cycles(path: _Path, model: z3.ModelRef, last: int, wanted: list[z3.BoolRef],
+                  deadline: float) -> tuple[z3.ModelRef, z3.BoolRef]:
+    """The same failure after as few cycles as steps of idle cycles allow: the solver
+    picks any length for a step that may stand for many cycles (16,000 where 2 do), so
+    the length is halved down while a failure remains (shortest first, as the plain
+    search finds it), within ``deadline``; and the constraint that keeps that length."""
+    total = z3.Sum([z3.ZeroExt(32, c) for c in path.cycles[: last + 1]])
+
+    def length(found: z3.ModelRef) -> int:
+        return int(found.eval(total, model_completion=True).as_long())
+
+    low, best = last + 1, length(model)  # each step is at least one cycle
+    solver = path.solver
+    while low < best:
+        left = int((deadline - time.monotonic()) * 1000)
+        if left < 50:
+            break
+        middle = (low + best) // 2
+        solver.push()
+        solver.add(*wanted, z3.ULE(total, middle))
+        solver.set("timeout", left)
+        result = solver.check()
+        if result == z3.sat:
+            model = solver.model()
+            best = length(model)
+        elif result == z3.unsat:
+            low = middle + 1
+        solver.pop()
+        if result not in (z3.sat, z3.unsat):
+            break
+    return model, total == best
 
 
 class _Collector:
@@ -693,18 +729,28 @@ class Machine:
         def left_ms() -> int:
             return max(1, int((deadline - time.monotonic()) * 1000))
 
+        # a failure found with steps of idle cycles, kept while the plain search looks a
+        # few cycles further for a shorter one (a step may stand for more cycles than
+        # the failure needs): (the outcome, the step it was found at)
+        pending: tuple[Outcome, int] | None = None
         for k in range(depth + 1):
+            if pending is not None and (k >= len(pending[0].trace or ()) - 1
+                                        or k > pending[1] + SHORTER_CYCLES):
+                return pending[0]
             if k:
                 base.extend()
-                step.extend()
-                self._strengthen(step, k, facts)
+                if pending is None:
+                    step.extend()
+                    self._strengthen(step, k, facts)
             began = time.monotonic()
             result, any_phase = self._base_check(base, k, fixed, left_ms)
             if result == z3.sat:
                 return self._failure(prop, base, k, start, deadline,
                                      fixed=None if any_phase else fixed)
             if result != z3.unsat:
-                return out_of_time(k)
+                return pending[0] if pending is not None else out_of_time(k)
+            if pending is not None:
+                continue
             spent = time.monotonic() - began
             step.solver.set("timeout", left_ms())
             step_bad = z3.Or(self.bad(step, k), step.overruns[k])
@@ -727,12 +773,17 @@ class Machine:
 
                 result, any_phase = self._base_check(path, k, switch, budget)
                 if result == z3.sat:
-                    return self._failure(prop, path, k, start, deadline,
-                                         fixed=None if any_phase else switch)
-                if result == z3.unsat:
+                    found = self._failure(prop, path, k, start, deadline,
+                                          fixed=None if any_phase else switch)
+                    if found.verdict is Verdict.UNKNOWN:
+                        return found
+                    pending = (found, k)
+                elif result == z3.unsat:
                     steps = k + 1
                 else:
                     jumping = None
+        if pending is not None:
+            return pending[0]
         if self._pdr(prop, deadline, facts) is True:
             verdict = Verdict.UNREACHABLE if reach else Verdict.PROVED
             return Outcome(prop, verdict, depth, time.monotonic() - start,
@@ -781,6 +832,9 @@ class Machine:
                                   f"more than {self.cycle.loops[0].bound} times, the most "
                                   "the model follows")
         wanted = [self.bad(path, k)] + ([] if fixed is None else [fixed])
+        if path.jumps:
+            model, shortest = _fewest_cycles(path, model, k, wanted, deadline)
+            wanted.append(shortest)
         model = _quiet(path, model, k, wanted, deadline)
         verdict = Verdict.REACHED if prop.kind is Kind.REACHABLE else Verdict.REFUTED
         phase = (None if path.phase is None
