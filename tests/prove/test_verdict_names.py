@@ -54,11 +54,15 @@ def test_named_shows_the_symbol_beside_the_operand():
 
 def test_a_mutants_difference_names_the_bits_of_its_output_byte():
     table = _table('PumpB = "Q 3.1"\n')
-    assert Difference(1, 0x20, 0x00, 4986).describe(table) == (
+    assert Difference("QB 2", 0x20, 0x00, 4986).describe(table) == (
         "not equivalent: Q 3.1 (PumpB) differs from the original's after 4986 ms of "
         "random inputs")
-    assert Difference(1, 0x21, 0x00, 7).describe(SymbolTable()).startswith(
+    assert Difference("QB 2", 0x21, 0x00, 7).describe(SymbolTable()).startswith(
         "not equivalent: Q 2.0, Q 3.1 differ from")
+    timer = _table('Delay = "T 7"\n')
+    assert Difference("T 7", 120, 121, 0, (1, 2)).describe(timer) == (
+        "not equivalent: T 7 (Delay) differs from the original's after 0 ms of I 1.2 "
+        "toggling every cycle")
 
 
 def _run(runner, tmp_path: Path, *extra: str) -> tuple[int, str]:
