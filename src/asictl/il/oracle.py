@@ -93,16 +93,18 @@ def scope_of(module: ast.Module) -> Scope:
     return Scope(statements, labels, first_check)
 
 
-def runs_alone(program: Program) -> bool:
-    """No firmware block call, no PARAM, no ASM: the program's every cycle is decided by
-    its inputs alone, so a run without firmware services is a run of the master."""
+def runs_alone(program: Program, *, firmware_answers: bool = False) -> bool:
+    """No PARAM, no ASM, and no firmware block call (unless the run gives firmware
+    blocks answers: ``firmware_answers``): the program's every cycle is decided by its
+    inputs (and those answers) alone, so such a run is a run of the master."""
     for module in program.modules():
         if module.has_assembly():
             return False
         for node in module.code():
             if isinstance(node, ast.Param):
                 return False
-            if isinstance(node, ast.CallFB) and key(node.name) not in program.blocks:
+            if (not firmware_answers and isinstance(node, ast.CallFB)
+                    and key(node.name) not in program.blocks):
                 return False
     return True
 

@@ -334,6 +334,11 @@ def _quiet(path: _Path, model: z3.ModelRef, last: int, wanted: list[z3.BoolRef],
     return model
 
 
+def _ms_until(until: float) -> int:
+    """A solver's time-out (ms, at least 1) that ends at ``until`` (time.monotonic)."""
+    return max(1, int((until - time.monotonic()) * 1000))
+
+
 def _fewest_cycles(path: _Path, model: z3.ModelRef, last: int, wanted: list[z3.BoolRef],
                   deadline: float) -> tuple[z3.ModelRef, z3.BoolRef]:
     """The same failure after as few cycles as steps of idle cycles allow: the solver
@@ -665,7 +670,7 @@ class Machine:
             for round_ in range(len(remaining) + 1):
                 violated = z3.Bool(f"h.violated.{round_}")
                 solver.add(z3.Implies(violated, z3.Or(*(z3.Not(checks[n]) for n in alive))))
-                solver.set("timeout", max(1, int((deadline - time.monotonic()) * 1000)))
+                solver.set("timeout", _ms_until(deadline))
                 result = solver.check(violated, *(assumed[n] for n in alive))
                 if result == z3.unsat:
                     break
@@ -726,9 +731,6 @@ class Machine:
         jumping = self._base_path("j.", jumps=True) if self.jumps_possible(prop) else None
         steps = 0  # the steps of idle cycles searched
 
-        def left_ms() -> int:
-            return max(1, int((deadline - time.monotonic()) * 1000))
-
         # a failure found with steps of idle cycles, kept while the plain search looks a
         # few cycles further for a shorter one (a step may stand for more cycles than
         # the failure needs): (the outcome, the step it was found at)
@@ -743,7 +745,7 @@ class Machine:
                     step.extend()
                     self._strengthen(step, k, facts)
             began = time.monotonic()
-            result, any_phase = self._base_check(base, k, fixed, left_ms)
+            result, any_phase = self._base_check(base, k, fixed, deadline)
             if result == z3.sat:
                 return self._failure(prop, base, k, start, deadline,
                                      fixed=None if any_phase else fixed)
@@ -752,7 +754,7 @@ class Machine:
             if pending is not None:
                 continue
             spent = time.monotonic() - began
-            step.solver.set("timeout", left_ms())
+            step.solver.set("timeout", _ms_until(deadline))
             step_bad = z3.Or(self.bad(step, k), step.overruns[k])
             outcome = step.solver.check(step_bad)
             if outcome == z3.unsat:
@@ -766,12 +768,8 @@ class Machine:
                 path, switch = jumping
                 if k:
                     path.extend()
-                budget_ms = min(left_ms(), int((JUMP_BUDGET_S + 4 * spent) * 1000))
-
-                def budget(ms: int = budget_ms) -> int:
-                    return ms
-
-                result, any_phase = self._base_check(path, k, switch, budget)
+                until = min(deadline, time.monotonic() + JUMP_BUDGET_S + 4 * spent)
+                result, any_phase = self._base_check(path, k, switch, until)
                 if result == z3.sat:
                     found = self._failure(prop, path, k, start, deadline,
                                           fixed=None if any_phase else switch)
@@ -805,15 +803,15 @@ class Machine:
         return path, fixed
 
     def _base_check(self, path: _Path, k: int, fixed: z3.BoolRef,
-                    left_ms: Callable[[], int]) -> tuple[z3.CheckSatResult, bool]:
+                    until: float) -> tuple[z3.CheckSatResult, bool]:
         """Whether the state after step ``k`` of ``path`` can be bad: first with the
         simulator's phase of the clock, then with any (the second of the answer: found
-        only so), each check within what ``left_ms`` leaves it."""
+        only so), both checks by ``until`` (time.monotonic)."""
         bad = z3.Or(self.bad(path, k), path.overruns[k])
-        path.solver.set("timeout", left_ms())
+        path.solver.set("timeout", _ms_until(until))
         result = path.solver.check(bad, fixed)
         if result == z3.unsat and self.setup.phase_us is not None:
-            path.solver.set("timeout", left_ms())  # what the first check left
+            path.solver.set("timeout", _ms_until(until))  # what the first check left
             return path.solver.check(bad), True
         return result, False
 

@@ -38,6 +38,7 @@ from dataclasses import dataclass
 from asictl.build import Build
 from asictl.il import ast
 from asictl.il.loader import Program
+from asictl.il.oracle import runs_alone
 from asictl.observe.names import named_bits
 from asictl.observe.symbols import SymbolTable
 from asictl.platform.master import TICK_US, asi_cycle_us
@@ -83,16 +84,6 @@ class Difference:
             "I {}.{} toggling every cycle".format(*self.toggled)
         return (f"not equivalent: {shown} {verb} from the original's after {self.at_ms} ms "
                 f"of {inputs}")
-
-
-def _searchable(program: Program) -> bool:
-    """No PARAM, no ASM: the code runs alone (firmware blocks given fixed answers)."""
-    for module in program.modules():
-        if module.has_assembly():
-            return False
-        if any(isinstance(node, ast.Param) for node in module.code()):
-            return False
-    return True
 
 
 @dataclass(frozen=True)
@@ -172,7 +163,8 @@ def find_difference(original: Build, mutant: Build, *, seed: int = 0,
     prover may still; either way no verdict changes, only how soon."""
     first, second = original.source_program(), mutant.source_program()
     if first is None or second is None or original.image is None or mutant.image is None \
-            or not (_searchable(first) and _searchable(second)):
+            or not (runs_alone(first, firmware_answers=True)
+                    and runs_alone(second, firmware_answers=True)):
         return None
     bus = sorted({s.address for program in (first, second) for s in program.slaves})
     rng = random.Random(seed)
