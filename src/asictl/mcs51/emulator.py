@@ -340,11 +340,43 @@ class Emulator:
         climit = _UNLIMITED if max_cycles is None else self.cycles + max_cycles
         if until is not None:
             until &= 0xFFFF
-        self.sfr[PSW] &= 0xFE
+        sfr = self.sfr
+        sfr[PSW] &= 0xFE
         try:
-            return self._run(ilimit, climit, until, trace)
+            # as _stop_addresses answers, without the call while nothing changed (every run)
+            stops = (self._stops if self._stops_current and until == self._stops_until
+                     else self._stop_addresses(until))
+            traps = self._traps
+            first = True
+            interpret = trace is not None or not self.translate
+            while True:
+                pc = self.pc
+                if not first and pc in stops and pc not in traps:
+                    return StopReason.UNTIL if pc == until else StopReason.BREAKPOINT
+                if self.instructions >= ilimit:
+                    return StopReason.INSTRUCTIONS
+                if self.cycles >= climit:
+                    return StopReason.CYCLES
+                trap = traps.get(pc)
+                if trap is not None:
+                    first = False
+                    if trap(self):
+                        return StopReason.TRAP
+                    sfr[PSW] &= 0xFE  # the trap may have set the parity bit
+                    stops = self._stop_addresses(until)
+                    if self.pc != pc:
+                        continue
+                # One instruction is not worth translating a block for (single-stepping).
+                if interpret or pc in stops or ilimit - self.instructions == 1:
+                    first = False
+                    self._interpret_one()
+                    if trace is not None:
+                        trace(self, pc)
+                    continue
+                first = False
+                interpret = self._run_blocks(ilimit, climit)
         finally:
-            self.sfr[PSW] = self.sfr[PSW] & 0xFE | PARITY[self.sfr[ACC]]
+            sfr[PSW] = sfr[PSW] & 0xFE | PARITY[sfr[ACC]]
 
     def _stop_addresses(self, until: int | None) -> frozenset[int]:
         # Breakpoints and traps change rarely; a cycle's run and a trap's return ask often.
@@ -358,43 +390,6 @@ class Emulator:
             self._invalidate()
         self._stops_until, self._stops_current = until, True
         return stops
-
-    def _run(
-        self,
-        ilimit: int,
-        climit: int,
-        until: int | None,
-        trace: Callable[[Emulator, int], None] | None,
-    ) -> StopReason:
-        stops = self._stop_addresses(until)
-        first = True
-        interpret = trace is not None or not self.translate
-        while True:
-            pc = self.pc
-            if not first and pc in stops and pc not in self._traps:
-                return StopReason.UNTIL if pc == until else StopReason.BREAKPOINT
-            if self.instructions >= ilimit:
-                return StopReason.INSTRUCTIONS
-            if self.cycles >= climit:
-                return StopReason.CYCLES
-            trap = self._traps.get(pc)
-            if trap is not None:
-                first = False
-                if trap(self):
-                    return StopReason.TRAP
-                self.sfr[PSW] &= 0xFE  # the trap may have set the parity bit
-                stops = self._stop_addresses(until)
-                if self.pc != pc:
-                    continue
-            # One instruction is not worth translating a block for (single-stepping).
-            if interpret or pc in stops or ilimit - self.instructions == 1:
-                first = False
-                self._interpret_one()
-                if trace is not None:
-                    trace(self, pc)
-                continue
-            first = False
-            interpret = self._run_blocks(ilimit, climit)
 
     def _interpret_one(self) -> None:
         pc = self.pc
