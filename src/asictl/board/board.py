@@ -69,6 +69,9 @@ class Pc2Board:
 
     #: called after every AS-i cycle that ran (not after the ones skipped as idle)
     observer: Callable[[], None] | None = None
+    #: whether ``advance`` runs steady AS-i cycles through ``_steady_cycles`` (False:
+    #: every cycle through ``_cycle``, which tests hold the steady path against)
+    steady_path = True
     _cycle_period_us: int | None = None
     _pause: bool = False
 
@@ -277,6 +280,8 @@ class Pc2Board:
             self._next_tick_us = end + TICK_US
             return
         while True:
+            if self.steady_path and self._steady_cycles(end):
+                return
             tick, cycle = self._next_tick_us, self._next_cycle_us
             now = tick if tick < cycle else cycle
             if now > end:
@@ -287,20 +292,27 @@ class Pc2Board:
                 self._next_tick_us = tick + TICK_US
             if now == cycle:
                 self._cycle()
-                observer = self.observer
-                if observer is not None:
-                    observer()
-                period = self._cycle_period_us or self._period()
-                if self._pause:  # the observer has news for the caller: no cycle skipped
-                    self._pause = False
-                    self._next_cycle_us = now + period
-                    self._now_us = now
+                if self._after_cycle(now, end):
                     return
-                skip = self._idle_cycles(now, period, end) if self._idle() else 0
-                if skip:
-                    self._ec.count_idle_cycles(skip)
-                self._next_cycle_us = now + (skip + 1) * period
         self._now_us = end
+
+    def _after_cycle(self, now: int, end: int) -> bool:
+        """After the AS-i cycle at ``now``: the observer, then when the next cycle comes
+        (idle cycles skipped). Returns whether the observer paused ``advance``."""
+        observer = self.observer
+        if observer is not None:
+            observer()
+        period = self._cycle_period_us or self._period()
+        if self._pause:  # the observer has news for the caller: no cycle skipped
+            self._pause = False
+            self._next_cycle_us = now + period
+            self._now_us = now
+            return True
+        skip = self._idle_cycles(now, period, end) if self._idle() else 0
+        if skip:
+            self._ec.count_idle_cycles(skip)
+        self._next_cycle_us = now + (skip + 1) * period
+        return False
 
     def pause(self) -> None:
         """From the observer: ``advance`` returns after this AS-i cycle, master time at
@@ -324,6 +336,67 @@ class Pc2Board:
         if value is not None and (not isinstance(value, int) or value <= 0):
             raise ValueError(f"an AS-i cycle lasts a positive number of microseconds, not {value}")
         self._cycle_period_us = value
+
+    def _steady_cycles(self, end: int) -> bool:
+        """The AS-i cycles up to ``end`` (and the ticks among them) for as long as each is
+        the steady case: a running program that may go on and is not probed, a settled
+        execution control, no host access and nothing forced. Then an AS-i cycle is the
+        data exchange, the program cycle and the ASI-cycle interrupt, which this does
+        without asking the rest of ``_cycle``'s questions (tests/board/test_board_steady.py
+        holds it equal to ``_cycle``). Returns at the first cycle that is not steady,
+        before doing any of its work; True when the observer paused ``advance``."""
+        while True:
+            tick, cycle = self._next_tick_us, self._next_cycle_us
+            if tick <= cycle:  # a tick at a cycle's time comes first, as in ``advance``
+                if tick > end:
+                    return False
+                self._now_us = tick
+                self._tick()
+                self._next_tick_us = tick + TICK_US
+                continue
+            if cycle > end:
+                return False
+            control, ec = self._control, self._ec
+            runner = control.runner
+            if (
+                runner is None
+                or not control.running
+                or not self._probe_wait
+                or self._quiet
+                or self._host_dirty
+                or self._command_pending
+                or self._forcing
+                or cycle < self._program_ready_us
+                or not ec.settled
+                or control.blocker(normal=ec.phase is _NORMAL, config_ok=ec.config_ok)
+                is not _NO_STOP
+            ):
+                return False
+            self._now_us = cycle
+            dpram = self._dpram
+            self._images.update()
+            if ec.exchange(runner.outputs):
+                dpram.put(d.IDI, ec.idi)
+                dpram.interrupt(InterruptSource.IDI_CHANGE)
+            dpram.stirred = False
+            try:
+                runner.cycle(ec.idi)
+            except Exception as exc:  # as in ``_program_cycle``
+                self._program_failed(exc)
+            else:
+                if control.flags & _MAP_COUNTERS or self._forcing:
+                    self._after_program(runner, None, 0)
+                else:  # ``_after_program`` without a probe, counters or forces
+                    duration = control.record_cycle(runner.last_cycles)
+                    self._program_ready_us = cycle + math.ceil(duration)
+                    self._probe_wait -= 1
+                    self._seen, self._leap_ok = None, False
+                    self._write_odi(runner.outputs)
+                    self._images.update_settings()
+            if self._ram[_INTERRUPT_ENABLE] & _ASI_CYCLE and ec.phase is _NORMAL:
+                dpram.interrupt(InterruptSource.ASI_CYCLE)
+            if self._after_cycle(cycle, end):
+                return True
 
     def _idle(self) -> bool:
         """Would the next AS-i cycle change nothing? Then so would all until the next tick."""
@@ -500,16 +573,25 @@ class Pc2Board:
         before = self._snapshot(runner) if probe else None
         try:
             runner.cycle(self.forces.inputs(self._ec.idi) if self._forcing else self._ec.idi)
-        except CycleTimeout as exc:
+        except Exception as exc:  # whatever the program did, the master carries on
+            self._program_failed(exc)
+            return
+        self._after_program(runner, before, calls)
+
+    def _program_failed(self, exc: Exception) -> None:
+        """The program cycle raised ``exc``: the master stops the program."""
+        if isinstance(exc, CycleTimeout):
             self._halt(StopReason.CYCLE_TIMEOUT, str(exc))
             return
-        except UndefinedOpcode as exc:
+        if isinstance(exc, UndefinedOpcode):
             self._dpram.put(d.STOP_ADDRESS, exc.pc.to_bytes(2, "little"))  # the host's line
-            self._halt(StopReason.PROGRAM_FAULT, _fault(exc))
-            return
-        except Exception as exc:  # whatever the program did, the master carries on
-            self._halt(StopReason.PROGRAM_FAULT, _fault(exc))
-            return
+        self._halt(StopReason.PROGRAM_FAULT, _fault(exc))
+
+    def _after_program(self, runner: ProgramRunner, before: bytes | None, calls: int) -> None:
+        """After a program cycle that ran to its end: the cycle time, the fixed-point probe
+        (``before``: the state a probe found before the cycle, ``calls``: the firmware
+        calls counted then), the outputs into the ODI."""
+        control = self._control
         if control.flags & _MAP_COUNTERS:
             ram = self._ram
             for address in _COUNTER_HIGH_BYTES:
@@ -531,12 +613,15 @@ class Pc2Board:
             self._probe_wait -= 1
             self._quiet = False
             self._seen, self._leap_ok = None, False
-        sent = self.forces.outputs(runner.outputs) if self._forcing else runner.outputs
+        self._write_odi(self.forces.outputs(runner.outputs) if self._forcing else runner.outputs)
+        self._images.update_settings()
+
+    def _write_odi(self, sent: bytes | bytearray) -> None:
+        """The outputs the slaves get into the ODI (inverted), when they changed."""
         odi = sent.translate(_INVERT)
         if odi != self._odi_written:
             self._odi_written = odi = bytes(odi)
-            dpram.put(d.ODI, odi)
-        self._images.update_settings()
+            self._dpram.put(d.ODI, odi)
 
     def _halt(self, reason: StopReason, detail: str) -> None:
         """The firmware stops a program that cannot go on: outputs to the safe state."""
