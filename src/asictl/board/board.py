@@ -344,7 +344,12 @@ class Pc2Board:
         data exchange, the program cycle and the ASI-cycle interrupt, which this does
         without asking the rest of ``_cycle``'s questions (tests/board/test_board_steady.py
         holds it equal to ``_cycle``). Returns at the first cycle that is not steady,
-        before doing any of its work; True when the observer paused ``advance``."""
+        before doing any of its work; True when the observer paused ``advance``.
+
+        What may stop a running program (``AsiControl.blocker``) is not asked: it changes
+        only with a command (the control flags) or a step of the execution control (its
+        phase, the configuration check), and a cycle with either goes through ``_cycle``,
+        which asks after them; a stop of its own (a fault) ends ``running``."""
         while True:
             tick, cycle = self._next_tick_us, self._next_cycle_us
             if tick <= cycle:  # a tick at a cycle's time comes first, as in ``advance``
@@ -368,8 +373,6 @@ class Pc2Board:
                 or self._forcing
                 or cycle < self._program_ready_us
                 or not ec.settled
-                or control.blocker(normal=ec.phase is _NORMAL, config_ok=ec.config_ok)
-                is not _NO_STOP
             ):
                 return False
             self._now_us = cycle
