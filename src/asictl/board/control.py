@@ -170,5 +170,6 @@ class AsiControl:
         """Note a program cycle's duration; returns it in microseconds."""
         duration = machine_cycles * MACHINE_CYCLE_US
         self.previous_us = duration
-        self.maximum_us = max(self.maximum_us, duration)
+        if duration > self.maximum_us:  # not max(): a builtin's call, every program cycle
+            self.maximum_us = duration
         return duration

@@ -132,7 +132,7 @@ class ProgramRunner:
             flags = self._copy_in(inputs)
         self.enter()
         start = cpu.cycles
-        reason = cpu.run(max_cycles=self.budget, trace=trace)
+        reason = cpu.run(None, self.budget, None, trace)  # positional: asked every cycle
         self.last_cycles = cpu.cycles - start
         if reason is not _TRAP:
             jumps = looping_jumps(cpu)
