@@ -83,10 +83,10 @@ def run_asictl(hours: float, coverage: bool = False) -> tuple[float, int, int, f
     executed = 0
     original = runner.cycle
 
-    def counting(*args, **kwargs):
+    def counting(inputs=None):  # the runner's one argument: *args and **kwargs cost 0.2 us
         nonlocal executed
         executed += 1
-        return original(*args, **kwargs)
+        original(inputs)
 
     runner.cycle = counting
     start, cpu = time.perf_counter(), time.process_time()
