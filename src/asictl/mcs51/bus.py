@@ -99,11 +99,9 @@ class Bus:
         self.readers: list[ReadHandler | None] = [None] * SPACE
         self.writers: list[WriteHandler | None] = [None] * SPACE
         self._mappings: list[Mapping] = []
-
-    @property
-    def plain(self) -> bool:
-        """No device is mapped: every address is RAM (code may then use ``ram`` directly)."""
-        return not self._mappings
+        #: no device is mapped: every address is RAM (code may then use ``ram`` directly);
+        #: a plain attribute, kept by ``map`` and ``unmap``, since every program cycle asks
+        self.plain = True
 
     @property
     def mappings(self) -> tuple[Mapping, ...]:
@@ -137,6 +135,7 @@ class Bus:
                 )
         mapping = Mapping(start, end, name, read, write)
         self._mappings.append(mapping)
+        self.plain = False
         span = end - start + 1
         self.readers[start : end + 1] = [read] * span
         self.writers[start : end + 1] = [write] * span
@@ -145,6 +144,7 @@ class Bus:
     def unmap(self, mapping: Mapping) -> None:
         """Remove a device; its addresses become plain RAM again."""
         self._mappings.remove(mapping)
+        self.plain = not self._mappings
         span = mapping.end - mapping.start + 1
         self.readers[mapping.start : mapping.end + 1] = [None] * span
         self.writers[mapping.start : mapping.end + 1] = [None] * span

@@ -74,6 +74,13 @@ class StopReason(enum.Enum):
     TRAP = "stopped by trap"
 
 
+# What ``run`` answers, as module constants: an enum member's lookup costs more than
+# a call, and a program cycle's run answers once per cycle.
+_INSTRUCTIONS, _CYCLES_SPENT, _BREAKPOINT, _UNTIL, _TRAP = (
+    StopReason.INSTRUCTIONS, StopReason.CYCLES, StopReason.BREAKPOINT, StopReason.UNTIL,
+    StopReason.TRAP,
+)
+
 #: A firmware service written in Python, called when the PC reaches its address, before
 #: the instruction there executes. It may change any state; if it moves the PC (for
 #: example with :meth:`Emulator.ret`) execution continues there, otherwise the
@@ -352,16 +359,16 @@ class Emulator:
             while True:
                 pc = self.pc
                 if not first and pc in stops and pc not in traps:
-                    return StopReason.UNTIL if pc == until else StopReason.BREAKPOINT
+                    return _UNTIL if pc == until else _BREAKPOINT
                 if self.instructions >= ilimit:
-                    return StopReason.INSTRUCTIONS
+                    return _INSTRUCTIONS
                 if self.cycles >= climit:
-                    return StopReason.CYCLES
+                    return _CYCLES_SPENT
                 trap = traps.get(pc)
                 if trap is not None:
                     first = False
                     if trap(self):
-                        return StopReason.TRAP
+                        return _TRAP
                     sfr[PSW] &= 0xFE  # the trap may have set the parity bit
                     stops = self._stop_addresses(until)
                     if self.pc != pc:

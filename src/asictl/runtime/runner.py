@@ -198,7 +198,7 @@ class ProgramRunner:
             remaining = read(address) | read(address + 1) << 8
             if remaining:
                 ran = True
-                remaining = max(0, remaining - ticks)
+                remaining = remaining - ticks if remaining > ticks else 0  # no max() call
                 write(address, remaining & 0xFF)
                 write(address + 1, remaining >> 8)
                 if not remaining:
