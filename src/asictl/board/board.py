@@ -302,6 +302,11 @@ class Pc2Board:
         observer = self.observer
         if observer is not None:
             observer()
+        return self._schedule(now, end)
+
+    def _schedule(self, now: int, end: int) -> bool:
+        """When the next AS-i cycle after the one at ``now`` comes: the next period, or
+        after the idle cycles skipped; at once when the observer paused (True)."""
         period = self._cycle_period_us or self._period()
         if self._pause:  # the observer has news for the caller: no cycle skipped
             self._pause = False
@@ -398,8 +403,14 @@ class Pc2Board:
                     self._images.update_settings()
             if self._ram[_INTERRUPT_ENABLE] & _ASI_CYCLE and ec.phase is _NORMAL:
                 dpram.interrupt(InterruptSource.ASI_CYCLE)
-            if self._after_cycle(cycle, end):
-                return True
+            observer = self.observer  # ``_after_cycle``, the common case without calls
+            if observer is not None:
+                observer()
+            if self._pause or not control.running:
+                if self._schedule(cycle, end):
+                    return True
+            else:  # running and not quiet (as this loop requires): not idle
+                self._next_cycle_us = cycle + (self._cycle_period_us or self._period())
 
     def _idle(self) -> bool:
         """Would the next AS-i cycle change nothing? Then so would all until the next tick."""
