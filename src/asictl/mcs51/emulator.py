@@ -39,7 +39,7 @@ from typing import Any
 from asictl.errors import ExitCode, UserError
 from asictl.mcs51.bus import Bus, CodeMemory
 from asictl.mcs51.isa import OPCODES, UNDEFINED_OPCODE
-from asictl.mcs51.regions import build_region
+from asictl.mcs51.regions import BIT_TABLES, build_region
 from asictl.mcs51.templates import ACC, DPH, DPL, PARITY, PORTS, PSW, SP, B, Writer
 
 #: Longest block, in instructions. Longer blocks save dispatches but a run whose
@@ -100,7 +100,7 @@ def _compile(source: str) -> CodeType:
 
 def _instantiate(source: str, emu: Emulator) -> Any:
     """What the generated ``factory`` returns: the handlers' tuple, or a block function."""
-    namespace: dict[str, Any] = {"PAR": PARITY}
+    namespace: dict[str, Any] = {"PAR": PARITY, **BIT_TABLES}
     exec(_compile(source), namespace)
     bus = emu.xdata
     return namespace["factory"](

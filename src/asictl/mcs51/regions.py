@@ -28,8 +28,9 @@ What makes a region faster than its blocks, besides saving the dispatches:
 * The carry's bit logic (``MOV C,bit``, ``ANL``/``ORL C,[/]bit``, ``CLR``/``SETB``/``CPL
   C``) is folded into one Python condition, evaluated where the carry is next needed:
   a network ``MOV C,a / ANL C,/b / ORL C,c / MOV d,C`` becomes
-  ``if (a) and not (b) or (c): d |= m else: d &= ~m``. Only bit reads are folded, and
-  the condition is evaluated before anything that could change what they read.
+  ``if (a) and not (b) or (c): d |= m else: d &= ~m``, with the bits of bytes held in
+  locals read and written through tables (``BIT_TABLES``). Only bit reads are folded,
+  and the condition is evaluated before anything that could change what they read.
 * Instructions and machine cycles are counted per basic block, both in one local (the
   cycles above bit 32: one addition a block), and handed back in ``iterations[0]`` and
   ``iterations[1]``. The emulator calls a region only when the sum over all its
@@ -67,6 +68,18 @@ _ASSIGNED = re.compile(r"^\s*(\w+)(?:\[[^\n]*?\])?\s*[|&^+-]?=(?!=)", re.M)
 #: What a folded carry condition reads.
 _READS = re.compile(r"\b(r\d+|a|c|sfr|pins)\b")
 _CARRY = re.compile(r"\bc\b")
+
+#: Bit n of a byte, the byte with bit n set, with bit n clear, as tables the folded bit
+#: logic indexes (``BIT4[r37]``) instead of computing ``r37 & 16``: an index into a
+#: tuple is one specialised instruction, a bitwise operator a generic call. The
+#: translated code finds them among its globals (``emulator._instantiate``).
+BIT_TABLES: dict[str, tuple[int, ...]] = {
+    **{f"BIT{n}": tuple(v >> n & 1 for v in range(256)) for n in range(8)},
+    **{f"SET{n}": tuple(v | 1 << n for v in range(256)) for n in range(8)},
+    **{f"CLR{n}": tuple(v & (255 ^ 1 << n) for v in range(256)) for n in range(8)},
+}
+#: A folded bit test on a byte held in a local: ``r37 & 16``, ``a & 1``.
+_LOCAL_BIT_TEST = re.compile(r"^(r\d+|a) & (\d+)$")
 
 #: The carry instructions a region folds: opcode -> operation.
 _FOLDS = {0xA2: "mov", 0x82: "and", 0xB0: "and not", 0x72: "or", 0xA0: "or not",
@@ -388,6 +401,9 @@ class _Emitter:
             test = self.bits.bit_test(bit)
             if self.cache:
                 test = _DIRECT_IRAM.sub(r"r\1", test)
+            local = _LOCAL_BIT_TEST.match(test)
+            if local:  # a table's 0 or 1 in place of the masked value: the same truth
+                test = f"BIT{int(local[2]).bit_length() - 1}[{local[1]}]"
             self.carry = test if operation == "mov" else f"({current}) {operation} ({test})"
         self.folded += 1
         if self.folded > _MAX_FOLD:
@@ -405,10 +421,16 @@ class _Emitter:
         needed = condition is not None and (
             following is None or following.fold is None or following.fold[0] not in _CARRY_SETTERS
         )
-        self._put([f"if {condition or 'c'}:", f"    {place} |= {mask}"], depth)
+        n = bit & 7
+        cached = place.startswith("r")  # a local: set and cleared through the tables
+        self._put([f"if {condition or 'c'}:",
+                   f"    {place} = SET{n}[{place}]" if cached else f"    {place} |= {mask}"],
+                  depth)
         if needed:
             self._put(["    c = 1"], depth)
-        self._put(["else:", f"    {place} &= {255 ^ mask}"], depth)
+        self._put(["else:",
+                   f"    {place} = CLR{n}[{place}]" if cached else f"    {place} &= {255 ^ mask}"],
+                  depth)
         if needed:
             self._put(["    c = 0"], depth)
         self.carry, self.folded = None, 0
