@@ -69,12 +69,13 @@ _ASSIGNED = re.compile(r"^\s*(\w+)(?:\[[^\n]*?\])?\s*[|&^+-]?=(?!=)", re.M)
 _READS = re.compile(r"\b(r\d+|a|c|sfr|pins)\b")
 _CARRY = re.compile(r"\bc\b")
 
-#: Bit n of a byte, the byte with bit n set, with bit n clear, as tables the folded bit
-#: logic indexes (``BIT4[r37]``) instead of computing ``r37 & 16``: an index into a
-#: tuple is one specialised instruction, a bitwise operator a generic call. The
-#: translated code finds them among its globals (``emulator._instantiate``).
+#: Bit n of a byte (a bool: a jump on True or False needs no truth test), the byte with
+#: bit n set, with bit n clear, as tables the folded bit logic indexes (``BIT4[r37]``)
+#: instead of computing ``r37 & 16``: an index into a tuple is one specialised
+#: instruction, a bitwise operator a generic call. The translated code finds them
+#: among its globals (``emulator._instantiate``).
 BIT_TABLES: dict[str, tuple[int, ...]] = {
-    **{f"BIT{n}": tuple(v >> n & 1 for v in range(256)) for n in range(8)},
+    **{f"BIT{n}": tuple(bool(v >> n & 1) for v in range(256)) for n in range(8)},
     **{f"SET{n}": tuple(v | 1 << n for v in range(256)) for n in range(8)},
     **{f"CLR{n}": tuple(v & (255 ^ 1 << n) for v in range(256)) for n in range(8)},
 }
@@ -275,7 +276,7 @@ class _Emitter:
         out = self.out
         out.append("    def region(room_i, room_c):")
         out += ["        " + load for load in self.loads]
-        out += [f"        r{cell} = iram[{cell}]" for cell in self.cells]
+        out += ["        " + load for load in self._load_cells()]
         if self._loops():
             # n <= k: a pass fits both budgets while the cycles so far leave room for it
             room = f"min(room_i - {self.pass_instructions}, room_c - {self.pass_cycles})"
@@ -449,7 +450,17 @@ class _Emitter:
         return [f"iram[{cell}] = r{cell}" for cell in self.written]
 
     def _load_cells(self) -> list[str]:
-        return [f"r{cell} = iram[{cell}]" for cell in self.cells]
+        """The cached bytes into their locals: a run of consecutive addresses as one
+        slice unpacked (``r8, r9, r10 = iram[8:11]``), cheaper than an index per byte."""
+        runs: list[list[int]] = []
+        for cell in self.cells:  # ascending
+            if runs and runs[-1][-1] == cell - 1:
+                runs[-1].append(cell)
+            else:
+                runs.append([cell])
+        return [f"r{run[0]} = iram[{run[0]}]" if len(run) == 1 else
+                f"{', '.join(f'r{c}' for c in run)} = iram[{run[0]}:{run[-1] + 1}]"
+                for run in runs]
 
     def _transfer(self, node: _Node, target: int | str, depth: int, computed: bool) -> None:
         """Go on at ``target``: within the region (``nxt``), round its loop when the
