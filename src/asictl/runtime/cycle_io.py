@@ -51,8 +51,12 @@ def _source(pmap: ProgramMap) -> str:
         getter, values = _gather("_communication_flags", "xram",
                                  [layout.FLAGS_BASE + n for n, _ in flags])
         getters += getter
-        lines += [f"    flags = {values}",
-                  f"    {', '.join(_place(loc) for _, loc in flags)}, = flags",
+        getter, held = _gather("_flag_cells", "iram", [loc.address for _, loc in flags])
+        getters += getter
+        # The cells hold what the last cycle left, which is what the flags are unless
+        # someone wrote them since: one comparison in place of a store per flag.
+        lines += [f"    flags = {values}", f"    if {held} != flags:",
+                  f"        {', '.join(_place(loc) for _, loc in flags)}, = flags",
                   "    return flags"]
     else:
         lines.append("    return ()")
@@ -65,8 +69,7 @@ def _source(pmap: ProgramMap) -> str:
     else:
         lines += [f"    outputs[{k}] = {_place(loc)}" for k, loc in outputs]
     if flags:  # only the flags the program changed go back
-        getter, values = _gather("_flag_cells", "iram", [loc.address for _, loc in flags])
-        getters += getter
+        values = _gather("_flag_cells", "iram", [loc.address for _, loc in flags])[1]
         lines += [f"    after = {values}", "    if after != before:",
                   f"        {', '.join(before)}, = before", f"        {', '.join(after)}, = after"]
         for (n, _), old, new in zip(flags, before, after, strict=True):
