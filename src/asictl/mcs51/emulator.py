@@ -353,7 +353,7 @@ class Emulator:
             # as _stop_addresses answers, without the call while nothing changed (every run)
             stops = (self._stops if self._stops_current and until == self._stops_until
                      else self._stop_addresses(until))
-            traps = self._traps
+            traps, blocks, iterations = self._traps, self._blocks, self._iterations
             first = True
             interpret = trace is not None or not self.translate
             while True:
@@ -381,7 +381,48 @@ class Emulator:
                         trace(self, pc)
                     continue
                 first = False
-                interpret = self._run_blocks(ilimit, climit)
+                # Translated code from here on, chained until a stop entry (then back to
+                # the checks above) or until the budget is nearly spent (then the
+                # interpreter finishes, instead of translating blocks at every remaining
+                # address). Inline, not a method: every program cycle comes through here.
+                icount, ccount = self.instructions, self.cycles
+                key = pc | (sfr[PSW] & 24) << 13
+                try:
+                    while True:
+                        entry = blocks.get(key)
+                        if entry is None:
+                            entry = self._translate(key)
+                        block, n, cycles, kind = entry
+                        if block is None:
+                            break
+                        if kind == _WARM:
+                            block, n, cycles, kind = self._warm(key)
+                        if kind == _REGION:
+                            if icount + n <= ilimit and ccount + cycles <= climit:
+                                key = block(ilimit - icount, climit - ccount)
+                                icount += iterations[0]
+                                ccount += iterations[1]
+                                continue
+                            block, n, cycles, kind = (self._plain.get(key)
+                                                      or self._translate_block(key))
+                        if kind == _LOOP:
+                            allowed = min((ilimit - icount) // n, (climit - ccount) // cycles)
+                            if allowed < 1:
+                                interpret = True
+                                break
+                            key = block(allowed)
+                            icount += n * iterations[0]
+                            ccount += cycles * iterations[0]
+                            continue
+                        if icount + n > ilimit or ccount + cycles > climit:
+                            interpret = True
+                            break
+                        key = block()
+                        icount += n
+                        ccount += cycles
+                finally:
+                    self.pc = key & 0xFFFF
+                    self.instructions, self.cycles = icount, ccount
         finally:
             sfr[PSW] = sfr[PSW] & 0xFE | PARITY[sfr[ACC]]
 
@@ -407,49 +448,6 @@ class Emulator:
         self.pc = handler(pc)
         self.instructions += 1
         self.cycles += _CYCLES[opcode]
-
-    def _run_blocks(self, ilimit: int, climit: int) -> bool:
-        """Chain translated blocks until one is a stop entry or does not fit the budget.
-
-        Returns True when the budget is nearly spent, so the caller finishes in the
-        interpreter instead of translating blocks at every remaining address.
-        """
-        blocks, iterations = self._blocks, self._iterations
-        icount, ccount = self.instructions, self.cycles
-        key = self.pc | (self.sfr[PSW] & 24) << 13
-        try:
-            while True:
-                entry = blocks.get(key)
-                if entry is None:
-                    entry = self._translate(key)
-                block, n, cycles, kind = entry
-                if block is None:
-                    return False
-                if kind == _WARM:
-                    block, n, cycles, kind = self._warm(key)
-                if kind == _REGION:
-                    if icount + n <= ilimit and ccount + cycles <= climit:
-                        key = block(ilimit - icount, climit - ccount)
-                        icount += iterations[0]
-                        ccount += iterations[1]
-                        continue
-                    block, n, cycles, kind = self._plain.get(key) or self._translate_block(key)
-                if kind == _LOOP:
-                    allowed = min((ilimit - icount) // n, (climit - ccount) // cycles)
-                    if allowed < 1:
-                        return True
-                    key = block(allowed)
-                    icount += n * iterations[0]
-                    ccount += cycles * iterations[0]
-                    continue
-                if icount + n > ilimit or ccount + cycles > climit:
-                    return True
-                key = block()
-                icount += n
-                ccount += cycles
-        finally:
-            self.pc = key & 0xFFFF
-            self.instructions, self.cycles = icount, ccount
 
     @property
     def regions(self) -> bool:
