@@ -62,7 +62,7 @@ class Pair:
     inverted: bool = False
 
 
-def _read(state: PlcState, cell: Key) -> int:
+def cell_value(state: PlcState, cell: Key) -> int:
     """A cell of the symbolic model (``prove/symbolic.py``) in the interpreter's state."""
     kind, n = cell[0], int(cell[-1]) if len(cell) > 1 else 0
     match kind:
@@ -121,6 +121,20 @@ def _longest_cycles(programs: Iterable[Program], cycle_us: int) -> int:
     return max(10, -(-longest * 1000 // cycle_us) + 2)
 
 
+def run_cycle(machine: Interpreter, inputs: bytes, host: dict[int, int],
+              host_masks: dict[int, int], high: tuple[int, ...]) -> None:
+    """One program cycle as the master runs it: the host's writes to its flags first (the
+    bits of ``host_masks``; a mapped counter's high byte, one of ``high``, keeps only bits
+    0-3), then the program, after which the master clears bits 4-7 of those bytes."""
+    flags = machine.state.flags
+    for n, mask in host_masks.items():
+        written = host[n] & 0x0F if n in high else host[n]
+        flags[n] = flags[n] & ~mask & 0xFF | written & mask
+    machine.cycle(inputs)
+    for n in high:
+        flags[n] &= 0x0F
+
+
 @dataclass
 class Run:
     """One random run of both programs: each one's cells after every cycle, and what the
@@ -167,14 +181,8 @@ def _run(programs: tuple[Program, Program], cells: tuple[list[Key], list[Key]],
         try:
             for machine, high, cellist, record in zip(machines, mapped, cells, run.records,
                                                       strict=True):
-                flags = machine.state.flags
-                for n, mask in host_masks.items():
-                    written = host[n] & 0x0F if n in high else host[n]
-                    flags[n] = flags[n] & ~mask & 0xFF | written & mask
-                machine.cycle(bytes(inputs))
-                for n in high:
-                    flags[n] &= 0x0F
-                record.append([_read(machine.state, cell) for cell in cellist])
+                run_cycle(machine, bytes(inputs), host, host_masks, high)
+                record.append([cell_value(machine.state, cell) for cell in cellist])
         except (CycleTimeout, KeyError, IndexError):
             # a loop the master would stop, or a cell the interpreter lacks
             del run.records[0][cycle:], run.records[1][cycle:]

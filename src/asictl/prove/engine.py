@@ -43,6 +43,7 @@ import z3
 from asictl.il import ast
 from asictl.il.language import TC_MAX_VALUE
 from asictl.il.loader import Program
+from asictl.il.oracle import runs_alone
 from asictl.observe.condition import (
     Comparison,
     Connective,
@@ -59,8 +60,10 @@ from asictl.observe.condition import (
 )
 from asictl.platform.master import TICK_US
 from asictl.prove.correspond import Pair
-from asictl.prove.jump import idle
+from asictl.prove.falsify import Bit, Goal, falsify
+from asictl.prove.jump import MOST, idle
 from asictl.prove.props import Kind, Property
+from asictl.prove.scope import uses
 from asictl.prove.symbolic import (
     CONSTANT,
     TICK,
@@ -83,6 +86,10 @@ JUMP_BUDGET_S = 2.0
 #: How many cycles further than a failure found with steps of idle cycles the plain
 #: search looks for a shorter one.
 SHORTER_CYCLES = 8
+#: CPU seconds a property's search takes without a verdict before the concrete runs
+#: (``prove/falsify.py``) are tried, and the least wall-clock seconds they are given.
+FALSIFY_AFTER_CPU_S = 0.5
+FALSIFY_S = 1.0
 
 
 class Verdict(StrEnum):
@@ -466,6 +473,9 @@ class Machine:
     label: Callable[[str], str] = str
     #: when (time.monotonic) building the model must be done: past it, ``TimeLimit``
     deadline: float | None = None
+    #: whether a counterexample or witness found by concrete runs replays in the
+    #: simulator as it should (None: no simulator, so no concrete runs)
+    replay: Callable[[Outcome], bool] | None = None
 
     def __post_init__(self) -> None:
         self.map_counters = self.program.options.map_counters
@@ -704,9 +714,10 @@ class Machine:
     # -------------------------------------------------------------- deciding
 
     def decide(self, prop: Property, *, depth: int, timeout_s: float,
-               since: float | None = None) -> Outcome:
+               since: float | None = None, horizon: int | None = None) -> Outcome:
         """One property's verdict within ``timeout_s`` from ``since`` (time.monotonic;
-        default now: a command's first property counts the model's building too)."""
+        default now: a command's first property counts the model's building too);
+        ``horizon``: how many cycles the concrete runs go to (default: ``horizon``)."""
         start = time.monotonic()
         origin = start if since is None else since
         deadline = origin + timeout_s
@@ -730,6 +741,9 @@ class Machine:
         # as they can be much harder; the first out of its budget ends them
         jumping = self._base_path("j.", jumps=True) if self.jumps_possible(prop) else None
         steps = 0  # the steps of idle cycles searched
+        # the concrete runs (prove/falsify.py), once: when the search has taken some CPU
+        # time without a verdict, or at its end
+        tried, cpu = False, time.process_time()
 
         # a failure found with steps of idle cycles, kept while the plain search looks a
         # few cycles further for a shorter one (a step may stand for more cycles than
@@ -780,8 +794,19 @@ class Machine:
                     steps = k + 1
                 else:
                     jumping = None
+            if not tried and time.process_time() - cpu >= FALSIFY_AFTER_CPU_S:
+                tried = True  # not decided quickly: perhaps a failure far behind timers
+                ran = self.falsify(prop, searched=k + 1, horizon=horizon, start=start,
+                                   deadline=deadline)
+                if ran is not None:
+                    return ran
         if pending is not None:
             return pending[0]
+        if not tried:
+            ran = self.falsify(prop, searched=depth + 1, horizon=horizon, start=start,
+                               deadline=deadline)
+            if ran is not None:
+                return ran
         if self._pdr(prop, deadline, facts) is True:
             verdict = Verdict.UNREACHABLE if reach else Verdict.PROVED
             return Outcome(prop, verdict, depth, time.monotonic() - start,
@@ -846,6 +871,92 @@ class Machine:
         trace = self._trace(path, model, k)
         return Outcome(prop, verdict, len(trace) - 1, time.monotonic() - start, trace,
                        note, self._values(prop, path, model, k), phase_us=phase)
+
+    def horizon(self, depth: int) -> int:
+        """How far the concrete runs go by default: the presets of the timers the current
+        property depends on (their sum, in cycles, each with the cycle that starts it and
+        the one that sees it end) times the largest counter preset the program loads (a
+        counter that counts the runs of a timer), plus the depth."""
+        assert self.scope is not None
+        cycle_us = self.setup.cycle_us
+        timers = sum(-(-ms * 1000 // cycle_us) + 2 for n, ms in self.presets().items()
+                     if ("T", n) in self.scope)
+        counts = max(self._loaded(K.KC), default=0) if any(
+            isinstance(node, ast.Count) or (isinstance(node, ast.Store)
+                                            and node.operand.kind is K.C)
+            for module in self.program.modules() for node in module.code()) else 0
+        return min(MOST, timers * (counts + 1) + depth + 1)
+
+    def _cone_inputs(self) -> list[Bit]:
+        """The input bits the current property depends on: each bit the program reads of
+        a slave whose inputs reach the property's cells, and each host-written bit that
+        does."""
+        assert self.scope is not None
+        names = {var.decl().name(): name for name, var in self.cycle.inputs.items()}
+        used = {names[c.decl().name()] for cell in self.scope if cell in self.cycle.post
+                for c in _constants(self.cycle.post[cell]) if c.decl().name() in names}
+        read: set[tuple[int, int]] = set()
+        for operand, _ in uses(self.program):
+            if operand.kind in (K.I, K.I2):
+                read.add((operand.address, operand.bit))
+            elif operand.kind in (K.IB, K.I2B):
+                first = operand.address & ~1
+                read.update((a, b) for a in (first, first + 1) for b in range(4))
+        bits: list[Bit] = [("in", a, b) for a, b in sorted(read) if f"in.{a}" in used]
+        bits += [("host", n, b) for n, mask in sorted(self.cycle.host_masks.items())
+                 if f"host.{n}" in used for b in range(8) if mask >> b & 1]
+        return bits
+
+    def falsify(self, prop: Property, *, searched: int, horizon: int | None, start: float,
+                deadline: float) -> Outcome | None:
+        """A counterexample (witness) found by running the program on input sequences of
+        few changes (``prove/falsify.py``) within a third of the time left (at least
+        ``FALSIFY_S``), replayed in the simulator before it is told (``replay``); None
+        when none is found, or the runs cannot be made (no simulator to replay them, two
+        programs compared, firmware blocks the run cannot answer, nothing beyond the
+        ``searched`` cycles the search of every input sequence covered)."""
+        self.current = prop
+        self.scope = self.cone(prop)
+        if (self.replay is None or self.observed or self.twins
+                or self.setup.phase_us is None or not runs_alone(self.program)):
+            return None
+        reach = horizon if horizon is not None else self.horizon(searched)
+        if reach <= searched:
+            return None
+        exprs = [*self.assume, prop.expr] + ([prop.then] if prop.then is not None else [])
+        words = any(ref.operand.node.kind is K.T and ref.operand.node.width is not
+                    ast.Width.BIT for expr in exprs for ref in refs(expr)) or any(
+            isinstance(node, ast.Load) and node.operand.kind is K.T
+            for module in self.program.modules() for node in module.code())
+        goal = Goal(prop, self.assume, self._cone_inputs(), self.cycle.slaves,
+                    self.cycle.host_masks, self.setup.cycle_us, self.setup.phase_us,
+                    self.window(prop) if prop.kind is Kind.RESPONSE else 0, reach,
+                    jumps=not words)
+        now = time.monotonic()
+        found = falsify(self.program, goal, min(deadline, now + max(
+            FALSIFY_S, (deadline - now) / 3)))
+        if found is None:
+            return None
+        trace: list[Step] = []
+        for inputs, host in found.inputs:
+            if not trace or trace[-1].inputs is not inputs:
+                trace.append(Step(inputs, host))
+            else:
+                trace.append(trace[-1])
+        changes = f"{found.changes} change{'s' if found.changes != 1 else ''}"
+        note = (f"found by running the program on input sequences of few changes, each "
+                f"held, up to {reach:,} cycles ({changes} here): not necessarily the "
+                f"shortest; the search of every input sequence found none within "
+                f"{searched:,} cycles")
+        verdict = Verdict.REACHED if prop.kind is Kind.REACHABLE else Verdict.REFUTED
+        outcome = Outcome(prop, verdict, len(trace) - 1, 0.0, trace, note,
+                          {ref.text: found.read(ref.operand) for expr in exprs[
+                              len(self.assume):] for ref in refs(expr)},
+                          phase_us=self.setup.phase_us if TICK in self.scope else None)
+        if not self.replay(outcome):
+            return None
+        outcome.seconds = time.monotonic() - start
+        return outcome
 
     def presets(self) -> dict[int, int]:
         """Timer -> the longest time (ms, in whole ticks) a ``S T n`` starts it with: the
