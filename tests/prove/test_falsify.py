@@ -126,8 +126,8 @@ def test_two_changes_are_found_and_only_the_cone_is_set(tmp_path: Path):
     props.write_text('[master]\ncycle_ms = 10\n[[property]]\nname = "on"\nnever = "Q 2.0"\n')
     machine = _machine(props, [])
     start = time.monotonic()
-    outcome = machine.falsify(machine.properties[0], searched=1, horizon=None, start=start,
-                              deadline=start + 30)
+    outcome = machine.falsify(machine.properties[0], searched=1, depth=20, horizon=None,
+                              start=start, deadline=start + 30)
     assert outcome is not None and outcome.trace is not None
     # I 1.0 and I 1.1 from the first cycle, the timer's 500 ticks, and the cycle that
     # sees it run out
@@ -141,8 +141,8 @@ def test_the_runs_end_at_their_time(tmp_path: Path):
     props = _hour(tmp_path, 10)
     machine = _machine(props, [])
     start = time.monotonic()
-    assert machine.falsify(machine.properties[0], searched=1, horizon=None, start=start,
-                           deadline=start) is None
+    assert machine.falsify(machine.properties[0], searched=1, depth=20, horizon=None,
+                           start=start, deadline=start) is None
     assert time.monotonic() - start < 2
 
 
@@ -151,10 +151,10 @@ def test_a_property_that_holds_is_not_refuted(tmp_path: Path):
     shutil.copy(DEMOS / "1h_timer.props.toml", tmp_path / "h.props.toml")
     found: list[Outcome] = []
     machine = _machine(tmp_path / "h.props.toml", found)
-    start = time.monotonic()
     for prop in machine.properties:
-        assert machine.falsify(prop, searched=1, horizon=None, start=start,
-                               deadline=start + 20) is None
+        start = time.monotonic()
+        assert machine.falsify(prop, searched=1, depth=20, horizon=None, start=start,
+                               deadline=start + 2) is None
     assert not found
 
 
@@ -169,7 +169,7 @@ def _check_generated(program: str, props_text: str, tmp_path: Path) -> None:
     assert machine.program is not None
     for decided in report.outcomes:
         start = time.monotonic()
-        outcome = machine.falsify(decided.prop, searched=0, horizon=40, start=start,
+        outcome = machine.falsify(decided.prop, searched=0, depth=5, horizon=40, start=start,
                                   deadline=start + 20)
         where = f"{program}\n{props_text}\n{decided.verdict}"
         if outcome is None:

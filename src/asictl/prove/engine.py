@@ -87,9 +87,12 @@ JUMP_BUDGET_S = 2.0
 #: search looks for a shorter one.
 SHORTER_CYCLES = 8
 #: CPU seconds a property's search takes without a verdict before the concrete runs
-#: (``prove/falsify.py``) are tried, and the least wall-clock seconds they are given.
+#: (``prove/falsify.py``) are first tried, and the least seconds they are given. They
+#: are tried again, from the start, each time the search has taken four times the CPU
+#: time it had when they were last tried, each time for a quarter of that: so they take
+#: about a fifth of a property's time at most, and little of one decided in seconds.
 FALSIFY_AFTER_CPU_S = 0.5
-FALSIFY_S = 1.0
+FALSIFY_S = 0.25
 
 
 class Verdict(StrEnum):
@@ -741,9 +744,9 @@ class Machine:
         # as they can be much harder; the first out of its budget ends them
         jumping = self._base_path("j.", jumps=True) if self.jumps_possible(prop) else None
         steps = 0  # the steps of idle cycles searched
-        # the concrete runs (prove/falsify.py), once: when the search has taken some CPU
-        # time without a verdict, or at its end
-        tried, cpu = False, time.process_time()
+        # the concrete runs (prove/falsify.py): when the search has taken some CPU time
+        # without a verdict, again after four times that, and at its end
+        cpu, tried, falsify_at = time.process_time(), False, FALSIFY_AFTER_CPU_S
 
         # a failure found with steps of idle cycles, kept while the plain search looks a
         # few cycles further for a shorter one (a step may stand for more cycles than
@@ -794,17 +797,20 @@ class Machine:
                     steps = k + 1
                 else:
                     jumping = None
-            if not tried and time.process_time() - cpu >= FALSIFY_AFTER_CPU_S:
-                tried = True  # not decided quickly: perhaps a failure far behind timers
-                ran = self.falsify(prop, searched=k + 1, horizon=horizon, start=start,
-                                   deadline=deadline)
+            used = time.process_time() - cpu
+            if used >= falsify_at:  # not decided quickly: perhaps a failure far behind
+                tried, falsify_at = True, 4 * used
+                ran = self.falsify(prop, searched=k + 1, depth=depth, horizon=horizon,
+                                   start=start, deadline=min(deadline, time.monotonic()
+                                                             + max(FALSIFY_S, used / 4)))
                 if ran is not None:
                     return ran
         if pending is not None:
             return pending[0]
         if not tried:
-            ran = self.falsify(prop, searched=depth + 1, horizon=horizon, start=start,
-                               deadline=deadline)
+            ran = self.falsify(prop, searched=depth + 1, depth=depth, horizon=horizon,
+                               start=start, deadline=min(deadline, time.monotonic() + max(
+                                   FALSIFY_S, (deadline - time.monotonic()) / 3)))
             if ran is not None:
                 return ran
         if self._pdr(prop, deadline, facts) is True:
@@ -872,11 +878,11 @@ class Machine:
         return Outcome(prop, verdict, len(trace) - 1, time.monotonic() - start, trace,
                        note, self._values(prop, path, model, k), phase_us=phase)
 
-    def horizon(self, depth: int) -> int:
-        """How far the concrete runs go by default: the presets of the timers the current
-        property depends on (their sum, in cycles, each with the cycle that starts it and
+    def span(self) -> int:
+        """How long, in cycles, what the current property depends on can take to play
+        out: the presets of its timers (their sum, each with the cycle that starts it and
         the one that sees it end) times the largest counter preset the program loads (a
-        counter that counts the runs of a timer), plus the depth."""
+        counter that counts the runs of a timer)."""
         assert self.scope is not None
         cycle_us = self.setup.cycle_us
         timers = sum(-(-ms * 1000 // cycle_us) + 2 for n, ms in self.presets().items()
@@ -885,7 +891,7 @@ class Machine:
             isinstance(node, ast.Count) or (isinstance(node, ast.Store)
                                             and node.operand.kind is K.C)
             for module in self.program.modules() for node in module.code()) else 0
-        return min(MOST, timers * (counts + 1) + depth + 1)
+        return timers * (counts + 1)
 
     def _cone_inputs(self) -> list[Bit]:
         """The input bits the current property depends on: each bit the program reads of
@@ -907,20 +913,27 @@ class Machine:
                  if f"host.{n}" in used for b in range(8) if mask >> b & 1]
         return bits
 
-    def falsify(self, prop: Property, *, searched: int, horizon: int | None, start: float,
-                deadline: float) -> Outcome | None:
+    def falsify(self, prop: Property, *, searched: int, depth: int, horizon: int | None,
+                start: float, deadline: float) -> Outcome | None:
         """A counterexample (witness) found by running the program on input sequences of
-        few changes (``prove/falsify.py``) within a third of the time left (at least
-        ``FALSIFY_S``), replayed in the simulator before it is told (``replay``); None
+        few changes (``prove/falsify.py``) by ``deadline`` (time.monotonic), replayed in
+        the simulator before it is told (``replay``); None
         when none is found, or the runs cannot be made (no simulator to replay them, two
-        programs compared, firmware blocks the run cannot answer, nothing beyond the
-        ``searched`` cycles the search of every input sequence covered)."""
+        programs compared, firmware blocks the run cannot answer). They go to
+        ``horizon`` cycles (``--depth`` given), else to ``span`` cycles past ``depth``,
+        and only if that is beyond what the search of every input sequence covers: the
+        ``searched`` cycles it did, and ``depth`` for the span."""
         self.current = prop
         self.scope = self.cone(prop)
         if (self.replay is None or self.observed or self.twins
                 or self.setup.phase_us is None or not runs_alone(self.program)):
             return None
-        reach = horizon if horizon is not None else self.horizon(searched)
+        reach = horizon
+        if reach is None:  # beyond the depth the search of every input sequence goes to
+            span = self.span()
+            if span <= depth:
+                return None
+            reach = min(MOST, span + depth)
         if reach <= searched:
             return None
         exprs = [*self.assume, prop.expr] + ([prop.then] if prop.then is not None else [])
@@ -932,9 +945,7 @@ class Machine:
                     self.cycle.host_masks, self.setup.cycle_us, self.setup.phase_us,
                     self.window(prop) if prop.kind is Kind.RESPONSE else 0, reach,
                     jumps=not words)
-        now = time.monotonic()
-        found = falsify(self.program, goal, min(deadline, now + max(
-            FALSIFY_S, (deadline - now) / 3)))
+        found = falsify(self.program, goal, deadline)
         if found is None:
             return None
         trace: list[Step] = []
