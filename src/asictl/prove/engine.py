@@ -923,11 +923,11 @@ class Machine:
         ``horizon`` cycles (``--depth`` given), else to ``span`` cycles past ``depth``,
         and only if that is beyond what the search of every input sequence covers: the
         ``searched`` cycles it did, and ``depth`` for the span."""
-        self.current = prop
-        self.scope = self.cone(prop)
         if (self.replay is None or self.observed or self.twins
                 or self.setup.phase_us is None or not runs_alone(self.program)):
             return None
+        self.current = prop
+        self.scope = self.cone(prop)
         reach = horizon
         if reach is None:  # beyond the depth the search of every input sequence goes to
             span = self.span()

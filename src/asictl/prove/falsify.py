@@ -11,9 +11,9 @@ symbolic cycle is built from) runs the program from the reset, on the simulator'
 of the 10 ms clock, on the input sequences with no change, one change, two, ... (breadth
 first, so the first found has the fewest), each change one bit of an input in the
 property's cone of influence, made before one of the cycles the run before it executed.
-Each run goes up to a horizon: ``--depth`` when it is given, else the presets of the
-timers in the cone (their sum, as they may run one after the other) times the largest
-counter preset the program loads, plus the depth.
+Each run goes up to the horizon the caller gives (``Machine.falsify``: ``--depth`` when
+it is given, else the presets of the timers in the cone, their sum as they may run one
+after the other, times the largest counter preset the program loads, past the depth).
 
 **Idle stretches run in one go.** A cycle with the inputs held that leaves everything
 but the timers as the cycle before it left it is *idle*, and so is every cycle after it
@@ -312,7 +312,8 @@ class _Search:
                         values = dict(later.values)
                         values[bit] ^= 1
                         key = (later.cycle, tuple(values.values()), _plain(later.state),
-                               tuple(sorted(later.state.timers.items())), later.until_us)
+                               tuple(sorted(later.state.timers.items())), later.until_us,
+                               later.wait)
                         if key in seen:
                             continue
                         seen.add(key)
@@ -342,6 +343,4 @@ def falsify(program: Program, goal: Goal, until: float) -> Found | None:
     """The input sequence of fewest changes (up to ``MOST_CHANGES``) found by
     ``time.monotonic() < until`` that breaks ``goal.prop`` within its horizon (reaches
     it, for ``reachable``), or None."""
-    if not goal.bits and goal.horizon <= 0:
-        return None
     return _Search(program, goal, until).search()
