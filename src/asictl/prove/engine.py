@@ -1041,22 +1041,25 @@ class Machine:
             return lambda operand: operand_value(operand, cells.__getitem__,
                                                  self.map_counters)
 
+        def written(expr: Expr) -> str:  # each operand named as the verdicts name it
+            return show(expr, lambda ref: self.label(str(ref.operand)))
+
         before = read(cycle.pre)
         solver = z3.Solver()
         solver.set("timeout", 2000)
         says = "every state" if wanted else "no state"
         if solver.check(condition(decides, before) != wanted) == z3.unsat:
-            return f"'{show(decides)}' holds in {says}"
+            return f"'{written(decides)}' holds in {says}"
         solver.add(*(condition(a, before) for a in self.assume))
         if solver.check(condition(decides, before) != wanted) == z3.unsat:
-            return f"'{show(decides)}' holds in {says} [assume] allows"
+            return f"'{written(decides)}' holds in {says} [assume] allows"
         if prop.kind is Kind.RESPONSE:
             return ""
         after = read(cycle.post)
         solver.add(*(condition(a, after) for a in self.assume))
         if solver.check(condition(prop.expr, before) != condition(prop.expr, after)) \
                 == z3.unsat:
-            return (f"no cycle of the program changes '{show(prop.expr)}', so it is as "
+            return (f"no cycle of the program changes '{written(prop.expr)}', so it is as "
                     "after the reset")
         return ""
 
