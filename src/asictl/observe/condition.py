@@ -191,17 +191,17 @@ def _binding(expr: Expr) -> int:
             return _ATOM
 
 
-def show(expr: Expr, name: Callable[[Ref], str] | None = None) -> str:
+def show(expr: Expr, naming: Callable[[Ref], str] | None = None) -> str:
     """The expression written back, with the parentheses its structure needs (so that
-    reading it again gives the same tree); ``name`` shows each operand (default: as
+    reading it again gives the same tree); ``naming`` shows each operand (default: as
     written)."""
     def inner(part: Expr, above: int) -> str:
-        text = show(part, name)
+        text = show(part, naming)
         return f"({text})" if _binding(part) <= above else text
 
     match expr:
         case Ref(text=text):
-            return text if name is None else name(expr)
+            return text if naming is None else naming(expr)
         case Register(name=name):
             return name
         case Number(value=value):
