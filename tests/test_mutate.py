@@ -329,6 +329,37 @@ def test_a_survivor_seen_to_differ_on_random_inputs_is_not_given_to_the_prover(
         assert by_change[change]["seconds"] < mutation.PROVE_SECONDS  # no proof was tried
 
 
+def test_symbols_names_the_operands_of_killed_mutants_and_survivors(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+):
+    """--symbols FILE names the notes where the table beside the program would; a table
+    of other names (or none) is another run, not the cache's."""
+    _delay_project(tmp_path, monkeypatch)
+    (tmp_path / "names.toml").write_text('Lamp = "Q 2.0"\nDelay = "T 1"\n')
+
+    def details(*args: str) -> dict[str, str]:
+        code, output = _mutate(".", "--format", "json", *args)
+        assert code == 0, output
+        return {m["change"]: m["detail"] for m in json.loads(output)["mutants"]}
+
+    named = details("--symbols", "names.toml")
+    assert named["A T 1 -> AN T 1"].endswith("Q 2.0 (Lamp) expected 1, got 0"), named
+    assert named["L KT 300 -> L KT 290"].startswith("not equivalent: T 1 (Delay) differs")
+    plain = details()  # no table beside delay.asi
+    assert plain["A T 1 -> AN T 1"].endswith(": Q 2.0 expected 1, got 0"), plain
+    assert plain["L KT 300 -> L KT 290"].startswith("not equivalent: T 1 differs")
+
+
+def test_a_symbols_file_with_a_mistake_is_refused_at_its_line(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+):
+    _delay_project(tmp_path, monkeypatch)
+    (tmp_path / "names.toml").write_text('Lamp = "Q 2.0"\nDelay = "T 99x"\n')
+    code, output = _mutate(".", "--symbols", "names.toml")
+    assert code == 2, output
+    assert "names.toml:2:" in output and "Traceback" not in output
+
+
 def test_what_the_random_search_calls_different_the_prover_does_not_call_equivalent():
     """The independent check: each difference the search finds on the demos' mutants is
     one the prover, asked, does not prove away (and finds itself where it is shallow)."""
