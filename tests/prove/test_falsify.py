@@ -18,6 +18,7 @@ from test_soundness import EXAMPLES, PHASES_US, _first_bad, programs, properties
 from asictl.cli import main
 from asictl.prove.counterexample import expectations, scenario_text
 from asictl.prove.engine import Machine, Outcome, Verdict
+from asictl.prove.falsify import Goal, falsify
 from asictl.prove.session import load, setup_of
 from asictl.prove.session import prove as prove_file
 
@@ -135,6 +136,30 @@ def test_two_changes_are_found_and_only_the_cone_is_set(tmp_path: Path):
     text = _written(props, machine, outcome).read_text()
     assert _steps(text) == ['set = { "I 1.0" = 1, "I 1.1" = 1 }', 'expect = { "Q 2.0" = 0 }']
     assert_replays(tmp_path / "p.asi", tmp_path / "found.scenario.toml", Verdict.REFUTED)
+
+
+@pytest.mark.parametrize("cycle_us", [3_000, 7_000, 10_000, 25_000, 1_000_000])
+@pytest.mark.parametrize("phase_us", [1, 4_000, 10_000])
+def test_idle_stretches_run_in_one_go_end_where_cycle_by_cycle_runs_do(
+        tmp_path: Path, cycle_us: int, phase_us: int):
+    """The hour of the demo shortened to 5 runs of 0.5 s: the runs that jump over idle
+    stretches find the failure after as many cycles as the runs that take every cycle,
+    at cycles shorter and longer than the 10 ms tick and on any phase of it."""
+    (tmp_path / "h.asi").write_text((DEMOS / "1h_timer.asi").read_text().replace(
+        "KC 100", "KC 5").replace("KT 36000", "KT 500"))
+    props = tmp_path / "h.props.toml"
+    props.write_text(f"[master]\ncycle_ms = {cycle_us / 1000:g}\n{HOUR_ENDS}")
+    read, _, built = load(props, None, ())
+    assert built.program is not None
+
+    def cycles(jumps: bool) -> int:
+        goal = Goal(read.properties[0], [], [("in", 1, 0), ("in", 1, 1)], (1, 2), {},
+                    cycle_us, phase_us, 0, 6_000_000 // cycle_us + 20, jumps)
+        found = falsify(built.program, goal, time.monotonic() + 60)
+        assert found is not None
+        return len(found.inputs)
+
+    assert cycles(True) == cycles(False)
 
 
 def test_the_runs_end_at_their_time(tmp_path: Path):
