@@ -62,6 +62,24 @@ def test_the_end_of_the_hour_is_found_in_seconds_and_replays(tmp_path: Path, cyc
     assert "not necessarily the shortest" in text
 
 
+def test_a_witness_and_a_response_behind_the_hour(tmp_path: Path):
+    """The end of the hour reached (the witness passes) and a response that waits
+    longer than half an hour (its counterexample fails at the cycle the wait ends)."""
+    props = _hour(tmp_path, 1000)
+    props.write_text('[master]\ncycle_ms = 1000\n[[property]]\nname = "the end"\n'
+                     'reachable = "Q 2.1"\n[[property]]\nname = "half an hour"\n'
+                     'when = "Q 2.0"\nthen = "Q 2.1 or not Q 2.0"\nwithin = "30min"\n')
+    report = prove_file(props, timeout_s=60.0)
+    found = {o.prop.name: o for o in report.outcomes}
+    assert found["the end"].verdict is Verdict.REACHED
+    assert found["half an hour"].verdict is Verdict.REFUTED
+    # the answer is waited for from the first cycle: 1,800 cycles after it, too late
+    assert len(found["half an hour"].trace or ()) == 1_801
+    for name, outcome in found.items():
+        assert "found by running the program" in outcome.note
+        assert_replays(tmp_path / "h.asi", report.written[name], outcome.verdict)
+
+
 def test_a_depth_given_bounds_the_runs(tmp_path: Path):
     """--depth 250 (cycles of 1 s) cannot reach the end of the hour: no counterexample,
     where without it one is found."""
