@@ -5,6 +5,7 @@ told of a property that holds, and bounded by ``--depth`` and ``--timeout``."""
 
 from __future__ import annotations
 
+import dataclasses
 import shutil
 import tempfile
 import time
@@ -12,13 +13,14 @@ from pathlib import Path
 
 import pytest
 from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 from replay import assert_replays
 from test_soundness import EXAMPLES, PHASES_US, _first_bad, programs, properties
 
 from asictl.cli import main
 from asictl.prove.counterexample import expectations, scenario_text
 from asictl.prove.engine import Machine, Outcome, Verdict
-from asictl.prove.falsify import Goal, falsify
+from asictl.prove.falsify import Goal, falsify, first_failure
 from asictl.prove.session import load, setup_of
 from asictl.prove.session import prove as prove_file
 
@@ -226,6 +228,39 @@ def _check_generated(program: str, props_text: str, tmp_path: Path) -> None:
         assert first is not None and first <= cycles, where
         assert_replays(tmp_path / "p.asi", _written(props, machine, outcome),
                        outcome.verdict)
+
+
+#: the generated programs with timers of 0.2 to 0.6 s (up to 600 cycles at 1 to 25 ms
+#: cycles): long idle stretches, run in one go or cycle by cycle
+long_timers = programs.map(lambda text: text.replace("KT 10\n", "KT 200\n").replace(
+    "KT 20\n", "KT 450\n").replace("KT 30\n", "KT 600\n"))
+#: up to three changes of the three inputs, at cycles within the horizon
+HORIZON = 400
+schedules = st.lists(st.tuples(st.integers(0, HORIZON - 1), st.integers(0, 2)), max_size=3)
+
+
+@settings(max_examples=4 * EXAMPLES, deadline=None,
+          suppress_health_check=[HealthCheck.too_slow])
+@given(long_timers, properties(), schedules)
+def test_generated_runs_jump_over_idle_stretches_to_where_every_cycle_goes(
+        program: str, props_text: str, schedule: list[tuple[int, int]]) -> None:
+    """On one input sequence, the runs that jump over idle stretches fail (or not)
+    after as many cycles as the runs that take every cycle."""
+    with tempfile.TemporaryDirectory() as folder:
+        (Path(folder) / "p.asi").write_text(program)
+        props = Path(folder) / "p.props.toml"
+        props.write_text(props_text)
+        machine = _machine(props, [])
+        assert machine.program is not None
+        changes = [(cycle, ("in", 1, bit)) for cycle, bit in schedule]
+        for prop in machine.properties:
+            machine.current, machine.scope = prop, machine.cone(prop)
+            goal = dataclasses.replace(machine.goal(prop, HORIZON),
+                                       bits=[("in", 1, b) for b in range(3)])
+            assert goal.jumps
+            jumped, stepped = (first_failure(machine.program, dataclasses.replace(
+                goal, jumps=jumps), changes) for jumps in (True, False))
+            assert jumped == stepped, f"{program}\n{props_text}\n{schedule}"
 
 
 @settings(max_examples=EXAMPLES, deadline=None, suppress_health_check=[HealthCheck.too_slow])

@@ -913,6 +913,20 @@ class Machine:
                  if f"host.{n}" in used for b in range(8) if mask >> b & 1]
         return bits
 
+    def goal(self, prop: Property, horizon: int) -> Goal:
+        """What runs of held inputs of the current property (its cone, ``scope``) look
+        for, up to ``horizon`` cycles, on the simulator's phase of the clock."""
+        assert self.scope is not None and self.setup.phase_us is not None
+        exprs = [*self.assume, prop.expr] + ([prop.then] if prop.then is not None else [])
+        words = any(ref.operand.node.kind is K.T and ref.operand.node.width is not
+                    ast.Width.BIT for expr in exprs for ref in refs(expr)) or any(
+            isinstance(node, ast.Load) and node.operand.kind is K.T
+            for module in self.program.modules() for node in module.code())
+        return Goal(prop, self.assume, self._cone_inputs(), self.cycle.slaves,
+                    self.cycle.host_masks, self.setup.cycle_us, self.setup.phase_us,
+                    self.window(prop) if prop.kind is Kind.RESPONSE else 0, horizon,
+                    jumps=not words)
+
     def falsify(self, prop: Property, *, searched: int, depth: int, horizon: int | None,
                 start: float, deadline: float) -> Outcome | None:
         """A counterexample (witness) found by running the program on input sequences of
@@ -936,15 +950,7 @@ class Machine:
             reach = min(MOST, span + depth)
         if reach <= searched:
             return None
-        exprs = [*self.assume, prop.expr] + ([prop.then] if prop.then is not None else [])
-        words = any(ref.operand.node.kind is K.T and ref.operand.node.width is not
-                    ast.Width.BIT for expr in exprs for ref in refs(expr)) or any(
-            isinstance(node, ast.Load) and node.operand.kind is K.T
-            for module in self.program.modules() for node in module.code())
-        goal = Goal(prop, self.assume, self._cone_inputs(), self.cycle.slaves,
-                    self.cycle.host_masks, self.setup.cycle_us, self.setup.phase_us,
-                    self.window(prop) if prop.kind is Kind.RESPONSE else 0, reach,
-                    jumps=not words)
+        goal = self.goal(prop, reach)
         found = falsify(self.program, goal, deadline)
         if found is None:
             return None
@@ -961,8 +967,9 @@ class Machine:
                 f"{searched:,} cycles")
         verdict = Verdict.REACHED if prop.kind is Kind.REACHABLE else Verdict.REFUTED
         outcome = Outcome(prop, verdict, len(trace) - 1, 0.0, trace, note,
-                          {ref.text: found.read(ref.operand) for expr in exprs[
-                              len(self.assume):] for ref in refs(expr)},
+                          {ref.text: found.read(ref.operand) for expr in [prop.expr] + (
+                              [prop.then] if prop.then is not None else [])
+                           for ref in refs(expr)},
                           phase_us=self.setup.phase_us if TICK in self.scope else None)
         if not self.replay(outcome):
             return None

@@ -34,6 +34,8 @@ nothing is found proves nothing.
 from __future__ import annotations
 
 import copy
+import dataclasses
+import math
 import time
 from collections import deque
 from collections.abc import Callable
@@ -52,7 +54,7 @@ from asictl.prove.symbolic import counter_high_bytes, operand_cells
 from asictl.runtime.runner import CycleTimeout
 
 K = ast.OperandKind
-#: The most input changes a sequence has.
+#: The most input changes a sequence has (unless the goal says).
 MOST_CHANGES = 3
 #: The most places (cycles) one run offers for the next change: spread over the run.
 MOST_PLACES = 48
@@ -95,6 +97,8 @@ class Goal:
     horizon: int
     #: whether idle stretches may be run in one go (no timer's word is read)
     jumps: bool
+    #: the most input changes a sequence has
+    changes: int = MOST_CHANGES
 
 
 @dataclass
@@ -216,10 +220,13 @@ class _Search:
         happened = holds(prop.expr, read)
         return None, happened != (prop.kind is Kind.ALWAYS)
 
-    def run(self, place: _Place, record: bool) -> tuple[_Run, int | None]:
-        """The inputs of ``place`` held from there to the horizon: the run's places and
-        the cycle after which the property fails, if it does."""
+    def run(self, place: _Place, record: bool, stop: int | None = None) -> tuple[
+            _Run, int | None, _Place | None]:
+        """The inputs of ``place`` held from there to the horizon (or to cycle ``stop``):
+        the run's places, the cycle after which the property fails, if it does, and
+        where the run ended (None: cut short, the sequence not one to go on with)."""
         goal = self.goal
+        end = goal.horizon if stop is None else min(stop, goal.horizon)
         machine = self.machine
         state = machine.state = copy.deepcopy(place.state)
         timers = state.timers
@@ -228,11 +235,11 @@ class _Search:
         cycle, until, wait = place.cycle, place.until_us, place.wait
         run = _Run()
         before: tuple[object, ...] | None = None
-        while cycle < goal.horizon:
+        while cycle < end:
             run.executed += 1
             if run.executed % 32 == 0 and time.monotonic() > self.until:
                 self.out_of_time = True
-                return run, None
+                return run, None, None
             if record and (run.executed - 1) % run.stride == 0:
                 run.places.append(_Place(cycle, copy.deepcopy(state), until, wait,
                                          place.values))
@@ -244,16 +251,16 @@ class _Search:
             try:
                 run_cycle(machine, images, host, goal.host_masks, self.high)
             except (CycleTimeout, KeyError, IndexError):
-                return run, None  # a loop the master would stop
+                return run, None, None  # a loop the master would stop
             read = reader(state, self.map_counters)
             wait, bad = self._judge(read, wait)
             if bad:
-                return run, cycle
+                return run, cycle, None
             if not all(holds(a, read) for a in goal.assume):
-                return run, None  # an input sequence [assume] rules out
+                return run, None, None  # an input sequence [assume] rules out
             after = _plain(state)
             if before == after and goal.jumps:
-                jumped = self._idle(running, timers, until, cycle, wait)
+                jumped = self._idle(running, timers, until, end - cycle, wait)
                 if jumped:
                     ticks = _ticks(until, jumped * goal.cycle_us)
                     for n in timers.keys() - timers.written:
@@ -271,15 +278,15 @@ class _Search:
             if ticks:
                 machine.tick(ticks)
             cycle += 1
-        return run, None
+        return run, None, _Place(cycle, state, until, wait, place.values)
 
-    def _idle(self, running: dict[int, bool], timers: _Written, until: int, cycle: int,
+    def _idle(self, running: dict[int, bool], timers: _Written, until: int, left: int,
               wait: int | None) -> int:
         """How many cycles after this idle one do the same as it (0: none is sure to):
         each sees every timer run, or not, as this one did, until the one before a timer
-        runs out."""
+        runs out, and the one before the run's last (``left`` cycles from this one)."""
         goal = self.goal
-        most = goal.horizon - cycle - 2
+        most = left - 2
         if wait is not None:
             most = min(most, goal.window - wait - 2)
         for n, ticks in timers.items():
@@ -295,14 +302,14 @@ class _Search:
         """Breadth first over the input sequences of 0, 1, ... changes."""
         goal = self.goal
         level: deque[tuple[_Place, list[tuple[int, Bit]]]] = deque([(self.first(), [])])
-        for changes in range(MOST_CHANGES + 1):
+        for changes in range(goal.changes + 1):
             following: deque[tuple[_Place, list[tuple[int, Bit]]]] = deque()
             seen: set[tuple[object, ...]] = set()
             while level:
                 if time.monotonic() > self.until:
                     return None
                 place, made = level.popleft()
-                run, failed = self.run(place, record=changes < MOST_CHANGES)
+                run, failed, _ = self.run(place, record=changes < goal.changes)
                 if failed is not None:
                     return self._found(made, failed, changes)
                 if self.out_of_time:
@@ -339,8 +346,26 @@ class _Search:
         return Found(inputs, reader(self.machine.state, self.map_counters), changes)
 
 
+def first_failure(program: Program, goal: Goal, schedule: list[tuple[int, Bit]]) -> int | None:
+    """The cycle after which ``goal.prop`` fails (is reached) on one input sequence,
+    each (cycle, bit) of ``schedule`` a change of that bit before that cycle, or None
+    within the horizon: the runs of one sequence, without a time limit."""
+    search = _Search(program, goal, math.inf)
+    place = search.first()
+    for cycle, bit in [*sorted(schedule), (goal.horizon, None)]:
+        _, failed, ended = search.run(place, record=False, stop=cycle)
+        if ended is None:
+            return failed
+        place = ended
+        if bit is not None:
+            values = dict(place.values)
+            values[bit] ^= 1
+            place = dataclasses.replace(place, values=values)
+    return None
+
+
 def falsify(program: Program, goal: Goal, until: float) -> Found | None:
-    """The input sequence of fewest changes (up to ``MOST_CHANGES``) found by
+    """The input sequence of fewest changes (up to ``goal.changes``) found by
     ``time.monotonic() < until`` that breaks ``goal.prop`` within its horizon (reaches
     it, for ``reachable``), or None."""
     return _Search(program, goal, until).search()
