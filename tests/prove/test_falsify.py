@@ -234,6 +234,18 @@ def _check_generated(program: str, props_text: str, tmp_path: Path) -> None:
 #: cycles): long idle stretches, run in one go or cycle by cycle
 long_timers = programs.map(lambda text: text.replace("KT 10\n", "KT 200\n").replace(
     "KT 20\n", "KT 450\n").replace("KT 30\n", "KT 600\n"))
+#: a timer of its own, started by a rising edge of I 1.1, and a flag that the first
+#: cycle after it runs out with I 1.1 on sets: a property on it fails there
+EXPIRES = """        L   KT 370
+        A   I 1.1
+        AN  I2 1.1
+        S   T 2
+***
+        A   I 1.1
+        AN  T 2
+        S   F 9.0
+***
+"""
 #: up to three changes of the three inputs, at cycles within the horizon
 HORIZON = 400
 schedules = st.lists(st.tuples(st.integers(0, HORIZON - 1), st.integers(0, 2)), max_size=3)
@@ -247,9 +259,9 @@ def test_generated_runs_jump_over_idle_stretches_to_where_every_cycle_goes(
     """On one input sequence, the runs that jump over idle stretches fail (or not)
     after as many cycles as the runs that take every cycle."""
     with tempfile.TemporaryDirectory() as folder:
-        (Path(folder) / "p.asi").write_text(program)
+        (Path(folder) / "p.asi").write_text(program + EXPIRES)
         props = Path(folder) / "p.props.toml"
-        props.write_text(props_text)
+        props.write_text(props_text + '[[property]]\nname = "expired"\nnever = "F 9.0"\n')
         machine = _machine(props, [])
         assert machine.program is not None
         changes = [(cycle, ("in", 1, bit)) for cycle, bit in schedule]
