@@ -18,10 +18,15 @@ from pathlib import Path
 import pytest
 from replay import passes
 
-from asictl.build import build_file
+from asictl.build import build, build_file
 from asictl.cli import main
 from asictl.il.loader import Program
+from asictl.observe.condition import Truth
 from asictl.prove import equivalent
+from asictl.prove.engine import Machine, Setup
+from asictl.prove.props import Kind, Property
+from asictl.prove.symbolic import Key, build_cycle, product
+from asictl.source import from_string
 
 pytest.importorskip("z3")
 
@@ -172,3 +177,37 @@ def test_a_wrong_refactoring_is_different_with_a_scenario_that_replays(
         assert BEHIND_THE_TIMER in result.output
     assert passes(tmp_path / "new.differs.scenario.toml", old, new) == {
         "old.asi": True, "new.asi": False}
+
+
+def _machine(second_text: str, observed: list[Key]) -> Machine:
+    """The two programs side by side as ``equivalent`` builds them, ``observed`` the
+    cells compared."""
+    programs = []
+    for text in (OLD, second_text):
+        built = build(from_string("p.asi", text))
+        assert not built.has_errors and built.program is not None, built.render()
+        programs.append(built.program)
+    slaves = (1, 2, 3, 4, 5)
+    cycles = [build_cycle(program, slaves=slaves, cycle_us=10_000, watch=observed,
+                          prefix=f"{side}.")
+              for side, program in zip(("a", "b"), programs, strict=True)]
+    return Machine(programs[0], Setup(slaves, 10_000), [], [],
+                   prebuilt=product(*cycles),
+                   observed=[(("a", *cell), ("b", *cell)) for cell in observed],
+                   second=programs[1])
+
+
+@pytest.mark.parametrize(("reads", "observed", "steps"), [
+    ("", [("Q", 1)], True),
+    # the second program loads the 5 s timer's word: what a cycle sees of it changes
+    # with every tick, so no stretch of cycles is idle
+    ("***\n        L   T 6\n        T   FY 60\n", [("Q", 1)], False),
+    # the timer's word is compared (mutation testing compares every timer)
+    ("", [("Q", 1), ("T", 6)], False),
+])
+def test_two_programs_are_searched_in_idle_steps_only_if_no_timer_word_is_read(
+        reads: str, observed: list[Key], steps: bool):
+    machine = _machine(WRONG["a network moved ahead of the one that writes what it reads"]
+                       + reads, observed)
+    same = Property("same outputs", Kind.ALWAYS, Truth(True), 0)
+    assert machine.jumps_possible(same) is steps
