@@ -463,6 +463,8 @@ class Machine:
     #: for two programs compared: elements that may always be equal, one of each
     #: program (``prove/correspond.py``), the cells under their side ("a", "b")
     twins: list[Pair] = field(default_factory=list)
+    #: for two programs compared: the second (``program`` is the first)
+    second: Program | None = None
     #: proved facts about every reachable state, as functions of a state, with their cells
     invariants: list[tuple[Fact, frozenset[Key]]] = field(default_factory=list)
     invariant_names: list[str] = field(default_factory=list)
@@ -656,6 +658,25 @@ class Machine:
         remaining = self.houdini(self.candidates(), deadline)
         self.invariants = [(fact, cells) for _, fact, cells in remaining]
         self.invariant_names = [name for name, _, _ in remaining]
+
+    def unsettled(self, deadline: float) -> list[tuple[Key, Key]]:
+        """The compared pairs the invariants proved so far do not make equal. Only they
+        can differ in a reachable state, so only their cone needs following: a
+        difference behind a timer in one part of two long programs is searched for over
+        that part alone. Out of time, all of them."""
+        solver = z3.SolverFor("QF_BV")
+        path = _Path(self, solver, "u.", initial=False)
+        self._strengthen(path, 0, self.invariants)
+        state = path.states[0]
+        found = []
+        for a, b in self.observed:
+            solver.set("timeout", _ms_until(deadline))
+            result = solver.check(state[a] != state[b])
+            if result == z3.sat:
+                found.append((a, b))
+            elif result != z3.unsat:
+                return list(self.observed)
+        return found
 
     def houdini(self, candidates: list[Candidate], deadline: float) -> list[Candidate]:
         """Houdini: drop every candidate a reachable state (the first one) or a step from
@@ -1159,17 +1180,22 @@ class Machine:
 
     def jumps_possible(self, prop: Property) -> bool:
         """Whether a step of the search may stand for many idle cycles (``prove/jump.py``):
-        the program reads the timers it depends on only as bits (never ``L T n``), no
-        assumption or
-        property reads a timer's word (``TV n``), and one program is decided (``diff``
-        compares every word)."""
-        if self.observed or self.twins or not any(
-                self.scope is None or ("T", n) in self.scope for n in self.cycle.timers):
+        a timer the property depends on is followed, the program (both, when two are
+        compared) reads those timers only as bits (never ``L T n``), and nothing judged
+        reads a timer's word (an assumption's or the property's ``TV n``, a compared
+        timer)."""
+        timers = {cell for cell in self.cycle.stored
+                  if self.scope is None or cell in self.scope}
+        if not timers:
             return False  # (no timer the property depends on: no idle cycles to jump)
+        sides = ([((), self.program)] if self.second is None
+                 else [(("a",), self.program), (("b",), self.second)])
         if any(isinstance(node, ast.Load) and node.operand.kind is K.T
-               and (self.scope is None or ("T", node.operand.address) in self.scope)
-               for module in self.program.modules() for section in module.sections
-               for node in ast.nodes(section)):
+               and (*side, "T", node.operand.address) in timers
+               for side, program in sides for module in program.modules()
+               for section in module.sections for node in ast.nodes(section)):
+            return False
+        if any(cell in timers for pair in self.observed for cell in pair):
             return False
         exprs = [*self.assume, prop.expr] + ([prop.then] if prop.then is not None else [])
         return not any(ref.operand.node.kind is K.T
