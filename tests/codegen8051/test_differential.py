@@ -23,7 +23,7 @@ from asictl.platform.master import flag_keeps
 from asictl.runtime.program_map import LoadedProgram, Location, Space
 from asictl.runtime.runner import CycleTimeout, ProgramRunner
 
-#: the default run's sample; the long run (``-m slow``) takes eight times as many
+#: the default run's sample; the long run (``-m slow``) takes three times as many
 EXAMPLES = int(os.environ.get("ASICTL_DIFF_EXAMPLES", "500"))
 
 
@@ -65,7 +65,7 @@ def test_compiled_code_agrees_with_the_interpreter(program: Program, run) -> Non
 
 
 @pytest.mark.slow
-@settings(max_examples=8 * EXAMPLES, deadline=None,
+@settings(max_examples=3 * EXAMPLES, deadline=None,
           suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
 @given(runnable_programs, steps)
 def test_compiled_code_agrees_with_the_interpreter_long(program: Program, run) -> None:

@@ -463,7 +463,7 @@ def test_blocks_and_interpreter_agree(case) -> None:
 
 
 @pytest.mark.slow
-@settings(max_examples=300, deadline=None)
+@settings(max_examples=120, deadline=None)
 @given(programs())
 def test_blocks_and_interpreter_agree_long(case) -> None:
     blocks_and_interpreter_agree(case)
