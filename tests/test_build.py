@@ -54,9 +54,22 @@ def test_every_demo_passes_as_source_hex_and_raw(
     assert no_source is not None
     raw_file = tmp_path / "uploaded.asi"
     raw_file.write_text(uploaded_source(no_source))
-    result = sim(runner, raw_file, scenario, "--csv", str(tmp_path / "trace.csv"))
+    result = sim(runner, raw_file, scenario)
     assert passed(result), result.output + result.stderr
-    assert "the image carries no source" in result.stderr  # what a trace cannot show
+
+
+def test_a_trace_of_an_image_without_source_says_what_it_cannot_show(
+    tmp_path: Path, runner: CliRunner
+):
+    no_source = build_file(DEMOS / "blink.asi", with_source=False).image
+    assert no_source is not None
+    raw_file = tmp_path / "uploaded.asi"
+    raw_file.write_text(uploaded_source(no_source))
+    result = sim(runner, raw_file, DEMOS / "blink.scenario.toml",
+                 "--csv", str(tmp_path / "trace.csv"))
+    assert passed(result), result.output + result.stderr
+    assert "the image carries no source" in result.stderr
+    assert (tmp_path / "trace.csv").read_text().startswith("time_ms,")
 
 
 def test_an_uploaded_raw_file_simulates_after_a_real_download_and_upload(

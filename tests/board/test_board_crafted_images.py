@@ -273,7 +273,7 @@ def test_mutated_code_only_ever_stops_the_program(case):
 
 
 @pytest.mark.slow
-@settings(max_examples=20 * MUTATIONS, deadline=None,
+@settings(max_examples=8 * MUTATIONS, deadline=None,
           suppress_health_check=[HealthCheck.too_slow])
 @given(mutated_images(CODE_TOO))
 def test_many_mutated_images(case):

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import os
 
+import pytest
 from hypothesis import HealthCheck, given, settings
 from il_strategies import ModelFirmware, checked_programs, cycle_steps
 
@@ -22,7 +23,8 @@ from asictl.platform.master import flag_keeps
 from asictl.runtime.program_map import LoadedProgram, Location, Space
 from asictl.runtime.runner import CycleTimeout, ProgramRunner
 
-EXAMPLES = int(os.environ.get("ASICTL_DIFF_EXAMPLES", "2000"))
+#: the default run's sample; the long run (``-m slow``) takes three times as many
+EXAMPLES = int(os.environ.get("ASICTL_DIFF_EXAMPLES", "500"))
 
 
 runnable_programs = checked_programs(asm=False, options=True)
@@ -55,13 +57,22 @@ def _assert_same(interp: Interpreter, runner: ProgramRunner, compiled, cycle: in
     assert bool(cpu.sfr[0xD0] & 0x80) == state.rlo, f"single-bit register {where}"
 
 
-@settings(
-    max_examples=EXAMPLES,
-    deadline=None,
-    suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much],
-)
+@settings(max_examples=EXAMPLES, deadline=None,
+          suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
 @given(runnable_programs, steps)
 def test_compiled_code_agrees_with_the_interpreter(program: Program, run) -> None:
+    compiled_code_agrees_with_the_interpreter(program, run)
+
+
+@pytest.mark.slow
+@settings(max_examples=3 * EXAMPLES, deadline=None,
+          suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
+@given(runnable_programs, steps)
+def test_compiled_code_agrees_with_the_interpreter_long(program: Program, run) -> None:
+    compiled_code_agrees_with_the_interpreter(program, run)
+
+
+def compiled_code_agrees_with_the_interpreter(program: Program, run) -> None:
     compiled = compile_program(program)
     firmware = ModelFirmware()
     interp = Interpreter(program, firmware=firmware)

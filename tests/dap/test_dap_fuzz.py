@@ -145,7 +145,7 @@ def test_a_frame_that_is_no_request_is_skipped_and_the_adapter_stays_up(adapter,
 
 
 @pytest.mark.slow
-@settings(max_examples=3000, deadline=None, suppress_health_check=list(HealthCheck))
+@settings(max_examples=1500, deadline=None, suppress_health_check=list(HealthCheck))
 @given(message=requests())
 def test_a_hostile_request_is_answered_and_the_adapter_stays_up_long_run(adapter, message):
     check_request(adapter, message)

@@ -6,6 +6,7 @@ import os
 import shutil
 import subprocess
 import sys
+import threading
 import time
 import uuid
 from pathlib import Path
@@ -85,6 +86,17 @@ def test_break_continue_and_print(counter: Session):
     assert counter.do("step")[0] == "count.asi:9, master time 0 ms, cycle 1"
     assert counter.do("print CV 0, C 0") == ["CV 0 = 4095", "C 0 = 1 (value 4095)"]
     assert counter.do("continue")[0] == "breakpoint 1, count.asi:6, master time 5 ms, cycle 2"
+
+
+def test_closing_at_a_breakpoint_ends_the_worker_at_once(counter: Session):
+    """The worker paused inside a program cycle unwinds when the session ends; it used
+    to be caught as a fault of the program and wait for a command that never came."""
+    counter.do("break 6")
+    counter.do("continue")
+    workers = [t for t in threading.enumerate() if t.name != threading.current_thread().name]
+    assert workers
+    counter.debugger.close()
+    assert not any(t.is_alive() for t in workers)
 
 
 def test_display_shows_its_expressions_at_every_stop(counter: Session):

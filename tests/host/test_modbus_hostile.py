@@ -221,7 +221,7 @@ def test_mangled_answers_give_a_result_or_a_job_error(gateway_address, plan, ope
 
 
 @pytest.mark.slow
-@settings(MANGLED, max_examples=400)
+@settings(MANGLED, max_examples=200)
 @given(plan=st.lists(mangles, min_size=1, max_size=8),
        operation=st.sampled_from(sorted(OPERATIONS)))
 def test_mangled_answers_give_a_result_or_a_job_error_long(gateway_address, plan, operation):

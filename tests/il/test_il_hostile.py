@@ -91,7 +91,7 @@ def test_mutated_programs(text: str) -> None:
 
 
 @pytest.mark.slow
-@settings(HOSTILE, max_examples=1000)
+@settings(HOSTILE, max_examples=500)
 @given(mutated_programs())
 def test_mutated_programs_long(text: str) -> None:
     check(text)

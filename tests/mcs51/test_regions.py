@@ -133,7 +133,7 @@ def test_regions_and_interpreter_agree(monkeypatch: pytest.MonkeyPatch, case) ->
 
 
 @pytest.mark.slow
-@settings(max_examples=300, deadline=None,
+@settings(max_examples=150, deadline=None,
           suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(programs())
 def test_regions_and_interpreter_agree_long(monkeypatch: pytest.MonkeyPatch, case) -> None:

@@ -48,6 +48,17 @@ def test_a_renamed_flag_is_paired_with_its_new_name_and_not_with_another():
     assert not run.differences
 
 
+def test_a_flag_that_keeps_an_input_is_paired_with_the_input():
+    """An edge's memory (the input as it was) pairs with the input image, which proves
+    a network moved into the branch that runs on the edge (tests/prove/
+    test_refactorings_composed.py)."""
+    memory = LATCH + "***\n    A I 1.3\n    = F 4.2\n"
+    run = _run(memory, memory.replace("F 4.2", "F 5.6"))
+    assert Pair((("F", 4), 2), (("I", 0), 7)) in run.pairs
+    assert Pair((("I", 0), 7), (("F", 5), 6)) in run.pairs
+    assert Pair((("F", 4), 2), (("I", 0), 6)) not in run.pairs  # I 1.2: another input
+
+
 def test_a_complement_is_paired_as_one():
     inverted = LATCH.replace("    A I 1.2\n    = F 3.0\n", "    AN I 1.2\n    = F 3.0\n")
     run = _run(LATCH, inverted)

@@ -250,7 +250,7 @@ def test_verdicts_agree_with_every_input_sequence(program: str, props: str) -> N
 
 
 @pytest.mark.slow
-@settings(max_examples=25 * EXAMPLES, deadline=None,
+@settings(max_examples=10 * EXAMPLES, deadline=None,
           suppress_health_check=[HealthCheck.too_slow])
 @given(programs, properties())
 def test_verdicts_agree_with_every_input_sequence_long(program: str, props: str) -> None:

@@ -141,6 +141,29 @@ reachable = "FY 9 == 1"
     assert results["tautology"]["says"].startswith("proved (trivially: ")
 
 
+def test_the_reason_names_operands_as_the_verdicts_do(tmp_path: Path, runner):
+    """A property written with a symbol or with the operand reads alike in the reason:
+    ``Q 3.1 (PumpB)``, as in every other verdict line and note."""
+    props = _files(tmp_path, """
+[[property]]
+name = "tautology"
+always = "PumpB or not Q 3.1"
+[[property]]
+name = "a flag the program never writes"
+never = "Spare and F 9.4"
+""")
+    (tmp_path / "p.symbols.toml").write_text('PumpB = "Q 3.1"\nSpare = "F 9.3"\n')
+    report = prove_file(props, timeout_s=300.0)
+    reasons = {o.prop.name: o.trivially for o in report.outcomes}
+    assert reasons["tautology"] == \
+        "'Q 3.1 (PumpB) or not Q 3.1 (PumpB)' holds in every state"
+    assert reasons["a flag the program never writes"].startswith(
+        "no cycle of the program changes 'F 9.3 (Spare) and F 9.4'")
+    result = runner.invoke(main, ["prove", str(props)])
+    assert "(trivially: 'Q 3.1 (PumpB) or not Q 3.1 (PumpB)' holds in every state)" in \
+        result.stdout
+
+
 def test_a_property_over_inputs_alone_is_warned_of(tmp_path: Path, runner):
     props = _files(tmp_path, '[[property]]\nname = "inputs"\nnever = "I 1.0 and I 1.1"\n'
                    '[[property]]\nname = "outputs"\nnever = "Q 3.1 and I 1.1"\n')

@@ -304,3 +304,49 @@ def test_sonarqube_generic_coverage(project: Path):
     assert (lines[12]["branchesToCover"], lines[12]["coveredBranches"]) == ("2", "2")
     assert (lines[25]["branchesToCover"], lines[25]["coveredBranches"]) == ("4", "2")
     assert "branchesToCover" not in lines[14]
+
+
+LOOPING = """\
+[SETUP]
+1: iiii, 0
+2: oooo, 0
+
+[PROGRAM]
+        A   I 1.0
+        =   Q 2.0
+        L   KC 200          ; a loop that makes each cycle longer than an AS-i cycle
+        AN  F 0.0
+        S   C 1
+loop:   AN  F 0.0
+        CD  C 1
+        A   C 1
+        JC  = loop
+"""
+
+
+@pytest.mark.parametrize("scenario", [
+    *sorted(p.name for p in (ROOT / "demos").glob("*.scenario.toml")), "looping"])
+def test_cycles_skipped_as_repeats_count_as_if_each_had_run(
+        scenario: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch):
+    """The hit counts with the master skipping the cycles that repeat the last one (an
+    hour of the 1 h timer in a fraction of a second) are those of a master that runs
+    every cycle; a program longer than an AS-i cycle among them."""
+    from asictl.board.board import Pc2Board
+
+    if scenario == "looping":
+        (tmp_path / "loop.asi").write_text(LOOPING)
+        path = tmp_path / "loop.scenario.toml"
+        path.write_text('program = "loop.asi"\n[master]\ncycle_ms = 1\n[[step]]\nat_ms = 0\n'
+                        'set = { "I 1.0" = 1 }\n[[step]]\nat_ms = 2000\nexpect = { "Q 2.0" = 1 }\n')
+    else:
+        path = ROOT / "demos" / scenario
+
+    def covered() -> object:
+        run = simulate(prepare(None, path, duration_ms=120_000.0, allow_partial=True),
+                       coverage=True)
+        assert run.result.coverage is not None
+        return run.result.coverage.to_data()
+
+    skipping = covered()
+    monkeypatch.setattr(Pc2Board, "_unchanged", classmethod(lambda cls, runner, before: False))
+    assert covered() == skipping

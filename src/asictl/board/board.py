@@ -72,6 +72,11 @@ class Pc2Board:
     #: whether ``advance`` runs steady AS-i cycles through ``_steady_cycles`` (False:
     #: every cycle through ``_cycle``, which tests hold the steady path against)
     steady_path = True
+    #: told how many program cycles did not run because each would have repeated the
+    #: last one exactly (exact coverage counts, observe/coverage.py); while it is set, a
+    #: program that takes longer than an AS-i cycle is never taken for a repeating one,
+    #: so that each AS-i cycle skipped is one program cycle
+    repeated: Callable[[int], None] | None = None
     _cycle_period_us: int | None = None
     _pause: bool = False
 
@@ -316,6 +321,8 @@ class Pc2Board:
         skip = self._idle_cycles(now, period, end) if self._idle() else 0
         if skip:
             self._ec.count_idle_cycles(skip)
+            if self.repeated is not None and self._control.running:
+                self.repeated(skip)
         self._next_cycle_us = now + (skip + 1) * period
         return False
 
@@ -579,7 +586,11 @@ class Pc2Board:
     def _program_cycle(self) -> None:
         control, dpram = self._control, self._dpram
         runner = control.runner
-        if runner is None or (self._quiet and not dpram.stirred):
+        if runner is None:
+            return
+        if self._quiet and not dpram.stirred:
+            if self.repeated is not None:
+                self.repeated(1)
             return
         dpram.stirred = False
         probe = self._probe_wait == 0
@@ -615,7 +626,8 @@ class Pc2Board:
         duration = control.record_cycle(runner.last_cycles)
         self._program_ready_us = self._now_us + math.ceil(duration)
         if before is not None:
-            self._quiet = calls == self._firmware.calls and self._unchanged(runner, before)
+            self._quiet = calls == self._firmware.calls and self._unchanged(runner, before) \
+                and (self.repeated is None or math.ceil(duration) <= self._period())
             # A program that settles soon after a change (a blinker's toggle) is probed
             # again soon; one busy every cycle only every _PROBE_GAP cycles: a probe
             # copies and compares 32 KB.

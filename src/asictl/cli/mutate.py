@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 from collections import defaultdict
@@ -18,11 +19,15 @@ from asictl.cli.options import (
     shard_option,
     take_shard,
 )
+from asictl.diagnostics import DiagnosticError, render_text
 from asictl.errors import ExitCode, UserError
+from asictl.observe.operands import parse_operand
+from asictl.observe.symbols import load_symbols
 from asictl.quality.cache import Cache, default_directory
 from asictl.quality.mutate import PROVE_HINT, Result, Target, mutants_of, run_all, score
 from asictl.readers.shard import Shard
 from asictl.sim import SUFFIX
+from asictl.sim.engine import variables_of
 from asictl.sim.session import (
     Invalid,
     Prepared,
@@ -31,6 +36,7 @@ from asictl.sim.session import (
     prepare,
     simulate,
 )
+from asictl.source import read_source
 
 
 def _shown(path: str) -> str:
@@ -40,11 +46,31 @@ def _shown(path: str) -> str:
         return path
 
 
-def _targets(paths: tuple[Path, ...], lib: tuple[str, ...],
-             shard: Shard | None) -> list[Target]:
+def _named_by(prepared: Prepared, symbols: Path) -> Prepared:
+    """``prepared`` with the operands of its notes named by the table ``symbols`` (each
+    operand checked against its program, variables included) instead of the one beside
+    the program."""
+    assert prepared.build.image is not None
+    variables = variables_of(prepared.build.image.pmap)
+
+    def check(text: str) -> str:
+        return str(parse_operand(text, variables))
+
+    try:
+        table = load_symbols(symbols, check)
+    except DiagnosticError as exc:
+        rendered = render_text(exc.diagnostics, {str(symbols): read_source(symbols).text})
+        raise UserError(f"--symbols {symbols}: the table has errors\n{rendered.rstrip()}"
+                        ) from None
+    return dataclasses.replace(prepared, symbols=table)
+
+
+def _targets(paths: tuple[Path, ...], lib: tuple[str, ...], shard: Shard | None,
+             symbols: Path | None = None) -> list[Target]:
     """The programs the scenarios under ``paths`` test (those of ``shard``), each with its
     scenarios, in the order of their paths; every scenario must pass on the original
-    program (else no mutant can be judged)."""
+    program (else no mutant can be judged). ``symbols`` names the operands of the notes
+    (default: the table beside each program)."""
     by_program: dict[Path, list[tuple[Path, Prepared]]] = defaultdict(list)
     scenarios = find_scenarios(paths)
     if not scenarios:
@@ -55,6 +81,8 @@ def _targets(paths: tuple[Path, ...], lib: tuple[str, ...],
         except Invalid as exc:
             raise UserError(f"{scenario}: {exc.message}\n{exc.text.rstrip()}",
                             exc.exit_code) from None
+        if symbols is not None:
+            prepared = _named_by(prepared, symbols)
         by_program[prepared.program.resolve()].append((scenario, prepared))
     programs = sorted(by_program, key=lambda key: Path(_shown(str(key))))
     targets = []
@@ -113,11 +141,15 @@ def _summary(results: list[Result]) -> str:
               "scenarios, limits and asictl are unchanged from there (default: "
               "$XDG_CACHE_HOME/asictl/mutate, or ~/.cache/asictl/mutate).")
 @click.option("--no-cache", is_flag=True, help="Judge every mutant afresh and keep nothing.")
+@click.option("--symbols", type=click.Path(dir_okay=False, path_type=Path),
+              help="The symbol table that names operands in the notes of killed mutants "
+              "and survivors [default: NAME.symbols.toml beside each NAME.asi].")
 @shard_option("programs")
 @lib_option
 def mutate(paths: tuple[Path, ...], jobs: int | None, fmt: str, min_score: float | None,
            timeout_ms: float | None, prove_ms: float, cache_dir: Path | None,
-           no_cache: bool, shard: Shard | None, lib: tuple[str, ...]) -> None:
+           no_cache: bool, symbols: Path | None, shard: Shard | None,
+           lib: tuple[str, ...]) -> None:
     """Mutation testing: change each program the scenarios under PATHs test (default:
     the current directory) in one place at a time, and run its scenarios.
 
@@ -136,15 +168,19 @@ def mutate(paths: tuple[Path, ...], jobs: int | None, fmt: str, min_score: float
     Exit status: 0 done (and the score reaches --min-score), 1 below --min-score, a
     scenario fails on the unchanged program or a program has errors, 2 bad input.
 
+    Notes name operands as the program's symbol table does (NAME.symbols.toml beside
+    NAME.asi, or --symbols FILE for every program): Q 31.0 (Lamp).
+
     \b
-    Example:
+    Examples:
       asictl mutate demos/blink.scenario.toml --min-score 80
+      echo 'Lamp = "Q 31.0"' > l.toml; asictl mutate demos/blink.scenario.toml --symbols l.toml
     """
     ctx = click.get_current_context()
     if no_cache and cache_dir is not None:
         raise click.UsageError("--cache and --no-cache exclude each other")
     cache = None if no_cache else Cache(cache_dir or default_directory())
-    targets = _targets(paths, lib, shard)
+    targets = _targets(paths, lib, shard, symbols)
     order = {id(m): i for i, m in enumerate(m for t in targets for m in t.mutants)}
     finished: dict[int, Result] = {}
     shown = 0

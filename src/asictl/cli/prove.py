@@ -9,7 +9,7 @@ import click
 
 from asictl.cli.options import CycleCount, Duration, lib_option, shard_option, take_shard
 from asictl.errors import ExitCode, missing_extra
-from asictl.prove import MAX_DEPTH
+from asictl.prove import DEPTH, MAX_DEPTH
 from asictl.readers.shard import Shard
 from asictl.readers.units import Cycles, format_duration
 
@@ -92,8 +92,10 @@ def _line(outcome: object, written: Path | None, symbols: object) -> str:
 @click.argument("files", nargs=-1, type=click.Path(dir_okay=False, path_type=Path))
 @click.option("--properties", type=click.Path(dir_okay=False, path_type=Path),
               help="The properties file [default: NAME.props.toml beside NAME.asi].")
-@click.option("--depth", type=CycleCount(MAX_DEPTH), default="20", show_default=True,
-              help="Cycles the search for counterexamples and the induction go to.")
+@click.option("--depth", type=CycleCount(MAX_DEPTH),
+              help="Cycles the search for counterexamples and the induction go to "
+              f"[default: {DEPTH}]; given, it bounds the runs of held inputs too "
+              "[default: the timers' presets times the counters'].")
 @click.option("--timeout", type=Duration(limit_ms=86_400_000, positive=True), default="30s",
               show_default=True,
               help="Wall-clock time for each property, the first's from the start (30s, 5min).")
@@ -110,7 +112,7 @@ def _line(outcome: object, written: Path | None, symbols: object) -> str:
               "[default: NAME.symbols.toml beside NAME.asi].")
 @shard_option("files")
 @lib_option
-def prove(files: tuple[Path, ...], properties: Path | None, depth: Cycles, timeout: float,
+def prove(files: tuple[Path, ...], properties: Path | None, depth: Cycles | None, timeout: float,
           unroll: int, fmt: str, counterexamples: Path | None, force: bool,
           symbols: Path | None, shard: Shard | None, lib: tuple[str, ...]) -> None:
     """Prove a program's properties (NAME.props.toml) for every input sequence.

@@ -114,8 +114,11 @@ class Breakpoint:
         return _COMPARE[op](self.hits, number)
 
 
-class _Quit(Exception):
-    """Unwinds the worker when the debugger ends while the program is paused."""
+class _Quit(BaseException):
+    """Unwinds the worker when the debugger ends while the program is paused. Not an
+    ``Exception``: the board turns any ``Exception`` out of a program cycle into a stop
+    of the program (``Pc2Board.advance`` never lets one out), and the worker would then
+    wait at that stop for a command that never comes."""
 
 
 @dataclass

@@ -298,8 +298,9 @@ class _Emitter:
         return "\n".join(out)
 
     def _loops(self) -> bool:
-        """Does a jump go back to the entry (round the region's loop)?"""
-        return any(self.entry in node.targets and not node.bank_changes
+        """Does control go back to the entry (round the region's loop), by a jump or by
+        running on into it (code that ends at FFFFh goes on at 0000h)?"""
+        return any(self.entry in _successors(node) and not node.bank_changes
                    for node in self.nodes.values())
 
     def _inside(self, node: _Node, target: int | str) -> bool:

@@ -191,16 +191,17 @@ def _binding(expr: Expr) -> int:
             return _ATOM
 
 
-def show(expr: Expr) -> str:
+def show(expr: Expr, naming: Callable[[Ref], str] | None = None) -> str:
     """The expression written back, with the parentheses its structure needs (so that
-    reading it again gives the same tree)."""
+    reading it again gives the same tree); ``naming`` shows each operand (default: as
+    written)."""
     def inner(part: Expr, above: int) -> str:
-        text = show(part)
+        text = show(part, naming)
         return f"({text})" if _binding(part) <= above else text
 
     match expr:
         case Ref(text=text):
-            return text
+            return text if naming is None else naming(expr)
         case Register(name=name):
             return name
         case Number(value=value):

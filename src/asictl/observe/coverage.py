@@ -21,8 +21,9 @@ A later cycle from a state already seen runs at full speed and adds that record 
 more. A cycle that calls a firmware block (whose answers come from outside the
 machine) is always watched. Either way every cycle really
 runs, so coverage never changes a result. The master skips cycles that would repeat
-the last one exactly; a watched program is kept awake as the line hooks keep it
-(observe/hooks.py), so each hit count is the number of program cycles that ran the line.
+the last one exactly and tells how many it skipped (``Pc2Board.repeated``): each counts
+as the last one run, so each hit count is the number of program cycles that ran the line
+without the emulator running each of them.
 """
 
 from __future__ import annotations
@@ -146,11 +147,19 @@ class _Record:
     #: how many cycles ran as this one did
     count: int = 1
 
+    def add(self, other: _Record, times: int = 1) -> None:
+        """``other``'s hits, ``times`` over."""
+        self.lines.update({key: hits * times for key, hits in other.lines.items()})
+        self.branches.update({key: hits * times for key, hits in other.branches.items()})
+        self.conditions.update({key: hits * times for key, hits in other.conditions.items()})
+
 
 class Collector:
-    """Collects the coverage of ``runner``'s cycles (install with ``attach``). Without
-    ``counts`` the master still skips the cycles that would repeat the last one: what ran
-    and which outcomes were seen stay exact, the hit counts count only cycles run."""
+    """Collects the coverage of ``runner``'s cycles (install with ``attach``). The master
+    skips the cycles that would repeat the last one; with ``counts`` each one it skipped
+    counts as the last one run (``repeated``, which the board calls), so the hit counts
+    are the program cycles that ran each line; without, what ran and which outcomes were
+    seen stay exact and the hit counts count only the cycles the emulator ran."""
 
     def __init__(
         self, runner: ProgramRunner, line_map: LineMap, program: Program, *,
@@ -189,6 +198,10 @@ class Collector:
         #: what the cycles that called firmware blocks did, added up (never reused)
         self._once = _Record()
         self._watching: tuple[bytes | None, _Record] | None = None
+        #: the last cycle's record (what a cycle the master skips as a repeat did), and
+        #: the last one added to ``_once`` rather than kept
+        self._last: _Record | None = None
+        self._once_last: _Record | None = None
         self._calls = 0
 
     def _point(self, path: str, node: ast.Statement | ast.GatingLine) -> _Point:
@@ -226,18 +239,29 @@ class Collector:
         self._close()
         firmware = self.runner.firmware
         if firmware is not None and hasattr(firmware, "calls"):
-            if self.counts:
-                firmware.calls += 1  # keeps the master from skipping the next cycle
             self._calls = firmware.calls
         state = self._state(inputs)
         if state is not None:
             known = self._records.get(state)
             if known is not None:
                 known.count += 1
+                self._last = known
                 return None
         record = _Record()
         self._watching = (state, record)
         return self._tracer(record)
+
+    def repeated(self, cycles: int) -> None:
+        """``cycles`` program cycles the master did not run, each one the same as the
+        last one run (``Pc2Board.repeated``, set when ``counts`` is): they count as it."""
+        self._close()
+        last = self._last
+        if last is None:
+            return
+        if last is self._once_last:  # not kept by its state: its hits added up again
+            self._once.add(last, cycles)
+        else:
+            last.count += cycles
 
     def _state(self, inputs: bytes | bytearray | None) -> bytes | None:
         runner = self.runner
@@ -281,11 +305,11 @@ class Collector:
         firmware = self.runner.firmware
         called = firmware is not None and getattr(firmware, "calls", 0) != self._calls
         if state is None or called or len(self._records) >= MAX_RECORDS:
-            self._once.lines.update(record.lines)
-            self._once.branches.update(record.branches)
-            self._once.conditions.update(record.conditions)
+            self._once.add(record)
+            self._once_last = record
         else:
             self._records[state] = record
+        self._last = record
 
     # ------------------------------------------------------------------ the result
 

@@ -17,8 +17,10 @@ if TYPE_CHECKING:
 
 __all__ = ["Equivalence", "equivalent"]
 
-#: The most cycles a search or an induction goes to (``--depth``).
+#: The most cycles a search or an induction goes to (``--depth``), and how far they go
+#: when it is not given.
 MAX_DEPTH = 10_000
+DEPTH = 20
 
 
 def __getattr__(name: str) -> object:

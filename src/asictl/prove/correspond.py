@@ -38,7 +38,7 @@ from asictl.il.loader import Program
 from asictl.il.oracle import Interpreter, PlcState, runs_alone
 from asictl.platform.master import TICK_US
 from asictl.prove.scope import uses
-from asictl.prove.symbolic import Key, counter_high_bytes, width
+from asictl.prove.symbolic import Key, counter_high_bytes, image_cell, width
 from asictl.runtime.runner import CycleTimeout
 
 K = ast.OperandKind
@@ -50,6 +50,11 @@ CYCLES = 3000
 SECONDS = 1.0
 #: At most this many candidate pairs (a run that tells few elements apart).
 MOST = 4000
+#: How often an input is held for 1 to 5 cycles; else for as long as one of the timers
+#: runs (``_holds``). Holds drawn from anything up to the longest timer (36 s: 3,600
+#: cycles of 10 ms) left a program's one input slave unchanged through most of the run,
+#: and an element that never changes is paired only at its own place.
+SHORT = 0.75
 
 
 @dataclass(frozen=True)
@@ -62,7 +67,7 @@ class Pair:
     inverted: bool = False
 
 
-def _read(state: PlcState, cell: Key) -> int:
+def cell_value(state: PlcState, cell: Key) -> int:
     """A cell of the symbolic model (``prove/symbolic.py``) in the interpreter's state."""
     kind, n = cell[0], int(cell[-1]) if len(cell) > 1 else 0
     match kind:
@@ -88,7 +93,10 @@ def _read(state: PlcState, cell: Key) -> int:
 
 def _used(program: Program) -> set[Element]:
     """The elements a program's statements name: the bits it tests or writes, every bit
-    of a byte it loads or transfers, its timers and counters."""
+    of a byte it loads or transfers, its timers and counters. The input bits are among
+    them: a flag that keeps an input for the next cycle (an edge's memory) then pairs
+    with the input itself, which is what a network moved into the branch taken on
+    that edge needs to be proved."""
     found: set[Element] = set()
     for operand, _ in uses(program):
         n, kind = operand.address, operand.kind
@@ -103,22 +111,39 @@ def _used(program: Program) -> set[Element]:
             found.update((cell, bit) for bit in bits)
         elif kind in (K.T, K.C):
             found.add(((kind.value, n), -1))
-        elif kind in (K.Q, K.QB):
-            byte = n >> 1
-            bits = [(n & 1) * 4 + operand.bit] if kind is K.Q else list(range(8))
-            found.update((("Q", byte), bit) for bit in bits)
+        elif kind in (K.Q, K.QB, K.I, K.I2, K.IB, K.I2B):
+            cell = image_cell(kind, n)
+            bits = ([(n & 1) * 4 + operand.bit] if kind in (K.Q, K.I, K.I2)
+                    else list(range(8)))
+            found.update((cell, bit) for bit in bits)
     return found
 
 
-def _longest_cycles(programs: Iterable[Program], cycle_us: int) -> int:
-    """The longest a timer of either program runs, in program cycles (at least 10)."""
-    longest = 0
+def _holds(programs: Iterable[Program], cycle_us: int) -> list[int]:
+    """How long, in program cycles, an input may be held on a long stretch: each timer
+    time either program loads (the caller adds up to two cycles, so that the timer runs
+    out within the stretch), at most a quarter of the run, and 10 cycles."""
+    found = {10}
     for program in programs:
         for module in program.modules():
             for node in module.code():
                 if isinstance(node, ast.Load) and node.operand.kind is K.KT:
-                    longest = max(longest, node.operand.address)
-    return max(10, -(-longest * 1000 // cycle_us) + 2)
+                    found.add(min(CYCLES // 4, -(-node.operand.address * 1000 // cycle_us)))
+    return sorted(found)
+
+
+def run_cycle(machine: Interpreter, inputs: bytes, host: dict[int, int],
+              host_masks: dict[int, int], high: tuple[int, ...]) -> None:
+    """One program cycle as the master runs it: the host's writes to its flags first (the
+    bits of ``host_masks``; a mapped counter's high byte, one of ``high``, keeps only bits
+    0-3), then the program, after which the master clears bits 4-7 of those bytes."""
+    flags = machine.state.flags
+    for n, mask in host_masks.items():
+        written = host[n] & 0x0F if n in high else host[n]
+        flags[n] = flags[n] & ~mask & 0xFF | written & mask
+    machine.cycle(inputs)
+    for n in high:
+        flags[n] &= 0x0F
 
 
 @dataclass
@@ -144,7 +169,7 @@ def _run(programs: tuple[Program, Program], cells: tuple[list[Key], list[Key]],
     mapped = [counter_high_bytes(p) for p in programs]
     run = Run()
     rng = random.Random(seed)
-    longest = _longest_cycles(programs, cycle_us)
+    holds = _holds(programs, cycle_us)
     inputs = bytearray(16)
     held = dict.fromkeys(slaves, 0)
     host = dict.fromkeys(host_masks, 0)
@@ -159,22 +184,16 @@ def _run(programs: tuple[Program, Program], cells: tuple[list[Key], list[Key]],
                 shift = (address & 1) * 4
                 byte = address >> 1
                 inputs[byte] = inputs[byte] & ~(0xF << shift) | rng.randrange(16) << shift
-                held[address] = (rng.randint(1, 5) if rng.random() < 0.6
-                                 else rng.randint(1, longest))
+                held[address] = (rng.randint(1, 5) if rng.random() < SHORT
+                                 else rng.choice(holds) + rng.randint(0, 2))
         for n in host:
             if rng.random() < 0.2:
                 host[n] = rng.randrange(256)
         try:
             for machine, high, cellist, record in zip(machines, mapped, cells, run.records,
                                                       strict=True):
-                flags = machine.state.flags
-                for n, mask in host_masks.items():
-                    written = host[n] & 0x0F if n in high else host[n]
-                    flags[n] = flags[n] & ~mask & 0xFF | written & mask
-                machine.cycle(bytes(inputs))
-                for n in high:
-                    flags[n] &= 0x0F
-                record.append([_read(machine.state, cell) for cell in cellist])
+                run_cycle(machine, bytes(inputs), host, host_masks, high)
+                record.append([cell_value(machine.state, cell) for cell in cellist])
         except (CycleTimeout, KeyError, IndexError):
             # a loop the master would stop, or a cell the interpreter lacks
             del run.records[0][cycle:], run.records[1][cycle:]

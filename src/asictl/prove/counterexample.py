@@ -11,6 +11,7 @@ program reached there, so it passes.
 from __future__ import annotations
 
 import os
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -126,12 +127,8 @@ def _steps(out: ScenarioWriter, trace: list[Step], masks: dict[int, int], cycle_
            expected: list[Expectation]) -> None:
     """The steps of a trace: a ``set`` of what changed at each cycle's start and the
     ``expect`` just after the last cycle."""
-    inputs: dict[int, int] = {}
-    flags: dict[int, int] = {}
-    for index, step in enumerate(trace):
-        sets = _changes(step, inputs, flags, masks)
-        if sets:
-            out.step(index * cycle_ms, set=sets)
+    for index, sets in _changed(trace, masks):
+        out.step(index * cycle_ms, set=sets)
     out.step((len(trace) - 1) * cycle_ms + 0.001,
              expect={e.text: e.value for e in expected})
 
@@ -168,12 +165,26 @@ def _names(trace: list[Step], masks: dict[int, int], expected: list[Expectation]
            symbols: SymbolTable) -> str:
     """``I 1.0 (Start), Q 3.1 (PumpB)``: the operands the scenario sets and expects that
     the program's symbol table names."""
-    inputs: dict[int, int] = {}
-    flags: dict[int, int] = {}
-    texts = [key for step in trace for key in _changes(step, inputs, flags, masks)]
+    texts = [key for _, sets in _changed(trace, masks) for key in sets]
     texts += [e.text for e in expected]
     shown = [named(text, symbols) for text in dict.fromkeys(texts)]
     return ", ".join(text for text in shown if text.endswith(")"))
+
+
+def _changed(trace: list[Step], masks: dict[int, int]) -> Iterator[tuple[int, dict[str, str]]]:
+    """The cycles (by index) at which some input changes, and what changes there. A step
+    that is the step before it (a run of held inputs: an hour of them, say) changes
+    nothing and is passed over at once."""
+    inputs: dict[int, int] = {}
+    flags: dict[int, int] = {}
+    before: Step | None = None
+    for index, step in enumerate(trace):
+        if step is before:
+            continue
+        before = step
+        sets = _changes(step, inputs, flags, masks)
+        if sets:
+            yield index, sets
 
 
 def _changes(step: Step, inputs: dict[int, int], flags: dict[int, int],

@@ -13,9 +13,13 @@ The proof matches the two programs' states rather than unrolling them: candidate
 of elements that held the same value on a random run of both (``prove/correspond.py``),
 kept by Houdini's algorithm while their conjunction holds after the first cycle and is
 kept by one cycle of both (``Machine.find_invariants``); when that invariant makes the
-compared cells equal, the verdict is ``equivalent`` at depth 0. Otherwise k-induction on
-top of it, or PDR, may still prove it; ``different`` comes with the distinguishing input
-sequence (bounded model checking), ``unknown`` when time runs out first.
+compared cells equal, the verdict is ``equivalent`` at depth 0. Otherwise only the
+compared cells it leaves open are searched further, over their cone alone
+(``Machine.unsettled``: a difference behind a timer in one part of two long programs is
+looked for in that part): k-induction on top of the invariant, or PDR, may still prove
+them equal; ``different`` comes with the distinguishing input sequence (bounded model
+checking, beside it steps of idle cycles that cross a running timer in one step,
+``prove/jump.py``), ``unknown`` when time runs out first.
 """
 
 from __future__ import annotations
@@ -196,9 +200,13 @@ def _equivalent(first: Program, second: Program, start: float, *, timeout_s: flo
                   (("b", *pair.second[0]), pair.second[1]), pair.inverted)
              for pair in run.pairs]
     machine = Machine(first, Setup(bus, cycle_us, tuple(host), phase), [], [], prebuilt=both,
-                      observed=pairs, twins=twins, deadline=deadline)
+                      observed=pairs, twins=twins, second=second, deadline=deadline)
     if not run.differences:
         machine.find_invariants(deadline)
+        machine.observed = machine.unsettled(deadline)
+        if not machine.observed:  # the invariant makes every compared cell equal
+            return Equivalence("equivalent", 0, time.monotonic() - start, slaves=bus,
+                               cycle_ms=cycle_us / 1000, host_masks=both.host_masks)
     outcome: Outcome = machine.decide(same, depth=depth, timeout_s=timeout_s, since=start)
     if run.differences and outcome.verdict is not Verdict.REFUTED:
         return seen()  # the search ran out of time: what the run saw still stands

@@ -43,6 +43,7 @@ import z3
 from asictl.il import ast
 from asictl.il.language import TC_MAX_VALUE
 from asictl.il.loader import Program
+from asictl.il.oracle import runs_alone
 from asictl.observe.condition import (
     Comparison,
     Connective,
@@ -59,8 +60,10 @@ from asictl.observe.condition import (
 )
 from asictl.platform.master import TICK_US
 from asictl.prove.correspond import Pair
-from asictl.prove.jump import idle
+from asictl.prove.falsify import Bit, Goal, falsify
+from asictl.prove.jump import MOST, idle
 from asictl.prove.props import Kind, Property
+from asictl.prove.scope import uses
 from asictl.prove.symbolic import (
     CONSTANT,
     TICK,
@@ -83,6 +86,13 @@ JUMP_BUDGET_S = 2.0
 #: How many cycles further than a failure found with steps of idle cycles the plain
 #: search looks for a shorter one.
 SHORTER_CYCLES = 8
+#: CPU seconds a property's search takes without a verdict before the concrete runs
+#: (``prove/falsify.py``) are first tried, and the least seconds they are given. They
+#: are tried again, from the start, each time the search has taken four times the CPU
+#: time it had when they were last tried, each time for a quarter of that: so they take
+#: about a fifth of a property's time at most, and little of one decided in seconds.
+FALSIFY_AFTER_CPU_S = 0.5
+FALSIFY_S = 0.25
 
 
 class Verdict(StrEnum):
@@ -453,6 +463,8 @@ class Machine:
     #: for two programs compared: elements that may always be equal, one of each
     #: program (``prove/correspond.py``), the cells under their side ("a", "b")
     twins: list[Pair] = field(default_factory=list)
+    #: for two programs compared: the second (``program`` is the first)
+    second: Program | None = None
     #: proved facts about every reachable state, as functions of a state, with their cells
     invariants: list[tuple[Fact, frozenset[Key]]] = field(default_factory=list)
     invariant_names: list[str] = field(default_factory=list)
@@ -466,6 +478,9 @@ class Machine:
     label: Callable[[str], str] = str
     #: when (time.monotonic) building the model must be done: past it, ``TimeLimit``
     deadline: float | None = None
+    #: whether a counterexample or witness found by concrete runs replays in the
+    #: simulator as it should (None: no simulator, so no concrete runs)
+    replay: Callable[[Outcome], bool] | None = None
 
     def __post_init__(self) -> None:
         self.map_counters = self.program.options.map_counters
@@ -644,6 +659,25 @@ class Machine:
         self.invariants = [(fact, cells) for _, fact, cells in remaining]
         self.invariant_names = [name for name, _, _ in remaining]
 
+    def unsettled(self, deadline: float) -> list[tuple[Key, Key]]:
+        """The compared pairs the invariants proved so far do not make equal. Only they
+        can differ in a reachable state, so only their cone needs following: a
+        difference behind a timer in one part of two long programs is searched for over
+        that part alone. Out of time, all of them."""
+        solver = z3.SolverFor("QF_BV")
+        path = _Path(self, solver, "u.", initial=False)
+        self._strengthen(path, 0, self.invariants)
+        state = path.states[0]
+        found = []
+        for a, b in self.observed:
+            solver.set("timeout", _ms_until(deadline))
+            result = solver.check(state[a] != state[b])
+            if result == z3.sat:
+                found.append((a, b))
+            elif result != z3.unsat:
+                return list(self.observed)
+        return found
+
     def houdini(self, candidates: list[Candidate], deadline: float) -> list[Candidate]:
         """Houdini: drop every candidate a reachable state (the first one) or a step from
         states satisfying all remaining candidates (and the invariants already proved)
@@ -704,9 +738,10 @@ class Machine:
     # -------------------------------------------------------------- deciding
 
     def decide(self, prop: Property, *, depth: int, timeout_s: float,
-               since: float | None = None) -> Outcome:
+               since: float | None = None, horizon: int | None = None) -> Outcome:
         """One property's verdict within ``timeout_s`` from ``since`` (time.monotonic;
-        default now: a command's first property counts the model's building too)."""
+        default now: a command's first property counts the model's building too);
+        ``horizon``: how many cycles the concrete runs go to (default: ``horizon``)."""
         start = time.monotonic()
         origin = start if since is None else since
         deadline = origin + timeout_s
@@ -730,6 +765,9 @@ class Machine:
         # as they can be much harder; the first out of its budget ends them
         jumping = self._base_path("j.", jumps=True) if self.jumps_possible(prop) else None
         steps = 0  # the steps of idle cycles searched
+        # the concrete runs (prove/falsify.py): when the search has taken some CPU time
+        # without a verdict, again after four times that, and at its end
+        cpu, tried, falsify_at = time.process_time(), False, FALSIFY_AFTER_CPU_S
 
         # a failure found with steps of idle cycles, kept while the plain search looks a
         # few cycles further for a shorter one (a step may stand for more cycles than
@@ -780,8 +818,22 @@ class Machine:
                     steps = k + 1
                 else:
                     jumping = None
+            used = time.process_time() - cpu
+            if used >= falsify_at:  # not decided quickly: perhaps a failure far behind
+                tried, falsify_at = True, 4 * used
+                ran = self.falsify(prop, searched=k + 1, depth=depth, horizon=horizon,
+                                   start=start, deadline=min(deadline, time.monotonic()
+                                                             + max(FALSIFY_S, used / 4)))
+                if ran is not None:
+                    return ran
         if pending is not None:
             return pending[0]
+        if not tried:
+            ran = self.falsify(prop, searched=depth + 1, depth=depth, horizon=horizon,
+                               start=start, deadline=min(deadline, time.monotonic() + max(
+                                   FALSIFY_S, (deadline - time.monotonic()) / 3)))
+            if ran is not None:
+                return ran
         if self._pdr(prop, deadline, facts) is True:
             verdict = Verdict.UNREACHABLE if reach else Verdict.PROVED
             return Outcome(prop, verdict, depth, time.monotonic() - start,
@@ -846,6 +898,104 @@ class Machine:
         trace = self._trace(path, model, k)
         return Outcome(prop, verdict, len(trace) - 1, time.monotonic() - start, trace,
                        note, self._values(prop, path, model, k), phase_us=phase)
+
+    def span(self) -> int:
+        """How long, in cycles, what the current property depends on can take to play
+        out: the presets of its timers (their sum, each with the cycle that starts it and
+        the one that sees it end) times the largest counter preset the program loads (a
+        counter that counts the runs of a timer)."""
+        assert self.scope is not None
+        cycle_us = self.setup.cycle_us
+        timers = sum(-(-ms * 1000 // cycle_us) + 2 for n, ms in self.presets().items()
+                     if ("T", n) in self.scope)
+        counts = max(self._loaded(K.KC), default=0) if any(
+            isinstance(node, ast.Count) or (isinstance(node, ast.Store)
+                                            and node.operand.kind is K.C)
+            for module in self.program.modules() for node in module.code()) else 0
+        return timers * (counts + 1)
+
+    def _cone_inputs(self) -> list[Bit]:
+        """The input bits the current property depends on: each bit the program reads of
+        a slave whose inputs reach the property's cells, and each host-written bit that
+        does."""
+        assert self.scope is not None
+        names = {var.decl().name(): name for name, var in self.cycle.inputs.items()}
+        used = {names[c.decl().name()] for cell in self.scope if cell in self.cycle.post
+                for c in _constants(self.cycle.post[cell]) if c.decl().name() in names}
+        read: set[tuple[int, int]] = set()
+        for operand, _ in uses(self.program):
+            if operand.kind in (K.I, K.I2):
+                read.add((operand.address, operand.bit))
+            elif operand.kind in (K.IB, K.I2B):
+                first = operand.address & ~1
+                read.update((a, b) for a in (first, first + 1) for b in range(4))
+        bits: list[Bit] = [("in", a, b) for a, b in sorted(read) if f"in.{a}" in used]
+        bits += [("host", n, b) for n, mask in sorted(self.cycle.host_masks.items())
+                 if f"host.{n}" in used for b in range(8) if mask >> b & 1]
+        return bits
+
+    def goal(self, prop: Property, horizon: int) -> Goal:
+        """What runs of held inputs of the current property (its cone, ``scope``) look
+        for, up to ``horizon`` cycles, on the simulator's phase of the clock."""
+        assert self.scope is not None and self.setup.phase_us is not None
+        exprs = [*self.assume, prop.expr] + ([prop.then] if prop.then is not None else [])
+        words = any(ref.operand.node.kind is K.T and ref.operand.node.width is not
+                    ast.Width.BIT for expr in exprs for ref in refs(expr)) or any(
+            isinstance(node, ast.Load) and node.operand.kind is K.T
+            for module in self.program.modules() for node in module.code())
+        return Goal(prop, self.assume, self._cone_inputs(), self.cycle.slaves,
+                    self.cycle.host_masks, self.setup.cycle_us, self.setup.phase_us,
+                    self.window(prop) if prop.kind is Kind.RESPONSE else 0, horizon,
+                    jumps=not words)
+
+    def falsify(self, prop: Property, *, searched: int, depth: int, horizon: int | None,
+                start: float, deadline: float) -> Outcome | None:
+        """A counterexample (witness) found by running the program on input sequences of
+        few changes (``prove/falsify.py``) by ``deadline`` (time.monotonic), replayed in
+        the simulator before it is told (``replay``); None
+        when none is found, or the runs cannot be made (no simulator to replay them, two
+        programs compared, firmware blocks the run cannot answer). They go to
+        ``horizon`` cycles (``--depth`` given), else to ``span`` cycles past ``depth``,
+        and only if that is beyond what the search of every input sequence covers: the
+        ``searched`` cycles it did, and ``depth`` for the span."""
+        if (self.replay is None or self.observed or self.twins
+                or self.setup.phase_us is None or not runs_alone(self.program)):
+            return None
+        self.current = prop
+        self.scope = self.cone(prop)
+        reach = horizon
+        if reach is None:  # beyond the depth the search of every input sequence goes to
+            span = self.span()
+            if span <= depth:
+                return None
+            reach = min(MOST, span + depth)
+        if reach <= searched:
+            return None
+        goal = self.goal(prop, reach)
+        found = falsify(self.program, goal, deadline)
+        if found is None:
+            return None
+        trace: list[Step] = []
+        for inputs, host in found.inputs:
+            if not trace or trace[-1].inputs is not inputs:
+                trace.append(Step(inputs, host))
+            else:
+                trace.append(trace[-1])
+        changes = f"{found.changes} change{'s' if found.changes != 1 else ''}"
+        note = (f"found by running the program on input sequences of few changes, each "
+                f"held, up to {reach:,} cycles ({changes} here): not necessarily the "
+                f"shortest; the search of every input sequence found none within "
+                f"{searched:,} cycles")
+        verdict = Verdict.REACHED if prop.kind is Kind.REACHABLE else Verdict.REFUTED
+        outcome = Outcome(prop, verdict, len(trace) - 1, 0.0, trace, note,
+                          {ref.text: found.read(ref.operand) for expr in [prop.expr] + (
+                              [prop.then] if prop.then is not None else [])
+                           for ref in refs(expr)},
+                          phase_us=self.setup.phase_us if TICK in self.scope else None)
+        if not self.replay(outcome):
+            return None
+        outcome.seconds = time.monotonic() - start
+        return outcome
 
     def presets(self) -> dict[int, int]:
         """Timer -> the longest time (ms, in whole ticks) a ``S T n`` starts it with: the
@@ -919,22 +1069,25 @@ class Machine:
             return lambda operand: operand_value(operand, cells.__getitem__,
                                                  self.map_counters)
 
+        def written(expr: Expr) -> str:  # each operand named as the verdicts name it
+            return show(expr, lambda ref: self.label(str(ref.operand)))
+
         before = read(cycle.pre)
         solver = z3.Solver()
         solver.set("timeout", 2000)
         says = "every state" if wanted else "no state"
         if solver.check(condition(decides, before) != wanted) == z3.unsat:
-            return f"'{show(decides)}' holds in {says}"
+            return f"'{written(decides)}' holds in {says}"
         solver.add(*(condition(a, before) for a in self.assume))
         if solver.check(condition(decides, before) != wanted) == z3.unsat:
-            return f"'{show(decides)}' holds in {says} [assume] allows"
+            return f"'{written(decides)}' holds in {says} [assume] allows"
         if prop.kind is Kind.RESPONSE:
             return ""
         after = read(cycle.post)
         solver.add(*(condition(a, after) for a in self.assume))
         if solver.check(condition(prop.expr, before) != condition(prop.expr, after)) \
                 == z3.unsat:
-            return (f"no cycle of the program changes '{show(prop.expr)}', so it is as "
+            return (f"no cycle of the program changes '{written(prop.expr)}', so it is as "
                     "after the reset")
         return ""
 
@@ -1027,17 +1180,22 @@ class Machine:
 
     def jumps_possible(self, prop: Property) -> bool:
         """Whether a step of the search may stand for many idle cycles (``prove/jump.py``):
-        the program reads the timers it depends on only as bits (never ``L T n``), no
-        assumption or
-        property reads a timer's word (``TV n``), and one program is decided (``diff``
-        compares every word)."""
-        if self.observed or self.twins or not any(
-                self.scope is None or ("T", n) in self.scope for n in self.cycle.timers):
+        a timer the property depends on is followed, the program (both, when two are
+        compared) reads those timers only as bits (never ``L T n``), and nothing judged
+        reads a timer's word (an assumption's or the property's ``TV n``, a compared
+        timer)."""
+        timers = {cell for cell in self.cycle.stored
+                  if self.scope is None or cell in self.scope}
+        if not timers:
             return False  # (no timer the property depends on: no idle cycles to jump)
+        sides = ([((), self.program)] if self.second is None
+                 else [(("a",), self.program), (("b",), self.second)])
         if any(isinstance(node, ast.Load) and node.operand.kind is K.T
-               and (self.scope is None or ("T", node.operand.address) in self.scope)
-               for module in self.program.modules() for section in module.sections
-               for node in ast.nodes(section)):
+               and (*side, "T", node.operand.address) in timers
+               for side, program in sides for module in program.modules()
+               for section in module.sections for node in ast.nodes(section)):
+            return False
+        if any(cell in timers for pair in self.observed for cell in pair):
             return False
         exprs = [*self.assume, prop.expr] + ([prop.then] if prop.then is not None else [])
         return not any(ref.operand.node.kind is K.T

@@ -19,7 +19,8 @@ fewer ticks by the ticks of N cycles, and the clock's phase has moved on by N cy
 times. A step of N = 1 is an ordinary cycle, so the steps searched cover every run the
 plain search covers and more; a step of N > 1 is a real run of N cycles, and the
 counterexample repeats the step's inputs N times (``engine._Path.cycles``), so
-``asictl sim`` replays it cycle by cycle.
+``asictl sim`` replays it cycle by cycle. Two programs compared side by side
+(``symbolic.product``) are idle when both are: the timers are those of both.
 
 A property is judged after each step: during an idle stretch no operand it may read (no
 timer's word) changes, and a response's wait only grows, so a bad state within the
@@ -38,18 +39,19 @@ from asictl.prove.timers import WIDE, wide
 MOST = 1 << 24
 
 def idle(cycles: z3.BitVecRef, before: dict[Key, z3.BitVecRef], after: dict[Key, z3.ExprRef],
-         stored: dict[int, z3.BoolRef], cycle_us: int, tag: str) -> tuple[
+         stored: dict[Key, z3.BoolRef], cycle_us: int, tag: str) -> tuple[
              dict[Key, z3.ExprRef], list[z3.BoolRef]]:
     """The state after a step of ``cycles`` cycles (32 bits, at least 1) with the inputs
     held, from ``before``, where ``after`` is the state after one cycle and ``stored``
-    says which timers that cycle stores into (terms over ``before`` and the inputs);
-    and the constraints that make a step of more than one cycle idle."""
+    says, for each timer's cell followed, whether that cycle stores into it (terms over
+    ``before`` and the inputs); and the constraints that make a step of more than one
+    cycle idle."""
     jump = z3.UGT(cycles, 1)
     rules: list[z3.BoolRef] = [z3.UGE(cycles, 1), z3.ULE(cycles, MOST)]
     ticks = z3.BitVec(f"{tag}ticks", WIDE)
     result = dict(after)
     for cell, term in after.items():
-        if cell[0] != "T" and cell != TICK:
+        if cell not in stored and cell != TICK:
             rules.append(z3.Implies(jump, term == before[cell]))
     if TICK in before:
         phase = wide(before[TICK])
@@ -65,10 +67,10 @@ def idle(cycles: z3.BitVecRef, before: dict[Key, z3.BitVecRef], after: dict[Key,
     whole, rest = divmod(cycle_us, TICK_US)
     most = whole + (1 if rest else 0)  # ticks in one cycle
     for cell, term in after.items():
-        if cell[0] != "T":
+        if cell not in stored:
             continue
         held = before[cell]
-        store = stored[int(cell[1])]
+        store = stored[cell]
         rules.append(z3.Implies(jump, z3.If(
             store, z3.And(term == held, z3.Or(held == 0, z3.UGT(held, most))),
             z3.Or(held == 0, z3.UGT(wide(held), ticks)))))

@@ -20,7 +20,7 @@ from asictl.observe.names import named
 from asictl.observe.operands import parse_operand
 from asictl.observe.symbols import SymbolTable, load_symbols, symbols_for
 from asictl.platform.master import TICK_US, asi_cycle_us
-from asictl.prove import MAX_DEPTH
+from asictl.prove import DEPTH, MAX_DEPTH
 from asictl.prove.counterexample import MARK, expectations, file_name, scenario_text
 from asictl.prove.engine import Machine, Outcome, Setup, Verdict
 from asictl.prove.props import Properties, program_for, read_properties
@@ -28,8 +28,8 @@ from asictl.prove.scope import Scope
 from asictl.prove.symbolic import UNROLL, TimeLimit, Unmodelled
 from asictl.readers.units import Cycles, UnitError, format_duration
 from asictl.sim.engine import Simulation, variables_of
-from asictl.sim.scenario import Scenario, SlaveSpec, scenario_program
-from asictl.source import read_source
+from asictl.sim.scenario import Scenario, SlaveSpec, read_scenario, scenario_program
+from asictl.source import SourceText, read_source
 
 
 class Invalid(Exception):
@@ -137,6 +137,22 @@ def simulator_phase(built: Build, cycle_us: int,
     return phase if 1 <= phase <= TICK_US else None
 
 
+def replays(built: Build, scenario: SourceText, witness: bool,
+            symbols: SymbolTable) -> bool:
+    """Whether a counterexample's scenario fails in the simulator at its last step only
+    (a witness's passes), as ``asictl sim`` of the written file will."""
+    assert built.image is not None
+    try:
+        read = read_scenario(scenario, variables_of(built.image.pmap), symbols)
+    except DiagnosticError:
+        return False
+    result = Simulation(built, read).run()
+    if witness:
+        return result.passed
+    last = max(step.at_ms for step in read.steps)
+    return bool(result.failures) and {f.at_ms for f in result.failures} == {last}
+
+
 def cycles_of(depth: int | Cycles, cycle_ms: float) -> int:
     """``depth`` in cycles of ``cycle_ms``; more than ``MAX_DEPTH`` is a ``UserError``."""
     if isinstance(depth, int):
@@ -148,20 +164,33 @@ def cycles_of(depth: int | Cycles, cycle_ms: float) -> int:
 
 
 def prove(properties: Path, *, program: Path | None = None, lib: tuple[str, ...] = (),
-          depth: int | Cycles = 20, timeout_s: float = 30.0, out_dir: Path | None = None,
-          force: bool = False, unroll: int = UNROLL, symbols: Path | None = None) -> Report:
+          depth: int | Cycles | None = None, timeout_s: float = 30.0,
+          out_dir: Path | None = None, force: bool = False, unroll: int = UNROLL,
+          symbols: Path | None = None) -> Report:
     """Decide every property of a properties file; write what was found as scenarios.
-    ``depth`` is cycles, or a time the program's cycle time turns into cycles;
+    ``depth`` is cycles, or a time the program's cycle time turns into cycles (default
+    ``DEPTH``; given, it bounds the concrete runs too, ``prove/falsify.py``);
     ``symbols`` a symbol table other than the one beside the program."""
     start = time.monotonic()
     props, program_path, built = load(properties, program, lib, symbols)
     setup, cycle_ms = setup_of(props, built)
-    depth = cycles_of(depth, cycle_ms)
+    horizon = None if depth is None else cycles_of(depth, cycle_ms)
+    depth = DEPTH if horizon is None else horizon
     assert built.program is not None
+    directory = out_dir if out_dir is not None else properties.parent
+
+    def replay(outcome: Outcome) -> bool:
+        target = directory / file_name(properties, outcome.prop)
+        text = scenario_text(props, program_path, target, outcome.prop, outcome,
+                             machine.cycle.host_masks, cycle_ms,
+                             expectations(outcome.prop, outcome, outcome.values))
+        return replays(built, SourceText(str(target), text, text.encode()),
+                       outcome.verdict is Verdict.REACHED, props.symbols)
+
     try:  # the limit holds from the start: reading and building the model count
         machine = Machine(built.program, setup, props.assume, props.properties,
                           unroll=unroll, label=lambda text: named(text, props.symbols),
-                          deadline=start + timeout_s)
+                          deadline=start + timeout_s, replay=replay)
     except Unmodelled as exc:
         raise Invalid(render_text(
             [Diagnostic(Severity.ERROR, ScenarioCode.UNMODELLED, str(exc), exc.span)],
@@ -176,11 +205,10 @@ def prove(properties: Path, *, program: Path | None = None, lib: tuple[str, ...]
                     symbols=props.symbols)
     if props.warnings:
         report.warnings = render_text(props.warnings, _texts(properties))
-    directory = out_dir if out_dir is not None else properties.parent
     pending: list[tuple[Path, str, str]] = []
     for number, prop in enumerate(props.properties):
         outcome = machine.decide(prop, depth=depth, timeout_s=timeout_s,
-                                 since=start if number == 0 else None)
+                                 since=start if number == 0 else None, horizon=horizon)
         report.outcomes.append(outcome)
         if outcome.trace is not None and outcome.verdict in (Verdict.REFUTED,
                                                              Verdict.REACHED):

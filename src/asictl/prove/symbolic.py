@@ -131,9 +131,10 @@ class Cycle:
     timers: tuple[int, ...]
     #: the slaves on the bus (their inputs are free)
     slaves: tuple[int, ...]
-    #: timer -> true when the cycle stores into it (``S``, ``R``, ``T T n``, whether the
-    #: store changes it or not): a timer not stored into only counts down
-    stored: dict[int, z3.BoolRef] = field(default_factory=dict)
+    #: each timer's cell (``("T", n)``, or under its side in ``product``) -> true when
+    #: the cycle stores into it (``S``, ``R``, ``T T n``, whether the store changes it or
+    #: not): a timer not stored into only counts down
+    stored: dict[Key, z3.BoolRef] = field(default_factory=dict)
 
     @property
     def cells(self) -> list[Key]:
@@ -668,7 +669,8 @@ def build_cycle(
     for n in mapped:  # and what the program left there, after every cycle
         if ("F", n) in end.values:
             end.values[("F", n)] = end.values[("F", n)] & 0x0F
-    stored = {n: z3.simplify(end.values.pop(_stored(n)) != 0) for n in timers}
+    stored: dict[Key, z3.BoolRef] = {
+        ("T", n): z3.simplify(end.values.pop(_stored(n)) != 0) for n in timers}
     for cell in watch:
         builder.get(end, cell)
     for cell in list(builder.pre):
@@ -759,7 +761,10 @@ def product(first: Cycle, second: Cycle) -> Cycle:
 
     pre: dict[Key, z3.BitVecRef] = {}
     post: dict[Key, z3.BitVecRef] = {}
+    stored: dict[Key, z3.BoolRef] = {}
     for side, cycle in zip(SIDES, (first, second), strict=True):
+        for cell, mark in cycle.stored.items():
+            stored[(side, *cell)] = moved(mark) if side == "b" else mark
         for cell, var in cycle.pre.items():
             if cell == TICK:
                 assert clock is not None
@@ -773,4 +778,4 @@ def product(first: Cycle, second: Cycle) -> Cycle:
         masks[n] = masks.get(n, 0) | mask
     return Cycle(pre, post, shared, masks, z3.Or(first.overrun, moved(second.overrun)),
                  [*first.loops, *second.loops], first.cycle_us, (),
-                 tuple(sorted({*first.slaves, *second.slaves})))
+                 tuple(sorted({*first.slaves, *second.slaves})), stored)

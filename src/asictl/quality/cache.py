@@ -36,6 +36,7 @@ from typing import Any
 from asictl import __version__
 from asictl.errors import UserError
 from asictl.files import write_atomic
+from asictl.observe.symbols import SymbolTable
 from asictl.source import symbols_path
 
 #: What a cache file says it is, and the version of its layout.
@@ -76,8 +77,9 @@ def _text(path: Path) -> bytes:
 
 
 def target_key(program: Path, texts: dict[str, str], scenarios: Iterable[Path],
-               settings: object) -> str:
-    """The key of one program's results: everything its verdicts depend on."""
+               settings: object, names: SymbolTable | None = None) -> str:
+    """The key of one program's results: everything its verdicts depend on (``names``:
+    the table that names the operands of their notes, ``mutate --symbols``)."""
     digest = hashlib.sha256()
 
     def part(data: str | bytes) -> None:
@@ -92,6 +94,7 @@ def target_key(program: Path, texts: dict[str, str], scenarios: Iterable[Path],
         part(text)
     symbols = symbols_path(program)
     part(_text(symbols) if symbols.is_file() else b"")
+    part(repr(sorted(names.entries.items())) if names is not None else "")
     for scenario in scenarios:
         part(str(scenario.resolve()))
         part(_text(scenario))

@@ -278,7 +278,8 @@ def _keeping(cache: Cache, targets: list[Target], settings: object,
     for number, target in enumerate(targets):
         texts = target.scenarios[0].build.texts
         key = target_key(target.program, texts, [Path(p.scenario.file) for p in
-                                                 target.scenarios], settings)
+                                                 target.scenarios], settings,
+                         target.scenarios[0].symbols)
         keys.append(key)
         target.kept = cache.load(target.program, key)
         pending.append(len(target.mutants))

@@ -15,8 +15,8 @@ from asictl.sim.result import SimResult
 
 
 class CoverageWatch(Observer):
-    """The coverage of ``program`` on ``board``; ``counts``: exact hit counts (every cycle
-    run, none skipped as a repeat of the last)."""
+    """The coverage of ``program`` on ``board``; ``counts``: exact hit counts (the cycles
+    the board skips as repeats of the last one counted as that one)."""
 
     def __init__(self, board: Pc2Board, line_map: LineMap, program: Program, *,
                  counts: bool) -> None:
@@ -48,4 +48,6 @@ class CoverageWatch(Observer):
             return
         collector = Collector(runner, self._line_map, self._program, counts=self._counts)
         collector.attach()
+        if self._counts:
+            self._board.repeated = collector.repeated
         self._collectors.append(collector)
