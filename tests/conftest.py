@@ -21,6 +21,14 @@ pytest_plugins = ["pytester"]
 collect_ignore_glob = ["scenarios/*.scenario.toml"]
 
 
+def pytest_configure(config: pytest.Config) -> None:
+    """With pytest-xdist's workers (``-n auto``), tests are handed out by work stealing
+    rather than in fixed shares: a worker that is done takes over the queue of one that
+    is not, so a long test near the end does not leave the other worker idle."""
+    if getattr(config.option, "dist", None) == "load":
+        config.option.dist = "worksteal"
+
+
 @pytest.fixture(autouse=True)
 def _own_cache(request: pytest.FixtureRequest, monkeypatch: pytest.MonkeyPatch,
                tmp_path_factory: pytest.TempPathFactory) -> None:
