@@ -17,6 +17,7 @@ import pytest
 from monitor_harness import PROGRAM, cli, live, settle
 
 from asictl.host.connection import MasterAddress
+from asictl.host.live.client import open_live
 from asictl.monitor.app import MonitorApp
 from asictl.monitor.source import MonitorSource
 
@@ -177,6 +178,11 @@ def test_other_clients_changes_are_logged_with_their_names_and_their_reads_never
     async def check(app, pilot):
         pid = await asyncio.to_thread(asictl_process, board, "force", "Lamp=1")
         await asyncio.to_thread(asictl_process, board, "status")
+        holder = open_live(board, 0x300)
+        assert holder is not None
+        with holder.session("a long command"):  # the monitor's refreshes wait meanwhile
+            await asyncio.sleep(1.5)
+        holder.close()
         await settle(app, pilot, 3)
         log = log_text(app)
         assert log.count(f"FORCE Q 17.3 (Lamp)=1 by asictl force (pid {pid})") == 1, log

@@ -63,6 +63,10 @@ NO_LINES_GATEWAY = (
 )
 
 
+def _unheard(text: str) -> None:
+    """Where a refresh's waits go."""
+
+
 @dataclass(frozen=True)
 class Snapshot:
     """One refresh: the status, or why there is none."""
@@ -121,9 +125,11 @@ class MonitorSource:
                             took_over=self._took_over, events=tuple(events))
 
     def _read(self, events: list[str]) -> Snapshot:
-        """One refresh; ``NotServed`` if nobody keeps the emulated board running."""
+        """One refresh; ``NotServed`` if nobody keeps the emulated board running. A wait
+        for the board (another client holds it) is no event: the next refresh comes
+        anyway, and the log would fill with them while a recorder or a debugger works."""
         with open_board(
-            self.address, notify=self.notify, live_only=self.emulated_port
+            self.address, notify=_unheard, live_only=self.emulated_port
         ) as master:
             emulated = master.action is not None
             served = master.action.live if master.action is not None else None
