@@ -612,10 +612,22 @@ def test_a_damaged_or_foreign_cache_file_is_ignored(two_programs: Path, damage: 
     assert _cached_run("--cache", str(cache))["from_cache"] > 0
 
 
+def test_the_cache_lives_where_asictl_s_other_caches_do(monkeypatch: pytest.MonkeyPatch,
+                                                       tmp_path: Path):
+    """``$XDG_CACHE_HOME/asictl/mutate``; a relative XDG_CACHE_HOME is ignored, as the
+    XDG specification says, rather than filling the current folder."""
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
+    assert default_directory() == tmp_path / "asictl" / "mutate"
+    monkeypatch.setenv("XDG_CACHE_HOME", "relative")
+    monkeypatch.setenv("HOME", str(tmp_path / "home"))
+    assert default_directory() == tmp_path / "home" / ".cache" / "asictl" / "mutate"
+
+
 def test_no_cache_neither_reads_nor_writes(two_programs: Path):
     cache = two_programs / "cache"
     assert _cached_run("--no-cache")["from_cache"] == 0
-    assert not default_directory().exists()
+    directory = default_directory()
+    assert directory is not None and not directory.exists()
     _cached_run("--cache", str(cache))
     assert _cached_run("--no-cache")["from_cache"] == 0
     result = CliRunner().invoke(main, ["mutate", "src", "--cache", str(cache), "--no-cache"])

@@ -63,20 +63,30 @@ def write_stdout(data: str | bytes) -> None:
         raise UserError(f"standard output: cannot write: {exc.strerror or exc}") from None
 
 
-def cache_directory() -> Path | None:
-    """asictl's own cache directory, ``$XDG_CACHE_HOME/asictl`` (else ``~/.cache/asictl``),
-    made owner-only when new; None where there is none to be had, or where it is not
-    this user's alone (owned by another, or writable by group or others).
-
-    Private, never the shared temporary directory: the caches in it are pickles, and
-    loading one planted by another user would run their code.
-    """
+def cache_home() -> Path | None:
+    """Where asictl's caches live, named, not made: ``$XDG_CACHE_HOME/asictl`` (a relative
+    one is ignored, as the XDG base directory specification says), else
+    ``~/.cache/asictl``; None without a home directory. Beside no program, so that no
+    source folder fills with files of asictl's."""
     base = os.environ.get("XDG_CACHE_HOME", "")
     if not os.path.isabs(base):
         base = os.path.join(os.path.expanduser("~"), ".cache")
     if not os.path.isabs(base):  # no home directory
         return None
-    directory = Path(base, "asictl")
+    return Path(base, "asictl")
+
+
+def cache_directory() -> Path | None:
+    """asictl's own cache directory (``cache_home``), made owner-only when new; None where
+    there is none to be had, or where it is not this user's alone (owned by another, or
+    writable by group or others).
+
+    Private, never the shared temporary directory: the caches in it are pickles, and
+    loading one planted by another user would run their code.
+    """
+    directory = cache_home()
+    if directory is None:
+        return None
     try:
         directory.mkdir(mode=0o700, parents=True, exist_ok=True)
         status = directory.stat()

@@ -179,7 +179,8 @@ def mutate(paths: tuple[Path, ...], jobs: int | None, fmt: str, min_score: float
     ctx = click.get_current_context()
     if no_cache and cache_dir is not None:
         raise click.UsageError("--cache and --no-cache exclude each other")
-    cache = None if no_cache else Cache(cache_dir or default_directory())
+    directory = cache_dir or default_directory()
+    cache = None if no_cache or directory is None else Cache(directory)
     targets = _targets(paths, lib, shard, symbols)
     order = {id(m): i for i, m in enumerate(m for t in targets for m in t.mutants)}
     finished: dict[int, Result] = {}

@@ -35,7 +35,7 @@ from typing import Any
 
 from asictl import __version__
 from asictl.errors import UserError
-from asictl.files import write_atomic
+from asictl.files import cache_home, write_atomic
 from asictl.observe.symbols import SymbolTable
 from asictl.source import symbols_path
 
@@ -50,11 +50,10 @@ INTERNAL = "internal error: "
 LARGEST_BYTES = 16 * 1024 * 1024
 
 
-def default_directory() -> Path:
-    """``$XDG_CACHE_HOME/asictl/mutate``, or ``~/.cache/asictl/mutate``: beside no
-    program, so that no source folder fills with files of asictl's."""
-    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
-    return Path(base) / "asictl" / "mutate"
+def default_directory() -> Path | None:
+    """``mutate`` in asictl's cache folder (``files.cache_home``); None without one."""
+    home = cache_home()
+    return None if home is None else home / "mutate"
 
 
 @functools.cache
