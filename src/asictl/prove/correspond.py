@@ -204,14 +204,17 @@ def _run(programs: tuple[Program, Program], cells: tuple[list[Key], list[Key]],
         run.differed = [(i, j) for i, j in compared if first[i] != second[j]]
         if run.differed:
             break
-        until_tick -= cycle_us
-        ticks = 0
-        while until_tick <= 0:
-            ticks += 1
-            until_tick += TICK_US
+        ticks, until_tick = clock_after(until_tick, cycle_us)
         for machine in machines:
             machine.tick(ticks)
     return run
+
+
+def clock_after(until_us: int, spent_us: int) -> tuple[int, int]:
+    """The 10 ms ticks in the ``spent_us`` after a moment ``until_us`` before the next
+    tick (one exactly at the end counts), and the time from the end to the next tick."""
+    ticks = 0 if spent_us < until_us else (spent_us - until_us) // TICK_US + 1
+    return ticks, until_us + ticks * TICK_US - spent_us
 
 
 @dataclass

@@ -48,7 +48,8 @@ from asictl.il.oracle import Interpreter, PlcState
 from asictl.observe.condition import Expr, holds
 from asictl.observe.operands import Operand
 from asictl.platform.master import TICK_US
-from asictl.prove.correspond import cell_value, run_cycle
+from asictl.prove.correspond import cell_value, clock_after, run_cycle
+from asictl.prove.jump import ticks_in_a_cycle
 from asictl.prove.props import Kind, Property
 from asictl.prove.symbolic import counter_high_bytes, operand_cells
 from asictl.runtime.runner import CycleTimeout
@@ -170,11 +171,6 @@ def _plain(state: PlcState) -> tuple[object, ...]:
             state.accu1, state.accu2, state.constant)
 
 
-def _ticks(until_us: int, spent_us: int) -> int:
-    """The 10 ms ticks in the ``spent_us`` after a moment ``until_us`` before the next."""
-    return 0 if spent_us < until_us else (spent_us - until_us) // TICK_US + 1
-
-
 class _Search:
     def __init__(self, program: Program, goal: Goal, until: float) -> None:
         self.goal = goal
@@ -182,8 +178,7 @@ class _Search:
         self.map_counters = program.options.map_counters
         self.machine = Interpreter(program, map_counters=self.map_counters)
         self.high = counter_high_bytes(program)
-        whole, rest = divmod(goal.cycle_us, TICK_US)
-        self.most_ticks = whole + (1 if rest else 0)  # in one cycle
+        self.most_ticks = ticks_in_a_cycle(goal.cycle_us)
         self.out_of_time = False
 
     def first(self) -> _Place:
@@ -262,19 +257,14 @@ class _Search:
             if before == after and goal.jumps:
                 jumped = self._idle(running, timers, until, end - cycle, wait)
                 if jumped:
-                    ticks = _ticks(until, jumped * goal.cycle_us)
+                    ticks, until = clock_after(until, jumped * goal.cycle_us)
                     for n in timers.keys() - timers.written:
                         timers[n] = max(0, timers[n] - ticks)
-                    until = until - jumped * goal.cycle_us + ticks * TICK_US
                     cycle += jumped
                     if wait is not None:
                         wait += jumped
             before = after
-            until -= goal.cycle_us
-            ticks = 0
-            while until <= 0:
-                ticks += 1
-                until += TICK_US
+            ticks, until = clock_after(until, goal.cycle_us)
             if ticks:
                 machine.tick(ticks)
             cycle += 1

@@ -38,6 +38,12 @@ from asictl.prove.timers import WIDE, wide
 #: The most cycles one step stands for: 2**24 cycles, 46 hours at 10 ms.
 MOST = 1 << 24
 
+def ticks_in_a_cycle(cycle_us: int) -> int:
+    """The most 10 ms ticks one cycle of ``cycle_us`` sees: a timer that holds more runs
+    in every cycle of an idle stretch."""
+    return -(-cycle_us // TICK_US)
+
+
 def idle(cycles: z3.BitVecRef, before: dict[Key, z3.BitVecRef], after: dict[Key, z3.ExprRef],
          stored: dict[Key, z3.BoolRef], cycle_us: int, tag: str) -> tuple[
              dict[Key, z3.ExprRef], list[z3.BoolRef]]:
@@ -64,8 +70,7 @@ def idle(cycles: z3.BitVecRef, before: dict[Key, z3.BitVecRef], after: dict[Key,
         result[TICK] = z3.If(jump, moved, after[TICK])
     else:  # no clock followed, so no timer either: nothing to jump over
         rules.append(z3.Not(jump))
-    whole, rest = divmod(cycle_us, TICK_US)
-    most = whole + (1 if rest else 0)  # ticks in one cycle
+    most = ticks_in_a_cycle(cycle_us)
     for cell, term in after.items():
         if cell not in stored:
             continue
