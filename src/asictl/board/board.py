@@ -399,9 +399,9 @@ class Pc2Board:
             except Exception as exc:  # as in ``_program_cycle``
                 self._program_failed(exc)
             else:
-                if control.flags & _MAP_COUNTERS or self._forcing:
+                if control.flags & _MAP_COUNTERS:
                     self._after_program(runner, None, 0)
-                else:  # ``_after_program`` without a probe, counters or forces
+                else:  # ``_after_program`` without a probe or counters (nothing forced here)
                     duration = control.record_cycle(runner.last_cycles)
                     self._program_ready_us = cycle + math.ceil(duration)
                     self._probe_wait -= 1
