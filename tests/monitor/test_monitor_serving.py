@@ -5,7 +5,9 @@ as gone and refuses the keys that would act on it (issue 23, item 1)."""
 from __future__ import annotations
 
 import asyncio
+import ctypes
 import json
+import os
 import re
 import shutil
 import time
@@ -54,6 +56,16 @@ async def until(app: MonitorApp, pilot, predicate, seconds: float) -> float:
         assert elapsed < seconds, f"not within {seconds} s:\n{top(app)}\n{log_text(app)}"
         await pilot.pause(0.05)
     return time.monotonic() - start
+
+
+def exchange(one: Path, other: Path) -> None:
+    """Swap two folders in one step (renameat2 with RENAME_EXCHANGE), so nobody ever
+    finds either place empty."""
+    libc = ctypes.CDLL(None, use_errno=True)
+    at_fdcwd, rename_exchange = -100, 2
+    if libc.renameat2(at_fdcwd, bytes(one), at_fdcwd, bytes(other), rename_exchange):
+        errno = ctypes.get_errno()
+        raise OSError(errno, os.strerror(errno), str(one), None, str(other))
 
 
 def board(tmp_path: Path) -> Path:
@@ -108,10 +120,14 @@ def test_the_board_taken_by_another_process_is_gone_until_it_is_free(tmp_path):
                 assert "the monitor keeps it running while it runs" in log_text(app)
                 assert "took over" not in top(app), "serving from the start is no take-over"
                 with ExitStack() as other:
-                    # another process makes the state folder anew and takes the board
-                    shutil.rmtree(state)
-                    state.mkdir(mode=0o700)
-                    other.enter_context(exclusive(lock_file(state, 0x300), "board 300h"))
+                    # another process puts a state folder of its own in place, the board
+                    # taken in it (the live board's guard, looking every 0.2 s, would
+                    # make an empty place again and take the board first)
+                    fresh = tmp_path / "fresh"
+                    fresh.mkdir(mode=0o700)
+                    other.enter_context(exclusive(lock_file(fresh, 0x300), "board 300h"))
+                    exchange(fresh, state)
+                    shutil.rmtree(fresh)
                     gone = await until(app, pilot, lambda: "MASTER GONE" in top(app), WITHIN_S)
                     assert "master gone" in log_text(app)
                     # (a refresh under way as the server stops says only that it went away)
