@@ -12,6 +12,7 @@ import os
 from pathlib import Path
 
 import pytest
+from mapped_counter_writes import RUN, mapped_counter_writes
 
 from asictl.build import build_file
 from asictl.errors import UserError
@@ -127,3 +128,18 @@ def test_awlsim_reads_the_symbol_table() -> None:
         pass
     with pytest.raises(UserError, match="awlsim refuses"):
         Awlsim(exported.render(), PYTHON, table + '"Start";"I 0.5";"BOOL";"twice"\n')
+
+
+@needs_awlsim
+def test_writes_to_the_bits_a_mapped_counter_keeps_at_0_change_nothing() -> None:
+    """=, S, R, T FY and T FW (both alignments) on the upper bits of a mapped counter's
+    high byte, read back in the same cycle: awlsim's flags and outputs stay the master's
+    (the AWL masks the transfers and leaves the bit stores out)."""
+    program = mapped_counter_writes()
+    exported = export_awl("mapped_counter_writes.asi", program)
+    text = exported.render()
+    assert "F 119.5 stays 0 on the master" in text
+    assert not [line for line in text.splitlines() if line.split()[:3] == ["=", "M", "119.5"]]
+    assert PYTHON is not None
+    with Awlsim(text, PYTHON) as awlsim:
+        assert Checker(program, exported, awlsim).compare("mapped", RUN) is None

@@ -13,6 +13,7 @@ from pathlib import Path
 import pytest
 from hypothesis import HealthCheck, given, settings
 from il_strategies import checked_programs, cycle_steps
+from mapped_counter_writes import RUN, mapped_counter_writes
 from st_machine import StMachine
 
 from asictl.build import build_file
@@ -64,6 +65,15 @@ def test_a_wrong_translation_is_seen() -> None:
     start = bytes([0x60]) + bytes(15)  # I 1.1 and I 1.2: retracted, start
     assert _first_difference(program, wrong, [Cycle(start, 1)]) is not None
     assert _first_difference(program, text, [Cycle(start, 1)]) is None
+
+
+def test_writes_to_the_bits_a_mapped_counter_keeps_at_0_change_nothing() -> None:
+    """=, S, R, T FY and T FW on the upper bits of a mapped counter's high byte, read
+    back in the same cycle: the ST writes none of them, as the master keeps them 0."""
+    program = mapped_counter_writes()
+    text = export_st("mapped_counter_writes.asi", program).render()
+    assert "F119_5 :=" not in text and "F 119.5 stays 0 on the master" in text
+    assert _first_difference(program, text, RUN) is None
 
 
 @settings(max_examples=EXAMPLES, deadline=None,

@@ -327,6 +327,11 @@ class _Translator:
             self.write_word(operand)
             self.emit("NOP", "0", label=skip)
             return
+        held = self.export.layout.held_at_zero(operand)
+        if held is not None:
+            self.close()  # the register in DB 1, as after a store
+            self.emit("", comment=held)
+            return
         if self.open:
             self.close()  # S7's RLO still holds the register
         elif not self.rlo_held:
@@ -382,20 +387,32 @@ class _Translator:
                 assert_never(operand.kind)
 
     def transfer(self, operand: ast.Operand) -> None:
-        """The IL operand := S7's ACCU1 (its low byte for a byte operand)."""
+        """The IL operand := S7's ACCU1 (its low byte for a byte operand); a flag byte
+        gets only the bits it keeps (``Layout.keeps``)."""
+        layout = self.export.layout
         match operand.kind:
             case K.FW:
-                self.emit("T", f"MW {operand.address}")
+                n = operand.address
+                self.mask(layout.keeps(n) << 8 | layout.keeps(n + 1), 0xFFFF)
+                self.emit("T", f"MW {n}")
+            case K.FY:
+                self.mask(layout.keeps(operand.address), 0xFF)
+                self.emit("T", layout.byte(operand))
             case K.T | K.C:
                 self.clamp()
                 self.write_word(operand)
             case (
-                K.I | K.I2 | K.Q | K.F | K.IB | K.I2B | K.QB | K.FY | K.PSEG | K.VAR | K.KT |
+                K.I | K.I2 | K.Q | K.F | K.IB | K.I2B | K.QB | K.PSEG | K.VAR | K.KT |
                 K.KC | K.KB | K.KW | K.KP
             ):
-                self.emit("T", self.export.layout.byte(operand))
+                self.emit("T", layout.byte(operand))
             case _:
                 assert_never(operand.kind)
+
+    def mask(self, keeps: int, everything: int) -> None:
+        """ACCU1 := ACCU1 AND keeps, unless keeps is every bit written."""
+        if keeps != everything:
+            self.emit("AW", _word(keeps))
 
     def clamp(self) -> None:
         """ACCU1 := min(ACCU1, 4095), unsigned (timers and counters hold 12 bits)."""

@@ -17,6 +17,7 @@ from typing import assert_never
 
 from asictl.il import ast
 from asictl.il.language import COUNTER_FLAG_BASE, MAPPED_COUNTERS
+from asictl.platform.master import flag_keeps
 
 K = ast.OperandKind
 
@@ -116,6 +117,23 @@ class Layout:
     def timer(n: int) -> str:
         """Timer n's remaining time in 10 ms ticks."""
         return f"DB{TIMER_DB}.DBW {2 * n}"
+
+    def keeps(self, n: int) -> int:
+        """The bits of flag byte ``n`` that keep what the program writes. With map_counters
+        the upper four bits of a mapped counter's high byte (FY 97, 99 .. 125) stay 0 on
+        the master whatever is written there, so an export masks its writes to them and a
+        read-back in the same cycle sees what the master's would."""
+        return flag_keeps(n, self.map_counters)
+
+    def held_at_zero(self, operand: ast.Operand) -> str | None:
+        """Why writing the bit operand changes nothing, or None when it can: a flag bit
+        the master holds at 0 (``keeps``), for which an export writes this reason as a
+        comment instead of the =, S or R."""
+        if operand.kind is not K.F or self.keeps(operand.address) >> operand.bit & 1:
+            return None
+        counter = (operand.address - COUNTER_FLAG_BASE) // 2
+        return (f"{operand} stays 0 on the master (bits 4-7 of counter {counter}'s high "
+                "byte with map_counters): nothing to write")
 
     def counter_mapped(self, n: int) -> bool:
         return self.map_counters and n < MAPPED_COUNTERS

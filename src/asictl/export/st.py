@@ -324,6 +324,10 @@ class _Body:
             self.depth -= 1
             self.emit("END_IF;")
             return
+        held = self.names.layout.held_at_zero(operand)
+        if held is not None:
+            self.emit("", held)
+            return
         target = self.names.bit(operand)
         if op is ast.StoreOp.ASSIGN:
             self.emit(f"{target} := IL_RLO;")
@@ -386,17 +390,25 @@ class _Body:
         match operand.kind:
             case K.FW:
                 n = operand.address
-                self.emit(f"{self.names.flag_byte(n)} := WORD_TO_BYTE(SHR(IL_ACCU1, 8));")
-                self.emit(f"{self.names.flag_byte(n + 1)} := WORD_TO_BYTE(IL_ACCU1);")
+                self.write_flag_byte(n, "SHR(IL_ACCU1, 8)")
+                self.write_flag_byte(n + 1, "IL_ACCU1")
+            case K.FY:
+                self.write_flag_byte(operand.address, "IL_ACCU1")
             case K.T | K.C:
                 self.write_word(operand, f"MIN(IL_ACCU1, {TC_MAX_VALUE})")
             case (
-                K.I | K.I2 | K.Q | K.F | K.IB | K.I2B | K.QB | K.FY | K.PSEG | K.VAR | K.KT |
+                K.I | K.I2 | K.Q | K.F | K.IB | K.I2B | K.QB | K.PSEG | K.VAR | K.KT |
                 K.KC | K.KB | K.KW | K.KP
             ):
                 self.emit(f"{self.names.byte(operand)} := WORD_TO_BYTE(IL_ACCU1);")
             case _:
                 assert_never(operand.kind)
+
+    def write_flag_byte(self, n: int, word: str) -> None:
+        """Flag byte ``n`` := the low byte of ``word``, but only the bits it keeps."""
+        keeps = self.names.layout.keeps(n)
+        masked = word if keeps == 0xFF else f"{word} AND 16#{keeps:X}"
+        self.emit(f"{self.names.flag_byte(n)} := WORD_TO_BYTE({masked});")
 
     def count(self, op: ast.CountOp, n: int) -> None:
         counter = ast.Operand.of(K.C, n, width=ast.Width.WORD)
