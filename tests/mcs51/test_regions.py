@@ -21,7 +21,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from asictl.mcs51 import regions
-from asictl.mcs51.emulator import Emulator, StopReason
+from asictl.mcs51.emulator import Emulator, StopReason, exit_trap
 from asictl.mcs51.isa import OPCODES
 
 REGION = 2  # the translation cache's kind of a region entry
@@ -284,3 +284,82 @@ def test_a_breakpoint_in_a_looping_region_stops_every_pass() -> None:
         stops.append(trail)
     assert len(stops[0]) == 15
     assert stops[0] == stops[1]
+
+
+
+#: A program cycle's shape: forward branches only, then a jump to the firmware's return
+#: address (an exit): MOV A,#5; JNB 20h.0,+1; INC A; MOV 30h,A; JB 20h.1,+2; INC 31h;
+#: LJMP 00F0h.
+FORWARD = bytes.fromhex("7405 300001 04 F530 200102 0531 0200F0")
+FORWARD_END = 0x00F0
+
+
+def _exiting(program: bytes, end: int, emu: Emulator, trap=exit_trap) -> Emulator:
+    """``program`` ending at an exit at ``end``, as a program cycle ends at the firmware's
+    return address; every address hot and run once, so that its regions exist."""
+    emu.code.load(0, program)
+    emu.add_trap(end, trap)
+    restart(emu).run(max_cycles=1 << 20)
+    return restart(emu)
+
+
+@pytest.mark.parametrize("bit", [0, 1, 2, 3])
+def test_a_run_that_is_one_region_to_an_exit_is_done_in_one_step(bit: int) -> None:
+    """``run`` with only a cycle budget enters the region at the PC and answers at the
+    exit without its loop; its answers and machine equal the interpreter's for every
+    budget, those that end inside the region included (the loop goes on from there)."""
+    ours = _exiting(FORWARD, FORWARD_END, region_emulator())
+    loops = []
+    ours._run = lambda *args, **kw: loops.append(args) or Emulator._run(ours, *args, **kw)
+    reference = _exiting(FORWARD, FORWARD_END, Emulator(translate=False))
+    for emu in (ours, reference):
+        restart(emu).iram[0x20] = bit  # the branches: taken or not
+    assert ours.run(max_cycles=1 << 20) is StopReason.TRAP and not loops
+    assert reference.run(max_cycles=1 << 20) is StopReason.TRAP
+    assert machine(ours) == machine(reference)
+    for limit in range(1, reference.cycles + 2):
+        answers = []
+        for emu in (ours, reference):
+            restart(emu).iram[0x20] = bit
+            answers.append(emu.run(max_cycles=limit))
+        assert answers[0] is answers[1] and machine(ours) == machine(reference), limit
+    assert loops, "a budget that ends inside the region goes on in the loop"
+
+
+def test_a_run_of_regions_to_an_exit_answers_as_the_interpreter_for_every_budget() -> None:
+    """The branchy program's loops: the region at the PC ends before the exit, and the
+    loop takes over from there."""
+    ours = _exiting(BRANCHY, BRANCHY_END, region_emulator())
+    reference = _exiting(BRANCHY, BRANCHY_END, Emulator(translate=False))
+    assert reference.run(max_cycles=1 << 20) is StopReason.TRAP
+    total = reference.cycles
+    for limit in range(1, total + 2):
+        answers = [restart(emu).run(max_cycles=limit) for emu in (ours, reference)]
+        assert answers[0] is answers[1] and machine(ours) == machine(reference), limit
+
+
+def test_a_breakpoint_or_a_trap_that_goes_on_ends_the_one_step() -> None:
+    """A breakpoint the region reaches, and a trap at its end that does not stop: the
+    run answers as the interpreter does."""
+    calls = []
+
+    def counting(emu: Emulator) -> bool:  # stops the second time only
+        calls.append(emu.pc)
+        return len(calls) % 2 == 0
+
+    for setup in ("breakpoint", "trap"):
+        machines = []
+        for emu in (region_emulator(), Emulator(translate=False)):
+            emu = _exiting(FORWARD, FORWARD_END, emu,
+                           exit_trap if setup == "breakpoint" else counting)
+            calls.clear()
+            if setup == "breakpoint":
+                emu.add_breakpoint(0x000B)  # INC 31h, reached with 20h.1 clear
+            answers, seen = [], []
+            for _ in range(3):  # from the start each time: the later runs take one step
+                restart(emu)
+                answers += [emu.run(max_cycles=1 << 20), emu.run(max_cycles=1 << 20)]
+                seen.append(machine(emu))
+            machines.append((answers, seen, list(calls)))
+        assert machines[0] == machines[1], setup
+        assert StopReason.BREAKPOINT in machines[0][0] if setup == "breakpoint" else calls

@@ -88,6 +88,12 @@ _INSTRUCTIONS, _CYCLES_SPENT, _BREAKPOINT, _UNTIL, _TRAP = (
 Trap = Callable[["Emulator"], object]
 
 
+def exit_trap(emulator: Emulator) -> bool:
+    """The trap of an address where a run ends: the return address a caller pushed for
+    code it calls (the firmware's call of a program cycle). A run whose code from the PC
+    is one translated region that ends here is done in one step (``Emulator.run``)."""
+    return True
+
 
 _FACTORY_HEADER = "def factory(iram, sfr, code, xram, xrd, xwr, pins, emu, iterations):\n"
 
@@ -343,6 +349,54 @@ class Emulator:
 
         Raises :class:`UndefinedOpcode` with the PC at the A5h byte.
         """
+        if max_cycles is not None and max_instructions is None and until is None and trace is None:
+            done = self._one_region(max_cycles)
+            if done is not None:
+                return done
+        return self._run(max_instructions, max_cycles, until, trace)
+
+    def _one_region(self, max_cycles: int) -> StopReason | None:
+        """The common run in one step: a program cycle, whose code from the PC is one
+        translated region ending at an ``exit_trap``. Answers what ``run`` would, or
+        None (before anything ran) where the run is not that; a region that ends
+        elsewhere (a breakpoint, the budget, a trap) is taken on by ``_run`` from there,
+        as ``run``'s own loop would."""
+        pc, sfr = self.pc, self.sfr
+        block, _, most, kind = self._blocks.get(pc | (sfr[PSW] & 24) << 13, _STOP_ENTRY)
+        if (
+            block is None
+            or kind != _REGION
+            or most > max_cycles  # as in ``_run``: a region must fit the budget
+            or not self.translate
+            or not self._stops_current
+            or self._stops_until is not None
+            or pc in self._stops
+        ):
+            return None
+        climit = self.cycles + max_cycles
+        sfr[PSW] &= 0xFE
+        try:
+            key = block(_UNLIMITED - self.instructions, max_cycles)
+            iterations = self._iterations
+            self.instructions += iterations[0]
+            self.cycles += iterations[1]
+            self.pc = pc = key & 0xFFFF
+            if self._traps.get(pc) is exit_trap and self.cycles < climit:
+                return _TRAP
+            return self._run(None, climit - self.cycles, None, None, first=False)
+        finally:
+            sfr[PSW] = sfr[PSW] & 0xFE | PARITY[sfr[ACC]]
+
+    def _run(
+        self,
+        max_instructions: int | None,
+        max_cycles: int | None,
+        until: int | None,
+        trace: Callable[[Emulator, int], None] | None,
+        *,
+        first: bool = True,
+    ) -> StopReason:
+        """``run``'s loop; ``first=False`` continues a run (breakpoints are checked at once)."""
         ilimit = _UNLIMITED if max_instructions is None else self.instructions + max_instructions
         climit = _UNLIMITED if max_cycles is None else self.cycles + max_cycles
         if until is not None:
@@ -354,7 +408,6 @@ class Emulator:
             stops = (self._stops if self._stops_current and until == self._stops_until
                      else self._stop_addresses(until))
             traps, blocks, iterations = self._traps, self._blocks, self._iterations
-            first = True
             interpret = trace is not None or not self.translate
             while True:
                 pc = self.pc

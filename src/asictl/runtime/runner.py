@@ -18,7 +18,7 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 
 from asictl.mcs51.bus import Bus
-from asictl.mcs51.emulator import Emulator, StopReason
+from asictl.mcs51.emulator import Emulator, StopReason, exit_trap
 from asictl.mcs51.loops import looping_jumps
 from asictl.platform import pc2
 from asictl.runtime import layout
@@ -65,7 +65,7 @@ class ProgramRunner:
         self._io = CycleIo(program.pmap) if fast else None
         self.cpu.code.load(program.code_base, program.code)
         self.cpu.code[layout.CYCLE_END] = _RET
-        self.cpu.add_trap(layout.CYCLE_END, lambda cpu: True)
+        self.cpu.add_trap(layout.CYCLE_END, exit_trap)
         for name, address in program.entry_points.items():
             self.cpu.code[address] = _RET
             self.cpu.add_trap(address, self._firmware_trap(FIRMWARE_BLOCKS[name].name))
