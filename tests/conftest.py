@@ -10,6 +10,8 @@ from __future__ import annotations
 import hashlib
 import os
 import shutil
+import sys
+from collections.abc import Generator
 
 import pytest
 from click.testing import CliRunner
@@ -21,12 +23,30 @@ pytest_plugins = ["pytester"]
 collect_ignore_glob = ["scenarios/*.scenario.toml"]
 
 
+# Bytecode is written as Python writes it by default (into the gitignored __pycache__
+# folders), even where PYTHONDONTWRITEBYTECODE is set: otherwise each of the suite's
+# hundreds of ``asictl`` processes compiles every module it imports anew, and each
+# worker rewrites every test module's asserts anew (half of its collection).
+sys.dont_write_bytecode = False
+os.environ.pop("PYTHONDONTWRITEBYTECODE", None)
+
+
 def pytest_configure(config: pytest.Config) -> None:
     """With pytest-xdist's workers (``-n auto``), tests are handed out by work stealing
     rather than in fixed shares: a worker that is done takes over the queue of one that
     is not, so a long test near the end does not leave the other worker idle."""
     if getattr(config.option, "dist", None) == "load":
         config.option.dist = "worksteal"
+
+
+@pytest.hookimpl(wrapper=True)
+def pytest_xdist_auto_num_workers(config: pytest.Config) -> Generator[None, int, int]:
+    """``-n auto``: two workers for each core pytest-xdist counts (unless
+    PYTEST_XDIST_AUTO_NUM_WORKERS names the number). A third of the suite's time is
+    spent waiting (on served boards, terminals, browsers, subprocesses and real-time
+    holds), during which one worker per core leaves its core idle."""
+    cores = yield
+    return cores if os.environ.get("PYTEST_XDIST_AUTO_NUM_WORKERS") else 2 * cores
 
 
 @pytest.fixture(autouse=True)

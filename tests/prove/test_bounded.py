@@ -51,13 +51,13 @@ def _files(tmp_path: Path, properties: str) -> Path:
 
 def test_a_timer_past_the_bound_is_named_with_the_depth_it_needs(tmp_path: Path, runner):
     props = _files(tmp_path, '[[property]]\nname = "the delayed output"\nnever = "Q 3.1"\n')
-    report = prove_file(props, depth=5, timeout_s=8.0)
+    report = prove_file(props, depth=5, timeout_s=2.0)
     [outcome] = report.outcomes
     assert outcome.verdict is Verdict.BOUNDED, outcome.note  # (the rest of the time: PDR)
     assert outcome.note == ("T 1 is loaded with 20000 ms = 2000 cycles of 10 ms: not "
                             "covered by depth 6; try --depth 2100 or --depth 21s")
     (tmp_path / "p.symbols.toml").write_text('Delay = "T 1"\n')
-    result = runner.invoke(main, ["prove", str(props), "--depth", "5", "--timeout", "8s"])
+    result = runner.invoke(main, ["prove", str(props), "--depth", "5", "--timeout", "2s"])
     assert "    note: T 1 (Delay) is loaded with 20000 ms = 2000 cycles" in result.stdout
 
 

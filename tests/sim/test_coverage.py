@@ -333,7 +333,9 @@ def test_cycles_skipped_as_repeats_count_as_if_each_had_run(
     every cycle; a program longer than an AS-i cycle among them."""
     from asictl.board.board import Pc2Board
 
-    if scenario == "looping":
+    duration_ms = 120_000.0
+    if scenario == "looping":  # each of its cycles runs 200 passes: 10 s of master time
+        duration_ms = 10_000.0
         (tmp_path / "loop.asi").write_text(LOOPING)
         path = tmp_path / "loop.scenario.toml"
         path.write_text('program = "loop.asi"\n[master]\ncycle_ms = 1\n[[step]]\nat_ms = 0\n'
@@ -342,7 +344,7 @@ def test_cycles_skipped_as_repeats_count_as_if_each_had_run(
         path = ROOT / "demos" / scenario
 
     def covered() -> object:
-        run = simulate(prepare(None, path, duration_ms=120_000.0, allow_partial=True),
+        run = simulate(prepare(None, path, duration_ms=duration_ms, allow_partial=True),
                        coverage=True)
         assert run.result.coverage is not None
         return run.result.coverage.to_data()
