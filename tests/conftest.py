@@ -39,7 +39,7 @@ def pytest_configure(config: pytest.Config) -> None:
         config.option.dist = "worksteal"
 
 
-@pytest.hookimpl(wrapper=True)
+@pytest.hookimpl(wrapper=True, optionalhook=True)  # a hook of pytest-xdist's
 def pytest_xdist_auto_num_workers(config: pytest.Config) -> Generator[None, int, int]:
     """``-n auto``: two workers for each core pytest-xdist counts (unless
     PYTEST_XDIST_AUTO_NUM_WORKERS names the number). A third of the suite's time is

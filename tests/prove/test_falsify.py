@@ -86,7 +86,7 @@ def test_a_depth_given_bounds_the_runs(tmp_path: Path):
     """--depth 250 (cycles of 1 s) cannot reach the end of the hour: no counterexample,
     where without it one is found."""
     props = _hour(tmp_path, 1000)
-    result = main(["prove", str(props), "--depth", "250", "--timeout", "5s"],
+    result = main(["prove", str(props), "--depth", "250", "--timeout", "2s"],
                   standalone_mode=False)
     assert result == 1
     assert not list(tmp_path.glob("*.scenario.toml"))
@@ -199,7 +199,7 @@ def test_a_property_that_holds_is_not_refuted(tmp_path: Path):
     for prop in machine.properties:
         start = time.monotonic()
         assert machine.falsify(prop, searched=1, depth=20, horizon=None, start=start,
-                               deadline=start + 2) is None
+                               deadline=start + 1) is None
     assert not found
 
 

@@ -287,7 +287,7 @@ def test_a_program_that_reads_a_timer_word_is_searched_cycle_by_cycle(tmp_path: 
         =   Q 2.1
 ***
 """
-    outcome = _never_on(tmp_path, program, "Q 2.0", timeout_s=10.0)
+    outcome = _never_on(tmp_path, program, "Q 2.0", timeout_s=3.0)  # PDR spends the rest
     assert outcome.verdict in (Verdict.BOUNDED, Verdict.UNKNOWN)  # PDR, or the load
     assert "idle" not in outcome.note
 
