@@ -42,7 +42,7 @@ def pytest_configure(config: pytest.Config) -> None:
 @pytest.hookimpl(wrapper=True, optionalhook=True)  # a hook of pytest-xdist's
 def pytest_xdist_auto_num_workers(config: pytest.Config) -> Generator[None, int, int]:
     """``-n auto``: two workers for each core pytest-xdist counts (unless
-    PYTEST_XDIST_AUTO_NUM_WORKERS names the number). A third of the suite's time is
+    PYTEST_XDIST_AUTO_NUM_WORKERS names the number). A quarter of a worker's time is
     spent waiting (on served boards, terminals, browsers, subprocesses and real-time
     holds), during which one worker per core leaves its core idle."""
     cores = yield
