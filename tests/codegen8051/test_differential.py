@@ -23,8 +23,9 @@ from asictl.platform.master import flag_keeps
 from asictl.runtime.program_map import LoadedProgram, Location, Space
 from asictl.runtime.runner import CycleTimeout, ProgramRunner
 
-#: the default run's sample; the long run (``-m slow``) takes three times as many
-EXAMPLES = int(os.environ.get("ASICTL_DIFF_EXAMPLES", "500"))
+#: the default run's sample, and the long run's (``-m slow``)
+EXAMPLES = int(os.environ.get("ASICTL_DIFF_EXAMPLES", "150"))
+LONG_EXAMPLES = int(os.environ.get("ASICTL_DIFF_EXAMPLES", "1500"))
 
 
 runnable_programs = checked_programs(asm=False, options=True)
@@ -65,7 +66,7 @@ def test_compiled_code_agrees_with_the_interpreter(program: Program, run) -> Non
 
 
 @pytest.mark.slow
-@settings(max_examples=3 * EXAMPLES, deadline=None,
+@settings(max_examples=LONG_EXAMPLES, deadline=None,
           suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
 @given(runnable_programs, steps)
 def test_compiled_code_agrees_with_the_interpreter_long(program: Program, run) -> None:

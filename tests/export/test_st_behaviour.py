@@ -23,7 +23,9 @@ from asictl.il.loader import Program
 from asictl.il.oracle import Interpreter
 
 DEMOS = Path(__file__).parents[2] / "demos"
-EXAMPLES = int(os.environ.get("ASICTL_EXPORT_EXAMPLES", "40"))
+#: the default run's sample, and the long run's (``-m slow``)
+EXAMPLES = int(os.environ.get("ASICTL_EXPORT_EXAMPLES", "20"))
+LONG_EXAMPLES = int(os.environ.get("ASICTL_EXPORT_EXAMPLES", "150"))
 
 
 def _first_difference(program: Program, text: str, run: Sequence[Cycle]) -> str | None:
@@ -80,6 +82,22 @@ def test_writes_to_the_bits_a_mapped_counter_keeps_at_0_change_nothing() -> None
           suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
 @given(checked_programs(asm=False, options=True), cycle_steps(max_size=8))
 def test_generated_programs_structured_text_behaves_as_the_master(
+    program: Program, steps: list[tuple[bytes, int, object]],
+) -> None:
+    generated_programs_structured_text_behaves_as_the_master(program, steps)
+
+
+@pytest.mark.slow
+@settings(max_examples=LONG_EXAMPLES, deadline=None,
+          suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
+@given(checked_programs(asm=False, options=True), cycle_steps(max_size=8))
+def test_generated_programs_structured_text_behaves_as_the_master_long(
+    program: Program, steps: list[tuple[bytes, int, object]],
+) -> None:
+    generated_programs_structured_text_behaves_as_the_master(program, steps)
+
+
+def generated_programs_structured_text_behaves_as_the_master(
     program: Program, steps: list[tuple[bytes, int, object]],
 ) -> None:
     run = [Cycle(inputs, ticks) for inputs, ticks, _ in steps]

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import os
 
+import pytest
 from hypothesis import HealthCheck, given, settings
 from il_strategies import ModelFirmware, checked_programs, cycle_steps
 
@@ -23,7 +24,9 @@ from asictl.runtime import layout
 from asictl.runtime.program_map import LoadedProgram
 from asictl.runtime.runner import CycleTimeout, ProgramRunner
 
-EXAMPLES = int(os.environ.get("ASICTL_DIFF_EXAMPLES", "200"))
+#: the default run's sample, and the long run's (``-m slow``)
+EXAMPLES = int(os.environ.get("ASICTL_DIFF_EXAMPLES", "60"))
+LONG_EXAMPLES = int(os.environ.get("ASICTL_DIFF_EXAMPLES", "400"))
 
 
 compiled_programs = checked_programs(asm=True, options=False)
@@ -47,6 +50,21 @@ def machine(runner: ProgramRunner, firmware: ModelFirmware) -> tuple:
 )
 @given(compiled_programs, steps)
 def test_fast_and_general_paths_leave_the_same_machine(program: Program, run) -> None:
+    fast_and_general_paths_leave_the_same_machine(program, run)
+
+
+@pytest.mark.slow
+@settings(
+    max_examples=LONG_EXAMPLES,
+    deadline=None,
+    suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much],
+)
+@given(compiled_programs, steps)
+def test_fast_and_general_paths_leave_the_same_machine_long(program: Program, run) -> None:
+    fast_and_general_paths_leave_the_same_machine(program, run)
+
+
+def fast_and_general_paths_leave_the_same_machine(program: Program, run) -> None:
     compiled = compile_program(program)
     loaded = LoadedProgram(compiled.code, compiled.pmap, compiled.entry_points)
     sides = []
