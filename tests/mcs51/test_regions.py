@@ -292,6 +292,7 @@ def test_a_breakpoint_in_a_looping_region_stops_every_pass() -> None:
 #: LJMP 00F0h.
 FORWARD = bytes.fromhex("7405 300001 04 F530 200102 0531 0200F0")
 FORWARD_END = 0x00F0
+STACK = 0x07  # the stack pointer the caller leaves: the return address goes above it
 
 
 def _exiting(program: bytes, end: int, emu: Emulator, trap=exit_trap) -> Emulator:
@@ -299,48 +300,49 @@ def _exiting(program: bytes, end: int, emu: Emulator, trap=exit_trap) -> Emulato
     return address; every address hot and run once, so that its regions exist."""
     emu.code.load(0, program)
     emu.add_trap(end, trap)
-    restart(emu).run(max_cycles=1 << 20)
+    restart(emu).call(0, end, STACK, 1 << 20)
     return restart(emu)
 
 
 @pytest.mark.parametrize("bit", [0, 1, 2, 3])
-def test_a_run_that_is_one_region_to_an_exit_is_done_in_one_step(bit: int) -> None:
-    """``run`` with only a cycle budget enters the region at the PC and answers at the
-    exit without its loop; its answers and machine equal the interpreter's for every
-    budget, those that end inside the region included (the loop goes on from there)."""
+def test_a_call_that_is_one_region_to_an_exit_is_done_in_one_step(bit: int) -> None:
+    """``call`` enters the region at the address and answers at the exit without
+    ``run``'s loop; its answers and machine equal the interpreter's for every budget,
+    those that end inside the region included (the loop goes on from there)."""
     ours = _exiting(FORWARD, FORWARD_END, region_emulator())
     loops = []
     ours._run = lambda *args, **kw: loops.append(args) or Emulator._run(ours, *args, **kw)
     reference = _exiting(FORWARD, FORWARD_END, Emulator(translate=False))
     for emu in (ours, reference):
         restart(emu).iram[0x20] = bit  # the branches: taken or not
-    assert ours.run(max_cycles=1 << 20) is StopReason.TRAP and not loops
-    assert reference.run(max_cycles=1 << 20) is StopReason.TRAP
+    assert ours.call(0, FORWARD_END, STACK, 1 << 20) is StopReason.TRAP and not loops
+    assert reference.call(0, FORWARD_END, STACK, 1 << 20) is StopReason.TRAP
     assert machine(ours) == machine(reference)
+    assert ours.iram[STACK + 1] == FORWARD_END & 0xFF and ours.sp == STACK + 2  # pushed
     for limit in range(1, reference.cycles + 2):
         answers = []
         for emu in (ours, reference):
             restart(emu).iram[0x20] = bit
-            answers.append(emu.run(max_cycles=limit))
+            answers.append(emu.call(0, FORWARD_END, STACK, limit))
         assert answers[0] is answers[1] and machine(ours) == machine(reference), limit
     assert loops, "a budget that ends inside the region goes on in the loop"
 
 
-def test_a_run_of_regions_to_an_exit_answers_as_the_interpreter_for_every_budget() -> None:
-    """The branchy program's loops: the region at the PC ends before the exit, and the
-    loop takes over from there."""
+def test_a_call_of_regions_to_an_exit_answers_as_the_interpreter_for_every_budget() -> None:
+    """The branchy program's loops: the region at the address ends before the exit, and
+    the loop takes over from there."""
     ours = _exiting(BRANCHY, BRANCHY_END, region_emulator())
     reference = _exiting(BRANCHY, BRANCHY_END, Emulator(translate=False))
-    assert reference.run(max_cycles=1 << 20) is StopReason.TRAP
+    assert reference.call(0, BRANCHY_END, STACK, 1 << 20) is StopReason.TRAP
     total = reference.cycles
     for limit in range(1, total + 2):
-        answers = [restart(emu).run(max_cycles=limit) for emu in (ours, reference)]
+        answers = [restart(emu).call(0, BRANCHY_END, STACK, limit) for emu in (ours, reference)]
         assert answers[0] is answers[1] and machine(ours) == machine(reference), limit
 
 
 def test_a_breakpoint_or_a_trap_that_goes_on_ends_the_one_step() -> None:
     """A breakpoint the region reaches, and a trap at its end that does not stop: the
-    run answers as the interpreter does."""
+    call answers as the interpreter does, and a run resumes from where it stopped."""
     calls = []
 
     def counting(emu: Emulator) -> bool:  # stops the second time only
@@ -356,9 +358,10 @@ def test_a_breakpoint_or_a_trap_that_goes_on_ends_the_one_step() -> None:
             if setup == "breakpoint":
                 emu.add_breakpoint(0x000B)  # INC 31h, reached with 20h.1 clear
             answers, seen = [], []
-            for _ in range(3):  # from the start each time: the later runs take one step
+            for _ in range(3):  # from the start each time: the later calls take one step
                 restart(emu)
-                answers += [emu.run(max_cycles=1 << 20), emu.run(max_cycles=1 << 20)]
+                answers += [emu.call(0, FORWARD_END, STACK, 1 << 20),
+                            emu.run(max_cycles=1 << 20)]
                 seen.append(machine(emu))
             machines.append((answers, seen, list(calls)))
         assert machines[0] == machines[1], setup

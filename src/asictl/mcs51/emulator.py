@@ -90,8 +90,8 @@ Trap = Callable[["Emulator"], object]
 
 def exit_trap(emulator: Emulator) -> bool:
     """The trap of an address where a run ends: the return address a caller pushed for
-    code it calls (the firmware's call of a program cycle). A run whose code from the PC
-    is one translated region that ends here is done in one step (``Emulator.run``)."""
+    code it calls (the firmware's call of a program cycle). A call whose code is one
+    translated region that ends here is done in one step (``Emulator.call``)."""
     return True
 
 
@@ -349,41 +349,60 @@ class Emulator:
 
         Raises :class:`UndefinedOpcode` with the PC at the A5h byte.
         """
-        if max_cycles is not None and max_instructions is None and until is None and trace is None:
-            done = self._one_region(max_cycles)
-            if done is not None:
-                return done
         return self._run(max_instructions, max_cycles, until, trace)
 
-    def _one_region(self, max_cycles: int) -> StopReason | None:
-        """The common run in one step: a program cycle, whose code from the PC is one
-        translated region ending at an ``exit_trap``. Answers what ``run`` would, or
-        None (before anything ran) where the run is not that; a region that ends
-        elsewhere (a breakpoint, the budget, a trap) is taken on by ``_run`` from there,
-        as ``run``'s own loop would."""
-        pc, sfr = self.pc, self.sfr
-        block, _, most, kind = self._blocks.get(pc | (sfr[PSW] & 24) << 13, _STOP_ENTRY)
+    def prepare_call(self, address: int, return_address: int, stack: int) -> None:
+        """Set up a call of the code at ``address`` from outside it, as the firmware calls
+        a program cycle: register bank 0, ``return_address`` pushed onto the stack above
+        ``stack`` as LCALL pushes it (low byte first), the PC at ``address``. The code's
+        final RET then lands on ``return_address``."""
+        sfr, iram = self.sfr, self.iram
+        sfr[PSW] = 0
+        iram[stack + 1 & 0xFF] = return_address & 0xFF
+        iram[stack + 2 & 0xFF] = return_address >> 8
+        sfr[SP] = stack + 2 & 0xFF
+        self.pc = address
+
+    def call(
+        self,
+        address: int,
+        return_address: int,
+        stack: int,
+        max_cycles: int,
+        trace: Callable[[Emulator, int], None] | None = None,
+    ) -> StopReason:
+        """``prepare_call``, then ``run(max_cycles=max_cycles, trace=trace)``: a run that
+        ends at ``return_address`` when an ``exit_trap`` is there (TRAP).
+
+        The common case is done in one step, as every program cycle of a simulation
+        comes here: the code from ``address`` translated as one region that ends at the
+        exit. Where the run is not that (a trace, no region yet, a breakpoint or trap in
+        the way, a region longer than the budget), or the region ends elsewhere (a
+        breakpoint, the budget, a trap), ``run``'s loop takes it on from there, so the
+        answers are the same."""
+        self.prepare_call(address, return_address, stack)
+        block, _, most, kind = self._blocks.get(address, _STOP_ENTRY)  # bank 0: the key
         if (
-            block is None
+            trace is not None
+            or block is None
             or kind != _REGION
             or most > max_cycles  # as in ``_run``: a region must fit the budget
             or not self.translate
             or not self._stops_current
             or self._stops_until is not None
-            or pc in self._stops
+            or address in self._stops
         ):
-            return None
-        climit = self.cycles + max_cycles
-        sfr[PSW] &= 0xFE
+            return self._run(None, max_cycles, None, trace)
+        sfr = self.sfr  # PSW is 0: its parity bit needs no clearing before the region
         try:
             key = block(_UNLIMITED - self.instructions, max_cycles)
             iterations = self._iterations
             self.instructions += iterations[0]
             self.cycles += iterations[1]
             self.pc = pc = key & 0xFFFF
-            if self._traps.get(pc) is exit_trap and self.cycles < climit:
+            if self._traps.get(pc) is exit_trap and iterations[1] < max_cycles:
                 return _TRAP
-            return self._run(None, climit - self.cycles, None, None, first=False)
+            return self._run(None, max_cycles - iterations[1], None, None, first=False)
         finally:
             sfr[PSW] = sfr[PSW] & 0xFE | PARITY[sfr[ACC]]
 

@@ -36,7 +36,6 @@ from asictl.runtime.program_map import (
 Trace = Callable[[Emulator, int], None]
 
 _RET = 0x22
-_SP, _PSW = 0x81, 0xD0
 _TRAP = StopReason.TRAP  # the end of every cycle: a module constant
 
 
@@ -130,9 +129,10 @@ class ProgramRunner:
             flags = io.copy_in(cpu.iram, xdata.ram, self.inputs, inputs)
         else:
             flags = self._copy_in(inputs)
-        self.enter()
         start = cpu.cycles
-        reason = cpu.run(None, self.budget, None, trace)  # positional: asked every cycle
+        # positional: asked every cycle
+        reason = cpu.call(self.program.code_base, layout.CYCLE_END, layout.STACK_START,
+                          self.budget, trace)
         self.last_cycles = cpu.cycles - start
         if reason is not _TRAP:
             jumps = looping_jumps(cpu)
@@ -177,14 +177,7 @@ class ProgramRunner:
     def enter(self) -> None:
         """Call the program as the firmware does: bank 0, the stack set up so that its
         final RET lands on the cycle-end trap, the PC at its code base."""
-        cpu = self.cpu
-        sfr, iram = cpu.sfr, cpu.iram
-        sfr[_PSW] = 0  # bank 0
-        sp = layout.STACK_START
-        iram[sp + 1 & 0xFF] = layout.CYCLE_END & 0xFF  # pushed as PUSH does: low byte first
-        iram[sp + 2 & 0xFF] = layout.CYCLE_END >> 8
-        sfr[_SP] = sp + 2 & 0xFF
-        cpu.pc = self.program.code_base
+        self.cpu.prepare_call(self.program.code_base, layout.CYCLE_END, layout.STACK_START)
 
     def tick(self, ticks: int = 1) -> bool:
         """``ticks`` x 10 ms of master time: running timers count down, status follows.
