@@ -104,7 +104,7 @@ KINDS = ["coverage", "junit", "counterexample", "archive", "record"]
 
 @pytest.mark.parametrize("kind", KINDS)
 def test_a_sized_kill_campaign_leaves_no_half_file(tmp_path: Path, kind: str):
-    _campaign(tmp_path, kind, 8)
+    _campaign(tmp_path, kind, 5)
 
 
 @pytest.mark.slow

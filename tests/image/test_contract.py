@@ -103,10 +103,22 @@ def generated_programs(draw: st.DrawFn) -> Program:
     return program
 
 
-@settings(max_examples=300, deadline=None,
+@settings(max_examples=100, deadline=None,
           suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
 @given(generated_programs())
-def test_every_generated_program_keeps_the_contract(program: Program):
+def test_every_generated_program_keeps_the_contract(program: Program) -> None:
+    every_generated_program_keeps_the_contract(program)
+
+
+@pytest.mark.slow
+@settings(max_examples=600, deadline=None,
+          suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
+@given(generated_programs())
+def test_every_generated_program_keeps_the_contract_long(program: Program) -> None:
+    every_generated_program_keeps_the_contract(program)
+
+
+def every_generated_program_keeps_the_contract(program: Program) -> None:
     compiled = compile_program(program)
     assert contract.problems(
         LoadedProgram(compiled.code, compiled.pmap, compiled.used_entry_points()), TABLE

@@ -12,6 +12,7 @@ import os
 import tempfile
 from pathlib import Path, PurePath
 
+import pytest
 from click.testing import CliRunner
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
@@ -26,7 +27,9 @@ from asictl.runtime.line_map import SourceLine
 from asictl.runtime.program_map import LoadedProgram
 from asictl.runtime.runner import CycleTimeout, ProgramRunner
 
-EXAMPLES = int(os.environ.get("ASICTL_TRACE_EXAMPLES", "150"))
+#: the default run's sample, and the long run's (``-m slow``)
+EXAMPLES = int(os.environ.get("ASICTL_TRACE_EXAMPLES", "50"))
+LONG_EXAMPLES = int(os.environ.get("ASICTL_TRACE_EXAMPLES", "300"))
 
 
 class ModelFirmware:
@@ -50,6 +53,18 @@ def _line(statement: object) -> SourceLine | None:
           suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
 @given(traceable_sources(), inputs_runs)
 def test_trace_rows_agree_with_the_reference_interpreter(files: dict[str, str], runs) -> None:
+    trace_rows_agree_with_the_reference_interpreter(files, runs)
+
+
+@pytest.mark.slow
+@settings(max_examples=LONG_EXAMPLES, deadline=None,
+          suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
+@given(traceable_sources(), inputs_runs)
+def test_trace_rows_agree_with_the_reference_interpreter_long(files: dict[str, str], runs) -> None:
+    trace_rows_agree_with_the_reference_interpreter(files, runs)
+
+
+def trace_rows_agree_with_the_reference_interpreter(files: dict[str, str], runs) -> None:
     with tempfile.TemporaryDirectory() as tmp:
         for name, text in files.items():
             (Path(tmp) / name).write_text(text)

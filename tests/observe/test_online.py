@@ -45,7 +45,9 @@ from asictl.source import from_string
 
 ROOT = Path(__file__).resolve().parents[2]
 DEMOS = ROOT / "demos"
-EXAMPLES = int(os.environ.get("ASICTL_ONLINE_EXAMPLES", "50"))
+#: the default run's sample, and the long run's (``-m slow``)
+EXAMPLES = int(os.environ.get("ASICTL_ONLINE_EXAMPLES", "20"))
+LONG_EXAMPLES = int(os.environ.get("ASICTL_ONLINE_EXAMPLES", "100"))
 
 Row = tuple[str, int, int, int, int, int | None]
 
@@ -115,7 +117,24 @@ def _compare_with_trace(built, scenario, times: list[float], inputs: bytes = b""
           suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
 @given(traceable_sources(), st.lists(st.integers(0, 40), min_size=1, max_size=4),
        st.binary(min_size=32, max_size=32))
-def test_generated_programs_answer_the_rows_of_the_trace(files: dict[str, str], times, inputs):
+def test_generated_programs_answer_the_rows_of_the_trace(
+    files: dict[str, str], times, inputs,
+) -> None:
+    generated_programs_answer_the_rows_of_the_trace(files, times, inputs)
+
+
+@pytest.mark.slow
+@settings(max_examples=LONG_EXAMPLES, deadline=None,
+          suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
+@given(traceable_sources(), st.lists(st.integers(0, 40), min_size=1, max_size=4),
+       st.binary(min_size=32, max_size=32))
+def test_generated_programs_answer_the_rows_of_the_trace_long(
+    files: dict[str, str], times, inputs,
+) -> None:
+    generated_programs_answer_the_rows_of_the_trace(files, times, inputs)
+
+
+def generated_programs_answer_the_rows_of_the_trace(files: dict[str, str], times, inputs) -> None:
     """Generated programs (main file and a block) with every slave projected and some of
     their inputs on: the latest cycle at each time is the trace's cycle then."""
     setup = "[SETUP]\n" + "".join(f"{a}: bbbb, 0\n" for a in range(1, 32))
