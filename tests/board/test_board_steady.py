@@ -78,7 +78,7 @@ def state(board: Pc2Board, slaves: list[Slave]) -> tuple[object, ...]:
         board.cycle_times_us, board.interrupt_request, ec.requests, ec.failures,
         bytes(ec.idi), [s.outputs for s in slaves],
         board._quiet, board._probe_wait, board._probe_gap, board._program_ready_us,
-        board._odi_written,
+        board._odi_sent,
         None if cpu is None else (bytes(cpu.iram), bytes(cpu.sfr), cpu.pc, cpu.cycles,
                                   cpu.instructions,
                                   bytes(cpu.xdata.ram[: layout.DATA_LIMIT])),

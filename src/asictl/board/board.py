@@ -143,7 +143,7 @@ class Pc2Board:
         self._host_outputs = _NO_OUTPUTS
         self._host_dirty = False
         self._command_pending = False
-        self._odi_written: bytes | None = None
+        self._odi_sent: bytes | None = None  # the outputs the ODI holds, inverted
         self._program_ready_us = 0
         #: per timer of the program, its address and whether its ticks may be counted
         #: down in one step (nobody reads its remaining time)
@@ -547,8 +547,8 @@ class Pc2Board:
         ram, ec = self._ram, self._ec
         odi = bytes(ram[d.ODI : d.ODI + d.IMAGE_SIZE])
         if self._control.running:
-            if odi != self._odi_written:
-                self._odi_written = None  # the program's outputs overwrite the host's
+            if odi.translate(_INVERT) != self._odi_sent:
+                self._odi_sent = None  # the program's outputs overwrite the host's
         else:
             self._host_outputs = odi.translate(_INVERT)
         pi = nibbles(ram[d.PI : d.PI + d.IMAGE_SIZE])
@@ -643,11 +643,11 @@ class Pc2Board:
         self._images.update_settings()
 
     def _write_odi(self, sent: bytes | bytearray) -> None:
-        """The outputs the slaves get into the ODI (inverted), when they changed."""
-        odi = sent.translate(_INVERT)
-        if odi != self._odi_written:
-            self._odi_written = odi = bytes(odi)
-            self._dpram.put(d.ODI, odi)
+        """The outputs the slaves get into the ODI (inverted), when they changed (compared
+        as they are: inverting them first cost every program cycle a new bytes object)."""
+        if sent != self._odi_sent:
+            self._odi_sent = bytes(sent)
+            self._dpram.put(d.ODI, sent.translate(_INVERT))
 
     def _halt(self, reason: StopReason, detail: str) -> None:
         """The firmware stops a program that cannot go on: outputs to the safe state."""
@@ -708,7 +708,7 @@ class Pc2Board:
     def safe_outputs(self) -> None:
         """Program stopped: outputs 0 until the host writes the ODI (stored inverted)."""
         self._host_outputs = _NO_OUTPUTS
-        self._odi_written = None
+        self._odi_sent = None
         self._dpram.put(d.ODI, b"\xff" * d.IMAGE_SIZE)
 
     # ------------------------------------------------------------------ forcing
@@ -736,7 +736,7 @@ class Pc2Board:
         self._dpram.stirred = True
         self._quiet = False
         self._host_dirty = True
-        self._odi_written = None
+        self._odi_sent = None
 
     # ------------------------------------------------------------------ buttons and views
 
