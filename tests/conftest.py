@@ -15,6 +15,7 @@ from collections.abc import Generator
 
 import pytest
 from click.testing import CliRunner
+from compile_once import compile_once
 
 pytest_plugins = ["pytester"]
 
@@ -34,9 +35,12 @@ os.environ.pop("PYTHONDONTWRITEBYTECODE", None)
 def pytest_configure(config: pytest.Config) -> None:
     """With pytest-xdist's workers (``-n auto``), tests are handed out by work stealing
     rather than in fixed shares: a worker that is done takes over the queue of one that
-    is not, so a long test near the end does not leave the other worker idle."""
+    is not, so a long test near the end does not leave the other worker idle. And the
+    workers start on bytecode compiled once, before them (``compile_once``)."""
     if getattr(config.option, "dist", None) == "load":
         config.option.dist = "worksteal"
+    if getattr(config.option, "numprocesses", None) and not hasattr(config, "workerinput"):
+        compile_once()
 
 
 @pytest.hookimpl(wrapper=True, optionalhook=True)  # a hook of pytest-xdist's
