@@ -1,12 +1,13 @@
-"""The copies around a program cycle, generated per program: inputs in, outputs out.
+"""The copies around a program cycle, generated per program: inputs in, outputs out;
+and the 10 ms tick of its timers.
 
 Around every cycle the firmware copies the input image (and the previous one) into the
 program's cells, the flags the program keeps in internal RAM from the communication
 memory, and afterwards the outputs and the changed flags back (docs/runtime.md). Walking
 the program map for that costs more than a short program's cycle itself, so the copies
-are written out once per program as Python statements with every address a constant.
-They read and write XDATA as plain RAM: the runner uses them only while no device is
-mapped on the bus.
+are written out once per program as Python statements with every address a constant,
+and so is the tick, which counts the running timers down between cycles. They read and
+write XDATA as plain RAM: the runner uses them only while no device is mapped on the bus.
 """
 
 from __future__ import annotations
@@ -16,10 +17,11 @@ from collections.abc import Callable, Sequence
 from typing import Any
 
 from asictl.runtime import layout
-from asictl.runtime.program_map import CellKind, Location, ProgramMap, Space
+from asictl.runtime.program_map import CellKind, Location, ProgramMap, Space, timer_status
 
 CopyIn = Callable[[bytearray, bytearray, bytearray, bytes | bytearray | None], tuple[int, ...]]
 CopyOut = Callable[[bytearray, bytearray, bytearray, Sequence[int]], None]
+Tick = Callable[[bytearray, bytearray, int], bool]
 
 
 def _place(location: Location) -> str:
@@ -76,22 +78,47 @@ def _source(pmap: ProgramMap) -> str:
             lines += [f"        if {new} != {old}:",
                       f"            xram[{layout.FLAGS_BASE + n}] = {new}"]
     lines.append("    return None")
+    lines += _tick(pmap)
     return "\n".join(getters + lines) + "\n"
 
 
+def _tick(pmap: ProgramMap) -> list[str]:
+    """``tick(iram, xram, ticks)``: each running timer's word counts down by ``ticks``, not
+    below 0, and its status bit clears when it reaches 0; True when a timer ran."""
+    lines = ["def tick(iram, xram, ticks):", "    ran = False"]
+    for n in sorted(pmap.timers):
+        word = pmap.timers[n]
+        cell, bit = timer_status(n)
+        status = _place(pmap.cells[cell])
+        lines += [f"    remaining = xram[{word}] | xram[{word + 1}] << 8",
+                  "    if remaining:",
+                  "        ran = True",
+                  "        if remaining > ticks:",
+                  "            remaining -= ticks",
+                  f"            xram[{word}] = remaining & 255",
+                  f"            xram[{word + 1}] = remaining >> 8",
+                  "        else:",
+                  f"            xram[{word}] = xram[{word + 1}] = 0",
+                  f"            {status} &= {~(1 << bit) & 0xFF}"]
+    lines.append("    return ran")
+    return lines
+
+
 @functools.lru_cache(maxsize=64)
-def _functions(source: str) -> tuple[Any, Any]:
+def _functions(source: str) -> tuple[Any, Any, Any]:
     namespace: dict[str, Any] = {}
     exec(compile(source, "<asictl-cycle-io>", "exec"), namespace)
-    return namespace["copy_in"], namespace["copy_out"]
+    return namespace["copy_in"], namespace["copy_out"], namespace["tick"]
 
 
 class CycleIo:
     """``copy_in(iram, xram, inputs, new)`` stores ``new`` (if given) as the input image and
     copies images and flags into the cells, returning the flags' values;
-    ``copy_out(iram, xram, outputs, flags)`` copies the outputs and the changed flags."""
+    ``copy_out(iram, xram, outputs, flags)`` copies the outputs and the changed flags;
+    ``tick(iram, xram, ticks)`` counts the running timers down (True if one ran)."""
 
     def __init__(self, pmap: ProgramMap) -> None:
-        copy_in, copy_out = _functions(_source(pmap))
+        copy_in, copy_out, tick = _functions(_source(pmap))
         self.copy_in: CopyIn = copy_in
         self.copy_out: CopyOut = copy_out
+        self.tick: Tick = tick

@@ -183,9 +183,9 @@ class ProgramRunner:
         """``ticks`` x 10 ms of master time: running timers count down, status follows.
         Returns whether a timer ran (a tick of stopped timers changes nothing)."""
         xdata = self.cpu.xdata
-        # plain RAM, the common case, is read and written without a Python call
-        read, write = ((xdata.ram.__getitem__, xdata.ram.__setitem__) if xdata.plain
-                       else (xdata.read, xdata.write))
+        if self._io is not None and xdata.plain:  # plain RAM, the common case: generated
+            return self._io.tick(self.cpu.iram, xdata.ram, ticks)
+        read, write = xdata.read, xdata.write
         ran = False
         for address, location, bit in self._timers:
             remaining = read(address) | read(address + 1) << 8
