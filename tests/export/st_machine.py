@@ -1,5 +1,6 @@
 """A small executor for the Structured Text that ``asictl export --to st`` writes, for
-the tests: it parses the text with its own grammar (lark) and runs the PROGRAM cycle by
+the tests: it parses the text with its own grammar (lark, LALR: Earley took a second a
+program) and runs the PROGRAM cycle by
 cycle over byte images for %I, %Q and %M, so the ST's behaviour can be compared with the
 reference interpreter's. It knows only the subset the export writes (assignments, IF,
 WHILE, CASE, FOR, calls of the blocks, the conversions and MIN/SHL/SHR/TIME) and the
@@ -55,7 +56,7 @@ COMMENT: /\(\*.*?\*\)/s
 %ignore WS
 %ignore COMMENT
 """
-_PARSER = Lark(GRAMMAR, parser="earley")
+_PARSER = Lark(GRAMMAR, parser="lalr")
 _WIDTH = {"BOOL": 1, "BYTE": 8, "WORD": 16, "INT": 16, "DINT": 32, "TIME": 32}
 _SIGNED = {"INT", "DINT"}
 

@@ -24,8 +24,8 @@ from asictl.il.oracle import Interpreter
 
 DEMOS = Path(__file__).parents[2] / "demos"
 #: the default run's sample, and the long run's (``-m slow``)
-EXAMPLES = int(os.environ.get("ASICTL_EXPORT_EXAMPLES", "20"))
-LONG_EXAMPLES = int(os.environ.get("ASICTL_EXPORT_EXAMPLES", "150"))
+EXAMPLES = int(os.environ.get("ASICTL_EXPORT_EXAMPLES", "40"))
+LONG_EXAMPLES = int(os.environ.get("ASICTL_EXPORT_EXAMPLES", "300"))
 
 
 def _first_difference(program: Program, text: str, run: Sequence[Cycle]) -> str | None:
