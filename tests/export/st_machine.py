@@ -1,9 +1,9 @@
 """A small executor for the Structured Text that ``asictl export --to st`` writes, for
 the tests: it parses the text with its own grammar (lark, LALR: Earley took a second a
 program) and runs the PROGRAM cycle by cycle over byte images for %I, %Q and %M, so the
-ST's behaviour can be compared with the reference interpreter's. It knows only the subset the export writes (assignments, IF,
-WHILE, CASE, FOR, calls of the blocks, the conversions and MIN/SHL/SHR/TIME) and the
-widths of BOOL, BYTE, WORD, INT, DINT and TIME.
+ST's behaviour can be compared with the reference interpreter's. It knows only the
+subset the export writes (assignments, IF, WHILE, CASE, FOR, calls of the blocks, the
+conversions and MIN/SHL/SHR/TIME) and the widths of BOOL, BYTE, WORD, INT, DINT and TIME.
 """
 
 from __future__ import annotations
