@@ -11,9 +11,9 @@ from collections.abc import Sequence
 from pathlib import Path
 
 import pytest
-from hypothesis import HealthCheck, given, settings
 from il_strategies import checked_programs, cycle_steps
 from mapped_counter_writes import RUN, mapped_counter_writes
+from sized import check, sizes
 from st_machine import StMachine
 
 from asictl.build import build_file
@@ -78,23 +78,10 @@ def test_writes_to_the_bits_a_mapped_counter_keeps_at_0_change_nothing() -> None
     assert _first_difference(program, text, RUN) is None
 
 
-@settings(max_examples=EXAMPLES, deadline=None,
-          suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
-@given(checked_programs(asm=False, options=True), cycle_steps(max_size=8))
-def test_generated_programs_structured_text_behaves_as_the_master(
-    program: Program, steps: list[tuple[bytes, int, object]],
-) -> None:
-    generated_programs_structured_text_behaves_as_the_master(program, steps)
-
-
-@pytest.mark.slow
-@settings(max_examples=LONG_EXAMPLES, deadline=None,
-          suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
-@given(checked_programs(asm=False, options=True), cycle_steps(max_size=8))
-def test_generated_programs_structured_text_behaves_as_the_master_long(
-    program: Program, steps: list[tuple[bytes, int, object]],
-) -> None:
-    generated_programs_structured_text_behaves_as_the_master(program, steps)
+@sizes(EXAMPLES, LONG_EXAMPLES)
+def test_generated_programs_structured_text_behaves_as_the_master(examples: int) -> None:
+    check(examples, generated_programs_structured_text_behaves_as_the_master,
+          checked_programs(asm=False, options=True), cycle_steps(max_size=8))
 
 
 def generated_programs_structured_text_behaves_as_the_master(

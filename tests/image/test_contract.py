@@ -12,10 +12,11 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-from hypothesis import HealthCheck, assume, given, settings
+from hypothesis import assume
 from hypothesis import strategies as st
 from il_strategies import assembly_sections, gatings, options_sections, programs, scopes
 from manual_examples import EXAMPLES
+from sized import check, sizes
 
 from asictl.build import build, build_file, build_image
 from asictl.codegen8051.compiler import compile_program
@@ -103,19 +104,10 @@ def generated_programs(draw: st.DrawFn) -> Program:
     return program
 
 
-@settings(max_examples=100, deadline=None,
-          suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
-@given(generated_programs())
-def test_every_generated_program_keeps_the_contract(program: Program) -> None:
-    every_generated_program_keeps_the_contract(program)
-
-
-@pytest.mark.slow
-@settings(max_examples=600, deadline=None,
-          suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
-@given(generated_programs())
-def test_every_generated_program_keeps_the_contract_long(program: Program) -> None:
-    every_generated_program_keeps_the_contract(program)
+@sizes(100, 600)
+def test_every_generated_program_keeps_the_contract(examples: int) -> None:
+    check(examples, every_generated_program_keeps_the_contract,
+          generated_programs())
 
 
 def every_generated_program_keeps_the_contract(program: Program) -> None:

@@ -12,11 +12,11 @@ import os
 import tempfile
 from pathlib import Path, PurePath
 
-import pytest
 from click.testing import CliRunner
-from hypothesis import HealthCheck, assume, given, settings
+from hypothesis import assume
 from hypothesis import strategies as st
 from il_strategies import traceable_sources
+from sized import check, sizes
 
 from asictl.build import build_file
 from asictl.cli import main
@@ -49,19 +49,10 @@ def _line(statement: object) -> SourceLine | None:
     return None if span is None else SourceLine(PurePath(span.file).name, span.line)
 
 
-@settings(max_examples=EXAMPLES, deadline=None,
-          suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
-@given(traceable_sources(), inputs_runs)
-def test_trace_rows_agree_with_the_reference_interpreter(files: dict[str, str], runs) -> None:
-    trace_rows_agree_with_the_reference_interpreter(files, runs)
-
-
-@pytest.mark.slow
-@settings(max_examples=LONG_EXAMPLES, deadline=None,
-          suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
-@given(traceable_sources(), inputs_runs)
-def test_trace_rows_agree_with_the_reference_interpreter_long(files: dict[str, str], runs) -> None:
-    trace_rows_agree_with_the_reference_interpreter(files, runs)
+@sizes(EXAMPLES, LONG_EXAMPLES)
+def test_trace_rows_agree_with_the_reference_interpreter(examples: int) -> None:
+    check(examples, trace_rows_agree_with_the_reference_interpreter,
+          traceable_sources(), inputs_runs)
 
 
 def trace_rows_agree_with_the_reference_interpreter(files: dict[str, str], runs) -> None:

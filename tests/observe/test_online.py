@@ -20,9 +20,10 @@ from pathlib import Path
 
 import pytest
 from click.testing import CliRunner
-from hypothesis import HealthCheck, assume, given, settings
+from hypothesis import assume
 from hypothesis import strategies as st
 from il_strategies import traceable_sources
+from sized import check, sizes
 
 from asictl.board.asi import AsiBus, Slave
 from asictl.board.board import Pc2Board
@@ -113,25 +114,11 @@ def _compare_with_trace(built, scenario, times: list[float], inputs: bytes = b""
     return compared
 
 
-@settings(max_examples=EXAMPLES, deadline=None,
-          suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
-@given(traceable_sources(), st.lists(st.integers(0, 40), min_size=1, max_size=4),
-       st.binary(min_size=32, max_size=32))
-def test_generated_programs_answer_the_rows_of_the_trace(
-    files: dict[str, str], times, inputs,
-) -> None:
-    generated_programs_answer_the_rows_of_the_trace(files, times, inputs)
-
-
-@pytest.mark.slow
-@settings(max_examples=LONG_EXAMPLES, deadline=None,
-          suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
-@given(traceable_sources(), st.lists(st.integers(0, 40), min_size=1, max_size=4),
-       st.binary(min_size=32, max_size=32))
-def test_generated_programs_answer_the_rows_of_the_trace_long(
-    files: dict[str, str], times, inputs,
-) -> None:
-    generated_programs_answer_the_rows_of_the_trace(files, times, inputs)
+@sizes(EXAMPLES, LONG_EXAMPLES)
+def test_generated_programs_answer_the_rows_of_the_trace(examples: int) -> None:
+    check(examples, generated_programs_answer_the_rows_of_the_trace,
+          traceable_sources(), st.lists(st.integers(0, 40), min_size=1, max_size=4),
+          st.binary(min_size=32, max_size=32))
 
 
 def generated_programs_answer_the_rows_of_the_trace(files: dict[str, str], times, inputs) -> None:

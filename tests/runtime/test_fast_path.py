@@ -14,9 +14,8 @@ from __future__ import annotations
 
 import os
 
-import pytest
-from hypothesis import HealthCheck, given, settings
 from il_strategies import ModelFirmware, checked_programs, cycle_steps
+from sized import check, sizes
 
 from asictl.codegen8051.compiler import compile_program
 from asictl.il.loader import Program
@@ -43,25 +42,10 @@ def machine(runner: ProgramRunner, firmware: ModelFirmware) -> tuple:
     )  # fmt: skip
 
 
-@settings(
-    max_examples=EXAMPLES,
-    deadline=None,
-    suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much],
-)
-@given(compiled_programs, steps)
-def test_fast_and_general_paths_leave_the_same_machine(program: Program, run) -> None:
-    fast_and_general_paths_leave_the_same_machine(program, run)
-
-
-@pytest.mark.slow
-@settings(
-    max_examples=LONG_EXAMPLES,
-    deadline=None,
-    suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much],
-)
-@given(compiled_programs, steps)
-def test_fast_and_general_paths_leave_the_same_machine_long(program: Program, run) -> None:
-    fast_and_general_paths_leave_the_same_machine(program, run)
+@sizes(EXAMPLES, LONG_EXAMPLES)
+def test_fast_and_general_paths_leave_the_same_machine(examples: int) -> None:
+    check(examples, fast_and_general_paths_leave_the_same_machine,
+          compiled_programs, steps)
 
 
 def fast_and_general_paths_leave_the_same_machine(program: Program, run) -> None:
