@@ -24,7 +24,7 @@ from pathlib import Path
 
 import pytest
 from click.testing import CliRunner
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 from asictl.cli import main
@@ -381,6 +381,7 @@ def add_plant_answers_plainly(drive: Path, kind: str, table: dict[str, object]) 
 
 @settings(max_examples=40, deadline=5000, suppress_health_check=[HealthCheck.too_slow])
 @given(made=python_tables())
+@example(made=("rule", {**VALID["rule"], "set": {None: 1}}))  # a key that is no text
 def test_a_hostile_table_given_in_python_is_refused_plainly(drive, made):
     add_plant_answers_plainly(drive, *made)
 

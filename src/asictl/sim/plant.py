@@ -693,6 +693,9 @@ class _Table:
             raise self.fail(f"'{key}' is a table of inputs: {{ \"I 1.0\" = 1 }}", key)
         found = {}
         for text, value in table.items():
+            if not isinstance(text, str):  # a table given in Python: any key at all
+                raise self.fail(f"'{key}' is a table of inputs: {{ \"I 1.0\" = 1 }}, not a "
+                                f"key {text!r}"[:120], key)
             operand = self._operand(text, key, output=True)
             if not operand.settable:
                 raise self.fail(f"'{text}' cannot be set by a rule: only inputs (I, IB) and "
