@@ -25,7 +25,6 @@ to a depth of 7.
 
 from __future__ import annotations
 
-import copy
 import os
 import tempfile
 from collections.abc import Callable
@@ -171,7 +170,7 @@ def _first_bad(program: Program, prop: Property, depth: int, cycle_us: int,
         ticks = _ticks(cycle_us, phase_us, cycle)
         for node in frontier.values():
             for nibble in range(8):
-                interp.state = copy.deepcopy(node.state)
+                interp.state = node.state.copy()
                 if ticks:
                     interp.tick(ticks)
                 interp.cycle(bytes([nibble << 4]) + bytes(15))

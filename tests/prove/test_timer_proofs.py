@@ -13,7 +13,6 @@ property one of them breaks must not be proved, and every counterexample must fa
 
 from __future__ import annotations
 
-import copy
 import functools
 import os
 from pathlib import Path
@@ -170,7 +169,7 @@ def broken(program: Path, prop: Property, inputs: tuple[str, ...], cycle_ms: int
         longer = []
         for sequence, state, waiting in runs:
             for value in range(1 << len(inputs)):
-                interp.state = copy.deepcopy(state)
+                interp.state = state.copy()
                 if number:
                     interp.tick(cycle_ms // 10)
                 data = bytearray(16)

@@ -33,7 +33,6 @@ nothing is found proves nothing.
 
 from __future__ import annotations
 
-import copy
 import dataclasses
 import math
 import time
@@ -77,6 +76,11 @@ class _Written(dict[int, int]):
     def __setitem__(self, key: int, value: int) -> None:
         self.written.add(key)
         super().__setitem__(key, value)
+
+    def __copy__(self) -> _Written:
+        table = _Written(self)
+        table.written = set(self.written)
+        return table
 
 
 @dataclass
@@ -223,7 +227,7 @@ class _Search:
         goal = self.goal
         end = goal.horizon if stop is None else min(stop, goal.horizon)
         machine = self.machine
-        state = machine.state = copy.deepcopy(place.state)
+        state = machine.state = place.state.copy()
         timers = state.timers
         assert isinstance(timers, _Written)
         images, host = self._images(place.values)
@@ -236,7 +240,7 @@ class _Search:
                 self.out_of_time = True
                 return run, None, None
             if record and (run.executed - 1) % run.stride == 0:
-                run.places.append(_Place(cycle, copy.deepcopy(state), until, wait,
+                run.places.append(_Place(cycle, state.copy(), until, wait,
                                          place.values))
                 if len(run.places) >= MOST_PLACES:  # keep every other one
                     run.places = run.places[::2]
