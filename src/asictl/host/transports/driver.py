@@ -157,6 +157,9 @@ class Pc2Driver:
 
     def __init__(self, port: PortIO) -> None:
         self.port = port
+        # asked once: a check against a runtime-checkable protocol looks up each of its
+        # methods, and took longer than many a read it chose the way for
+        self._read_block = port.read_data if isinstance(port, BlockPortIO) else None
 
     def _point(self, address: int) -> None:
         self.port.write(PORT_INDEX, address & 0xFF)
@@ -174,7 +177,7 @@ class Pc2Driver:
     def read(self, address: int, size: int) -> bytes:
         out = bytearray()
         port = self.port
-        block = port.read_data if isinstance(port, BlockPortIO) else None
+        block = self._read_block
         for start, length in self._chunks(address, size):
             self._point(start)
             if block is not None:
