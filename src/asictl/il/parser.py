@@ -21,21 +21,19 @@ semantic checks' job.
 from __future__ import annotations
 
 import re
-import sys
 import threading
 from collections.abc import Callable
 from copy import copy
 from importlib.resources import files
 from typing import TypedDict
 
-import lark
 from lark import Lark, Token
 from lark.exceptions import UnexpectedInput
 from lark.lexer import LexerState, LineCounter
 from lark.utils import TextSlice
 
 from asictl.diagnostics import Diagnostic, Span
-from asictl.files import cache_directory
+from asictl.files import grammar_cache
 from asictl.il import ast
 from asictl.il.lean_parser import LeanParser
 from asictl.il.syntax_errors import diagnose
@@ -72,19 +70,6 @@ def _reserve(token: Token) -> Token:
     return token
 
 
-def _cache_file() -> str | bool:
-    """Where lark keeps the analysed grammar: building it takes ~0.5 s, loading ~20 ms.
-
-    asictl's private cache directory, not lark's default of the shared temporary
-    directory (files.cache_directory: the cache is a pickle).
-    """
-    directory = cache_directory()
-    if directory is None:
-        return False
-    version = f"lark{lark.__version__}-py{sys.version_info[0]}.{sys.version_info[1]}"
-    return str(directory / f"il-grammar-{version}.cache")
-
-
 def grammar_text() -> str:
     return files("asictl").joinpath("grammar/il.lark").read_text(encoding="utf-8")
 
@@ -112,7 +97,7 @@ class _Reader:
     def __init__(self) -> None:
         self.builder = AstBuilder()
         self.lark = Lark(
-            grammar_text(), transformer=self.builder, cache=_cache_file(), **lark_options()
+            grammar_text(), transformer=self.builder, cache=grammar_cache("il"), **lark_options()
         )
         self.keywords = {
             t.name: t.pattern.value for t in self.lark.terminals if t.pattern.type == "str"

@@ -29,6 +29,7 @@ from typing import assert_never
 
 import lark
 
+from asictl.files import grammar_cache
 from asictl.il import ast
 from asictl.observe.operands import Operand, parse_operand, read_number
 from asictl.observe.symbols import SymbolTable
@@ -291,7 +292,8 @@ def value_of(expr: Expr, read: Read, registers: ReadRegister | None = None) -> i
 @functools.cache
 def _parser() -> lark.Lark:
     grammar = files("asictl").joinpath("grammar/condition.lark").read_text(encoding="utf-8")
-    return lark.Lark(grammar, parser="lalr", lexer="contextual", propagate_positions=True)
+    return lark.Lark(grammar, parser="lalr", lexer="contextual", propagate_positions=True,
+                     cache=grammar_cache("condition"))
 
 
 def parse_condition(
