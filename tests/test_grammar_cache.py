@@ -12,13 +12,20 @@ import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
 
-#: A fresh process reads an IL program and a condition; prints what it built or loaded.
+#: A fresh process reads an IL program and conditions (two of them wrong, their errors
+#: placed by the positions lark keeps); prints what it read.
 READ_BOTH = """
 from asictl.il.parser import parse
-from asictl.observe.condition import parse_condition
+from asictl.observe.condition import ConditionError, parse_condition
 from asictl.source import from_string
 module, problems = parse(from_string("p.asi", "[PROGRAM]\\n A I 1.0\\n = Q 2.0\\n BE\\n[END]\\n"))
-print(module, problems, parse_condition("Q 2.0 and not I 1.0"))
+print(module, problems, parse_condition("Q 2.0 and not I 1.0 or IB 2 >= 3"))
+print(parse(from_string("q.asi", "[PROGRAM]\\n A I 1.0\\n =  = Q 2.0\\n[END]\\n"))[1])
+for wrong in ("Q 2.0 and IB 2 >= and", "Q 2.0 and IB 1 >= 3"):  # positions from the tree
+    try:
+        parse_condition(wrong)
+    except ConditionError as error:
+        print(vars(error))
 """
 
 
