@@ -8,6 +8,7 @@ conversions and MIN/SHL/SHR/TIME) and the widths of BOOL, BYTE, WORD, INT, DINT 
 
 from __future__ import annotations
 
+import functools
 import re
 from dataclasses import dataclass, field
 from typing import Any
@@ -55,7 +56,14 @@ COMMENT: /\(\*.*?\*\)/s
 %ignore WS
 %ignore COMMENT
 """
-_PARSER = Lark(GRAMMAR, parser="lalr")
+
+
+@functools.cache
+def _parser() -> Lark:
+    """Built on first use: only the workers that run an ST test pay its 0.5 s."""
+    return Lark(GRAMMAR, parser="lalr")
+
+
 _WIDTH = {"BOOL": 1, "BYTE": 8, "WORD": 16, "INT": 16, "DINT": 32, "TIME": 32}
 _SIGNED = {"INT", "DINT"}
 
@@ -89,7 +97,7 @@ class StMachine:
     clock_ms: int = 0
 
     def __post_init__(self) -> None:
-        tree = _PARSER.parse(self.text)
+        tree = _parser().parse(self.text)
         self.globals: dict[str, Variable] = {}
         self.pous: dict[str, Tree] = {}
         self.program = ""

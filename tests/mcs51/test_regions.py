@@ -123,7 +123,7 @@ def regions_and_interpreter_agree(monkeypatch: pytest.MonkeyPatch, case) -> None
 
 
 @settings(
-    max_examples=25,
+    max_examples=15,
     deadline=None,
     suppress_health_check=[HealthCheck.function_scoped_fixture],  # the same patch each time
 )
