@@ -56,9 +56,11 @@ def pytest_xdist_auto_num_workers(config: pytest.Config) -> Generator[None, int,
 
 
 @pytest.fixture(scope="session")
-def _grammars(tmp_path_factory: pytest.TempPathFactory) -> list[Path]:
-    """The analysed grammars (``files.grammar_cache``), built once in this worker in a
-    cache folder of their own, by the code that builds them for a command."""
+def _shared_caches(tmp_path_factory: pytest.TempPathFactory) -> list[Path]:
+    """The cache files each test's cache folder links to: the analysed grammars
+    (``files.grammar_cache``), built once in this worker in a cache folder of their own,
+    by the code that builds them for a command (tests/opcua adds asyncua's standard
+    address space)."""
     from asictl.il.parser import _Reader
     from asictl.observe import condition
 
@@ -72,18 +74,19 @@ def _grammars(tmp_path_factory: pytest.TempPathFactory) -> list[Path]:
 
 @pytest.fixture(autouse=True)
 def _own_cache(request: pytest.FixtureRequest, monkeypatch: pytest.MonkeyPatch,
-               tmp_path_factory: pytest.TempPathFactory, _grammars: list[Path]) -> None:
+               tmp_path_factory: pytest.TempPathFactory,
+               _shared_caches: list[Path]) -> None:
     """Each test its own XDG cache folder (``asictl mutate`` keeps its verdicts there): a
     verdict one test's monkeypatching produced must never answer for another's run.
 
-    It holds links to the analysed grammars, which no test changes: without them each
-    test's first ``asictl`` process built the IL grammar anew (0.35 s of CPU)."""
+    It holds links to the shared caches, which no test changes: without them each test's
+    first ``asictl`` process built the IL grammar anew (0.35 s of CPU)."""
     name = hashlib.sha256(request.node.nodeid.encode()).hexdigest()[:16]
     home = tmp_path_factory.getbasetemp() / "cache" / name
     (home / "asictl").mkdir(mode=0o700, parents=True, exist_ok=True)
-    for grammar in _grammars:
+    for kept in _shared_caches:
         with contextlib.suppress(FileExistsError):  # a test run again (--count, reruns)
-            (home / "asictl" / grammar.name).symlink_to(grammar)
+            (home / "asictl" / kept.name).symlink_to(kept)
     monkeypatch.setenv("XDG_CACHE_HOME", str(home))
 
 

@@ -5,23 +5,21 @@ built without the garbage collector and frozen out of its reach."""
 from __future__ import annotations
 
 import asyncio
-import contextlib
 import gc
 import pickle
-from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
 from asyncua import Client, ua
 from asyncua.server.address_space import AddressSpace
-from asyncua.server.server import Server
 from asyncua.server.standard_address_space import standard_address_space
+from opcua_space import collector_off, standard_server
 from test_opcua import NAMESPACE, node, served
 from test_opcua import state as state
 
 from asictl.files import cache_directory
 from asictl.opcua.server import _kept_for_good
-from asictl.opcua.standard_space import CachedStandardSpace, cache_file
+from asictl.opcua.standard_space import cache_file
 
 
 @pytest.fixture
@@ -32,26 +30,11 @@ def cache(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
     return path
 
 
-@contextlib.contextmanager
-def collector_off() -> Iterator[None]:
-    """As ``serve`` builds its address space (``_kept_for_good``), without freezing what
-    was built for good: the collections that 650,000 new objects set off are most of the
-    time of building, storing and loading them."""
-    was = gc.isenabled()
-    gc.disable()
-    try:
-        yield
-    finally:
-        if was:
-            gc.enable()
-
-
 async def standard_nodes() -> dict[ua.NodeId, str]:
     """The standard address space as a server built on the cache has it: each node's
     browse name."""
     with collector_off():
-        server = Server(iserver=CachedStandardSpace())
-        await server.init()
+        server = await standard_server()
         nodes = server.iserver.aspace
         ids = list(nodes.keys())  # the address space is no mapping: no iterating over it
         return {nodeid: nodes.read_attribute_value(nodeid, ua.AttributeIds.BrowseName)
