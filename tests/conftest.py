@@ -8,9 +8,9 @@ always means the differential tests really ran.
 from __future__ import annotations
 
 import contextlib
-import hashlib
 import os
 import shutil
+import stat
 import sys
 from collections.abc import Generator
 from pathlib import Path
@@ -73,21 +73,51 @@ def _shared_caches(tmp_path_factory: pytest.TempPathFactory) -> list[Path]:
 
 
 @pytest.fixture(autouse=True)
-def _own_cache(request: pytest.FixtureRequest, monkeypatch: pytest.MonkeyPatch,
-               tmp_path_factory: pytest.TempPathFactory,
+def _own_cache(monkeypatch: pytest.MonkeyPatch, tmp_path_factory: pytest.TempPathFactory,
                _shared_caches: list[Path]) -> None:
-    """Each test its own XDG cache folder (``asictl mutate`` keeps its verdicts there): a
-    verdict one test's monkeypatching produced must never answer for another's run.
+    """Each test starts with an XDG cache folder that holds nothing but links to the
+    shared caches (``asictl mutate`` keeps its verdicts there): a verdict one test's
+    monkeypatching produced must never answer for another's run. The links spare each
+    test's first ``asictl`` process building the IL grammar anew (0.35 s of CPU).
 
-    It holds links to the shared caches, which no test changes: without them each test's
-    first ``asictl`` process built the IL grammar anew (0.35 s of CPU)."""
-    name = hashlib.sha256(request.node.nodeid.encode()).hexdigest()[:16]
-    home = tmp_path_factory.getbasetemp() / "cache" / name
-    (home / "asictl").mkdir(mode=0o700, parents=True, exist_ok=True)
-    for kept in _shared_caches:
-        with contextlib.suppress(FileExistsError):  # a test run again (--count, reruns)
-            (home / "asictl" / kept.name).symlink_to(kept)
+    The folder is the worker's, emptied of what the last test left rather than made anew
+    for each test: four file-system writes a test were a millisecond of its time."""
+    home = tmp_path_factory.getbasetemp() / "cache"
+    _empty_but_links(home / "asictl", {kept.name: kept for kept in _shared_caches})
+    for entry in os.scandir(home):
+        if entry.name != "asictl":
+            _remove(Path(entry.path))
     monkeypatch.setenv("XDG_CACHE_HOME", str(home))
+
+
+def _empty_but_links(folder: Path, links: dict[str, Path]) -> None:
+    """``folder`` private (0700) and holding exactly ``links`` (name: target)."""
+    try:
+        mode = folder.lstat().st_mode
+    except FileNotFoundError:
+        mode = 0
+    private = stat.S_ISDIR(mode) and stat.S_IMODE(mode) == 0o700
+    if not private:
+        _remove(folder)
+        folder.mkdir(mode=0o700, parents=True)
+    wanted = dict(links)
+    for entry in os.scandir(folder):
+        target = wanted.get(entry.name)
+        if target is not None and entry.is_symlink() and os.readlink(entry.path) == str(target):
+            del wanted[entry.name]
+        else:
+            _remove(Path(entry.path))
+    for name, target in wanted.items():
+        (folder / name).symlink_to(target)
+
+
+def _remove(path: Path) -> None:
+    """``path`` gone, a folder with all it holds."""
+    if path.is_dir() and not path.is_symlink():
+        shutil.rmtree(path)
+    else:
+        with contextlib.suppress(FileNotFoundError):
+            path.unlink()
 
 
 def require_tool(name: str, package: str) -> str:

@@ -1,0 +1,28 @@
+"""Each test's XDG cache folder (tests/conftest.py, ``_own_cache``) starts private and
+holding only the links to the shared caches, whatever the test before it left there."""
+
+from __future__ import annotations
+
+import os
+import stat
+from pathlib import Path
+
+import pytest
+
+
+@pytest.mark.parametrize("leaves", ["verdicts", "a replaced link", "an open folder"])
+def test_each_test_starts_with_the_links_alone(leaves: str, _shared_caches: list[Path]) -> None:
+    folder = Path(os.environ["XDG_CACHE_HOME"], "asictl")
+    assert stat.S_IMODE(folder.lstat().st_mode) == 0o700
+    assert {p.name: os.readlink(p) for p in folder.iterdir()} == \
+        {p.name: str(p) for p in _shared_caches}
+    assert os.listdir(folder.parent) == ["asictl"]
+    # what this test leaves for the next one in this worker
+    (folder / "mutate" / "key").mkdir(parents=True)
+    (folder.parent / "elsewhere").write_text("x")
+    if leaves == "a replaced link":
+        first = folder / _shared_caches[0].name
+        first.unlink()
+        first.write_bytes(b"damaged")
+    if leaves == "an open folder":
+        folder.chmod(0o755)
