@@ -58,18 +58,25 @@ def pytest_xdist_auto_num_workers(config: pytest.Config) -> Generator[None, int,
 @pytest.fixture(scope="session")
 def _shared_caches(tmp_path_factory: pytest.TempPathFactory) -> list[Path]:
     """The cache files each test's cache folder links to: the analysed grammars
-    (``files.grammar_cache``), built once in this worker in a cache folder of their own,
-    by the code that builds them for a command (tests/opcua adds asyncua's standard
-    address space)."""
+    (``files.grammar_cache``), built once in this worker by the code that builds them for
+    a command (tests/opcua adds asyncua's standard address space).
+
+    They are built in the cache folder the tests use (``_own_cache``), then moved aside
+    and linked back: lark's key for a cached grammar includes the path it was told to
+    cache it at, so a grammar built under another path is built again by every process
+    that reads it there (0.35 s of CPU)."""
     from asictl.il.parser import _Reader
     from asictl.observe import condition
 
-    home = tmp_path_factory.getbasetemp() / "grammars"
+    base = tmp_path_factory.getbasetemp()
     with pytest.MonkeyPatch.context() as patch:
-        patch.setenv("XDG_CACHE_HOME", str(home))
+        patch.setenv("XDG_CACHE_HOME", str(base / "cache"))
         _Reader()
         condition._parser.__wrapped__()
-    return sorted((home / "asictl").iterdir())
+    kept = base / "grammars"
+    kept.mkdir()
+    built = sorted((base / "cache" / "asictl").iterdir())
+    return [path.rename(kept / path.name) for path in built]
 
 
 @pytest.fixture(autouse=True)
