@@ -105,6 +105,8 @@ def grammar_cache(name: str) -> str | bool:
     directory (``cache_directory``: the cache is a pickle); False where there is none.
     lark checks the grammar, its options and both versions on loading and builds anew
     when they differ; the versions in the name keep two installations from taking turns.
+    The options include this path, so a cache file is only ever good where it was built:
+    one linked or copied from another folder is built again (and written through a link).
     """
     directory = cache_directory()
     if directory is None:
