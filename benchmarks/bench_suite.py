@@ -80,14 +80,15 @@ def main() -> int:
             return install[2]
         run = _timed([sys.executable, "-m", "pytest", "-n", "auto", "-p", "bench_suite",
                       "-q", *pytest_args], env)
-        own: collections.Counter[str] = collections.Counter()
-        waited: collections.Counter[str] = collections.Counter()
+        own: collections.defaultdict[str, float] = collections.defaultdict(float)
+        waited: collections.defaultdict[str, float] = collections.defaultdict(float)
         tests = 0
         for log in Path(folder).iterdir():
             for line in log.read_text(encoding="utf-8").splitlines():
                 mine, theirs, nodeid = line.split("\t", 2)
-                own[nodeid.split("::")[0]] += float(mine)
-                waited[nodeid.split("::")[0]] += float(theirs)
+                file = nodeid.split("::")[0]
+                own[file] += float(mine)
+                waited[file] += float(theirs)
                 tests += 1
     in_tests = sum(own.values()) + sum(waited.values())
     if options.no_install:
@@ -99,9 +100,9 @@ def main() -> int:
           f"{in_tests:.0f} s in {tests} tests ({sum(waited.values()):.0f} s in the "
           f"processes they started)")
     print(f"\n{'CPU s':>7} {'theirs':>7}  test file")
-    for path, cpu in collections.Counter(
-            {p: own[p] + waited[p] for p in own}).most_common(options.top):
-        print(f"{cpu:7.1f} {waited[path]:7.1f}  {path}")
+    spent = {path: own[path] + waited[path] for path in own}
+    for path in sorted(spent, key=spent.__getitem__, reverse=True)[:options.top]:
+        print(f"{spent[path]:7.1f} {waited[path]:7.1f}  {path}")
     return run[2]
 
 

@@ -56,7 +56,13 @@ def pytest_xdist_auto_num_workers(config: pytest.Config) -> Generator[None, int,
 
 
 @pytest.fixture(scope="session")
-def _shared_caches(tmp_path_factory: pytest.TempPathFactory) -> list[Path]:
+def _cache_home(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """This worker's XDG cache folder, the one every test of it uses (``_own_cache``)."""
+    return tmp_path_factory.getbasetemp() / "cache"
+
+
+@pytest.fixture(scope="session")
+def _shared_caches(tmp_path_factory: pytest.TempPathFactory, _cache_home: Path) -> list[Path]:
     """The cache files each test's cache folder links to: the analysed grammars
     (``files.grammar_cache``), built once in this worker by the code that builds them for
     a command (tests/opcua adds asyncua's standard address space).
@@ -68,19 +74,17 @@ def _shared_caches(tmp_path_factory: pytest.TempPathFactory) -> list[Path]:
     from asictl.il.parser import _Reader
     from asictl.observe import condition
 
-    base = tmp_path_factory.getbasetemp()
     with pytest.MonkeyPatch.context() as patch:
-        patch.setenv("XDG_CACHE_HOME", str(base / "cache"))
+        patch.setenv("XDG_CACHE_HOME", str(_cache_home))
         _Reader()
         condition._parser.__wrapped__()
-    kept = base / "grammars"
+    kept = tmp_path_factory.getbasetemp() / "grammars"
     kept.mkdir()
-    built = sorted((base / "cache" / "asictl").iterdir())
-    return [path.rename(kept / path.name) for path in built]
+    return [path.rename(kept / path.name) for path in sorted((_cache_home / "asictl").iterdir())]
 
 
 @pytest.fixture(autouse=True)
-def _own_cache(monkeypatch: pytest.MonkeyPatch, tmp_path_factory: pytest.TempPathFactory,
+def _own_cache(monkeypatch: pytest.MonkeyPatch, _cache_home: Path,
                _shared_caches: list[Path]) -> None:
     """Each test starts with an XDG cache folder that holds nothing but links to the
     shared caches (``asictl mutate`` keeps its verdicts there): a verdict one test's
@@ -89,12 +93,11 @@ def _own_cache(monkeypatch: pytest.MonkeyPatch, tmp_path_factory: pytest.TempPat
 
     The folder is the worker's, emptied of what the last test left rather than made anew
     for each test: four file-system writes a test were a millisecond of its time."""
-    home = tmp_path_factory.getbasetemp() / "cache"
-    _empty_but_links(home / "asictl", {kept.name: kept for kept in _shared_caches})
-    for entry in os.scandir(home):
+    _empty_but_links(_cache_home / "asictl", {kept.name: kept for kept in _shared_caches})
+    for entry in os.scandir(_cache_home):
         if entry.name != "asictl":
             _remove(Path(entry.path))
-    monkeypatch.setenv("XDG_CACHE_HOME", str(home))
+    monkeypatch.setenv("XDG_CACHE_HOME", str(_cache_home))
 
 
 def _empty_but_links(folder: Path, links: dict[str, Path]) -> None:
